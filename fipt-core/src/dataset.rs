@@ -1,0 +1,444 @@
+//! Reading the scene folders users already have, with validation that names the file.
+//!
+//! Two layouts (method §5):
+//! * **synthetic**: `scene.obj`, `train/transforms.json`, `val/transforms.json`,
+//!   `<split>/Image/{k:03d}_0001.exr` and optional ground-truth folders ([`GtKind`]);
+//! * **real**: `scene.obj`, `Image/{k:03d}_0001.exr`, `cam.txt`, `K_list.txt`, optional
+//!   `segmentation/`.
+//!
+//! [`Dataset::open`] parses cameras and checks that every image exists and has the same size
+//! (reading only EXR headers); [`Dataset::load_image`] reads pixels and applies the
+//! [`BadPixelPolicy`].
+use crate::camera::Camera;
+use crate::error::{CoreError, Result};
+use crate::image::{BadPixelPolicy, BadPixelCount, Image};
+use glam::{Mat4, Vec3};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// Which of the two reference layouts a scene folder follows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Layout {
+    Synthetic,
+    Real,
+}
+
+/// Ground-truth map folders of the synthetic layout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub enum GtKind {
+    /// kd.
+    DiffCol,
+    /// σ (channel 0).
+    Roughness,
+    /// Emitted radiance (emitter where > 0).
+    Emit,
+    /// a′ = kd + specular reflectance.
+    Albedo,
+    /// Part (object) id.
+    IndexMA,
+    /// Semantic id.
+    Segmentation,
+    /// Metallic.
+    Metallic,
+    /// ks (Fresnel F0).
+    Specular,
+}
+
+impl GtKind {
+    pub const ALL: [GtKind; 8] = [
+        GtKind::DiffCol,
+        GtKind::Roughness,
+        GtKind::Emit,
+        GtKind::Albedo,
+        GtKind::IndexMA,
+        GtKind::Segmentation,
+        GtKind::Metallic,
+        GtKind::Specular,
+    ];
+
+    /// Folder name inside a split.
+    pub fn folder(self) -> &'static str {
+        match self {
+            GtKind::DiffCol => "DiffCol",
+            GtKind::Roughness => "Roughness",
+            GtKind::Emit => "Emit",
+            GtKind::Albedo => "albedo",
+            GtKind::IndexMA => "IndexMA",
+            GtKind::Segmentation => "segmentation",
+            GtKind::Metallic => "Metallic",
+            GtKind::Specular => "Specular",
+        }
+    }
+
+    /// File name of view `k`.
+    pub fn file_name(self, k: usize) -> String {
+        match self {
+            GtKind::Albedo | GtKind::Segmentation => format!("{k:03}.exr"),
+            _ => format!("{k:03}_0001.exr"),
+        }
+    }
+}
+
+/// File name of the HDR input image of view `k`.
+pub fn image_file_name(k: usize) -> String {
+    format!("{k:03}_0001.exr")
+}
+
+/// One posed view.
+#[derive(Clone, Debug)]
+pub struct View {
+    pub index: usize,
+    pub camera: Camera,
+    pub image: PathBuf,
+}
+
+/// A set of views (`train`, `val`, or the real layout's single set).
+#[derive(Clone, Debug)]
+pub struct Split {
+    pub name: String,
+    /// Folder holding `Image/` and the ground-truth folders.
+    pub dir: PathBuf,
+    pub views: Vec<View>,
+    /// Ground-truth folders present with a file for every view.
+    pub gt: Vec<GtKind>,
+    /// The file the cameras came from.
+    pub cameras_file: PathBuf,
+}
+
+impl Split {
+    /// Path of a ground-truth map of view `k`.
+    pub fn gt_path(&self, kind: GtKind, k: usize) -> PathBuf {
+        self.dir.join(kind.folder()).join(kind.file_name(k))
+    }
+    pub fn has_gt(&self, kind: GtKind) -> bool {
+        self.gt.contains(&kind)
+    }
+}
+
+/// A scene folder, opened and checked.
+#[derive(Clone, Debug)]
+pub struct Dataset {
+    pub root: PathBuf,
+    pub layout: Layout,
+    pub mesh: PathBuf,
+    pub splits: Vec<Split>,
+    pub width: usize,
+    pub height: usize,
+    /// Problems that do not stop a run (shown by `fipt info`).
+    pub warnings: Vec<String>,
+}
+
+/// Mesh file names looked for in a scene folder, in order.
+pub const MESH_NAMES: [&str; 4] = ["scene.obj", "scene.ply", "scene.glb", "scene.gltf"];
+
+impl Dataset {
+    /// Opens a scene folder of either layout.
+    pub fn open(root: &Path) -> Result<Dataset> {
+        if !root.is_dir() {
+            return Err(CoreError::invalid(root, "not a folder (expected a scene folder with scene.obj and train/transforms.json, or cam.txt + K_list.txt)"));
+        }
+        let mesh = MESH_NAMES.iter().map(|n| root.join(n)).find(|p| p.is_file()).ok_or_else(|| {
+            CoreError::invalid(root, format!("no mesh found: expected one of {MESH_NAMES:?}"))
+        })?;
+        let mut warnings = Vec::new();
+        let (layout, splits) = if root.join("train/transforms.json").is_file() {
+            let mut splits = vec![read_synthetic_split(root, "train", &mut warnings)?];
+            if root.join("val/transforms.json").is_file() {
+                splits.push(read_synthetic_split(root, "val", &mut warnings)?);
+            } else {
+                warnings.push("no val/transforms.json: no held-out views for novel-view evaluation".into());
+            }
+            (Layout::Synthetic, splits)
+        } else if root.join("cam.txt").is_file() {
+            (Layout::Real, vec![read_real_split(root, &mut warnings)?])
+        } else {
+            return Err(CoreError::invalid(
+                root,
+                "neither train/transforms.json (synthetic layout) nor cam.txt + K_list.txt (real layout) found",
+            ));
+        };
+        let (width, height) = check_image_sizes(&splits)?;
+        Ok(Dataset { root: root.to_path_buf(), layout, mesh, splits, width, height, warnings })
+    }
+
+    pub fn split(&self, name: &str) -> Option<&Split> {
+        self.splits.iter().find(|s| s.name == name)
+    }
+
+    /// The training views (`train`, or the real layout's views).
+    pub fn train(&self) -> &Split {
+        &self.splits[0]
+    }
+
+    /// Reads a view's HDR image, checks its size and applies `policy` to bad pixels.
+    pub fn load_image(&self, view: &View, policy: BadPixelPolicy) -> Result<(Image, BadPixelCount)> {
+        load_checked(&view.image, self.width, self.height, policy)
+    }
+
+    /// Reads a ground-truth map of view `k` of `split` (None when the folder is absent).
+    pub fn load_gt(&self, split: &Split, kind: GtKind, k: usize) -> Result<Option<Image>> {
+        if !split.has_gt(kind) {
+            return Ok(None);
+        }
+        let p = split.gt_path(kind, k);
+        load_checked(&p, self.width, self.height, BadPixelPolicy::Reject).map(|(i, _)| Some(i))
+    }
+}
+
+fn load_checked(path: &Path, w: usize, h: usize, policy: BadPixelPolicy) -> Result<(Image, BadPixelCount)> {
+    let mut img = Image::read_exr(path)?;
+    if (img.width, img.height) != (w, h) {
+        return Err(CoreError::SizeMismatch {
+            path: path.to_path_buf(),
+            got_w: img.width,
+            got_h: img.height,
+            expected_w: w,
+            expected_h: h,
+            hint: "all views of a scene must have the same size".into(),
+        });
+    }
+    let bad = img.sanitize(policy, path)?;
+    Ok((img, bad))
+}
+
+/// Size of an EXR image from its header alone.
+pub fn exr_size(path: &Path) -> Result<(usize, usize)> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| match e {
+        exr::error::Error::Io(io) => CoreError::io(path, io),
+        other => CoreError::Exr { path: path.to_path_buf(), message: other.to_string() },
+    })?;
+    let h = meta.headers.first().ok_or_else(|| CoreError::Exr { path: path.to_path_buf(), message: "no layer".into() })?;
+    Ok((h.layer_size.width(), h.layer_size.height()))
+}
+
+fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
+    let mut missing = Vec::new();
+    for s in splits {
+        for v in &s.views {
+            if !v.image.is_file() {
+                missing.push(v.image.clone());
+            }
+        }
+    }
+    if !missing.is_empty() {
+        let list: Vec<String> = missing.iter().take(5).map(|p| p.display().to_string()).collect();
+        return Err(CoreError::invalid(
+            &missing[0],
+            format!("{} input image(s) missing: {}{}", missing.len(), list.join(", "), if missing.len() > 5 { ", …" } else { "" }),
+        ));
+    }
+    let first = &splits[0].views.first().ok_or_else(|| CoreError::invalid(&splits[0].cameras_file, "no views"))?.image;
+    let (w, h) = exr_size(first)?;
+    for s in splits {
+        for v in &s.views {
+            let (vw, vh) = exr_size(&v.image)?;
+            if (vw, vh) != (w, h) {
+                return Err(CoreError::SizeMismatch {
+                    path: v.image.clone(),
+                    got_w: vw,
+                    got_h: vh,
+                    expected_w: w,
+                    expected_h: h,
+                    hint: format!("{} is {w}x{h}; all views must have one size", first.display()),
+                });
+            }
+            if (v.camera.width, v.camera.height) != (w, h) {
+                return Err(CoreError::SizeMismatch {
+                    path: v.image.clone(),
+                    got_w: vw,
+                    got_h: vh,
+                    expected_w: v.camera.width,
+                    expected_h: v.camera.height,
+                    hint: format!("the size declared in {}", s.cameras_file.display()),
+                });
+            }
+        }
+    }
+    Ok((w, h))
+}
+
+fn check_pose(path: &Path, frame: usize, cam: &Camera) -> Result<()> {
+    let (err, det) = cam.rotation_error();
+    if !cam.origin.is_finite() || !(err < 1e-3) || !(det > 0.0) {
+        let hint = if det < 0.0 && err < 1e-3 {
+            "the rotation is a reflection (one axis flipped): the pose is probably in another convention; \
+             transforms.json expects camera-to-world with +X left, +Y up, +Z forward (OpenCV poses go in cam.txt)"
+        } else {
+            "expected a rigid camera-to-world transform (orthonormal rotation, no scale or shear)"
+        };
+        return Err(CoreError::BadPose { path: path.to_path_buf(), frame, error: err, det, hint: hint.into() });
+    }
+    Ok(())
+}
+
+#[derive(serde::Deserialize)]
+struct TransformsJson {
+    camera_angle_x: f32,
+    #[serde(default)]
+    width: Option<usize>,
+    #[serde(default)]
+    height: Option<usize>,
+    frames: Vec<FrameJson>,
+}
+
+#[derive(serde::Deserialize)]
+struct FrameJson {
+    transform_matrix: [[f32; 4]; 4],
+}
+
+fn read_synthetic_split(root: &Path, name: &str, warnings: &mut Vec<String>) -> Result<Split> {
+    let dir = root.join(name);
+    let tf_path = dir.join("transforms.json");
+    let tf: TransformsJson = crate::fsutil::read_json(&tf_path)?;
+    if !(tf.camera_angle_x > 0.0 && tf.camera_angle_x < std::f32::consts::PI) {
+        return Err(CoreError::invalid(&tf_path, format!("camera_angle_x = {} is not a field of view in radians (0, π)", tf.camera_angle_x)));
+    }
+    if tf.frames.is_empty() {
+        return Err(CoreError::invalid(&tf_path, "no frames"));
+    }
+    let img0 = dir.join("Image").join(image_file_name(0));
+    let (w, h) = match (tf.width, tf.height) {
+        (Some(w), Some(h)) => (w, h),
+        _ => exr_size(&img0)?,
+    };
+    let mut views = Vec::with_capacity(tf.frames.len());
+    for (k, f) in tf.frames.iter().enumerate() {
+        let m = f.transform_matrix;
+        // JSON rows → glam columns.
+        let c2w = Mat4::from_cols_array_2d(&m).transpose();
+        let last = c2w.row(3);
+        if (last - glam::Vec4::new(0.0, 0.0, 0.0, 1.0)).abs().max_element() > 1e-4 {
+            return Err(CoreError::invalid(&tf_path, format!("frame {k}: last row of transform_matrix is {last}, expected [0, 0, 0, 1]")));
+        }
+        let cam = Camera::from_transform(c2w, tf.camera_angle_x, w, h);
+        check_pose(&tf_path, k, &cam)?;
+        views.push(View { index: k, camera: cam, image: dir.join("Image").join(image_file_name(k)) });
+    }
+    let gt = present_gt(&dir, views.len(), warnings, name);
+    Ok(Split { name: name.to_string(), dir, views, gt, cameras_file: tf_path })
+}
+
+fn present_gt(dir: &Path, n: usize, warnings: &mut Vec<String>, split: &str) -> Vec<GtKind> {
+    let mut gt = Vec::new();
+    for kind in GtKind::ALL {
+        let folder = dir.join(kind.folder());
+        if !folder.is_dir() {
+            continue;
+        }
+        let missing = (0..n).filter(|&k| !folder.join(kind.file_name(k)).is_file()).count();
+        if missing == 0 {
+            gt.push(kind);
+        } else {
+            warnings.push(format!("{split}/{}: {missing} of {n} files missing; this ground truth is ignored", kind.folder()));
+        }
+    }
+    gt
+}
+
+fn numbers(path: &Path) -> Result<Vec<f32>> {
+    let text = std::fs::read_to_string(path).map_err(|e| CoreError::io(path, e))?;
+    text.split_whitespace()
+        .map(|t| t.parse::<f32>().map_err(|_| CoreError::invalid(path, format!("`{t}` is not a number"))))
+        .collect()
+}
+
+fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
+    let cam_path = root.join("cam.txt");
+    let k_path = root.join("K_list.txt");
+    if !k_path.is_file() {
+        return Err(CoreError::invalid(&k_path, "missing: the real layout needs K_list.txt beside cam.txt"));
+    }
+    let c = numbers(&cam_path)?;
+    let k = numbers(&k_path)?;
+    let n = c.first().copied().unwrap_or(0.0) as usize;
+    if c.len() != 1 + 9 * n {
+        return Err(CoreError::invalid(&cam_path, format!("expected N then 3 lines of 3 numbers per camera (origin, look-at, up): {} numbers for N = {n}", c.len())));
+    }
+    let nk = k.first().copied().unwrap_or(0.0) as usize;
+    if nk != n || k.len() != 1 + 9 * n {
+        return Err(CoreError::invalid(&k_path, format!("expected {n} 3x3 matrices (N = {n} in cam.txt), found N = {nk} and {} numbers", k.len())));
+    }
+    let img0 = root.join("Image").join(image_file_name(0));
+    let (w, h) = exr_size(&img0)?;
+    let mut views = Vec::with_capacity(n);
+    for i in 0..n {
+        let v = |j: usize| Vec3::new(c[1 + 9 * i + 3 * j], c[2 + 9 * i + 3 * j], c[3 + 9 * i + 3 * j]);
+        let (o, t, up) = (v(0), v(1), v(2));
+        if (t - o).length() < 1e-9 {
+            return Err(CoreError::invalid(&cam_path, format!("camera {i}: look-at point equals the origin")));
+        }
+        let km = &k[1 + 9 * i..1 + 9 * (i + 1)];
+        let kk = [[km[0], km[1], km[2]], [km[3], km[4], km[5]], [km[6], km[7], km[8]]];
+        if !(kk[0][0] > 0.0 && kk[1][1] > 0.0) || (kk[2][2] - 1.0).abs() > 1e-4 {
+            return Err(CoreError::invalid(&k_path, format!("camera {i}: K = {kk:?} is not an intrinsic matrix (fx, fy > 0, K[2][2] = 1)")));
+        }
+        let cam = Camera::from_opencv(o, t, up, kk, w, h);
+        check_pose(&cam_path, i, &cam)?;
+        views.push(View { index: i, camera: cam, image: root.join("Image").join(image_file_name(i)) });
+    }
+    let gt = present_gt(root, n, warnings, "real");
+    Ok(Split { name: "train".into(), dir: root.to_path_buf(), views, gt, cameras_file: cam_path })
+}
+
+/// Writes a `transforms.json` for `cameras` (Mitsuba convention), atomically.
+pub fn write_transforms(path: &Path, cameras: &[Camera]) -> Result<()> {
+    let first = cameras.first().ok_or_else(|| CoreError::invalid(path, "no cameras to write"))?;
+    let frames: Vec<serde_json::Value> = cameras
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            let m = c.to_mitsuba_matrix().transpose().to_cols_array_2d();
+            serde_json::json!({ "file_path": format!("Image/{}", image_file_name(k)), "transform_matrix": m })
+        })
+        .collect();
+    let v = serde_json::json!({
+        "camera_angle_x": first.fov_x(),
+        "width": first.width,
+        "height": first.height,
+        "camera_convention": "Mitsuba camera-to-world: +X = image left, +Y = up, +Z = forward",
+        "frames": frames,
+    });
+    crate::fsutil::write_json_atomic(path, &v)
+}
+
+/// Summary of a split's HDR pixels.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct HdrStats {
+    pub min: f32,
+    pub max: f32,
+    /// Mean luminance.
+    pub mean_luminance: f64,
+    /// Bad values found (before the policy was applied).
+    pub bad: usize,
+    /// Views with bad values: (view index, count).
+    pub bad_views: Vec<(usize, usize)>,
+}
+
+/// Reads every image of `split` (in parallel) and summarises the HDR range.
+pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<HdrStats> {
+    use rayon::prelude::*;
+    let per: Vec<Result<(usize, f32, f32, f64, usize)>> = split
+        .views
+        .par_iter()
+        .map(|v| {
+            let (img, bad) = ds.load_image(v, policy)?;
+            let (lo, hi) = img.range();
+            let lum: f64 = img.data.iter().map(|&p| crate::color::luminance(p) as f64).sum::<f64>() / img.data.len() as f64;
+            Ok((v.index, lo, hi, lum, bad.total()))
+        })
+        .collect();
+    let mut s = HdrStats { min: f32::INFINITY, max: f32::NEG_INFINITY, ..Default::default() };
+    let n = per.len().max(1) as f64;
+    for r in per {
+        let (k, lo, hi, lum, bad) = r?;
+        s.min = s.min.min(lo);
+        s.max = s.max.max(hi);
+        s.mean_luminance += lum / n;
+        if bad > 0 {
+            s.bad += bad;
+            s.bad_views.push((k, bad));
+        }
+    }
+    Ok(s)
+}

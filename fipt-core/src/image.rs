@@ -1,0 +1,404 @@
+//! `Image`: f32 linear RGB, row-major, origin at the top-left pixel.
+//!
+//! EXR read/write (float32 or half, channels found by name) and sRGB PNG previews.
+use crate::color::{srgb_oetf, Rgb};
+use crate::error::{CoreError, Result};
+use crate::fsutil::write_atomic;
+use glam::Vec3;
+use std::path::Path;
+
+/// Storage precision of an EXR file written by fipt.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ExrPrecision {
+    /// 32-bit float: exact round trip.
+    F32,
+    /// 16-bit half float: ground-truth maps and previews of parameters.
+    F16,
+}
+
+/// Largest finite half-float value.
+pub const HALF_MAX: f32 = 65504.0;
+
+/// What to do with NaN, infinite or negative pixel values found in an input image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BadPixelPolicy {
+    /// Refuse the image with an error that counts the bad values (default).
+    #[default]
+    Reject,
+    /// NaN → 0, negative → 0, +Inf → the largest finite value of the image.
+    Clamp,
+}
+
+/// Counts of bad values found in an image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct BadPixelCount {
+    pub nan: usize,
+    pub inf: usize,
+    pub negative: usize,
+    /// First offending pixel (x, y).
+    pub first: Option<(usize, usize)>,
+}
+
+impl BadPixelCount {
+    pub fn total(&self) -> usize {
+        self.nan + self.inf + self.negative
+    }
+}
+
+/// A linear RGB image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    /// `width * height` pixels, row by row from the top.
+    pub data: Vec<Rgb>,
+}
+
+impl Image {
+    /// A black image.
+    pub fn new(width: usize, height: usize) -> Self {
+        Image { width, height, data: vec![Vec3::ZERO; width * height] }
+    }
+
+    /// An image filled with `value`.
+    pub fn filled(width: usize, height: usize, value: Rgb) -> Self {
+        Image { width, height, data: vec![value; width * height] }
+    }
+
+    #[inline]
+    pub fn get(&self, x: usize, y: usize) -> Rgb {
+        self.data[y * self.width + x]
+    }
+
+    #[inline]
+    pub fn set(&mut self, x: usize, y: usize, v: Rgb) {
+        self.data[y * self.width + x] = v;
+    }
+
+    /// Smallest and largest channel value over finite pixels.
+    pub fn range(&self) -> (f32, f32) {
+        let mut lo = f32::INFINITY;
+        let mut hi = f32::NEG_INFINITY;
+        for p in &self.data {
+            for c in p.to_array() {
+                if c.is_finite() {
+                    lo = lo.min(c);
+                    hi = hi.max(c);
+                }
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Counts NaN, infinite and negative channel values.
+    pub fn count_bad(&self) -> BadPixelCount {
+        let mut c = BadPixelCount::default();
+        for (i, p) in self.data.iter().enumerate() {
+            let mut bad = false;
+            for v in p.to_array() {
+                if v.is_nan() {
+                    c.nan += 1;
+                    bad = true;
+                } else if v.is_infinite() {
+                    c.inf += 1;
+                    bad = true;
+                } else if v < 0.0 {
+                    c.negative += 1;
+                    bad = true;
+                }
+            }
+            if bad && c.first.is_none() {
+                c.first = Some((i % self.width, i / self.width));
+            }
+        }
+        c
+    }
+
+    /// Applies `policy` to bad values; returns what was found. With `Reject`, any bad value is
+    /// an error naming `path`.
+    pub fn sanitize(&mut self, policy: BadPixelPolicy, path: &Path) -> Result<BadPixelCount> {
+        let count = self.count_bad();
+        if count.total() == 0 {
+            return Ok(count);
+        }
+        match policy {
+            BadPixelPolicy::Reject => {
+                let (x, y) = count.first.unwrap_or((0, 0));
+                Err(CoreError::BadPixels {
+                    path: path.to_path_buf(),
+                    nan: count.nan,
+                    inf: count.inf,
+                    negative: count.negative,
+                    x,
+                    y,
+                })
+            }
+            BadPixelPolicy::Clamp => {
+                let (_, hi) = self.range();
+                let hi = if hi.is_finite() { hi.max(0.0) } else { 0.0 };
+                for p in &mut self.data {
+                    *p = Vec3::from_array(p.to_array().map(|v| {
+                        if v.is_nan() || v < 0.0 {
+                            0.0
+                        } else if v.is_infinite() {
+                            hi
+                        } else {
+                            v
+                        }
+                    }));
+                }
+                Ok(count)
+            }
+        }
+    }
+
+    /// Reads an EXR file. Channels are found by name (`R`, `G`, `B`, optionally behind a layer
+    /// prefix such as `Image.R`); a single `Y` channel (or a lone channel of any name) is
+    /// broadcast to grey. Half, float and uint samples are accepted.
+    pub fn read_exr(path: &Path) -> Result<Image> {
+        use exr::prelude::*;
+        let img = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_file(path)
+            .map_err(|e| match e {
+                exr::error::Error::Io(io) => CoreError::io(path, io),
+                other => CoreError::Exr { path: path.to_path_buf(), message: other.to_string() },
+            })?;
+        let layer = &img.layer_data;
+        let (w, h) = (layer.size.width(), layer.size.height());
+        let chans = &layer.channel_data.list;
+        let short = |c: &AnyChannel<FlatSamples>| {
+            let name = c.name.to_string();
+            name.rsplit('.').next().unwrap_or("").to_ascii_uppercase()
+        };
+        let find = |n: &str| chans.iter().find(|c| short(c) == n);
+        let to_f32 = |c: &AnyChannel<FlatSamples>| -> Vec<f32> {
+            match &c.sample_data {
+                FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
+                FlatSamples::F32(v) => v.clone(),
+                FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
+            }
+        };
+        let (r, g, b) = match (find("R"), find("G"), find("B")) {
+            (Some(r), Some(g), Some(b)) => (to_f32(r), to_f32(g), to_f32(b)),
+            _ => {
+                let grey = find("Y").or(if chans.len() == 1 { chans.first() } else { None });
+                match grey {
+                    Some(c) => {
+                        let v = to_f32(c);
+                        (v.clone(), v.clone(), v)
+                    }
+                    None => {
+                        let names: Vec<String> = chans.iter().map(|c| c.name.to_string()).collect();
+                        return Err(CoreError::Exr {
+                            path: path.to_path_buf(),
+                            message: format!(
+                                "no R, G, B (or Y) channels; channels present: {names:?}"
+                            ),
+                        });
+                    }
+                }
+            }
+        };
+        if r.len() != w * h {
+            return Err(CoreError::Exr {
+                path: path.to_path_buf(),
+                message: format!("channel holds {} samples for a {w}x{h} image", r.len()),
+            });
+        }
+        let data = (0..w * h).map(|i| Vec3::new(r[i], g[i], b[i])).collect();
+        Ok(Self { width: w, height: h, data })
+    }
+
+    /// Writes an RGB EXR (ZIP compression), atomically. Half precision saturates at ±65504
+    /// (no infinities are written); use `F32` for radiance.
+    pub fn write_exr(&self, path: &Path, precision: ExrPrecision) -> Result<()> {
+        use exr::prelude::*;
+        let (w, h) = (self.width, self.height);
+        let map_err = |e: exr::error::Error, p: &Path| CoreError::ImageWrite {
+            path: p.to_path_buf(),
+            message: e.to_string(),
+        };
+        write_atomic(path, |tmp| {
+            match precision {
+                ExrPrecision::F32 => {
+                    let ch = SpecificChannels::rgb(|pos: Vec2<usize>| {
+                        let p = self.data[pos.y() * w + pos.x()];
+                        (p.x, p.y, p.z)
+                    });
+                    exr::image::Image::from_encoded_channels((w, h), Encoding::SMALL_LOSSLESS, ch)
+                        .write()
+                        .to_file(tmp)
+                        .map_err(|e| map_err(e, path))
+                }
+                ExrPrecision::F16 => {
+                    let ch = SpecificChannels::rgb(|pos: Vec2<usize>| {
+                        let p = self.data[pos.y() * w + pos.x()];
+                        let h = |v: f32| f16::from_f32(v.clamp(-HALF_MAX, HALF_MAX));
+                        (h(p.x), h(p.y), h(p.z))
+                    });
+                    exr::image::Image::from_encoded_channels((w, h), Encoding::SMALL_LOSSLESS, ch)
+                        .write()
+                        .to_file(tmp)
+                        .map_err(|e| map_err(e, path))
+                }
+            }
+        })
+    }
+
+    /// 8-bit sRGB pixels after multiplying by `exposure` (clamped to [0, 1]); NaN shows as magenta.
+    pub fn to_srgb8(&self, exposure: f32) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.data.len() * 3);
+        for p in &self.data {
+            if !crate::color::is_finite(*p) {
+                out.extend_from_slice(&[255, 0, 255]);
+                continue;
+            }
+            for c in p.to_array() {
+                let v = srgb_oetf((c * exposure).clamp(0.0, 1.0));
+                out.push((v * 255.0 + 0.5) as u8);
+            }
+        }
+        out
+    }
+
+    /// Writes an sRGB PNG preview (linear values × `exposure`, clamped), atomically.
+    pub fn write_png(&self, path: &Path, exposure: f32) -> Result<()> {
+        let bytes = self.to_srgb8(exposure);
+        write_atomic(path, |tmp| {
+            image::save_buffer_with_format(
+                tmp,
+                &bytes,
+                self.width as u32,
+                self.height as u32,
+                image::ColorType::Rgb8,
+                image::ImageFormat::Png,
+            )
+            .map_err(|e| CoreError::ImageWrite { path: path.to_path_buf(), message: e.to_string() })
+        })
+    }
+
+    /// Reads an 8-bit PNG (sRGB values are returned as stored, divided by 255).
+    pub fn read_png(path: &Path) -> Result<Image> {
+        let img = image::open(path)
+            .map_err(|e| CoreError::Exr { path: path.to_path_buf(), message: e.to_string() })?
+            .to_rgb8();
+        let (w, h) = (img.width() as usize, img.height() as usize);
+        let data = img.pixels().map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0).collect();
+        Ok(Image { width: w, height: h, data })
+    }
+
+    /// An exposure that maps the 99th luminance percentile to 0.9 (for previews of HDR images).
+    pub fn auto_exposure(&self) -> f32 {
+        let mut l: Vec<f32> = self
+            .data
+            .iter()
+            .map(|&p| crate::color::luminance(p))
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect();
+        if l.is_empty() {
+            return 1.0;
+        }
+        let k = ((l.len() as f32 * 0.99) as usize).min(l.len() - 1);
+        let (_, v, _) = l.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+        if *v > 0.0 { 0.9 / *v } else { 1.0 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn test_image() -> Image {
+        let mut img = Image::new(7, 5);
+        for y in 0..5 {
+            for x in 0..7 {
+                img.set(x, y, Vec3::new(x as f32 * 0.1, y as f32 * 1e-6, 1e5 / (1 + x + y) as f32));
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn exr_f32_round_trip_is_exact() {
+        let dir = std::env::temp_dir().join(format!("fipt-img-{}", std::process::id()));
+        let p = dir.join("a.exr");
+        let img = test_image();
+        img.write_exr(&p, ExrPrecision::F32).unwrap();
+        let back = Image::read_exr(&p).unwrap();
+        assert_eq!(img, back);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn exr_f16_round_trip_within_half_precision() {
+        let dir = std::env::temp_dir().join(format!("fipt-img16-{}", std::process::id()));
+        let p = dir.join("a.exr");
+        let img = test_image();
+        img.write_exr(&p, ExrPrecision::F16).unwrap();
+        let back = Image::read_exr(&p).unwrap();
+        for (a, b) in img.data.iter().zip(&back.data) {
+            for (x, y) in a.to_array().iter().zip(b.to_array()) {
+                // half has an 11-bit significand; values below 6e-5 are subnormal (abs 6e-8).
+                let x = x.min(HALF_MAX);
+                assert!((x - y).abs() <= x.abs() * 1e-3 + 6e-8, "{x} vs {y}");
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn png_round_trip_matches_srgb_quantisation() {
+        let dir = std::env::temp_dir().join(format!("fipt-png-{}", std::process::id()));
+        let p = dir.join("a.png");
+        let mut img = Image::new(4, 3);
+        img.set(1, 1, Vec3::new(0.18, 1.0, 4.0));
+        img.write_png(&p, 1.0).unwrap();
+        let back = Image::read_png(&p).unwrap();
+        assert_eq!((back.width, back.height), (4, 3));
+        let v = back.get(1, 1);
+        assert!((v.x - srgb_oetf(0.18)).abs() < 1.0 / 255.0);
+        assert_eq!(v.y, 1.0);
+        assert_eq!(v.z, 1.0, "values above 1 clamp");
+        assert_eq!(back.get(0, 0), Vec3::ZERO);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn bad_pixels_are_counted_rejected_or_clamped() {
+        let mut img = Image::filled(3, 2, Vec3::ONE);
+        img.set(1, 0, Vec3::new(f32::NAN, 2.0, -1.0));
+        img.set(2, 1, Vec3::new(f32::INFINITY, 1.0, 1.0));
+        let c = img.count_bad();
+        assert_eq!((c.nan, c.inf, c.negative, c.first), (1, 1, 1, Some((1, 0))));
+        let err = img.clone().sanitize(BadPixelPolicy::Reject, Path::new("x.exr")).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("x.exr") && msg.contains("1 NaN") && msg.contains("clamp"), "{msg}");
+        img.sanitize(BadPixelPolicy::Clamp, Path::new("x.exr")).unwrap();
+        assert_eq!(img.get(1, 0), Vec3::new(0.0, 2.0, 0.0));
+        assert_eq!(img.get(2, 1), Vec3::new(2.0, 1.0, 1.0));
+        assert_eq!(img.count_bad().total(), 0);
+    }
+
+    #[test]
+    fn failed_write_leaves_previous_file() {
+        let dir = std::env::temp_dir().join(format!("fipt-atomic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("keep.json");
+        std::fs::write(&p, "old").unwrap();
+        let r = crate::fsutil::write_atomic(&p, |tmp| {
+            std::fs::write(tmp, "partial").unwrap();
+            Err(CoreError::invalid(tmp, "simulated failure"))
+        });
+        assert!(r.is_err());
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "old");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "temporary removed");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

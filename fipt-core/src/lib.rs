@@ -1,0 +1,34 @@
+//! # fipt-core
+//!
+//! The plain data and the contracts of fipt-rs, shared by every other crate:
+//!
+//! * [`image::Image`]: linear RGB images with EXR (f32/half, channels by name) and sRGB PNG I/O;
+//! * [`camera::Camera`]: pinhole cameras in both pose conventions users have
+//!   (Mitsuba `transforms.json`, OpenCV `cam.txt` + `K_list.txt`), pixel-centre rays;
+//! * [`dataset::Dataset`]: the reference scene layouts, opened with validation that names the
+//!   file and the fix;
+//! * [`materials::SceneMaterials`]: ground-truth per-face materials and emitters
+//!   (`scene_gt.json`, or a Mitsuba `scene_parts.json`);
+//! * [`brdf::Brdf`]: the BRDF contract (eval includes cos θi);
+//! * [`rng::Pcg32`], [`metrics`], atomic file writing in [`fsutil`].
+//!
+//! ```
+//! use fipt_core::camera::Camera;
+//! use glam::Vec3;
+//! let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 1.0, 64, 48);
+//! let (origin, dir) = cam.pixel_center_ray(32, 24);
+//! assert_eq!(origin, Vec3::ZERO);
+//! assert!(dir.z > 0.99);
+//! ```
+pub mod brdf;
+pub mod camera;
+pub mod color;
+pub mod dataset;
+pub mod error;
+pub mod fsutil;
+pub mod image;
+pub mod materials;
+pub mod metrics;
+pub mod rng;
+
+pub use error::{CoreError, Result};
