@@ -1,0 +1,575 @@
+//! One indexed triangle mesh, loaded from OBJ (tobj), glTF/GLB (gltf) or PLY (ASCII or binary).
+//!
+//! Faces keep their file order: `face_ids[i]` is the index of triangle `i` among the file's
+//! triangles (polygons are fan-triangulated first), so per-face tables such as `scene_gt.json`
+//! and `scene_parts.json` apply after degenerate triangles have been dropped.
+use crate::error::{GeomError, Result};
+use glam::{Mat3, Mat4, Vec3};
+use std::io::{BufRead, Read, Write};
+use std::path::Path;
+
+/// An indexed triangle mesh in world space.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    /// Optional per-vertex shading normals (same length as `positions`).
+    pub normals: Option<Vec<Vec3>>,
+    pub triangles: Vec<[u32; 3]>,
+    /// File face index of each triangle.
+    pub face_ids: Vec<u32>,
+    /// Triangles in the file (before degenerate ones were dropped).
+    pub num_file_faces: usize,
+    /// Degenerate triangles dropped (repeated index, zero area, non-finite vertex).
+    pub dropped_degenerate: usize,
+}
+
+/// Axis-aligned bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Mesh {
+    /// Builds a mesh from raw triangles, dropping degenerate ones (and counting them).
+    pub fn from_triangles(positions: Vec<Vec3>, normals: Option<Vec<Vec3>>, tris: Vec<[u32; 3]>) -> Mesh {
+        let n = tris.len();
+        let mut m = Mesh { positions, normals, triangles: Vec::with_capacity(n), face_ids: Vec::with_capacity(n), num_file_faces: n, dropped_degenerate: 0 };
+        if m.normals.as_ref().is_some_and(|nr| nr.len() != m.positions.len() || nr.iter().any(|v| !v.is_finite() || v.length_squared() == 0.0)) {
+            m.normals = None;
+        }
+        for (f, t) in tris.into_iter().enumerate() {
+            if m.is_degenerate(t) {
+                m.dropped_degenerate += 1;
+            } else {
+                m.triangles.push(t);
+                m.face_ids.push(f as u32);
+            }
+        }
+        m
+    }
+
+    fn is_degenerate(&self, t: [u32; 3]) -> bool {
+        let np = self.positions.len() as u32;
+        if t.iter().any(|&i| i >= np) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            return true;
+        }
+        let [a, b, c] = t.map(|i| self.positions[i as usize].as_dvec3());
+        if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+            return true;
+        }
+        (b - a).cross(c - a).length_squared() == 0.0
+    }
+
+    /// Loads a mesh by extension: `.obj`, `.ply`, `.gltf`, `.glb`.
+    pub fn load(path: &Path) -> Result<Mesh> {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        if !path.is_file() {
+            return Err(GeomError::Io { path: path.to_path_buf(), source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file") });
+        }
+        let mesh = match ext.as_str() {
+            "obj" => load_obj(path)?,
+            "ply" => load_ply(path)?,
+            "gltf" | "glb" => load_gltf(path)?,
+            _ => return Err(GeomError::Format { path: path.to_path_buf() }),
+        };
+        if mesh.triangles.is_empty() {
+            return Err(GeomError::Empty { path: path.to_path_buf(), dropped: mesh.dropped_degenerate });
+        }
+        Ok(mesh)
+    }
+
+    /// Vertices of triangle `i`.
+    #[inline]
+    pub fn vertices(&self, i: usize) -> [Vec3; 3] {
+        self.triangles[i].map(|v| self.positions[v as usize])
+    }
+
+    /// Unit geometric normal of triangle `i` (right-hand rule on the stored winding).
+    #[inline]
+    pub fn face_normal(&self, i: usize) -> Vec3 {
+        let [a, b, c] = self.vertices(i);
+        (b - a).cross(c - a).normalize()
+    }
+
+    /// Area of triangle `i`.
+    pub fn area(&self, i: usize) -> f32 {
+        let [a, b, c] = self.vertices(i);
+        0.5 * (b - a).as_dvec3().cross((c - a).as_dvec3()).length() as f32
+    }
+
+    /// Bounds of the referenced vertices.
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+        for t in &self.triangles {
+            for &v in t {
+                let p = self.positions[v as usize];
+                b.min = b.min.min(p);
+                b.max = b.max.max(p);
+            }
+        }
+        b
+    }
+
+    /// Appends another mesh (its face ids continue after this mesh's file faces).
+    pub fn append(&mut self, other: &Mesh) {
+        let off = self.positions.len() as u32;
+        let foff = self.num_file_faces as u32;
+        match (&mut self.normals, &other.normals) {
+            (Some(a), Some(b)) => a.extend_from_slice(b),
+            _ => self.normals = None,
+        }
+        self.positions.extend_from_slice(&other.positions);
+        self.triangles.extend(other.triangles.iter().map(|t| t.map(|i| i + off)));
+        self.face_ids.extend(other.face_ids.iter().map(|f| f + foff));
+        self.num_file_faces += other.num_file_faces;
+        self.dropped_degenerate += other.dropped_degenerate;
+    }
+
+    /// Writes a Wavefront OBJ (positions, normals when present, faces in order), atomically.
+    pub fn write_obj(&self, path: &Path, header: &str) -> Result<()> {
+        write_atomic(path, |w| {
+            for line in header.lines() {
+                writeln!(w, "# {line}")?;
+            }
+            for p in &self.positions {
+                writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+            }
+            if let Some(ns) = &self.normals {
+                for n in ns {
+                    writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
+                }
+            }
+            for t in &self.triangles {
+                let [a, b, c] = t.map(|i| i + 1);
+                if self.normals.is_some() {
+                    writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+                } else {
+                    writeln!(w, "f {a} {b} {c}")?;
+                }
+            }
+            Ok(())
+        })
+    }
+
+    /// Writes a binary little-endian PLY (float x y z [nx ny nz], uchar-int face lists), atomically.
+    pub fn write_ply(&self, path: &Path) -> Result<()> {
+        write_atomic(path, |w| {
+            writeln!(w, "ply\nformat binary_little_endian 1.0\ncomment written by fipt")?;
+            writeln!(w, "element vertex {}\nproperty float x\nproperty float y\nproperty float z", self.positions.len())?;
+            if self.normals.is_some() {
+                writeln!(w, "property float nx\nproperty float ny\nproperty float nz")?;
+            }
+            writeln!(w, "element face {}\nproperty list uchar int vertex_indices\nend_header", self.triangles.len())?;
+            for (i, p) in self.positions.iter().enumerate() {
+                for c in p.to_array() {
+                    w.write_all(&c.to_le_bytes())?;
+                }
+                if let Some(ns) = &self.normals {
+                    for c in ns[i].to_array() {
+                        w.write_all(&c.to_le_bytes())?;
+                    }
+                }
+            }
+            for t in &self.triangles {
+                w.write_all(&[3u8])?;
+                for &i in t {
+                    w.write_all(&(i as i32).to_le_bytes())?;
+                }
+            }
+            Ok(())
+        })
+    }
+}
+
+fn write_atomic<F>(path: &Path, f: F) -> Result<()>
+where
+    F: FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+{
+    let io = |e| GeomError::Io { path: path.to_path_buf(), source: e };
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(io)?;
+    }
+    let tmp = fipt_core::fsutil::temp_path(path);
+    let result = (|| {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        f(&mut w)?;
+        w.flush()?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(io)
+}
+
+fn parse_err(path: &Path, message: impl Into<String>) -> GeomError {
+    GeomError::Parse { path: path.to_path_buf(), message: message.into() }
+}
+
+fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
+    for k in 1..poly.len().saturating_sub(1) {
+        out.push([poly[0], poly[k], poly[k + 1]]);
+    }
+}
+
+fn load_obj(path: &Path) -> Result<Mesh> {
+    let opts = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
+    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| parse_err(path, e.to_string()))?;
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut all_normals = true;
+    let mut tris = Vec::new();
+    for m in &models {
+        let mesh = &m.mesh;
+        let off = positions.len() as u32;
+        positions.extend(mesh.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        if mesh.normals.len() == mesh.positions.len() {
+            normals.extend(mesh.normals.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        } else {
+            all_normals = false;
+        }
+        tris.extend(mesh.indices.chunks_exact(3).map(|t| [t[0] + off, t[1] + off, t[2] + off]));
+    }
+    Ok(Mesh::from_triangles(positions, (all_normals && !normals.is_empty()).then_some(normals), tris))
+}
+
+fn load_gltf(path: &Path) -> Result<Mesh> {
+    let (doc, buffers, _) = gltf::import(path).map_err(|e| parse_err(path, e.to_string()))?;
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut all_normals = true;
+    let mut tris = Vec::new();
+    let scene = doc.default_scene().or_else(|| doc.scenes().next());
+    let mut stack: Vec<(gltf::Node, Mat4)> = match &scene {
+        Some(s) => s.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
+        None => Vec::new(),
+    };
+    while let Some((node, parent)) = stack.pop() {
+        let m = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let nm = Mat3::from_mat4(m).inverse().transpose();
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                if prim.mode() != gltf::mesh::Mode::Triangles {
+                    continue;
+                }
+                let reader = prim.reader(|b| Some(&buffers[b.index()]));
+                let Some(pos) = reader.read_positions() else { continue };
+                let off = positions.len() as u32;
+                let before = positions.len();
+                positions.extend(pos.map(|p| m.transform_point3(Vec3::from_array(p))));
+                let count = positions.len() - before;
+                match reader.read_normals() {
+                    Some(ns) => normals.extend(ns.map(|n| (nm * Vec3::from_array(n)).normalize_or_zero())),
+                    None => all_normals = false,
+                }
+                let idx: Vec<u32> = match reader.read_indices() {
+                    Some(i) => i.into_u32().collect(),
+                    None => (0..count as u32).collect(),
+                };
+                let flip = m.determinant() < 0.0;
+                for t in idx.chunks_exact(3) {
+                    let t = [t[0] + off, t[1] + off, t[2] + off];
+                    tris.push(if flip { [t[0], t[2], t[1]] } else { t });
+                }
+            }
+        }
+        for c in node.children() {
+            stack.push((c, m));
+        }
+    }
+    let normals = (all_normals && normals.len() == positions.len()).then_some(normals);
+    Ok(Mesh::from_triangles(positions, normals, tris))
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum PlyFormat {
+    Ascii,
+    Le,
+    Be,
+}
+
+#[derive(Clone, Debug)]
+enum PlyProp {
+    Scalar(String, String),
+    List(String, String, String),
+}
+
+struct PlyElement {
+    name: String,
+    count: usize,
+    props: Vec<PlyProp>,
+}
+
+fn ply_size(ty: &str) -> Option<usize> {
+    Some(match ty {
+        "char" | "uchar" | "int8" | "uint8" => 1,
+        "short" | "ushort" | "int16" | "uint16" => 2,
+        "int" | "uint" | "int32" | "uint32" | "float" | "float32" => 4,
+        "double" | "float64" => 8,
+        _ => return None,
+    })
+}
+
+fn read_bin(r: &mut impl Read, ty: &str, fmt: PlyFormat) -> std::io::Result<f64> {
+    let n = ply_size(ty).unwrap_or(4);
+    let mut b = [0u8; 8];
+    r.read_exact(&mut b[..n])?;
+    if fmt == PlyFormat::Be {
+        b[..n].reverse();
+    }
+    Ok(match ty {
+        "char" | "int8" => b[0] as i8 as f64,
+        "uchar" | "uint8" => b[0] as f64,
+        "short" | "int16" => i16::from_le_bytes([b[0], b[1]]) as f64,
+        "ushort" | "uint16" => u16::from_le_bytes([b[0], b[1]]) as f64,
+        "int" | "int32" => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+        "uint" | "uint32" => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+        "float" | "float32" => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+        _ => f64::from_le_bytes(b),
+    })
+}
+
+/// Loads a PLY file (ASCII, binary little- or big-endian): `vertex` x y z [nx ny nz] and
+/// `face` vertex_indices (or vertex_index) lists; other elements are skipped.
+fn load_ply(path: &Path) -> Result<Mesh> {
+    let file = std::fs::File::open(path).map_err(|e| GeomError::Io { path: path.to_path_buf(), source: e })?;
+    let mut r = std::io::BufReader::new(file);
+    let mut line = String::new();
+    let mut fmt = None;
+    let mut elements: Vec<PlyElement> = Vec::new();
+    let mut first = true;
+    loop {
+        line.clear();
+        if r.read_line(&mut line).map_err(|e| GeomError::Io { path: path.to_path_buf(), source: e })? == 0 {
+            return Err(parse_err(path, "header ended without end_header"));
+        }
+        let toks: Vec<&str> = line.split_whitespace().collect();
+        if first {
+            if toks.first() != Some(&"ply") {
+                return Err(parse_err(path, "not a PLY file (no `ply` magic)"));
+            }
+            first = false;
+            continue;
+        }
+        match toks.as_slice() {
+            ["format", f, ..] => {
+                fmt = Some(match *f {
+                    "ascii" => PlyFormat::Ascii,
+                    "binary_little_endian" => PlyFormat::Le,
+                    "binary_big_endian" => PlyFormat::Be,
+                    other => return Err(parse_err(path, format!("unknown format {other}"))),
+                })
+            }
+            ["element", name, count] => elements.push(PlyElement {
+                name: name.to_string(),
+                count: count.parse().map_err(|_| parse_err(path, format!("bad element count {count}")))?,
+                props: Vec::new(),
+            }),
+            ["property", "list", ct, it, name] => {
+                let e = elements.last_mut().ok_or_else(|| parse_err(path, "property before element"))?;
+                e.props.push(PlyProp::List(ct.to_string(), it.to_string(), name.to_string()));
+            }
+            ["property", ty, name] => {
+                if ply_size(ty).is_none() {
+                    return Err(parse_err(path, format!("unknown property type {ty}")));
+                }
+                let e = elements.last_mut().ok_or_else(|| parse_err(path, "property before element"))?;
+                e.props.push(PlyProp::Scalar(ty.to_string(), name.to_string()));
+            }
+            ["end_header"] => break,
+            _ => {}
+        }
+    }
+    let fmt = fmt.ok_or_else(|| parse_err(path, "no format line"))?;
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut tris = Vec::new();
+    let mut has_normals = false;
+    let mut ascii_tokens: Vec<f64> = Vec::new();
+    let mut ascii_pos = 0usize;
+    if fmt == PlyFormat::Ascii {
+        let mut rest = String::new();
+        r.read_to_string(&mut rest).map_err(|e| GeomError::Io { path: path.to_path_buf(), source: e })?;
+        ascii_tokens = rest
+            .split_whitespace()
+            .map(|t| t.parse::<f64>().map_err(|_| parse_err(path, format!("`{t}` is not a number"))))
+            .collect::<Result<_>>()?;
+    }
+    let short = |p: &Path| parse_err(p, "file ends before all elements were read");
+    for e in &elements {
+        let mut poly = Vec::new();
+        for _ in 0..e.count {
+            let mut v = [0.0f64; 6];
+            for p in &e.props {
+                match p {
+                    PlyProp::Scalar(ty, name) => {
+                        let x = if fmt == PlyFormat::Ascii {
+                            let x = *ascii_tokens.get(ascii_pos).ok_or_else(|| short(path))?;
+                            ascii_pos += 1;
+                            x
+                        } else {
+                            read_bin(&mut r, ty, fmt).map_err(|_| short(path))?
+                        };
+                        if e.name == "vertex" {
+                            let slot = ["x", "y", "z", "nx", "ny", "nz"].iter().position(|n| n == name);
+                            if let Some(s) = slot {
+                                v[s] = x;
+                            }
+                        }
+                    }
+                    PlyProp::List(ct, it, name) => {
+                        let n = if fmt == PlyFormat::Ascii {
+                            let x = *ascii_tokens.get(ascii_pos).ok_or_else(|| short(path))?;
+                            ascii_pos += 1;
+                            x
+                        } else {
+                            read_bin(&mut r, ct, fmt).map_err(|_| short(path))?
+                        } as usize;
+                        poly.clear();
+                        for _ in 0..n {
+                            let x = if fmt == PlyFormat::Ascii {
+                                let x = *ascii_tokens.get(ascii_pos).ok_or_else(|| short(path))?;
+                                ascii_pos += 1;
+                                x
+                            } else {
+                                read_bin(&mut r, it, fmt).map_err(|_| short(path))?
+                            };
+                            poly.push(x as u32);
+                        }
+                        if e.name == "face" && (name == "vertex_indices" || name == "vertex_index") {
+                            fan(&poly, &mut tris);
+                        }
+                    }
+                }
+            }
+            if e.name == "vertex" {
+                positions.push(Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32));
+                normals.push(Vec3::new(v[3] as f32, v[4] as f32, v[5] as f32));
+            }
+        }
+        if e.name == "vertex" {
+            has_normals = e.props.iter().any(|p| matches!(p, PlyProp::Scalar(_, n) if n == "nx"));
+        }
+    }
+    let np = positions.len() as u32;
+    if let Some(t) = tris.iter().find(|t| t.iter().any(|&i| i >= np)) {
+        return Err(parse_err(path, format!("face {t:?} indexes past the {np} vertices")));
+    }
+    Ok(Mesh::from_triangles(positions, has_normals.then_some(normals), tris))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn tetra() -> Mesh {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::new(1e-4, 2e-4, 3e-4)];
+        // Last triangle is degenerate (repeated index), one tiny but valid triangle.
+        let t = vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3], [0, 0, 1], [0, 4, 1]];
+        Mesh::from_triangles(p, None, t)
+    }
+
+    fn tmp(name: &str) -> PathBuf {
+        std::env::temp_dir().join(format!("fipt-geom-{}-{name}", std::process::id()))
+    }
+
+    #[test]
+    fn degenerate_dropped_tiny_kept_and_face_ids_follow_file() {
+        let m = tetra();
+        assert_eq!(m.dropped_degenerate, 1);
+        assert_eq!(m.triangles.len(), 5);
+        assert_eq!(m.face_ids, vec![0, 1, 2, 3, 5]);
+        assert!(m.area(4) > 0.0 && m.area(4) < 1e-3);
+        let nan = Mesh::from_triangles(vec![Vec3::ZERO, Vec3::X, Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Y, Vec3::new(2.0, 0.0, 0.0)], None, vec![[0, 1, 2], [0, 1, 3], [0, 1, 4]]);
+        assert_eq!(nan.dropped_degenerate, 2, "NaN vertex and collinear triangle");
+    }
+
+    #[test]
+    fn obj_and_ply_round_trips() {
+        let mut m = tetra();
+        m.normals = Some(m.positions.iter().map(|p| (*p - Vec3::splat(0.25)).normalize()).collect());
+        for (name, write) in [("a.obj", 0), ("b.ply", 1)] {
+            let p = tmp(name);
+            if write == 0 { m.write_obj(&p, "test").unwrap() } else { m.write_ply(&p).unwrap() }
+            let back = Mesh::load(&p).unwrap();
+            assert_eq!(back.triangles.len(), m.triangles.len(), "{name}");
+            for i in 0..m.triangles.len() {
+                let (a, b) = (m.vertices(i), back.vertices(i));
+                for k in 0..3 {
+                    assert!((a[k] - b[k]).length() < 1e-6, "{name}: tri {i}");
+                }
+            }
+            let (na, nb) = (m.normals.as_ref().unwrap(), back.normals.as_ref().unwrap());
+            for t in 0..m.triangles.len() {
+                for k in 0..3 {
+                    let (ia, ib) = (m.triangles[t][k] as usize, back.triangles[t][k] as usize);
+                    assert!((na[ia] - nb[ib]).length() < 1e-5);
+                }
+            }
+            std::fs::remove_file(&p).ok();
+        }
+    }
+
+    #[test]
+    fn ascii_and_big_endian_ply_with_quads() {
+        let ascii = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+        let p = tmp("q.ply");
+        std::fs::write(&p, ascii).unwrap();
+        let m = Mesh::load(&p).unwrap();
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        assert!((m.face_normal(0) - Vec3::Z).length() < 1e-6);
+        let mut be = b"ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n".to_vec();
+        for v in [[0.0f64, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, -2.0]] {
+            for c in v {
+                be.extend_from_slice(&c.to_be_bytes());
+            }
+        }
+        be.push(3);
+        for i in [0u32, 1, 2] {
+            be.extend_from_slice(&i.to_be_bytes());
+        }
+        std::fs::write(&p, &be).unwrap();
+        let m = Mesh::load(&p).unwrap();
+        assert_eq!(m.positions[1], Vec3::new(2.0, 0.0, 0.0));
+        assert!((m.face_normal(0) - Vec3::Y).length() < 1e-6);
+        be.truncate(be.len() - 2);
+        std::fs::write(&p, &be).unwrap();
+        let err = Mesh::load(&p).unwrap_err().to_string();
+        assert!(err.contains("q.ply") && err.contains("ends before"), "{err}");
+        std::fs::remove_file(&p).ok();
+    }
+
+    #[test]
+    fn gltf_round_trip_through_a_minimal_file() {
+        // A node with a translation: positions come out in world space.
+        let mut bin = Vec::new();
+        for v in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+            for c in v {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        for i in [0u16, 1, 2, 0] {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        let dir = tmp("gltf");
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("b.bin"), &bin).unwrap();
+        let json = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
+          "nodes":[{"mesh":0,"translation":[0,2,0]}],
+          "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+          "buffers":[{"uri":"b.bin","byteLength":44}],
+          "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
+          "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                       {"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#;
+        std::fs::write(dir.join("m.gltf"), json).unwrap();
+        let m = Mesh::load(&dir.join("m.gltf")).unwrap();
+        assert_eq!(m.triangles.len(), 1);
+        assert_eq!(m.vertices(0), [Vec3::new(0.0, 2.0, 0.0), Vec3::new(1.0, 2.0, 0.0), Vec3::new(0.0, 3.0, 0.0)]);
+        std::fs::remove_dir_all(&dir).ok();
+        let err = Mesh::load(Path::new("/nonexistent/scene.obj")).unwrap_err().to_string();
+        assert!(err.contains("/nonexistent/scene.obj"), "{err}");
+    }
+}
