@@ -1,1 +1,27 @@
+//! # fipt-shading
+//!
+//! Light transport for fipt-rs:
+//! * [`brdf`]: FIPT's metallic-workflow BRDF and a Lambertian one, one per file, behind the
+//!   [`fipt_core::brdf::Brdf`] contract (eval includes cos θi), dispatched per ray through the
+//!   closed enum [`brdf::BrdfModel`];
+//! * [`scene`]: a renderable scene (mesh, BVH, [`scene::SurfaceModel`], emitter sampling);
+//! * [`render`]: the forward path tracer (NEE + MIS, Russian roulette, reproducible streams)
+//!   and ground-truth AOVs;
+//! * [`synth`]: procedural scenes with exact ground truth in the reference layout.
+//!
+//! ```
+//! use fipt_core::brdf::Brdf;
+//! use fipt_shading::brdf::FiptBrdf;
+//! use glam::Vec3;
+//! let b = FiptBrdf::new(Vec3::splat(0.5), Vec3::splat(0.04), 0.3);
+//! let (wo, wi) = (Vec3::new(0.0, 0.6, 0.8), Vec3::new(0.0, -0.6, 0.8));
+//! // eval includes cos θi, and the BRDF is reciprocal:
+//! assert!((b.eval(wo, wi) / wi.z - b.eval(wi, wo) / wo.z).length() < 1e-5);
+//! ```
+pub mod brdf;
+pub mod error;
+pub mod render;
+pub mod scene;
+pub mod synth;
 
+pub use error::{Result, ShadingError};

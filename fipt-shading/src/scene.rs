@@ -1,0 +1,115 @@
+//! A renderable scene: mesh, BVH, surfaces and the emitter sampler.
+use crate::brdf::{BrdfModel, FiptBrdf, Lambert};
+use fipt_core::color::{luminance, Rgb};
+use fipt_core::materials::{SceneMaterials, SurfacePoint};
+use fipt_geom::{BuildQuality, Bvh, Mesh, TriangleSampler};
+use glam::Vec3;
+
+/// What the renderer asks of surfaces. Ground-truth tables, a trained material field or a test
+/// fixture implement it; emission is constant per triangle (method §1).
+pub trait SurfaceModel: Sync {
+    /// Material parameters at point `p` of mesh triangle `tri`.
+    fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint;
+    /// Emitted radiance of triangle `tri` (both sides).
+    fn emission(&self, tri: u32) -> Rgb;
+    /// Index of the material/part of triangle `tri` (for the `IndexMA` map).
+    fn part(&self, tri: u32) -> u32;
+    /// The BRDF at a surface point (FIPT's model unless overridden).
+    fn brdf(&self, sp: &SurfacePoint) -> BrdfModel {
+        BrdfModel::Fipt(FiptBrdf::new(sp.kd, sp.ks, sp.roughness))
+    }
+}
+
+/// Surfaces from a per-face material table (`scene_gt.json` / `scene_parts.json`).
+pub struct TableSurfaces {
+    pub materials: SceneMaterials,
+    /// Material index of each mesh triangle.
+    pub tri_material: Vec<u32>,
+}
+
+impl TableSurfaces {
+    /// Binds a material table (indexed by file face) to a mesh's triangles.
+    pub fn new(materials: SceneMaterials, mesh: &Mesh, table_path: &std::path::Path) -> fipt_core::Result<Self> {
+        let faces = materials.face_table(mesh.num_file_faces, table_path)?;
+        let tri_material = mesh.face_ids.iter().map(|&f| faces[f as usize]).collect();
+        Ok(TableSurfaces { materials, tri_material })
+    }
+}
+
+impl SurfaceModel for TableSurfaces {
+    #[inline]
+    fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint {
+        self.materials.eval(self.tri_material[tri as usize], p)
+    }
+    fn emission(&self, tri: u32) -> Rgb {
+        self.materials.eval(self.tri_material[tri as usize], Vec3::ZERO).emission
+    }
+    fn part(&self, tri: u32) -> u32 {
+        self.tri_material[tri as usize]
+    }
+}
+
+/// Lambertian surfaces with per-triangle albedo and emission (analytic test scenes).
+pub struct LambertSurfaces {
+    pub albedo: Vec<Rgb>,
+    pub emission: Vec<Rgb>,
+}
+
+impl SurfaceModel for LambertSurfaces {
+    fn surface(&self, tri: u32, _p: Vec3) -> SurfacePoint {
+        SurfacePoint { kd: self.albedo[tri as usize], roughness: 1.0, emission: self.emission[tri as usize], ..Default::default() }
+    }
+    fn emission(&self, tri: u32) -> Rgb {
+        self.emission[tri as usize]
+    }
+    fn part(&self, _tri: u32) -> u32 {
+        0
+    }
+    fn brdf(&self, sp: &SurfacePoint) -> BrdfModel {
+        BrdfModel::Lambert(Lambert { albedo: sp.kd })
+    }
+}
+
+/// A scene ready for path tracing.
+pub struct Scene<S: SurfaceModel> {
+    pub mesh: Mesh,
+    pub bvh: Bvh,
+    pub surfaces: S,
+    /// Emitter triangles, chosen ∝ area × luminance(Le).
+    pub lights: Option<TriangleSampler>,
+    /// Probability of choosing each mesh triangle as a light (0 for non-emitters).
+    pub light_pmf: Vec<f32>,
+}
+
+impl<S: SurfaceModel> Scene<S> {
+    pub fn new(mesh: Mesh, surfaces: S) -> Self {
+        let bvh = Bvh::build(&mesh, BuildQuality::Medium);
+        Self::with_bvh(mesh, bvh, surfaces)
+    }
+
+    pub fn with_bvh(mesh: Mesh, bvh: Bvh, surfaces: S) -> Self {
+        let mut tris = Vec::new();
+        let mut weights = Vec::new();
+        for t in 0..mesh.triangles.len() as u32 {
+            let le = surfaces.emission(t);
+            let w = mesh.area(t as usize) as f64 * luminance(le).max(0.0) as f64;
+            if w > 0.0 {
+                tris.push(t);
+                weights.push(w);
+            }
+        }
+        let lights = TriangleSampler::weighted(&tris, &weights);
+        let mut light_pmf = vec![0.0; mesh.triangles.len()];
+        if let Some(l) = &lights {
+            for (k, &t) in l.triangles().iter().enumerate() {
+                light_pmf[t as usize] = l.probability(k);
+            }
+        }
+        Scene { mesh, bvh, surfaces, lights, light_pmf }
+    }
+
+    /// Emitter triangles.
+    pub fn emitter_triangles(&self) -> &[u32] {
+        self.lights.as_ref().map(|l| l.triangles()).unwrap_or(&[])
+    }
+}
