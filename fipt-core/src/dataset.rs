@@ -287,34 +287,48 @@ struct FrameJson {
     transform_matrix: [[f32; 4]; 4],
 }
 
-fn read_synthetic_split(root: &Path, name: &str, warnings: &mut Vec<String>) -> Result<Split> {
-    let dir = root.join(name);
-    let tf_path = dir.join("transforms.json");
-    let tf: TransformsJson = crate::fsutil::read_json(&tf_path)?;
+/// Reads the cameras of a `transforms.json`. The image size comes from its `width`/`height`
+/// keys, else from `size` (e.g. the first image's header); poses are validated.
+pub fn read_transforms(tf_path: &Path, size: Option<(usize, usize)>) -> Result<Vec<Camera>> {
+    let tf: TransformsJson = crate::fsutil::read_json(tf_path)?;
     if !(tf.camera_angle_x > 0.0 && tf.camera_angle_x < std::f32::consts::PI) {
-        return Err(CoreError::invalid(&tf_path, format!("camera_angle_x = {} is not a field of view in radians (0, π)", tf.camera_angle_x)));
+        return Err(CoreError::invalid(tf_path, format!("camera_angle_x = {} is not a field of view in radians (0, π)", tf.camera_angle_x)));
     }
     if tf.frames.is_empty() {
-        return Err(CoreError::invalid(&tf_path, "no frames"));
+        return Err(CoreError::invalid(tf_path, "no frames"));
     }
-    let img0 = dir.join("Image").join(image_file_name(0));
-    let (w, h) = match (tf.width, tf.height) {
-        (Some(w), Some(h)) => (w, h),
-        _ => exr_size(&img0)?,
+    let (w, h) = match (tf.width, tf.height, size) {
+        (Some(w), Some(h), _) => (w, h),
+        (_, _, Some(s)) => s,
+        _ => return Err(CoreError::invalid(tf_path, "no width/height keys and no image to take the size from (add \"width\" and \"height\", or the images)")),
     };
-    let mut views = Vec::with_capacity(tf.frames.len());
+    let mut cams = Vec::with_capacity(tf.frames.len());
     for (k, f) in tf.frames.iter().enumerate() {
         let m = f.transform_matrix;
         // JSON rows → glam columns.
         let c2w = Mat4::from_cols_array_2d(&m).transpose();
         let last = c2w.row(3);
         if (last - glam::Vec4::new(0.0, 0.0, 0.0, 1.0)).abs().max_element() > 1e-4 {
-            return Err(CoreError::invalid(&tf_path, format!("frame {k}: last row of transform_matrix is {last}, expected [0, 0, 0, 1]")));
+            return Err(CoreError::invalid(tf_path, format!("frame {k}: last row of transform_matrix is {last}, expected [0, 0, 0, 1]")));
         }
         let cam = Camera::from_transform(c2w, tf.camera_angle_x, w, h);
-        check_pose(&tf_path, k, &cam)?;
-        views.push(View { index: k, camera: cam, image: dir.join("Image").join(image_file_name(k)) });
+        check_pose(tf_path, k, &cam)?;
+        cams.push(cam);
     }
+    Ok(cams)
+}
+
+fn read_synthetic_split(root: &Path, name: &str, warnings: &mut Vec<String>) -> Result<Split> {
+    let dir = root.join(name);
+    let tf_path = dir.join("transforms.json");
+    let img0 = dir.join("Image").join(image_file_name(0));
+    let size = if img0.is_file() { Some(exr_size(&img0)?) } else { None };
+    let cams = read_transforms(&tf_path, size)?;
+    let views: Vec<View> = cams
+        .into_iter()
+        .enumerate()
+        .map(|(k, camera)| View { index: k, camera, image: dir.join("Image").join(image_file_name(k)) })
+        .collect();
     let gt = present_gt(&dir, views.len(), warnings, name);
     Ok(Split { name: name.to_string(), dir, views, gt, cameras_file: tf_path })
 }
