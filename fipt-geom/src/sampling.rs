@@ -24,17 +24,21 @@ pub struct TriangleSampler {
     cdf: Vec<f64>,
     prob: Vec<f32>,
     total: f64,
+    /// Per entry: area density `prob / area` and unit geometric normal (filled by `bind`).
+    pdf_area: Vec<f32>,
+    normal: Vec<Vec3>,
 }
 
 impl TriangleSampler {
     /// Uniform-in-area sampler over `tris`. None when the total area is zero.
     pub fn uniform_area(mesh: &Mesh, tris: &[u32]) -> Option<Self> {
         let w: Vec<f64> = tris.iter().map(|&t| mesh.area(t as usize) as f64).collect();
-        Self::weighted(tris, &w)
+        Self::weighted(mesh, tris, &w)
     }
 
-    /// Sampler choosing `tris[k]` with probability ∝ `weights[k]`. None when all weights are 0.
-    pub fn weighted(tris: &[u32], weights: &[f64]) -> Option<Self> {
+    /// Sampler choosing `tris[k]` of `mesh` with probability ∝ `weights[k]`. None when all
+    /// weights are 0.
+    pub fn weighted(mesh: &Mesh, tris: &[u32], weights: &[f64]) -> Option<Self> {
         assert_eq!(tris.len(), weights.len());
         let mut cdf = Vec::with_capacity(tris.len());
         let mut acc = 0.0f64;
@@ -45,8 +49,10 @@ impl TriangleSampler {
         if !(acc > 0.0) {
             return None;
         }
-        let prob = weights.iter().map(|&w| (w.max(0.0) / acc) as f32).collect();
-        Some(TriangleSampler { tris: tris.to_vec(), cdf, prob, total: acc })
+        let prob: Vec<f32> = weights.iter().map(|&w| (w.max(0.0) / acc) as f32).collect();
+        let pdf_area = tris.iter().zip(&prob).map(|(&t, &p)| p / mesh.area(t as usize)).collect();
+        let normal = tris.iter().map(|&t| mesh.face_normal(t as usize)).collect();
+        Some(TriangleSampler { tris: tris.to_vec(), cdf, prob, total: acc, pdf_area, normal })
     }
 
     pub fn len(&self) -> usize {
@@ -68,7 +74,7 @@ impl TriangleSampler {
         &self.tris
     }
 
-    /// Samples a point from `u_sel` (triangle choice) and `u` (position), uniforms in [0, 1).
+    /// Samples a point of `mesh` (the mesh the sampler was built for) from `u_sel` (triangle choice) and `u` (position), uniforms in [0, 1).
     pub fn sample(&self, mesh: &Mesh, u_sel: f32, u: Vec2) -> SurfaceSample {
         let target = u_sel as f64 * self.total;
         let k = self.cdf.partition_point(|&c| c <= target).min(self.tris.len() - 1);
@@ -78,8 +84,6 @@ impl TriangleSampler {
         let su = u.x.sqrt();
         let (b0, b1) = (1.0 - su, u.y * su);
         let p = a * b0 + b * b1 + c * (1.0 - b0 - b1);
-        let area = mesh.area(tri as usize);
-        let p_tri = self.prob[k];
-        SurfaceSample { tri, p, n: mesh.face_normal(tri as usize), p_tri, pdf_area: p_tri / area }
+        SurfaceSample { tri, p, n: self.normal[k], p_tri: self.prob[k], pdf_area: self.pdf_area[k] }
     }
 }

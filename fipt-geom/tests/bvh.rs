@@ -179,7 +179,7 @@ fn uniform_area_sampling_follows_areas_and_stays_inside() {
     let unit = TriangleSampler::uniform_area(&mesh, &[1]).unwrap();
     let mean: f32 = (0..n).map(|_| unit.sample(&mesh, rng.next_f32(), rng.next_2d()).p.x).sum::<f32>() / n as f32;
     assert!((mean - 1.0 / 3.0).abs() < 3e-3, "{mean}");
-    assert!(TriangleSampler::weighted(&[0], &[0.0]).is_none());
+    assert!(TriangleSampler::weighted(&mesh, &[0], &[0.0]).is_none());
 }
 
 /// Axis-aligned rays, including directions with negative-zero components, hit flat and tilted

@@ -80,8 +80,7 @@ pub fn trace_path<S: SurfaceModel>(scene: &Scene<S>, cfg: &RenderConfig, mut ori
             if prev_pdf == 0.0 {
                 l += beta * le;
             } else if cos_ng.abs() > 0.0 {
-                let area = scene.mesh.area(tri as usize);
-                let light_pdf = scene.light_pmf[tri as usize] / area * hit.t * hit.t / cos_ng.abs();
+                let light_pdf = scene.light_pdf_area[tri as usize] * hit.t * hit.t / cos_ng.abs();
                 l += beta * le * power_heuristic(prev_pdf, light_pdf);
             }
         }

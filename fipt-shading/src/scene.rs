@@ -25,6 +25,8 @@ pub struct TableSurfaces {
     pub materials: SceneMaterials,
     /// Material index of each mesh triangle.
     pub tri_material: Vec<u32>,
+    /// Emitted radiance of each material (0 for reflecting ones).
+    material_emission: Vec<Rgb>,
 }
 
 impl TableSurfaces {
@@ -32,7 +34,8 @@ impl TableSurfaces {
     pub fn new(materials: SceneMaterials, mesh: &Mesh, table_path: &std::path::Path) -> fipt_core::Result<Self> {
         let faces = materials.face_table(mesh.num_file_faces, table_path)?;
         let tri_material = mesh.face_ids.iter().map(|&f| faces[f as usize]).collect();
-        Ok(TableSurfaces { materials, tri_material })
+        let material_emission = (0..materials.materials.len() as u32).map(|m| materials.eval(m, Vec3::ZERO).emission).collect();
+        Ok(TableSurfaces { materials, tri_material, material_emission })
     }
 }
 
@@ -41,8 +44,9 @@ impl SurfaceModel for TableSurfaces {
     fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint {
         self.materials.eval(self.tri_material[tri as usize], p)
     }
+    #[inline]
     fn emission(&self, tri: u32) -> Rgb {
-        self.materials.eval(self.tri_material[tri as usize], Vec3::ZERO).emission
+        self.material_emission[self.tri_material[tri as usize] as usize]
     }
     fn part(&self, tri: u32) -> u32 {
         self.tri_material[tri as usize]
@@ -79,6 +83,8 @@ pub struct Scene<S: SurfaceModel> {
     pub lights: Option<TriangleSampler>,
     /// Probability of choosing each mesh triangle as a light (0 for non-emitters).
     pub light_pmf: Vec<f32>,
+    /// `light_pmf / area`: the area density of light samples on each triangle.
+    pub light_pdf_area: Vec<f32>,
 }
 
 impl<S: SurfaceModel> Scene<S> {
@@ -98,14 +104,16 @@ impl<S: SurfaceModel> Scene<S> {
                 weights.push(w);
             }
         }
-        let lights = TriangleSampler::weighted(&tris, &weights);
+        let lights = TriangleSampler::weighted(&mesh, &tris, &weights);
         let mut light_pmf = vec![0.0; mesh.triangles.len()];
+        let mut light_pdf_area = vec![0.0; mesh.triangles.len()];
         if let Some(l) = &lights {
             for (k, &t) in l.triangles().iter().enumerate() {
                 light_pmf[t as usize] = l.probability(k);
+                light_pdf_area[t as usize] = l.probability(k) / mesh.area(t as usize);
             }
         }
-        Scene { mesh, bvh, surfaces, lights, light_pmf }
+        Scene { mesh, bvh, surfaces, lights, light_pmf, light_pdf_area }
     }
 
     /// Emitter triangles.

@@ -8,7 +8,11 @@ use fipt_shading::synth::icosphere_mesh;
 use glam::Vec3;
 
 fn furnace(rho: f32, le: f32) -> Scene<LambertSurfaces> {
-    let mesh = icosphere_mesh(Vec3::ZERO, 1.0, 2);
+    furnace_scaled(rho, le, 1.0)
+}
+
+fn furnace_scaled(rho: f32, le: f32, radius: f32) -> Scene<LambertSurfaces> {
+    let mesh = icosphere_mesh(Vec3::ZERO, radius, 2);
     let n = mesh.triangles.len();
     let surfaces = LambertSurfaces { albedo: vec![Vec3::splat(rho); n], emission: vec![Vec3::splat(le); n] };
     Scene::new(mesh, surfaces)
@@ -72,5 +76,22 @@ fn aovs_report_the_surface_at_pixel_centres() {
         assert!((p.length() - d).abs() < 1e-4, "camera at the origin");
         assert!(aov.normal.data[i].dot(p) < 0.0, "normal faces the camera");
         assert!(aov.face[i] < 320);
+    }
+}
+
+/// Radiance from 1e-6 to 1e5 and enclosures from 1 mm to 1 km: the answer scales exactly,
+/// nothing overflows, nothing becomes NaN.
+#[test]
+fn extremes_of_radiance_and_scale() {
+    for (le, radius) in [(1e-6f32, 1.0f32), (1e5, 1.0), (1.0, 1e-3), (1.0, 1e3), (1e5, 1e-3)] {
+        let scene = furnace_scaled(0.5, le, radius);
+        let cam = Camera::look_at(Vec3::splat(0.1 * radius), Vec3::new(1.0, 0.2, 0.1) * radius, Vec3::Y, 1.0, 16, 16);
+        let cfg = RenderConfig { spp: 64, max_bounces: 100, rr_start: 3, seed: 4, tile: 8 };
+        let (img, stats) = render(&scene, &cam, &cfg, 0, &|_| {});
+        assert_eq!(stats.nonfinite, 0, "Le={le} r={radius}");
+        assert!(img.data.iter().all(|p| p.is_finite()));
+        let got = mean(&img);
+        let exact = 2.0 * le as f64;
+        assert!((got - exact).abs() < 0.02 * exact, "Le={le} r={radius}: {got} vs {exact}");
     }
 }
