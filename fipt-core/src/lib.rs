@@ -10,6 +10,8 @@
 //! * [`materials::SceneMaterials`]: ground-truth per-face materials and emitters
 //!   (`scene_gt.json`, or a Mitsuba `scene_parts.json`);
 //! * [`brdf::Brdf`]: the BRDF contract (eval includes cos θi);
+//! * [`shading`]: the factorised shading model, [`shading::RayQuery`] and the
+//!   [`shading::ShadingBaker`] contract;
 //! * [`rng::Pcg32`], [`metrics`], atomic file writing in [`fsutil`].
 //!
 //! ```
@@ -30,5 +32,6 @@ pub mod image;
 pub mod materials;
 pub mod metrics;
 pub mod rng;
+pub mod shading;
 
 pub use error::{CoreError, Result};

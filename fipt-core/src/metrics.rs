@@ -37,3 +37,10 @@ mod tests {
         assert_eq!(psnr(&a, &a, None, 1.0), Some(100.0));
     }
 }
+
+/// PSNR of HDR images as displayed: sRGB OETF of the linear values clamped to [0, 1], peak 1.
+/// Used for re-render comparisons (the training loss works in the same space).
+pub fn srgb_psnr(a: &[Vec3], b: &[Vec3], mask: Option<&[bool]>) -> Option<f64> {
+    let t = |v: &[Vec3]| -> Vec<Vec3> { v.iter().map(|p| Vec3::from_array(p.to_array().map(|c| crate::color::srgb_oetf(if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })))).collect() };
+    psnr(&t(a), &t(b), mask, 1.0)
+}

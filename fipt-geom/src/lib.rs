@@ -16,11 +16,13 @@
 //! ```
 pub mod bvh;
 pub mod error;
+pub mod geometry;
 pub mod mesh;
 pub mod sampling;
 
 pub use bvh::{hit_point, offset_ray_origin, shading_normal, BuildQuality, Bvh, Hit};
 pub use error::{GeomError, Result};
+pub use geometry::Geometry;
 pub use mesh::{Bounds, Mesh};
 pub use sampling::{SurfaceSample, TriangleSampler};
 

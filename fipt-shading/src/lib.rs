@@ -7,6 +7,8 @@
 //! * [`scene`]: a renderable scene (mesh, BVH, [`scene::SurfaceModel`], emitter sampling);
 //! * [`render`]: the forward path tracer (NEE + MIS, Russian roulette, reproducible streams)
 //!   and ground-truth AOVs;
+//! * [`slf`] and [`bake`]: the surface light field and the initial factorised bake
+//!   (Ld, Ls0, Ls1 per training pixel), behind [`fipt_core::shading::ShadingBaker`];
 //! * [`synth`]: procedural scenes with exact ground truth in the reference layout.
 //!
 //! ```
@@ -18,10 +20,12 @@
 //! // eval includes cos θi, and the BRDF is reciprocal:
 //! assert!((b.eval(wo, wi) / wi.z - b.eval(wi, wo) / wo.z).length() < 1e-5);
 //! ```
+pub mod bake;
 pub mod brdf;
 pub mod error;
 pub mod render;
 pub mod scene;
+pub mod slf;
 pub mod synth;
 
 pub use error::{Result, ShadingError};

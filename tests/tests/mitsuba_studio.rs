@@ -2,11 +2,10 @@
 //! layout. Our cameras and material table must reproduce its per-pixel ground-truth maps
 //! (a pose or pixel-centre convention error shows at once), and our path tracer must come close
 //! to its renders.
-use fipt_core::color::srgb_oetf;
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::materials::SceneMaterials;
-use fipt_core::metrics::psnr;
+use fipt_core::metrics::{psnr, srgb_psnr};
 use fipt_geom::Mesh;
 use fipt_shading::render::{render, render_aovs, RenderConfig};
 use fipt_shading::scene::{Scene, TableSurfaces};
@@ -77,10 +76,9 @@ fn ground_truth_maps_match_through_our_cameras_and_material_table() {
     assert!(worst.0 >= 35.0, "kd PSNR {:.1} dB at {}", worst.0, worst.1);
 }
 
-/// Re-render PSNR as used here: sRGB OETF of the linear radiance clamped to [0, 1], peak 1.
+/// Re-render PSNR: sRGB OETF of the linear radiance clamped to [0, 1], peak 1.
 fn render_psnr(a: &[Vec3], b: &[Vec3]) -> f64 {
-    let t = |v: &[Vec3]| -> Vec<Vec3> { v.iter().map(|p| Vec3::from_array(p.to_array().map(|c| srgb_oetf(c.clamp(0.0, 1.0))))).collect() };
-    psnr(&t(a), &t(b), None, 1.0).unwrap()
+    srgb_psnr(a, b, None).unwrap()
 }
 
 /// Our path tracer (FIPT BRDF, two-sided emitters) against Mitsuba's principled BSDF renders:

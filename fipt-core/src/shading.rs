@@ -1,0 +1,132 @@
+//! The factorised shading model (method §3) and the contracts of the stages that compute it.
+//!
+//! L(x, ωo) = Le + kd·Ld(x) + ks·Ls0(x, ωo, σ) + Ls1(x, ωo, σ): the diffuse shading Ld and the
+//! two specular shadings Ls0/Ls1 are baked once per training pixel, Ls0/Ls1 at
+//! [`NUM_LEVELS`] roughness levels and linearly interpolated in σ ([`lerp_levels`]).
+use crate::color::Rgb;
+use crate::dataset::View;
+use crate::error::Result;
+use crate::image::Image;
+use glam::Vec3;
+
+/// Number of roughness levels at which the specular shadings are baked.
+pub const NUM_LEVELS: usize = 6;
+
+/// The reference's levels: linspace(0.02, 1.0, 6).
+pub const DEFAULT_LEVELS: [f32; NUM_LEVELS] = [0.02, 0.216, 0.412, 0.608, 0.804, 1.0];
+
+/// Piecewise-linear interpolation of per-level values at roughness `sigma` (clamped to the
+/// first/last level). Exact at the levels, continuous between them. `levels` must increase.
+#[inline]
+pub fn lerp_levels(levels: &[f32; NUM_LEVELS], values: &[Rgb; NUM_LEVELS], sigma: f32) -> Rgb {
+    let s = if sigma.is_nan() { levels[0] } else { sigma.clamp(levels[0], levels[NUM_LEVELS - 1]) };
+    let mut i = 0;
+    while i + 2 < NUM_LEVELS && s > levels[i + 1] {
+        i += 1;
+    }
+    let (a, b) = (levels[i], levels[i + 1]);
+    let t = if b > a { ((s - a) / (b - a)).clamp(0.0, 1.0) } else { 0.0 };
+    values[i] * (1.0 - t) + values[i + 1] * t
+}
+
+/// Baked shadings of one view, pixel-major (row by row from the top).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViewShadings {
+    pub width: usize,
+    pub height: usize,
+    pub levels: [f32; NUM_LEVELS],
+    /// Ld per pixel.
+    pub ld: Vec<Rgb>,
+    /// Ls0 per pixel and level.
+    pub ls0: Vec<[Rgb; NUM_LEVELS]>,
+    /// Ls1 per pixel and level.
+    pub ls1: Vec<[Rgb; NUM_LEVELS]>,
+    /// Whether the pixel-centre ray hit the mesh (shadings are 0 elsewhere).
+    pub valid: Vec<bool>,
+}
+
+impl ViewShadings {
+    /// All-zero shadings for a `width × height` view.
+    pub fn zeros(width: usize, height: usize, levels: [f32; NUM_LEVELS]) -> Self {
+        let n = width * height;
+        ViewShadings { width, height, levels, ld: vec![Vec3::ZERO; n], ls0: vec![[Vec3::ZERO; NUM_LEVELS]; n], ls1: vec![[Vec3::ZERO; NUM_LEVELS]; n], valid: vec![false; n] }
+    }
+
+    /// Reflected radiance of pixel `i` for material (kd, ks, σ): kd·Ld + ks·Ls0(σ) + Ls1(σ).
+    #[inline]
+    pub fn reflected(&self, i: usize, kd: Rgb, ks: Rgb, sigma: f32) -> Rgb {
+        kd * self.ld[i] + ks * lerp_levels(&self.levels, &self.ls0[i], sigma) + lerp_levels(&self.levels, &self.ls1[i], sigma)
+    }
+}
+
+/// A surface hit as the shading stages see it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceHit {
+    /// Distance along the unit ray direction.
+    pub t: f32,
+    /// Mesh triangle index.
+    pub tri: u32,
+    /// Hit point.
+    pub p: Vec3,
+    /// Unit geometric normal (stored winding, not flipped).
+    pub ng: Vec3,
+    /// Unit shading normal on the side of `ng`.
+    pub ns: Vec3,
+}
+
+/// The ray queries the shading stages need; implemented by fipt-geom's `Geometry`.
+pub trait RayQuery: Sync {
+    /// Closest hit along `origin + t·dir`, t > 0 (`dir` unit length).
+    fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<SurfaceHit>;
+    /// Whether anything lies on `origin + t·dir` for t in (0, tmax).
+    fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool;
+    /// A ray origin moved off the surface at `p` to the side of `n`.
+    fn offset(&self, p: Vec3, n: Vec3) -> Vec3;
+    /// Axis-aligned bounds of the geometry.
+    fn bounds(&self) -> (Vec3, Vec3);
+}
+
+/// Progress callback: `(units done so far in this call, total units)`.
+pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
+
+/// Computes the shadings of the training views (initial bake, method §4.2).
+pub trait ShadingBaker {
+    /// A short name for reports.
+    fn name(&self) -> &str;
+    /// Shadings of every view in `views` (HDR `images` in the same order).
+    fn bake(&self, geometry: &dyn RayQuery, views: &[View], images: &[Image], progress: Progress) -> Result<Vec<ViewShadings>>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn values() -> [Rgb; NUM_LEVELS] {
+        std::array::from_fn(|i| Vec3::new(i as f32, (i * i) as f32, -(i as f32)))
+    }
+
+    #[test]
+    fn lerp_is_exact_at_levels_and_continuous_between() {
+        let v = values();
+        for (i, &l) in DEFAULT_LEVELS.iter().enumerate() {
+            assert_eq!(lerp_levels(&DEFAULT_LEVELS, &v, l), v[i], "level {i}");
+        }
+        // Continuity: small steps give small changes everywhere, including across levels.
+        let mut prev = lerp_levels(&DEFAULT_LEVELS, &v, 0.0);
+        let n = 10_000;
+        for k in 1..=n {
+            let s = k as f32 / n as f32 * 1.1;
+            let cur = lerp_levels(&DEFAULT_LEVELS, &v, s);
+            assert!((cur - prev).abs().max_element() <= 25.0 * 1.1 / n as f32 / 0.196 + 1e-4, "jump at σ={s}");
+            prev = cur;
+        }
+        // Midpoint of the reference formula r = (σ−0.02)/0.98·5.
+        let mid = lerp_levels(&DEFAULT_LEVELS, &v, 0.02 + 0.98 * 2.5 / 5.0);
+        assert!((mid - (v[2] + v[3]) * 0.5).abs().max_element() < 1e-4);
+        // Extremes are finite and clamped.
+        for s in [0.02f32, 1.0, -1.0, 7.0, f32::NAN] {
+            assert!(lerp_levels(&DEFAULT_LEVELS, &v, s).is_finite());
+        }
+        assert_eq!(lerp_levels(&DEFAULT_LEVELS, &v, 5.0), v[5]);
+    }
+}

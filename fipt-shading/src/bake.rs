@@ -1,0 +1,448 @@
+//! The initial bake (method §3–4): for every training pixel, the diffuse shading Ld (cosine
+//! sampling) and the specular shadings Ls0/Ls1 at the roughness levels (GGX half-vector
+//! sampling; one set of directions serves both), with the SLF as incident light.
+//!
+//! Beyond the reference:
+//! * **Diffuse cache** (`diffuse_cache`): Ld(x) does not depend on the view, so it is integrated
+//!   once per surface cell (triangle × side × a cell about one pixel footprint wide) and shared by
+//!   every pixel of every view that sees the cell, instead of once per pixel.
+//! * **Low-discrepancy sampling** (`sampler = "stratified"`): a rank-1 lattice (R2 sequence)
+//!   with a random shift per pixel and term, instead of independent random numbers.
+use crate::brdf::{sample_cosine_hemisphere, smith_g1};
+use crate::slf::{Cube, SlfBuilder, SurfaceLightField};
+use fipt_core::brdf::Frame;
+use fipt_core::color::Rgb;
+use fipt_core::dataset::View;
+use fipt_core::image::Image;
+use fipt_core::rng::Pcg32;
+use fipt_core::shading::{Progress, RayQuery, ShadingBaker, SurfaceHit, ViewShadings, DEFAULT_LEVELS, NUM_LEVELS};
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// How sample directions are drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SamplerKind {
+    /// Independent uniform random numbers (the reference).
+    Independent,
+    /// R2 rank-1 lattice with a per-pixel random shift (lower variance).
+    Stratified,
+}
+
+/// Settings of the initial bake.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BakeConfig {
+    /// SLF voxels per axis of the scene cube. Default 256.
+    pub slf_resolution: u32,
+    /// Coarser SLF grids an empty voxel falls back to (0 = the reference's strict lookup). Default 3.
+    pub slf_fallback_levels: u32,
+    /// Cosine samples for Ld. Default 256.
+    pub diffuse_samples: u32,
+    /// GGX samples for Ls0/Ls1 at each level. Default [64, 128, 128, 128, 128, 128].
+    pub specular_samples: [u32; NUM_LEVELS],
+    /// Roughness levels (increasing, in [0.02, 1]). Default linspace(0.02, 1, 6).
+    pub levels: [f32; NUM_LEVELS],
+    /// Integrate Ld once per surface cell and share it across pixels and views. Default true.
+    pub diffuse_cache: bool,
+    /// Cache cell edge as a multiple of the median pixel footprint. Default 1.0.
+    pub cache_cell_scale: f32,
+    /// Sample directions: "independent" or "stratified". Default stratified.
+    pub sampler: SamplerKind,
+    /// Seed of all random streams. Default 0.
+    pub seed: u64,
+}
+
+impl Default for BakeConfig {
+    fn default() -> Self {
+        BakeConfig {
+            slf_resolution: 256,
+            slf_fallback_levels: 3,
+            diffuse_samples: 256,
+            specular_samples: [64, 128, 128, 128, 128, 128],
+            levels: DEFAULT_LEVELS,
+            diffuse_cache: true,
+            cache_cell_scale: 1.0,
+            sampler: SamplerKind::Stratified,
+            seed: 0,
+        }
+    }
+}
+
+impl BakeConfig {
+    /// The reference implementation: per-pixel Ld, independent samples.
+    pub fn paper() -> Self {
+        BakeConfig { diffuse_cache: false, sampler: SamplerKind::Independent, slf_fallback_levels: 0, ..Default::default() }
+    }
+    /// A quarter of the samples.
+    pub fn fast() -> Self {
+        BakeConfig { diffuse_samples: 64, specular_samples: [16, 32, 32, 32, 32, 32], ..Default::default() }
+    }
+    /// Looks a preset up by name.
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "paper" => Some(Self::paper()),
+            "balanced" | "default" => Some(Self::default()),
+            "fast" => Some(Self::fast()),
+            _ => None,
+        }
+    }
+}
+
+/// Where the time and rays of a bake went.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct BakeStats {
+    pub pixels: usize,
+    pub valid_pixels: usize,
+    pub slf_occupied_voxels: usize,
+    pub slf_memory_bytes: usize,
+    pub cache_entries: usize,
+    pub cache_cell: f32,
+    pub rays_diffuse: u64,
+    pub rays_specular: u64,
+    pub seconds_primary: f64,
+    pub seconds_slf: f64,
+    pub seconds_diffuse: f64,
+    pub seconds_specular: f64,
+}
+
+/// A training pixel's primary hit, normal facing the viewer.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelRecord {
+    pub hit: SurfaceHit,
+    /// Facing geometric normal.
+    pub ng: Vec3,
+    /// Facing shading normal.
+    pub ns: Vec3,
+    /// Direction to the viewer.
+    pub wo: Vec3,
+}
+
+/// Primary hits of every pixel centre of a view.
+pub fn primary_records(geometry: &dyn RayQuery, view: &View) -> Vec<Option<PixelRecord>> {
+    let cam = &view.camera;
+    (0..cam.width * cam.height)
+        .into_par_iter()
+        .map(|i| {
+            let (o, d) = cam.pixel_center_ray(i % cam.width, i / cam.width);
+            geometry.intersect(o, d).map(|hit| {
+                let flip = if hit.ng.dot(d) > 0.0 { -1.0 } else { 1.0 };
+                let ng = hit.ng * flip;
+                let mut ns = hit.ns * flip;
+                if ns.dot(ng) < 0.0 {
+                    ns = ng;
+                }
+                PixelRecord { hit, ng, ns, wo: -d }
+            })
+        })
+        .collect()
+}
+
+/// Builds the SLF from primary records and the matching HDR images.
+pub fn build_slf(records: &[Vec<Option<PixelRecord>>], images: &[Image], resolution: u32, fallback_levels: u32) -> Option<SurfaceLightField> {
+    let cube = Cube::around(records.iter().flatten().flatten().map(|r| r.hit.p), 1.1)?;
+    let mut b = SlfBuilder::with_fallback(cube, resolution, fallback_levels);
+    for (recs, img) in records.iter().zip(images) {
+        for (r, l) in recs.iter().zip(&img.data) {
+            if let Some(r) = r {
+                b.add(r.hit.p, *l);
+            }
+        }
+    }
+    Some(b.finish())
+}
+
+/// Incident radiance from the SLF: the voxel radiance at the closest hit, 0 on a miss.
+pub struct SlfLight<'a> {
+    pub geometry: &'a dyn RayQuery,
+    pub slf: &'a SurfaceLightField,
+}
+
+impl SlfLight<'_> {
+    #[inline]
+    pub fn li(&self, origin: Vec3, dir: Vec3) -> Rgb {
+        match self.geometry.intersect(origin, dir) {
+            Some(h) => self.slf.lookup(h.p),
+            None => Vec3::ZERO,
+        }
+    }
+}
+
+/// Sample points in [0,1)² for `n` samples.
+pub struct SampleStream {
+    kind: SamplerKind,
+    rng: Pcg32,
+    shift: Vec2,
+    k: u32,
+}
+
+const R2_A1: f64 = 0.754_877_666_246_692_7; // 1/g, g = plastic number
+const R2_A2: f64 = 0.569_840_290_998_053_3; // 1/g²
+
+impl SampleStream {
+    pub fn new(kind: SamplerKind, keys: &[u64]) -> Self {
+        let mut rng = Pcg32::from_keys(keys);
+        let shift = rng.next_2d();
+        SampleStream { kind, rng, shift, k: 0 }
+    }
+    #[inline]
+    pub fn next(&mut self) -> Vec2 {
+        match self.kind {
+            SamplerKind::Independent => self.rng.next_2d(),
+            SamplerKind::Stratified => {
+                let k = self.k as f64;
+                self.k += 1;
+                let u = (self.shift.x as f64 + k * R2_A1).fract() as f32;
+                let v = (self.shift.y as f64 + k * R2_A2).fract() as f32;
+                Vec2::new(u.min(0.999_999_94), v.min(0.999_999_94))
+            }
+        }
+    }
+}
+
+/// Ld at a surface point: (1/π)∫ Li cos dω by cosine sampling (weight = Li).
+pub fn diffuse_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, n: u32, stream: &mut SampleStream) -> Rgb {
+    if n == 0 {
+        return Vec3::ZERO;
+    }
+    let frame = Frame::from_normal(ns);
+    let origin = light.geometry.offset(p, ng);
+    let mut sum = Vec3::ZERO;
+    for _ in 0..n {
+        let wi = frame.to_world(sample_cosine_hemisphere(stream.next()));
+        if wi.dot(ng) > 0.0 {
+            sum += light.li(origin, wi);
+        }
+    }
+    sum / n as f32
+}
+
+/// Ls0 and Ls1 at roughness `sigma` by GGX half-vector sampling:
+/// weight = Li·F_k·G·(ωo·h)/((n·h)(n·ωo)), F0 = 1 − (1−ωo·h)⁵, F1 = (1−ωo·h)⁵.
+#[allow(clippy::too_many_arguments)]
+pub fn specular_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world: Vec3, sigma: f32, n: u32, stream: &mut SampleStream) -> (Rgb, Rgb) {
+    if n == 0 {
+        return (Vec3::ZERO, Vec3::ZERO);
+    }
+    let frame = Frame::from_normal(ns);
+    let mut wo = frame.to_local(wo_world);
+    if wo.z < 1e-4 {
+        // Shading normal turned away from the viewer: graze instead.
+        wo = Vec3::new(wo.x, wo.y, 1e-4).normalize();
+    }
+    let origin = light.geometry.offset(p, ng);
+    let alpha = sigma * sigma;
+    let g1o = smith_g1(wo.z, sigma);
+    let (mut s0, mut s1) = (Vec3::ZERO, Vec3::ZERO);
+    for _ in 0..n {
+        let u = stream.next();
+        let tan2 = alpha * alpha * u.x / (1.0 - u.x).max(f32::MIN_POSITIVE);
+        let ct = 1.0 / (1.0 + tan2).sqrt();
+        let st = (tan2.sqrt() * ct).min(1.0);
+        let phi = std::f32::consts::TAU * u.y;
+        let h = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+        let voh = wo.dot(h);
+        if voh <= 0.0 {
+            continue;
+        }
+        let wi = 2.0 * voh * h - wo;
+        if wi.z <= 0.0 {
+            continue;
+        }
+        let wi_w = frame.to_world(wi);
+        if wi_w.dot(ng) <= 0.0 {
+            continue;
+        }
+        let li = light.li(origin, wi_w);
+        if li == Vec3::ZERO {
+            continue;
+        }
+        let g = smith_g1(wi.z, sigma) * g1o;
+        let w = g * voh / (h.z * wo.z);
+        let m = crate::brdf::schlick_fresnel(voh);
+        s0 += li * (w * (1.0 - m));
+        s1 += li * (w * m);
+    }
+    (s0 / n as f32, s1 / n as f32)
+}
+
+/// The FIPT initial baker (SLF incident light), with the switches of [`BakeConfig`].
+#[derive(Clone, Debug, Default)]
+pub struct FactorizedBaker {
+    pub config: BakeConfig,
+}
+
+#[derive(Hash, PartialEq, Eq, Clone, Copy)]
+struct CellKey {
+    tri: u32,
+    side: bool,
+    cell: [i32; 3],
+}
+
+fn median(mut v: Vec<f32>) -> Option<f32> {
+    if v.is_empty() {
+        return None;
+    }
+    let k = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    Some(*m)
+}
+
+impl FactorizedBaker {
+    pub fn new(config: BakeConfig) -> Self {
+        FactorizedBaker { config }
+    }
+
+    /// Bakes and reports where the time went.
+    pub fn bake_detailed(&self, geometry: &dyn RayQuery, views: &[View], images: &[Image], progress: Progress) -> (Vec<ViewShadings>, BakeStats, Option<SurfaceLightField>) {
+        let cfg = &self.config;
+        let mut stats = BakeStats::default();
+        let t = Instant::now();
+        let records: Vec<Vec<Option<PixelRecord>>> = views.iter().map(|v| primary_records(geometry, v)).collect();
+        stats.seconds_primary = t.elapsed().as_secs_f64();
+        stats.pixels = records.iter().map(|r| r.len()).sum();
+        stats.valid_pixels = records.iter().flatten().flatten().count();
+        let t = Instant::now();
+        let Some(slf) = build_slf(&records, images, cfg.slf_resolution, cfg.slf_fallback_levels) else {
+            let out = views.iter().map(|v| ViewShadings::zeros(v.camera.width, v.camera.height, cfg.levels)).collect();
+            return (out, stats, None);
+        };
+        stats.seconds_slf = t.elapsed().as_secs_f64();
+        stats.slf_occupied_voxels = slf.occupied();
+        stats.slf_memory_bytes = slf.memory_bytes();
+        let light = SlfLight { geometry, slf: &slf };
+        let spec_per_pixel: u32 = cfg.specular_samples.iter().sum();
+        let total_work = stats.valid_pixels * 2;
+        let done = AtomicUsize::new(0);
+        let tick = |n: usize| {
+            let d = done.fetch_add(n, Ordering::Relaxed) + n;
+            progress(d, total_work);
+        };
+        let mut out: Vec<ViewShadings> = views
+            .iter()
+            .zip(&records)
+            .map(|(v, r)| {
+                let mut s = ViewShadings::zeros(v.camera.width, v.camera.height, cfg.levels);
+                for (i, rec) in r.iter().enumerate() {
+                    s.valid[i] = rec.is_some();
+                }
+                s
+            })
+            .collect();
+
+        // Diffuse shading.
+        let t = Instant::now();
+        if cfg.diffuse_cache {
+            // Cell size: median pixel footprint (distance × angular pixel size) × scale.
+            let mut foot = Vec::new();
+            for (v, r) in views.iter().zip(&records) {
+                let step = (r.len() / 512).max(1);
+                for rec in r.iter().step_by(step).flatten() {
+                    foot.push(rec.hit.t / v.camera.fx);
+                }
+            }
+            let cell = median(foot).unwrap_or(1e-3).max(1e-9) * cfg.cache_cell_scale.max(1e-3);
+            stats.cache_cell = cell;
+            let inv = 1.0 / cell;
+            let origin = slf.cube.min;
+            // Sequential assignment keeps entry order (and so results) deterministic.
+            let mut index: HashMap<CellKey, u32> = HashMap::new();
+            let mut entries: Vec<(Vec3, Vec3, Vec3, u32, CellKey)> = Vec::new(); // (sum p, sum ns, ng, count, key)
+            let mut assign: Vec<Vec<u32>> = Vec::with_capacity(records.len());
+            for r in &records {
+                let mut a = Vec::with_capacity(r.len());
+                for rec in r {
+                    match rec {
+                        None => a.push(u32::MAX),
+                        Some(rec) => {
+                            let q = ((rec.hit.p - origin) * inv).floor();
+                            let key = CellKey { tri: rec.hit.tri, side: rec.ng.dot(rec.hit.ng) > 0.0, cell: [q.x as i32, q.y as i32, q.z as i32] };
+                            let id = *index.entry(key).or_insert_with(|| {
+                                entries.push((Vec3::ZERO, Vec3::ZERO, rec.ng, 0, key));
+                                entries.len() as u32 - 1
+                            });
+                            let e = &mut entries[id as usize];
+                            e.0 += rec.hit.p;
+                            e.1 += rec.ns;
+                            e.3 += 1;
+                            a.push(id);
+                        }
+                    }
+                }
+                assign.push(a);
+            }
+            stats.cache_entries = entries.len();
+            let seed = cfg.seed;
+            let ld: Vec<Rgb> = entries
+                .par_iter()
+                .enumerate()
+                .map(|(k, (sp, sn, ng, n, key))| {
+                    let p = *sp / *n as f32;
+                    let ns = sn.normalize_or(*ng);
+                    let mut st = SampleStream::new(cfg.sampler, &[seed, 0xD1FF, key.tri as u64, k as u64]);
+                    let v = diffuse_shading(&light, p, *ng, ns, cfg.diffuse_samples, &mut st);
+                    v
+                })
+                .collect();
+            for (s, a) in out.iter_mut().zip(&assign) {
+                for (i, &id) in a.iter().enumerate() {
+                    if id != u32::MAX {
+                        s.ld[i] = ld[id as usize];
+                    }
+                }
+            }
+            stats.rays_diffuse = entries.len() as u64 * cfg.diffuse_samples as u64;
+            tick(stats.valid_pixels);
+        } else {
+            for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
+                let seed = cfg.seed;
+                s.ld.par_iter_mut().zip(r.par_iter()).enumerate().for_each(|(i, (ld, rec))| {
+                    if let Some(rec) = rec {
+                        let mut st = SampleStream::new(cfg.sampler, &[seed, 0xD1FF, vi as u64, i as u64]);
+                        *ld = diffuse_shading(&light, rec.hit.p, rec.ng, rec.ns, cfg.diffuse_samples, &mut st);
+                    }
+                });
+                tick(r.iter().flatten().count());
+            }
+            stats.rays_diffuse = stats.valid_pixels as u64 * cfg.diffuse_samples as u64;
+        }
+        stats.seconds_diffuse = t.elapsed().as_secs_f64();
+
+        // Specular shadings.
+        let t = Instant::now();
+        for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
+            let seed = cfg.seed;
+            let ViewShadings { ls0, ls1, .. } = s;
+            ls0.par_iter_mut().zip(ls1.par_iter_mut()).zip(r.par_iter()).enumerate().with_min_len(64).for_each(|(i, ((l0, l1), rec))| {
+                if let Some(rec) = rec {
+                    for l in 0..NUM_LEVELS {
+                        let mut st = SampleStream::new(cfg.sampler, &[seed, 0x5BEC, vi as u64, i as u64, l as u64]);
+                        let (a, b) = specular_shading(&light, rec.hit.p, rec.ng, rec.ns, rec.wo, cfg.levels[l], cfg.specular_samples[l], &mut st);
+                        l0[l] = a;
+                        l1[l] = b;
+                    }
+                }
+            });
+            tick(r.iter().flatten().count());
+        }
+        stats.rays_specular = stats.valid_pixels as u64 * spec_per_pixel as u64;
+        stats.seconds_specular = t.elapsed().as_secs_f64();
+        (out, stats, Some(slf))
+    }
+}
+
+impl ShadingBaker for FactorizedBaker {
+    fn name(&self) -> &str {
+        "fipt-slf"
+    }
+    fn bake(&self, geometry: &dyn RayQuery, views: &[View], images: &[Image], progress: Progress) -> fipt_core::Result<Vec<ViewShadings>> {
+        if views.len() != images.len() {
+            return Err(fipt_core::CoreError::invalid("bake", format!("{} views but {} images", views.len(), images.len())));
+        }
+        Ok(self.bake_detailed(geometry, views, images, progress).0)
+    }
+}

@@ -1,0 +1,245 @@
+//! The surface light field (SLF, method §4.1): a sparse voxel grid over the scene holding the
+//! mean HDR radiance of the training pixels whose primary hit falls in each voxel. It stands in
+//! for the incident radiance at secondary hits during the initial bake.
+use fipt_core::color::Rgb;
+use glam::{DVec3, Vec3};
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// A fast hasher for `u64` voxel keys (multiplicative, Fibonacci).
+#[derive(Default, Clone, Copy)]
+pub struct VoxelHasher(u64);
+
+impl Hasher for VoxelHasher {
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    #[inline]
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(5) ^ b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    #[inline]
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0 ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29);
+    }
+    #[inline]
+    fn write_u32(&mut self, v: u32) {
+        self.write_u64(v as u64)
+    }
+}
+
+pub type VoxelMap<V> = HashMap<u64, V, BuildHasherDefault<VoxelHasher>>;
+
+/// The cube the SLF covers: all primary hit points, enlarged ×1.1 about their centre.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Cube {
+    pub min: Vec3,
+    pub size: f32,
+}
+
+impl Cube {
+    /// The ×`scale` cube around the bounding box of `points` (None when empty).
+    pub fn around(points: impl Iterator<Item = Vec3>, scale: f32) -> Option<Cube> {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        let mut any = false;
+        for p in points {
+            lo = lo.min(p);
+            hi = hi.max(p);
+            any = true;
+        }
+        if !any {
+            return None;
+        }
+        let size = ((hi - lo).max_element() * scale).max(1e-6);
+        Some(Cube { min: (lo + hi) * 0.5 - Vec3::splat(0.5 * size), size })
+    }
+}
+
+/// The surface light field.
+///
+/// Besides the voxels at `resolution`, it keeps `fallback_levels` coarser grids (each halving
+/// the resolution) of the same observations: a lookup in an empty fine voxel falls back to the
+/// finest non-empty coarser voxel. With sparse observations (few or small views) the fine grid
+/// is mostly holes and the reference's strict lookup returns 0 for most secondary hits — direct
+/// light from a small emitter seen in a few pixels disappears. `fallback_levels = 0` gives the
+/// reference's behaviour.
+#[derive(Clone, Debug)]
+pub struct SurfaceLightField {
+    pub cube: Cube,
+    pub resolution: u32,
+    inv_cell: f32,
+    /// Level 0 = full resolution, level k = resolution / 2^k.
+    levels: Vec<VoxelMap<Rgb>>,
+}
+
+impl SurfaceLightField {
+    /// Voxel key of a point (None outside the cube).
+    #[inline]
+    pub fn voxel(&self, p: Vec3) -> Option<u64> {
+        voxel_key(self.cube.min, self.inv_cell, self.resolution, p)
+    }
+
+    /// Mean radiance of the voxel containing `p`, else of the finest occupied coarser voxel;
+    /// 0 when none is occupied or `p` is outside.
+    #[inline]
+    pub fn lookup(&self, p: Vec3) -> Rgb {
+        let q = (p - self.cube.min) * self.inv_cell;
+        if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
+            return Vec3::ZERO;
+        }
+        let (mut x, mut y, mut z) = (q.x as u64, q.y as u64, q.z as u64);
+        let mut r = self.resolution as u64;
+        if x >= r || y >= r || z >= r {
+            return Vec3::ZERO;
+        }
+        for level in &self.levels {
+            if let Some(v) = level.get(&((z * r + y) * r + x)) {
+                return *v;
+            }
+            x >>= 1;
+            y >>= 1;
+            z >>= 1;
+            r = r.div_ceil(2);
+        }
+        Vec3::ZERO
+    }
+
+    /// Whether the full-resolution voxel containing `p` holds radiance.
+    pub fn occupied_at(&self, p: Vec3) -> bool {
+        self.voxel(p).is_some_and(|k| self.levels[0].contains_key(&k))
+    }
+
+    /// Number of occupied full-resolution voxels.
+    pub fn occupied(&self) -> usize {
+        self.levels[0].len()
+    }
+
+    /// Approximate heap memory (bytes): proportional to occupied voxels, not to the grid.
+    pub fn memory_bytes(&self) -> usize {
+        self.levels.iter().map(|l| l.capacity() * (std::mem::size_of::<u64>() + std::mem::size_of::<Rgb>() + 1)).sum()
+    }
+}
+
+#[inline]
+fn voxel_key(min: Vec3, inv_cell: f32, res: u32, p: Vec3) -> Option<u64> {
+    let q = (p - min) * inv_cell;
+    if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
+        return None;
+    }
+    let (x, y, z) = (q.x as u64, q.y as u64, q.z as u64);
+    let r = res as u64;
+    if x >= r || y >= r || z >= r {
+        return None;
+    }
+    Some((z * r + y) * r + x)
+}
+
+/// Accumulates radiance samples into voxels.
+pub struct SlfBuilder {
+    cube: Cube,
+    resolution: u32,
+    inv_cell: f32,
+    fallback_levels: u32,
+    sums: VoxelMap<(DVec3, u32)>,
+}
+
+impl SlfBuilder {
+    /// A builder with the reference's strict lookup (no coarser fallback).
+    pub fn new(cube: Cube, resolution: u32) -> Self {
+        Self::with_fallback(cube, resolution, 0)
+    }
+
+    /// A builder whose SLF falls back to up to `fallback_levels` coarser grids.
+    pub fn with_fallback(cube: Cube, resolution: u32, fallback_levels: u32) -> Self {
+        let resolution = resolution.max(1);
+        SlfBuilder { cube, resolution, inv_cell: resolution as f32 / cube.size, fallback_levels, sums: VoxelMap::default() }
+    }
+
+    /// Adds one observation of radiance `l` at point `p` (ignored outside the cube or if not finite).
+    pub fn add(&mut self, p: Vec3, l: Rgb) {
+        if !fipt_core::color::is_finite(l) {
+            return;
+        }
+        if let Some(k) = voxel_key(self.cube.min, self.inv_cell, self.resolution, p) {
+            let e = self.sums.entry(k).or_insert((DVec3::ZERO, 0));
+            e.0 += l.as_dvec3();
+            e.1 += 1;
+        }
+    }
+
+    pub fn finish(self) -> SurfaceLightField {
+        let mut levels = Vec::new();
+        let mut sums = self.sums;
+        let mut r = self.resolution as u64;
+        for level in 0..=self.fallback_levels {
+            let coarser = if level < self.fallback_levels {
+                let rc = r.div_ceil(2);
+                let mut m: VoxelMap<(DVec3, u32)> = VoxelMap::default();
+                for (&k, &(s, n)) in &sums {
+                    let (x, y, z) = (k % r, (k / r) % r, k / (r * r));
+                    let e = m.entry(((z / 2) * rc + y / 2) * rc + x / 2).or_insert((DVec3::ZERO, 0));
+                    e.0 += s;
+                    e.1 += n;
+                }
+                Some((m, rc))
+            } else {
+                None
+            };
+            levels.push(sums.iter().map(|(&k, &(s, n))| (k, (s / n as f64).as_vec3())).collect());
+            match coarser {
+                Some((m, rc)) => {
+                    sums = m;
+                    r = rc;
+                }
+                None => break,
+            }
+        }
+        SurfaceLightField { cube: self.cube, resolution: self.resolution, inv_cell: self.inv_cell, levels }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn voxels_average_their_samples_and_empty_is_zero() {
+        let cube = Cube::around([Vec3::ZERO, Vec3::ONE].into_iter(), 1.1).unwrap();
+        assert!((cube.size - 1.1).abs() < 1e-6);
+        let mut b = SlfBuilder::new(cube, 4);
+        b.add(Vec3::splat(0.1), Vec3::splat(1.0));
+        b.add(Vec3::splat(0.12), Vec3::splat(3.0));
+        b.add(Vec3::splat(0.9), Vec3::new(5.0, 0.0, 0.0));
+        b.add(Vec3::splat(0.5), Vec3::splat(f32::NAN));
+        b.add(Vec3::splat(7.0), Vec3::ONE); // outside
+        let slf = b.finish();
+        assert_eq!(slf.occupied(), 2);
+        assert_eq!(slf.lookup(Vec3::splat(0.11)), Vec3::splat(2.0));
+        assert_eq!(slf.lookup(Vec3::splat(0.9)), Vec3::new(5.0, 0.0, 0.0));
+        assert_eq!(slf.lookup(Vec3::splat(0.5)), Vec3::ZERO);
+        assert_eq!(slf.lookup(Vec3::splat(-3.0)), Vec3::ZERO);
+        assert!(slf.memory_bytes() < 1024, "sparse: {} bytes for a 4³ grid with 2 voxels", slf.memory_bytes());
+    }
+
+    #[test]
+    fn empty_voxels_fall_back_to_coarser_levels() {
+        let cube = Cube { min: Vec3::ZERO, size: 8.0 };
+        let mut b = SlfBuilder::with_fallback(cube, 8, 2);
+        b.add(Vec3::new(0.5, 0.5, 0.5), Vec3::splat(2.0)); // voxel (0,0,0)
+        b.add(Vec3::new(1.5, 0.5, 0.5), Vec3::splat(4.0)); // voxel (1,0,0)
+        b.add(Vec3::new(7.5, 7.5, 7.5), Vec3::splat(9.0));
+        let slf = b.finish();
+        assert_eq!(slf.lookup(Vec3::new(0.5, 0.5, 0.5)), Vec3::splat(2.0), "fine voxel wins");
+        // (1,1,0) is empty; its 2× parent (0,0,0) holds the mean of both samples.
+        assert_eq!(slf.lookup(Vec3::new(1.5, 1.5, 0.5)), Vec3::splat(3.0));
+        // (3,3,3) is empty at 8³ and 4³; the 2³ parent (0,0,0) averages the first two.
+        assert_eq!(slf.lookup(Vec3::new(3.5, 3.5, 3.5)), Vec3::splat(3.0));
+        // (4,4,4) → 2³ parent (1,1,1) holds the last sample.
+        assert_eq!(slf.lookup(Vec3::new(4.5, 4.5, 4.5)), Vec3::splat(9.0));
+        let strict = { let mut b = SlfBuilder::new(cube, 8); b.add(Vec3::splat(0.5), Vec3::ONE); b.finish() };
+        assert_eq!(strict.lookup(Vec3::new(1.5, 1.5, 0.5)), Vec3::ZERO, "reference behaviour without fallback");
+    }
+}
