@@ -1,10 +1,13 @@
 //! `fipt`: recover materials and emitters of indoor scenes by factorized inverse path tracing.
 //!
 //! A thin composition of the library crates; every subcommand lives in its own module.
+mod bake;
 mod bench;
+mod config;
 mod info;
 mod progress;
 mod render;
+mod scene;
 mod synth;
 
 use clap::{Parser, Subcommand};
@@ -25,6 +28,8 @@ enum Command {
     Info(info::Args),
     /// Generate a procedural scene with exact ground truth in the reference layout.
     Synth(synth::Args),
+    /// Bake the diffuse and specular shadings of the training views (the first FIPT stage).
+    Bake(bake::Args),
     /// Path-trace views of a mesh with given materials and cameras (the forward renderer alone).
     Render(render::Args),
     /// Measure BVH build, ray throughput and path-tracing speed; writes JSON.
@@ -42,6 +47,7 @@ fn main() {
         Command::Info(a) => info::run(a),
         Command::Synth(a) => synth::run(a),
         Command::Render(a) => render::run(a),
+        Command::Bake(a) => bake::run(a),
         Command::Bench(a) => bench::run(a),
     };
     if let Err(e) = result {

@@ -51,3 +51,31 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     serde_json::from_str(&text)
         .map_err(|e| CoreError::Json { path: path.to_path_buf(), message: e.to_string() })
 }
+
+/// FNV-1a 64 over the contents (and lengths) of `paths`, in order: a fingerprint of a stage's
+/// inputs. Returned as 16 hex digits.
+pub fn hash_files(paths: &[std::path::PathBuf]) -> Result<String> {
+    use std::io::Read;
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut feed = |bytes: &[u8]| {
+        for &b in bytes {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01B3);
+        }
+    };
+    let mut buf = vec![0u8; 1 << 16];
+    for p in paths {
+        let mut f = std::fs::File::open(p).map_err(|e| CoreError::io(p, e))?;
+        let mut len = 0u64;
+        loop {
+            let n = f.read(&mut buf).map_err(|e| CoreError::io(p, e))?;
+            if n == 0 {
+                break;
+            }
+            len += n as u64;
+            feed(&buf[..n]);
+        }
+        feed(&len.to_le_bytes());
+    }
+    Ok(format!("{h:016x}"))
+}

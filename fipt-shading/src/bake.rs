@@ -33,6 +33,17 @@ pub enum SamplerKind {
     Stratified,
 }
 
+/// How the specular shadings at the roughness levels are estimated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpecularEstimator {
+    /// Each level integrates with its own GGX samples only (the reference).
+    PerLevel,
+    /// Every level reuses every sample of every level through the balance heuristic
+    /// (multi-sample MIS over the mixture of the level lobes): the same rays, lower variance.
+    Mixture,
+}
+
 /// Settings of the initial bake.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -53,6 +64,8 @@ pub struct BakeConfig {
     pub cache_cell_scale: f32,
     /// Sample directions: "independent" or "stratified". Default stratified.
     pub sampler: SamplerKind,
+    /// Specular estimator: "per_level" or "mixture". Default mixture.
+    pub specular_estimator: SpecularEstimator,
     /// Seed of all random streams. Default 0.
     pub seed: u64,
 }
@@ -68,6 +81,7 @@ impl Default for BakeConfig {
             diffuse_cache: true,
             cache_cell_scale: 1.0,
             sampler: SamplerKind::Stratified,
+            specular_estimator: SpecularEstimator::Mixture,
             seed: 0,
         }
     }
@@ -76,7 +90,13 @@ impl Default for BakeConfig {
 impl BakeConfig {
     /// The reference implementation: per-pixel Ld, independent samples.
     pub fn paper() -> Self {
-        BakeConfig { diffuse_cache: false, sampler: SamplerKind::Independent, slf_fallback_levels: 0, ..Default::default() }
+        BakeConfig {
+            diffuse_cache: false,
+            sampler: SamplerKind::Independent,
+            slf_fallback_levels: 0,
+            specular_estimator: SpecularEstimator::PerLevel,
+            ..Default::default()
+        }
     }
     /// A quarter of the samples.
     pub fn fast() -> Self {
@@ -239,12 +259,7 @@ pub fn specular_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world:
     let g1o = smith_g1(wo.z, sigma);
     let (mut s0, mut s1) = (Vec3::ZERO, Vec3::ZERO);
     for _ in 0..n {
-        let u = stream.next();
-        let tan2 = alpha * alpha * u.x / (1.0 - u.x).max(f32::MIN_POSITIVE);
-        let ct = 1.0 / (1.0 + tan2).sqrt();
-        let st = (tan2.sqrt() * ct).min(1.0);
-        let phi = std::f32::consts::TAU * u.y;
-        let h = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+        let h = sample_ggx_h(alpha, stream.next());
         let voh = wo.dot(h);
         if voh <= 0.0 {
             continue;
@@ -268,6 +283,67 @@ pub fn specular_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world:
         s1 += li * (w * m);
     }
     (s0 / n as f32, s1 / n as f32)
+}
+
+/// Sample a GGX half vector (local frame) for α from `u` (stable tan² form).
+#[inline]
+fn sample_ggx_h(alpha: f32, u: Vec2) -> Vec3 {
+    let tan2 = alpha * alpha * u.x / (1.0 - u.x).max(f32::MIN_POSITIVE);
+    let ct = 1.0 / (1.0 + tan2).sqrt();
+    let st = (tan2.sqrt() * ct).min(1.0);
+    let phi = std::f32::consts::TAU * u.y;
+    Vec3::new(st * phi.cos(), st * phi.sin(), ct)
+}
+
+/// Ls0/Ls1 at every level at once: `counts[k]` samples from level k's GGX lobe, each sample
+/// weighted for every level l by the balance heuristic,
+/// Li·D_l·G_l·F·(ωo·h) / ((n·ωo)(n·h)·Σ_k counts_k·D_k(h)).
+#[allow(clippy::too_many_arguments)]
+pub fn specular_shading_mixture(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world: Vec3, levels: &[f32; NUM_LEVELS], counts: &[u32; NUM_LEVELS], streams: &mut [SampleStream; NUM_LEVELS]) -> ([Rgb; NUM_LEVELS], [Rgb; NUM_LEVELS]) {
+    let mut s0 = [Vec3::ZERO; NUM_LEVELS];
+    let mut s1 = [Vec3::ZERO; NUM_LEVELS];
+    let frame = Frame::from_normal(ns);
+    let mut wo = frame.to_local(wo_world);
+    if wo.z < 1e-4 {
+        wo = Vec3::new(wo.x, wo.y, 1e-4).normalize();
+    }
+    let origin = light.geometry.offset(p, ng);
+    let alphas: [f32; NUM_LEVELS] = std::array::from_fn(|l| levels[l] * levels[l]);
+    let g1o: [f32; NUM_LEVELS] = std::array::from_fn(|l| smith_g1(wo.z, levels[l]));
+    for k in 0..NUM_LEVELS {
+        for _ in 0..counts[k] {
+            let h = sample_ggx_h(alphas[k], streams[k].next());
+            let voh = wo.dot(h);
+            if voh <= 0.0 {
+                continue;
+            }
+            let wi = 2.0 * voh * h - wo;
+            if wi.z <= 0.0 {
+                continue;
+            }
+            let wi_w = frame.to_world(wi);
+            if wi_w.dot(ng) <= 0.0 {
+                continue;
+            }
+            let li = light.li(origin, wi_w);
+            if li == Vec3::ZERO {
+                continue;
+            }
+            let d: [f32; NUM_LEVELS] = std::array::from_fn(|l| crate::brdf::ggx_d(h, alphas[l]));
+            let denom: f32 = (0..NUM_LEVELS).map(|l| counts[l] as f32 * d[l]).sum();
+            if !(denom > 0.0) {
+                continue;
+            }
+            let m = crate::brdf::schlick_fresnel(voh);
+            let common = voh / (wo.z * h.z * denom);
+            for l in 0..NUM_LEVELS {
+                let w = d[l] * smith_g1(wi.z, levels[l]) * g1o[l] * common;
+                s0[l] += li * (w * (1.0 - m));
+                s1[l] += li * (w * m);
+            }
+        }
+    }
+    (s0, s1)
 }
 
 /// The FIPT initial baker (SLF incident light), with the switches of [`BakeConfig`].
@@ -417,8 +493,14 @@ impl FactorizedBaker {
         for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
             let seed = cfg.seed;
             let ViewShadings { ls0, ls1, .. } = s;
+            let mixture = cfg.specular_estimator == SpecularEstimator::Mixture;
             ls0.par_iter_mut().zip(ls1.par_iter_mut()).zip(r.par_iter()).enumerate().with_min_len(64).for_each(|(i, ((l0, l1), rec))| {
                 if let Some(rec) = rec {
+                    if mixture {
+                        let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| SampleStream::new(cfg.sampler, &[seed, 0x5BEC, vi as u64, i as u64, l as u64]));
+                        (*l0, *l1) = specular_shading_mixture(&light, rec.hit.p, rec.ng, rec.ns, rec.wo, &cfg.levels, &cfg.specular_samples, &mut st);
+                        return;
+                    }
                     for l in 0..NUM_LEVELS {
                         let mut st = SampleStream::new(cfg.sampler, &[seed, 0x5BEC, vi as u64, i as u64, l as u64]);
                         let (a, b) = specular_shading(&light, rec.hit.p, rec.ng, rec.ns, rec.wo, cfg.levels[l], cfg.specular_samples[l], &mut st);

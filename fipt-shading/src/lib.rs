@@ -21,6 +21,7 @@
 //! assert!((b.eval(wo, wi) / wi.z - b.eval(wi, wo) / wo.z).length() < 1e-5);
 //! ```
 pub mod bake;
+pub mod bake_store;
 pub mod brdf;
 pub mod error;
 pub mod render;

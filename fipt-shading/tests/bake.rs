@@ -6,7 +6,7 @@ use fipt_core::metrics::srgb_psnr;
 use fipt_core::shading::{RayQuery, DEFAULT_LEVELS};
 use fipt_geom::{Geometry, Mesh, TriangleSampler};
 use fipt_core::rng::Pcg32;
-use fipt_shading::bake::{diffuse_shading, specular_shading, BakeConfig, FactorizedBaker, SamplerKind, SampleStream, SlfLight};
+use fipt_shading::bake::{diffuse_shading, specular_shading, specular_shading_mixture, BakeConfig, FactorizedBaker, SamplerKind, SampleStream, SlfLight};
 use fipt_shading::brdf::FiptBrdf;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::slf::{Cube, SlfBuilder};
@@ -31,7 +31,8 @@ fn quadrature(b: &FiptBrdf, wo: Vec3, nt: usize, np: usize) -> Vec3 {
 
 /// Inside a closed sphere whose every SLF voxel holds L: Ld = L, and Ls0 + Ls1 at each level
 /// is L times the GGX directional albedo with F ≡ 1 (Ls1 alone: F = (1−ωo·h)⁵), checked
-/// against brute-force quadrature of the BRDF. 4096 stratified samples per term; tolerance
+/// against brute-force quadrature of the BRDF, for both specular estimators (per level: 4096
+/// stratified samples; mixture: 700 per level shared by all levels); tolerance
 /// 2 % of L (or 0.003 L absolute).
 #[test]
 fn uniform_incident_light_gives_known_shadings() {
@@ -59,9 +60,12 @@ fn uniform_incident_light_gives_known_shadings() {
         let th = theta_deg.to_radians();
         let wo_local = Vec3::new(th.sin(), 0.0, th.cos());
         let wo = frame.to_world(wo_local);
+        let mut streams = std::array::from_fn(|k| SampleStream::new(SamplerKind::Stratified, &[3, k as u64, theta_deg as u64]));
+        let (m0, m1) = specular_shading_mixture(&light, hit.p, n, n, wo, &DEFAULT_LEVELS, &[700; 6], &mut streams);
         for (k, &sigma) in DEFAULT_LEVELS.iter().enumerate() {
             let mut st = SampleStream::new(SamplerKind::Stratified, &[2, k as u64, theta_deg as u64]);
-            let (s0, s1) = specular_shading(&light, hit.p, n, n, wo, sigma, 4096, &mut st);
+            let (p0, p1) = specular_shading(&light, hit.p, n, n, wo, sigma, 4096, &mut st);
+            for (s0, s1, est) in [(p0, p1, "per-level"), (m0[k], m1[k], "mixture")] {
             // F ≡ 1: ks = 1 gives F = 1·(1−m) + m.
             let both = if sigma >= 0.2 && theta_deg <= 75.0 {
                 quadrature(&FiptBrdf::new(Vec3::ZERO, Vec3::ONE, sigma), wo_local, 600, 300).x
@@ -75,13 +79,14 @@ fn uniform_incident_light_gives_known_shadings() {
             };
             let tol = (0.02 * both).max(0.003);
             let got = (s0 + s1) / l;
-            assert!((got - Vec3::splat(both)).abs().max_element() < tol, "σ={sigma} θo={theta_deg}: Ls0+Ls1 = {got} L, albedo {both}");
+            assert!((got - Vec3::splat(both)).abs().max_element() < tol, "{est} σ={sigma} θo={theta_deg}: Ls0+Ls1 = {got} L, albedo {both}");
             if sigma >= 0.2 && theta_deg <= 75.0 {
                 let only1 = quadrature(&FiptBrdf::new(Vec3::ZERO, Vec3::ZERO, sigma), wo_local, 600, 300).x;
                 let got1 = s1 / l;
-                assert!((got1 - Vec3::splat(only1)).abs().max_element() < (0.03 * only1).max(0.003), "σ={sigma} θo={theta_deg}: Ls1 = {got1} L vs {only1}");
+                assert!((got1 - Vec3::splat(only1)).abs().max_element() < (0.03 * only1).max(0.003), "{est} σ={sigma} θo={theta_deg}: Ls1 = {got1} L vs {only1}");
             }
             assert!(s0.is_finite() && s1.is_finite());
+            }
         }
     }
 }

@@ -1,0 +1,90 @@
+//! `fipt bake <scene> --out DIR`: the initial shading bake alone.
+use crate::info::Policy;
+use crate::progress::{bar, Stage};
+use anyhow::{bail, Result};
+use fipt_core::image::Image;
+use fipt_shading::bake::{BakeConfig, FactorizedBaker};
+use fipt_shading::bake_store::{load_if_current, save, BakeManifest, FORMAT_VERSION};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene folder.
+    scene: PathBuf,
+    /// Output folder; the shadings go to OUT/bake/.
+    #[arg(long)]
+    out: PathBuf,
+    /// Settings preset: paper (the reference's sample counts and behaviour), balanced, fast.
+    #[arg(long, default_value = "balanced")]
+    preset: String,
+    /// A TOML or JSON file of bake settings laid over the preset.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// What to do with NaN/Inf/negative pixels.
+    #[arg(long, value_enum, default_value = "reject")]
+    bad_pixels: Policy,
+    /// Bake again even if a finished bake with the same inputs and settings exists.
+    #[arg(long)]
+    force: bool,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let Some(preset) = BakeConfig::preset(&a.preset) else { bail!("unknown preset `{}` (paper, balanced, fast)", a.preset) };
+    let cfg: BakeConfig = crate::config::load(preset, a.config.as_deref())?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
+    let dir = a.out.join("bake");
+    let baker = FactorizedBaker::new(cfg.clone());
+    let name = fipt_core::shading::ShadingBaker::name(&baker).to_string();
+    if !a.force {
+        match load_if_current(&dir, &scene.inputs_hash, &cfg, &name)? {
+            Ok((m, _)) => {
+                println!("reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it", dir.display(), m.views, m.seconds_total);
+                return Ok(());
+            }
+            Err(why) => eprintln!("baking: {why}"),
+        }
+    }
+    let split = scene.ds.train();
+    let pb = bar(1, "bake");
+    let st = Stage::start("bake");
+    let (shadings, stats, _) = baker.bake_detailed(&scene.geometry, &split.views, &scene.images, &|d, t| {
+        pb.set_length(t as u64);
+        pb.set_position(d as u64);
+    });
+    pb.finish_and_clear();
+    let secs = st.done();
+    let manifest = BakeManifest {
+        version: FORMAT_VERSION,
+        baker: name,
+        inputs_hash: scene.inputs_hash.clone(),
+        config: cfg,
+        split: split.name.clone(),
+        views: shadings.len(),
+        width: scene.ds.width,
+        height: scene.ds.height,
+        stats: stats.clone(),
+        seconds_total: secs,
+    };
+    let st = Stage::start("write");
+    save(&dir, &manifest, &shadings)?;
+    for (k, s) in shadings.iter().enumerate() {
+        let img = Image { width: s.width, height: s.height, data: s.ld.clone() };
+        img.write_png(&dir.join("preview").join(format!("{k:03}_ld.png")), 1.0)?;
+    }
+    st.done();
+    let rays = stats.rays_diffuse + stats.rays_specular;
+    eprintln!(
+        "primary {:.2} s, SLF {:.2} s ({} voxels, {:.1} MiB), diffuse {:.2} s ({} cache entries for {} pixels), specular {:.2} s",
+        stats.seconds_primary,
+        stats.seconds_slf,
+        stats.slf_occupied_voxels,
+        stats.slf_memory_bytes as f64 / (1 << 20) as f64,
+        stats.seconds_diffuse,
+        stats.cache_entries,
+        stats.valid_pixels,
+        stats.seconds_specular
+    );
+    eprintln!("{:.0} pixels/s, {:.2} Mrays/s", stats.valid_pixels as f64 / secs, rays as f64 / secs / 1e6);
+    println!("wrote {}", dir.display());
+    Ok(())
+}

@@ -1,0 +1,178 @@
+//! Baked shadings on disk: one compact binary file per view and a manifest written last.
+//!
+//! Layout: `DIR/manifest.json` and `DIR/<split>/{k:03}.fsh`. A file is written to a temporary
+//! sibling and renamed; the manifest (inputs fingerprint, settings, sample counts, timings) is
+//! written only after every view file, so a stage interrupted at any moment leaves either no
+//! manifest (the stage is redone) or a complete one. A re-run with the same inputs and settings
+//! reuses the files; any change invalidates them.
+//!
+//! `.fsh` format (little endian): magic `FIPTSHD\0`, u32 version, u32 width, u32 height,
+//! u32 levels, f32 × levels, u8 × pixels (valid), f32 × 3 × pixels (Ld),
+//! f32 × 3 × levels × pixels (Ls0), the same for Ls1.
+use crate::bake::{BakeConfig, BakeStats};
+use fipt_core::fsutil::{read_json, write_bytes_atomic, write_json_atomic};
+use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+use fipt_core::{CoreError, Result};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+const MAGIC: &[u8; 8] = b"FIPTSHD\0";
+/// Version of the `.fsh` format and of the manifest.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// What a stored bake was computed from and how.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BakeManifest {
+    pub version: u32,
+    pub baker: String,
+    /// Fingerprint of the mesh, cameras and training images.
+    pub inputs_hash: String,
+    pub config: BakeConfig,
+    pub split: String,
+    pub views: usize,
+    pub width: usize,
+    pub height: usize,
+    pub stats: BakeStats,
+    pub seconds_total: f64,
+}
+
+/// Path of view `k`'s file.
+pub fn view_path(dir: &Path, split: &str, k: usize) -> PathBuf {
+    dir.join(split).join(format!("{k:03}.fsh"))
+}
+
+/// Encodes one view's shadings.
+pub fn encode(s: &ViewShadings) -> Vec<u8> {
+    let n = s.width * s.height;
+    let mut out = Vec::with_capacity(28 + NUM_LEVELS * 4 + n * (1 + 12 * (1 + 2 * NUM_LEVELS)));
+    out.extend_from_slice(MAGIC);
+    for v in [FORMAT_VERSION, s.width as u32, s.height as u32, NUM_LEVELS as u32] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    for l in s.levels {
+        out.extend_from_slice(&l.to_le_bytes());
+    }
+    out.extend(s.valid.iter().map(|&v| v as u8));
+    let mut put = |v: Vec3| {
+        for c in v.to_array() {
+            out.extend_from_slice(&c.to_le_bytes());
+        }
+    };
+    s.ld.iter().for_each(|&v| put(v));
+    s.ls0.iter().flatten().for_each(|&v| put(v));
+    s.ls1.iter().flatten().for_each(|&v| put(v));
+    out
+}
+
+/// Decodes one view's shadings; `path` names the file in errors.
+pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
+    let bad = |m: &str| CoreError::invalid(path, format!("not a valid shading file: {m} (delete it to re-bake)"));
+    if bytes.len() < 24 || &bytes[..8] != MAGIC {
+        return Err(bad("wrong magic"));
+    }
+    let u = |i: usize| u32::from_le_bytes(bytes[8 + 4 * i..12 + 4 * i].try_into().unwrap());
+    let (ver, w, h, nl) = (u(0), u(1) as usize, u(2) as usize, u(3) as usize);
+    if ver != FORMAT_VERSION || nl != NUM_LEVELS {
+        return Err(bad(&format!("version {ver} with {nl} levels")));
+    }
+    let n = w * h;
+    let expected = 24 + 4 * nl + n + 12 * n * (1 + 2 * nl);
+    if bytes.len() != expected {
+        return Err(bad(&format!("{} bytes, expected {expected} (truncated?)", bytes.len())));
+    }
+    let f = |off: usize| f32::from_le_bytes(bytes[off..off + 4].try_into().unwrap());
+    let mut off = 24;
+    let mut levels = [0.0; NUM_LEVELS];
+    for l in levels.iter_mut() {
+        *l = f(off);
+        off += 4;
+    }
+    let valid = bytes[off..off + n].iter().map(|&b| b != 0).collect();
+    off += n;
+    let vec3 = |off: &mut usize| {
+        let v = Vec3::new(f(*off), f(*off + 4), f(*off + 8));
+        *off += 12;
+        v
+    };
+    let ld = (0..n).map(|_| vec3(&mut off)).collect();
+    let ls0 = (0..n).map(|_| std::array::from_fn(|_| vec3(&mut off))).collect();
+    let ls1 = (0..n).map(|_| std::array::from_fn(|_| vec3(&mut off))).collect();
+    Ok(ViewShadings { width: w, height: h, levels, ld, ls0, ls1, valid })
+}
+
+/// Writes every view's file, then the manifest.
+pub fn save(dir: &Path, manifest: &BakeManifest, shadings: &[ViewShadings]) -> Result<()> {
+    // An older manifest must not vouch for new files being written.
+    let mpath = dir.join("manifest.json");
+    if mpath.exists() {
+        std::fs::remove_file(&mpath).map_err(|e| CoreError::io(&mpath, e))?;
+    }
+    for (k, s) in shadings.iter().enumerate() {
+        write_bytes_atomic(&view_path(dir, &manifest.split, k), &encode(s))?;
+    }
+    write_json_atomic(&mpath, manifest)
+}
+
+/// Why a stored bake cannot be reused (None when it can).
+pub fn mismatch(m: &BakeManifest, inputs_hash: &str, config: &BakeConfig, baker: &str) -> Option<String> {
+    if m.version != FORMAT_VERSION {
+        return Some(format!("format version {} (this fipt writes {FORMAT_VERSION})", m.version));
+    }
+    if m.inputs_hash != inputs_hash {
+        return Some("the scene's mesh, cameras or images changed".into());
+    }
+    if m.baker != baker {
+        return Some(format!("baked by {} (now {baker})", m.baker));
+    }
+    if &m.config != config {
+        return Some("the bake settings changed".into());
+    }
+    None
+}
+
+/// Loads a stored bake if it matches the inputs and settings. `Ok(Err(reason))` says why not.
+pub fn load_if_current(dir: &Path, inputs_hash: &str, config: &BakeConfig, baker: &str) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
+    let mpath = dir.join("manifest.json");
+    if !mpath.is_file() {
+        return Ok(Err("no finished bake found".into()));
+    }
+    let m: BakeManifest = match read_json(&mpath) {
+        Ok(m) => m,
+        Err(e) => return Ok(Err(format!("unreadable manifest ({e})"))),
+    };
+    if let Some(why) = mismatch(&m, inputs_hash, config, baker) {
+        return Ok(Err(why));
+    }
+    let mut out = Vec::with_capacity(m.views);
+    for k in 0..m.views {
+        let p = view_path(dir, &m.split, k);
+        let bytes = std::fs::read(&p).map_err(|e| CoreError::io(&p, e))?;
+        out.push(decode(&bytes, &p)?);
+    }
+    Ok(Ok((m, out)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fipt_core::shading::DEFAULT_LEVELS;
+
+    #[test]
+    fn binary_round_trip_is_exact_and_truncation_is_named() {
+        let mut s = ViewShadings::zeros(5, 3, DEFAULT_LEVELS);
+        for i in 0..15 {
+            s.valid[i] = i % 3 != 0;
+            s.ld[i] = Vec3::new(i as f32, 1e-6, 1e5);
+            for l in 0..NUM_LEVELS {
+                s.ls0[i][l] = Vec3::splat((i * l) as f32 * 0.25);
+                s.ls1[i][l] = Vec3::new(l as f32, -0.0, 3.5);
+            }
+        }
+        let b = encode(&s);
+        assert_eq!(decode(&b, Path::new("x.fsh")).unwrap(), s);
+        let err = decode(&b[..b.len() - 4], Path::new("v/003.fsh")).unwrap_err().to_string();
+        assert!(err.contains("v/003.fsh") && err.contains("truncated"), "{err}");
+    }
+}
