@@ -57,7 +57,7 @@ pub fn run(a: Args) -> Result<()> {
         version: FORMAT_VERSION,
         baker: name,
         inputs_hash: scene.inputs_hash.clone(),
-        config: cfg,
+        config: serde_json::to_value(&cfg)?,
         split: split.name.clone(),
         views: shadings.len(),
         width: scene.ds.width,

@@ -26,12 +26,27 @@ pub struct Args {
     /// Repetitions of each timed measurement (the best is reported).
     #[arg(long, default_value_t = 3)]
     reps: usize,
+    /// What to measure: rays (BVH and path tracer) or bake (the shading bake on --scene).
+    #[arg(long, value_enum, default_value = "rays")]
+    suite: Suite,
+    /// Scene folder for `--suite bake` (e.g. the output of `fipt synth room`).
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Training views used by `--suite bake` (the first N; default all).
+    #[arg(long)]
+    views: Option<usize>,
 }
 
-type Rays = Vec<(Vec3, Vec3)>;
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum Suite {
+    Rays,
+    Bake,
+}
+
+pub type Rays = Vec<(Vec3, Vec3)>;
 
 /// Camera rays of `views` views and bounce rays from their hits (cosine about the facing normal).
-fn make_rays(mesh: &Mesh, bvh: &Bvh, cams: &[fipt_core::camera::Camera]) -> (Rays, Rays) {
+pub fn make_rays(mesh: &Mesh, bvh: &Bvh, cams: &[fipt_core::camera::Camera]) -> (Rays, Rays) {
     let mut coherent = Vec::new();
     for c in cams {
         for j in 0..c.height {
@@ -56,7 +71,7 @@ fn make_rays(mesh: &Mesh, bvh: &Bvh, cams: &[fipt_core::camera::Camera]) -> (Ray
 }
 
 /// Best-of-`reps` throughput in Mrays/s of `f` over `rays` (rayon, chunks of 256).
-fn throughput<F: Fn(Vec3, Vec3) -> f32 + Sync>(rays: &Rays, reps: usize, f: F) -> (f64, f64) {
+pub fn throughput<F: Fn(Vec3, Vec3) -> f32 + Sync>(rays: &Rays, reps: usize, f: F) -> (f64, f64) {
     let mut best = f64::INFINITY;
     let mut checksum = 0.0;
     for _ in 0..reps.max(1) {
@@ -125,7 +140,7 @@ fn rays_section(name: &str, mesh: &Mesh, cams: &[fipt_core::camera::Camera], rep
     })
 }
 
-fn peak_rss_mib() -> Option<f64> {
+pub fn peak_rss_mib() -> Option<f64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
@@ -133,6 +148,13 @@ fn peak_rss_mib() -> Option<f64> {
 }
 
 pub fn run(a: Args) -> Result<()> {
+    match a.suite {
+        Suite::Rays => run_rays(a),
+        Suite::Bake => crate::bench_bake::run(a.scene.as_deref(), a.views, &a.out),
+    }
+}
+
+fn run_rays(a: Args) -> Result<()> {
     let (w, h, nviews) = if a.quick { (120, 80, 2) } else { (480, 320, 8) };
     let room = synth::room();
     let bvh = Bvh::build(&room.mesh, BuildQuality::Medium);

@@ -3,6 +3,7 @@
 //! A thin composition of the library crates; every subcommand lives in its own module.
 mod bake;
 mod bench;
+mod bench_bake;
 mod config;
 mod info;
 mod progress;

@@ -29,7 +29,9 @@ pub struct BakeManifest {
     pub baker: String,
     /// Fingerprint of the mesh, cameras and training images.
     pub inputs_hash: String,
-    pub config: BakeConfig,
+    /// The settings exactly as written: compared as JSON, so a setting added in a later
+    /// version of fipt (absent here) invalidates the bake instead of taking its default.
+    pub config: serde_json::Value,
     pub split: String,
     pub views: usize,
     pub width: usize,
@@ -126,7 +128,7 @@ pub fn mismatch(m: &BakeManifest, inputs_hash: &str, config: &BakeConfig, baker:
     if m.baker != baker {
         return Some(format!("baked by {} (now {baker})", m.baker));
     }
-    if &m.config != config {
+    if serde_json::to_value(config).ok().as_ref() != Some(&m.config) {
         return Some("the bake settings changed".into());
     }
     None
