@@ -47,3 +47,53 @@ fn synth_info_render_round_trip() {
     std::fs::remove_dir_all(&dir).ok();
     std::fs::remove_dir_all(&out_dir).ok();
 }
+
+#[test]
+fn bake_reuses_finished_work_and_invalidates_on_change() {
+    let dir = tmp("bake-scene");
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = fipt(&["synth", "cornell", "--out", d, "--views", "3", "--val-views", "1", "--width", "16", "--height", "12", "--spp", "4"]);
+    assert!(ok, "{err}");
+    let out = tmp("bake-out");
+    let o = out.to_str().unwrap();
+    let cfg = dir.join("small.toml");
+    std::fs::write(&cfg, "diffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n").unwrap();
+    let c = cfg.to_str().unwrap();
+    let (ok, stdout, err) = fipt(&["bake", d, "--out", o, "--config", c]);
+    assert!(ok, "{err}");
+    assert!(err.contains("no finished bake") && stdout.contains("wrote"), "{err}");
+    let file = out.join("bake/train/001.fsh");
+    let before = std::fs::metadata(&file).unwrap().modified().unwrap();
+    let bytes = std::fs::read(&file).unwrap();
+    // Same inputs and settings: reused, nothing rewritten.
+    let (ok, stdout, err) = fipt(&["bake", d, "--out", o, "--config", c]);
+    assert!(ok && stdout.contains("reusing"), "{stdout}{err}");
+    assert_eq!(std::fs::metadata(&file).unwrap().modified().unwrap(), before);
+    // A changed setting invalidates it; the result is deterministic for equal settings.
+    std::fs::write(&cfg, "diffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nseed = 5\n").unwrap();
+    let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
+    assert!(ok && err.contains("settings changed"), "{err}");
+    assert_ne!(std::fs::read(&file).unwrap(), bytes);
+    std::fs::write(&cfg, "diffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n").unwrap();
+    let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
+    assert!(ok, "{err}");
+    assert_eq!(std::fs::read(&file).unwrap(), bytes, "same seed and settings, same bytes");
+    // A damaged file is detected and baked again.
+    std::fs::write(&file, b"garbage").unwrap();
+    let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
+    assert!(ok && err.contains("damaged"), "{err}");
+    assert_eq!(std::fs::read(&file).unwrap(), bytes);
+    // Changed inputs invalidate too.
+    let img = dir.join("train/Image/000_0001.exr");
+    let mut i = fipt_core::image::Image::read_exr(&img).unwrap();
+    i.data[0] *= 2.0;
+    i.write_exr(&img, fipt_core::image::ExrPrecision::F32).unwrap();
+    let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
+    assert!(ok && err.contains("changed"), "{err}");
+    // Unknown keys are refused with the file named.
+    std::fs::write(&cfg, "diffuse_sample = 8\n").unwrap();
+    let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
+    assert!(!ok && err.contains("small.toml") && err.contains("diffuse_sample"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_dir_all(&out).ok();
+}

@@ -150,8 +150,11 @@ pub fn load_if_current(dir: &Path, inputs_hash: &str, config: &BakeConfig, baker
     let mut out = Vec::with_capacity(m.views);
     for k in 0..m.views {
         let p = view_path(dir, &m.split, k);
-        let bytes = std::fs::read(&p).map_err(|e| CoreError::io(&p, e))?;
-        out.push(decode(&bytes, &p)?);
+        let decoded = std::fs::read(&p).map_err(|e| CoreError::io(&p, e)).and_then(|b| decode(&b, &p));
+        match decoded {
+            Ok(s) => out.push(s),
+            Err(e) => return Ok(Err(format!("a stored view is damaged ({e})"))),
+        }
     }
     Ok(Ok((m, out)))
 }
