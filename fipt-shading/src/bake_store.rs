@@ -128,7 +128,12 @@ pub fn mismatch(m: &BakeManifest, inputs_hash: &str, config: &BakeConfig, baker:
     if m.baker != baker {
         return Some(format!("baked by {} (now {baker})", m.baker));
     }
-    if serde_json::to_value(config).ok().as_ref() != Some(&m.config) {
+    // Same keys (a key added by a later fipt is a change) and equal typed values (JSON numbers
+    // of f32 settings do not compare bit for bit after a text round trip).
+    let keys = |v: &serde_json::Value| v.as_object().map(|o| o.keys().cloned().collect::<Vec<_>>());
+    let same_keys = serde_json::to_value(config).ok().as_ref().and_then(keys) == keys(&m.config);
+    let stored: Option<BakeConfig> = serde_json::from_value(m.config.clone()).ok();
+    if !same_keys || stored.as_ref() != Some(config) {
         return Some("the bake settings changed".into());
     }
     None
