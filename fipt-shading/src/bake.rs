@@ -260,22 +260,7 @@ pub fn specular_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world:
     let (mut s0, mut s1) = (Vec3::ZERO, Vec3::ZERO);
     for _ in 0..n {
         let h = sample_ggx_h(alpha, stream.next());
-        let voh = wo.dot(h);
-        if voh <= 0.0 {
-            continue;
-        }
-        let wi = 2.0 * voh * h - wo;
-        if wi.z <= 0.0 {
-            continue;
-        }
-        let wi_w = frame.to_world(wi);
-        if wi_w.dot(ng) <= 0.0 {
-            continue;
-        }
-        let li = light.li(origin, wi_w);
-        if li == Vec3::ZERO {
-            continue;
-        }
+        let Some((wi, voh, li)) = reflected_li(light, &frame, origin, ng, wo, h) else { continue };
         let g = smith_g1(wi.z, sigma) * g1o;
         let w = g * voh / (h.z * wo.z);
         let m = crate::brdf::schlick_fresnel(voh);
@@ -283,6 +268,27 @@ pub fn specular_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world:
         s1 += li * (w * m);
     }
     (s0 / n as f32, s1 / n as f32)
+}
+
+/// Reflects `wo` about the half vector `h` (local frame) and looks up the incident light:
+/// (local ωi, ωo·h, Li), or None when ωi leaves below the shading or geometric surface or
+/// no light arrives.
+#[inline]
+fn reflected_li(light: &SlfLight, frame: &Frame, origin: Vec3, ng: Vec3, wo: Vec3, h: Vec3) -> Option<(Vec3, f32, Rgb)> {
+    let voh = wo.dot(h);
+    if voh <= 0.0 {
+        return None;
+    }
+    let wi = 2.0 * voh * h - wo;
+    if wi.z <= 0.0 {
+        return None;
+    }
+    let wi_w = frame.to_world(wi);
+    if wi_w.dot(ng) <= 0.0 {
+        return None;
+    }
+    let li = light.li(origin, wi_w);
+    (li != Vec3::ZERO).then_some((wi, voh, li))
 }
 
 /// Sample a GGX half vector (local frame) for α from `u` (stable tan² form).
@@ -313,22 +319,7 @@ pub fn specular_shading_mixture(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, w
     for k in 0..NUM_LEVELS {
         for _ in 0..counts[k] {
             let h = sample_ggx_h(alphas[k], streams[k].next());
-            let voh = wo.dot(h);
-            if voh <= 0.0 {
-                continue;
-            }
-            let wi = 2.0 * voh * h - wo;
-            if wi.z <= 0.0 {
-                continue;
-            }
-            let wi_w = frame.to_world(wi);
-            if wi_w.dot(ng) <= 0.0 {
-                continue;
-            }
-            let li = light.li(origin, wi_w);
-            if li == Vec3::ZERO {
-                continue;
-            }
+            let Some((wi, voh, li)) = reflected_li(light, &frame, origin, ng, wo, h) else { continue };
             let d: [f32; NUM_LEVELS] = std::array::from_fn(|l| crate::brdf::ggx_d(h, alphas[l]));
             let denom: f32 = (0..NUM_LEVELS).map(|l| counts[l] as f32 * d[l]).sum();
             if !(denom > 0.0) {
