@@ -29,7 +29,9 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let Some(preset) = BakeConfig::preset(&a.preset) else { bail!("unknown preset `{}` (paper, balanced, fast)", a.preset) };
+    let Some(preset) = BakeConfig::preset(&a.preset) else {
+        bail!("unknown preset `{}` (paper, balanced, fast)", a.preset)
+    };
     let cfg: BakeConfig = crate::config::load(preset, a.config.as_deref())?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     let dir = a.out.join("bake");
@@ -38,7 +40,12 @@ pub fn run(a: Args) -> Result<()> {
     if !a.force {
         match load_if_current(&dir, &scene.inputs_hash, &cfg, &name)? {
             Ok((m, _)) => {
-                println!("reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it", dir.display(), m.views, m.seconds_total);
+                println!(
+                    "reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it",
+                    dir.display(),
+                    m.views,
+                    m.seconds_total
+                );
                 return Ok(());
             }
             Err(why) => eprintln!("baking: {why}"),
@@ -47,10 +54,11 @@ pub fn run(a: Args) -> Result<()> {
     let split = scene.ds.train();
     let pb = bar(1, "bake");
     let st = Stage::start("bake");
-    let (shadings, stats, _) = baker.bake_detailed(&scene.geometry, &split.views, &scene.images, &|d, t| {
-        pb.set_length(t as u64);
-        pb.set_position(d as u64);
-    });
+    let (shadings, stats, _) =
+        baker.bake_detailed(&scene.geometry, &split.views, &scene.images, &|d, t| {
+            pb.set_length(t as u64);
+            pb.set_position(d as u64);
+        });
     pb.finish_and_clear();
     let secs = st.done();
     let manifest = BakeManifest {
@@ -68,7 +76,11 @@ pub fn run(a: Args) -> Result<()> {
     let st = Stage::start("write");
     save(&dir, &manifest, &shadings)?;
     for (k, s) in shadings.iter().enumerate() {
-        let img = Image { width: s.width, height: s.height, data: s.ld.clone() };
+        let img = Image {
+            width: s.width,
+            height: s.height,
+            data: s.ld.clone(),
+        };
         img.write_png(&dir.join("preview").join(format!("{k:03}_ld.png")), 1.0)?;
     }
     st.done();
@@ -84,7 +96,11 @@ pub fn run(a: Args) -> Result<()> {
         stats.valid_pixels,
         stats.seconds_specular
     );
-    eprintln!("{:.0} pixels/s, {:.2} Mrays/s", stats.valid_pixels as f64 / secs, rays as f64 / secs / 1e6);
+    eprintln!(
+        "{:.0} pixels/s, {:.2} Mrays/s",
+        stats.valid_pixels as f64 / secs,
+        rays as f64 / secs / 1e6
+    );
     println!("wrote {}", dir.display());
     Ok(())
 }

@@ -76,7 +76,15 @@ pub fn throughput<F: Fn(Vec3, Vec3) -> f32 + Sync>(rays: &Rays, reps: usize, f: 
     let mut checksum = 0.0;
     for _ in 0..reps.max(1) {
         let t = Instant::now();
-        checksum = rays.par_chunks(256).map(|c| c.iter().map(|&(o, d)| f(o, d) as f64).filter(|x| x.is_finite()).sum::<f64>()).sum::<f64>();
+        checksum = rays
+            .par_chunks(256)
+            .map(|c| {
+                c.iter()
+                    .map(|&(o, d)| f(o, d) as f64)
+                    .filter(|x| x.is_finite())
+                    .sum::<f64>()
+            })
+            .sum::<f64>();
         best = best.min(t.elapsed().as_secs_f64());
     }
     (rays.len() as f64 / best / 1e6, checksum)
@@ -94,7 +102,12 @@ fn wrapper(mesh: &Mesh, bvh: &Bvh, o: Vec3, d: Vec3) -> f32 {
     }
 }
 
-fn rays_section(name: &str, mesh: &Mesh, cams: &[fipt_core::camera::Camera], reps: usize) -> serde_json::Value {
+fn rays_section(
+    name: &str,
+    mesh: &Mesh,
+    cams: &[fipt_core::camera::Camera],
+    reps: usize,
+) -> serde_json::Value {
     let mut build = f64::INFINITY;
     let mut bvh = None;
     for _ in 0..reps.max(1) {
@@ -108,7 +121,10 @@ fn rays_section(name: &str, mesh: &Mesh, cams: &[fipt_core::camera::Camera], rep
     let (coh_b, c2) = throughput(&coh, reps, |o, d| bvh.bare_traverse(o, d));
     let (inc_w, c3) = throughput(&inc, reps, |o, d| wrapper(mesh, &bvh, o, d));
     let (inc_b, c4) = throughput(&inc, reps, |o, d| bvh.bare_traverse(o, d));
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
     let (inc_1t, _) = one.install(|| throughput(&inc, reps, |o, d| wrapper(mesh, &bvh, o, d)));
     let _ = (c1, c2, c3, c4);
     eprintln!(
@@ -163,7 +179,11 @@ fn run_rays(a: Args) -> Result<()> {
     // ~1M triangles: the room plus three icospheres of 327,680 triangles (fewer with --quick).
     let mut big = room.mesh.clone();
     let subdiv = if a.quick { 5 } else { 7 };
-    for c in [Vec3::new(-1.2, 0.6, 0.8), Vec3::new(1.2, 1.0, -0.8), Vec3::new(0.0, 1.8, 0.6)] {
+    for c in [
+        Vec3::new(-1.2, 0.6, 0.8),
+        Vec3::new(1.2, 1.0, -0.8),
+        Vec3::new(0.0, 1.8, 0.6),
+    ] {
         big.append(&icosphere_mesh(c, 0.45, subdiv));
     }
     let big_json = rays_section("1M", &big, &cams, a.reps);
@@ -171,7 +191,10 @@ fn run_rays(a: Args) -> Result<()> {
     let table = std::path::Path::new("scene_gt.json");
     let surfaces = TableSurfaces::new(room.materials.clone(), &room.mesh, table)?;
     let scene = Scene::with_bvh(room.mesh.clone(), bvh, surfaces);
-    let cfg = RenderConfig { spp: if a.quick { 4 } else { 16 }, ..Default::default() };
+    let cfg = RenderConfig {
+        spp: if a.quick { 4 } else { 16 },
+        ..Default::default()
+    };
     let (pw, ph) = (240, 160);
     let pcams = room.cameras(2, 2, pw, ph, &scene.bvh);
     let t = Instant::now();

@@ -16,15 +16,33 @@ use std::time::Instant;
 fn closure_psnr(scene: &crate::scene::LoadedScene, sh: &[ViewShadings]) -> Result<Option<f64>> {
     let ds = &scene.ds;
     let split = ds.train();
-    if ![GtKind::DiffCol, GtKind::Specular, GtKind::Roughness, GtKind::Emit].iter().all(|&k| split.has_gt(k)) {
+    if ![
+        GtKind::DiffCol,
+        GtKind::Specular,
+        GtKind::Roughness,
+        GtKind::Emit,
+    ]
+    .iter()
+    .all(|&k| split.has_gt(k))
+    {
         return Ok(None);
     }
     let mut sum = 0.0;
     for (k, s) in sh.iter().enumerate() {
         let v = &split.views[k];
-        let g = |kind| ds.load_gt(split, kind, v.index).map(|x| x.expect("present"));
-        let (kd, ks, ro, le) = (g(GtKind::DiffCol)?, g(GtKind::Specular)?, g(GtKind::Roughness)?, g(GtKind::Emit)?);
-        let pred: Vec<Vec3> = (0..kd.data.len()).map(|i| le.data[i] + s.reflected(i, kd.data[i], ks.data[i], ro.data[i].x)).collect();
+        let g = |kind| {
+            ds.load_gt(split, kind, v.index)
+                .map(|x| x.expect("present"))
+        };
+        let (kd, ks, ro, le) = (
+            g(GtKind::DiffCol)?,
+            g(GtKind::Specular)?,
+            g(GtKind::Roughness)?,
+            g(GtKind::Emit)?,
+        );
+        let pred: Vec<Vec3> = (0..kd.data.len())
+            .map(|i| le.data[i] + s.reflected(i, kd.data[i], ks.data[i], ro.data[i].x))
+            .collect();
         sum += srgb_psnr(&pred, &scene.images[k].data, None).unwrap_or(0.0);
     }
     Ok(Some(sum / sh.len() as f64))
@@ -37,7 +55,9 @@ fn agreement(a: &[ViewShadings], b: &[ViewShadings]) -> (f64, f64) {
     for (x, y) in a.iter().zip(b) {
         let m: Vec<bool> = x.valid.clone();
         ld += srgb_psnr(&x.ld, &y.ld, Some(&m)).unwrap_or(100.0);
-        let s = |v: &ViewShadings| -> Vec<Vec3> { v.ls0.iter().zip(&v.ls1).map(|(p, q)| p[3] + q[3]).collect() };
+        let s = |v: &ViewShadings| -> Vec<Vec3> {
+            v.ls0.iter().zip(&v.ls1).map(|(p, q)| p[3] + q[3]).collect()
+        };
         sp += psnr(&s(x), &s(y), Some(&m), 1.0).unwrap_or(100.0);
         n += 1;
     }
@@ -45,7 +65,9 @@ fn agreement(a: &[ViewShadings], b: &[ViewShadings]) -> (f64, f64) {
 }
 
 pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result<()> {
-    let Some(dir) = scene_dir else { bail!("--suite bake needs --scene DIR (e.g. the output of `fipt synth room`)") };
+    let Some(dir) = scene_dir else {
+        bail!("--suite bake needs --scene DIR (e.g. the output of `fipt synth room`)")
+    };
     let mut scene = crate::scene::load(dir, BadPixelPolicy::Reject)?;
     let n = views.unwrap_or(scene.images.len()).min(scene.images.len());
     scene.images.truncate(n);
@@ -56,15 +78,49 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
     let (_, inc) = make_rays(&scene.geometry.mesh, &scene.geometry.bvh, &cams);
     let bvh = &scene.geometry.bvh;
     let (raw, _) = throughput(&inc, 2, |o, d| bvh.bare_traverse(o, d));
-    eprintln!("raw incoherent closest-hit on this scene: {raw:.2} Mrays/s ({} rays)", inc.len());
+    eprintln!(
+        "raw incoherent closest-hit on this scene: {raw:.2} Mrays/s ({} rays)",
+        inc.len()
+    );
     let base = BakeConfig::default();
     let configs: Vec<(&str, BakeConfig)> = vec![
         ("default", base.clone()),
-        ("per_pixel_ld", BakeConfig { diffuse_cache: false, ..base.clone() }),
-        ("per_pixel_ld_seed1", BakeConfig { diffuse_cache: false, seed: 1, ..base.clone() }),
-        ("independent_sampler", BakeConfig { sampler: SamplerKind::Independent, ..base.clone() }),
-        ("per_level_specular", BakeConfig { specular_estimator: SpecularEstimator::PerLevel, ..base.clone() }),
-        ("strict_slf", BakeConfig { slf_fallback_levels: 0, ..base.clone() }),
+        (
+            "per_pixel_ld",
+            BakeConfig {
+                diffuse_cache: false,
+                ..base.clone()
+            },
+        ),
+        (
+            "per_pixel_ld_seed1",
+            BakeConfig {
+                diffuse_cache: false,
+                seed: 1,
+                ..base.clone()
+            },
+        ),
+        (
+            "independent_sampler",
+            BakeConfig {
+                sampler: SamplerKind::Independent,
+                ..base.clone()
+            },
+        ),
+        (
+            "per_level_specular",
+            BakeConfig {
+                specular_estimator: SpecularEstimator::PerLevel,
+                ..base.clone()
+            },
+        ),
+        (
+            "strict_slf",
+            BakeConfig {
+                slf_fallback_levels: 0,
+                ..base.clone()
+            },
+        ),
         ("paper", BakeConfig::paper()),
         ("fast", BakeConfig::fast()),
     ];
@@ -72,7 +128,12 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
     let mut results: Vec<(String, Vec<ViewShadings>, BakeStats, f64)> = Vec::new();
     for (name, cfg) in configs {
         let t = Instant::now();
-        let (sh, stats, _) = FactorizedBaker::new(cfg.clone()).bake_detailed(&scene.geometry, &split.views, &scene.images, &|_, _| {});
+        let (sh, stats, _) = FactorizedBaker::new(cfg.clone()).bake_detailed(
+            &scene.geometry,
+            &split.views,
+            &scene.images,
+            &|_, _| {},
+        );
         let secs = t.elapsed().as_secs_f64();
         let rays = (stats.rays_diffuse + stats.rays_specular) as f64;
         let closure = closure_psnr(&scene, &sh).context("closure PSNR")?;

@@ -23,7 +23,8 @@ fn merge(base: &mut serde_json::Value, over: serde_json::Value) {
 /// an error naming the file.
 pub fn load<T: Serialize + DeserializeOwned>(preset: T, file: Option<&Path>) -> Result<T> {
     let Some(path) = file else { return Ok(preset) };
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let over: serde_json::Value = if path.extension().is_some_and(|e| e == "json") {
         serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))?
     } else {
@@ -31,7 +32,12 @@ pub fn load<T: Serialize + DeserializeOwned>(preset: T, file: Option<&Path>) -> 
     };
     let mut base = serde_json::to_value(&preset)?;
     merge(&mut base, over);
-    serde_json::from_value(base).with_context(|| format!("{}: invalid settings (keys are listed in the README)", path.display()))
+    serde_json::from_value(base).with_context(|| {
+        format!(
+            "{}: invalid settings (keys are listed in the README)",
+            path.display()
+        )
+    })
 }
 
 #[cfg(test)]
@@ -47,11 +53,18 @@ mod tests {
         std::fs::write(&p, "diffuse_samples = 32\nsampler = \"independent\"\n").unwrap();
         let c = load(BakeConfig::fast(), Some(&p)).unwrap();
         assert_eq!(c.diffuse_samples, 32);
-        assert_eq!(c.specular_samples, BakeConfig::fast().specular_samples, "preset kept for absent keys");
+        assert_eq!(
+            c.specular_samples,
+            BakeConfig::fast().specular_samples,
+            "preset kept for absent keys"
+        );
         assert_eq!(c.sampler, fipt_shading::bake::SamplerKind::Independent);
         std::fs::write(&p, "difuse_samples = 32\n").unwrap();
         let err = format!("{:#}", load(BakeConfig::default(), Some(&p)).unwrap_err());
-        assert!(err.contains("bake.toml") && err.contains("difuse_samples"), "{err}");
+        assert!(
+            err.contains("bake.toml") && err.contains("difuse_samples"),
+            "{err}"
+        );
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -33,15 +33,28 @@ impl From<Policy> for BadPixelPolicy {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let ds = Dataset::open(&a.scene).with_context(|| format!("opening scene {}", a.scene.display()))?;
+    let ds =
+        Dataset::open(&a.scene).with_context(|| format!("opening scene {}", a.scene.display()))?;
     let mut warnings = ds.warnings.clone();
     let mesh = Mesh::load(&ds.mesh).with_context(|| "loading the scene mesh")?;
     if mesh.dropped_degenerate > 0 {
-        warnings.push(format!("{}: {} degenerate triangles dropped (zero area, repeated or invalid vertices)", ds.mesh.display(), mesh.dropped_degenerate));
+        warnings.push(format!(
+            "{}: {} degenerate triangles dropped (zero area, repeated or invalid vertices)",
+            ds.mesh.display(),
+            mesh.dropped_degenerate
+        ));
     }
     let b = mesh.bounds();
     let bvh = Bvh::build(&mesh, BuildQuality::Medium);
-    println!("scene        {} ({} layout)", ds.root.display(), if ds.layout == Layout::Synthetic { "synthetic" } else { "real" });
+    println!(
+        "scene        {} ({} layout)",
+        ds.root.display(),
+        if ds.layout == Layout::Synthetic {
+            "synthetic"
+        } else {
+            "real"
+        }
+    );
     println!(
         "mesh         {}: {} triangles, {} vertices, vertex normals: {}",
         ds.mesh.display(),
@@ -49,13 +62,31 @@ pub fn run(a: Args) -> Result<()> {
         mesh.positions.len(),
         if mesh.normals.is_some() { "yes" } else { "no" }
     );
-    println!("bounds       [{:.3}, {:.3}, {:.3}] – [{:.3}, {:.3}, {:.3}] (extent {:.3})", b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z, (b.max - b.min).length());
+    println!(
+        "bounds       [{:.3}, {:.3}, {:.3}] – [{:.3}, {:.3}, {:.3}] (extent {:.3})",
+        b.min.x,
+        b.min.y,
+        b.min.z,
+        b.max.x,
+        b.max.y,
+        b.max.z,
+        (b.max - b.min).length()
+    );
     let mut json_splits = Vec::new();
     let mut any_hit = false;
     for s in &ds.splits {
-        let stats = hdr_stats(&ds, s, a.bad_pixels.into()).with_context(|| format!("reading the {} images", s.name))?;
-        let cover: Vec<f32> = s.views.iter().map(|v| view_coverage(&bvh, &v.camera, 4)).collect();
-        let (worst, wv) = cover.iter().enumerate().fold((1.0f32, 0usize), |acc, (k, &c)| if c < acc.0 { (c, k) } else { acc });
+        let stats = hdr_stats(&ds, s, a.bad_pixels.into())
+            .with_context(|| format!("reading the {} images", s.name))?;
+        let cover: Vec<f32> = s
+            .views
+            .iter()
+            .map(|v| view_coverage(&bvh, &v.camera, 4))
+            .collect();
+        let (worst, wv) =
+            cover.iter().enumerate().fold(
+                (1.0f32, 0usize),
+                |acc, (k, &c)| if c < acc.0 { (c, k) } else { acc },
+            );
         let mean = cover.iter().sum::<f32>() / cover.len().max(1) as f32;
         any_hit |= cover.iter().any(|&c| c > 0.0);
         for (k, &c) in cover.iter().enumerate() {
@@ -66,13 +97,33 @@ pub fn run(a: Args) -> Result<()> {
             }
         }
         if stats.bad > 0 {
-            warnings.push(format!("{}: {} bad pixel values clamped in views {:?}", s.name, stats.bad, stats.bad_views));
+            warnings.push(format!(
+                "{}: {} bad pixel values clamped in views {:?}",
+                s.name, stats.bad, stats.bad_views
+            ));
         }
         let gt: Vec<&str> = s.gt.iter().map(|g| g.folder()).collect();
-        println!("{:<12} {} views at {}x{}, fov_x {:.1}°", s.name, s.views.len(), ds.width, ds.height, s.views[0].camera.fov_x().to_degrees());
-        println!("  HDR        min {:.3e}, max {:.3e}, mean luminance {:.4}", stats.min, stats.max, stats.mean_luminance);
+        println!(
+            "{:<12} {} views at {}x{}, fov_x {:.1}°",
+            s.name,
+            s.views.len(),
+            ds.width,
+            ds.height,
+            s.views[0].camera.fov_x().to_degrees()
+        );
+        println!(
+            "  HDR        min {:.3e}, max {:.3e}, mean luminance {:.4}",
+            stats.min, stats.max, stats.mean_luminance
+        );
         println!("  coverage   mean {:.1} % of pixel-centre rays hit the mesh; lowest {:.1} % (view {wv})", 100.0 * mean, 100.0 * worst);
-        println!("  ground truth {}", if gt.is_empty() { "none".to_string() } else { gt.join(", ") });
+        println!(
+            "  ground truth {}",
+            if gt.is_empty() {
+                "none".to_string()
+            } else {
+                gt.join(", ")
+            }
+        );
         json_splits.push(serde_json::json!({
             "name": s.name, "views": s.views.len(), "hdr": stats, "coverage_mean": mean, "coverage_min": worst, "ground_truth": gt,
         }));

@@ -14,7 +14,11 @@ mod synth;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "fipt", version, about = "Factorized inverse path tracing: materials and emitters of indoor scenes from posed HDR views")]
+#[command(
+    name = "fipt",
+    version,
+    about = "Factorized inverse path tracing: materials and emitters of indoor scenes from posed HDR views"
+)]
 struct Cli {
     /// Worker threads (default: all cores).
     #[arg(long, global = true)]
@@ -40,7 +44,10 @@ enum Command {
 fn main() {
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
-        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+        {
             eprintln!("warning: could not set {n} threads: {e}");
         }
     }

@@ -6,9 +6,11 @@ use std::time::Instant;
 pub fn bar(total: u64, what: &str) -> ProgressBar {
     let pb = ProgressBar::new(total);
     pb.set_style(
-        ProgressStyle::with_template("{msg:>10} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta} {per_sec}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{msg:>10} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta} {per_sec}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> "),
     );
     pb.set_message(what.to_string());
     pb
@@ -22,7 +24,10 @@ pub struct Stage {
 
 impl Stage {
     pub fn start(label: &str) -> Self {
-        Stage { label: label.to_string(), start: Instant::now() }
+        Stage {
+            label: label.to_string(),
+            start: Instant::now(),
+        }
     }
     pub fn done(self) -> f64 {
         let s = self.start.elapsed().as_secs_f64();

@@ -38,7 +38,13 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let mesh_path = if a.scene.is_dir() {
-        MESH_NAMES.iter().map(|n| a.scene.join(n)).find(|p| p.is_file()).with_context(|| format!("{}: no mesh ({})", a.scene.display(), MESH_NAMES.join(", ")))?
+        MESH_NAMES
+            .iter()
+            .map(|n| a.scene.join(n))
+            .find(|p| p.is_file())
+            .with_context(|| {
+                format!("{}: no mesh ({})", a.scene.display(), MESH_NAMES.join(", "))
+            })?
     } else {
         a.scene.clone()
     };
@@ -51,15 +57,30 @@ pub fn run(a: Args) -> Result<()> {
     let scene = Scene::new(mesh, surfaces);
     st.done();
     if scene.lights.is_none() {
-        eprintln!("warning: no emitter in {}: renders will be black", a.materials.display());
+        eprintln!(
+            "warning: no emitter in {}: renders will be black",
+            a.materials.display()
+        );
     }
     let views: Vec<usize> = a.views.clone().unwrap_or_else(|| (0..cams.len()).collect());
     if let Some(&bad) = views.iter().find(|&&k| k >= cams.len()) {
-        bail!("view {bad} requested but {} has {} frames", a.cameras.display(), cams.len());
+        bail!(
+            "view {bad} requested but {} has {} frames",
+            a.cameras.display(),
+            cams.len()
+        );
     }
-    let cfg = RenderConfig { spp: a.spp, max_bounces: a.max_bounces, seed: a.seed, ..Default::default() };
+    let cfg = RenderConfig {
+        spp: a.spp,
+        max_bounces: a.max_bounces,
+        seed: a.seed,
+        ..Default::default()
+    };
     let semantic: Vec<u32> = (0..scene.surfaces.materials.materials.len() as u32).collect();
-    let total: u64 = views.iter().map(|&k| (cams[k].width * cams[k].height) as u64).sum();
+    let total: u64 = views
+        .iter()
+        .map(|&k| (cams[k].width * cams[k].height) as u64)
+        .sum();
     let pb = bar(total, "render");
     let st = Stage::start("render");
     let mut rays = 0u64;
@@ -71,7 +92,11 @@ pub fn run(a: Args) -> Result<()> {
     }
     pb.finish_and_clear();
     let secs = st.done();
-    eprintln!("{} views, {:.2} Mrays/s", views.len(), rays as f64 / secs / 1e6);
+    eprintln!(
+        "{} views, {:.2} Mrays/s",
+        views.len(),
+        rays as f64 / secs / 1e6
+    );
     println!("wrote {}", a.out.display());
     Ok(())
 }

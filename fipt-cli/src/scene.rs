@@ -20,7 +20,11 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
     let ds = Dataset::open(root).with_context(|| format!("opening scene {}", root.display()))?;
     let mesh = Mesh::load(&ds.mesh).context("loading the scene mesh")?;
     if mesh.dropped_degenerate > 0 {
-        eprintln!("note: {} degenerate triangles dropped from {}", mesh.dropped_degenerate, ds.mesh.display());
+        eprintln!(
+            "note: {} degenerate triangles dropped from {}",
+            mesh.dropped_degenerate,
+            ds.mesh.display()
+        );
     }
     let geometry = Geometry::new(mesh);
     let split = ds.train();
@@ -31,11 +35,21 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
         .collect::<Result<Vec<_>, _>>()
         .context("reading the training images")?;
     let mut files = vec![ds.mesh.clone(), split.cameras_file.clone()];
-    if let Some(k) = ds.root.join("K_list.txt").is_file().then(|| ds.root.join("K_list.txt")) {
+    if let Some(k) = ds
+        .root
+        .join("K_list.txt")
+        .is_file()
+        .then(|| ds.root.join("K_list.txt"))
+    {
         files.push(k);
     }
     files.extend(split.views.iter().map(|v| v.image.clone()));
     let inputs_hash = fipt_core::fsutil::hash_files(&files)?;
     st.done();
-    Ok(LoadedScene { ds, geometry, images, inputs_hash })
+    Ok(LoadedScene {
+        ds,
+        geometry,
+        images,
+        inputs_hash,
+    })
 }

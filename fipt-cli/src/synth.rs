@@ -34,10 +34,22 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     if !SCENES.contains(&a.name.as_str()) {
-        bail!("unknown scene `{}`; available: {}", a.name, SCENES.join(", "));
+        bail!(
+            "unknown scene `{}`; available: {}",
+            a.name,
+            SCENES.join(", ")
+        );
     }
-    if a.out.exists() && !a.force && std::fs::read_dir(&a.out).map(|mut d| d.next().is_some()).unwrap_or(true) {
-        bail!("{} exists and is not empty; choose another --out or pass --force", a.out.display());
+    if a.out.exists()
+        && !a.force
+        && std::fs::read_dir(&a.out)
+            .map(|mut d| d.next().is_some())
+            .unwrap_or(true)
+    {
+        bail!(
+            "{} exists and is not empty; choose another --out or pass --force",
+            a.out.display()
+        );
     }
     let mut opts = SynthOptions::defaults(&a.name);
     opts.train_views = a.views.unwrap_or(opts.train_views);
@@ -64,7 +76,10 @@ pub fn run(a: Args) -> Result<()> {
     let total = ((opts.train_views + opts.val_views) * opts.width * opts.height) as u64;
     let pb = bar(total, "render");
     let stage = Stage::start("synth total");
-    let summary = write_dataset(scene, &a.out, &opts, &|done, _| pb.set_position(done as u64)).with_context(|| format!("writing {}", a.out.display()))?;
+    let summary = write_dataset(scene, &a.out, &opts, &|done, _| {
+        pb.set_position(done as u64)
+    })
+    .with_context(|| format!("writing {}", a.out.display()))?;
     pb.finish_and_clear();
     let secs = stage.done();
     eprintln!(
@@ -73,8 +88,16 @@ pub fn run(a: Args) -> Result<()> {
         summary.emitters,
         summary.stats.rays as f64 / secs / 1e6,
         summary.stats.paths as f64 / secs,
-        if summary.stats.nonfinite > 0 { format!(", {} non-finite samples dropped", summary.stats.nonfinite) } else { String::new() }
+        if summary.stats.nonfinite > 0 {
+            format!(", {} non-finite samples dropped", summary.stats.nonfinite)
+        } else {
+            String::new()
+        }
     );
-    println!("wrote {} (previews in {}/train/preview)", a.out.display(), a.out.display());
+    println!(
+        "wrote {} (previews in {}/train/preview)",
+        a.out.display(),
+        a.out.display()
+    );
     Ok(())
 }

@@ -3,8 +3,15 @@ use std::path::PathBuf;
 use std::process::Command;
 
 fn fipt(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_fipt")).args(args).output().expect("run fipt");
-    (out.status.success(), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+    let out = Command::new(env!("CARGO_BIN_EXE_fipt"))
+        .args(args)
+        .output()
+        .expect("run fipt");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
 }
 
 fn tmp(name: &str) -> PathBuf {
@@ -17,33 +24,77 @@ fn tmp(name: &str) -> PathBuf {
 fn synth_info_render_round_trip() {
     let dir = tmp("scene");
     let d = dir.to_str().unwrap();
-    let (ok, _, err) = fipt(&["synth", "cornell", "--out", d, "--views", "3", "--val-views", "1", "--width", "24", "--height", "16", "--spp", "4"]);
+    let (ok, _, err) = fipt(&[
+        "synth",
+        "cornell",
+        "--out",
+        d,
+        "--views",
+        "3",
+        "--val-views",
+        "1",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--spp",
+        "4",
+    ]);
     assert!(ok, "{err}");
     // A second synth into the same folder refuses to overwrite.
     let (ok, _, err) = fipt(&["synth", "cornell", "--out", d]);
-    assert!(!ok && err.contains("not empty") && err.contains("--force"), "{err}");
+    assert!(
+        !ok && err.contains("not empty") && err.contains("--force"),
+        "{err}"
+    );
     let (ok, out, err) = fipt(&["info", d, "--json"]);
     assert!(ok, "{err}");
-    assert!(out.contains("3 views at 24x16") && out.contains("DiffCol") && out.contains("warnings     none"), "{out}");
+    assert!(
+        out.contains("3 views at 24x16")
+            && out.contains("DiffCol")
+            && out.contains("warnings     none"),
+        "{out}"
+    );
     // Re-render view 1 with the scene's own table and cameras: same GT maps, bit for bit.
     let out_dir = tmp("render");
     let o = out_dir.to_str().unwrap();
     let (ok, _, err) = fipt(&[
-        "render", d, "--materials", &format!("{d}/scene_gt.json"), "--cameras", &format!("{d}/train/transforms.json"), "--out", o, "--spp", "4", "--views", "1",
+        "render",
+        d,
+        "--materials",
+        &format!("{d}/scene_gt.json"),
+        "--cameras",
+        &format!("{d}/train/transforms.json"),
+        "--out",
+        o,
+        "--spp",
+        "4",
+        "--views",
+        "1",
     ]);
     assert!(ok, "{err}");
-    for f in ["DiffCol/001_0001.exr", "Roughness/001_0001.exr", "Emit/001_0001.exr", "IndexMA/001_0001.exr"] {
+    for f in [
+        "DiffCol/001_0001.exr",
+        "Roughness/001_0001.exr",
+        "Emit/001_0001.exr",
+        "IndexMA/001_0001.exr",
+    ] {
         let a = fipt_core::image::Image::read_exr(&dir.join("train").join(f)).unwrap();
         let b = fipt_core::image::Image::read_exr(&out_dir.join(f)).unwrap();
         assert_eq!(a, b, "{f}");
     }
-    assert!(out_dir.join("Image/001_0001.exr").is_file() && out_dir.join("preview/001.png").is_file());
+    assert!(
+        out_dir.join("Image/001_0001.exr").is_file() && out_dir.join("preview/001.png").is_file()
+    );
     // Bad input: a missing image is named.
     std::fs::remove_file(dir.join("train/Image/002_0001.exr")).unwrap();
     let (ok, _, err) = fipt(&["info", d]);
     assert!(!ok && err.contains("002_0001.exr"), "{err}");
     let (ok, _, err) = fipt(&["synth", "kitchen", "--out", o]);
-    assert!(!ok && err.contains("unknown scene") && err.contains("room"), "{err}");
+    assert!(
+        !ok && err.contains("unknown scene") && err.contains("room"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&dir).ok();
     std::fs::remove_dir_all(&out_dir).ok();
 }
@@ -52,32 +103,69 @@ fn synth_info_render_round_trip() {
 fn bake_reuses_finished_work_and_invalidates_on_change() {
     let dir = tmp("bake-scene");
     let d = dir.to_str().unwrap();
-    let (ok, _, err) = fipt(&["synth", "cornell", "--out", d, "--views", "3", "--val-views", "1", "--width", "16", "--height", "12", "--spp", "4"]);
+    let (ok, _, err) = fipt(&[
+        "synth",
+        "cornell",
+        "--out",
+        d,
+        "--views",
+        "3",
+        "--val-views",
+        "1",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--spp",
+        "4",
+    ]);
     assert!(ok, "{err}");
     let out = tmp("bake-out");
     let o = out.to_str().unwrap();
     let cfg = dir.join("small.toml");
-    std::fs::write(&cfg, "diffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n").unwrap();
+    std::fs::write(
+        &cfg,
+        "diffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n",
+    )
+    .unwrap();
     let c = cfg.to_str().unwrap();
     let (ok, stdout, err) = fipt(&["bake", d, "--out", o, "--config", c]);
     assert!(ok, "{err}");
-    assert!(err.contains("no finished bake") && stdout.contains("wrote"), "{err}");
+    assert!(
+        err.contains("no finished bake") && stdout.contains("wrote"),
+        "{err}"
+    );
     let file = out.join("bake/train/001.fsh");
     let before = std::fs::metadata(&file).unwrap().modified().unwrap();
     let bytes = std::fs::read(&file).unwrap();
     // Same inputs and settings: reused, nothing rewritten.
     let (ok, stdout, err) = fipt(&["bake", d, "--out", o, "--config", c]);
     assert!(ok && stdout.contains("reusing"), "{stdout}{err}");
-    assert_eq!(std::fs::metadata(&file).unwrap().modified().unwrap(), before);
+    assert_eq!(
+        std::fs::metadata(&file).unwrap().modified().unwrap(),
+        before
+    );
     // A changed setting invalidates it; the result is deterministic for equal settings.
-    std::fs::write(&cfg, "diffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nseed = 5\n").unwrap();
+    std::fs::write(
+        &cfg,
+        "diffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nseed = 5\n",
+    )
+    .unwrap();
     let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
     assert!(ok && err.contains("settings changed"), "{err}");
     assert_ne!(std::fs::read(&file).unwrap(), bytes);
-    std::fs::write(&cfg, "diffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n").unwrap();
+    std::fs::write(
+        &cfg,
+        "diffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n",
+    )
+    .unwrap();
     let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
     assert!(ok, "{err}");
-    assert_eq!(std::fs::read(&file).unwrap(), bytes, "same seed and settings, same bytes");
+    assert_eq!(
+        std::fs::read(&file).unwrap(),
+        bytes,
+        "same seed and settings, same bytes"
+    );
     // A damaged file is detected and baked again.
     std::fs::write(&file, b"garbage").unwrap();
     let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
@@ -87,13 +175,17 @@ fn bake_reuses_finished_work_and_invalidates_on_change() {
     let img = dir.join("train/Image/000_0001.exr");
     let mut i = fipt_core::image::Image::read_exr(&img).unwrap();
     i.data[0] *= 2.0;
-    i.write_exr(&img, fipt_core::image::ExrPrecision::F32).unwrap();
+    i.write_exr(&img, fipt_core::image::ExrPrecision::F32)
+        .unwrap();
     let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
     assert!(ok && err.contains("changed"), "{err}");
     // Unknown keys are refused with the file named.
     std::fs::write(&cfg, "diffuse_sample = 8\n").unwrap();
     let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
-    assert!(!ok && err.contains("small.toml") && err.contains("diffuse_sample"), "{err}");
+    assert!(
+        !ok && err.contains("small.toml") && err.contains("diffuse_sample"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&dir).ok();
     std::fs::remove_dir_all(&out).ok();
 }

@@ -57,7 +57,14 @@ impl Camera {
     }
 
     /// A Mitsuba-convention camera at `origin` looking at `target` with world `up`.
-    pub fn look_at(origin: Vec3, target: Vec3, up: Vec3, fov_x: f32, width: usize, height: usize) -> Self {
+    pub fn look_at(
+        origin: Vec3,
+        target: Vec3,
+        up: Vec3,
+        fov_x: f32,
+        width: usize,
+        height: usize,
+    ) -> Self {
         let rot = look_at_rotation_opencv(origin, target, up) * FLIP_XY;
         let c2w = Mat4::from_cols(
             rot.x_axis.extend(0.0),
@@ -70,7 +77,14 @@ impl Camera {
 
     /// An OpenCV-convention camera from `cam.txt` (origin, look-at, up) and a 3×3 `K`
     /// (row-major: `k[0] = [fx, 0, cx]`, `k[1] = [0, fy, cy]`).
-    pub fn from_opencv(origin: Vec3, target: Vec3, up: Vec3, k: [[f32; 3]; 3], width: usize, height: usize) -> Self {
+    pub fn from_opencv(
+        origin: Vec3,
+        target: Vec3,
+        up: Vec3,
+        k: [[f32; 3]; 3],
+        width: usize,
+        height: usize,
+    ) -> Self {
         Camera {
             width,
             height,
@@ -98,7 +112,10 @@ impl Camera {
     /// World-space ray (origin, unit direction) through continuous pixel coordinates (u, v).
     #[inline]
     pub fn ray(&self, u: f32, v: f32) -> (Vec3, Vec3) {
-        (self.origin, (self.rotation * self.local_direction(u, v)).normalize())
+        (
+            self.origin,
+            (self.rotation * self.local_direction(u, v)).normalize(),
+        )
     }
 
     /// The ray through the centre of pixel (i, j).
@@ -132,7 +149,12 @@ impl Camera {
             PoseConvention::Mitsuba => self.rotation,
             PoseConvention::OpenCv => self.rotation * FLIP_XY,
         };
-        Mat4::from_cols(r.x_axis.extend(0.0), r.y_axis.extend(0.0), r.z_axis.extend(0.0), self.origin.extend(1.0))
+        Mat4::from_cols(
+            r.x_axis.extend(0.0),
+            r.y_axis.extend(0.0),
+            r.z_axis.extend(0.0),
+            self.origin.extend(1.0),
+        )
     }
 
     /// Horizontal field of view in radians.
@@ -150,7 +172,10 @@ impl Camera {
 pub fn rotation_error(r: Mat3) -> (f32, f32) {
     let rtr = r.transpose() * r;
     let mut err = 0.0f32;
-    for (c, e) in [rtr.x_axis, rtr.y_axis, rtr.z_axis].iter().zip([Vec3::X, Vec3::Y, Vec3::Z]) {
+    for (c, e) in [rtr.x_axis, rtr.y_axis, rtr.z_axis]
+        .iter()
+        .zip([Vec3::X, Vec3::Y, Vec3::Z])
+    {
         err = err.max((*c - e).abs().max_element());
     }
     (err, r.determinant())
@@ -178,7 +203,11 @@ mod tests {
         // Camera at origin looking down world +Z with world up +Y: camera +X (image left)
         // is world +X (right-handed: left × up = forward).
         let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 90f32.to_radians(), 4, 2);
-        assert!((cam.rotation.x_axis - Vec3::X).length() < 1e-6, "{:?}", cam.rotation);
+        assert!(
+            (cam.rotation.x_axis - Vec3::X).length() < 1e-6,
+            "{:?}",
+            cam.rotation
+        );
         assert!((cam.rotation.y_axis - Vec3::Y).length() < 1e-6);
         // Pixel column 0 is on the image's left, i.e. world +X; row 0 is up.
         let (_, d) = cam.pixel_center_ray(0, 0);
@@ -207,7 +236,14 @@ mod tests {
 
     #[test]
     fn project_inverts_ray() {
-        let cam = Camera::look_at(Vec3::new(1.0, 1.5, 2.0), Vec3::new(-1.0, 0.5, -1.0), Vec3::Y, 1.1, 240, 160);
+        let cam = Camera::look_at(
+            Vec3::new(1.0, 1.5, 2.0),
+            Vec3::new(-1.0, 0.5, -1.0),
+            Vec3::Y,
+            1.1,
+            240,
+            160,
+        );
         for (u, v) in [(0.5, 0.5), (120.0, 80.0), (239.5, 159.5), (17.25, 99.75)] {
             let (o, d) = cam.ray(u, v);
             let p = cam.project(o + 3.7 * d).unwrap();

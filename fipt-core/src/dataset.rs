@@ -11,7 +11,7 @@
 //! [`BadPixelPolicy`].
 use crate::camera::Camera;
 use crate::error::{CoreError, Result};
-use crate::image::{BadPixelPolicy, BadPixelCount, Image};
+use crate::image::{BadPixelCount, BadPixelPolicy, Image};
 use glam::{Mat4, Vec3};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -138,16 +138,25 @@ impl Dataset {
         if !root.is_dir() {
             return Err(CoreError::invalid(root, "not a folder (expected a scene folder with scene.obj and train/transforms.json, or cam.txt + K_list.txt)"));
         }
-        let mesh = MESH_NAMES.iter().map(|n| root.join(n)).find(|p| p.is_file()).ok_or_else(|| {
-            CoreError::invalid(root, format!("no mesh found: expected one of {MESH_NAMES:?}"))
-        })?;
+        let mesh = MESH_NAMES
+            .iter()
+            .map(|n| root.join(n))
+            .find(|p| p.is_file())
+            .ok_or_else(|| {
+                CoreError::invalid(
+                    root,
+                    format!("no mesh found: expected one of {MESH_NAMES:?}"),
+                )
+            })?;
         let mut warnings = Vec::new();
         let (layout, splits) = if root.join("train/transforms.json").is_file() {
             let mut splits = vec![read_synthetic_split(root, "train", &mut warnings)?];
             if root.join("val/transforms.json").is_file() {
                 splits.push(read_synthetic_split(root, "val", &mut warnings)?);
             } else {
-                warnings.push("no val/transforms.json: no held-out views for novel-view evaluation".into());
+                warnings.push(
+                    "no val/transforms.json: no held-out views for novel-view evaluation".into(),
+                );
             }
             (Layout::Synthetic, splits)
         } else if root.join("cam.txt").is_file() {
@@ -159,7 +168,15 @@ impl Dataset {
             ));
         };
         let (width, height) = check_image_sizes(&splits)?;
-        Ok(Dataset { root: root.to_path_buf(), layout, mesh, splits, width, height, warnings })
+        Ok(Dataset {
+            root: root.to_path_buf(),
+            layout,
+            mesh,
+            splits,
+            width,
+            height,
+            warnings,
+        })
     }
 
     pub fn split(&self, name: &str) -> Option<&Split> {
@@ -172,7 +189,11 @@ impl Dataset {
     }
 
     /// Reads a view's HDR image, checks its size and applies `policy` to bad pixels.
-    pub fn load_image(&self, view: &View, policy: BadPixelPolicy) -> Result<(Image, BadPixelCount)> {
+    pub fn load_image(
+        &self,
+        view: &View,
+        policy: BadPixelPolicy,
+    ) -> Result<(Image, BadPixelCount)> {
         load_checked(&view.image, self.width, self.height, policy)
     }
 
@@ -186,7 +207,12 @@ impl Dataset {
     }
 }
 
-fn load_checked(path: &Path, w: usize, h: usize, policy: BadPixelPolicy) -> Result<(Image, BadPixelCount)> {
+fn load_checked(
+    path: &Path,
+    w: usize,
+    h: usize,
+    policy: BadPixelPolicy,
+) -> Result<(Image, BadPixelCount)> {
     let mut img = Image::read_exr(path)?;
     if (img.width, img.height) != (w, h) {
         return Err(CoreError::SizeMismatch {
@@ -206,9 +232,15 @@ fn load_checked(path: &Path, w: usize, h: usize, policy: BadPixelPolicy) -> Resu
 pub fn exr_size(path: &Path) -> Result<(usize, usize)> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| match e {
         exr::error::Error::Io(io) => CoreError::io(path, io),
-        other => CoreError::Exr { path: path.to_path_buf(), message: other.to_string() },
+        other => CoreError::Exr {
+            path: path.to_path_buf(),
+            message: other.to_string(),
+        },
     })?;
-    let h = meta.headers.first().ok_or_else(|| CoreError::Exr { path: path.to_path_buf(), message: "no layer".into() })?;
+    let h = meta.headers.first().ok_or_else(|| CoreError::Exr {
+        path: path.to_path_buf(),
+        message: "no layer".into(),
+    })?;
     Ok((h.layer_size.width(), h.layer_size.height()))
 }
 
@@ -222,13 +254,26 @@ fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
         }
     }
     if !missing.is_empty() {
-        let list: Vec<String> = missing.iter().take(5).map(|p| p.display().to_string()).collect();
+        let list: Vec<String> = missing
+            .iter()
+            .take(5)
+            .map(|p| p.display().to_string())
+            .collect();
         return Err(CoreError::invalid(
             &missing[0],
-            format!("{} input image(s) missing: {}{}", missing.len(), list.join(", "), if missing.len() > 5 { ", …" } else { "" }),
+            format!(
+                "{} input image(s) missing: {}{}",
+                missing.len(),
+                list.join(", "),
+                if missing.len() > 5 { ", …" } else { "" }
+            ),
         ));
     }
-    let first = &splits[0].views.first().ok_or_else(|| CoreError::invalid(&splits[0].cameras_file, "no views"))?.image;
+    let first = &splits[0]
+        .views
+        .first()
+        .ok_or_else(|| CoreError::invalid(&splits[0].cameras_file, "no views"))?
+        .image;
     let (w, h) = exr_size(first)?;
     for s in splits {
         for v in &s.views {
@@ -240,7 +285,10 @@ fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
                     got_h: vh,
                     expected_w: w,
                     expected_h: h,
-                    hint: format!("{} is {w}x{h}; all views must have one size", first.display()),
+                    hint: format!(
+                        "{} is {w}x{h}; all views must have one size",
+                        first.display()
+                    ),
                 });
             }
             if (v.camera.width, v.camera.height) != (w, h) {
@@ -267,7 +315,13 @@ fn check_pose(path: &Path, frame: usize, cam: &Camera) -> Result<()> {
         } else {
             "expected a rigid camera-to-world transform (orthonormal rotation, no scale or shear)"
         };
-        return Err(CoreError::BadPose { path: path.to_path_buf(), frame, error: err, det, hint: hint.into() });
+        return Err(CoreError::BadPose {
+            path: path.to_path_buf(),
+            frame,
+            error: err,
+            det,
+            hint: hint.into(),
+        });
     }
     Ok(())
 }
@@ -292,7 +346,13 @@ struct FrameJson {
 pub fn read_transforms(tf_path: &Path, size: Option<(usize, usize)>) -> Result<Vec<Camera>> {
     let tf: TransformsJson = crate::fsutil::read_json(tf_path)?;
     if !(tf.camera_angle_x > 0.0 && tf.camera_angle_x < std::f32::consts::PI) {
-        return Err(CoreError::invalid(tf_path, format!("camera_angle_x = {} is not a field of view in radians (0, π)", tf.camera_angle_x)));
+        return Err(CoreError::invalid(
+            tf_path,
+            format!(
+                "camera_angle_x = {} is not a field of view in radians (0, π)",
+                tf.camera_angle_x
+            ),
+        ));
     }
     if tf.frames.is_empty() {
         return Err(CoreError::invalid(tf_path, "no frames"));
@@ -308,8 +368,15 @@ pub fn read_transforms(tf_path: &Path, size: Option<(usize, usize)>) -> Result<V
         // JSON rows → glam columns.
         let c2w = Mat4::from_cols_array_2d(&m).transpose();
         let last = c2w.row(3);
-        if (last - glam::Vec4::new(0.0, 0.0, 0.0, 1.0)).abs().max_element() > 1e-4 {
-            return Err(CoreError::invalid(tf_path, format!("frame {k}: last row of transform_matrix is {last}, expected [0, 0, 0, 1]")));
+        if (last - glam::Vec4::new(0.0, 0.0, 0.0, 1.0))
+            .abs()
+            .max_element()
+            > 1e-4
+        {
+            return Err(CoreError::invalid(
+                tf_path,
+                format!("frame {k}: last row of transform_matrix is {last}, expected [0, 0, 0, 1]"),
+            ));
         }
         let cam = Camera::from_transform(c2w, tf.camera_angle_x, w, h);
         check_pose(tf_path, k, &cam)?;
@@ -322,15 +389,29 @@ fn read_synthetic_split(root: &Path, name: &str, warnings: &mut Vec<String>) -> 
     let dir = root.join(name);
     let tf_path = dir.join("transforms.json");
     let img0 = dir.join("Image").join(image_file_name(0));
-    let size = if img0.is_file() { Some(exr_size(&img0)?) } else { None };
+    let size = if img0.is_file() {
+        Some(exr_size(&img0)?)
+    } else {
+        None
+    };
     let cams = read_transforms(&tf_path, size)?;
     let views: Vec<View> = cams
         .into_iter()
         .enumerate()
-        .map(|(k, camera)| View { index: k, camera, image: dir.join("Image").join(image_file_name(k)) })
+        .map(|(k, camera)| View {
+            index: k,
+            camera,
+            image: dir.join("Image").join(image_file_name(k)),
+        })
         .collect();
     let gt = present_gt(&dir, views.len(), warnings, name);
-    Ok(Split { name: name.to_string(), dir, views, gt, cameras_file: tf_path })
+    Ok(Split {
+        name: name.to_string(),
+        dir,
+        views,
+        gt,
+        cameras_file: tf_path,
+    })
 }
 
 fn present_gt(dir: &Path, n: usize, warnings: &mut Vec<String>, split: &str) -> Vec<GtKind> {
@@ -340,11 +421,16 @@ fn present_gt(dir: &Path, n: usize, warnings: &mut Vec<String>, split: &str) -> 
         if !folder.is_dir() {
             continue;
         }
-        let missing = (0..n).filter(|&k| !folder.join(kind.file_name(k)).is_file()).count();
+        let missing = (0..n)
+            .filter(|&k| !folder.join(kind.file_name(k)).is_file())
+            .count();
         if missing == 0 {
             gt.push(kind);
         } else {
-            warnings.push(format!("{split}/{}: {missing} of {n} files missing; this ground truth is ignored", kind.folder()));
+            warnings.push(format!(
+                "{split}/{}: {missing} of {n} files missing; this ground truth is ignored",
+                kind.folder()
+            ));
         }
     }
     gt
@@ -353,7 +439,10 @@ fn present_gt(dir: &Path, n: usize, warnings: &mut Vec<String>, split: &str) -> 
 fn numbers(path: &Path) -> Result<Vec<f32>> {
     let text = std::fs::read_to_string(path).map_err(|e| CoreError::io(path, e))?;
     text.split_whitespace()
-        .map(|t| t.parse::<f32>().map_err(|_| CoreError::invalid(path, format!("`{t}` is not a number"))))
+        .map(|t| {
+            t.parse::<f32>()
+                .map_err(|_| CoreError::invalid(path, format!("`{t}` is not a number")))
+        })
         .collect()
 }
 
@@ -361,7 +450,10 @@ fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
     let cam_path = root.join("cam.txt");
     let k_path = root.join("K_list.txt");
     if !k_path.is_file() {
-        return Err(CoreError::invalid(&k_path, "missing: the real layout needs K_list.txt beside cam.txt"));
+        return Err(CoreError::invalid(
+            &k_path,
+            "missing: the real layout needs K_list.txt beside cam.txt",
+        ));
     }
     let c = numbers(&cam_path)?;
     let k = numbers(&k_path)?;
@@ -371,33 +463,69 @@ fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
     }
     let nk = k.first().copied().unwrap_or(0.0) as usize;
     if nk != n || k.len() != 1 + 9 * n {
-        return Err(CoreError::invalid(&k_path, format!("expected {n} 3x3 matrices (N = {n} in cam.txt), found N = {nk} and {} numbers", k.len())));
+        return Err(CoreError::invalid(
+            &k_path,
+            format!(
+                "expected {n} 3x3 matrices (N = {n} in cam.txt), found N = {nk} and {} numbers",
+                k.len()
+            ),
+        ));
     }
     let img0 = root.join("Image").join(image_file_name(0));
     let (w, h) = exr_size(&img0)?;
     let mut views = Vec::with_capacity(n);
     for i in 0..n {
-        let v = |j: usize| Vec3::new(c[1 + 9 * i + 3 * j], c[2 + 9 * i + 3 * j], c[3 + 9 * i + 3 * j]);
+        let v = |j: usize| {
+            Vec3::new(
+                c[1 + 9 * i + 3 * j],
+                c[2 + 9 * i + 3 * j],
+                c[3 + 9 * i + 3 * j],
+            )
+        };
         let (o, t, up) = (v(0), v(1), v(2));
         if (t - o).length() < 1e-9 {
-            return Err(CoreError::invalid(&cam_path, format!("camera {i}: look-at point equals the origin")));
+            return Err(CoreError::invalid(
+                &cam_path,
+                format!("camera {i}: look-at point equals the origin"),
+            ));
         }
         let km = &k[1 + 9 * i..1 + 9 * (i + 1)];
-        let kk = [[km[0], km[1], km[2]], [km[3], km[4], km[5]], [km[6], km[7], km[8]]];
+        let kk = [
+            [km[0], km[1], km[2]],
+            [km[3], km[4], km[5]],
+            [km[6], km[7], km[8]],
+        ];
         if !(kk[0][0] > 0.0 && kk[1][1] > 0.0) || (kk[2][2] - 1.0).abs() > 1e-4 {
-            return Err(CoreError::invalid(&k_path, format!("camera {i}: K = {kk:?} is not an intrinsic matrix (fx, fy > 0, K[2][2] = 1)")));
+            return Err(CoreError::invalid(
+                &k_path,
+                format!(
+                    "camera {i}: K = {kk:?} is not an intrinsic matrix (fx, fy > 0, K[2][2] = 1)"
+                ),
+            ));
         }
         let cam = Camera::from_opencv(o, t, up, kk, w, h);
         check_pose(&cam_path, i, &cam)?;
-        views.push(View { index: i, camera: cam, image: root.join("Image").join(image_file_name(i)) });
+        views.push(View {
+            index: i,
+            camera: cam,
+            image: root.join("Image").join(image_file_name(i)),
+        });
     }
     let gt = present_gt(root, n, warnings, "real");
-    Ok(Split { name: "train".into(), dir: root.to_path_buf(), views, gt, cameras_file: cam_path })
+    Ok(Split {
+        name: "train".into(),
+        dir: root.to_path_buf(),
+        views,
+        gt,
+        cameras_file: cam_path,
+    })
 }
 
 /// Writes a `transforms.json` for `cameras` (Mitsuba convention), atomically.
 pub fn write_transforms(path: &Path, cameras: &[Camera]) -> Result<()> {
-    let first = cameras.first().ok_or_else(|| CoreError::invalid(path, "no cameras to write"))?;
+    let first = cameras
+        .first()
+        .ok_or_else(|| CoreError::invalid(path, "no cameras to write"))?;
     let frames: Vec<serde_json::Value> = cameras
         .iter()
         .enumerate()
@@ -438,11 +566,20 @@ pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<
         .map(|v| {
             let (img, bad) = ds.load_image(v, policy)?;
             let (lo, hi) = img.range();
-            let lum: f64 = img.data.iter().map(|&p| crate::color::luminance(p) as f64).sum::<f64>() / img.data.len() as f64;
+            let lum: f64 = img
+                .data
+                .iter()
+                .map(|&p| crate::color::luminance(p) as f64)
+                .sum::<f64>()
+                / img.data.len() as f64;
             Ok((v.index, lo, hi, lum, bad.total()))
         })
         .collect();
-    let mut s = HdrStats { min: f32::INFINITY, max: f32::NEG_INFINITY, ..Default::default() };
+    let mut s = HdrStats {
+        min: f32::INFINITY,
+        max: f32::NEG_INFINITY,
+        ..Default::default()
+    };
     let n = per.len().max(1) as f64;
     for r in per {
         let (k, lo, hi, lum, bad) = r?;

@@ -20,7 +20,9 @@ pub enum CoreError {
     Json { path: PathBuf, message: String },
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
-    #[error("{path}: image is {got_w}x{got_h} but {expected_w}x{expected_h} was expected ({hint})")]
+    #[error(
+        "{path}: image is {got_w}x{got_h} but {expected_w}x{expected_h} was expected ({hint})"
+    )]
     SizeMismatch {
         path: PathBuf,
         got_w: usize,
@@ -57,11 +59,17 @@ pub enum CoreError {
 impl CoreError {
     /// Wraps an I/O error with the path it happened on.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        CoreError::Io { path: path.into(), source }
+        CoreError::Io {
+            path: path.into(),
+            source,
+        }
     }
     /// An invalid-input error naming the file.
     pub fn invalid(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
-        CoreError::Invalid { path: path.into(), message: message.into() }
+        CoreError::Invalid {
+            path: path.into(),
+            message: message.into(),
+        }
     }
 }
 

@@ -59,12 +59,20 @@ pub struct Image {
 impl Image {
     /// A black image.
     pub fn new(width: usize, height: usize) -> Self {
-        Image { width, height, data: vec![Vec3::ZERO; width * height] }
+        Image {
+            width,
+            height,
+            data: vec![Vec3::ZERO; width * height],
+        }
     }
 
     /// An image filled with `value`.
     pub fn filled(width: usize, height: usize, value: Rgb) -> Self {
-        Image { width, height, data: vec![value; width * height] }
+        Image {
+            width,
+            height,
+            data: vec![value; width * height],
+        }
     }
 
     #[inline]
@@ -168,7 +176,10 @@ impl Image {
             .from_file(path)
             .map_err(|e| match e {
                 exr::error::Error::Io(io) => CoreError::io(path, io),
-                other => CoreError::Exr { path: path.to_path_buf(), message: other.to_string() },
+                other => CoreError::Exr {
+                    path: path.to_path_buf(),
+                    message: other.to_string(),
+                },
             })?;
         let layer = &img.layer_data;
         let (w, h) = (layer.size.width(), layer.size.height());
@@ -188,7 +199,11 @@ impl Image {
         let (r, g, b) = match (find("R"), find("G"), find("B")) {
             (Some(r), Some(g), Some(b)) => (to_f32(r), to_f32(g), to_f32(b)),
             _ => {
-                let grey = find("Y").or(if chans.len() == 1 { chans.first() } else { None });
+                let grey = find("Y").or(if chans.len() == 1 {
+                    chans.first()
+                } else {
+                    None
+                });
                 match grey {
                     Some(c) => {
                         let v = to_f32(c);
@@ -213,7 +228,11 @@ impl Image {
             });
         }
         let data = (0..w * h).map(|i| Vec3::new(r[i], g[i], b[i])).collect();
-        Ok(Self { width: w, height: h, data })
+        Ok(Self {
+            width: w,
+            height: h,
+            data,
+        })
     }
 
     /// Writes an RGB EXR (ZIP compression), atomically. Half precision saturates at ±65504
@@ -225,29 +244,27 @@ impl Image {
             path: p.to_path_buf(),
             message: e.to_string(),
         };
-        write_atomic(path, |tmp| {
-            match precision {
-                ExrPrecision::F32 => {
-                    let ch = SpecificChannels::rgb(|pos: Vec2<usize>| {
-                        let p = self.data[pos.y() * w + pos.x()];
-                        (p.x, p.y, p.z)
-                    });
-                    exr::image::Image::from_encoded_channels((w, h), Encoding::SMALL_LOSSLESS, ch)
-                        .write()
-                        .to_file(tmp)
-                        .map_err(|e| map_err(e, path))
-                }
-                ExrPrecision::F16 => {
-                    let ch = SpecificChannels::rgb(|pos: Vec2<usize>| {
-                        let p = self.data[pos.y() * w + pos.x()];
-                        let h = |v: f32| f16::from_f32(v.clamp(-HALF_MAX, HALF_MAX));
-                        (h(p.x), h(p.y), h(p.z))
-                    });
-                    exr::image::Image::from_encoded_channels((w, h), Encoding::SMALL_LOSSLESS, ch)
-                        .write()
-                        .to_file(tmp)
-                        .map_err(|e| map_err(e, path))
-                }
+        write_atomic(path, |tmp| match precision {
+            ExrPrecision::F32 => {
+                let ch = SpecificChannels::rgb(|pos: Vec2<usize>| {
+                    let p = self.data[pos.y() * w + pos.x()];
+                    (p.x, p.y, p.z)
+                });
+                exr::image::Image::from_encoded_channels((w, h), Encoding::SMALL_LOSSLESS, ch)
+                    .write()
+                    .to_file(tmp)
+                    .map_err(|e| map_err(e, path))
+            }
+            ExrPrecision::F16 => {
+                let ch = SpecificChannels::rgb(|pos: Vec2<usize>| {
+                    let p = self.data[pos.y() * w + pos.x()];
+                    let h = |v: f32| f16::from_f32(v.clamp(-HALF_MAX, HALF_MAX));
+                    (h(p.x), h(p.y), h(p.z))
+                });
+                exr::image::Image::from_encoded_channels((w, h), Encoding::SMALL_LOSSLESS, ch)
+                    .write()
+                    .to_file(tmp)
+                    .map_err(|e| map_err(e, path))
             }
         })
     }
@@ -280,18 +297,31 @@ impl Image {
                 image::ColorType::Rgb8,
                 image::ImageFormat::Png,
             )
-            .map_err(|e| CoreError::ImageWrite { path: path.to_path_buf(), message: e.to_string() })
+            .map_err(|e| CoreError::ImageWrite {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })
         })
     }
 
     /// Reads an 8-bit PNG (sRGB values are returned as stored, divided by 255).
     pub fn read_png(path: &Path) -> Result<Image> {
         let img = image::open(path)
-            .map_err(|e| CoreError::Exr { path: path.to_path_buf(), message: e.to_string() })?
+            .map_err(|e| CoreError::Exr {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })?
             .to_rgb8();
         let (w, h) = (img.width() as usize, img.height() as usize);
-        let data = img.pixels().map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0).collect();
-        Ok(Image { width: w, height: h, data })
+        let data = img
+            .pixels()
+            .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)
+            .collect();
+        Ok(Image {
+            width: w,
+            height: h,
+            data,
+        })
     }
 
     /// An exposure that maps the 99th luminance percentile to 0.9 (for previews of HDR images).
@@ -307,7 +337,11 @@ impl Image {
         }
         let k = ((l.len() as f32 * 0.99) as usize).min(l.len() - 1);
         let (_, v, _) = l.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-        if *v > 0.0 { 0.9 / *v } else { 1.0 }
+        if *v > 0.0 {
+            0.9 / *v
+        } else {
+            1.0
+        }
     }
 }
 
@@ -319,7 +353,11 @@ mod tests {
         let mut img = Image::new(7, 5);
         for y in 0..5 {
             for x in 0..7 {
-                img.set(x, y, Vec3::new(x as f32 * 0.1, y as f32 * 1e-6, 1e5 / (1 + x + y) as f32));
+                img.set(
+                    x,
+                    y,
+                    Vec3::new(x as f32 * 0.1, y as f32 * 1e-6, 1e5 / (1 + x + y) as f32),
+                );
             }
         }
         img
@@ -377,10 +415,17 @@ mod tests {
         img.set(2, 1, Vec3::new(f32::INFINITY, 1.0, 1.0));
         let c = img.count_bad();
         assert_eq!((c.nan, c.inf, c.negative, c.first), (1, 1, 1, Some((1, 0))));
-        let err = img.clone().sanitize(BadPixelPolicy::Reject, Path::new("x.exr")).unwrap_err();
+        let err = img
+            .clone()
+            .sanitize(BadPixelPolicy::Reject, Path::new("x.exr"))
+            .unwrap_err();
         let msg = err.to_string();
-        assert!(msg.contains("x.exr") && msg.contains("1 NaN") && msg.contains("clamp"), "{msg}");
-        img.sanitize(BadPixelPolicy::Clamp, Path::new("x.exr")).unwrap();
+        assert!(
+            msg.contains("x.exr") && msg.contains("1 NaN") && msg.contains("clamp"),
+            "{msg}"
+        );
+        img.sanitize(BadPixelPolicy::Clamp, Path::new("x.exr"))
+            .unwrap();
         assert_eq!(img.get(1, 0), Vec3::new(0.0, 2.0, 0.0));
         assert_eq!(img.get(2, 1), Vec3::new(2.0, 1.0, 1.0));
         assert_eq!(img.count_bad().total(), 0);
@@ -398,7 +443,11 @@ mod tests {
         });
         assert!(r.is_err());
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "old");
-        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "temporary removed");
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            1,
+            "temporary removed"
+        );
         std::fs::remove_dir_all(&dir).ok();
     }
 }

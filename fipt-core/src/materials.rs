@@ -31,9 +31,21 @@ pub enum Texture {
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Pattern {
     /// Mitsuba's checkerboard rule: `color0` where `frac(s) > 0.5` equals `frac(t) > 0.5`.
-    Checker { color0: [f32; 3], color1: [f32; 3], origin: [f32; 3], u_axis: [f32; 3], v_axis: [f32; 3] },
+    Checker {
+        color0: [f32; 3],
+        color1: [f32; 3],
+        origin: [f32; 3],
+        u_axis: [f32; 3],
+        v_axis: [f32; 3],
+    },
     /// Bands along `s`: `color0` where `frac(s) < duty`, else `color1`.
-    Stripes { color0: [f32; 3], color1: [f32; 3], origin: [f32; 3], u_axis: [f32; 3], duty: f32 },
+    Stripes {
+        color0: [f32; 3],
+        color1: [f32; 3],
+        origin: [f32; 3],
+        u_axis: [f32; 3],
+        duty: f32,
+    },
 }
 
 impl Texture {
@@ -42,7 +54,13 @@ impl Texture {
         match self {
             Texture::Scalar(v) => Vec3::splat(*v),
             Texture::Rgb(c) => Vec3::from_array(*c),
-            Texture::Pattern(Pattern::Checker { color0, color1, origin, u_axis, v_axis }) => {
+            Texture::Pattern(Pattern::Checker {
+                color0,
+                color1,
+                origin,
+                u_axis,
+                v_axis,
+            }) => {
                 let d = p - Vec3::from_array(*origin);
                 let s = d.dot(Vec3::from_array(*u_axis));
                 let t = d.dot(Vec3::from_array(*v_axis));
@@ -50,9 +68,19 @@ impl Texture {
                 let mt = t - t.floor() > 0.5;
                 Vec3::from_array(if ms == mt { *color0 } else { *color1 })
             }
-            Texture::Pattern(Pattern::Stripes { color0, color1, origin, u_axis, duty }) => {
+            Texture::Pattern(Pattern::Stripes {
+                color0,
+                color1,
+                origin,
+                u_axis,
+                duty,
+            }) => {
                 let s = (p - Vec3::from_array(*origin)).dot(Vec3::from_array(*u_axis));
-                Vec3::from_array(if s - s.floor() < *duty { *color0 } else { *color1 })
+                Vec3::from_array(if s - s.floor() < *duty {
+                    *color0
+                } else {
+                    *color1
+                })
             }
         }
     }
@@ -146,11 +174,23 @@ impl SceneMaterials {
                 ));
             }
             if r.material as usize >= self.materials.len() {
-                return Err(CoreError::invalid(path, format!("face range [{}, {}) names material {} of {}", r.start, r.end, r.material, self.materials.len())));
+                return Err(CoreError::invalid(
+                    path,
+                    format!(
+                        "face range [{}, {}) names material {} of {}",
+                        r.start,
+                        r.end,
+                        r.material,
+                        self.materials.len()
+                    ),
+                ));
             }
             for f in r.start..r.end {
                 if table[f as usize] != u32::MAX {
-                    return Err(CoreError::invalid(path, format!("face {f} is listed twice")));
+                    return Err(CoreError::invalid(
+                        path,
+                        format!("face {f} is listed twice"),
+                    ));
                 }
                 table[f as usize] = r.material;
             }
@@ -165,7 +205,12 @@ impl SceneMaterials {
     /// Material parameters of material `m` at world position `p`.
     pub fn eval(&self, m: u32, p: Vec3) -> SurfacePoint {
         match &self.materials[m as usize] {
-            MaterialDesc::Principled { base_color, roughness, metallic, .. } => {
+            MaterialDesc::Principled {
+                base_color,
+                roughness,
+                metallic,
+                ..
+            } => {
                 let a = base_color.eval(p).clamp(Vec3::ZERO, Vec3::ONE);
                 let mtl = metallic.eval(p).x.clamp(0.0, 1.0);
                 SurfacePoint {
@@ -190,7 +235,13 @@ impl SceneMaterials {
     pub fn read(path: &Path) -> Result<Self> {
         let s: SceneMaterials = crate::fsutil::read_json(path)?;
         if s.version != 1 {
-            return Err(CoreError::invalid(path, format!("unsupported version {} (this fipt reads version 1)", s.version)));
+            return Err(CoreError::invalid(
+                path,
+                format!(
+                    "unsupported version {} (this fipt reads version 1)",
+                    s.version
+                ),
+            ));
         }
         Ok(s)
     }
@@ -199,8 +250,10 @@ impl SceneMaterials {
     /// its `objects` key).
     pub fn read_any(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).map_err(|e| CoreError::io(path, e))?;
-        let v: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| CoreError::Json { path: path.to_path_buf(), message: e.to_string() })?;
+        let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| CoreError::Json {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         if v.get("objects").is_some() {
             Self::from_scene_parts(&v, path)
         } else {
@@ -213,12 +266,20 @@ impl SceneMaterials {
     /// (the floor quad's uv in the studio scene), scaled by `uv_scale`.
     pub fn from_scene_parts(v: &serde_json::Value, path: &Path) -> Result<Self> {
         let bad = |m: String| CoreError::invalid(path, m);
-        let objects = v["objects"].as_array().ok_or_else(|| bad("`objects` is not a list".into()))?;
+        let objects = v["objects"]
+            .as_array()
+            .ok_or_else(|| bad("`objects` is not a list".into()))?;
         let arr3 = |x: &serde_json::Value, what: &str| -> Result<[f32; 3]> {
-            let a = x.as_array().filter(|a| a.len() == 3).ok_or_else(|| bad(format!("{what} is not a 3-vector")))?;
+            let a = x
+                .as_array()
+                .filter(|a| a.len() == 3)
+                .ok_or_else(|| bad(format!("{what} is not a 3-vector")))?;
             let mut out = [0.0; 3];
             for (o, e) in out.iter_mut().zip(a) {
-                *o = e.as_f64().ok_or_else(|| bad(format!("{what} holds a non-number")))? as f32;
+                *o = e
+                    .as_f64()
+                    .ok_or_else(|| bad(format!("{what} holds a non-number")))?
+                    as f32;
             }
             Ok(out)
         };
@@ -226,10 +287,19 @@ impl SceneMaterials {
         let mut faces = Vec::new();
         for (i, o) in objects.iter().enumerate() {
             let name = o["name"].as_str().unwrap_or("object").to_string();
-            let start = o["face_start"].as_u64().ok_or_else(|| bad(format!("object {i} has no face_start")))? as u32;
-            let end = o["face_end"].as_u64().ok_or_else(|| bad(format!("object {i} has no face_end")))? as u32;
+            let start = o["face_start"]
+                .as_u64()
+                .ok_or_else(|| bad(format!("object {i} has no face_start")))?
+                as u32;
+            let end = o["face_end"]
+                .as_u64()
+                .ok_or_else(|| bad(format!("object {i} has no face_end")))?
+                as u32;
             let mat = match o["type"].as_str() {
-                Some("emitter") => MaterialDesc::Emitter { name, radiance: arr3(&o["radiance"], "radiance")? },
+                Some("emitter") => MaterialDesc::Emitter {
+                    name,
+                    radiance: arr3(&o["radiance"], "radiance")?,
+                },
                 Some("principled") => {
                     let bc = &o["base_color"];
                     let base_color = if bc.is_array() {
@@ -238,8 +308,13 @@ impl SceneMaterials {
                         let bbox = &o["bbox"];
                         let lo = arr3(&bbox[0], "bbox[0]")?;
                         let hi = arr3(&bbox[1], "bbox[1]")?;
-                        let sc = bc["uv_scale"].as_array().ok_or_else(|| bad("checker without uv_scale".into()))?;
-                        let (su, sv) = (sc[0].as_f64().unwrap_or(1.0) as f32, sc[1].as_f64().unwrap_or(1.0) as f32);
+                        let sc = bc["uv_scale"]
+                            .as_array()
+                            .ok_or_else(|| bad("checker without uv_scale".into()))?;
+                        let (su, sv) = (
+                            sc[0].as_f64().unwrap_or(1.0) as f32,
+                            sc[1].as_f64().unwrap_or(1.0) as f32,
+                        );
                         let ex = (hi[0] - lo[0]).max(1e-9);
                         let ez = (hi[2] - lo[2]).max(1e-9);
                         Texture::Pattern(Pattern::Checker {
@@ -261,10 +336,19 @@ impl SceneMaterials {
                 }
                 other => return Err(bad(format!("object {name}: unknown type {other:?}"))),
             };
-            faces.push(FaceRange { start, end, material: materials.len() as u32 });
+            faces.push(FaceRange {
+                start,
+                end,
+                material: materials.len() as u32,
+            });
             materials.push(mat);
         }
-        Ok(SceneMaterials { version: 1, materials, faces, note: format!("imported from {}", path.display()) })
+        Ok(SceneMaterials {
+            version: 1,
+            materials,
+            faces,
+            note: format!("imported from {}", path.display()),
+        })
     }
 }
 
@@ -283,7 +367,10 @@ mod tests {
                     roughness: Texture::Scalar(0.001),
                     metallic: Texture::Scalar(1.0),
                 },
-                MaterialDesc::Emitter { name: "lamp".into(), radiance: [5.0, 4.0, 3.0] },
+                MaterialDesc::Emitter {
+                    name: "lamp".into(),
+                    radiance: [5.0, 4.0, 3.0],
+                },
                 MaterialDesc::Principled {
                     name: "floor".into(),
                     base_color: Texture::Pattern(Pattern::Checker {
@@ -297,7 +384,23 @@ mod tests {
                     metallic: Texture::Scalar(0.0),
                 },
             ],
-            faces: vec![FaceRange { start: 0, end: 2, material: 0 }, FaceRange { start: 2, end: 3, material: 1 }, FaceRange { start: 3, end: 4, material: 2 }],
+            faces: vec![
+                FaceRange {
+                    start: 0,
+                    end: 2,
+                    material: 0,
+                },
+                FaceRange {
+                    start: 2,
+                    end: 3,
+                    material: 1,
+                },
+                FaceRange {
+                    start: 3,
+                    end: 4,
+                    material: 2,
+                },
+            ],
             note: String::new(),
         };
         let text = serde_json::to_string(&s).unwrap();
@@ -306,14 +409,26 @@ mod tests {
         let g = s.eval(0, Vec3::ZERO);
         assert_eq!(g.kd, Vec3::ZERO);
         assert_eq!(g.ks, Vec3::new(1.0, 0.8, 0.2));
-        assert_eq!(g.roughness, MIN_ROUGHNESS, "roughness is clamped to the model's range");
+        assert_eq!(
+            g.roughness, MIN_ROUGHNESS,
+            "roughness is clamped to the model's range"
+        );
         let e = s.eval(1, Vec3::ZERO);
         assert_eq!(e.emission, Vec3::new(5.0, 4.0, 3.0));
-        assert_eq!(s.eval(2, Vec3::new(0.25, 0.0, 0.25)).kd, Vec3::new(1.0, 0.0, 0.0));
-        assert_eq!(s.eval(2, Vec3::new(0.75, 0.0, 0.25)).kd, Vec3::new(0.0, 1.0, 0.0));
+        assert_eq!(
+            s.eval(2, Vec3::new(0.25, 0.0, 0.25)).kd,
+            Vec3::new(1.0, 0.0, 0.0)
+        );
+        assert_eq!(
+            s.eval(2, Vec3::new(0.75, 0.0, 0.25)).kd,
+            Vec3::new(0.0, 1.0, 0.0)
+        );
         assert!((s.eval(2, Vec3::ZERO).ks - Vec3::splat(0.04)).length() < 1e-7);
         assert_eq!(s.face_table(4, Path::new("t")).unwrap(), vec![0, 0, 1, 2]);
-        let err = s.face_table(5, Path::new("t.json")).unwrap_err().to_string();
+        let err = s
+            .face_table(5, Path::new("t.json"))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("1 faces have no material"), "{err}");
         assert!(s.face_table(3, Path::new("t.json")).is_err());
     }
@@ -321,7 +436,9 @@ mod tests {
     #[test]
     fn unknown_keys_are_rejected() {
         let bad = r#"{"version":1,"materials":[{"type":"emitter","name":"l","radiance":[1,1,1],"power":3}],"faces":[]}"#;
-        let err = serde_json::from_str::<SceneMaterials>(bad).unwrap_err().to_string();
+        let err = serde_json::from_str::<SceneMaterials>(bad)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("power"), "{err}");
     }
 }

@@ -20,7 +20,13 @@ pub fn mse(a: &[Vec3], b: &[Vec3], mask: Option<&[bool]>) -> Option<f64> {
 
 /// PSNR in dB for signals with peak value `peak`; capped at 100 dB for identical inputs.
 pub fn psnr(a: &[Vec3], b: &[Vec3], mask: Option<&[bool]>, peak: f64) -> Option<f64> {
-    mse(a, b, mask).map(|m| if m <= 1e-10 * peak * peak { 100.0 } else { 10.0 * (peak * peak / m).log10() })
+    mse(a, b, mask).map(|m| {
+        if m <= 1e-10 * peak * peak {
+            100.0
+        } else {
+            10.0 * (peak * peak / m).log10()
+        }
+    })
 }
 
 #[cfg(test)]
@@ -41,6 +47,14 @@ mod tests {
 /// PSNR of HDR images as displayed: sRGB OETF of the linear values clamped to [0, 1], peak 1.
 /// Used for re-render comparisons (the training loss works in the same space).
 pub fn srgb_psnr(a: &[Vec3], b: &[Vec3], mask: Option<&[bool]>) -> Option<f64> {
-    let t = |v: &[Vec3]| -> Vec<Vec3> { v.iter().map(|p| Vec3::from_array(p.to_array().map(|c| crate::color::srgb_oetf(if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })))).collect() };
+    let t = |v: &[Vec3]| -> Vec<Vec3> {
+        v.iter()
+            .map(|p| {
+                Vec3::from_array(p.to_array().map(|c| {
+                    crate::color::srgb_oetf(if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })
+                }))
+            })
+            .collect()
+    };
     psnr(&t(a), &t(b), mask, 1.0)
 }

@@ -15,7 +15,10 @@ const MULT: u64 = 6364136223846793005;
 impl Pcg32 {
     /// A generator for stream `stream` started from `seed`.
     pub fn new(seed: u64, stream: u64) -> Self {
-        let mut rng = Pcg32 { state: 0, inc: (stream << 1) | 1 };
+        let mut rng = Pcg32 {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
         rng.next_u32();
         rng.state = rng.state.wrapping_add(seed);
         rng.next_u32();

@@ -19,13 +19,21 @@ pub const DEFAULT_LEVELS: [f32; NUM_LEVELS] = [0.02, 0.216, 0.412, 0.608, 0.804,
 /// first/last level). Exact at the levels, continuous between them. `levels` must increase.
 #[inline]
 pub fn lerp_levels(levels: &[f32; NUM_LEVELS], values: &[Rgb; NUM_LEVELS], sigma: f32) -> Rgb {
-    let s = if sigma.is_nan() { levels[0] } else { sigma.clamp(levels[0], levels[NUM_LEVELS - 1]) };
+    let s = if sigma.is_nan() {
+        levels[0]
+    } else {
+        sigma.clamp(levels[0], levels[NUM_LEVELS - 1])
+    };
     let mut i = 0;
     while i + 2 < NUM_LEVELS && s > levels[i + 1] {
         i += 1;
     }
     let (a, b) = (levels[i], levels[i + 1]);
-    let t = if b > a { ((s - a) / (b - a)).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if b > a {
+        ((s - a) / (b - a)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     values[i] * (1.0 - t) + values[i + 1] * t
 }
 
@@ -49,13 +57,23 @@ impl ViewShadings {
     /// All-zero shadings for a `width × height` view.
     pub fn zeros(width: usize, height: usize, levels: [f32; NUM_LEVELS]) -> Self {
         let n = width * height;
-        ViewShadings { width, height, levels, ld: vec![Vec3::ZERO; n], ls0: vec![[Vec3::ZERO; NUM_LEVELS]; n], ls1: vec![[Vec3::ZERO; NUM_LEVELS]; n], valid: vec![false; n] }
+        ViewShadings {
+            width,
+            height,
+            levels,
+            ld: vec![Vec3::ZERO; n],
+            ls0: vec![[Vec3::ZERO; NUM_LEVELS]; n],
+            ls1: vec![[Vec3::ZERO; NUM_LEVELS]; n],
+            valid: vec![false; n],
+        }
     }
 
     /// Reflected radiance of pixel `i` for material (kd, ks, σ): kd·Ld + ks·Ls0(σ) + Ls1(σ).
     #[inline]
     pub fn reflected(&self, i: usize, kd: Rgb, ks: Rgb, sigma: f32) -> Rgb {
-        kd * self.ld[i] + ks * lerp_levels(&self.levels, &self.ls0[i], sigma) + lerp_levels(&self.levels, &self.ls1[i], sigma)
+        kd * self.ld[i]
+            + ks * lerp_levels(&self.levels, &self.ls0[i], sigma)
+            + lerp_levels(&self.levels, &self.ls1[i], sigma)
     }
 }
 
@@ -94,7 +112,13 @@ pub trait ShadingBaker {
     /// A short name for reports.
     fn name(&self) -> &str;
     /// Shadings of every view in `views` (HDR `images` in the same order).
-    fn bake(&self, geometry: &dyn RayQuery, views: &[View], images: &[Image], progress: Progress) -> Result<Vec<ViewShadings>>;
+    fn bake(
+        &self,
+        geometry: &dyn RayQuery,
+        views: &[View],
+        images: &[Image],
+        progress: Progress,
+    ) -> Result<Vec<ViewShadings>>;
 }
 
 #[cfg(test)]
@@ -117,7 +141,10 @@ mod tests {
         for k in 1..=n {
             let s = k as f32 / n as f32 * 1.1;
             let cur = lerp_levels(&DEFAULT_LEVELS, &v, s);
-            assert!((cur - prev).abs().max_element() <= 25.0 * 1.1 / n as f32 / 0.196 + 1e-4, "jump at σ={s}");
+            assert!(
+                (cur - prev).abs().max_element() <= 25.0 * 1.1 / n as f32 / 0.196 + 1e-4,
+                "jump at σ={s}"
+            );
             prev = cur;
         }
         // Midpoint of the reference formula r = (σ−0.02)/0.98·5.

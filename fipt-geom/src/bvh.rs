@@ -97,14 +97,24 @@ impl Bvh {
         let src: Vec<Triangle> = (0..mesh.triangles.len())
             .map(|i| {
                 let [a, b, c] = mesh.vertices(i).map(|v| v * scale);
-                Triangle { v0: a.into(), v1: b.into(), v2: c.into() }
+                Triangle {
+                    v0: a.into(),
+                    v1: b.into(),
+                    v2: c.into(),
+                }
             })
             .collect();
         let mut t = std::time::Duration::default();
         let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&src, quality.params(), &mut t);
         let prim_tri = bvh.primitive_indices.clone();
         let tris = prim_tri.iter().map(|&i| src[i as usize]).collect();
-        Bvh { bvh, scale, inv_scale: 1.0 / scale, tris, prim_tri }
+        Bvh {
+            bvh,
+            scale,
+            inv_scale: 1.0 / scale,
+            tris,
+            prim_tri,
+        }
     }
 
     /// [`offset_ray_origin`] applied in the BVH's scaled space, so that offsets are relative
@@ -123,7 +133,12 @@ impl Bvh {
     #[inline]
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let tmax_s = tmax * self.scale;
-        let ray = Ray::new((origin * self.scale).into(), plus_zero(dir).into(), tmin * self.scale, tmax_s);
+        let ray = Ray::new(
+            (origin * self.scale).into(),
+            plus_zero(dir).into(),
+            tmin * self.scale,
+            tmax_s,
+        );
         let mut rh = RayHit::none();
         let mut best = (f32::INFINITY, 0.0f32, 0.0f32);
         self.bvh.ray_traverse(ray, &mut rh, |r, id| {
@@ -138,24 +153,39 @@ impl Bvh {
         }
         let tri = &self.tris[rh.primitive_id as usize];
         let ng = Vec3::from((tri.v1 - tri.v0).cross(tri.v2 - tri.v0).normalize_or_zero());
-        Some(Hit { t: best.0 * self.inv_scale, tri: self.prim_tri[rh.primitive_id as usize], u: best.1, v: best.2, ng })
+        Some(Hit {
+            t: best.0 * self.inv_scale,
+            tri: self.prim_tri[rh.primitive_id as usize],
+            u: best.1,
+            v: best.2,
+            ng,
+        })
     }
 
     /// True when anything lies on `origin + t·dir` for t in (0, tmax).
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
-        let ray = Ray::new((origin * self.scale).into(), plus_zero(dir).into(), 0.0, tmax * self.scale);
-        !self.bvh.ray_traverse_miss(ray, |r, id| intersect_uv(&self.tris[id], r).0)
+        let ray = Ray::new(
+            (origin * self.scale).into(),
+            plus_zero(dir).into(),
+            0.0,
+            tmax * self.scale,
+        );
+        !self
+            .bvh
+            .ray_traverse_miss(ray, |r, id| intersect_uv(&self.tris[id], r).0)
     }
 
     /// Closest hits of many rays `(origin, dir)` in parallel (rayon, chunks of 256).
     pub fn closest_hits(&self, rays: &[(Vec3, Vec3)]) -> Vec<Option<Hit>> {
         let mut out = vec![None; rays.len()];
-        out.par_chunks_mut(256).zip(rays.par_chunks(256)).for_each(|(o, r)| {
-            for (h, &(org, dir)) in o.iter_mut().zip(r) {
-                *h = self.closest_hit(org, dir, 0.0, f32::INFINITY);
-            }
-        });
+        out.par_chunks_mut(256)
+            .zip(rays.par_chunks(256))
+            .for_each(|(o, r)| {
+                for (h, &(org, dir)) in o.iter_mut().zip(r) {
+                    *h = self.closest_hit(org, dir, 0.0, f32::INFINITY);
+                }
+            });
         out
     }
 
@@ -165,7 +195,8 @@ impl Bvh {
     pub fn bare_traverse(&self, origin: Vec3, dir: Vec3) -> f32 {
         let ray = Ray::new_inf((origin * self.scale).into(), plus_zero(dir).into());
         let mut rh = RayHit::none();
-        self.bvh.ray_traverse(ray, &mut rh, |r, id| self.tris[id].intersect(r));
+        self.bvh
+            .ray_traverse(ray, &mut rh, |r, id| self.tris[id].intersect(r));
         rh.t * self.inv_scale
     }
 }
@@ -191,7 +222,9 @@ pub fn shading_normal(mesh: &Mesh, hit: &Hit) -> Vec3 {
     match &mesh.normals {
         Some(ns) => {
             let t = mesh.triangles[hit.tri as usize];
-            let n = ns[t[0] as usize] * (1.0 - hit.u - hit.v) + ns[t[1] as usize] * hit.u + ns[t[2] as usize] * hit.v;
+            let n = ns[t[0] as usize] * (1.0 - hit.u - hit.v)
+                + ns[t[1] as usize] * hit.u
+                + ns[t[2] as usize] * hit.v;
             let n = n.normalize_or_zero();
             if n == Vec3::ZERO {
                 hit.ng
@@ -219,7 +252,11 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
         let oi = (INT_SCALE * nc) as i32;
         let bits = pc.to_bits() as i32;
         let moved = f32::from_bits((if pc < 0.0 { bits - oi } else { bits + oi }) as u32);
-        if pc.abs() < ORIGIN { pc + FLOAT_SCALE * nc } else { moved }
+        if pc.abs() < ORIGIN {
+            pc + FLOAT_SCALE * nc
+        } else {
+            moved
+        }
     };
     Vec3::new(of(p.x, n.x), of(p.y, n.y), of(p.z, n.z))
 }

@@ -20,7 +20,13 @@ impl RayQuery for Geometry {
     #[inline]
     fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<SurfaceHit> {
         let h = self.bvh.closest_hit(origin, dir, 0.0, f32::INFINITY)?;
-        Some(SurfaceHit { t: h.t, tri: h.tri, p: hit_point(&self.mesh, &h), ng: h.ng, ns: shading_normal(&self.mesh, &h) })
+        Some(SurfaceHit {
+            t: h.t,
+            tri: h.tri,
+            p: hit_point(&self.mesh, &h),
+            ng: h.ng,
+            ns: shading_normal(&self.mesh, &h),
+        })
     }
     #[inline]
     fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {

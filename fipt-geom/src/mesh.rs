@@ -32,10 +32,26 @@ pub struct Bounds {
 
 impl Mesh {
     /// Builds a mesh from raw triangles, dropping degenerate ones (and counting them).
-    pub fn from_triangles(positions: Vec<Vec3>, normals: Option<Vec<Vec3>>, tris: Vec<[u32; 3]>) -> Mesh {
+    pub fn from_triangles(
+        positions: Vec<Vec3>,
+        normals: Option<Vec<Vec3>>,
+        tris: Vec<[u32; 3]>,
+    ) -> Mesh {
         let n = tris.len();
-        let mut m = Mesh { positions, normals, triangles: Vec::with_capacity(n), face_ids: Vec::with_capacity(n), num_file_faces: n, dropped_degenerate: 0 };
-        if m.normals.as_ref().is_some_and(|nr| nr.len() != m.positions.len() || nr.iter().any(|v| !v.is_finite() || v.length_squared() == 0.0)) {
+        let mut m = Mesh {
+            positions,
+            normals,
+            triangles: Vec::with_capacity(n),
+            face_ids: Vec::with_capacity(n),
+            num_file_faces: n,
+            dropped_degenerate: 0,
+        };
+        if m.normals.as_ref().is_some_and(|nr| {
+            nr.len() != m.positions.len()
+                || nr
+                    .iter()
+                    .any(|v| !v.is_finite() || v.length_squared() == 0.0)
+        }) {
             m.normals = None;
         }
         for (f, t) in tris.into_iter().enumerate() {
@@ -63,18 +79,32 @@ impl Mesh {
 
     /// Loads a mesh by extension: `.obj`, `.ply`, `.gltf`, `.glb`.
     pub fn load(path: &Path) -> Result<Mesh> {
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
         if !path.is_file() {
-            return Err(GeomError::Io { path: path.to_path_buf(), source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file") });
+            return Err(GeomError::Io {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
         }
         let mesh = match ext.as_str() {
             "obj" => load_obj(path)?,
             "ply" => load_ply(path)?,
             "gltf" | "glb" => load_gltf(path)?,
-            _ => return Err(GeomError::Format { path: path.to_path_buf() }),
+            _ => {
+                return Err(GeomError::Format {
+                    path: path.to_path_buf(),
+                })
+            }
         };
         if mesh.triangles.is_empty() {
-            return Err(GeomError::Empty { path: path.to_path_buf(), dropped: mesh.dropped_degenerate });
+            return Err(GeomError::Empty {
+                path: path.to_path_buf(),
+                dropped: mesh.dropped_degenerate,
+            });
         }
         Ok(mesh)
     }
@@ -100,7 +130,10 @@ impl Mesh {
 
     /// Bounds of the referenced vertices.
     pub fn bounds(&self) -> Bounds {
-        let mut b = Bounds { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+        let mut b = Bounds {
+            min: Vec3::splat(f32::INFINITY),
+            max: Vec3::splat(f32::NEG_INFINITY),
+        };
         for t in &self.triangles {
             for &v in t {
                 let p = self.positions[v as usize];
@@ -120,8 +153,10 @@ impl Mesh {
             _ => self.normals = None,
         }
         self.positions.extend_from_slice(&other.positions);
-        self.triangles.extend(other.triangles.iter().map(|t| t.map(|i| i + off)));
-        self.face_ids.extend(other.face_ids.iter().map(|f| f + foff));
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|i| i + off)));
+        self.face_ids
+            .extend(other.face_ids.iter().map(|f| f + foff));
         self.num_file_faces += other.num_file_faces;
         self.dropped_degenerate += other.dropped_degenerate;
     }
@@ -155,12 +190,23 @@ impl Mesh {
     /// Writes a binary little-endian PLY (float x y z [nx ny nz], uchar-int face lists), atomically.
     pub fn write_ply(&self, path: &Path) -> Result<()> {
         write_atomic(path, |w| {
-            writeln!(w, "ply\nformat binary_little_endian 1.0\ncomment written by fipt")?;
-            writeln!(w, "element vertex {}\nproperty float x\nproperty float y\nproperty float z", self.positions.len())?;
+            writeln!(
+                w,
+                "ply\nformat binary_little_endian 1.0\ncomment written by fipt"
+            )?;
+            writeln!(
+                w,
+                "element vertex {}\nproperty float x\nproperty float y\nproperty float z",
+                self.positions.len()
+            )?;
             if self.normals.is_some() {
                 writeln!(w, "property float nx\nproperty float ny\nproperty float nz")?;
             }
-            writeln!(w, "element face {}\nproperty list uchar int vertex_indices\nend_header", self.triangles.len())?;
+            writeln!(
+                w,
+                "element face {}\nproperty list uchar int vertex_indices\nend_header",
+                self.triangles.len()
+            )?;
             for (i, p) in self.positions.iter().enumerate() {
                 for c in p.to_array() {
                     w.write_all(&c.to_le_bytes())?;
@@ -186,7 +232,10 @@ fn write_atomic<F>(path: &Path, f: F) -> Result<()>
 where
     F: FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
 {
-    let io = |e| GeomError::Io { path: path.to_path_buf(), source: e };
+    let io = |e| GeomError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    };
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).map_err(io)?;
     }
@@ -205,7 +254,10 @@ where
 }
 
 fn parse_err(path: &Path, message: impl Into<String>) -> GeomError {
-    GeomError::Parse { path: path.to_path_buf(), message: message.into() }
+    GeomError::Parse {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
 }
 
 fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
@@ -215,7 +267,12 @@ fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
 }
 
 fn load_obj(path: &Path) -> Result<Mesh> {
-    let opts = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
+    let opts = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
     let (models, _) = tobj::load_obj(path, &opts).map_err(|e| parse_err(path, e.to_string()))?;
     let mut positions = Vec::new();
     let mut normals = Vec::new();
@@ -224,15 +281,31 @@ fn load_obj(path: &Path) -> Result<Mesh> {
     for m in &models {
         let mesh = &m.mesh;
         let off = positions.len() as u32;
-        positions.extend(mesh.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        positions.extend(
+            mesh.positions
+                .chunks_exact(3)
+                .map(|p| Vec3::new(p[0], p[1], p[2])),
+        );
         if mesh.normals.len() == mesh.positions.len() {
-            normals.extend(mesh.normals.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+            normals.extend(
+                mesh.normals
+                    .chunks_exact(3)
+                    .map(|p| Vec3::new(p[0], p[1], p[2])),
+            );
         } else {
             all_normals = false;
         }
-        tris.extend(mesh.indices.chunks_exact(3).map(|t| [t[0] + off, t[1] + off, t[2] + off]));
+        tris.extend(
+            mesh.indices
+                .chunks_exact(3)
+                .map(|t| [t[0] + off, t[1] + off, t[2] + off]),
+        );
     }
-    Ok(Mesh::from_triangles(positions, (all_normals && !normals.is_empty()).then_some(normals), tris))
+    Ok(Mesh::from_triangles(
+        positions,
+        (all_normals && !normals.is_empty()).then_some(normals),
+        tris,
+    ))
 }
 
 fn load_gltf(path: &Path) -> Result<Mesh> {
@@ -255,13 +328,17 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
                     continue;
                 }
                 let reader = prim.reader(|b| Some(&buffers[b.index()]));
-                let Some(pos) = reader.read_positions() else { continue };
+                let Some(pos) = reader.read_positions() else {
+                    continue;
+                };
                 let off = positions.len() as u32;
                 let before = positions.len();
                 positions.extend(pos.map(|p| m.transform_point3(Vec3::from_array(p))));
                 let count = positions.len() - before;
                 match reader.read_normals() {
-                    Some(ns) => normals.extend(ns.map(|n| (nm * Vec3::from_array(n)).normalize_or_zero())),
+                    Some(ns) => {
+                        normals.extend(ns.map(|n| (nm * Vec3::from_array(n)).normalize_or_zero()))
+                    }
                     None => all_normals = false,
                 }
                 let idx: Vec<u32> = match reader.read_indices() {
@@ -334,7 +411,10 @@ fn read_bin(r: &mut impl Read, ty: &str, fmt: PlyFormat) -> std::io::Result<f64>
 /// Loads a PLY file (ASCII, binary little- or big-endian): `vertex` x y z [nx ny nz] and
 /// `face` vertex_indices (or vertex_index) lists; other elements are skipped.
 fn load_ply(path: &Path) -> Result<Mesh> {
-    let file = std::fs::File::open(path).map_err(|e| GeomError::Io { path: path.to_path_buf(), source: e })?;
+    let file = std::fs::File::open(path).map_err(|e| GeomError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    })?;
     let mut r = std::io::BufReader::new(file);
     let mut line = String::new();
     let mut fmt = None;
@@ -342,7 +422,11 @@ fn load_ply(path: &Path) -> Result<Mesh> {
     let mut first = true;
     loop {
         line.clear();
-        if r.read_line(&mut line).map_err(|e| GeomError::Io { path: path.to_path_buf(), source: e })? == 0 {
+        if r.read_line(&mut line).map_err(|e| GeomError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })? == 0
+        {
             return Err(parse_err(path, "header ended without end_header"));
         }
         let toks: Vec<&str> = line.split_whitespace().collect();
@@ -364,19 +448,30 @@ fn load_ply(path: &Path) -> Result<Mesh> {
             }
             ["element", name, count] => elements.push(PlyElement {
                 name: name.to_string(),
-                count: count.parse().map_err(|_| parse_err(path, format!("bad element count {count}")))?,
+                count: count
+                    .parse()
+                    .map_err(|_| parse_err(path, format!("bad element count {count}")))?,
                 props: Vec::new(),
             }),
             ["property", "list", ct, it, name] => {
-                let e = elements.last_mut().ok_or_else(|| parse_err(path, "property before element"))?;
-                e.props.push(PlyProp::List(ct.to_string(), it.to_string(), name.to_string()));
+                let e = elements
+                    .last_mut()
+                    .ok_or_else(|| parse_err(path, "property before element"))?;
+                e.props.push(PlyProp::List(
+                    ct.to_string(),
+                    it.to_string(),
+                    name.to_string(),
+                ));
             }
             ["property", ty, name] => {
                 if ply_size(ty).is_none() {
                     return Err(parse_err(path, format!("unknown property type {ty}")));
                 }
-                let e = elements.last_mut().ok_or_else(|| parse_err(path, "property before element"))?;
-                e.props.push(PlyProp::Scalar(ty.to_string(), name.to_string()));
+                let e = elements
+                    .last_mut()
+                    .ok_or_else(|| parse_err(path, "property before element"))?;
+                e.props
+                    .push(PlyProp::Scalar(ty.to_string(), name.to_string()));
             }
             ["end_header"] => break,
             _ => {}
@@ -391,10 +486,16 @@ fn load_ply(path: &Path) -> Result<Mesh> {
     let mut ascii_pos = 0usize;
     if fmt == PlyFormat::Ascii {
         let mut rest = String::new();
-        r.read_to_string(&mut rest).map_err(|e| GeomError::Io { path: path.to_path_buf(), source: e })?;
+        r.read_to_string(&mut rest).map_err(|e| GeomError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
         ascii_tokens = rest
             .split_whitespace()
-            .map(|t| t.parse::<f64>().map_err(|_| parse_err(path, format!("`{t}` is not a number"))))
+            .map(|t| {
+                t.parse::<f64>()
+                    .map_err(|_| parse_err(path, format!("`{t}` is not a number")))
+            })
             .collect::<Result<_>>()?;
     }
     let short = |p: &Path| parse_err(p, "file ends before all elements were read");
@@ -413,7 +514,9 @@ fn load_ply(path: &Path) -> Result<Mesh> {
                             read_bin(&mut r, ty, fmt).map_err(|_| short(path))?
                         };
                         if e.name == "vertex" {
-                            let slot = ["x", "y", "z", "nx", "ny", "nz"].iter().position(|n| n == name);
+                            let slot = ["x", "y", "z", "nx", "ny", "nz"]
+                                .iter()
+                                .position(|n| n == name);
                             if let Some(s) = slot {
                                 v[s] = x;
                             }
@@ -438,7 +541,8 @@ fn load_ply(path: &Path) -> Result<Mesh> {
                             };
                             poly.push(x as u32);
                         }
-                        if e.name == "face" && (name == "vertex_indices" || name == "vertex_index") {
+                        if e.name == "face" && (name == "vertex_indices" || name == "vertex_index")
+                        {
                             fan(&poly, &mut tris);
                         }
                     }
@@ -450,14 +554,24 @@ fn load_ply(path: &Path) -> Result<Mesh> {
             }
         }
         if e.name == "vertex" {
-            has_normals = e.props.iter().any(|p| matches!(p, PlyProp::Scalar(_, n) if n == "nx"));
+            has_normals = e
+                .props
+                .iter()
+                .any(|p| matches!(p, PlyProp::Scalar(_, n) if n == "nx"));
         }
     }
     let np = positions.len() as u32;
     if let Some(t) = tris.iter().find(|t| t.iter().any(|&i| i >= np)) {
-        return Err(parse_err(path, format!("face {t:?} indexes past the {np} vertices")));
+        return Err(parse_err(
+            path,
+            format!("face {t:?} indexes past the {np} vertices"),
+        ));
     }
-    Ok(Mesh::from_triangles(positions, has_normals.then_some(normals), tris))
+    Ok(Mesh::from_triangles(
+        positions,
+        has_normals.then_some(normals),
+        tris,
+    ))
 }
 
 #[cfg(test)]
@@ -466,9 +580,22 @@ mod tests {
     use std::path::PathBuf;
 
     fn tetra() -> Mesh {
-        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::new(1e-4, 2e-4, 3e-4)];
+        let p = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            Vec3::new(1e-4, 2e-4, 3e-4),
+        ];
         // Last triangle is degenerate (repeated index), one tiny but valid triangle.
-        let t = vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3], [0, 0, 1], [0, 4, 1]];
+        let t = vec![
+            [0, 2, 1],
+            [0, 1, 3],
+            [0, 3, 2],
+            [1, 2, 3],
+            [0, 0, 1],
+            [0, 4, 1],
+        ];
         Mesh::from_triangles(p, None, t)
     }
 
@@ -483,17 +610,39 @@ mod tests {
         assert_eq!(m.triangles.len(), 5);
         assert_eq!(m.face_ids, vec![0, 1, 2, 3, 5]);
         assert!(m.area(4) > 0.0 && m.area(4) < 1e-3);
-        let nan = Mesh::from_triangles(vec![Vec3::ZERO, Vec3::X, Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Y, Vec3::new(2.0, 0.0, 0.0)], None, vec![[0, 1, 2], [0, 1, 3], [0, 1, 4]]);
-        assert_eq!(nan.dropped_degenerate, 2, "NaN vertex and collinear triangle");
+        let nan = Mesh::from_triangles(
+            vec![
+                Vec3::ZERO,
+                Vec3::X,
+                Vec3::new(f32::NAN, 0.0, 0.0),
+                Vec3::Y,
+                Vec3::new(2.0, 0.0, 0.0),
+            ],
+            None,
+            vec![[0, 1, 2], [0, 1, 3], [0, 1, 4]],
+        );
+        assert_eq!(
+            nan.dropped_degenerate, 2,
+            "NaN vertex and collinear triangle"
+        );
     }
 
     #[test]
     fn obj_and_ply_round_trips() {
         let mut m = tetra();
-        m.normals = Some(m.positions.iter().map(|p| (*p - Vec3::splat(0.25)).normalize()).collect());
+        m.normals = Some(
+            m.positions
+                .iter()
+                .map(|p| (*p - Vec3::splat(0.25)).normalize())
+                .collect(),
+        );
         for (name, write) in [("a.obj", 0), ("b.ply", 1)] {
             let p = tmp(name);
-            if write == 0 { m.write_obj(&p, "test").unwrap() } else { m.write_ply(&p).unwrap() }
+            if write == 0 {
+                m.write_obj(&p, "test").unwrap()
+            } else {
+                m.write_ply(&p).unwrap()
+            }
             let back = Mesh::load(&p).unwrap();
             assert_eq!(back.triangles.len(), m.triangles.len(), "{name}");
             for i in 0..m.triangles.len() {
@@ -538,7 +687,10 @@ mod tests {
         be.truncate(be.len() - 2);
         std::fs::write(&p, &be).unwrap();
         let err = Mesh::load(&p).unwrap_err().to_string();
-        assert!(err.contains("q.ply") && err.contains("ends before"), "{err}");
+        assert!(
+            err.contains("q.ply") && err.contains("ends before"),
+            "{err}"
+        );
         std::fs::remove_file(&p).ok();
     }
 
@@ -567,9 +719,18 @@ mod tests {
         std::fs::write(dir.join("m.gltf"), json).unwrap();
         let m = Mesh::load(&dir.join("m.gltf")).unwrap();
         assert_eq!(m.triangles.len(), 1);
-        assert_eq!(m.vertices(0), [Vec3::new(0.0, 2.0, 0.0), Vec3::new(1.0, 2.0, 0.0), Vec3::new(0.0, 3.0, 0.0)]);
+        assert_eq!(
+            m.vertices(0),
+            [
+                Vec3::new(0.0, 2.0, 0.0),
+                Vec3::new(1.0, 2.0, 0.0),
+                Vec3::new(0.0, 3.0, 0.0)
+            ]
+        );
         std::fs::remove_dir_all(&dir).ok();
-        let err = Mesh::load(Path::new("/nonexistent/scene.obj")).unwrap_err().to_string();
+        let err = Mesh::load(Path::new("/nonexistent/scene.obj"))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("/nonexistent/scene.obj"), "{err}");
     }
 }

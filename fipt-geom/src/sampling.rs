@@ -50,9 +50,20 @@ impl TriangleSampler {
             return None;
         }
         let prob: Vec<f32> = weights.iter().map(|&w| (w.max(0.0) / acc) as f32).collect();
-        let pdf_area = tris.iter().zip(&prob).map(|(&t, &p)| p / mesh.area(t as usize)).collect();
+        let pdf_area = tris
+            .iter()
+            .zip(&prob)
+            .map(|(&t, &p)| p / mesh.area(t as usize))
+            .collect();
         let normal = tris.iter().map(|&t| mesh.face_normal(t as usize)).collect();
-        Some(TriangleSampler { tris: tris.to_vec(), cdf, prob, total: acc, pdf_area, normal })
+        Some(TriangleSampler {
+            tris: tris.to_vec(),
+            cdf,
+            prob,
+            total: acc,
+            pdf_area,
+            normal,
+        })
     }
 
     pub fn len(&self) -> usize {
@@ -77,13 +88,22 @@ impl TriangleSampler {
     /// Samples a point of `mesh` (the mesh the sampler was built for) from `u_sel` (triangle choice) and `u` (position), uniforms in [0, 1).
     pub fn sample(&self, mesh: &Mesh, u_sel: f32, u: Vec2) -> SurfaceSample {
         let target = u_sel as f64 * self.total;
-        let k = self.cdf.partition_point(|&c| c <= target).min(self.tris.len() - 1);
+        let k = self
+            .cdf
+            .partition_point(|&c| c <= target)
+            .min(self.tris.len() - 1);
         let tri = self.tris[k];
         let [a, b, c] = mesh.vertices(tri as usize);
         // Uniform barycentrics by the square-root warp.
         let su = u.x.sqrt();
         let (b0, b1) = (1.0 - su, u.y * su);
         let p = a * b0 + b * b1 + c * (1.0 - b0 - b1);
-        SurfaceSample { tri, p, n: self.normal[k], p_tri: self.prob[k], pdf_area: self.pdf_area[k] }
+        SurfaceSample {
+            tri,
+            p,
+            n: self.normal[k],
+            p_tri: self.prob[k],
+            pdf_area: self.pdf_area[k],
+        }
     }
 }

@@ -10,5 +10,8 @@
 pub enum NeuralError {
     /// A checkpoint or configuration could not be used.
     #[error("{path}: {message}")]
-    Invalid { path: std::path::PathBuf, message: String },
+    Invalid {
+        path: std::path::PathBuf,
+        message: String,
+    },
 }

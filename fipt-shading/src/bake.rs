@@ -15,7 +15,9 @@ use fipt_core::color::Rgb;
 use fipt_core::dataset::View;
 use fipt_core::image::Image;
 use fipt_core::rng::Pcg32;
-use fipt_core::shading::{Progress, RayQuery, ShadingBaker, SurfaceHit, ViewShadings, DEFAULT_LEVELS, NUM_LEVELS};
+use fipt_core::shading::{
+    Progress, RayQuery, ShadingBaker, SurfaceHit, ViewShadings, DEFAULT_LEVELS, NUM_LEVELS,
+};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -100,7 +102,11 @@ impl BakeConfig {
     }
     /// A quarter of the samples.
     pub fn fast() -> Self {
-        BakeConfig { diffuse_samples: 64, specular_samples: [16, 32, 32, 32, 32, 32], ..Default::default() }
+        BakeConfig {
+            diffuse_samples: 64,
+            specular_samples: [16, 32, 32, 32, 32, 32],
+            ..Default::default()
+        }
     }
     /// Looks a preset up by name.
     pub fn preset(name: &str) -> Option<Self> {
@@ -156,14 +162,24 @@ pub fn primary_records(geometry: &dyn RayQuery, view: &View) -> Vec<Option<Pixel
                 if ns.dot(ng) < 0.0 {
                     ns = ng;
                 }
-                PixelRecord { hit, ng, ns, wo: -d }
+                PixelRecord {
+                    hit,
+                    ng,
+                    ns,
+                    wo: -d,
+                }
             })
         })
         .collect()
 }
 
 /// Builds the SLF from primary records and the matching HDR images.
-pub fn build_slf(records: &[Vec<Option<PixelRecord>>], images: &[Image], resolution: u32, fallback_levels: u32) -> Option<SurfaceLightField> {
+pub fn build_slf(
+    records: &[Vec<Option<PixelRecord>>],
+    images: &[Image],
+    resolution: u32,
+    fallback_levels: u32,
+) -> Option<SurfaceLightField> {
     let cube = Cube::around(records.iter().flatten().flatten().map(|r| r.hit.p), 1.1)?;
     let mut b = SlfBuilder::with_fallback(cube, resolution, fallback_levels);
     for (recs, img) in records.iter().zip(images) {
@@ -207,7 +223,12 @@ impl SampleStream {
     pub fn new(kind: SamplerKind, keys: &[u64]) -> Self {
         let mut rng = Pcg32::from_keys(keys);
         let shift = rng.next_2d();
-        SampleStream { kind, rng, shift, k: 0 }
+        SampleStream {
+            kind,
+            rng,
+            shift,
+            k: 0,
+        }
     }
     #[inline]
     pub fn next(&mut self) -> Vec2 {
@@ -225,7 +246,14 @@ impl SampleStream {
 }
 
 /// Ld at a surface point: (1/π)∫ Li cos dω by cosine sampling (weight = Li).
-pub fn diffuse_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, n: u32, stream: &mut SampleStream) -> Rgb {
+pub fn diffuse_shading(
+    light: &SlfLight,
+    p: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    n: u32,
+    stream: &mut SampleStream,
+) -> Rgb {
     if n == 0 {
         return Vec3::ZERO;
     }
@@ -244,7 +272,16 @@ pub fn diffuse_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, n: u32, st
 /// Ls0 and Ls1 at roughness `sigma` by GGX half-vector sampling:
 /// weight = Li·F_k·G·(ωo·h)/((n·h)(n·ωo)), F0 = 1 − (1−ωo·h)⁵, F1 = (1−ωo·h)⁵.
 #[allow(clippy::too_many_arguments)]
-pub fn specular_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world: Vec3, sigma: f32, n: u32, stream: &mut SampleStream) -> (Rgb, Rgb) {
+pub fn specular_shading(
+    light: &SlfLight,
+    p: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    wo_world: Vec3,
+    sigma: f32,
+    n: u32,
+    stream: &mut SampleStream,
+) -> (Rgb, Rgb) {
     if n == 0 {
         return (Vec3::ZERO, Vec3::ZERO);
     }
@@ -260,7 +297,9 @@ pub fn specular_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world:
     let (mut s0, mut s1) = (Vec3::ZERO, Vec3::ZERO);
     for _ in 0..n {
         let h = sample_ggx_h(alpha, stream.next());
-        let Some((wi, voh, li)) = reflected_li(light, &frame, origin, ng, wo, h) else { continue };
+        let Some((wi, voh, li)) = reflected_li(light, &frame, origin, ng, wo, h) else {
+            continue;
+        };
         let g = smith_g1(wi.z, sigma) * g1o;
         let w = g * voh / (h.z * wo.z);
         let m = crate::brdf::schlick_fresnel(voh);
@@ -274,7 +313,14 @@ pub fn specular_shading(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world:
 /// (local ωi, ωo·h, Li), or None when ωi leaves below the shading or geometric surface or
 /// no light arrives.
 #[inline]
-fn reflected_li(light: &SlfLight, frame: &Frame, origin: Vec3, ng: Vec3, wo: Vec3, h: Vec3) -> Option<(Vec3, f32, Rgb)> {
+fn reflected_li(
+    light: &SlfLight,
+    frame: &Frame,
+    origin: Vec3,
+    ng: Vec3,
+    wo: Vec3,
+    h: Vec3,
+) -> Option<(Vec3, f32, Rgb)> {
     let voh = wo.dot(h);
     if voh <= 0.0 {
         return None;
@@ -305,7 +351,16 @@ fn sample_ggx_h(alpha: f32, u: Vec2) -> Vec3 {
 /// weighted for every level l by the balance heuristic,
 /// Li·D_l·G_l·F·(ωo·h) / ((n·ωo)(n·h)·Σ_k counts_k·D_k(h)).
 #[allow(clippy::too_many_arguments)]
-pub fn specular_shading_mixture(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, wo_world: Vec3, levels: &[f32; NUM_LEVELS], counts: &[u32; NUM_LEVELS], streams: &mut [SampleStream; NUM_LEVELS]) -> ([Rgb; NUM_LEVELS], [Rgb; NUM_LEVELS]) {
+pub fn specular_shading_mixture(
+    light: &SlfLight,
+    p: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    wo_world: Vec3,
+    levels: &[f32; NUM_LEVELS],
+    counts: &[u32; NUM_LEVELS],
+    streams: &mut [SampleStream; NUM_LEVELS],
+) -> ([Rgb; NUM_LEVELS], [Rgb; NUM_LEVELS]) {
     let mut s0 = [Vec3::ZERO; NUM_LEVELS];
     let mut s1 = [Vec3::ZERO; NUM_LEVELS];
     let frame = Frame::from_normal(ns);
@@ -319,7 +374,9 @@ pub fn specular_shading_mixture(light: &SlfLight, p: Vec3, ng: Vec3, ns: Vec3, w
     for k in 0..NUM_LEVELS {
         for _ in 0..counts[k] {
             let h = sample_ggx_h(alphas[k], streams[k].next());
-            let Some((wi, voh, li)) = reflected_li(light, &frame, origin, ng, wo, h) else { continue };
+            let Some((wi, voh, li)) = reflected_li(light, &frame, origin, ng, wo, h) else {
+                continue;
+            };
             let d: [f32; NUM_LEVELS] = std::array::from_fn(|l| crate::brdf::ggx_d(h, alphas[l]));
             let denom: f32 = (0..NUM_LEVELS).map(|l| counts[l] as f32 * d[l]).sum();
             if !(denom > 0.0) {
@@ -365,23 +422,41 @@ impl FactorizedBaker {
     }
 
     /// Bakes and reports where the time went.
-    pub fn bake_detailed(&self, geometry: &dyn RayQuery, views: &[View], images: &[Image], progress: Progress) -> (Vec<ViewShadings>, BakeStats, Option<SurfaceLightField>) {
+    pub fn bake_detailed(
+        &self,
+        geometry: &dyn RayQuery,
+        views: &[View],
+        images: &[Image],
+        progress: Progress,
+    ) -> (Vec<ViewShadings>, BakeStats, Option<SurfaceLightField>) {
         let cfg = &self.config;
         let mut stats = BakeStats::default();
         let t = Instant::now();
-        let records: Vec<Vec<Option<PixelRecord>>> = views.iter().map(|v| primary_records(geometry, v)).collect();
+        let records: Vec<Vec<Option<PixelRecord>>> =
+            views.iter().map(|v| primary_records(geometry, v)).collect();
         stats.seconds_primary = t.elapsed().as_secs_f64();
         stats.pixels = records.iter().map(|r| r.len()).sum();
         stats.valid_pixels = records.iter().flatten().flatten().count();
         let t = Instant::now();
-        let Some(slf) = build_slf(&records, images, cfg.slf_resolution, cfg.slf_fallback_levels) else {
-            let out = views.iter().map(|v| ViewShadings::zeros(v.camera.width, v.camera.height, cfg.levels)).collect();
+        let Some(slf) = build_slf(
+            &records,
+            images,
+            cfg.slf_resolution,
+            cfg.slf_fallback_levels,
+        ) else {
+            let out = views
+                .iter()
+                .map(|v| ViewShadings::zeros(v.camera.width, v.camera.height, cfg.levels))
+                .collect();
             return (out, stats, None);
         };
         stats.seconds_slf = t.elapsed().as_secs_f64();
         stats.slf_occupied_voxels = slf.occupied();
         stats.slf_memory_bytes = slf.memory_bytes();
-        let light = SlfLight { geometry, slf: &slf };
+        let light = SlfLight {
+            geometry,
+            slf: &slf,
+        };
         let spec_per_pixel: u32 = cfg.specular_samples.iter().sum();
         let total_work = stats.valid_pixels * 2;
         let done = AtomicUsize::new(0);
@@ -427,7 +502,11 @@ impl FactorizedBaker {
                         None => a.push(u32::MAX),
                         Some(rec) => {
                             let q = ((rec.hit.p - origin) * inv).floor();
-                            let key = CellKey { tri: rec.hit.tri, side: rec.ng.dot(rec.hit.ng) > 0.0, cell: [q.x as i32, q.y as i32, q.z as i32] };
+                            let key = CellKey {
+                                tri: rec.hit.tri,
+                                side: rec.ng.dot(rec.hit.ng) > 0.0,
+                                cell: [q.x as i32, q.y as i32, q.z as i32],
+                            };
                             let id = *index.entry(key).or_insert_with(|| {
                                 entries.push((Vec3::ZERO, Vec3::ZERO, rec.ng, 0, key));
                                 entries.len() as u32 - 1
@@ -450,7 +529,8 @@ impl FactorizedBaker {
                 .map(|(k, (sp, sn, ng, n, key))| {
                     let p = *sp / *n as f32;
                     let ns = sn.normalize_or(*ng);
-                    let mut st = SampleStream::new(cfg.sampler, &[seed, 0xD1FF, key.tri as u64, k as u64]);
+                    let mut st =
+                        SampleStream::new(cfg.sampler, &[seed, 0xD1FF, key.tri as u64, k as u64]);
                     let v = diffuse_shading(&light, p, *ng, ns, cfg.diffuse_samples, &mut st);
                     v
                 })
@@ -467,12 +547,25 @@ impl FactorizedBaker {
         } else {
             for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
                 let seed = cfg.seed;
-                s.ld.par_iter_mut().zip(r.par_iter()).enumerate().for_each(|(i, (ld, rec))| {
-                    if let Some(rec) = rec {
-                        let mut st = SampleStream::new(cfg.sampler, &[seed, 0xD1FF, vi as u64, i as u64]);
-                        *ld = diffuse_shading(&light, rec.hit.p, rec.ng, rec.ns, cfg.diffuse_samples, &mut st);
-                    }
-                });
+                s.ld.par_iter_mut()
+                    .zip(r.par_iter())
+                    .enumerate()
+                    .for_each(|(i, (ld, rec))| {
+                        if let Some(rec) = rec {
+                            let mut st = SampleStream::new(
+                                cfg.sampler,
+                                &[seed, 0xD1FF, vi as u64, i as u64],
+                            );
+                            *ld = diffuse_shading(
+                                &light,
+                                rec.hit.p,
+                                rec.ng,
+                                rec.ns,
+                                cfg.diffuse_samples,
+                                &mut st,
+                            );
+                        }
+                    });
                 tick(r.iter().flatten().count());
             }
             stats.rays_diffuse = stats.valid_pixels as u64 * cfg.diffuse_samples as u64;
@@ -485,21 +578,52 @@ impl FactorizedBaker {
             let seed = cfg.seed;
             let ViewShadings { ls0, ls1, .. } = s;
             let mixture = cfg.specular_estimator == SpecularEstimator::Mixture;
-            ls0.par_iter_mut().zip(ls1.par_iter_mut()).zip(r.par_iter()).enumerate().with_min_len(64).for_each(|(i, ((l0, l1), rec))| {
-                if let Some(rec) = rec {
-                    if mixture {
-                        let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| SampleStream::new(cfg.sampler, &[seed, 0x5BEC, vi as u64, i as u64, l as u64]));
-                        (*l0, *l1) = specular_shading_mixture(&light, rec.hit.p, rec.ng, rec.ns, rec.wo, &cfg.levels, &cfg.specular_samples, &mut st);
-                        return;
+            ls0.par_iter_mut()
+                .zip(ls1.par_iter_mut())
+                .zip(r.par_iter())
+                .enumerate()
+                .with_min_len(64)
+                .for_each(|(i, ((l0, l1), rec))| {
+                    if let Some(rec) = rec {
+                        if mixture {
+                            let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
+                                SampleStream::new(
+                                    cfg.sampler,
+                                    &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
+                                )
+                            });
+                            (*l0, *l1) = specular_shading_mixture(
+                                &light,
+                                rec.hit.p,
+                                rec.ng,
+                                rec.ns,
+                                rec.wo,
+                                &cfg.levels,
+                                &cfg.specular_samples,
+                                &mut st,
+                            );
+                            return;
+                        }
+                        for l in 0..NUM_LEVELS {
+                            let mut st = SampleStream::new(
+                                cfg.sampler,
+                                &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
+                            );
+                            let (a, b) = specular_shading(
+                                &light,
+                                rec.hit.p,
+                                rec.ng,
+                                rec.ns,
+                                rec.wo,
+                                cfg.levels[l],
+                                cfg.specular_samples[l],
+                                &mut st,
+                            );
+                            l0[l] = a;
+                            l1[l] = b;
+                        }
                     }
-                    for l in 0..NUM_LEVELS {
-                        let mut st = SampleStream::new(cfg.sampler, &[seed, 0x5BEC, vi as u64, i as u64, l as u64]);
-                        let (a, b) = specular_shading(&light, rec.hit.p, rec.ng, rec.ns, rec.wo, cfg.levels[l], cfg.specular_samples[l], &mut st);
-                        l0[l] = a;
-                        l1[l] = b;
-                    }
-                }
-            });
+                });
             tick(r.iter().flatten().count());
         }
         stats.rays_specular = stats.valid_pixels as u64 * spec_per_pixel as u64;
@@ -512,9 +636,18 @@ impl ShadingBaker for FactorizedBaker {
     fn name(&self) -> &str {
         "fipt-slf"
     }
-    fn bake(&self, geometry: &dyn RayQuery, views: &[View], images: &[Image], progress: Progress) -> fipt_core::Result<Vec<ViewShadings>> {
+    fn bake(
+        &self,
+        geometry: &dyn RayQuery,
+        views: &[View],
+        images: &[Image],
+        progress: Progress,
+    ) -> fipt_core::Result<Vec<ViewShadings>> {
         if views.len() != images.len() {
-            return Err(fipt_core::CoreError::invalid("bake", format!("{} views but {} images", views.len(), images.len())));
+            return Err(fipt_core::CoreError::invalid(
+                "bake",
+                format!("{} views but {} images", views.len(), images.len()),
+            ));
         }
         Ok(self.bake_detailed(geometry, views, images, progress).0)
     }

@@ -50,7 +50,12 @@ pub fn encode(s: &ViewShadings) -> Vec<u8> {
     let n = s.width * s.height;
     let mut out = Vec::with_capacity(28 + NUM_LEVELS * 4 + n * (1 + 12 * (1 + 2 * NUM_LEVELS)));
     out.extend_from_slice(MAGIC);
-    for v in [FORMAT_VERSION, s.width as u32, s.height as u32, NUM_LEVELS as u32] {
+    for v in [
+        FORMAT_VERSION,
+        s.width as u32,
+        s.height as u32,
+        NUM_LEVELS as u32,
+    ] {
         out.extend_from_slice(&v.to_le_bytes());
     }
     for l in s.levels {
@@ -70,7 +75,12 @@ pub fn encode(s: &ViewShadings) -> Vec<u8> {
 
 /// Decodes one view's shadings; `path` names the file in errors.
 pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
-    let bad = |m: &str| CoreError::invalid(path, format!("not a valid shading file: {m} (delete it to re-bake)"));
+    let bad = |m: &str| {
+        CoreError::invalid(
+            path,
+            format!("not a valid shading file: {m} (delete it to re-bake)"),
+        )
+    };
     if bytes.len() < 24 || &bytes[..8] != MAGIC {
         return Err(bad("wrong magic"));
     }
@@ -82,7 +92,10 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
     let n = w * h;
     let expected = 24 + 4 * nl + n + 12 * n * (1 + 2 * nl);
     if bytes.len() != expected {
-        return Err(bad(&format!("{} bytes, expected {expected} (truncated?)", bytes.len())));
+        return Err(bad(&format!(
+            "{} bytes, expected {expected} (truncated?)",
+            bytes.len()
+        )));
     }
     let f = |off: usize| f32::from_le_bytes(bytes[off..off + 4].try_into().unwrap());
     let mut off = 24;
@@ -99,9 +112,21 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
         v
     };
     let ld = (0..n).map(|_| vec3(&mut off)).collect();
-    let ls0 = (0..n).map(|_| std::array::from_fn(|_| vec3(&mut off))).collect();
-    let ls1 = (0..n).map(|_| std::array::from_fn(|_| vec3(&mut off))).collect();
-    Ok(ViewShadings { width: w, height: h, levels, ld, ls0, ls1, valid })
+    let ls0 = (0..n)
+        .map(|_| std::array::from_fn(|_| vec3(&mut off)))
+        .collect();
+    let ls1 = (0..n)
+        .map(|_| std::array::from_fn(|_| vec3(&mut off)))
+        .collect();
+    Ok(ViewShadings {
+        width: w,
+        height: h,
+        levels,
+        ld,
+        ls0,
+        ls1,
+        valid,
+    })
 }
 
 /// Writes every view's file, then the manifest.
@@ -118,9 +143,17 @@ pub fn save(dir: &Path, manifest: &BakeManifest, shadings: &[ViewShadings]) -> R
 }
 
 /// Why a stored bake cannot be reused (None when it can).
-pub fn mismatch(m: &BakeManifest, inputs_hash: &str, config: &BakeConfig, baker: &str) -> Option<String> {
+pub fn mismatch(
+    m: &BakeManifest,
+    inputs_hash: &str,
+    config: &BakeConfig,
+    baker: &str,
+) -> Option<String> {
     if m.version != FORMAT_VERSION {
-        return Some(format!("format version {} (this fipt writes {FORMAT_VERSION})", m.version));
+        return Some(format!(
+            "format version {} (this fipt writes {FORMAT_VERSION})",
+            m.version
+        ));
     }
     if m.inputs_hash != inputs_hash {
         return Some("the scene's mesh, cameras or images changed".into());
@@ -140,7 +173,12 @@ pub fn mismatch(m: &BakeManifest, inputs_hash: &str, config: &BakeConfig, baker:
 }
 
 /// Loads a stored bake if it matches the inputs and settings. `Ok(Err(reason))` says why not.
-pub fn load_if_current(dir: &Path, inputs_hash: &str, config: &BakeConfig, baker: &str) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
+pub fn load_if_current(
+    dir: &Path,
+    inputs_hash: &str,
+    config: &BakeConfig,
+    baker: &str,
+) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
     let mpath = dir.join("manifest.json");
     if !mpath.is_file() {
         return Ok(Err("no finished bake found".into()));
@@ -155,7 +193,9 @@ pub fn load_if_current(dir: &Path, inputs_hash: &str, config: &BakeConfig, baker
     let mut out = Vec::with_capacity(m.views);
     for k in 0..m.views {
         let p = view_path(dir, &m.split, k);
-        let decoded = std::fs::read(&p).map_err(|e| CoreError::io(&p, e)).and_then(|b| decode(&b, &p));
+        let decoded = std::fs::read(&p)
+            .map_err(|e| CoreError::io(&p, e))
+            .and_then(|b| decode(&b, &p));
         match decoded {
             Ok(s) => out.push(s),
             Err(e) => return Ok(Err(format!("a stored view is damaged ({e})"))),
@@ -182,7 +222,12 @@ mod tests {
         }
         let b = encode(&s);
         assert_eq!(decode(&b, Path::new("x.fsh")).unwrap(), s);
-        let err = decode(&b[..b.len() - 4], Path::new("v/003.fsh")).unwrap_err().to_string();
-        assert!(err.contains("v/003.fsh") && err.contains("truncated"), "{err}");
+        let err = decode(&b[..b.len() - 4], Path::new("v/003.fsh"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("v/003.fsh") && err.contains("truncated"),
+            "{err}"
+        );
     }
 }

@@ -30,18 +30,31 @@ pub struct RenderConfig {
 
 impl Default for RenderConfig {
     fn default() -> Self {
-        RenderConfig { spp: 64, max_bounces: 7, rr_start: 3, seed: 0, tile: 16 }
+        RenderConfig {
+            spp: 64,
+            max_bounces: 7,
+            rr_start: 3,
+            seed: 0,
+            tile: 16,
+        }
     }
 }
 
 impl RenderConfig {
     /// Few samples, for previews and tests.
     pub fn preview() -> Self {
-        RenderConfig { spp: 8, ..Default::default() }
+        RenderConfig {
+            spp: 8,
+            ..Default::default()
+        }
     }
     /// High quality ground truth.
     pub fn reference() -> Self {
-        RenderConfig { spp: 512, max_bounces: 10, ..Default::default() }
+        RenderConfig {
+            spp: 512,
+            max_bounces: 10,
+            ..Default::default()
+        }
     }
 }
 
@@ -59,11 +72,21 @@ pub struct RenderStats {
 #[inline]
 fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+    if a2 + b2 > 0.0 {
+        a2 / (a2 + b2)
+    } else {
+        0.0
+    }
 }
 
 /// Radiance along one camera ray; returns (radiance, rays cast).
-pub fn trace_path<S: SurfaceModel>(scene: &Scene<S>, cfg: &RenderConfig, mut origin: Vec3, mut dir: Vec3, rng: &mut Pcg32) -> (Rgb, u32) {
+pub fn trace_path<S: SurfaceModel>(
+    scene: &Scene<S>,
+    cfg: &RenderConfig,
+    mut origin: Vec3,
+    mut dir: Vec3,
+    rng: &mut Pcg32,
+) -> (Rgb, u32) {
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let mut rays = 0u32;
@@ -71,7 +94,9 @@ pub fn trace_path<S: SurfaceModel>(scene: &Scene<S>, cfg: &RenderConfig, mut ori
     let mut bounce = 0u32;
     loop {
         rays += 1;
-        let Some(hit) = scene.bvh.closest_hit(origin, dir, 0.0, f32::INFINITY) else { break };
+        let Some(hit) = scene.bvh.closest_hit(origin, dir, 0.0, f32::INFINITY) else {
+            break;
+        };
         let tri = hit.tri;
         let le = scene.surfaces.emission(tri);
         let wo_w = -dir;
@@ -129,7 +154,9 @@ pub fn trace_path<S: SurfaceModel>(scene: &Scene<S>, cfg: &RenderConfig, mut ori
             }
         }
         // Continue the path by sampling the BRDF.
-        let Some(s) = brdf.sample(wo, rng.next_f32(), rng.next_2d()) else { break };
+        let Some(s) = brdf.sample(wo, rng.next_f32(), rng.next_2d()) else {
+            break;
+        };
         let wi_w = frame.to_world(s.wi);
         if wi_w.dot(ng) <= 0.0 {
             break;
@@ -164,7 +191,13 @@ fn tiles(w: usize, h: usize, t: usize) -> Vec<(usize, usize, usize, usize)> {
 
 /// Renders one view. `view_key` separates the random streams of different views;
 /// `progress(done_pixels)` is called as tiles finish.
-pub fn render<S: SurfaceModel>(scene: &Scene<S>, camera: &Camera, cfg: &RenderConfig, view_key: u64, progress: &(dyn Fn(usize) + Sync)) -> (Image, RenderStats) {
+pub fn render<S: SurfaceModel>(
+    scene: &Scene<S>,
+    camera: &Camera,
+    cfg: &RenderConfig,
+    view_key: u64,
+    progress: &(dyn Fn(usize) + Sync),
+) -> (Image, RenderStats) {
     let (w, h) = (camera.width, camera.height);
     let rays = AtomicUsize::new(0);
     let nonfinite = AtomicUsize::new(0);
@@ -208,7 +241,11 @@ pub fn render<S: SurfaceModel>(scene: &Scene<S>, camera: &Camera, cfg: &RenderCo
             }
         }
     }
-    let stats = RenderStats { paths: (w * h) as u64 * cfg.spp as u64, rays: rays.into_inner() as u64, nonfinite: nonfinite.into_inner() as u64 };
+    let stats = RenderStats {
+        paths: (w * h) as u64 * cfg.spp as u64,
+        rays: rays.into_inner() as u64,
+        nonfinite: nonfinite.into_inner() as u64,
+    };
     (img, stats)
 }
 
@@ -243,7 +280,14 @@ impl Aovs {
     }
     /// An id map as an image (R = G = B = id; misses get `miss`).
     pub fn id_image(ids: &[u32], w: usize, h: usize, miss: f32) -> Image {
-        Image { width: w, height: h, data: ids.iter().map(|&i| Vec3::splat(if i == u32::MAX { miss } else { i as f32 })).collect() }
+        Image {
+            width: w,
+            height: h,
+            data: ids
+                .iter()
+                .map(|&i| Vec3::splat(if i == u32::MAX { miss } else { i as f32 }))
+                .collect(),
+        }
     }
 }
 
@@ -265,10 +309,20 @@ pub fn render_aovs<S: SurfaceModel>(scene: &Scene<S>, camera: &Camera) -> Aovs {
             })
         })
         .collect();
-    let img = |f: &dyn Fn(&(fipt_geom::Hit, Vec3, fipt_core::materials::SurfacePoint, Vec3)) -> Vec3| Image {
+    let img = |f: &dyn Fn(
+        &(
+            fipt_geom::Hit,
+            Vec3,
+            fipt_core::materials::SurfacePoint,
+            Vec3,
+        ),
+    ) -> Vec3| Image {
         width: w,
         height: h,
-        data: px.iter().map(|x| x.as_ref().map(f).unwrap_or(Vec3::ZERO)).collect(),
+        data: px
+            .iter()
+            .map(|x| x.as_ref().map(f).unwrap_or(Vec3::ZERO))
+            .collect(),
     };
     Aovs {
         kd: img(&|x| x.2.kd),
@@ -279,7 +333,21 @@ pub fn render_aovs<S: SurfaceModel>(scene: &Scene<S>, camera: &Camera) -> Aovs {
         normal: img(&|x| x.3),
         position: img(&|x| x.1),
         depth: img(&|x| Vec3::splat(x.0.t)),
-        face: px.iter().map(|x| x.as_ref().map(|x| scene.mesh.face_ids[x.0.tri as usize]).unwrap_or(u32::MAX)).collect(),
-        part: px.iter().map(|x| x.as_ref().map(|x| scene.surfaces.part(x.0.tri)).unwrap_or(u32::MAX)).collect(),
+        face: px
+            .iter()
+            .map(|x| {
+                x.as_ref()
+                    .map(|x| scene.mesh.face_ids[x.0.tri as usize])
+                    .unwrap_or(u32::MAX)
+            })
+            .collect(),
+        part: px
+            .iter()
+            .map(|x| {
+                x.as_ref()
+                    .map(|x| scene.surfaces.part(x.0.tri))
+                    .unwrap_or(u32::MAX)
+            })
+            .collect(),
     }
 }

@@ -31,11 +31,21 @@ pub struct TableSurfaces {
 
 impl TableSurfaces {
     /// Binds a material table (indexed by file face) to a mesh's triangles.
-    pub fn new(materials: SceneMaterials, mesh: &Mesh, table_path: &std::path::Path) -> fipt_core::Result<Self> {
+    pub fn new(
+        materials: SceneMaterials,
+        mesh: &Mesh,
+        table_path: &std::path::Path,
+    ) -> fipt_core::Result<Self> {
         let faces = materials.face_table(mesh.num_file_faces, table_path)?;
         let tri_material = mesh.face_ids.iter().map(|&f| faces[f as usize]).collect();
-        let material_emission = (0..materials.materials.len() as u32).map(|m| materials.eval(m, Vec3::ZERO).emission).collect();
-        Ok(TableSurfaces { materials, tri_material, material_emission })
+        let material_emission = (0..materials.materials.len() as u32)
+            .map(|m| materials.eval(m, Vec3::ZERO).emission)
+            .collect();
+        Ok(TableSurfaces {
+            materials,
+            tri_material,
+            material_emission,
+        })
     }
 }
 
@@ -61,7 +71,12 @@ pub struct LambertSurfaces {
 
 impl SurfaceModel for LambertSurfaces {
     fn surface(&self, tri: u32, _p: Vec3) -> SurfacePoint {
-        SurfacePoint { kd: self.albedo[tri as usize], roughness: 1.0, emission: self.emission[tri as usize], ..Default::default() }
+        SurfacePoint {
+            kd: self.albedo[tri as usize],
+            roughness: 1.0,
+            emission: self.emission[tri as usize],
+            ..Default::default()
+        }
     }
     fn emission(&self, tri: u32) -> Rgb {
         self.emission[tri as usize]
@@ -113,7 +128,14 @@ impl<S: SurfaceModel> Scene<S> {
                 light_pdf_area[t as usize] = l.probability(k) / mesh.area(t as usize);
             }
         }
-        Scene { mesh, bvh, surfaces, lights, light_pmf, light_pdf_area }
+        Scene {
+            mesh,
+            bvh,
+            surfaces,
+            lights,
+            light_pmf,
+            light_pdf_area,
+        }
     }
 
     /// Emitter triangles.

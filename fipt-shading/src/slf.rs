@@ -23,7 +23,9 @@ impl Hasher for VoxelHasher {
     }
     #[inline]
     fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0 ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29);
+        self.0 = (self.0 ^ v)
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            .rotate_left(29);
     }
     #[inline]
     fn write_u32(&mut self, v: u32) {
@@ -54,7 +56,10 @@ impl Cube {
             return None;
         }
         let size = ((hi - lo).max_element() * scale).max(1e-6);
-        Some(Cube { min: (lo + hi) * 0.5 - Vec3::splat(0.5 * size), size })
+        Some(Cube {
+            min: (lo + hi) * 0.5 - Vec3::splat(0.5 * size),
+            size,
+        })
     }
 }
 
@@ -77,14 +82,21 @@ struct Brick {
 impl BrickGrid {
     fn from_sums(res: u64, sums: &VoxelMap<(DVec3, u32)>) -> Self {
         let nb = res.div_ceil(8);
-        let mut g = BrickGrid { nb, blocks: vec![u32::MAX; (nb * nb * nb) as usize], bricks: Vec::new() };
+        let mut g = BrickGrid {
+            nb,
+            blocks: vec![u32::MAX; (nb * nb * nb) as usize],
+            bricks: Vec::new(),
+        };
         for (&k, &(s, n)) in sums {
             let (x, y, z) = (k % res, (k / res) % res, k / (res * res));
             let b = ((z >> 3) * nb + (y >> 3)) * nb + (x >> 3);
             let slot = &mut g.blocks[b as usize];
             if *slot == u32::MAX {
                 *slot = g.bricks.len() as u32;
-                g.bricks.push(Brick { mask: [0; 8], vals: [Vec3::ZERO; 512] });
+                g.bricks.push(Brick {
+                    mask: [0; 8],
+                    vals: [Vec3::ZERO; 512],
+                });
             }
             let brick = &mut g.bricks[*slot as usize];
             let i = (((z & 7) << 6) | ((y & 7) << 3) | (x & 7)) as usize;
@@ -106,7 +118,15 @@ impl BrickGrid {
     }
 
     fn occupied(&self) -> usize {
-        self.bricks.iter().map(|b| b.mask.iter().map(|m| m.count_ones() as usize).sum::<usize>()).sum()
+        self.bricks
+            .iter()
+            .map(|b| {
+                b.mask
+                    .iter()
+                    .map(|m| m.count_ones() as usize)
+                    .sum::<usize>()
+            })
+            .sum()
     }
 
     fn memory_bytes(&self) -> usize {
@@ -165,7 +185,11 @@ impl SurfaceLightField {
     /// Whether the full-resolution voxel containing `p` holds radiance.
     pub fn occupied_at(&self, p: Vec3) -> bool {
         let r = self.resolution as u64;
-        self.voxel(p).is_some_and(|k| self.levels[0].get(k % r, (k / r) % r, k / (r * r)).is_some())
+        self.voxel(p).is_some_and(|k| {
+            self.levels[0]
+                .get(k % r, (k / r) % r, k / (r * r))
+                .is_some()
+        })
     }
 
     /// Number of occupied full-resolution voxels.
@@ -212,7 +236,13 @@ impl SlfBuilder {
     /// A builder whose SLF falls back to up to `fallback_levels` coarser grids.
     pub fn with_fallback(cube: Cube, resolution: u32, fallback_levels: u32) -> Self {
         let resolution = resolution.max(1);
-        SlfBuilder { cube, resolution, inv_cell: resolution as f32 / cube.size, fallback_levels, sums: VoxelMap::default() }
+        SlfBuilder {
+            cube,
+            resolution,
+            inv_cell: resolution as f32 / cube.size,
+            fallback_levels,
+            sums: VoxelMap::default(),
+        }
     }
 
     /// Adds one observation of radiance `l` at point `p` (ignored outside the cube or if not finite).
@@ -237,7 +267,9 @@ impl SlfBuilder {
                 let mut m: VoxelMap<(DVec3, u32)> = VoxelMap::default();
                 for (&k, &(s, n)) in &sums {
                     let (x, y, z) = (k % r, (k / r) % r, k / (r * r));
-                    let e = m.entry(((z / 2) * rc + y / 2) * rc + x / 2).or_insert((DVec3::ZERO, 0));
+                    let e = m
+                        .entry(((z / 2) * rc + y / 2) * rc + x / 2)
+                        .or_insert((DVec3::ZERO, 0));
                     e.0 += s;
                     e.1 += n;
                 }
@@ -254,7 +286,12 @@ impl SlfBuilder {
                 None => break,
             }
         }
-        SurfaceLightField { cube: self.cube, resolution: self.resolution, inv_cell: self.inv_cell, levels }
+        SurfaceLightField {
+            cube: self.cube,
+            resolution: self.resolution,
+            inv_cell: self.inv_cell,
+            levels,
+        }
     }
 }
 
@@ -278,25 +315,44 @@ mod tests {
         assert_eq!(slf.lookup(Vec3::splat(0.9)), Vec3::new(5.0, 0.0, 0.0));
         assert_eq!(slf.lookup(Vec3::splat(0.5)), Vec3::ZERO);
         assert_eq!(slf.lookup(Vec3::splat(-3.0)), Vec3::ZERO);
-        assert!(slf.memory_bytes() < 16 * 1024, "sparse: {} bytes for a 4³ grid with 2 voxels", slf.memory_bytes());
+        assert!(
+            slf.memory_bytes() < 16 * 1024,
+            "sparse: {} bytes for a 4³ grid with 2 voxels",
+            slf.memory_bytes()
+        );
     }
 
     #[test]
     fn empty_voxels_fall_back_to_coarser_levels() {
-        let cube = Cube { min: Vec3::ZERO, size: 8.0 };
+        let cube = Cube {
+            min: Vec3::ZERO,
+            size: 8.0,
+        };
         let mut b = SlfBuilder::with_fallback(cube, 8, 2);
         b.add(Vec3::new(0.5, 0.5, 0.5), Vec3::splat(2.0)); // voxel (0,0,0)
         b.add(Vec3::new(1.5, 0.5, 0.5), Vec3::splat(4.0)); // voxel (1,0,0)
         b.add(Vec3::new(7.5, 7.5, 7.5), Vec3::splat(9.0));
         let slf = b.finish();
-        assert_eq!(slf.lookup(Vec3::new(0.5, 0.5, 0.5)), Vec3::splat(2.0), "fine voxel wins");
+        assert_eq!(
+            slf.lookup(Vec3::new(0.5, 0.5, 0.5)),
+            Vec3::splat(2.0),
+            "fine voxel wins"
+        );
         // (1,1,0) is empty; its 2× parent (0,0,0) holds the mean of both samples.
         assert_eq!(slf.lookup(Vec3::new(1.5, 1.5, 0.5)), Vec3::splat(3.0));
         // (3,3,3) is empty at 8³ and 4³; the 2³ parent (0,0,0) averages the first two.
         assert_eq!(slf.lookup(Vec3::new(3.5, 3.5, 3.5)), Vec3::splat(3.0));
         // (4,4,4) → 2³ parent (1,1,1) holds the last sample.
         assert_eq!(slf.lookup(Vec3::new(4.5, 4.5, 4.5)), Vec3::splat(9.0));
-        let strict = { let mut b = SlfBuilder::new(cube, 8); b.add(Vec3::splat(0.5), Vec3::ONE); b.finish() };
-        assert_eq!(strict.lookup(Vec3::new(1.5, 1.5, 0.5)), Vec3::ZERO, "reference behaviour without fallback");
+        let strict = {
+            let mut b = SlfBuilder::new(cube, 8);
+            b.add(Vec3::splat(0.5), Vec3::ONE);
+            b.finish()
+        };
+        assert_eq!(
+            strict.lookup(Vec3::new(1.5, 1.5, 0.5)),
+            Vec3::ZERO,
+            "reference behaviour without fallback"
+        );
     }
 }

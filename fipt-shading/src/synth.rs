@@ -70,14 +70,32 @@ const DECOR: u32 = 6;
 
 impl Builder {
     fn new() -> Self {
-        Builder { pos: vec![], tris: vec![], materials: vec![], semantic: vec![], faces: vec![], obstacles: vec![], targets: vec![], emitters: vec![] }
+        Builder {
+            pos: vec![],
+            tris: vec![],
+            materials: vec![],
+            semantic: vec![],
+            faces: vec![],
+            obstacles: vec![],
+            targets: vec![],
+            emitters: vec![],
+        }
     }
 
-    fn part(&mut self, mat: MaterialDesc, class: u32, geom: impl FnOnce(&mut Vec<Vec3>, &mut Vec<[u32; 3]>)) {
+    fn part(
+        &mut self,
+        mat: MaterialDesc,
+        class: u32,
+        geom: impl FnOnce(&mut Vec<Vec3>, &mut Vec<[u32; 3]>),
+    ) {
         let start = self.tris.len() as u32;
         geom(&mut self.pos, &mut self.tris);
         let m = self.materials.len() as u32;
-        self.faces.push(FaceRange { start, end: self.tris.len() as u32, material: m });
+        self.faces.push(FaceRange {
+            start,
+            end: self.tris.len() as u32,
+            material: m,
+        });
         self.materials.push(mat);
         self.semantic.push(class);
     }
@@ -88,7 +106,12 @@ impl Builder {
         SynthScene {
             name: name.to_string(),
             mesh,
-            materials: SceneMaterials { version: 1, materials: self.materials, faces: self.faces, note: format!("fipt synth {name}") },
+            materials: SceneMaterials {
+                version: 1,
+                materials: self.materials,
+                faces: self.faces,
+                note: format!("fipt synth {name}"),
+            },
             semantic: self.semantic,
             room_min,
             room_max,
@@ -109,38 +132,108 @@ fn quad(pos: &mut Vec<Vec3>, tris: &mut Vec<[u32; 3]>, o: Vec3, a: Vec3, b: Vec3
 }
 
 /// A box rotated by `yaw` about +y; normals outward (or inward with `inward`).
-fn boxed(pos: &mut Vec<Vec3>, tris: &mut Vec<[u32; 3]>, center: Vec3, half: Vec3, yaw: f32, inward: bool) {
+fn boxed(
+    pos: &mut Vec<Vec3>,
+    tris: &mut Vec<[u32; 3]>,
+    center: Vec3,
+    half: Vec3,
+    yaw: f32,
+    inward: bool,
+) {
     let (s, c) = yaw.sin_cos();
     let rot = |v: Vec3| Vec3::new(c * v.x + s * v.z, v.y, -s * v.x + c * v.z);
-    let corner = |x: f32, y: f32, z: f32| center + rot(Vec3::new(x * half.x, y * half.y, z * half.z));
+    let corner =
+        |x: f32, y: f32, z: f32| center + rot(Vec3::new(x * half.x, y * half.y, z * half.z));
     // Each face: origin corner and two edges with a × b pointing outward.
     let faces = [
-        (corner(1., -1., -1.), corner(1., 1., -1.), corner(1., -1., 1.)),   // +x
-        (corner(-1., -1., -1.), corner(-1., -1., 1.), corner(-1., 1., -1.)), // -x
-        (corner(-1., 1., -1.), corner(-1., 1., 1.), corner(1., 1., -1.)),   // +y
-        (corner(-1., -1., -1.), corner(1., -1., -1.), corner(-1., -1., 1.)), // -y
-        (corner(-1., -1., 1.), corner(1., -1., 1.), corner(-1., 1., 1.)),   // +z
-        (corner(-1., -1., -1.), corner(-1., 1., -1.), corner(1., -1., -1.)), // -z
+        (
+            corner(1., -1., -1.),
+            corner(1., 1., -1.),
+            corner(1., -1., 1.),
+        ), // +x
+        (
+            corner(-1., -1., -1.),
+            corner(-1., -1., 1.),
+            corner(-1., 1., -1.),
+        ), // -x
+        (
+            corner(-1., 1., -1.),
+            corner(-1., 1., 1.),
+            corner(1., 1., -1.),
+        ), // +y
+        (
+            corner(-1., -1., -1.),
+            corner(1., -1., -1.),
+            corner(-1., -1., 1.),
+        ), // -y
+        (
+            corner(-1., -1., 1.),
+            corner(1., -1., 1.),
+            corner(-1., 1., 1.),
+        ), // +z
+        (
+            corner(-1., -1., -1.),
+            corner(-1., 1., -1.),
+            corner(1., -1., -1.),
+        ), // -z
     ];
     for (o, pa, pb) in faces {
         let (a, b) = (pa - o, pb - o);
-        if inward { quad(pos, tris, o, b, a) } else { quad(pos, tris, o, a, b) }
+        if inward {
+            quad(pos, tris, o, b, a)
+        } else {
+            quad(pos, tris, o, a, b)
+        }
     }
 }
 
 /// An icosphere with `subdiv` subdivisions (20·4^subdiv triangles), normals outward.
-fn icosphere(pos: &mut Vec<Vec3>, tris: &mut Vec<[u32; 3]>, center: Vec3, radius: f32, subdiv: u32) {
+fn icosphere(
+    pos: &mut Vec<Vec3>,
+    tris: &mut Vec<[u32; 3]>,
+    center: Vec3,
+    radius: f32,
+    subdiv: u32,
+) {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     let mut v: Vec<Vec3> = [
-        (-1., t, 0.), (1., t, 0.), (-1., -t, 0.), (1., -t, 0.), (0., -1., t), (0., 1., t),
-        (0., -1., -t), (0., 1., -t), (t, 0., -1.), (t, 0., 1.), (-t, 0., -1.), (-t, 0., 1.),
+        (-1., t, 0.),
+        (1., t, 0.),
+        (-1., -t, 0.),
+        (1., -t, 0.),
+        (0., -1., t),
+        (0., 1., t),
+        (0., -1., -t),
+        (0., 1., -t),
+        (t, 0., -1.),
+        (t, 0., 1.),
+        (-t, 0., -1.),
+        (-t, 0., 1.),
     ]
     .iter()
     .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
     .collect();
     let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
-        [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
     ];
     for _ in 0..subdiv {
         let mut cache = std::collections::HashMap::new();
@@ -173,7 +266,12 @@ pub fn icosphere_mesh(center: Vec3, radius: f32, subdiv: u32) -> Mesh {
 }
 
 fn principled(name: &str, base: Texture, rough: Texture, metal: f32) -> MaterialDesc {
-    MaterialDesc::Principled { name: name.into(), base_color: base, roughness: rough, metallic: Texture::Scalar(metal) }
+    MaterialDesc::Principled {
+        name: name.into(),
+        base_color: base,
+        roughness: rough,
+        metallic: Texture::Scalar(metal),
+    }
 }
 
 fn rgb(r: f32, g: f32, b: f32) -> Texture {
@@ -181,21 +279,61 @@ fn rgb(r: f32, g: f32, b: f32) -> Texture {
 }
 
 /// The room shell: floor, ceiling and four walls (normals inward), one part each.
-fn shell(b: &mut Builder, lo: Vec3, hi: Vec3, floor: MaterialDesc, ceiling: MaterialDesc, walls: [MaterialDesc; 4]) {
+fn shell(
+    b: &mut Builder,
+    lo: Vec3,
+    hi: Vec3,
+    floor: MaterialDesc,
+    ceiling: MaterialDesc,
+    walls: [MaterialDesc; 4],
+) {
     let e = hi - lo;
-    b.part(floor, FLOOR, |p, t| quad(p, t, lo, Vec3::new(0., 0., e.z), Vec3::new(e.x, 0., 0.)));
-    b.part(ceiling, CEILING, |p, t| quad(p, t, Vec3::new(lo.x, hi.y, lo.z), Vec3::new(e.x, 0., 0.), Vec3::new(0., 0., e.z)));
+    b.part(floor, FLOOR, |p, t| {
+        quad(p, t, lo, Vec3::new(0., 0., e.z), Vec3::new(e.x, 0., 0.))
+    });
+    b.part(ceiling, CEILING, |p, t| {
+        quad(
+            p,
+            t,
+            Vec3::new(lo.x, hi.y, lo.z),
+            Vec3::new(e.x, 0., 0.),
+            Vec3::new(0., 0., e.z),
+        )
+    });
     let [wl, wr, wb, wf] = walls;
-    b.part(wl, WALL, |p, t| quad(p, t, lo, Vec3::new(0., e.y, 0.), Vec3::new(0., 0., e.z))); // x- wall, normal +x
-    b.part(wr, WALL, |p, t| quad(p, t, Vec3::new(hi.x, lo.y, lo.z), Vec3::new(0., 0., e.z), Vec3::new(0., e.y, 0.))); // x+
-    b.part(wb, WALL, |p, t| quad(p, t, lo, Vec3::new(e.x, 0., 0.), Vec3::new(0., e.y, 0.))); // z- wall, normal +z
-    b.part(wf, WALL, |p, t| quad(p, t, Vec3::new(lo.x, lo.y, hi.z), Vec3::new(0., e.y, 0.), Vec3::new(e.x, 0., 0.))); // z+
+    b.part(wl, WALL, |p, t| {
+        quad(p, t, lo, Vec3::new(0., e.y, 0.), Vec3::new(0., 0., e.z))
+    }); // x- wall, normal +x
+    b.part(wr, WALL, |p, t| {
+        quad(
+            p,
+            t,
+            Vec3::new(hi.x, lo.y, lo.z),
+            Vec3::new(0., 0., e.z),
+            Vec3::new(0., e.y, 0.),
+        )
+    }); // x+
+    b.part(wb, WALL, |p, t| {
+        quad(p, t, lo, Vec3::new(e.x, 0., 0.), Vec3::new(0., e.y, 0.))
+    }); // z- wall, normal +z
+    b.part(wf, WALL, |p, t| {
+        quad(
+            p,
+            t,
+            Vec3::new(lo.x, lo.y, hi.z),
+            Vec3::new(0., e.y, 0.),
+            Vec3::new(e.x, 0., 0.),
+        )
+    }); // z+
 }
 
 fn add_box(b: &mut Builder, mat: MaterialDesc, class: u32, center: Vec3, half: Vec3, yaw: f32) {
     b.part(mat, class, |p, t| boxed(p, t, center, half, yaw, false));
     let r = half.x.hypot(half.z);
-    b.obstacles.push(Obstacle { min: center - Vec3::new(r, half.y, r), max: center + Vec3::new(r, half.y, r) });
+    b.obstacles.push(Obstacle {
+        min: center - Vec3::new(r, half.y, r),
+        max: center + Vec3::new(r, half.y, r),
+    });
     b.targets.push(center);
 }
 
@@ -217,13 +355,62 @@ pub fn cornell() -> SynthScene {
             principled("front", rgb(0.5, 0.5, 0.55), Texture::Scalar(0.9), 0.0),
         ],
     );
-    b.part(MaterialDesc::Emitter { name: "ceiling_light".into(), radiance: [17.0, 12.0, 4.0] }, LIGHT, |p, t| {
-        quad(p, t, Vec3::new(-0.25, 1.99, -0.25), Vec3::new(0.5, 0., 0.), Vec3::new(0., 0., 0.5))
-    });
+    b.part(
+        MaterialDesc::Emitter {
+            name: "ceiling_light".into(),
+            radiance: [17.0, 12.0, 4.0],
+        },
+        LIGHT,
+        |p, t| {
+            quad(
+                p,
+                t,
+                Vec3::new(-0.25, 1.99, -0.25),
+                Vec3::new(0.5, 0., 0.),
+                Vec3::new(0., 0., 0.5),
+            )
+        },
+    );
     b.emitters.push(Vec3::new(0.0, 1.99, 0.0));
-    add_box(&mut b, principled("tall_block", rgb(0.72, 0.7, 0.66), Texture::Scalar(0.95), 0.0), FURNITURE, Vec3::new(-0.35, 0.6, -0.3), Vec3::new(0.25, 0.6, 0.25), 0.3);
-    add_box(&mut b, principled("short_block", rgb(0.2, 0.35, 0.7), Texture::Scalar(1.0), 0.0), FURNITURE, Vec3::new(0.4, 0.25, 0.35), Vec3::new(0.25, 0.25, 0.25), -0.3);
-    add_box(&mut b, principled("glossy_block", rgb(0.8, 0.6, 0.1), Texture::Scalar(0.25), 0.0), FURNITURE, Vec3::new(0.45, 0.2, -0.45), Vec3::new(0.18, 0.2, 0.18), 0.5);
+    add_box(
+        &mut b,
+        principled(
+            "tall_block",
+            rgb(0.72, 0.7, 0.66),
+            Texture::Scalar(0.95),
+            0.0,
+        ),
+        FURNITURE,
+        Vec3::new(-0.35, 0.6, -0.3),
+        Vec3::new(0.25, 0.6, 0.25),
+        0.3,
+    );
+    add_box(
+        &mut b,
+        principled(
+            "short_block",
+            rgb(0.2, 0.35, 0.7),
+            Texture::Scalar(1.0),
+            0.0,
+        ),
+        FURNITURE,
+        Vec3::new(0.4, 0.25, 0.35),
+        Vec3::new(0.25, 0.25, 0.25),
+        -0.3,
+    );
+    add_box(
+        &mut b,
+        principled(
+            "glossy_block",
+            rgb(0.8, 0.6, 0.1),
+            Texture::Scalar(0.25),
+            0.0,
+        ),
+        FURNITURE,
+        Vec3::new(0.45, 0.2, -0.45),
+        Vec3::new(0.18, 0.2, 0.18),
+        0.5,
+    );
     b.finish("cornell", lo, hi, 60f32.to_radians())
 }
 
@@ -245,7 +432,13 @@ pub fn room() -> SynthScene {
         u_axis: [1.0 / 0.9, 0.0, 0.0],
         v_axis: [0.0, 0.0, 1.0 / 0.3],
     });
-    let wallpaper = Texture::Pattern(Pattern::Stripes { color0: [0.7, 0.66, 0.55], color1: [0.6, 0.52, 0.42], origin: [0.0, 0.0, 0.0], u_axis: [0.0, 0.0, 1.0 / 0.25], duty: 0.5 });
+    let wallpaper = Texture::Pattern(Pattern::Stripes {
+        color0: [0.7, 0.66, 0.55],
+        color1: [0.6, 0.52, 0.42],
+        origin: [0.0, 0.0, 0.0],
+        u_axis: [0.0, 0.0, 1.0 / 0.25],
+        duty: 0.5,
+    });
     shell(
         &mut b,
         lo,
@@ -254,34 +447,127 @@ pub fn room() -> SynthScene {
         principled("ceiling", rgb(0.85, 0.85, 0.83), Texture::Scalar(1.0), 0.0),
         [
             principled("wall_west", wallpaper, Texture::Scalar(0.9), 0.0),
-            principled("wall_east", rgb(0.35, 0.52, 0.4), Texture::Scalar(0.85), 0.0),
-            principled("wall_north", rgb(0.76, 0.72, 0.64), Texture::Scalar(0.95), 0.0),
-            principled("wall_south", rgb(0.32, 0.38, 0.6), Texture::Scalar(0.9), 0.0),
+            principled(
+                "wall_east",
+                rgb(0.35, 0.52, 0.4),
+                Texture::Scalar(0.85),
+                0.0,
+            ),
+            principled(
+                "wall_north",
+                rgb(0.76, 0.72, 0.64),
+                Texture::Scalar(0.95),
+                0.0,
+            ),
+            principled(
+                "wall_south",
+                rgb(0.32, 0.38, 0.6),
+                Texture::Scalar(0.9),
+                0.0,
+            ),
         ],
     );
     // Ceiling panel (1 cm below the ceiling).
-    b.part(MaterialDesc::Emitter { name: "ceiling_panel".into(), radiance: [9.0, 8.6, 7.8] }, LIGHT, |p, t| {
-        quad(p, t, Vec3::new(-0.6, 2.79, -0.3), Vec3::new(1.2, 0., 0.), Vec3::new(0., 0., 0.6))
-    });
+    b.part(
+        MaterialDesc::Emitter {
+            name: "ceiling_panel".into(),
+            radiance: [9.0, 8.6, 7.8],
+        },
+        LIGHT,
+        |p, t| {
+            quad(
+                p,
+                t,
+                Vec3::new(-0.6, 2.79, -0.3),
+                Vec3::new(1.2, 0., 0.),
+                Vec3::new(0., 0., 0.6),
+            )
+        },
+    );
     b.emitters.push(Vec3::new(0.0, 2.79, 0.0));
     // Floor lamp: a thin stand and a small, very bright bulb.
     let lamp = Vec3::new(-1.9, 0.0, 1.4);
-    add_box(&mut b, principled("lamp_stand", rgb(0.1, 0.1, 0.1), Texture::Scalar(0.5), 1.0), FURNITURE, lamp + Vec3::new(0.0, 0.7, 0.0), Vec3::new(0.025, 0.7, 0.025), 0.0);
-    b.part(MaterialDesc::Emitter { name: "bulb".into(), radiance: [120.0, 90.0, 50.0] }, LIGHT, |p, t| icosphere(p, t, lamp + Vec3::new(0.0, 1.48, 0.0), 0.07, 2));
-    b.obstacles.push(Obstacle { min: lamp + Vec3::new(-0.1, 1.38, -0.1), max: lamp + Vec3::new(0.1, 1.58, 0.1) });
+    add_box(
+        &mut b,
+        principled("lamp_stand", rgb(0.1, 0.1, 0.1), Texture::Scalar(0.5), 1.0),
+        FURNITURE,
+        lamp + Vec3::new(0.0, 0.7, 0.0),
+        Vec3::new(0.025, 0.7, 0.025),
+        0.0,
+    );
+    b.part(
+        MaterialDesc::Emitter {
+            name: "bulb".into(),
+            radiance: [120.0, 90.0, 50.0],
+        },
+        LIGHT,
+        |p, t| icosphere(p, t, lamp + Vec3::new(0.0, 1.48, 0.0), 0.07, 2),
+    );
+    b.obstacles.push(Obstacle {
+        min: lamp + Vec3::new(-0.1, 1.38, -0.1),
+        max: lamp + Vec3::new(0.1, 1.58, 0.1),
+    });
     b.emitters.push(lamp + Vec3::new(0.0, 1.48, 0.0));
     // Furniture.
-    add_box(&mut b, principled("sofa", rgb(0.55, 0.2, 0.15), Texture::Scalar(1.0), 0.0), FURNITURE, Vec3::new(0.4, 0.3, 1.5), Vec3::new(1.0, 0.3, 0.4), 0.0);
-    add_box(&mut b, principled("table", rgb(0.75, 0.72, 0.68), Texture::Scalar(0.6), 0.0), FURNITURE, Vec3::new(0.6, 0.35, 0.0), Vec3::new(0.6, 0.35, 0.4), 0.15);
-    add_box(&mut b, principled("glossy_box", rgb(0.1, 0.28, 0.62), Texture::Scalar(0.15), 0.0), DECOR, Vec3::new(-1.2, 0.3, -0.6), Vec3::new(0.3, 0.3, 0.3), 0.5);
+    add_box(
+        &mut b,
+        principled("sofa", rgb(0.55, 0.2, 0.15), Texture::Scalar(1.0), 0.0),
+        FURNITURE,
+        Vec3::new(0.4, 0.3, 1.5),
+        Vec3::new(1.0, 0.3, 0.4),
+        0.0,
+    );
+    add_box(
+        &mut b,
+        principled("table", rgb(0.75, 0.72, 0.68), Texture::Scalar(0.6), 0.0),
+        FURNITURE,
+        Vec3::new(0.6, 0.35, 0.0),
+        Vec3::new(0.6, 0.35, 0.4),
+        0.15,
+    );
+    add_box(
+        &mut b,
+        principled(
+            "glossy_box",
+            rgb(0.1, 0.28, 0.62),
+            Texture::Scalar(0.15),
+            0.0,
+        ),
+        DECOR,
+        Vec3::new(-1.2, 0.3, -0.6),
+        Vec3::new(0.3, 0.3, 0.3),
+        0.5,
+    );
     let sphere_c = Vec3::new(1.7, 0.4, -1.3);
-    b.part(principled("metal_sphere", rgb(0.95, 0.75, 0.45), Texture::Scalar(0.4), 1.0), DECOR, |p, t| icosphere(p, t, sphere_c, 0.4, 3));
-    b.obstacles.push(Obstacle { min: sphere_c - 0.4, max: sphere_c + 0.4 });
+    b.part(
+        principled(
+            "metal_sphere",
+            rgb(0.95, 0.75, 0.45),
+            Texture::Scalar(0.4),
+            1.0,
+        ),
+        DECOR,
+        |p, t| icosphere(p, t, sphere_c, 0.4, 3),
+    );
+    b.obstacles.push(Obstacle {
+        min: sphere_c - 0.4,
+        max: sphere_c + 0.4,
+    });
     b.targets.push(sphere_c);
     // Near-mirror panel on the north wall (1 cm off the wall).
-    b.part(principled("mirror", rgb(0.94, 0.94, 0.95), Texture::Scalar(0.04), 1.0), DECOR, |p, t| {
-        quad(p, t, Vec3::new(-0.9, 0.8, -1.99), Vec3::new(1.2, 0., 0.), Vec3::new(0., 1.4, 0.))
-    });
+    b.part(
+        principled("mirror", rgb(0.94, 0.94, 0.95), Texture::Scalar(0.04), 1.0),
+        DECOR,
+        |p, t| {
+            quad(
+                p,
+                t,
+                Vec3::new(-0.9, 0.8, -1.99),
+                Vec3::new(1.2, 0., 0.),
+                Vec3::new(0., 1.4, 0.),
+            )
+        },
+    );
     b.targets.push(Vec3::new(-0.3, 1.5, -1.99));
     b.finish("room", lo, hi, 65f32.to_radians())
 }
@@ -309,21 +595,48 @@ impl SynthOptions {
     /// Defaults per scene: `cornell` is tiny (tests), `room` matches the benchmark size.
     pub fn defaults(name: &str) -> Self {
         match name {
-            "cornell" => SynthOptions { train_views: 12, val_views: 4, width: 64, height: 48, render: RenderConfig { spp: 64, ..Default::default() } },
-            _ => SynthOptions { train_views: 48, val_views: 8, width: 240, height: 160, render: RenderConfig { spp: 128, ..Default::default() } },
+            "cornell" => SynthOptions {
+                train_views: 12,
+                val_views: 4,
+                width: 64,
+                height: 48,
+                render: RenderConfig {
+                    spp: 64,
+                    ..Default::default()
+                },
+            },
+            _ => SynthOptions {
+                train_views: 48,
+                val_views: 8,
+                width: 240,
+                height: 160,
+                render: RenderConfig {
+                    spp: 128,
+                    ..Default::default()
+                },
+            },
         }
     }
 }
 
 impl SynthScene {
     fn inside_obstacle(&self, p: Vec3, margin: f32) -> bool {
-        self.obstacles.iter().any(|o| p.cmpge(o.min - margin).all() && p.cmple(o.max + margin).all())
+        self.obstacles
+            .iter()
+            .any(|o| p.cmpge(o.min - margin).all() && p.cmple(o.max + margin).all())
     }
 
     /// `n` cameras from `seed`: positions inside the room (30 cm from walls, outside every
     /// object by 20 cm), looking at objects, emitters or the walls, with nothing closer than
     /// 30 cm along the optical axis.
-    pub fn cameras(&self, n: usize, seed: u64, width: usize, height: usize, bvh: &fipt_geom::Bvh) -> Vec<Camera> {
+    pub fn cameras(
+        &self,
+        n: usize,
+        seed: u64,
+        width: usize,
+        height: usize,
+        bvh: &fipt_geom::Bvh,
+    ) -> Vec<Camera> {
         let mut rng = Pcg32::new(seed, 0xCA3E);
         let mut out = Vec::with_capacity(n);
         let size = self.room_max - self.room_min;
@@ -346,14 +659,18 @@ impl SynthScene {
                 let u = Vec2::new(rng.next_f32(), rng.next_f32());
                 self.room_min + Vec3::new(u.x * size.x, 0.5 * rng.next_f32() * size.y, u.y * size.z)
             } else {
-                self.targets[(rng.next_u32() as usize) % self.targets.len()] + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.3
+                self.targets[(rng.next_u32() as usize) % self.targets.len()]
+                    + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.3
             };
             if (target - o).length() < 0.5 {
                 continue;
             }
             let cam = Camera::look_at(o, target, Vec3::Y, self.fov_x, width, height);
             let (co, cd) = cam.pixel_center_ray(width / 2, height / 2);
-            let near = bvh.closest_hit(co, cd, 0.0, f32::INFINITY).map(|h| h.t).unwrap_or(0.0);
+            let near = bvh
+                .closest_hit(co, cd, 0.0, f32::INFINITY)
+                .map(|h| h.t)
+                .unwrap_or(0.0);
             if near < 0.3 && attempts < 100_000 {
                 continue;
             }
@@ -364,19 +681,78 @@ impl SynthScene {
 }
 
 /// Writes one view's input image and ground-truth maps into `split_dir`.
-pub fn write_view(split_dir: &Path, k: usize, image: &Image, aovs: &Aovs, semantic: &[u32]) -> Result<()> {
+pub fn write_view(
+    split_dir: &Path,
+    k: usize,
+    image: &Image,
+    aovs: &Aovs,
+    semantic: &[u32],
+) -> Result<()> {
     let (w, h) = (image.width, image.height);
-    image.write_exr(&split_dir.join("Image").join(image_file_name(k)), ExrPrecision::F32)?;
+    image.write_exr(
+        &split_dir.join("Image").join(image_file_name(k)),
+        ExrPrecision::F32,
+    )?;
     let half = ExrPrecision::F16;
-    aovs.kd.write_exr(&split_dir.join(GtKind::DiffCol.folder()).join(GtKind::DiffCol.file_name(k)), half)?;
-    aovs.ks.write_exr(&split_dir.join(GtKind::Specular.folder()).join(GtKind::Specular.file_name(k)), half)?;
-    aovs.roughness.write_exr(&split_dir.join(GtKind::Roughness.folder()).join(GtKind::Roughness.file_name(k)), half)?;
-    aovs.metallic.write_exr(&split_dir.join(GtKind::Metallic.folder()).join(GtKind::Metallic.file_name(k)), half)?;
-    aovs.emission.write_exr(&split_dir.join(GtKind::Emit.folder()).join(GtKind::Emit.file_name(k)), ExrPrecision::F32)?;
-    aovs.albedo().write_exr(&split_dir.join(GtKind::Albedo.folder()).join(GtKind::Albedo.file_name(k)), half)?;
-    Aovs::id_image(&aovs.part, w, h, -1.0).write_exr(&split_dir.join(GtKind::IndexMA.folder()).join(GtKind::IndexMA.file_name(k)), ExrPrecision::F32)?;
-    let sem: Vec<u32> = aovs.part.iter().map(|&p| if p == u32::MAX { u32::MAX } else { semantic.get(p as usize).copied().unwrap_or(0) }).collect();
-    Aovs::id_image(&sem, w, h, 0.0).write_exr(&split_dir.join(GtKind::Segmentation.folder()).join(GtKind::Segmentation.file_name(k)), ExrPrecision::F32)?;
+    aovs.kd.write_exr(
+        &split_dir
+            .join(GtKind::DiffCol.folder())
+            .join(GtKind::DiffCol.file_name(k)),
+        half,
+    )?;
+    aovs.ks.write_exr(
+        &split_dir
+            .join(GtKind::Specular.folder())
+            .join(GtKind::Specular.file_name(k)),
+        half,
+    )?;
+    aovs.roughness.write_exr(
+        &split_dir
+            .join(GtKind::Roughness.folder())
+            .join(GtKind::Roughness.file_name(k)),
+        half,
+    )?;
+    aovs.metallic.write_exr(
+        &split_dir
+            .join(GtKind::Metallic.folder())
+            .join(GtKind::Metallic.file_name(k)),
+        half,
+    )?;
+    aovs.emission.write_exr(
+        &split_dir
+            .join(GtKind::Emit.folder())
+            .join(GtKind::Emit.file_name(k)),
+        ExrPrecision::F32,
+    )?;
+    aovs.albedo().write_exr(
+        &split_dir
+            .join(GtKind::Albedo.folder())
+            .join(GtKind::Albedo.file_name(k)),
+        half,
+    )?;
+    Aovs::id_image(&aovs.part, w, h, -1.0).write_exr(
+        &split_dir
+            .join(GtKind::IndexMA.folder())
+            .join(GtKind::IndexMA.file_name(k)),
+        ExrPrecision::F32,
+    )?;
+    let sem: Vec<u32> = aovs
+        .part
+        .iter()
+        .map(|&p| {
+            if p == u32::MAX {
+                u32::MAX
+            } else {
+                semantic.get(p as usize).copied().unwrap_or(0)
+            }
+        })
+        .collect();
+    Aovs::id_image(&sem, w, h, 0.0).write_exr(
+        &split_dir
+            .join(GtKind::Segmentation.folder())
+            .join(GtKind::Segmentation.file_name(k)),
+        ExrPrecision::F32,
+    )?;
     let preview = split_dir.join("preview").join(format!("{k:03}.png"));
     image.write_png(&preview, 1.0)?;
     Ok(())
@@ -394,16 +770,39 @@ pub struct SynthSummary {
 
 /// Generates scene `scene`, renders its views and writes the synthetic layout to `out`.
 /// `progress(done_pixels, total_pixels)` reports rendering progress.
-pub fn write_dataset(scene: SynthScene, out: &Path, opts: &SynthOptions, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<SynthSummary> {
+pub fn write_dataset(
+    scene: SynthScene,
+    out: &Path,
+    opts: &SynthOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<SynthSummary> {
     let t0 = std::time::Instant::now();
     std::fs::create_dir_all(out).map_err(|e| fipt_core::CoreError::io(out, e))?;
-    scene.mesh.write_obj(&out.join("scene.obj"), &format!("fipt synth {}: world space, y up, metres; faces in file order match scene_gt.json", scene.name))?;
+    scene.mesh.write_obj(
+        &out.join("scene.obj"),
+        &format!(
+            "fipt synth {}: world space, y up, metres; faces in file order match scene_gt.json",
+            scene.name
+        ),
+    )?;
     fipt_core::fsutil::write_json_atomic(&out.join("scene_gt.json"), &scene.materials)?;
     let semantic = scene.semantic.clone();
     let table = out.join("scene_gt.json");
     let bvh = fipt_geom::Bvh::build(&scene.mesh, fipt_geom::BuildQuality::Medium);
-    let train = scene.cameras(opts.train_views, opts.render.seed, opts.width, opts.height, &bvh);
-    let val = scene.cameras(opts.val_views, opts.render.seed ^ 0x5EED_0F7A, opts.width, opts.height, &bvh);
+    let train = scene.cameras(
+        opts.train_views,
+        opts.render.seed,
+        opts.width,
+        opts.height,
+        &bvh,
+    );
+    let val = scene.cameras(
+        opts.val_views,
+        opts.render.seed ^ 0x5EED_0F7A,
+        opts.width,
+        opts.height,
+        &bvh,
+    );
     let surfaces = TableSurfaces::new(scene.materials, &scene.mesh, &table)?;
     let rs = Scene::with_bvh(scene.mesh, bvh, surfaces);
     let total = (train.len() + val.len()) * opts.width * opts.height;
@@ -424,5 +823,11 @@ pub fn write_dataset(scene: SynthScene, out: &Path, opts: &SynthOptions, progres
         }
         write_transforms(&dir.join("transforms.json"), cams)?;
     }
-    Ok(SynthSummary { triangles: rs.mesh.triangles.len(), emitters: rs.emitter_triangles().len(), views: train.len() + val.len(), stats, seconds: t0.elapsed().as_secs_f64() })
+    Ok(SynthSummary {
+        triangles: rs.mesh.triangles.len(),
+        emitters: rs.emitter_triangles().len(),
+        views: train.len() + val.len(),
+        stats,
+        seconds: t0.elapsed().as_secs_f64(),
+    })
 }

@@ -3,10 +3,13 @@ use fipt_core::brdf::Brdf;
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::metrics::srgb_psnr;
+use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, DEFAULT_LEVELS};
 use fipt_geom::{Geometry, Mesh, TriangleSampler};
-use fipt_core::rng::Pcg32;
-use fipt_shading::bake::{diffuse_shading, specular_shading, specular_shading_mixture, BakeConfig, FactorizedBaker, SamplerKind, SampleStream, SlfLight};
+use fipt_shading::bake::{
+    diffuse_shading, specular_shading, specular_shading_mixture, BakeConfig, FactorizedBaker,
+    SampleStream, SamplerKind, SlfLight,
+};
 use fipt_shading::brdf::FiptBrdf;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::slf::{Cube, SlfBuilder};
@@ -48,44 +51,86 @@ fn uniform_incident_light_gives_known_shadings() {
     }
     let slf = b.finish();
     let geo = Geometry::new(mesh);
-    let light = SlfLight { geometry: &geo, slf: &slf };
-    let hit = geo.intersect(Vec3::ZERO, Vec3::new(0.3, -0.9, 0.2).normalize()).unwrap();
+    let light = SlfLight {
+        geometry: &geo,
+        slf: &slf,
+    };
+    let hit = geo
+        .intersect(Vec3::ZERO, Vec3::new(0.3, -0.9, 0.2).normalize())
+        .unwrap();
     let n = -hit.ng; // facing the centre
     let frame = fipt_core::brdf::Frame::from_normal(n);
     let mut st = SampleStream::new(SamplerKind::Stratified, &[1]);
     let ld = diffuse_shading(&light, hit.p, n, n, 4096, &mut st);
     // Exact but for cosine samples that graze the surface (z ≈ 0) and are dropped.
-    assert!((ld - l).abs().max_element() < 1e-3 * l.max_element(), "Ld = {ld}, L = {l}");
+    assert!(
+        (ld - l).abs().max_element() < 1e-3 * l.max_element(),
+        "Ld = {ld}, L = {l}"
+    );
     for theta_deg in [0.0f32, 45.0, 75.0, 85.0] {
         let th = theta_deg.to_radians();
         let wo_local = Vec3::new(th.sin(), 0.0, th.cos());
         let wo = frame.to_world(wo_local);
-        let mut streams = std::array::from_fn(|k| SampleStream::new(SamplerKind::Stratified, &[3, k as u64, theta_deg as u64]));
-        let (m0, m1) = specular_shading_mixture(&light, hit.p, n, n, wo, &DEFAULT_LEVELS, &[700; 6], &mut streams);
+        let mut streams = std::array::from_fn(|k| {
+            SampleStream::new(SamplerKind::Stratified, &[3, k as u64, theta_deg as u64])
+        });
+        let (m0, m1) = specular_shading_mixture(
+            &light,
+            hit.p,
+            n,
+            n,
+            wo,
+            &DEFAULT_LEVELS,
+            &[700; 6],
+            &mut streams,
+        );
         for (k, &sigma) in DEFAULT_LEVELS.iter().enumerate() {
-            let mut st = SampleStream::new(SamplerKind::Stratified, &[2, k as u64, theta_deg as u64]);
+            let mut st =
+                SampleStream::new(SamplerKind::Stratified, &[2, k as u64, theta_deg as u64]);
             let (p0, p1) = specular_shading(&light, hit.p, n, n, wo, sigma, 4096, &mut st);
             for (s0, s1, est) in [(p0, p1, "per-level"), (m0[k], m1[k], "mixture")] {
-            // F ≡ 1: ks = 1 gives F = 1·(1−m) + m.
-            let both = if sigma >= 0.2 && theta_deg <= 75.0 {
-                quadrature(&FiptBrdf::new(Vec3::ZERO, Vec3::ONE, sigma), wo_local, 600, 300).x
-            } else {
-                // Narrow or grazing lobes: the BRDF's own importance sampler (chi-square tested).
-                let b = FiptBrdf::new(Vec3::ZERO, Vec3::ONE, sigma);
-                let mut r = Pcg32::new(9, k as u64);
-                let n = 400_000;
-                // u_lobe ≥ 0.5 picks the GGX lobe.
-                (0..n).filter_map(|_| b.sample(wo_local, 0.99, r.next_2d())).map(|s| spec_only_weight(&b, wo_local, s.wi)).sum::<f32>() / n as f32
-            };
-            let tol = (0.02 * both).max(0.003);
-            let got = (s0 + s1) / l;
-            assert!((got - Vec3::splat(both)).abs().max_element() < tol, "{est} σ={sigma} θo={theta_deg}: Ls0+Ls1 = {got} L, albedo {both}");
-            if sigma >= 0.2 && theta_deg <= 75.0 {
-                let only1 = quadrature(&FiptBrdf::new(Vec3::ZERO, Vec3::ZERO, sigma), wo_local, 600, 300).x;
-                let got1 = s1 / l;
-                assert!((got1 - Vec3::splat(only1)).abs().max_element() < (0.03 * only1).max(0.003), "{est} σ={sigma} θo={theta_deg}: Ls1 = {got1} L vs {only1}");
-            }
-            assert!(s0.is_finite() && s1.is_finite());
+                // F ≡ 1: ks = 1 gives F = 1·(1−m) + m.
+                let both = if sigma >= 0.2 && theta_deg <= 75.0 {
+                    quadrature(
+                        &FiptBrdf::new(Vec3::ZERO, Vec3::ONE, sigma),
+                        wo_local,
+                        600,
+                        300,
+                    )
+                    .x
+                } else {
+                    // Narrow or grazing lobes: the BRDF's own importance sampler (chi-square tested).
+                    let b = FiptBrdf::new(Vec3::ZERO, Vec3::ONE, sigma);
+                    let mut r = Pcg32::new(9, k as u64);
+                    let n = 400_000;
+                    // u_lobe ≥ 0.5 picks the GGX lobe.
+                    (0..n)
+                        .filter_map(|_| b.sample(wo_local, 0.99, r.next_2d()))
+                        .map(|s| spec_only_weight(&b, wo_local, s.wi))
+                        .sum::<f32>()
+                        / n as f32
+                };
+                let tol = (0.02 * both).max(0.003);
+                let got = (s0 + s1) / l;
+                assert!(
+                    (got - Vec3::splat(both)).abs().max_element() < tol,
+                    "{est} σ={sigma} θo={theta_deg}: Ls0+Ls1 = {got} L, albedo {both}"
+                );
+                if sigma >= 0.2 && theta_deg <= 75.0 {
+                    let only1 = quadrature(
+                        &FiptBrdf::new(Vec3::ZERO, Vec3::ZERO, sigma),
+                        wo_local,
+                        600,
+                        300,
+                    )
+                    .x;
+                    let got1 = s1 / l;
+                    assert!(
+                        (got1 - Vec3::splat(only1)).abs().max_element() < (0.03 * only1).max(0.003),
+                        "{est} σ={sigma} θo={theta_deg}: Ls1 = {got1} L vs {only1}"
+                    );
+                }
+                assert!(s0.is_finite() && s1.is_finite());
             }
         }
     }
@@ -97,7 +142,11 @@ fn spec_only_weight(b: &FiptBrdf, wo: Vec3, wi: Vec3) -> f32 {
     let h = (wo + wi).normalize();
     let pdf_spec = fipt_shading::brdf::ggx_d(h, b.alpha()) * h.z / (4.0 * wo.dot(h));
     let f = b.eval(wo, wi).x; // kd = 0: specular only
-    if pdf_spec > 0.0 { f / pdf_spec } else { 0.0 }
+    if pdf_spec > 0.0 {
+        f / pdf_spec
+    } else {
+        0.0
+    }
 }
 
 /// Closure (24 views of 64×48 of `cornell`): kd·Ld + ks·lerp(Ls0, σ) + lerp(Ls1, σ) + Le from the baked shadings and the
@@ -107,33 +156,86 @@ fn spec_only_weight(b: &FiptBrdf, wo: Vec3, wi: Vec3) -> f32 {
 fn closure_with_ground_truth_materials_reproduces_the_views() {
     let dir = std::env::temp_dir().join(format!("fipt-bake-closure-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let opts = SynthOptions { train_views: 24, val_views: 1, width: 64, height: 48, render: RenderConfig { spp: 256, ..Default::default() } };
+    let opts = SynthOptions {
+        train_views: 24,
+        val_views: 1,
+        width: 64,
+        height: 48,
+        render: RenderConfig {
+            spp: 256,
+            ..Default::default()
+        },
+    };
     write_dataset(build("cornell").unwrap(), &dir, &opts, &|_, _| {}).unwrap();
     let ds = Dataset::open(&dir).unwrap();
     let geo = Geometry::new(Mesh::load(&ds.mesh).unwrap());
     let split = ds.train();
-    let images: Vec<_> = split.views.iter().map(|v| ds.load_image(v, BadPixelPolicy::Reject).unwrap().0).collect();
+    let images: Vec<_> = split
+        .views
+        .iter()
+        .map(|v| ds.load_image(v, BadPixelPolicy::Reject).unwrap().0)
+        .collect();
     let mut report = Vec::new();
-    for (name, cfg) in [("default (cached Ld, stratified, SLF fallback)", BakeConfig::default()), ("paper (per-pixel Ld, independent, strict SLF)", BakeConfig::paper())] {
-        let (sh, stats, _) = FactorizedBaker::new(cfg).bake_detailed(&geo, &split.views, &images, &|_, _| {});
+    for (name, cfg) in [
+        (
+            "default (cached Ld, stratified, SLF fallback)",
+            BakeConfig::default(),
+        ),
+        (
+            "paper (per-pixel Ld, independent, strict SLF)",
+            BakeConfig::paper(),
+        ),
+    ] {
+        let (sh, stats, _) =
+            FactorizedBaker::new(cfg).bake_detailed(&geo, &split.views, &images, &|_, _| {});
         let mut ps = Vec::new();
         for (v, s) in split.views.iter().zip(&sh) {
-            let kd = ds.load_gt(split, GtKind::DiffCol, v.index).unwrap().unwrap();
-            let ks = ds.load_gt(split, GtKind::Specular, v.index).unwrap().unwrap();
-            let ro = ds.load_gt(split, GtKind::Roughness, v.index).unwrap().unwrap();
+            let kd = ds
+                .load_gt(split, GtKind::DiffCol, v.index)
+                .unwrap()
+                .unwrap();
+            let ks = ds
+                .load_gt(split, GtKind::Specular, v.index)
+                .unwrap()
+                .unwrap();
+            let ro = ds
+                .load_gt(split, GtKind::Roughness, v.index)
+                .unwrap()
+                .unwrap();
             let le = ds.load_gt(split, GtKind::Emit, v.index).unwrap().unwrap();
-            let pred: Vec<Vec3> = (0..kd.data.len()).map(|i| le.data[i] + s.reflected(i, kd.data[i], ks.data[i], ro.data[i].x)).collect();
+            let pred: Vec<Vec3> = (0..kd.data.len())
+                .map(|i| le.data[i] + s.reflected(i, kd.data[i], ks.data[i], ro.data[i].x))
+                .collect();
             assert!(pred.iter().all(|p| p.is_finite()));
             ps.push(srgb_psnr(&pred, &images[v.index].data, None).unwrap());
             if std::env::var("FIPT_DEBUG").is_ok() {
-                let m = |x: &[Vec3]| x.iter().map(|p| p.x + p.y + p.z).sum::<f32>() / x.len() as f32;
+                let m =
+                    |x: &[Vec3]| x.iter().map(|p| p.x + p.y + p.z).sum::<f32>() / x.len() as f32;
                 let ld: Vec<Vec3> = (0..kd.data.len()).map(|i| kd.data[i] * s.ld[i]).collect();
-                let sp: Vec<Vec3> = (0..kd.data.len()).map(|i| s.reflected(i, Vec3::ZERO, ks.data[i], ro.data[i].x)).collect();
-                eprintln!("view {}: pred {} img {} le {} kd*ld {} spec {}", v.index, m(&pred), m(&images[v.index].data), m(&le.data), m(&ld), m(&sp));
+                let sp: Vec<Vec3> = (0..kd.data.len())
+                    .map(|i| s.reflected(i, Vec3::ZERO, ks.data[i], ro.data[i].x))
+                    .collect();
+                eprintln!(
+                    "view {}: pred {} img {} le {} kd*ld {} spec {}",
+                    v.index,
+                    m(&pred),
+                    m(&images[v.index].data),
+                    m(&le.data),
+                    m(&ld),
+                    m(&sp)
+                );
             }
         }
         let mean = ps.iter().sum::<f64>() / ps.len() as f64;
-        report.push((mean, format!("{name}: closure PSNR {mean:.2} dB (min {:.2}), cache entries {} for {} pixels", ps.iter().cloned().fold(f64::INFINITY, f64::min), stats.cache_entries, stats.valid_pixels)));
+        report.push((
+            mean,
+            format!(
+                "{name}: closure PSNR {mean:.2} dB (min {:.2}), cache entries {} for {} pixels",
+                ps.iter().cloned().fold(f64::INFINITY, f64::min),
+                stats.cache_entries,
+                stats.valid_pixels
+            ),
+        ));
     }
     for (_, line) in &report {
         eprintln!("{line}");
@@ -141,6 +243,11 @@ fn closure_with_ground_truth_materials_reproduces_the_views() {
     // Measured: 25.5 dB (default) vs 16.3 dB (paper) with 24 views of 64×48: the strict SLF
     // loses the direct light of the small emitter, seen in few pixels.
     assert!(report[0].0 >= 24.0, "{}", report[0].1);
-    assert!(report[0].0 >= report[1].0 + 3.0, "the default bake should beat the reference's: {} vs {}", report[0].1, report[1].1);
+    assert!(
+        report[0].0 >= report[1].0 + 3.0,
+        "the default bake should beat the reference's: {} vs {}",
+        report[0].1,
+        report[1].1
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

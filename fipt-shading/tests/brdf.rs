@@ -11,7 +11,11 @@ const ROUGHNESS: [f32; 4] = [0.02, 0.2, 0.5, 1.0];
 const THETA_O_DEG: [f32; 5] = [0.0, 30.0, 60.0, 85.0, 89.0];
 
 fn dir(theta: f32, phi: f32) -> Vec3 {
-    Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+    Vec3::new(
+        theta.sin() * phi.cos(),
+        theta.sin() * phi.sin(),
+        theta.cos(),
+    )
 }
 
 fn random_dir(rng: &mut Pcg32) -> Vec3 {
@@ -31,7 +35,9 @@ fn construct_clamps_roughness_to_the_model_range() {
 /// The cosine convention: `eval` = f · cos θi.
 #[test]
 fn eval_includes_the_incident_cosine_and_matches_hand_values() {
-    let l = Lambert { albedo: Vec3::new(0.2, 0.5, 0.8) };
+    let l = Lambert {
+        albedo: Vec3::new(0.2, 0.5, 0.8),
+    };
     let wo = dir(0.3, 0.1);
     for theta in [0.0f32, 0.5, 1.2, 1.5] {
         let wi = dir(theta, 2.0);
@@ -42,7 +48,10 @@ fn eval_includes_the_incident_cosine_and_matches_hand_values() {
     let (kd, ks) = (Vec3::new(0.3, 0.2, 0.1), Vec3::new(0.04, 0.5, 0.9));
     let b = FiptBrdf::new(kd, ks, 1.0);
     let e = b.eval(Vec3::Z, Vec3::Z);
-    assert!((e - (kd / PI + ks / (4.0 * PI))).abs().max_element() < 1e-6, "{e}");
+    assert!(
+        (e - (kd / PI + ks / (4.0 * PI))).abs().max_element() < 1e-6,
+        "{e}"
+    );
     // Pure diffuse part halves when cos θi halves.
     let d = FiptBrdf::new(kd, Vec3::ZERO, 1.0);
     let (wo, wi) = (Vec3::Z, dir(60f32.to_radians(), 0.0));
@@ -53,13 +62,16 @@ fn eval_includes_the_incident_cosine_and_matches_hand_values() {
     let w = dir(60f32.to_radians(), 0.0);
     let wi = dir(60f32.to_radians(), PI);
     let a2 = 0.25f32 * 0.25;
-    let dval = a2 / (PI * (a2 - 1.0 + 1.0) * (a2 - 1.0 + 1.0)) ; // cos θh = 1
+    let dval = a2 / (PI * (a2 - 1.0 + 1.0) * (a2 - 1.0 + 1.0)); // cos θh = 1
     let k = 1.5f32 * 1.5 / 8.0;
     let g1 = 0.5 / (0.5 * (1.0 - k) + k);
     let f = 1.0; // ks = 1
     let expected = dval * g1 * g1 * f / (4.0 * 0.5 * 0.5) * 0.5;
     let got = b.eval(w, wi).x;
-    assert!((got - expected).abs() < 1e-5 * expected, "{got} vs {expected}");
+    assert!(
+        (got - expected).abs() < 1e-5 * expected,
+        "{got} vs {expected}"
+    );
 }
 
 #[test]
@@ -71,7 +83,10 @@ fn reciprocity_and_sample_weights() {
             let (wo, wi) = (random_dir(&mut rng), random_dir(&mut rng));
             let fa = b.eval(wo, wi) / wi.z;
             let fb = b.eval(wi, wo) / wo.z;
-            assert!((fa - fb).abs().max_element() <= 1e-4 * fa.max_element().max(1.0), "σ={s}: {fa} vs {fb}");
+            assert!(
+                (fa - fb).abs().max_element() <= 1e-4 * fa.max_element().max(1.0),
+                "σ={s}: {fa} vs {fb}"
+            );
             if let Some(smp) = b.sample(wo, rng.next_f32(), rng.next_2d()) {
                 let pdf = b.pdf(wo, smp.wi);
                 assert!((smp.pdf - pdf).abs() <= 1e-4 * pdf);
@@ -89,7 +104,9 @@ fn reciprocity_and_sample_weights() {
 // are the pdf integrated over each bin by Gauss–Legendre quadrature (8 × 8 nodes).
 
 fn refined_edges(lo: f64, hi: f64, uniform: usize, centre: f64, width: f64) -> Vec<f64> {
-    let mut e: Vec<f64> = (0..=uniform).map(|i| lo + (hi - lo) * i as f64 / uniform as f64).collect();
+    let mut e: Vec<f64> = (0..=uniform)
+        .map(|i| lo + (hi - lo) * i as f64 / uniform as f64)
+        .collect();
     let mut w = width * 0.25;
     while w < (hi - lo) {
         for x in [centre - w, centre + w] {
@@ -107,8 +124,26 @@ fn refined_edges(lo: f64, hi: f64, uniform: usize, centre: f64, width: f64) -> V
     e
 }
 
-const GL_X: [f64; 8] = [-0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498, 0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363];
-const GL_W: [f64; 8] = [0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620, 0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763];
+const GL_X: [f64; 8] = [
+    -0.9602898564975363,
+    -0.7966664774136267,
+    -0.5255324099163290,
+    -0.1834346424956498,
+    0.1834346424956498,
+    0.5255324099163290,
+    0.7966664774136267,
+    0.9602898564975363,
+];
+const GL_W: [f64; 8] = [
+    0.1012285362903763,
+    0.2223810344533745,
+    0.3137066458778873,
+    0.3626837833783620,
+    0.3626837833783620,
+    0.3137066458778873,
+    0.2223810344533745,
+    0.1012285362903763,
+];
 
 /// Upper tail of the chi-square distribution (Wilson–Hilferty normal approximation).
 fn chi2_pvalue(x: f64, dof: f64) -> f64 {
@@ -120,8 +155,21 @@ fn erfc(x: f64) -> f64 {
     // Numerical Recipes' erfcc (fractional error < 1.2e-7).
     let z = x.abs();
     let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t * (-z * z - 1.26551223 + t * (1.00002368 + t * (0.37409196 + t * (0.09678418 + t * (-0.18628806 + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277))))))))).exp();
-    if x >= 0.0 { r } else { 2.0 - r }
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
+    if x >= 0.0 {
+        r
+    } else {
+        2.0 - r
+    }
 }
 
 fn chi_square(b: &dyn Brdf, wo: Vec3, alpha: f64, samples: usize, seed: u64) -> (f64, f64, usize) {
@@ -130,7 +178,13 @@ fn chi_square(b: &dyn Brdf, wo: Vec3, alpha: f64, samples: usize, seed: u64) -> 
     let te = refined_edges(0.0, std::f64::consts::FRAC_PI_2, 24, theta_r, alpha);
     let pw = alpha / theta_r.sin().max(0.05);
     // φ grid in [φr − π, φr + π) so the refinement centre is interior.
-    let pe: Vec<f64> = refined_edges(phi_r - std::f64::consts::PI, phi_r + std::f64::consts::PI, 48, phi_r, pw);
+    let pe: Vec<f64> = refined_edges(
+        phi_r - std::f64::consts::PI,
+        phi_r + std::f64::consts::PI,
+        48,
+        phi_r,
+        pw,
+    );
     let (nt, np) = (te.len() - 1, pe.len() - 1);
     let mut expected = vec![0.0f64; nt * np];
     for i in 0..nt {
@@ -190,12 +244,18 @@ fn chi_square(b: &dyn Brdf, wo: Vec3, alpha: f64, samples: usize, seed: u64) -> 
         dof += 1;
     }
     if pool_e > 0.0 || pool_o > 0.0 {
-        assert!(pool_e > 0.0 || pool_o == 0.0, "samples where the pdf is zero: {pool_o}");
+        assert!(
+            pool_e > 0.0 || pool_o == 0.0,
+            "samples where the pdf is zero: {pool_o}"
+        );
         if pool_e >= 5.0 {
             chi2 += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
             dof += 1;
         } else {
-            assert!(pool_o < pool_e + 6.0 * pool_e.sqrt() + 10.0, "{pool_o} samples in cells expecting {pool_e}");
+            assert!(
+                pool_o < pool_e + 6.0 * pool_e.sqrt() + 10.0,
+                "{pool_o} samples in cells expecting {pool_e}"
+            );
         }
     }
     let dof = (dof.max(2) - 1) as f64;
@@ -213,11 +273,17 @@ fn chi_square_sampling_matches_pdf() {
             let wo = dir(th.to_radians(), 0.7);
             let (chi2, p, dof) = chi_square(&b, wo, (s * s) as f64, 400_000, (k * 10 + m) as u64);
             report.push(format!("σ={s} θo={th}: χ²={chi2:.1} dof={dof} p={p:.3}"));
-            assert!(p > threshold, "sampling does not follow pdf: {}", report.last().unwrap());
+            assert!(
+                p > threshold,
+                "sampling does not follow pdf: {}",
+                report.last().unwrap()
+            );
         }
     }
     for (i, th) in [0.0f32, 80.0].iter().enumerate() {
-        let b = BrdfModel::Lambert(Lambert { albedo: Vec3::splat(0.7) });
+        let b = BrdfModel::Lambert(Lambert {
+            albedo: Vec3::splat(0.7),
+        });
         let (chi2, p, dof) = chi_square(&b, dir(th.to_radians(), 0.0), 1.0, 400_000, 99 + i as u64);
         assert!(p > threshold, "Lambert θo={th}: χ²={chi2} dof={dof} p={p}");
     }
@@ -242,7 +308,10 @@ fn chi_square_rejects_a_mismatched_pdf() {
     let sampler = FiptBrdf::new(Vec3::splat(0.5), Vec3::splat(0.5), 0.45);
     let pdf = FiptBrdf::new(Vec3::splat(0.5), Vec3::splat(0.5), 0.5);
     let (chi2, p, dof) = chi_square(&Pair(sampler, pdf), dir(0.5, 0.3), 0.25, 400_000, 6);
-    assert!(p < 1e-6, "a 10 % roughness mismatch went unnoticed: χ²={chi2} dof={dof} p={p}");
+    assert!(
+        p < 1e-6,
+        "a 10 % roughness mismatch went unnoticed: χ²={chi2} dof={dof} p={p}"
+    );
 }
 
 /// Directional albedo ∫ eval dωi by importance sampling (mean of weights), with its standard error.
@@ -284,29 +353,59 @@ fn white_furnace_and_monte_carlo_against_quadrature() {
         for th in THETA_O_DEG {
             let wo = dir(th.to_radians(), 0.0);
             let (a, se) = albedo_mc(&metal, wo, 200_000, 7);
-            assert!(a.x <= 1.0 + 4.0 * se + 1e-3, "σ={s} θo={th}: albedo {} ± {se}", a.x);
+            assert!(
+                a.x <= 1.0 + 4.0 * se + 1e-3,
+                "σ={s} θo={th}: albedo {} ± {se}",
+                a.x
+            );
             // Schlick-GGX masking with k = (σ+1)²/8 loses energy at grazing angles and high
             // roughness (0.18 at σ = 0.02, θo = 85°): a property of the reference model.
             if s == 1.0 && th == 0.0 {
                 // Analytic: D = 1/π, G1(wo) = 1, G1(c) = 2c/(1+c) → albedo = 1 − ln 2.
                 let exact = 1.0 - 2f32.ln();
-                assert!((a.x - exact).abs() < 4.0 * se + 1e-4, "σ=1 θo=0: {} vs 1 − ln 2 = {exact}", a.x);
+                assert!(
+                    (a.x - exact).abs() < 4.0 * se + 1e-4,
+                    "σ=1 θo=0: {} vs 1 − ln 2 = {exact}",
+                    a.x
+                );
             }
             if s >= 0.2 && th <= 60.0 {
                 let q = albedo_quadrature(&metal, wo, 400, 400);
-                assert!((a.x - q.x).abs() < 5.0 * se + 2e-3, "σ={s} θo={th}: MC {} vs quadrature {}", a.x, q.x);
+                assert!(
+                    (a.x - q.x).abs() < 5.0 * se + 2e-3,
+                    "σ={s} θo={th}: MC {} vs quadrature {}",
+                    a.x,
+                    q.x
+                );
             }
         }
     }
     // The diffuse lobe integrates to kd exactly (the model has no (1−F) factor on it).
     let wo = dir(0.7, 0.0);
     for s in [0.02f32, 0.5, 1.0] {
-        let with = albedo_quadrature(&FiptBrdf::new(Vec3::splat(0.8), Vec3::splat(0.04), s), wo, 800, 200);
-        let without = albedo_quadrature(&FiptBrdf::new(Vec3::ZERO, Vec3::splat(0.04), s), wo, 800, 200);
-        assert!(((with - without).x - 0.8).abs() < 2e-3, "σ={s}: diffuse albedo {}", (with - without).x);
+        let with = albedo_quadrature(
+            &FiptBrdf::new(Vec3::splat(0.8), Vec3::splat(0.04), s),
+            wo,
+            800,
+            200,
+        );
+        let without = albedo_quadrature(
+            &FiptBrdf::new(Vec3::ZERO, Vec3::splat(0.04), s),
+            wo,
+            800,
+            200,
+        );
+        assert!(
+            ((with - without).x - 0.8).abs() < 2e-3,
+            "σ={s}: diffuse albedo {}",
+            (with - without).x
+        );
     }
     let (a, _) = albedo_mc(&Lambert { albedo: Vec3::ONE }, wo, 10_000, 1);
-    assert!((a - Vec3::ONE).abs().max_element() < 1e-6, "cosine sampling of Lambert has weight exactly ρ");
+    assert!(
+        (a - Vec3::ONE).abs().max_element() < 1e-6,
+        "cosine sampling of Lambert has weight exactly ρ"
+    );
 }
 
 #[test]
@@ -322,18 +421,28 @@ fn extremes_give_finite_values() {
                 for wi in [wi, -wi, wo, Vec3::new(-wo.x, 0.0, wo.z)] {
                     let e = b.eval(wo, wi);
                     let p = b.pdf(wo, wi);
-                    assert!(e.is_finite() && e.min_element() >= 0.0 && p.is_finite() && p >= 0.0, "σ={s} wo={wo} wi={wi}: {e} {p}");
+                    assert!(
+                        e.is_finite() && e.min_element() >= 0.0 && p.is_finite() && p >= 0.0,
+                        "σ={s} wo={wo} wi={wi}: {e} {p}"
+                    );
                     if wi.z <= 0.0 || wo.z <= 0.0 {
                         assert_eq!(e, Vec3::ZERO);
                         assert_eq!(p, 0.0);
                     }
                 }
                 if let Some(smp) = b.sample(wo, rng.next_f32(), rng.next_2d()) {
-                    assert!(smp.weight.is_finite() && smp.pdf > 0.0 && smp.wi.z > 0.0, "σ={s} wo={wo}: {smp:?}");
+                    assert!(
+                        smp.weight.is_finite() && smp.pdf > 0.0 && smp.wi.z > 0.0,
+                        "σ={s} wo={wo}: {smp:?}"
+                    );
                 }
             }
             // The random numbers at their extremes.
-            for u in [Vec2::ZERO, Vec2::new(0.99999994, 0.99999994), Vec2::new(0.0, 0.99999994)] {
+            for u in [
+                Vec2::ZERO,
+                Vec2::new(0.99999994, 0.99999994),
+                Vec2::new(0.0, 0.99999994),
+            ] {
                 for lobe in [0.0, 0.99999994] {
                     if let Some(smp) = b.sample(wo, lobe, u) {
                         assert!(smp.weight.is_finite() && smp.wi.is_finite());

@@ -12,7 +12,16 @@ use glam::Vec3;
 use std::path::Path;
 
 fn tiny_cornell(dir: &Path) {
-    let opts = SynthOptions { train_views: 4, val_views: 2, width: 16, height: 12, render: RenderConfig { spp: 4, ..Default::default() } };
+    let opts = SynthOptions {
+        train_views: 4,
+        val_views: 2,
+        width: 16,
+        height: 12,
+        render: RenderConfig {
+            spp: 4,
+            ..Default::default()
+        },
+    };
     write_dataset(build("cornell").unwrap(), dir, &opts, &|_, _| {}).unwrap();
 }
 
@@ -45,19 +54,27 @@ fn generated_scene_opens_with_all_ground_truth_and_round_trips() {
     let mesh = Mesh::load(&ds.mesh).unwrap();
     let mats = SceneMaterials::read(&dir.join("scene_gt.json")).unwrap();
     let table = mats.face_table(mesh.num_file_faces, &dir).unwrap();
-    assert!(table.iter().any(|&m| mats.materials[m as usize].is_emitter()));
+    assert!(table
+        .iter()
+        .any(|&m| mats.materials[m as usize].is_emitter()));
     // Emit GT is positive exactly where the part is an emitter.
     let split = ds.train();
     for v in &split.views {
         let emit = ds.load_gt(split, GtKind::Emit, v.index).unwrap().unwrap();
-        let part = ds.load_gt(split, GtKind::IndexMA, v.index).unwrap().unwrap();
+        let part = ds
+            .load_gt(split, GtKind::IndexMA, v.index)
+            .unwrap()
+            .unwrap();
         for (e, p) in emit.data.iter().zip(&part.data) {
             let is_emitter = p.x >= 0.0 && mats.materials[p.x as usize].is_emitter();
             assert_eq!(e.max_element() > 0.0, is_emitter);
         }
         let (img, bad) = ds.load_image(v, BadPixelPolicy::Reject).unwrap();
         assert_eq!(bad.total(), 0);
-        assert!(img.data.iter().all(|p| p.is_finite() && p.min_element() >= 0.0));
+        assert!(img
+            .data
+            .iter()
+            .all(|p| p.is_finite() && p.min_element() >= 0.0));
     }
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -67,7 +84,10 @@ fn expect_err(dir: &Path, needles: &[&str]) {
         Ok(ds) => {
             // Pixel problems surface when images are read.
             let v = &ds.train().views[0];
-            ds.load_image(v, BadPixelPolicy::Reject).err().map(|e| e.to_string()).unwrap_or_default()
+            ds.load_image(v, BadPixelPolicy::Reject)
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
         }
         Err(e) => e.to_string(),
     };
@@ -81,7 +101,10 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
     let base = temp_dir("bad");
     tiny_cornell(&base);
     let fresh = |name: &str| {
-        let d = base.with_file_name(format!("{}-{name}", base.file_name().unwrap().to_string_lossy()));
+        let d = base.with_file_name(format!(
+            "{}-{name}",
+            base.file_name().unwrap().to_string_lossy()
+        ));
         let _ = std::fs::remove_dir_all(&d);
         copy_dir(&base, &d);
         d
@@ -92,7 +115,9 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
     expect_err(&d, &["002_0001.exr", "missing"]);
     // Size mismatch between views.
     let d = fresh("size");
-    Image::new(8, 8).write_exr(&d.join("train/Image/001_0001.exr"), ExrPrecision::F32).unwrap();
+    Image::new(8, 8)
+        .write_exr(&d.join("train/Image/001_0001.exr"), ExrPrecision::F32)
+        .unwrap();
     expect_err(&d, &["001_0001.exr", "8x8", "16x12"]);
     // NaN / Inf / negative pixels: rejected by default, clamped on request.
     let d = fresh("nan");
@@ -100,16 +125,35 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
     let mut img = Image::read_exr(&p).unwrap();
     img.set(3, 2, Vec3::new(f32::NAN, -1.0, f32::INFINITY));
     img.write_exr(&p, ExrPrecision::F32).unwrap();
-    expect_err(&d, &["000_0001.exr", "1 NaN", "1 infinite", "1 negative", "(3, 2)", "clamp"]);
+    expect_err(
+        &d,
+        &[
+            "000_0001.exr",
+            "1 NaN",
+            "1 infinite",
+            "1 negative",
+            "(3, 2)",
+            "clamp",
+        ],
+    );
     let ds = Dataset::open(&d).unwrap();
-    let (img, bad) = ds.load_image(&ds.train().views[0], BadPixelPolicy::Clamp).unwrap();
+    let (img, bad) = ds
+        .load_image(&ds.train().views[0], BadPixelPolicy::Clamp)
+        .unwrap();
     assert_eq!(bad.total(), 3);
-    assert!(img.data.iter().all(|p| p.is_finite() && p.min_element() >= 0.0));
+    assert!(img
+        .data
+        .iter()
+        .all(|p| p.is_finite() && p.min_element() >= 0.0));
     // A pose that is not a rotation, and one that is a reflection (another convention).
-    for (name, scale, needle) in [("shear", [1.3f32, 1.0, 1.0], "rigid"), ("flip", [-1.0, 1.0, 1.0], "reflection")] {
+    for (name, scale, needle) in [
+        ("shear", [1.3f32, 1.0, 1.0], "rigid"),
+        ("flip", [-1.0, 1.0, 1.0], "reflection"),
+    ] {
         let d = fresh(name);
         let tf = d.join("train/transforms.json");
-        let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&tf).unwrap()).unwrap();
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&tf).unwrap()).unwrap();
         for r in 0..3 {
             for c in 0..3 {
                 let x = v["frames"][1]["transform_matrix"][r][c].as_f64().unwrap();
@@ -126,12 +170,23 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
     // Unknown keys in the material table.
     let d = fresh("keys");
     let p = d.join("scene_gt.json");
-    let text = std::fs::read_to_string(&p).unwrap().replacen("\"version\": 1", "\"version\": 1, \"colour_space\": \"srgb\"", 1);
+    let text = std::fs::read_to_string(&p).unwrap().replacen(
+        "\"version\": 1",
+        "\"version\": 1, \"colour_space\": \"srgb\"",
+        1,
+    );
     std::fs::write(&p, text).unwrap();
     let err = SceneMaterials::read(&p).unwrap_err().to_string();
-    assert!(err.contains("scene_gt.json") && err.contains("colour_space"), "{err}");
+    assert!(
+        err.contains("scene_gt.json") && err.contains("colour_space"),
+        "{err}"
+    );
     for name in ["missing", "size", "nan", "shear", "flip", "nomesh", "keys"] {
-        std::fs::remove_dir_all(base.with_file_name(format!("{}-{name}", base.file_name().unwrap().to_string_lossy()))).ok();
+        std::fs::remove_dir_all(base.with_file_name(format!(
+            "{}-{name}",
+            base.file_name().unwrap().to_string_lossy()
+        )))
+        .ok();
     }
     std::fs::remove_dir_all(&base).ok();
 }
@@ -153,9 +208,16 @@ fn real_layout_matches_synthetic_layout() {
         let c = &v.camera;
         let target = c.origin + c.forward();
         let up = c.rotation.y_axis; // Mitsuba +Y is up
-        cam_txt += &format!("{} {} {}\n{} {} {}\n{} {} {}\n", c.origin.x, c.origin.y, c.origin.z, target.x, target.y, target.z, up.x, up.y, up.z);
+        cam_txt += &format!(
+            "{} {} {}\n{} {} {}\n{} {} {}\n",
+            c.origin.x, c.origin.y, c.origin.z, target.x, target.y, target.z, up.x, up.y, up.z
+        );
         k_txt += &format!("{} 0 {}\n0 {} {}\n0 0 1\n", c.fx, c.cx, c.fy, c.cy);
-        std::fs::copy(&v.image, real.join("Image").join(v.image.file_name().unwrap())).unwrap();
+        std::fs::copy(
+            &v.image,
+            real.join("Image").join(v.image.file_name().unwrap()),
+        )
+        .unwrap();
     }
     std::fs::write(real.join("cam.txt"), cam_txt).unwrap();
     std::fs::write(real.join("K_list.txt"), &k_txt).unwrap();

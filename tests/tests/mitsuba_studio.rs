@@ -43,27 +43,59 @@ fn ground_truth_maps_match_through_our_cameras_and_material_table() {
     assert_eq!(mesh.num_file_faces, 5480);
     let table = root.join("scene_parts.json");
     let mats = SceneMaterials::read_any(&table).unwrap();
-    let scene = Scene::new(mesh, TableSurfaces::new(mats, &Mesh::load(&ds.mesh).unwrap(), &table).unwrap());
+    let scene = Scene::new(
+        mesh,
+        TableSurfaces::new(mats, &Mesh::load(&ds.mesh).unwrap(), &table).unwrap(),
+    );
     let mut worst = (f64::INFINITY, String::new());
     let mut sum = 0.0;
     let mut n = 0;
     for split in &ds.splits {
         for v in &split.views {
             let aov = render_aovs(&scene, &v.camera);
-            let gt_kd = ds.load_gt(split, GtKind::DiffCol, v.index).unwrap().unwrap();
-            let gt_id = ds.load_gt(split, GtKind::IndexMA, v.index).unwrap().unwrap();
+            let gt_kd = ds
+                .load_gt(split, GtKind::DiffCol, v.index)
+                .unwrap()
+                .unwrap();
+            let gt_id = ds
+                .load_gt(split, GtKind::IndexMA, v.index)
+                .unwrap()
+                .unwrap();
             let mask = interior_mask(&aov.part, &gt_kd.data, ds.width, ds.height);
             let interior = mask.iter().filter(|&&b| b).count();
-            assert!(interior > ds.width * ds.height / 2, "{} view {}: only {interior} interior pixels", split.name, v.index);
+            assert!(
+                interior > ds.width * ds.height / 2,
+                "{} view {}: only {interior} interior pixels",
+                split.name,
+                v.index
+            );
             // Part ids agree on interior pixels.
-            let id_ok = (0..mask.len()).filter(|&i| mask[i] && gt_id.data[i].x as u32 == aov.part[i]).count();
-            assert!(id_ok as f64 >= 0.999 * interior as f64, "{} view {}: part ids agree on {id_ok}/{interior}", split.name, v.index);
+            let id_ok = (0..mask.len())
+                .filter(|&i| mask[i] && gt_id.data[i].x as u32 == aov.part[i])
+                .count();
+            assert!(
+                id_ok as f64 >= 0.999 * interior as f64,
+                "{} view {}: part ids agree on {id_ok}/{interior}",
+                split.name,
+                v.index
+            );
             let p = psnr(&aov.kd.data, &gt_kd.data, Some(&mask), 1.0).unwrap();
-            for (kind, ours) in [(GtKind::Roughness, &aov.roughness), (GtKind::Metallic, &aov.metallic), (GtKind::Specular, &aov.ks), (GtKind::Emit, &aov.emission)] {
+            for (kind, ours) in [
+                (GtKind::Roughness, &aov.roughness),
+                (GtKind::Metallic, &aov.metallic),
+                (GtKind::Specular, &aov.ks),
+                (GtKind::Emit, &aov.emission),
+            ] {
                 let gt = ds.load_gt(split, kind, v.index).unwrap().unwrap();
                 let peak = if kind == GtKind::Emit { 40.0 } else { 1.0 };
                 let q = psnr(&ours.data, &gt.data, Some(&mask), peak).unwrap();
-                assert!(q >= 35.0, "{} view {} {:?}: {q:.1} dB", split.name, v.index, kind);
+                assert!(
+                    q >= 35.0,
+                    "{} view {} {:?}: {q:.1} dB",
+                    split.name,
+                    v.index,
+                    kind
+                );
             }
             if p < worst.0 {
                 worst = (p, format!("{} view {}", split.name, v.index));
@@ -72,7 +104,12 @@ fn ground_truth_maps_match_through_our_cameras_and_material_table() {
             n += 1;
         }
     }
-    eprintln!("kd AOV vs Mitsuba DiffCol on interior pixels: mean {:.1} dB, worst {:.1} dB ({})", sum / n as f64, worst.0, worst.1);
+    eprintln!(
+        "kd AOV vs Mitsuba DiffCol on interior pixels: mean {:.1} dB, worst {:.1} dB ({})",
+        sum / n as f64,
+        worst.0,
+        worst.1
+    );
     assert!(worst.0 >= 35.0, "kd PSNR {:.1} dB at {}", worst.0, worst.1);
 }
 
@@ -89,9 +126,15 @@ fn path_traced_views_come_close_to_mitsuba() {
     let ds = Dataset::open(&root).unwrap();
     let mesh = Mesh::load(&ds.mesh).unwrap();
     let table = root.join("scene_parts.json");
-    let surfaces = TableSurfaces::new(SceneMaterials::read_any(&table).unwrap(), &mesh, &table).unwrap();
+    let surfaces =
+        TableSurfaces::new(SceneMaterials::read_any(&table).unwrap(), &mesh, &table).unwrap();
     let scene = Scene::new(mesh, surfaces);
-    let cfg = RenderConfig { spp: 64, max_bounces: 7, seed: 3, ..Default::default() };
+    let cfg = RenderConfig {
+        spp: 64,
+        max_bounces: 7,
+        seed: 3,
+        ..Default::default()
+    };
     let val = ds.split("val").unwrap();
     let mut ps = Vec::new();
     let mut rel = Vec::new();
@@ -107,7 +150,11 @@ fn path_traced_views_come_close_to_mitsuba() {
     let mean = ps.iter().sum::<f64>() / ps.len() as f64;
     eprintln!("path-traced val views vs Mitsuba: PSNR per view {:?}, mean {mean:.2} dB; mean radiance ratio ours/Mitsuba {:?}", ps.iter().map(|p| format!("{p:.1}")).collect::<Vec<_>>(), rel.iter().map(|r| format!("{r:.3}")).collect::<Vec<_>>());
     for r in &rel {
-        assert!((r - 1.0).abs() < 0.15, "mean radiance differs by {:.1} %", 100.0 * (r - 1.0));
+        assert!(
+            (r - 1.0).abs() < 0.15,
+            "mean radiance differs by {:.1} %",
+            100.0 * (r - 1.0)
+        );
     }
     assert!(mean >= 24.0, "mean re-render PSNR {mean:.2} dB");
 }

@@ -65,7 +65,11 @@ pub struct FiptBrdf {
 
 impl FiptBrdf {
     pub fn new(kd: Rgb, ks: Rgb, roughness: f32) -> Self {
-        FiptBrdf { kd, ks, roughness: roughness.clamp(MIN_ROUGHNESS, 1.0) }
+        FiptBrdf {
+            kd,
+            ks,
+            roughness: roughness.clamp(MIN_ROUGHNESS, 1.0),
+        }
     }
 
     /// GGX α = σ².
@@ -113,7 +117,11 @@ impl Brdf for FiptBrdf {
         }
         let h = (wo + wi).normalize();
         let voh = wo.dot(h);
-        let spec = if voh > 0.0 { ggx_d(h, self.alpha()) * h.z / (4.0 * voh) } else { 0.0 };
+        let spec = if voh > 0.0 {
+            ggx_d(h, self.alpha()) * h.z / (4.0 * voh)
+        } else {
+            0.0
+        };
         0.5 * wi.z * FRAC_1_PI + 0.5 * spec
     }
 
@@ -142,6 +150,10 @@ impl Brdf for FiptBrdf {
             return None;
         }
         let f = self.eval(wo, wi);
-        Some(BrdfSample { wi, pdf, weight: f / pdf })
+        Some(BrdfSample {
+            wi,
+            pdf,
+            weight: f / pdf,
+        })
     }
 }

@@ -38,6 +38,10 @@ impl Brdf for Lambert {
         if wi.z <= 0.0 {
             return None;
         }
-        Some(BrdfSample { wi, pdf: wi.z * FRAC_1_PI, weight: self.albedo })
+        Some(BrdfSample {
+            wi,
+            pdf: wi.z * FRAC_1_PI,
+            weight: self.albedo,
+        })
     }
 }

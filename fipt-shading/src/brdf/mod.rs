@@ -5,7 +5,7 @@
 mod fipt;
 mod lambert;
 
-pub use fipt::{FiptBrdf, ggx_d, schlick_fresnel, smith_g1};
+pub use fipt::{ggx_d, schlick_fresnel, smith_g1, FiptBrdf};
 pub use lambert::Lambert;
 
 use fipt_core::brdf::{Brdf, BrdfSample};
@@ -30,7 +30,10 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     let (r, theta) = if o.x.abs() > o.y.abs() {
         (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
     } else {
-        (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
+        (
+            o.y,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
+        )
     };
     r * Vec2::new(theta.cos(), theta.sin())
 }
