@@ -80,6 +80,10 @@ impl TriangleSampler {
     pub fn probability(&self, k: usize) -> f32 {
         self.prob[k]
     }
+    /// Area density of points sampled on entry `k`: `probability(k) / area`.
+    pub fn pdf_area(&self, k: usize) -> f32 {
+        self.pdf_area[k]
+    }
     /// Triangle ids in sampler order.
     pub fn triangles(&self) -> &[u32] {
         &self.tris

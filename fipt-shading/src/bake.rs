@@ -531,8 +531,7 @@ impl FactorizedBaker {
                     let ns = sn.normalize_or(*ng);
                     let mut st =
                         SampleStream::new(cfg.sampler, &[seed, 0xD1FF, key.tri as u64, k as u64]);
-                    let v = diffuse_shading(&light, p, *ng, ns, cfg.diffuse_samples, &mut st);
-                    v
+                    diffuse_shading(&light, p, *ng, ns, cfg.diffuse_samples, &mut st)
                 })
                 .collect();
             for (s, a) in out.iter_mut().zip(&assign) {

@@ -96,9 +96,8 @@ pub struct Scene<S: SurfaceModel> {
     pub surfaces: S,
     /// Emitter triangles, chosen ∝ area × luminance(Le).
     pub lights: Option<TriangleSampler>,
-    /// Probability of choosing each mesh triangle as a light (0 for non-emitters).
-    pub light_pmf: Vec<f32>,
-    /// `light_pmf / area`: the area density of light samples on each triangle.
+    /// Area density of light samples on each mesh triangle (0 for non-emitters), for the MIS
+    /// weight of BRDF-sampled hits on emitters.
     pub light_pdf_area: Vec<f32>,
 }
 
@@ -120,12 +119,10 @@ impl<S: SurfaceModel> Scene<S> {
             }
         }
         let lights = TriangleSampler::weighted(&mesh, &tris, &weights);
-        let mut light_pmf = vec![0.0; mesh.triangles.len()];
         let mut light_pdf_area = vec![0.0; mesh.triangles.len()];
         if let Some(l) = &lights {
             for (k, &t) in l.triangles().iter().enumerate() {
-                light_pmf[t as usize] = l.probability(k);
-                light_pdf_area[t as usize] = l.probability(k) / mesh.area(t as usize);
+                light_pdf_area[t as usize] = l.pdf_area(k);
             }
         }
         Scene {
@@ -133,7 +130,6 @@ impl<S: SurfaceModel> Scene<S> {
             bvh,
             surfaces,
             lights,
-            light_pmf,
             light_pdf_area,
         }
     }
