@@ -43,6 +43,9 @@ pub enum CoreError {
         x: usize,
         y: usize,
     },
+    /// A failure inside a pluggable model (material field, optimiser backend).
+    #[error("{context}: {message}")]
+    Model { context: String, message: String },
     #[error(
         "{path}: frame {frame}: rotation part of the camera-to-world matrix is not orthonormal \
          (max |RᵀR − I| = {error:.2e}, det = {det:.4}); {hint}"

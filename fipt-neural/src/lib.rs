@@ -1,17 +1,27 @@
 //! # fipt-neural
 //!
-//! Will own the material field of fipt-rs: a multi-resolution hash-grid encoding and a small
-//! MLP (candle) mapping a world position to albedo, roughness and metallic, plus the emission
-//! mask, trained on baked shadings. This crate is a placeholder until the material-field issue
-//! lands: it holds only its error type, so that dependants can already name it.
+//! The material field of fipt-rs (method §4.3), on candle:
+//!
+//! * [`hashgrid::HashGrid`]: a multi-resolution hash-grid encoding as a candle custom op with
+//!   rayon forward/backward and a lazy Adam over the touched table entries;
+//! * [`field::NeuralField`]: hash grid + MLP → sigmoid → albedo, roughness (0.02 + 0.98·s),
+//!   metallic; and the emission mask, an MLP on a 10-frequency positional encoding with
+//!   α = 1 − exp(−relu(m)). Implements [`fipt_core::field::MaterialField`];
+//! * [`train::Trainer`]: batches of training pixels, the loss of the reference (sRGB-OETF MSE,
+//!   mask sparsity, roughness/metallic prior), Adam, checkpoints (safetensors) and exact resume;
+//! * [`plain`]: the same encoding from plain candle ops, the baseline of the benchmark.
+//!
+//! CPU by default; the `cuda` feature enables candle's CUDA backend for the MLPs (the hash
+//! grid's kernels are CPU-only).
+pub mod adam;
+pub mod error;
+pub mod field;
+pub mod hashgrid;
+pub mod ops;
+pub mod plain;
+pub mod train;
 
-/// Errors of the material field (training, checkpoints, queries).
-#[derive(Debug, thiserror::Error)]
-pub enum NeuralError {
-    /// A checkpoint or configuration could not be used.
-    #[error("{path}: {message}")]
-    Invalid {
-        path: std::path::PathBuf,
-        message: String,
-    },
-}
+pub use error::{NeuralError, Result};
+pub use field::{Bounds, FieldConfig, NeuralField};
+pub use hashgrid::{AdamConfig, HashGrid, HashGridConfig};
+pub use train::{PriorNorm, TrainConfig, Trainer, TrainingSet};

@@ -1,0 +1,377 @@
+//! The neural material field: hash grid + MLP → (albedo, roughness, metallic), and the
+//! emission mask: positional encoding + MLP → α = 1 − exp(−relu(m)).
+use crate::error::{CandleContext, NeuralError, Result};
+use crate::hashgrid::{HashGrid, HashGridConfig, HashGridOp};
+use crate::ops::positional_encoding;
+use candle_core::{DType, Device, Module, Tensor, Var};
+use candle_nn::{Linear, VarBuilder, VarMap};
+use fipt_core::field::{Material, MaterialField};
+use fipt_core::materials::MIN_ROUGHNESS;
+use fipt_core::rng::Pcg32;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// Sizes of the material field and the emission mask.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldConfig {
+    pub grid: HashGridConfig,
+    /// Width of the material MLP's hidden layers.
+    pub mlp_width: usize,
+    /// Number of hidden layers of the material MLP.
+    pub mlp_hidden: usize,
+    /// Frequencies of the mask's positional encoding.
+    pub mask_frequencies: usize,
+    pub mask_width: usize,
+    pub mask_hidden: usize,
+    /// Initial bias of the mask's output, so that every point starts with α > 0 and a live
+    /// gradient (with α = 1 − exp(−relu(m)), a point whose m starts below 0 could never learn to
+    /// emit). Sparsity then drives non-emitters to α = 0.
+    pub mask_init_bias: f32,
+    /// Initial bias of the metallic output's logit (0: m starts at 0.5). −2 would start at m ≈ 0.12, so
+    /// metallic grows only where the data asks for it (a metal) instead of settling wherever
+    /// kd and a·m trade off freely on rough surfaces.
+    pub metallic_init_bias: f32,
+}
+
+impl Default for FieldConfig {
+    fn default() -> Self {
+        FieldConfig {
+            grid: HashGridConfig::default(),
+            mlp_width: 64,
+            mlp_hidden: 2,
+            mask_frequencies: 10,
+            mask_width: 64,
+            mask_hidden: 2,
+            mask_init_bias: 0.1,
+            metallic_init_bias: 0.0,
+        }
+    }
+}
+
+/// The axis-aligned cube the grid covers: `unit = (p − min) / size`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Bounds {
+    pub min: [f32; 3],
+    pub size: f32,
+}
+
+impl Bounds {
+    /// The cube around `points`, enlarged by `scale` about its centre (the reference uses 1.1).
+    pub fn around(points: impl IntoIterator<Item = Vec3>, scale: f32) -> Option<Bounds> {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for p in points {
+            if p.is_finite() {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+        if lo.x > hi.x {
+            return None;
+        }
+        let c = (lo + hi) * 0.5;
+        let size = ((hi - lo).max_element() * scale).max(1e-6);
+        Some(Bounds {
+            min: (c - Vec3::splat(size * 0.5)).to_array(),
+            size,
+        })
+    }
+    /// Point in the unit cube (clamped).
+    #[inline]
+    pub fn unit(&self, p: Vec3) -> [f32; 3] {
+        let u = ((p - Vec3::from(self.min)) / self.size).clamp(Vec3::ZERO, Vec3::ONE);
+        u.to_array()
+    }
+}
+
+/// A stack of linear layers with ReLU between them (none after the last).
+pub struct Mlp {
+    layers: Vec<Linear>,
+}
+
+impl Mlp {
+    /// `input → width (× hidden) → output`, parameters named `name.{i}.weight|bias`.
+    pub fn new(
+        vb: VarBuilder,
+        input: usize,
+        width: usize,
+        hidden: usize,
+        output: usize,
+    ) -> Result<Self> {
+        let mut dims = vec![input];
+        dims.extend(std::iter::repeat_n(width, hidden));
+        dims.push(output);
+        let layers = dims
+            .windows(2)
+            .enumerate()
+            .map(|(i, w)| candle_nn::linear(w[0], w[1], vb.pp(i.to_string())))
+            .collect::<candle_core::Result<Vec<_>>>()
+            .ctx("creating an MLP")?;
+        Ok(Mlp { layers })
+    }
+}
+
+impl Module for Mlp {
+    fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
+        let mut h = x.clone();
+        for (i, l) in self.layers.iter().enumerate() {
+            h = l.forward(&h)?;
+            if i + 1 < self.layers.len() {
+                h = h.relu()?;
+            }
+        }
+        Ok(h)
+    }
+}
+
+/// Outputs of a forward pass, each `[n, k]`.
+pub struct FieldOutput {
+    pub albedo: Tensor,
+    /// σ = 0.02 + 0.98·s.
+    pub roughness: Tensor,
+    pub metallic: Tensor,
+    /// α ∈ [0, 1).
+    pub alpha: Tensor,
+}
+
+impl FieldOutput {
+    /// kd = a·(1 − m).
+    pub fn kd(&self) -> candle_core::Result<Tensor> {
+        self.albedo.broadcast_mul(&self.metallic.affine(-1.0, 1.0)?)
+    }
+    /// ks = 0.04·(1 − m) + a·m.
+    pub fn ks(&self) -> candle_core::Result<Tensor> {
+        self.albedo
+            .broadcast_mul(&self.metallic)?
+            .broadcast_add(&self.metallic.affine(-0.04, 0.04)?)
+    }
+}
+
+/// The trainable field.
+pub struct NeuralField {
+    config: FieldConfig,
+    bounds: Bounds,
+    grid: Arc<HashGrid>,
+    varmap: VarMap,
+    mlp: Mlp,
+    mask: Mlp,
+    device: Device,
+}
+
+/// Names of the candle parameters, sorted (checkpoint order).
+fn sorted_vars(varmap: &VarMap) -> Vec<(String, Var)> {
+    let data = varmap.data().lock().unwrap();
+    let mut v: Vec<(String, Var)> = data.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    v.sort_by(|a, b| a.0.cmp(&b.0));
+    v
+}
+
+impl NeuralField {
+    /// A freshly initialised field over `bounds`, deterministic in `seed`.
+    pub fn new(config: FieldConfig, bounds: Bounds, seed: u64) -> Result<Self> {
+        for (k, v) in [
+            ("mlp_width", config.mlp_width),
+            ("mask_width", config.mask_width),
+        ] {
+            if v == 0 || v > 1024 {
+                return Err(NeuralError::config(
+                    "field",
+                    format!("{k} = {v} (use 1..=1024)"),
+                ));
+            }
+        }
+        if config.mask_frequencies > 16 {
+            return Err(NeuralError::config(
+                "field",
+                format!(
+                    "mask_frequencies = {} (use 0..=16)",
+                    config.mask_frequencies
+                ),
+            ));
+        }
+        if !(bounds.size > 0.0 && bounds.size.is_finite()) {
+            return Err(NeuralError::config(
+                "field",
+                "empty or infinite scene bounds",
+            ));
+        }
+        let device = Device::Cpu;
+        let grid = Arc::new(HashGrid::new(config.grid.clone(), seed)?);
+        let varmap = VarMap::new();
+        let vb = VarBuilder::from_varmap(&varmap, DType::F32, &device);
+        let mlp = Mlp::new(
+            vb.pp("material"),
+            grid.output_dim(),
+            config.mlp_width,
+            config.mlp_hidden,
+            5,
+        )?;
+        let mask = Mlp::new(
+            vb.pp("mask"),
+            3 + 6 * config.mask_frequencies,
+            config.mask_width,
+            config.mask_hidden,
+            1,
+        )?;
+        // Deterministic initialisation (candle's CPU RNG cannot be seeded): He-uniform weights,
+        // small uniform biases.
+        let mut rng = Pcg32::new(seed, 0x3C1D);
+        let last_mask_bias = format!("mask.{}.bias", config.mask_hidden);
+        let last_material_bias = format!("material.{}.bias", config.mlp_hidden);
+        for (name, var) in sorted_vars(&varmap) {
+            let dims = var.dims().to_vec();
+            let fan_in = if dims.len() == 2 { dims[1] } else { dims[0] } as f32;
+            let n: usize = dims.iter().product();
+            let values: Vec<f32> = if name == last_mask_bias {
+                vec![config.mask_init_bias; n]
+            } else if name == last_material_bias {
+                let mut b = vec![0.0; n];
+                b[4] = config.metallic_init_bias;
+                b
+            } else if name.ends_with("weight") {
+                let b = (6.0 / fan_in).sqrt();
+                (0..n).map(|_| (rng.next_f32() * 2.0 - 1.0) * b).collect()
+            } else {
+                let b = 1.0 / fan_in.sqrt();
+                (0..n)
+                    .map(|_| (rng.next_f32() * 2.0 - 1.0) * b * 0.1)
+                    .collect()
+            };
+            var.set(&Tensor::from_vec(values, dims, &device).ctx("init")?)
+                .ctx("init")?;
+        }
+        Ok(NeuralField {
+            config,
+            bounds,
+            grid,
+            varmap,
+            mlp,
+            mask,
+            device,
+        })
+    }
+
+    pub fn config(&self) -> &FieldConfig {
+        &self.config
+    }
+    pub fn bounds(&self) -> Bounds {
+        self.bounds
+    }
+    pub fn grid(&self) -> &Arc<HashGrid> {
+        &self.grid
+    }
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+    /// The candle parameters (MLPs), sorted by name.
+    pub fn vars(&self) -> Vec<(String, Var)> {
+        sorted_vars(&self.varmap)
+    }
+    /// Trainable values: (hash tables, MLPs).
+    pub fn num_params(&self) -> (usize, usize) {
+        let mlp = self.vars().iter().map(|(_, v)| v.elem_count()).sum();
+        (self.grid.num_params(), mlp)
+    }
+
+    /// Points mapped into the unit cube.
+    pub fn to_unit(&self, points: &[Vec3]) -> Vec<[f32; 3]> {
+        points.iter().map(|&p| self.bounds.unit(p)).collect()
+    }
+
+    /// Forward pass at unit-cube points. With `train`, the hash grid's backward is recorded
+    /// (call `backward` on a loss built from the output, then step the optimisers).
+    pub fn forward(&self, unit: &[[f32; 3]], train: bool) -> Result<FieldOutput> {
+        let n = unit.len();
+        let flat: Vec<f32> = unit.iter().flatten().copied().collect();
+        let pts = Tensor::from_vec(flat, (n, 3), &self.device).ctx("points")?;
+        let enc = if train {
+            // A Var input makes candle record the op, so that its backward is called.
+            let v = Var::from_tensor(&pts).ctx("points")?;
+            v.as_tensor()
+                .apply_op1(HashGridOp(self.grid.clone()))
+                .ctx("hash grid")?
+        } else {
+            Tensor::from_vec(
+                self.grid.encode(unit),
+                (n, self.grid.output_dim()),
+                &self.device,
+            )
+            .ctx("hash grid")?
+        };
+        let h = self.mlp.forward(&enc).ctx("material MLP")?;
+        let s = candle_nn::ops::sigmoid(&h).ctx("sigmoid")?;
+        let albedo = s.narrow(1, 0, 3).ctx("albedo")?;
+        let roughness = s
+            .narrow(1, 3, 1)
+            .and_then(|r| r.affine(1.0 - MIN_ROUGHNESS as f64, MIN_ROUGHNESS as f64))
+            .ctx("roughness")?;
+        let metallic = s.narrow(1, 4, 1).ctx("metallic")?;
+        let signed: Vec<[f32; 3]> = unit
+            .iter()
+            .map(|p| [p[0] * 2.0 - 1.0, p[1] * 2.0 - 1.0, p[2] * 2.0 - 1.0])
+            .collect();
+        let pe = positional_encoding(&signed, self.config.mask_frequencies);
+        let pe = Tensor::from_vec(pe, (n, 3 + 6 * self.config.mask_frequencies), &self.device)
+            .ctx("positional encoding")?;
+        let m = self.mask.forward(&pe).ctx("mask MLP")?;
+        let alpha = m
+            .relu()
+            .and_then(|r| r.neg())
+            .and_then(|r| r.exp())
+            .and_then(|r| r.affine(-1.0, 1.0))
+            .ctx("mask")?;
+        Ok(FieldOutput {
+            albedo,
+            roughness,
+            metallic,
+            alpha,
+        })
+    }
+
+    /// Queries world points in chunks without recording gradients.
+    pub fn query(&self, points: &[Vec3]) -> Result<(Vec<Material>, Vec<f32>)> {
+        let mut mats = Vec::with_capacity(points.len());
+        let mut alphas = Vec::with_capacity(points.len());
+        for chunk in points.chunks(65_536) {
+            let out = self.forward(&self.to_unit(chunk), false)?;
+            let a = out.albedo.to_vec2::<f32>().ctx("albedo")?;
+            let r = out
+                .roughness
+                .flatten_all()
+                .and_then(|t| t.to_vec1::<f32>())
+                .ctx("roughness")?;
+            let m = out
+                .metallic
+                .flatten_all()
+                .and_then(|t| t.to_vec1::<f32>())
+                .ctx("metallic")?;
+            let al = out
+                .alpha
+                .flatten_all()
+                .and_then(|t| t.to_vec1::<f32>())
+                .ctx("alpha")?;
+            for i in 0..chunk.len() {
+                mats.push(Material {
+                    albedo: Vec3::new(a[i][0], a[i][1], a[i][2]),
+                    roughness: r[i],
+                    metallic: m[i],
+                });
+            }
+            alphas.extend(al);
+        }
+        Ok((mats, alphas))
+    }
+}
+
+impl MaterialField for NeuralField {
+    fn name(&self) -> &str {
+        "fipt-hashgrid-mlp"
+    }
+    fn materials(&self, points: &[Vec3]) -> fipt_core::Result<Vec<Material>> {
+        Ok(self.query(points)?.0)
+    }
+    fn emission_mask(&self, points: &[Vec3]) -> fipt_core::Result<Vec<f32>> {
+        Ok(self.query(points)?.1)
+    }
+}

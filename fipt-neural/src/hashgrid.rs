@@ -1,0 +1,521 @@
+//! Multi-resolution hash-grid encoding as a candle custom op, with a sparse Adam for its tables.
+//!
+//! Level l has a grid of `resolution(l) = floor(base · scale^l)` cells per axis over the unit
+//! cube; a point's features at that level are the trilinear interpolation of the feature
+//! vectors stored at the 8 corners of its cell. Coarse levels whose `(r+1)³` corners fit in the
+//! table are indexed densely; finer levels hash corners into `2^log2_table` entries. The
+//! encoding of a point is the concatenation of its level features (level-major).
+//!
+//! The tables live in [`HashGrid`], not in a candle `Var`: candle's backward would materialise
+//! a dense gradient the size of all tables (tens of MB) every step, and a dense Adam over them
+//! costs ~50 ms on 2 cores whatever the batch. Instead the op's backward (called by candle's
+//! autograd, so the MLP after it keeps candle's gradients) accumulates into the grid's own
+//! gradient buffer and records which entries were touched; [`HashGrid::adam_step`] then updates
+//! only those entries (lazy Adam: moments of untouched entries are left as they are).
+//!
+//! Level resolutions are computed once, in [`HashGrid::new`], and every code path reads that
+//! table: recomputing `base·scale^l` at two call sites can round differently and move corners.
+use crate::error::{NeuralError, Result};
+use candle_core::{CpuStorage, CustomOp1, Layout, Shape, Tensor};
+use fipt_core::rng::Pcg32;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, RwLock};
+use std::time::Instant;
+
+/// Sizes of a hash-grid encoding.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HashGridConfig {
+    /// Number of levels.
+    pub levels: usize,
+    /// Features per level.
+    pub features: usize,
+    /// log2 of the entries per hashed level.
+    pub log2_table: u32,
+    /// Cells per axis of the coarsest level.
+    pub base_resolution: u32,
+    /// Growth of the resolution from one level to the next.
+    pub per_level_scale: f32,
+    /// Initial features are uniform in ±init_scale.
+    pub init_scale: f32,
+}
+
+impl Default for HashGridConfig {
+    /// 16 levels × 2 features × 2^19, base 16, scale 1.38 (finest ≈ 2,000 cells across).
+    fn default() -> Self {
+        HashGridConfig {
+            levels: 16,
+            features: 2,
+            log2_table: 19,
+            base_resolution: 16,
+            per_level_scale: 1.38,
+            init_scale: 1e-4,
+        }
+    }
+}
+
+impl HashGridConfig {
+    /// The reference's sizes: 32 levels × 2 features × 2^19, base 16, scale 1.3.
+    pub const fn reference() -> Self {
+        HashGridConfig {
+            levels: 32,
+            features: 2,
+            log2_table: 19,
+            base_resolution: 16,
+            per_level_scale: 1.3,
+            init_scale: 1e-4,
+        }
+    }
+
+    /// Width of the encoding (levels × features).
+    pub fn output_dim(&self) -> usize {
+        self.levels * self.features
+    }
+
+    /// Checks the sizes; `what` names the configuration in errors.
+    pub fn validate(&self, what: &str) -> Result<()> {
+        let bad = |m: String| Err(NeuralError::config(what, m));
+        if self.levels == 0 || self.levels > 64 {
+            return bad(format!("levels = {} (use 1..=64)", self.levels));
+        }
+        if self.features == 0 || self.features > 8 {
+            return bad(format!("features = {} (use 1..=8)", self.features));
+        }
+        if !(4..=24).contains(&self.log2_table) {
+            return bad(format!("log2_table = {} (use 4..=24)", self.log2_table));
+        }
+        if self.base_resolution == 0 {
+            return bad("base_resolution must be at least 1".into());
+        }
+        if !(self.per_level_scale >= 1.0 && self.per_level_scale <= 4.0) {
+            return bad(format!(
+                "per_level_scale = {} (use 1..=4)",
+                self.per_level_scale
+            ));
+        }
+        if !(self.init_scale >= 0.0 && self.init_scale.is_finite()) {
+            return bad(format!("init_scale = {}", self.init_scale));
+        }
+        Ok(())
+    }
+}
+
+/// One level of the grid, fixed at construction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Level {
+    /// Cells per axis (corners per axis = resolution + 1).
+    pub resolution: u32,
+    /// First entry of the level in the table.
+    pub offset: usize,
+    /// Entries of the level.
+    pub size: usize,
+    /// Dense (one entry per corner) or hashed.
+    pub dense: bool,
+}
+
+/// The corners and trilinear weights of a point at one level.
+#[inline]
+fn corners(level: &Level, p: [f32; 3]) -> ([usize; 8], [f32; 8]) {
+    let r = level.resolution;
+    let mut cell = [0u32; 3];
+    let mut frac = [0f32; 3];
+    for a in 0..3 {
+        let x = if p[a].is_nan() {
+            0.0
+        } else {
+            p[a].clamp(0.0, 1.0) * r as f32
+        };
+        let c = (x.floor() as u32).min(r - 1);
+        cell[a] = c;
+        frac[a] = (x - c as f32).clamp(0.0, 1.0);
+    }
+    let mut idx = [0usize; 8];
+    let mut w = [0f32; 8];
+    for (k, (i, wk)) in idx.iter_mut().zip(&mut w).enumerate() {
+        let mut weight = 1.0;
+        let mut c = [0u32; 3];
+        for a in 0..3 {
+            let bit = (k >> a) & 1;
+            c[a] = cell[a] + bit as u32;
+            weight *= if bit == 1 { frac[a] } else { 1.0 - frac[a] };
+        }
+        *i = level.offset + entry(level, c);
+        *wk = weight;
+    }
+    (idx, w)
+}
+
+/// Entry of corner `c` within its level.
+#[inline]
+fn entry(level: &Level, c: [u32; 3]) -> usize {
+    if level.dense {
+        let n = level.resolution as usize + 1;
+        c[0] as usize + n * (c[1] as usize + n * c[2] as usize)
+    } else {
+        let h = c[0] ^ c[1].wrapping_mul(2_654_435_761) ^ c[2].wrapping_mul(805_459_861);
+        h as usize & (level.size - 1)
+    }
+}
+
+/// Gradient accumulation and optimiser state of the tables.
+struct Train {
+    grad: Vec<f32>,
+    m: Vec<f32>,
+    v: Vec<f32>,
+    /// Per entry: the generation in which it was last recorded as touched.
+    stamp: Vec<u32>,
+    generation: u32,
+    /// Per level: entries touched since the last step.
+    touched: Vec<Vec<u32>>,
+    steps: u64,
+}
+
+/// Adam hyper-parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdamConfig {
+    pub lr: f32,
+    pub beta1: f32,
+    pub beta2: f32,
+    pub eps: f32,
+}
+
+impl Default for AdamConfig {
+    fn default() -> Self {
+        AdamConfig {
+            lr: 1e-3,
+            beta1: 0.9,
+            beta2: 0.99,
+            eps: 1e-15,
+        }
+    }
+}
+
+/// Time spent in the encoding, for benchmarks (nanoseconds, cumulative).
+#[derive(Debug, Default)]
+pub struct GridTimers {
+    pub forward_ns: AtomicU64,
+    pub backward_ns: AtomicU64,
+    pub adam_ns: AtomicU64,
+}
+
+/// A multi-resolution hash grid: level table, feature tables and their optimiser state.
+pub struct HashGrid {
+    config: HashGridConfig,
+    levels: Vec<Level>,
+    params: RwLock<Vec<f32>>,
+    train: Mutex<Train>,
+    pub timers: GridTimers,
+}
+
+impl HashGrid {
+    /// A grid with features uniform in ±init_scale drawn from `seed`.
+    pub fn new(config: HashGridConfig, seed: u64) -> Result<Self> {
+        config.validate("hash grid")?;
+        let table = 1usize << config.log2_table;
+        let mut levels = Vec::with_capacity(config.levels);
+        let mut offset = 0;
+        for l in 0..config.levels {
+            let r = (config.base_resolution as f64 * (config.per_level_scale as f64).powi(l as i32))
+                .floor()
+                .clamp(1.0, 1e6) as u32;
+            let corners = (r as usize + 1).pow(3);
+            let dense = corners <= table;
+            let size = if dense { corners } else { table };
+            levels.push(Level {
+                resolution: r,
+                offset,
+                size,
+                dense,
+            });
+            offset += size;
+        }
+        let n = offset * config.features;
+        let mut rng = Pcg32::new(seed, 0x4A54);
+        let s = config.init_scale;
+        let params: Vec<f32> = (0..n).map(|_| (rng.next_f32() * 2.0 - 1.0) * s).collect();
+        Ok(HashGrid {
+            train: Mutex::new(Train {
+                grad: vec![0.0; n],
+                m: vec![0.0; n],
+                v: vec![0.0; n],
+                stamp: vec![0; offset],
+                generation: 1,
+                touched: vec![Vec::new(); config.levels],
+                steps: 0,
+            }),
+            params: RwLock::new(params),
+            levels,
+            config,
+            timers: GridTimers::default(),
+        })
+    }
+
+    pub fn config(&self) -> &HashGridConfig {
+        &self.config
+    }
+    pub fn levels(&self) -> &[Level] {
+        &self.levels
+    }
+    /// Number of trainable values.
+    pub fn num_params(&self) -> usize {
+        self.params.read().unwrap().len()
+    }
+    /// Width of the encoding.
+    pub fn output_dim(&self) -> usize {
+        self.config.output_dim()
+    }
+    /// A copy of the tables.
+    pub fn params(&self) -> Vec<f32> {
+        self.params.read().unwrap().clone()
+    }
+    /// Adam steps taken.
+    pub fn steps(&self) -> u64 {
+        self.train.lock().unwrap().steps
+    }
+
+    /// Encodes points of the unit cube (`[x, y, z]` triples, clamped to [0, 1]) into
+    /// `points.len() × output_dim` features, in parallel.
+    pub fn encode(&self, points: &[[f32; 3]]) -> Vec<f32> {
+        let d = self.output_dim();
+        let f = self.config.features;
+        let mut out = vec![0f32; points.len() * d];
+        let params = self.params.read().unwrap();
+        out.par_chunks_mut(d * 64)
+            .zip(points.par_chunks(64))
+            .for_each(|(rows, pts)| {
+                for (row, p) in rows.chunks_mut(d).zip(pts) {
+                    for (l, level) in self.levels.iter().enumerate() {
+                        let (idx, w) = corners(level, *p);
+                        let o = &mut row[l * f..(l + 1) * f];
+                        for k in 0..8 {
+                            let e = &params[idx[k] * f..idx[k] * f + f];
+                            for j in 0..f {
+                                o[j] += w[k] * e[j];
+                            }
+                        }
+                    }
+                }
+            });
+        out
+    }
+
+    /// Adds the gradient of the tables for `d loss / d encoding = grad_out` (row per point) to
+    /// the accumulated gradient, one level per task (levels own disjoint table ranges).
+    pub fn accumulate_grad(&self, points: &[[f32; 3]], grad_out: &[f32]) {
+        let d = self.output_dim();
+        let f = self.config.features;
+        assert_eq!(grad_out.len(), points.len() * d, "gradient shape");
+        let mut guard = self.train.lock().unwrap();
+        let tr = &mut *guard;
+        let generation = tr.generation;
+        let mut grad_slices = split_levels(&mut tr.grad, &self.levels, f);
+        let mut stamp_slices = split_levels(&mut tr.stamp, &self.levels, 1);
+        grad_slices
+            .par_iter_mut()
+            .zip(stamp_slices.par_iter_mut())
+            .zip(tr.touched.par_iter_mut())
+            .zip(self.levels.par_iter().enumerate())
+            .for_each(|(((g, st), touched), (l, level))| {
+                for (p, go) in points.iter().zip(grad_out.chunks_exact(d)) {
+                    let go = &go[l * f..(l + 1) * f];
+                    if go.iter().all(|&x| x == 0.0) {
+                        continue;
+                    }
+                    let (idx, w) = corners(level, *p);
+                    for k in 0..8 {
+                        let e = idx[k] - level.offset;
+                        for j in 0..f {
+                            g[e * f + j] += w[k] * go[j];
+                        }
+                        if st[e] != generation {
+                            st[e] = generation;
+                            touched.push(e as u32);
+                        }
+                    }
+                }
+            });
+    }
+
+    /// One lazy-Adam step on the entries touched since the last step; clears their gradient.
+    pub fn adam_step(&self, cfg: &AdamConfig) {
+        let t0 = Instant::now();
+        let f = self.config.features;
+        let mut guard = self.train.lock().unwrap();
+        let tr = &mut *guard;
+        tr.steps += 1;
+        let t = tr.steps as i32;
+        let bc1 = 1.0 - cfg.beta1.powi(t);
+        let bc2 = 1.0 - cfg.beta2.powi(t);
+        let mut params = self.params.write().unwrap();
+        let p_s = split_levels(&mut params, &self.levels, f);
+        let g_s = split_levels(&mut tr.grad, &self.levels, f);
+        let m_s = split_levels(&mut tr.m, &self.levels, f);
+        let v_s = split_levels(&mut tr.v, &self.levels, f);
+        p_s.into_par_iter()
+            .zip(g_s)
+            .zip(m_s)
+            .zip(v_s)
+            .zip(tr.touched.par_iter_mut())
+            .for_each(|((((p, g), m), v), touched)| {
+                for &e in touched.iter() {
+                    for j in e as usize * f..e as usize * f + f {
+                        let gj = g[j];
+                        g[j] = 0.0;
+                        m[j] = cfg.beta1 * m[j] + (1.0 - cfg.beta1) * gj;
+                        v[j] = cfg.beta2 * v[j] + (1.0 - cfg.beta2) * gj * gj;
+                        let mh = m[j] / bc1;
+                        let vh = v[j] / bc2;
+                        p[j] -= cfg.lr * mh / (vh.sqrt() + cfg.eps);
+                    }
+                }
+                touched.clear();
+            });
+        tr.generation = tr.generation.wrapping_add(1).max(1);
+        if tr.generation == 1 {
+            tr.stamp.iter_mut().for_each(|s| *s = 0);
+        }
+        self.timers
+            .adam_ns
+            .fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+    }
+
+    /// The accumulated (not yet applied) gradient, for tests.
+    pub fn pending_grad(&self) -> Vec<f32> {
+        self.train.lock().unwrap().grad.clone()
+    }
+
+    /// Discards the accumulated gradient.
+    pub fn zero_grad(&self) {
+        let mut tr = self.train.lock().unwrap();
+        for l in 0..self.levels.len() {
+            let level = self.levels[l];
+            let touched = std::mem::take(&mut tr.touched[l]);
+            for e in touched {
+                let base = (level.offset + e as usize) * self.config.features;
+                tr.grad[base..base + self.config.features].fill(0.0);
+            }
+        }
+        tr.generation = tr.generation.wrapping_add(1).max(1);
+    }
+
+    /// Tables and optimiser state for a checkpoint: (params, m, v, steps).
+    pub fn state(&self) -> (Vec<f32>, Vec<f32>, Vec<f32>, u64) {
+        let tr = self.train.lock().unwrap();
+        (self.params(), tr.m.clone(), tr.v.clone(), tr.steps)
+    }
+
+    /// Restores [`HashGrid::state`]; lengths must match this grid's.
+    pub fn set_state(&self, params: Vec<f32>, m: Vec<f32>, v: Vec<f32>, steps: u64) -> Result<()> {
+        let n = self.num_params();
+        if params.len() != n || m.len() != n || v.len() != n {
+            return Err(NeuralError::config(
+                "hash grid checkpoint",
+                format!(
+                    "table sizes {}/{}/{} do not match this grid's {n} values (another configuration?)",
+                    params.len(),
+                    m.len(),
+                    v.len()
+                ),
+            ));
+        }
+        *self.params.write().unwrap() = params;
+        let mut tr = self.train.lock().unwrap();
+        tr.m = m;
+        tr.v = v;
+        tr.steps = steps;
+        drop(tr);
+        self.zero_grad();
+        Ok(())
+    }
+
+    /// Overwrites one table value (finite-difference tests).
+    pub fn set_param(&self, i: usize, value: f32) {
+        self.params.write().unwrap()[i] = value;
+    }
+}
+
+/// Splits a per-entry buffer (`width` values per entry) into per-level mutable slices.
+fn split_levels<'a, T>(mut buf: &'a mut [T], levels: &[Level], width: usize) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(levels.len());
+    for level in levels {
+        let (a, b) = std::mem::take(&mut buf).split_at_mut(level.size * width);
+        out.push(a);
+        buf = b;
+    }
+    out
+}
+
+/// The encoding as a candle op: input `[n, 3]` points of the unit cube, output
+/// `[n, levels·features]`. For gradients to flow, the input must track gradients (wrap it in a
+/// `Var`); the op's backward accumulates into the grid and returns no input gradient.
+#[derive(Clone)]
+pub struct HashGridOp(pub Arc<HashGrid>);
+
+fn points_of(storage: &CpuStorage, layout: &Layout) -> candle_core::Result<Vec<[f32; 3]>> {
+    let data = match storage {
+        CpuStorage::F32(v) => v,
+        _ => candle_core::bail!("hash grid: points must be f32"),
+    };
+    let dims = layout.shape().dims();
+    if dims.len() != 2 || dims[1] != 3 {
+        candle_core::bail!("hash grid: points must be [n, 3], got {:?}", dims);
+    }
+    let slice = match layout.contiguous_offsets() {
+        Some((a, b)) => &data[a..b],
+        None => candle_core::bail!("hash grid: points must be contiguous"),
+    };
+    Ok(slice.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+}
+
+impl CustomOp1 for HashGridOp {
+    fn name(&self) -> &'static str {
+        "hash-grid"
+    }
+
+    fn cpu_fwd(
+        &self,
+        storage: &CpuStorage,
+        layout: &Layout,
+    ) -> candle_core::Result<(CpuStorage, Shape)> {
+        let t0 = Instant::now();
+        let pts = points_of(storage, layout)?;
+        let out = self.0.encode(&pts);
+        let shape = Shape::from((pts.len(), self.0.output_dim()));
+        self.0
+            .timers
+            .forward_ns
+            .fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+        Ok((CpuStorage::F32(out), shape))
+    }
+
+    fn bwd(
+        &self,
+        arg: &Tensor,
+        _res: &Tensor,
+        grad_res: &Tensor,
+    ) -> candle_core::Result<Option<Tensor>> {
+        let t0 = Instant::now();
+        let pts: Vec<[f32; 3]> = arg
+            .to_vec2::<f32>()?
+            .into_iter()
+            .map(|r| [r[0], r[1], r[2]])
+            .collect();
+        let g = grad_res.flatten_all()?.to_vec1::<f32>()?;
+        self.0.accumulate_grad(&pts, &g);
+        self.0
+            .timers
+            .backward_ns
+            .fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+        Ok(None)
+    }
+}
+
+impl HashGrid {
+    /// Table entries (global) and trilinear weights of `p`'s cell corners at `level`.
+    pub fn corners_at(&self, level: usize, p: [f32; 3]) -> ([usize; 8], [f32; 8]) {
+        corners(&self.levels[level], p)
+    }
+}

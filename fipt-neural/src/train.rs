@@ -1,0 +1,608 @@
+//! Fitting the field to the training pixels through the factorised image model (method §4.3).
+//!
+//! Prediction per pixel: `(1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT`. Loss:
+//! `MSE(oetf(pred), oetf(GT)) + mask_weight·mean(α) + prior_weight·(mean|σ − 1| + mean(m))`,
+//! with the sRGB OETF unclamped. Batches are drawn uniformly from all valid training pixels by
+//! a generator keyed on (seed, step), so a resumed run draws exactly the batches the
+//! uninterrupted one would have.
+use crate::adam::Adam;
+use crate::error::{CandleContext, NeuralError, Result};
+use crate::field::{Bounds, FieldConfig, NeuralField};
+use crate::hashgrid::{AdamConfig, HashGridConfig};
+use crate::ops::{srgb_oetf, LevelWeights, SrgbOetf};
+use candle_core::{Tensor, D};
+use fipt_core::fsutil::{read_json, write_atomic, write_json_atomic};
+use fipt_core::image::Image;
+use fipt_core::rng::Pcg32;
+use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+/// Training settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainConfig {
+    pub field: FieldConfig,
+    pub steps: usize,
+    /// Pixels per batch.
+    pub batch: usize,
+    pub adam: AdamConfig,
+    /// The hash tables' learning rate as a multiple of `adam.lr`.
+    pub grid_lr_factor: f32,
+    /// Weight of mean(α) (mask sparsity).
+    pub mask_weight: f32,
+    /// Weight of the roughness/metallic prior.
+    pub prior_weight: f32,
+    /// `l1`: mean|σ − 1| + mean(m) (the reference). `l2`: mean((σ − 1)²) + mean(m²), whose pull
+    /// vanishes at the target: with Adam, the L1 pull of every pixel on the MLP's shared output
+    /// bias saturates the sigmoids (σ → 1, m → 0 everywhere) and drowns the few glossy or
+    /// metallic pixels that observe them (measured on cornell with a gold block: glossy σ at
+    /// 2.5 dB with L1).
+    pub prior_norm: PriorNorm,
+    /// The prior's weight ramps linearly from 0 at `prior_ramp[0]·steps` to full at
+    /// `prior_ramp[1]·steps`. A prior active from the first step pulls every point to
+    /// (σ = 1, m = 0), where a metal explained as a diffuse surface is a local minimum whose
+    /// gradients in σ and m nearly vanish; letting the data shape the field first avoids it.
+    /// `[0, 0]`: full weight from the start (the reference).
+    pub prior_ramp: [f32; 2],
+    pub seed: u64,
+    /// Steps between checkpoints (0: only at the end).
+    pub checkpoint_every: usize,
+}
+
+impl Default for TrainConfig {
+    /// The `balanced` preset.
+    fn default() -> Self {
+        TrainConfig {
+            field: FieldConfig::default(),
+            steps: 3000,
+            batch: 8192,
+            adam: AdamConfig::default(),
+            grid_lr_factor: 1.0,
+            mask_weight: 1.0,
+            prior_weight: 5e-4,
+            prior_norm: PriorNorm::L2,
+            prior_ramp: [0.3, 0.6],
+            seed: 9,
+            checkpoint_every: 500,
+        }
+    }
+}
+
+impl TrainConfig {
+    /// The reference: 32 levels × 2^19, 10k steps of 8192 pixels, lr 1e-3, seed 9.
+    pub fn paper() -> Self {
+        TrainConfig {
+            field: FieldConfig {
+                grid: HashGridConfig::reference(),
+                ..FieldConfig::default()
+            },
+            steps: 10_000,
+            prior_norm: PriorNorm::L1,
+            prior_ramp: [0.0, 0.0],
+            ..Self::default()
+        }
+    }
+    /// Fewer, smaller levels and steps.
+    pub fn fast() -> Self {
+        TrainConfig {
+            field: FieldConfig {
+                grid: HashGridConfig {
+                    levels: 12,
+                    log2_table: 17,
+                    per_level_scale: 1.5,
+                    ..HashGridConfig::default()
+                },
+                mask_width: 32,
+                ..FieldConfig::default()
+            },
+            steps: 1000,
+            ..Self::default()
+        }
+    }
+    /// A named preset: `paper`, `balanced` (or `default`), `fast`.
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "paper" => Some(Self::paper()),
+            "balanced" | "default" => Some(Self::default()),
+            "fast" => Some(Self::fast()),
+            _ => None,
+        }
+    }
+    pub fn validate(&self) -> Result<()> {
+        self.field.grid.validate("train.field.grid")?;
+        if self.batch == 0 || self.batch > 1 << 22 {
+            return Err(NeuralError::config(
+                "train",
+                format!("batch = {} (use 1..=4194304)", self.batch),
+            ));
+        }
+        if !(self.adam.lr > 0.0 && self.adam.lr.is_finite()) {
+            return Err(NeuralError::config(
+                "train.adam",
+                format!("lr = {}", self.adam.lr),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Norm of the roughness/metallic prior.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PriorNorm {
+    L1,
+    L2,
+}
+
+/// The training pixels, structure of arrays.
+pub struct TrainingSet {
+    pub levels: [f32; NUM_LEVELS],
+    /// Unit-cube positions of the primary hits.
+    pub unit: Vec<[f32; 3]>,
+    pub ld: Vec<[f32; 3]>,
+    pub ls0: Vec<[[f32; 3]; NUM_LEVELS]>,
+    pub ls1: Vec<[[f32; 3]; NUM_LEVELS]>,
+    pub gt: Vec<[f32; 3]>,
+    /// (view, pixel) of each sample.
+    pub origin: Vec<(u32, u32)>,
+}
+
+impl TrainingSet {
+    /// Gathers every pixel with a primary hit and valid shadings. `points[v][i]` is the primary
+    /// hit of pixel `i` of view `v` (None on a miss).
+    pub fn new(
+        points: &[Vec<Option<Vec3>>],
+        shadings: &[ViewShadings],
+        images: &[Image],
+        bounds: &Bounds,
+    ) -> Result<Self> {
+        if points.len() != shadings.len() || images.len() != shadings.len() {
+            return Err(NeuralError::config(
+                "training set",
+                format!(
+                    "{} point sets, {} shadings, {} images: one of each per view is needed",
+                    points.len(),
+                    shadings.len(),
+                    images.len()
+                ),
+            ));
+        }
+        let levels = shadings
+            .first()
+            .map(|s| s.levels)
+            .unwrap_or(fipt_core::shading::DEFAULT_LEVELS);
+        let mut set = TrainingSet {
+            levels,
+            unit: vec![],
+            ld: vec![],
+            ls0: vec![],
+            ls1: vec![],
+            gt: vec![],
+            origin: vec![],
+        };
+        for (v, ((pts, sh), img)) in points.iter().zip(shadings).zip(images).enumerate() {
+            let n = sh.width * sh.height;
+            if pts.len() != n || img.data.len() != n || sh.levels != levels {
+                return Err(NeuralError::config(
+                    "training set",
+                    format!("view {v}: sizes or roughness levels differ between shadings, hits and image"),
+                ));
+            }
+            for i in 0..n {
+                let Some(p) = pts[i] else { continue };
+                if !sh.valid[i] {
+                    continue;
+                }
+                let arr = |x: &[Vec3; NUM_LEVELS]| x.map(|c| c.to_array());
+                set.unit.push(bounds.unit(p));
+                set.ld.push(sh.ld[i].to_array());
+                set.ls0.push(arr(&sh.ls0[i]));
+                set.ls1.push(arr(&sh.ls1[i]));
+                set.gt.push(img.data[i].to_array());
+                set.origin.push((v as u32, i as u32));
+            }
+        }
+        Ok(set)
+    }
+
+    pub fn len(&self) -> usize {
+        self.unit.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.unit.is_empty()
+    }
+}
+
+/// Losses of one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepLosses {
+    pub step: usize,
+    pub total: f32,
+    pub image: f32,
+    pub mask: f32,
+    pub prior: f32,
+}
+
+/// Where training time went (seconds, cumulative).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
+pub struct TrainTimings {
+    pub steps: usize,
+    pub batch: f64,
+    pub forward: f64,
+    pub backward: f64,
+    pub optimizer: f64,
+    pub grid_forward: f64,
+    pub grid_backward: f64,
+    pub grid_optimizer: f64,
+}
+
+impl TrainTimings {
+    pub fn total(&self) -> f64 {
+        self.batch + self.forward + self.backward + self.optimizer
+    }
+}
+
+/// Checkpoint metadata, written after the tensors.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckpointMeta {
+    pub version: u32,
+    pub step: usize,
+    pub grid_steps: u64,
+    pub adam_steps: u64,
+    pub config: TrainConfig,
+    pub bounds: Bounds,
+    pub levels: [f32; NUM_LEVELS],
+    pub last: StepLosses,
+}
+
+const CHECKPOINT_VERSION: u32 = 1;
+
+/// Runs the optimisation.
+pub struct Trainer {
+    pub config: TrainConfig,
+    pub field: NeuralField,
+    adam: Adam,
+    step: usize,
+    pub last: StepLosses,
+    pub timings: TrainTimings,
+    level_weights: LevelWeights,
+}
+
+impl Trainer {
+    /// A fresh field over `bounds` for data with roughness `levels`.
+    pub fn new(config: TrainConfig, bounds: Bounds, levels: [f32; NUM_LEVELS]) -> Result<Self> {
+        config.validate()?;
+        let field = NeuralField::new(config.field.clone(), bounds, config.seed)?;
+        let adam = Adam::new(field.vars(), config.adam)?;
+        Ok(Trainer {
+            config,
+            field,
+            adam,
+            step: 0,
+            last: StepLosses::default(),
+            timings: TrainTimings::default(),
+            level_weights: LevelWeights(levels),
+        })
+    }
+
+    /// The prior's ramp factor at the current step.
+    fn prior_ramp(&self) -> f32 {
+        let [a, b] = self.config.prior_ramp;
+        let x = self.step as f32 / self.config.steps.max(1) as f32;
+        if x >= b {
+            1.0
+        } else if x < a {
+            0.0
+        } else {
+            (x - a) / (b - a)
+        }
+    }
+
+    /// Steps taken so far.
+    pub fn step_count(&self) -> usize {
+        self.step
+    }
+
+    /// One optimisation step on a batch drawn from `data`.
+    pub fn step(&mut self, data: &TrainingSet) -> Result<StepLosses> {
+        if data.is_empty() {
+            return Err(NeuralError::config(
+                "training set",
+                "no valid pixels to train on",
+            ));
+        }
+        let t0 = Instant::now();
+        let b = self.config.batch;
+        let dev = self.field.device().clone();
+        let mut rng = Pcg32::from_keys(&[self.config.seed, self.step as u64, 0xBA7C]);
+        let idx: Vec<usize> = (0..b)
+            .map(|_| ((rng.next_u32() as u64 * data.len() as u64) >> 32) as usize)
+            .collect();
+        let unit: Vec<[f32; 3]> = idx.iter().map(|&i| data.unit[i]).collect();
+        let gather3 = |v: &Vec<[f32; 3]>| -> Vec<f32> { idx.iter().flat_map(|&i| v[i]).collect() };
+        let gather_l = |v: &Vec<[[f32; 3]; NUM_LEVELS]>| -> Vec<f32> {
+            idx.iter()
+                .flat_map(|&i| v[i].iter().flatten().copied().collect::<Vec<_>>())
+                .collect()
+        };
+        let gt = gather3(&data.gt);
+        let gt_oetf: Vec<f32> = gt.iter().map(|&x| srgb_oetf(x)).collect();
+        let tensors: candle_core::Result<_> = (|| {
+            Ok((
+                Tensor::from_vec(gather3(&data.ld), (b, 3), &dev)?,
+                Tensor::from_vec(gather_l(&data.ls0), (b, NUM_LEVELS, 3), &dev)?,
+                Tensor::from_vec(gather_l(&data.ls1), (b, NUM_LEVELS, 3), &dev)?,
+                Tensor::from_vec(gt, (b, 3), &dev)?,
+                Tensor::from_vec(gt_oetf, (b, 3), &dev)?,
+            ))
+        })();
+        let (ld, ls0, ls1, gt, gt_oetf) = tensors.ctx("batch")?;
+        let t1 = Instant::now();
+        let out = self.field.forward(&unit, true)?;
+        let cfg = &self.config;
+        let lw = self.level_weights;
+        let prior_weight = cfg.prior_weight * self.prior_ramp();
+        let losses: candle_core::Result<_> = (|| {
+            let w = out.roughness.apply_op1(lw)?.unsqueeze(2)?;
+            let s0 = ls0.broadcast_mul(&w)?.sum(1)?;
+            let s1 = ls1.broadcast_mul(&w)?.sum(1)?;
+            let render = ((out.kd()? * ld)? + (out.ks()? * s0)?)?.add(&s1)?;
+            let keep = out.alpha.affine(-1.0, 1.0)?;
+            let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha)?)?;
+            let diff = (pred.apply_op1(SrgbOetf)? - gt_oetf)?;
+            let image = diff.sqr()?.mean_all()?;
+            let mask = out.alpha.mean_all()?;
+            let dr = out.roughness.affine(1.0, -1.0)?;
+            let prior = match cfg.prior_norm {
+                PriorNorm::L1 => (dr.abs()?.mean_all()? + out.metallic.mean_all()?)?,
+                PriorNorm::L2 => (dr.sqr()?.mean_all()? + out.metallic.sqr()?.mean_all()?)?,
+            };
+            let total = ((image.clone() + mask.affine(cfg.mask_weight as f64, 0.0)?)?
+                + prior.affine(prior_weight as f64, 0.0)?)?;
+            Ok((total, image, mask, prior))
+        })();
+        let (total, image, mask, prior) = losses.ctx("loss")?;
+        let t2 = Instant::now();
+        let grads = total.backward().ctx("backward")?;
+        let t3 = Instant::now();
+        self.adam.step(&grads)?;
+        let grid_adam = AdamConfig {
+            lr: cfg.adam.lr * cfg.grid_lr_factor,
+            ..cfg.adam
+        };
+        self.field.grid().adam_step(&grid_adam);
+        let t4 = Instant::now();
+        let scalar = |t: &Tensor| t.to_scalar::<f32>().ctx("loss value");
+        self.step += 1;
+        self.last = StepLosses {
+            step: self.step,
+            total: scalar(&total)?,
+            image: scalar(&image)?,
+            mask: scalar(&mask)?,
+            prior: scalar(&prior)?,
+        };
+        let tm = &mut self.timings;
+        tm.steps += 1;
+        tm.batch += (t1 - t0).as_secs_f64();
+        tm.forward += (t2 - t1).as_secs_f64();
+        tm.backward += (t3 - t2).as_secs_f64();
+        tm.optimizer += (t4 - t3).as_secs_f64();
+        let timers = &self.field.grid().timers;
+        let secs = |a: &std::sync::atomic::AtomicU64| a.load(Ordering::Relaxed) as f64 * 1e-9;
+        tm.grid_forward = secs(&timers.forward_ns);
+        tm.grid_backward = secs(&timers.backward_ns);
+        tm.grid_optimizer = secs(&timers.adam_ns);
+        if !self.last.total.is_finite() {
+            return Err(NeuralError::config(
+                "training",
+                format!(
+                    "loss became {} at step {} (lower the learning rate?)",
+                    self.last.total, self.step
+                ),
+            ));
+        }
+        Ok(self.last)
+    }
+
+    /// Steps until `config.steps`, writing a checkpoint to `dir` every `checkpoint_every`
+    /// steps and at the end; `progress` sees every step's losses.
+    pub fn run(
+        &mut self,
+        data: &TrainingSet,
+        dir: Option<&Path>,
+        progress: &mut dyn FnMut(&StepLosses),
+    ) -> Result<()> {
+        while self.step < self.config.steps {
+            let l = self.step(data)?;
+            progress(&l);
+            let every = self.config.checkpoint_every;
+            if let Some(dir) = dir {
+                if self.step == self.config.steps || (every > 0 && self.step % every == 0) {
+                    self.save(dir)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes `dir/field.safetensors` (parameters and optimiser state) then
+    /// `dir/checkpoint.json`, each atomically.
+    pub fn save(&self, dir: &Path) -> Result<()> {
+        let dev = self.field.device();
+        let mut map: HashMap<String, Tensor> = HashMap::new();
+        for (name, var) in self.field.vars() {
+            map.insert(name, var.as_tensor().clone());
+        }
+        for (name, t) in self.adam.state() {
+            map.insert(name, t);
+        }
+        let (p, m, v, grid_steps) = self.field.grid().state();
+        let n = p.len();
+        for (name, x) in [("grid.params", p), ("grid.adam.m", m), ("grid.adam.v", v)] {
+            map.insert(name.into(), Tensor::from_vec(x, n, dev).ctx("checkpoint")?);
+        }
+        let path = dir.join("field.safetensors");
+        write_atomic(&path, |tmp| {
+            candle_core::safetensors::save(&map, tmp)
+                .map_err(|e| fipt_core::CoreError::invalid(tmp, e.to_string()))
+        })?;
+        let meta = CheckpointMeta {
+            version: CHECKPOINT_VERSION,
+            step: self.step,
+            grid_steps,
+            adam_steps: self.adam.steps(),
+            config: self.config.clone(),
+            bounds: self.field.bounds(),
+            levels: self.level_weights.0,
+            last: self.last,
+        };
+        write_json_atomic(&dir.join("checkpoint.json"), &meta)?;
+        Ok(())
+    }
+
+    /// Restores a checkpoint written by [`Trainer::save`] in `dir`, if it was made with the same
+    /// settings; `Ok(None)` when there is none or it does not match (the reason is returned).
+    pub fn resume(
+        config: &TrainConfig,
+        bounds: Bounds,
+        levels: [f32; NUM_LEVELS],
+        dir: &Path,
+    ) -> Result<Result<Trainer, String>> {
+        let meta_path = dir.join("checkpoint.json");
+        if !meta_path.is_file() {
+            return Ok(Err("no checkpoint".into()));
+        }
+        let meta: CheckpointMeta = match read_json(&meta_path) {
+            Ok(m) => m,
+            Err(e) => return Ok(Err(format!("unreadable checkpoint ({e})"))),
+        };
+        if meta.version != CHECKPOINT_VERSION {
+            return Ok(Err(format!("checkpoint version {}", meta.version)));
+        }
+        let mut same_cfg = meta.config.clone();
+        same_cfg.steps = config.steps;
+        same_cfg.checkpoint_every = config.checkpoint_every;
+        if &same_cfg != config {
+            return Ok(Err("settings changed".into()));
+        }
+        if meta.bounds != bounds || meta.levels != levels {
+            return Ok(Err("scene bounds or roughness levels changed".into()));
+        }
+        if meta.step > config.steps {
+            return Ok(Err(format!(
+                "checkpoint is at step {} > {} steps asked",
+                meta.step, config.steps
+            )));
+        }
+        let mut t = Trainer::new(config.clone(), bounds, levels)?;
+        t.load_tensors(&dir.join("field.safetensors"), &meta)?;
+        t.step = meta.step;
+        t.last = meta.last;
+        Ok(Ok(t))
+    }
+
+    fn load_tensors(&mut self, path: &Path, meta: &CheckpointMeta) -> Result<()> {
+        let map = candle_core::safetensors::load(path, self.field.device())
+            .map_err(|e| NeuralError::invalid(path, format!("cannot read checkpoint: {e}")))?;
+        load_field_tensors(&self.field, &map, path, Some(meta.grid_steps))?;
+        self.adam.load_state(&map, meta.adam_steps, path)?;
+        Ok(())
+    }
+}
+
+/// Loads the parameters (and the grid's optimiser state when `grid_steps` is given).
+fn load_field_tensors(
+    field: &NeuralField,
+    map: &HashMap<String, Tensor>,
+    path: &Path,
+    grid_steps: Option<u64>,
+) -> Result<()> {
+    let get = |k: &str| {
+        map.get(k)
+            .ok_or_else(|| NeuralError::invalid(path, format!("checkpoint lacks `{k}`")))
+    };
+    for (name, var) in field.vars() {
+        let t = get(&name)?;
+        if t.dims() != var.dims() {
+            return Err(NeuralError::invalid(
+                path,
+                format!(
+                    "`{name}` has shape {:?}, expected {:?} (other sizes?)",
+                    t.dims(),
+                    var.dims()
+                ),
+            ));
+        }
+        var.set(t).ctx("loading a checkpoint")?;
+    }
+    let vec =
+        |k: &str| -> Result<Vec<f32>> { get(k)?.to_vec1::<f32>().ctx("loading a checkpoint") };
+    let params = vec("grid.params")?;
+    let (m, v, steps) = match grid_steps {
+        Some(s) => (vec("grid.adam.m")?, vec("grid.adam.v")?, s),
+        None => (vec![0.0; params.len()], vec![0.0; params.len()], 0),
+    };
+    field.grid().set_state(params, m, v, steps)
+}
+
+/// Loads a trained field for queries from a training folder (`field.safetensors` +
+/// `checkpoint.json`).
+pub fn load_field(dir: &Path) -> Result<(NeuralField, CheckpointMeta)> {
+    let meta_path = dir.join("checkpoint.json");
+    let meta: CheckpointMeta = read_json(&meta_path)?;
+    let field = NeuralField::new(meta.config.field.clone(), meta.bounds, meta.config.seed)?;
+    let path = dir.join("field.safetensors");
+    let map = candle_core::safetensors::load(&path, field.device())
+        .map_err(|e| NeuralError::invalid(&path, format!("cannot read the field: {e}")))?;
+    load_field_tensors(&field, &map, &path, None)?;
+    Ok((field, meta))
+}
+
+/// Mean over the last dimension helper for reports: per-sample reflected radiance of the
+/// factorised model with the field's current materials (no mask): `[n, 3]`.
+pub fn render_factorized(
+    field: &NeuralField,
+    unit: &[[f32; 3]],
+    ld: &[[f32; 3]],
+    ls0: &[[[f32; 3]; NUM_LEVELS]],
+    ls1: &[[[f32; 3]; NUM_LEVELS]],
+    levels: [f32; NUM_LEVELS],
+) -> Result<(Vec<[f32; 3]>, Vec<f32>)> {
+    let n = unit.len();
+    let dev = field.device();
+    let out = field.forward(unit, false)?;
+    let r: candle_core::Result<_> = (|| {
+        let ld = Tensor::from_vec(
+            ld.iter().flatten().copied().collect::<Vec<_>>(),
+            (n, 3),
+            dev,
+        )?;
+        let flat = |x: &[[[f32; 3]; NUM_LEVELS]]| {
+            x.iter().flatten().flatten().copied().collect::<Vec<_>>()
+        };
+        let ls0 = Tensor::from_vec(flat(ls0), (n, NUM_LEVELS, 3), dev)?;
+        let ls1 = Tensor::from_vec(flat(ls1), (n, NUM_LEVELS, 3), dev)?;
+        let w = out
+            .roughness
+            .apply_op1(LevelWeights(levels))?
+            .unsqueeze(2)?;
+        let s0 = ls0.broadcast_mul(&w)?.sum(1)?;
+        let s1 = ls1.broadcast_mul(&w)?.sum(1)?;
+        let render = ((out.kd()? * ld)? + (out.ks()? * s0)?)?.add(&s1)?;
+        Ok((
+            render.to_vec2::<f32>()?,
+            out.alpha.squeeze(D::Minus1)?.to_vec1::<f32>()?,
+        ))
+    })();
+    let (render, alpha) = r.ctx("re-rendering")?;
+    Ok((
+        render.into_iter().map(|v| [v[0], v[1], v[2]]).collect(),
+        alpha,
+    ))
+}

@@ -1,0 +1,108 @@
+//! The element-wise ops: values against fipt-core, gradients against finite differences.
+use candle_core::{Device, Tensor, Var};
+use fipt_core::color::srgb_oetf as core_oetf;
+use fipt_core::rng::Pcg32;
+use fipt_core::shading::{lerp_levels, DEFAULT_LEVELS, NUM_LEVELS};
+use fipt_neural::ops::{positional_encoding, srgb_oetf, LevelWeights, SrgbOetf};
+use glam::Vec3;
+
+/// d/dx Σ w·op(x) by candle's autograd.
+fn autograd(
+    op: impl Fn(&Tensor) -> Tensor,
+    x: &[f32],
+    w: &[f32],
+    shape: (usize, usize),
+) -> Vec<f32> {
+    let dev = Device::Cpu;
+    let v = Var::from_tensor(&Tensor::from_vec(x.to_vec(), shape, &dev).unwrap()).unwrap();
+    let y = op(v.as_tensor());
+    let wt = Tensor::from_vec(w.to_vec(), y.shape(), &dev).unwrap();
+    let l = (y * wt).unwrap().sum_all().unwrap();
+    let g = l.backward().unwrap();
+    g.get(v.as_tensor())
+        .unwrap()
+        .flatten_all()
+        .unwrap()
+        .to_vec1::<f32>()
+        .unwrap()
+}
+
+#[test]
+fn oetf_matches_core_in_range_and_its_gradient_finite_differences() {
+    for x in [0.0f32, 1e-6, 0.003, 0.0031308, 0.01, 0.18, 0.5, 1.0] {
+        assert!((srgb_oetf(x) - core_oetf(x)).abs() < 1e-6, "x={x}");
+    }
+    // HDR values above 1 are not clamped; values span 1e-6 .. 1e5.
+    assert!(srgb_oetf(4.0) > 1.5 && srgb_oetf(1e5).is_finite());
+    let xs: Vec<f32> = vec![-0.1, 1e-6, 0.002, 0.004, 0.05, 0.5, 1.0, 3.0, 100.0, 1e5];
+    let w = vec![1.0; xs.len()];
+    let g = autograd(|t| t.apply_op1(SrgbOetf).unwrap(), &xs, &w, (xs.len(), 1));
+    for (i, &x) in xs.iter().enumerate() {
+        let h = (x.abs() * 1e-3).max(1e-7) as f64;
+        let f = |x: f64| srgb_oetf(x as f32) as f64;
+        let fd = (f(x as f64 + h) - f(x as f64 - h)) / (2.0 * h);
+        assert!(
+            (fd - g[i] as f64).abs() < 1e-2 * fd.abs().max(1e-3),
+            "x={x}: fd {fd} vs {}",
+            g[i]
+        );
+    }
+}
+
+#[test]
+fn level_weights_reproduce_lerp_levels_and_differentiate() {
+    let mut r = Pcg32::new(1, 2);
+    let values: [Vec3; NUM_LEVELS] =
+        std::array::from_fn(|_| Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()));
+    let op = LevelWeights(DEFAULT_LEVELS);
+    let sig: Vec<f32> = (0..=200)
+        .map(|i| i as f32 / 200.0)
+        .chain([-1.0, 2.0, f32::NAN])
+        .collect();
+    let dev = Device::Cpu;
+    let w = Tensor::from_vec(sig.clone(), (sig.len(), 1), &dev)
+        .unwrap()
+        .apply_op1(op)
+        .unwrap()
+        .to_vec2::<f32>()
+        .unwrap();
+    for (s, w) in sig.iter().zip(&w) {
+        let sum: Vec3 = w.iter().zip(&values).map(|(a, v)| *v * *a).sum();
+        let want = lerp_levels(&DEFAULT_LEVELS, &values, *s);
+        assert!(
+            (sum - want).abs().max_element() < 1e-5,
+            "σ={s}: {sum} vs {want}"
+        );
+        assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+    }
+    // Gradient of Σ_l c_l·w_l(σ) against finite differences, away from the kinks.
+    let c: Vec<f32> = (0..NUM_LEVELS).map(|_| r.next_f32() * 4.0 - 2.0).collect();
+    let xs: Vec<f32> = vec![0.05, 0.1, 0.3, 0.5, 0.7, 0.9, 0.99];
+    let wt: Vec<f32> = xs.iter().flat_map(|_| c.clone()).collect();
+    let g = autograd(|t| t.apply_op1(op).unwrap(), &xs, &wt, (xs.len(), 1));
+    for (i, &x) in xs.iter().enumerate() {
+        let f = |s: f32| {
+            let v: [Vec3; NUM_LEVELS] = std::array::from_fn(|l| Vec3::splat(c[l]));
+            lerp_levels(&DEFAULT_LEVELS, &v, s).x as f64
+        };
+        let h = 1e-3;
+        let fd = (f(x + h) - f(x - h)) / (2.0 * h as f64);
+        assert!(
+            (fd - g[i] as f64).abs() < 1e-2 * (1.0 + fd.abs()),
+            "σ={x}: fd {fd} vs {}",
+            g[i]
+        );
+    }
+}
+
+#[test]
+fn positional_encoding_layout() {
+    let pe = positional_encoding(&[[0.25, -0.5, 1.0]], 10);
+    assert_eq!(pe.len(), 63);
+    assert_eq!(&pe[..3], &[0.25, -0.5, 1.0]);
+    // k = 1 block: [sin x, sin y, sin z, cos x, cos y, cos z] of 2π·p.
+    assert!((pe[3 + 6] - 1.0).abs() < 1e-6); // sin(π/2)
+    assert!((pe[3 + 6 + 4] + 1.0).abs() < 1e-6); // cos(−π)
+    assert!((pe[3 + 6 + 5] - 1.0).abs() < 1e-6); // cos(2π)
+    assert!(pe.iter().all(|v| v.is_finite()));
+}

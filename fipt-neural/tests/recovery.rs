@@ -1,0 +1,147 @@
+//! Recovery with exact shadings: on `cornell`, the views are re-synthesised from the baked
+//! shadings and the ground-truth materials (kd·Ld + ks·Ls0(σ) + Ls1(σ), emission on emitter
+//! pixels), so the factorised model can explain them exactly. Training (the default settings
+//! at the `fast` sizes, 1500 steps of 4096 pixels) must then recover kd, the roughness of the
+//! rough surfaces and the emitter mask.
+//!
+//! Not asserted, printed: the glossy block's roughness (σ = 0.25, a dielectric with 4 %
+//! specular). Its σ barely changes the views under cornell's broad light, so it is weakly
+//! observable; measured 3 dB with the prior, 16 dB without (issue 4 asks 25 dB: open).
+use fipt_core::dataset::{Dataset, GtKind};
+use fipt_core::field::MaterialField;
+use fipt_core::image::{BadPixelPolicy, Image};
+use fipt_core::metrics::psnr;
+use fipt_core::shading::lerp_levels;
+use fipt_geom::{Geometry, Mesh};
+use fipt_neural::{Bounds, TrainConfig, Trainer, TrainingSet};
+use fipt_shading::bake::{primary_records, BakeConfig, FactorizedBaker};
+use fipt_shading::render::RenderConfig;
+use fipt_shading::synth::{build, write_dataset, SynthOptions};
+use glam::Vec3;
+
+#[global_allocator]
+static ALLOC: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
+#[test]
+fn training_on_exact_shadings_recovers_materials_and_emitters() {
+    let dir = std::env::temp_dir().join(format!("fipt-neural-recovery-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let opts = SynthOptions {
+        train_views: 16,
+        val_views: 1,
+        width: 64,
+        height: 48,
+        render: RenderConfig {
+            spp: 32,
+            ..Default::default()
+        },
+    };
+    let scene = build("cornell").unwrap();
+    write_dataset(scene, &dir, &opts, &|_, _| {}).unwrap();
+    let ds = Dataset::open(&dir).unwrap();
+    let geo = Geometry::new(Mesh::load(&ds.mesh).unwrap());
+    let split = ds.train();
+    let rendered: Vec<Image> = split
+        .views
+        .iter()
+        .map(|v| ds.load_image(v, BadPixelPolicy::Reject).unwrap().0)
+        .collect();
+    let (shadings, _, _) = FactorizedBaker::new(BakeConfig::fast()).bake_detailed(
+        &geo,
+        &split.views,
+        &rendered,
+        &|_, _| {},
+    );
+    let gt = |kind: GtKind, k: usize| ds.load_gt(split, kind, k).unwrap().unwrap();
+    let mut images = Vec::new();
+    let mut points = Vec::new();
+    let mut truth = Vec::new(); // (point, kd, σ, emitter, glossy)
+    for (k, (view, sh)) in split.views.iter().zip(&shadings).enumerate() {
+        let (kd, ks, rough, emit) = (
+            gt(GtKind::DiffCol, k),
+            gt(GtKind::Specular, k),
+            gt(GtKind::Roughness, k),
+            gt(GtKind::Emit, k),
+        );
+        let recs = primary_records(&geo, view);
+        let mut img = Image::new(sh.width, sh.height);
+        for i in 0..sh.width * sh.height {
+            let e = emit.data[i];
+            img.data[i] = if e.max_element() > 0.0 {
+                e
+            } else {
+                kd.data[i] * sh.ld[i]
+                    + ks.data[i] * lerp_levels(&sh.levels, &sh.ls0[i], rough.data[i].x)
+                    + lerp_levels(&sh.levels, &sh.ls1[i], rough.data[i].x)
+            };
+            if let (Some(r), true) = (recs[i], sh.valid[i]) {
+                truth.push((
+                    r.hit.p,
+                    kd.data[i],
+                    rough.data[i].x,
+                    e.max_element() > 0.0,
+                    rough.data[i].x < 0.5,
+                ));
+            }
+        }
+        points.push(recs.iter().map(|r| r.map(|r| r.hit.p)).collect::<Vec<_>>());
+        images.push(img);
+    }
+    let bounds = Bounds::around(points.iter().flatten().flatten().copied(), 1.1).unwrap();
+    let data = TrainingSet::new(&points, &shadings, &images, &bounds).unwrap();
+    let mut cfg = TrainConfig::fast();
+    cfg.steps = 1500;
+    cfg.batch = 4096;
+    let mut trainer = Trainer::new(cfg, bounds, data.levels).unwrap();
+    let t0 = std::time::Instant::now();
+    trainer.run(&data, None, &mut |_| {}).unwrap();
+    let secs = t0.elapsed().as_secs_f64();
+
+    let pts: Vec<Vec3> = truth.iter().map(|t| t.0).collect();
+    let mats = trainer.field.materials(&pts).unwrap();
+    let alpha = trainer.field.emission_mask(&pts).unwrap();
+    let non_emit: Vec<bool> = truth.iter().map(|t| !t.3).collect();
+    let kd_gt: Vec<Vec3> = truth.iter().map(|t| t.1).collect();
+    let kd: Vec<Vec3> = mats.iter().map(|m| m.kd()).collect();
+    let kd_psnr = psnr(&kd, &kd_gt, Some(&non_emit), 1.0).unwrap();
+    let glossy: Vec<bool> = truth.iter().map(|t| t.4 && !t.3).collect();
+    let r_gt: Vec<Vec3> = truth.iter().map(|t| Vec3::splat(t.2)).collect();
+    let r: Vec<Vec3> = mats.iter().map(|m| Vec3::splat(m.roughness)).collect();
+    let r_psnr = psnr(&r, &r_gt, Some(&glossy), 1.0).unwrap();
+    let (mut inter, mut uni) = (0usize, 0usize);
+    for (t, a) in truth.iter().zip(&alpha) {
+        let pred = *a > 0.5;
+        inter += (pred && t.3) as usize;
+        uni += (pred || t.3) as usize;
+    }
+    let iou = inter as f64 / uni.max(1) as f64;
+    eprintln!(
+        "recovery on cornell ({} pixels, {} glossy, {} emitter; 1500 steps of 4096 in {secs:.1} s): kd {kd_psnr:.2} dB, glossy roughness {r_psnr:.2} dB, mask IoU {iou:.3}, final loss {:?}",
+        truth.len(),
+        glossy.iter().filter(|&&g| g).count(),
+        truth.iter().filter(|t| t.3).count(),
+        trainer.last
+    );
+    eprintln!("timings {:?}", trainer.timings);
+    let rest: Vec<bool> = truth.iter().map(|t| !t.3 && !t.4).collect();
+    // Roughness of the rough surfaces, clamped to [0.2, 1] as in the evaluation protocol.
+    let rough: Vec<bool> = truth.iter().map(|t| !t.3 && !t.4).collect();
+    let clamp = |v: &Vec<Vec3>| {
+        v.iter()
+            .map(|x| x.clamp(Vec3::splat(0.2), Vec3::ONE))
+            .collect::<Vec<_>>()
+    };
+    let rr_psnr = psnr(&clamp(&r), &clamp(&r_gt), Some(&rough), 1.0).unwrap();
+    eprintln!("roughness of the rough surfaces {rr_psnr:.2} dB");
+    assert!(
+        glossy.iter().filter(|&&g| g).count() > 100,
+        "test scene lacks glossy pixels"
+    );
+    assert!(kd_psnr >= 33.0, "kd PSNR {kd_psnr:.2} dB < 33");
+    assert!(
+        rr_psnr >= 18.0,
+        "rough-surface roughness PSNR {rr_psnr:.2} dB < 18"
+    );
+    assert!(iou >= 0.95, "emission mask IoU {iou:.3} < 0.95");
+    let _ = std::fs::remove_dir_all(&dir);
+}
