@@ -418,7 +418,19 @@ impl Trainer {
         dir: Option<&Path>,
         progress: &mut dyn FnMut(&StepLosses),
     ) -> Result<()> {
-        while self.step < self.config.steps {
+        self.run_until(data, self.config.steps, dir, progress)
+    }
+
+    /// [`Trainer::run`] stopping after step `stop` (≤ `config.steps`), as an interrupted run
+    /// would; settings that depend on the step (the prior's ramp) follow `config.steps`.
+    pub fn run_until(
+        &mut self,
+        data: &TrainingSet,
+        stop: usize,
+        dir: Option<&Path>,
+        progress: &mut dyn FnMut(&StepLosses),
+    ) -> Result<()> {
+        while self.step < stop.min(self.config.steps) {
             let l = self.step(data)?;
             progress(&l);
             let every = self.config.checkpoint_every;

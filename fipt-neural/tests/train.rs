@@ -1,0 +1,106 @@
+//! Training mechanics: determinism, exact resume from a checkpoint, config validation.
+use fipt_core::field::MaterialField;
+use fipt_core::image::Image;
+use fipt_core::rng::Pcg32;
+use fipt_core::shading::{ViewShadings, DEFAULT_LEVELS, NUM_LEVELS};
+use fipt_neural::hashgrid::HashGridConfig;
+use fipt_neural::{Bounds, FieldConfig, TrainConfig, Trainer, TrainingSet};
+use glam::Vec3;
+
+/// One 32×32 "view" of random points with random positive shadings and images.
+fn data() -> (TrainingSet, Bounds) {
+    let (w, h) = (32, 32);
+    let mut r = Pcg32::new(3, 4);
+    let mut sh = ViewShadings::zeros(w, h, DEFAULT_LEVELS);
+    let mut img = Image::new(w, h);
+    let mut pts = vec![];
+    for i in 0..w * h {
+        sh.valid[i] = i % 7 != 0;
+        sh.ld[i] = Vec3::splat(r.next_f32() + 0.1);
+        sh.ls0[i] = [Vec3::splat(r.next_f32()); NUM_LEVELS];
+        sh.ls1[i] = [Vec3::splat(0.05); NUM_LEVELS];
+        img.data[i] = Vec3::new(r.next_f32(), r.next_f32(), r.next_f32());
+        pts.push((i % 11 != 0).then(|| Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 3.0));
+    }
+    let bounds = Bounds::around(pts.iter().flatten().copied(), 1.1).unwrap();
+    let set = TrainingSet::new(&[pts], &[sh], &[img], &bounds).unwrap();
+    (set, bounds)
+}
+
+fn config() -> TrainConfig {
+    TrainConfig {
+        field: FieldConfig {
+            grid: HashGridConfig { levels: 4, log2_table: 12, ..HashGridConfig::default() },
+            mlp_width: 16,
+            mask_width: 16,
+            mask_frequencies: 4,
+            ..FieldConfig::default()
+        },
+        steps: 40,
+        batch: 256,
+        checkpoint_every: 5,
+        ..TrainConfig::default()
+    }
+}
+
+fn query(t: &Trainer) -> Vec<f32> {
+    let pts: Vec<Vec3> = (0..50).map(|i| Vec3::splat(i as f32 * 0.06)).collect();
+    let m = t.field.materials(&pts).unwrap();
+    let a = t.field.emission_mask(&pts).unwrap();
+    m.iter().flat_map(|m| [m.albedo.x, m.albedo.y, m.albedo.z, m.roughness, m.metallic]).chain(a).collect()
+}
+
+#[test]
+fn training_set_skips_misses_and_invalid_pixels() {
+    let (set, _) = data();
+    let expected = (0..1024).filter(|i| i % 7 != 0 && i % 11 != 0).count();
+    assert_eq!(set.len(), expected);
+}
+
+#[test]
+fn same_seed_same_field_and_resume_is_exact() {
+    let (set, bounds) = data();
+    let cfg = config();
+    let mut a = Trainer::new(cfg.clone(), bounds, set.levels).unwrap();
+    a.run(&set, None, &mut |_| {}).unwrap();
+    let qa = query(&a);
+    assert!(qa.iter().all(|v| v.is_finite()));
+
+    let mut b = Trainer::new(cfg.clone(), bounds, set.levels).unwrap();
+    b.run(&set, None, &mut |_| {}).unwrap();
+    assert_eq!(qa, query(&b), "same seed, different field");
+
+    // Interrupted at step 15 (checkpoint), resumed from disk, finished.
+    let dir = std::env::temp_dir().join(format!("fipt-neural-resume-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut c = Trainer::new(cfg.clone(), bounds, set.levels).unwrap();
+    c.run_until(&set, 15, Some(&dir), &mut |_| {}).unwrap();
+    drop(c);
+    let mut d = Trainer::resume(&cfg, bounds, set.levels, &dir).unwrap().expect("checkpoint accepted");
+    assert_eq!(d.step_count(), 15);
+    d.run(&set, Some(&dir), &mut |_| {}).unwrap();
+    assert_eq!(qa, query(&d), "resumed run differs from the uninterrupted one");
+    // The finished checkpoint loads for queries alone.
+    let (field, meta) = fipt_neural::train::load_field(&dir).unwrap();
+    assert_eq!(meta.step, 40);
+    let pts: Vec<Vec3> = (0..50).map(|i| Vec3::splat(i as f32 * 0.06)).collect();
+    assert_eq!(field.materials(&pts).unwrap(), d.field.materials(&pts).unwrap());
+    // Changed settings are refused with a reason, not silently mixed.
+    let mut other = cfg.clone();
+    other.field.mlp_width = 32;
+    assert!(Trainer::resume(&other, bounds, set.levels, &dir).unwrap().is_err());
+    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().flatten().filter(|e| e.file_name().to_string_lossy().ends_with(".tmp")).collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_settings_are_rejected_with_the_key() {
+    let mut cfg = config();
+    cfg.field.grid.log2_table = 40;
+    let (set, bounds) = data();
+    let e = Trainer::new(cfg, bounds, set.levels).err().expect("rejected").to_string();
+    assert!(e.contains("log2_table"), "{e}");
+    let bad: Result<TrainConfig, _> = serde_json::from_str(r#"{"steps": 10, "bogus": 1}"#);
+    assert!(bad.is_err());
+}
