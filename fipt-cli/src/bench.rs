@@ -26,7 +26,8 @@ pub struct Args {
     /// Repetitions of each timed measurement (the best is reported).
     #[arg(long, default_value_t = 3)]
     reps: usize,
-    /// What to measure: rays (BVH and path tracer) or bake (the shading bake on --scene).
+    /// What to measure: rays (BVH and path tracer), bake (the shading bake on --scene) or train
+    /// (material-field training steps per preset, custom op vs plain candle).
     #[arg(long, value_enum, default_value = "rays")]
     suite: Suite,
     /// Scene folder for `--suite bake` (e.g. the output of `fipt synth room`).
@@ -41,6 +42,7 @@ pub struct Args {
 pub enum Suite {
     Rays,
     Bake,
+    Train,
 }
 
 pub type Rays = Vec<(Vec3, Vec3)>;
@@ -167,6 +169,7 @@ pub fn run(a: Args) -> Result<()> {
     match a.suite {
         Suite::Rays => run_rays(a),
         Suite::Bake => crate::bench_bake::run(a.scene.as_deref(), a.views, &a.out),
+        Suite::Train => crate::bench_train::run(a.quick, &a.out),
     }
 }
 

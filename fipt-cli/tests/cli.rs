@@ -189,3 +189,77 @@ fn bake_reuses_finished_work_and_invalidates_on_change() {
     std::fs::remove_dir_all(&dir).ok();
     std::fs::remove_dir_all(&out).ok();
 }
+
+#[test]
+fn train_needs_a_bake_writes_maps_and_reuses_or_resumes() {
+    let dir = tmp("train-scene");
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = fipt(&[
+        "synth",
+        "cornell",
+        "--out",
+        d,
+        "--views",
+        "2",
+        "--val-views",
+        "1",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--spp",
+        "4",
+    ]);
+    assert!(ok, "{err}");
+    let out = tmp("train-out");
+    let o = out.to_str().unwrap();
+    let cfg = dir.join("train.toml");
+    std::fs::write(
+        &cfg,
+        "batch = 256\ncheckpoint_every = 5\n[field]\nmlp_width = 16\nmask_width = 16\n[field.grid]\nlevels = 4\n",
+    )
+    .unwrap();
+    let c = cfg.to_str().unwrap();
+    // Without a bake: a clear error naming the command to run.
+    let (ok, _, err) = fipt(&["train", d, "--out", o, "--config", c, "--steps", "10"]);
+    assert!(!ok && err.contains("fipt bake"), "{err}");
+    let bake_cfg = dir.join("bake.toml");
+    std::fs::write(
+        &bake_cfg,
+        "diffuse_samples = 4\nspecular_samples = [2, 2, 2, 2, 2, 2]\n",
+    )
+    .unwrap();
+    let (ok, _, err) = fipt(&[
+        "bake",
+        d,
+        "--out",
+        o,
+        "--config",
+        bake_cfg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    // An unknown key is refused with the file named.
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "stepz = 3\n").unwrap();
+    let (ok, _, err) = fipt(&["train", d, "--out", o, "--config", bad.to_str().unwrap()]);
+    assert!(!ok && err.contains("bad.toml"), "{err}");
+    let (ok, stdout, err) = fipt(&["train", d, "--out", o, "--config", c, "--steps", "10"]);
+    assert!(ok && stdout.contains("wrote"), "{err}");
+    for split in ["train", "val"] {
+        for map in ["kd", "ks", "roughness", "metallic", "emission_mask"] {
+            let p = out.join(format!("train/views/{split}/000_{map}.exr"));
+            let img = fipt_core::image::Image::read_exr(&p).unwrap();
+            assert!(img.data.iter().all(|v| v.is_finite()), "{map}");
+        }
+    }
+    assert!(out.join("train/views/train/000_render.exr").is_file());
+    assert!(!out.join("train/views/val/000_render.exr").exists());
+    // Same settings again: reused.
+    let (ok, stdout, _) = fipt(&["train", d, "--out", o, "--config", c, "--steps", "10"]);
+    assert!(ok && stdout.contains("reusing"), "{stdout}");
+    // More steps: resumed from the checkpoint at step 10.
+    let (ok, _, err) = fipt(&["train", d, "--out", o, "--config", c, "--steps", "15"]);
+    assert!(ok && err.contains("resuming from step 10"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&out);
+}

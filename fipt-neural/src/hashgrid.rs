@@ -161,9 +161,9 @@ fn entry(level: &Level, c: [u32; 3]) -> usize {
 
 /// Gradient accumulation and optimiser state of the tables.
 struct Train {
-    grad: Vec<f32>,
-    m: Vec<f32>,
-    v: Vec<f32>,
+    /// Per entry, interleaved so that one touched entry is one cache line:
+    /// `[grad × F, m × F, v × F]`.
+    opt: Vec<f32>,
     /// Per entry: the generation in which it was last recorded as touched.
     stamp: Vec<u32>,
     generation: u32,
@@ -238,9 +238,7 @@ impl HashGrid {
         let params: Vec<f32> = (0..n).map(|_| (rng.next_f32() * 2.0 - 1.0) * s).collect();
         Ok(HashGrid {
             train: Mutex::new(Train {
-                grad: vec![0.0; n],
-                m: vec![0.0; n],
-                v: vec![0.0; n],
+                opt: vec![0.0; 3 * n],
                 stamp: vec![0; offset],
                 generation: 1,
                 touched: vec![Vec::new(); config.levels],
@@ -311,7 +309,7 @@ impl HashGrid {
         let mut guard = self.train.lock().unwrap();
         let tr = &mut *guard;
         let generation = tr.generation;
-        let mut grad_slices = split_levels(&mut tr.grad, &self.levels, f);
+        let mut grad_slices = split_levels(&mut tr.opt, &self.levels, 3 * f);
         let mut stamp_slices = split_levels(&mut tr.stamp, &self.levels, 1);
         grad_slices
             .par_iter_mut()
@@ -328,7 +326,7 @@ impl HashGrid {
                     for k in 0..8 {
                         let e = idx[k] - level.offset;
                         for j in 0..f {
-                            g[e * f + j] += w[k] * go[j];
+                            g[e * 3 * f + j] += w[k] * go[j];
                         }
                         if st[e] != generation {
                             st[e] = generation;
@@ -351,24 +349,25 @@ impl HashGrid {
         let bc2 = 1.0 - cfg.beta2.powi(t);
         let mut params = self.params.write().unwrap();
         let p_s = split_levels(&mut params, &self.levels, f);
-        let g_s = split_levels(&mut tr.grad, &self.levels, f);
-        let m_s = split_levels(&mut tr.m, &self.levels, f);
-        let v_s = split_levels(&mut tr.v, &self.levels, f);
+        let o_s = split_levels(&mut tr.opt, &self.levels, 3 * f);
         p_s.into_par_iter()
-            .zip(g_s)
-            .zip(m_s)
-            .zip(v_s)
+            .zip(o_s)
             .zip(tr.touched.par_iter_mut())
-            .for_each(|((((p, g), m), v), touched)| {
+            .for_each(|((p, o), touched)| {
+                // In table order, the scattered entries become a forward sweep the hardware
+                // prefetcher can follow (cornell, 16 levels: 19.3 → 13.7 ms a step).
+                touched.sort_unstable();
                 for &e in touched.iter() {
-                    for j in e as usize * f..e as usize * f + f {
-                        let gj = g[j];
-                        g[j] = 0.0;
-                        m[j] = cfg.beta1 * m[j] + (1.0 - cfg.beta1) * gj;
-                        v[j] = cfg.beta2 * v[j] + (1.0 - cfg.beta2) * gj * gj;
-                        let mh = m[j] / bc1;
-                        let vh = v[j] / bc2;
-                        p[j] -= cfg.lr * mh / (vh.sqrt() + cfg.eps);
+                    let e = e as usize;
+                    let st = &mut o[e * 3 * f..(e + 1) * 3 * f];
+                    for j in 0..f {
+                        let gj = st[j];
+                        st[j] = 0.0;
+                        let m = cfg.beta1 * st[f + j] + (1.0 - cfg.beta1) * gj;
+                        let v = cfg.beta2 * st[2 * f + j] + (1.0 - cfg.beta2) * gj * gj;
+                        st[f + j] = m;
+                        st[2 * f + j] = v;
+                        p[e * f + j] -= cfg.lr * (m / bc1) / ((v / bc2).sqrt() + cfg.eps);
                     }
                 }
                 touched.clear();
@@ -384,7 +383,17 @@ impl HashGrid {
 
     /// The accumulated (not yet applied) gradient, for tests.
     pub fn pending_grad(&self) -> Vec<f32> {
-        self.train.lock().unwrap().grad.clone()
+        self.interleaved(0)
+    }
+
+    /// Component `c` (0 grad, 1 m, 2 v) of the optimiser state, entry-major.
+    fn interleaved(&self, c: usize) -> Vec<f32> {
+        let f = self.config.features;
+        let tr = self.train.lock().unwrap();
+        tr.opt
+            .chunks_exact(3 * f)
+            .flat_map(|st| st[c * f..(c + 1) * f].iter().copied())
+            .collect()
     }
 
     /// Discards the accumulated gradient.
@@ -393,9 +402,10 @@ impl HashGrid {
         for l in 0..self.levels.len() {
             let level = self.levels[l];
             let touched = std::mem::take(&mut tr.touched[l]);
+            let f = self.config.features;
             for e in touched {
-                let base = (level.offset + e as usize) * self.config.features;
-                tr.grad[base..base + self.config.features].fill(0.0);
+                let base = (level.offset + e as usize) * 3 * f;
+                tr.opt[base..base + f].fill(0.0);
             }
         }
         tr.generation = tr.generation.wrapping_add(1).max(1);
@@ -403,8 +413,13 @@ impl HashGrid {
 
     /// Tables and optimiser state for a checkpoint: (params, m, v, steps).
     pub fn state(&self) -> (Vec<f32>, Vec<f32>, Vec<f32>, u64) {
-        let tr = self.train.lock().unwrap();
-        (self.params(), tr.m.clone(), tr.v.clone(), tr.steps)
+        let steps = self.train.lock().unwrap().steps;
+        (
+            self.params(),
+            self.interleaved(1),
+            self.interleaved(2),
+            steps,
+        )
     }
 
     /// Restores [`HashGrid::state`]; lengths must match this grid's.
@@ -422,9 +437,13 @@ impl HashGrid {
             ));
         }
         *self.params.write().unwrap() = params;
+        let f = self.config.features;
         let mut tr = self.train.lock().unwrap();
-        tr.m = m;
-        tr.v = v;
+        for (e, st) in tr.opt.chunks_exact_mut(3 * f).enumerate() {
+            st[..f].fill(0.0);
+            st[f..2 * f].copy_from_slice(&m[e * f..(e + 1) * f]);
+            st[2 * f..].copy_from_slice(&v[e * f..(e + 1) * f]);
+        }
         tr.steps = steps;
         drop(tr);
         self.zero_grad();

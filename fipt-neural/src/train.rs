@@ -50,6 +50,9 @@ pub struct TrainConfig {
     /// `[0, 0]`: full weight from the start (the reference).
     pub prior_ramp: [f32; 2],
     pub seed: u64,
+    /// Shrink the hash tables to what the number of training pixels can fill
+    /// ([`TrainConfig::sized_for`]). The reference always uses 2^19.
+    pub table_from_data: bool,
     /// Steps between checkpoints (0: only at the end).
     pub checkpoint_every: usize,
 }
@@ -67,6 +70,7 @@ impl Default for TrainConfig {
             prior_weight: 5e-4,
             prior_norm: PriorNorm::L2,
             prior_ramp: [0.3, 0.6],
+            table_from_data: true,
             seed: 9,
             checkpoint_every: 500,
         }
@@ -84,6 +88,7 @@ impl TrainConfig {
             steps: 10_000,
             prior_norm: PriorNorm::L1,
             prior_ramp: [0.0, 0.0],
+            table_from_data: false,
             ..Self::default()
         }
     }
@@ -113,6 +118,20 @@ impl TrainConfig {
             _ => None,
         }
     }
+    /// These settings with the hash tables no larger than the data can fill: per level at
+    /// most `2^ceil(log2(4·pixels))` entries (at least 2^14), when `table_from_data` is set.
+    pub fn sized_for(&self, pixels: usize) -> TrainConfig {
+        let mut c = self.clone();
+        if c.table_from_data {
+            let need = (4 * pixels.max(1))
+                .next_power_of_two()
+                .trailing_zeros()
+                .max(14);
+            c.field.grid.log2_table = c.field.grid.log2_table.min(need);
+        }
+        c
+    }
+
     pub fn validate(&self) -> Result<()> {
         self.field.grid.validate("train.field.grid")?;
         if self.batch == 0 || self.batch > 1 << 22 {
@@ -150,6 +169,23 @@ pub struct TrainingSet {
     pub gt: Vec<[f32; 3]>,
     /// (view, pixel) of each sample.
     pub origin: Vec<(u32, u32)>,
+    /// Morton code of each sample's position: batches are processed in this order, so that
+    /// neighbouring rows share hash-grid cells and cache lines.
+    pub morton: Vec<u64>,
+}
+
+/// 3 × 21-bit Morton code of a unit-cube point.
+fn morton(p: [f32; 3]) -> u64 {
+    fn spread(x: u64) -> u64 {
+        let mut x = x & 0x1F_FFFF;
+        x = (x | x << 32) & 0x1F00000000FFFF;
+        x = (x | x << 16) & 0x1F0000FF0000FF;
+        x = (x | x << 8) & 0x100F00F00F00F00F;
+        x = (x | x << 4) & 0x10C30C30C30C30C3;
+        (x | x << 2) & 0x1249249249249249
+    }
+    let q = |v: f32| (v.clamp(0.0, 1.0) * 2_097_151.0) as u64;
+    spread(q(p[0])) | spread(q(p[1])) << 1 | spread(q(p[2])) << 2
 }
 
 impl TrainingSet {
@@ -184,6 +220,7 @@ impl TrainingSet {
             ls1: vec![],
             gt: vec![],
             origin: vec![],
+            morton: vec![],
         };
         for (v, ((pts, sh), img)) in points.iter().zip(shadings).zip(images).enumerate() {
             let n = sh.width * sh.height;
@@ -200,6 +237,7 @@ impl TrainingSet {
                 }
                 let arr = |x: &[Vec3; NUM_LEVELS]| x.map(|c| c.to_array());
                 set.unit.push(bounds.unit(p));
+                set.morton.push(morton(bounds.unit(p)));
                 set.ld.push(sh.ld[i].to_array());
                 set.ls0.push(arr(&sh.ls0[i]));
                 set.ls1.push(arr(&sh.ls1[i]));
@@ -259,6 +297,9 @@ pub struct CheckpointMeta {
     pub bounds: Bounds,
     pub levels: [f32; NUM_LEVELS],
     pub last: StepLosses,
+    /// What the data came from (e.g. fingerprints of the scene and the bake), set by the
+    /// caller; a checkpoint of other data is not resumed.
+    pub inputs: String,
 }
 
 const CHECKPOINT_VERSION: u32 = 1;
@@ -272,6 +313,8 @@ pub struct Trainer {
     pub last: StepLosses,
     pub timings: TrainTimings,
     level_weights: LevelWeights,
+    /// Stored in checkpoints and compared on resume (see [`CheckpointMeta::inputs`]).
+    pub inputs: String,
 }
 
 impl Trainer {
@@ -288,6 +331,7 @@ impl Trainer {
             last: StepLosses::default(),
             timings: TrainTimings::default(),
             level_weights: LevelWeights(levels),
+            inputs: String::new(),
         })
     }
 
@@ -321,9 +365,10 @@ impl Trainer {
         let b = self.config.batch;
         let dev = self.field.device().clone();
         let mut rng = Pcg32::from_keys(&[self.config.seed, self.step as u64, 0xBA7C]);
-        let idx: Vec<usize> = (0..b)
+        let mut idx: Vec<usize> = (0..b)
             .map(|_| ((rng.next_u32() as u64 * data.len() as u64) >> 32) as usize)
             .collect();
+        idx.sort_unstable_by_key(|&i| (data.morton[i], i));
         let unit: Vec<[f32; 3]> = idx.iter().map(|&i| data.unit[i]).collect();
         let gather3 = |v: &Vec<[f32; 3]>| -> Vec<f32> { idx.iter().flat_map(|&i| v[i]).collect() };
         let gather_l = |v: &Vec<[[f32; 3]; NUM_LEVELS]>| -> Vec<f32> {
@@ -473,6 +518,7 @@ impl Trainer {
             bounds: self.field.bounds(),
             levels: self.level_weights.0,
             last: self.last,
+            inputs: self.inputs.clone(),
         };
         write_json_atomic(&dir.join("checkpoint.json"), &meta)?;
         Ok(())
@@ -484,6 +530,7 @@ impl Trainer {
         config: &TrainConfig,
         bounds: Bounds,
         levels: [f32; NUM_LEVELS],
+        inputs: &str,
         dir: &Path,
     ) -> Result<Result<Trainer, String>> {
         let meta_path = dir.join("checkpoint.json");
@@ -503,6 +550,9 @@ impl Trainer {
         if &same_cfg != config {
             return Ok(Err("settings changed".into()));
         }
+        if meta.inputs != inputs {
+            return Ok(Err("the scene or the bake changed".into()));
+        }
         if meta.bounds != bounds || meta.levels != levels {
             return Ok(Err("scene bounds or roughness levels changed".into()));
         }
@@ -516,6 +566,7 @@ impl Trainer {
         t.load_tensors(&dir.join("field.safetensors"), &meta)?;
         t.step = meta.step;
         t.last = meta.last;
+        t.inputs = meta.inputs.clone();
         Ok(Ok(t))
     }
 

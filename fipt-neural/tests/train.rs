@@ -30,7 +30,11 @@ fn data() -> (TrainingSet, Bounds) {
 fn config() -> TrainConfig {
     TrainConfig {
         field: FieldConfig {
-            grid: HashGridConfig { levels: 4, log2_table: 12, ..HashGridConfig::default() },
+            grid: HashGridConfig {
+                levels: 4,
+                log2_table: 12,
+                ..HashGridConfig::default()
+            },
             mlp_width: 16,
             mask_width: 16,
             mask_frequencies: 4,
@@ -47,7 +51,10 @@ fn query(t: &Trainer) -> Vec<f32> {
     let pts: Vec<Vec3> = (0..50).map(|i| Vec3::splat(i as f32 * 0.06)).collect();
     let m = t.field.materials(&pts).unwrap();
     let a = t.field.emission_mask(&pts).unwrap();
-    m.iter().flat_map(|m| [m.albedo.x, m.albedo.y, m.albedo.z, m.roughness, m.metallic]).chain(a).collect()
+    m.iter()
+        .flat_map(|m| [m.albedo.x, m.albedo.y, m.albedo.z, m.roughness, m.metallic])
+        .chain(a)
+        .collect()
 }
 
 #[test]
@@ -76,20 +83,40 @@ fn same_seed_same_field_and_resume_is_exact() {
     let mut c = Trainer::new(cfg.clone(), bounds, set.levels).unwrap();
     c.run_until(&set, 15, Some(&dir), &mut |_| {}).unwrap();
     drop(c);
-    let mut d = Trainer::resume(&cfg, bounds, set.levels, &dir).unwrap().expect("checkpoint accepted");
+    let mut d = Trainer::resume(&cfg, bounds, set.levels, "", &dir)
+        .unwrap()
+        .expect("checkpoint accepted");
     assert_eq!(d.step_count(), 15);
     d.run(&set, Some(&dir), &mut |_| {}).unwrap();
-    assert_eq!(qa, query(&d), "resumed run differs from the uninterrupted one");
+    assert_eq!(
+        qa,
+        query(&d),
+        "resumed run differs from the uninterrupted one"
+    );
     // The finished checkpoint loads for queries alone.
     let (field, meta) = fipt_neural::train::load_field(&dir).unwrap();
     assert_eq!(meta.step, 40);
     let pts: Vec<Vec3> = (0..50).map(|i| Vec3::splat(i as f32 * 0.06)).collect();
-    assert_eq!(field.materials(&pts).unwrap(), d.field.materials(&pts).unwrap());
+    assert_eq!(
+        field.materials(&pts).unwrap(),
+        d.field.materials(&pts).unwrap()
+    );
+    assert!(
+        Trainer::resume(&cfg, bounds, set.levels, "other scene", &dir)
+            .unwrap()
+            .is_err()
+    );
     // Changed settings are refused with a reason, not silently mixed.
     let mut other = cfg.clone();
     other.field.mlp_width = 32;
-    assert!(Trainer::resume(&other, bounds, set.levels, &dir).unwrap().is_err());
-    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().flatten().filter(|e| e.file_name().to_string_lossy().ends_with(".tmp")).collect();
+    assert!(Trainer::resume(&other, bounds, set.levels, "", &dir)
+        .unwrap()
+        .is_err());
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -99,7 +126,10 @@ fn bad_settings_are_rejected_with_the_key() {
     let mut cfg = config();
     cfg.field.grid.log2_table = 40;
     let (set, bounds) = data();
-    let e = Trainer::new(cfg, bounds, set.levels).err().expect("rejected").to_string();
+    let e = Trainer::new(cfg, bounds, set.levels)
+        .err()
+        .expect("rejected")
+        .to_string();
     assert!(e.contains("log2_table"), "{e}");
     let bad: Result<TrainConfig, _> = serde_json::from_str(r#"{"steps": 10, "bogus": 1}"#);
     assert!(bad.is_err());

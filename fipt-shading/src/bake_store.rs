@@ -179,6 +179,30 @@ pub fn load_if_current(
     config: &BakeConfig,
     baker: &str,
 ) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
+    load_checked(dir, |m| mismatch(m, inputs_hash, config, baker))
+}
+
+/// Loads a finished bake of these inputs, whatever its settings (the later stages use any
+/// bake of the right scene). `Ok(Err(reason))` says why not.
+pub fn load_for_inputs(
+    dir: &Path,
+    inputs_hash: &str,
+) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
+    load_checked(dir, |m| {
+        if m.version != FORMAT_VERSION {
+            Some(format!("format version {}", m.version))
+        } else if m.inputs_hash != inputs_hash {
+            Some("the scene's mesh, cameras or images changed since the bake".into())
+        } else {
+            None
+        }
+    })
+}
+
+fn load_checked(
+    dir: &Path,
+    check: impl Fn(&BakeManifest) -> Option<String>,
+) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
     let mpath = dir.join("manifest.json");
     if !mpath.is_file() {
         return Ok(Err("no finished bake found".into()));
@@ -187,7 +211,7 @@ pub fn load_if_current(
         Ok(m) => m,
         Err(e) => return Ok(Err(format!("unreadable manifest ({e})"))),
     };
-    if let Some(why) = mismatch(&m, inputs_hash, config, baker) {
+    if let Some(why) = check(&m) {
         return Ok(Err(why));
     }
     let mut out = Vec::with_capacity(m.views);

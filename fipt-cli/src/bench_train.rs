@@ -1,0 +1,194 @@
+//! `fipt bench --suite train`: training steps/s per preset on synthetic surface samples, split
+//! into hash grid / MLP and loss / optimiser, and the same encoding+MLP+Adam step with the hash
+//! grid written in plain candle ops (index_select + a dense AdamW over the tables).
+use anyhow::Result;
+use candle_core::{DType, Device, Module, Tensor, Var};
+use candle_nn::{Optimizer, VarBuilder, VarMap};
+use fipt_core::fsutil::write_json_atomic;
+use fipt_core::image::Image;
+use fipt_core::rng::Pcg32;
+use fipt_core::shading::{ViewShadings, DEFAULT_LEVELS, NUM_LEVELS};
+use fipt_neural::field::Mlp;
+use fipt_neural::hashgrid::{AdamConfig, HashGrid, HashGridOp};
+use fipt_neural::plain::PlainEncoding;
+use fipt_neural::{Bounds, TrainConfig, Trainer, TrainingSet};
+use glam::Vec3;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// `n` samples on the faces of a 5 m box and of two inner boxes, random shadings and colours.
+fn samples(n: usize) -> (TrainingSet, Bounds) {
+    let side = 512;
+    let views = n.div_ceil(side * side);
+    let mut r = Pcg32::new(11, 0);
+    let boxes = [
+        (Vec3::ZERO, Vec3::splat(5.0)),
+        (Vec3::splat(1.0), Vec3::splat(2.0)),
+        (Vec3::new(3.0, 0.0, 3.0), Vec3::new(4.0, 1.0, 4.5)),
+    ];
+    let (mut pts, mut shs, mut imgs) = (vec![], vec![], vec![]);
+    for _ in 0..views {
+        let mut sh = ViewShadings::zeros(side, side, DEFAULT_LEVELS);
+        let mut img = Image::new(side, side);
+        let mut p = vec![];
+        for i in 0..side * side {
+            let (lo, hi) = boxes[(r.next_u32() % 3) as usize];
+            let mut q = lo + (hi - lo) * Vec3::new(r.next_f32(), r.next_f32(), r.next_f32());
+            let axis = (r.next_u32() % 3) as usize;
+            q[axis] = if r.next_f32() < 0.5 {
+                lo[axis]
+            } else {
+                hi[axis]
+            };
+            p.push(Some(q));
+            sh.valid[i] = true;
+            sh.ld[i] = Vec3::splat(r.next_f32() + 0.2);
+            sh.ls0[i] = [Vec3::splat(r.next_f32()); NUM_LEVELS];
+            sh.ls1[i] = [Vec3::splat(0.02); NUM_LEVELS];
+            img.data[i] = Vec3::new(r.next_f32(), r.next_f32(), r.next_f32());
+        }
+        pts.push(p);
+        shs.push(sh);
+        imgs.push(img);
+    }
+    let bounds = Bounds::around(pts.iter().flatten().flatten().copied(), 1.1).unwrap();
+    (
+        TrainingSet::new(&pts, &shs, &imgs, &bounds).unwrap(),
+        bounds,
+    )
+}
+
+fn ms(x: f64, n: usize) -> f64 {
+    x / n as f64 * 1e3
+}
+
+/// Encoding + MLP + MSE + optimiser, with the custom op (`plain = false`) or plain candle ops.
+fn encoding_step_ms(cfg: &TrainConfig, unit: &[Vec<[f32; 3]>], plain: bool) -> Result<f64> {
+    let dev = Device::Cpu;
+    let grid = Arc::new(HashGrid::new(cfg.field.grid.clone(), 1)?);
+    let varmap = VarMap::new();
+    let vb = VarBuilder::from_varmap(&varmap, DType::F32, &dev);
+    let mlp = Mlp::new(
+        vb,
+        grid.output_dim(),
+        cfg.field.mlp_width,
+        cfg.field.mlp_hidden,
+        5,
+    )?;
+    let plain_enc = if plain {
+        Some(PlainEncoding::from_grid(&grid)?)
+    } else {
+        None
+    };
+    let mut vars = varmap.all_vars();
+    if let Some(p) = &plain_enc {
+        vars.push(p.table.clone());
+    }
+    let params = candle_nn::ParamsAdamW {
+        lr: 1e-3,
+        weight_decay: 0.0,
+        ..Default::default()
+    };
+    let mut opt = candle_nn::AdamW::new(vars, params)?;
+    let adam = AdamConfig::default();
+    let mut times = vec![];
+    for (k, batch) in unit.iter().enumerate() {
+        let t0 = Instant::now();
+        let n = batch.len();
+        let pts = Tensor::from_vec(
+            batch.iter().flatten().copied().collect::<Vec<_>>(),
+            (n, 3),
+            &dev,
+        )?;
+        let enc = match &plain_enc {
+            Some(p) => p.forward(&grid, batch)?,
+            None => Var::from_tensor(&pts)?
+                .as_tensor()
+                .apply_op1(HashGridOp(grid.clone()))?,
+        };
+        let y = candle_nn::ops::sigmoid(&mlp.forward(&enc)?)?;
+        let loss = y.affine(1.0, -0.3)?.sqr()?.mean_all()?;
+        opt.backward_step(&loss)?;
+        if plain_enc.is_none() {
+            grid.adam_step(&adam);
+        }
+        if k >= 2 {
+            times.push(t0.elapsed().as_secs_f64());
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(times[times.len() / 2] * 1e3)
+}
+
+pub fn run(quick: bool, out: &Path) -> Result<()> {
+    let steps = if quick { 6 } else { 25 };
+    let (data, bounds) = samples(if quick { 300_000 } else { 1_000_000 });
+    eprintln!(
+        "{} synthetic surface samples; batch 8192; {steps} timed steps per preset",
+        data.len()
+    );
+    let mut presets = vec![];
+    for name in ["fast", "balanced", "paper"] {
+        let mut cfg = TrainConfig::preset(name).unwrap().sized_for(data.len());
+        cfg.steps = steps + 3;
+        let mut t = Trainer::new(cfg.clone(), bounds, data.levels)?;
+        for _ in 0..3 {
+            t.step(&data)?;
+        }
+        let warm = t.timings;
+        let t0 = Instant::now();
+        for _ in 0..steps {
+            t.step(&data)?;
+        }
+        let secs = t0.elapsed().as_secs_f64();
+        let tm = t.timings;
+        let grid = (tm.grid_forward - warm.grid_forward)
+            + (tm.grid_backward - warm.grid_backward)
+            + (tm.grid_optimizer - warm.grid_optimizer);
+        let opt = tm.optimizer - warm.optimizer;
+        let total = tm.total() - warm.total();
+        let row = serde_json::json!({
+            "preset": name,
+            "levels": cfg.field.grid.levels,
+            "log2_table": cfg.field.grid.log2_table,
+            "params": t.field.num_params(),
+            "steps_per_second": steps as f64 / secs,
+            "ms_per_step": ms(secs, steps),
+            "ms_hash_grid": ms(grid, steps),
+            "ms_hash_grid_forward": ms(tm.grid_forward - warm.grid_forward, steps),
+            "ms_hash_grid_backward": ms(tm.grid_backward - warm.grid_backward, steps),
+            "ms_hash_grid_optimizer": ms(tm.grid_optimizer - warm.grid_optimizer, steps),
+            "ms_mlp_and_loss": ms(total - grid - (opt - (tm.grid_optimizer - warm.grid_optimizer)) - (tm.batch - warm.batch), steps),
+            "ms_mlp_optimizer": ms(opt - (tm.grid_optimizer - warm.grid_optimizer), steps),
+            "ms_batch_gather": ms(tm.batch - warm.batch, steps),
+        });
+        eprintln!("{row}");
+        presets.push(row);
+    }
+    // Custom op vs plain candle ops, same sizes (balanced), same MLP, same loss.
+    let cfg = TrainConfig::default().sized_for(data.len());
+    let mut r = Pcg32::new(5, 5);
+    let batches: Vec<Vec<[f32; 3]>> = (0..steps.min(12))
+        .map(|_| {
+            (0..8192)
+                .map(|_| data.unit[(r.next_u32() as usize) % data.len()])
+                .collect()
+        })
+        .collect();
+    let custom = encoding_step_ms(&cfg, &batches, false)?;
+    let plain = encoding_step_ms(&cfg, &batches, true)?;
+    eprintln!("encoding + MLP + Adam step, balanced sizes: custom op {custom:.1} ms, plain candle {plain:.1} ms (×{:.2})", plain / custom);
+    let report = serde_json::json!({
+        "suite": "train",
+        "threads": rayon::current_num_threads(),
+        "samples": data.len(),
+        "batch": 8192,
+        "presets": presets,
+        "encoding_step_ms": {"custom_op": custom, "plain_candle": plain, "speedup": plain / custom},
+        "peak_rss_mib": crate::bench::peak_rss_mib(),
+    });
+    write_json_atomic(out, &report)?;
+    println!("wrote {}", out.display());
+    Ok(())
+}

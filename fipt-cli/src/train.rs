@@ -1,0 +1,271 @@
+//! `fipt train <scene> --out OUT`: fit the material field to the bake in OUT/bake, write the
+//! checkpoint to OUT/train/ and per-view maps to OUT/train/views/<split>/.
+use crate::info::Policy;
+use crate::progress::{bar, Stage};
+use anyhow::{bail, Context, Result};
+use fipt_core::dataset::View;
+use fipt_core::fsutil::{read_json, write_json_atomic};
+use fipt_core::image::{ExrPrecision, Image};
+use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+use fipt_geom::Geometry;
+use fipt_neural::train::{render_factorized, StepLosses, TrainTimings};
+use fipt_neural::{Bounds, NeuralField, TrainConfig, Trainer, TrainingSet};
+use fipt_shading::bake::primary_records;
+use fipt_shading::bake_store::load_for_inputs;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene folder.
+    scene: PathBuf,
+    /// Output folder holding OUT/bake/ (from `fipt bake`); results go to OUT/train/.
+    #[arg(long)]
+    out: PathBuf,
+    /// Settings preset: paper (the reference's sizes and 10k steps), balanced, fast.
+    #[arg(long, default_value = "balanced")]
+    preset: String,
+    /// A TOML or JSON file of training settings laid over the preset.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Override the number of steps.
+    #[arg(long)]
+    steps: Option<usize>,
+    /// What to do with NaN/Inf/negative pixels.
+    #[arg(long, value_enum, default_value = "reject")]
+    bad_pixels: Policy,
+    /// Train afresh even if a finished or resumable run exists.
+    #[arg(long)]
+    force: bool,
+}
+
+/// What a finished training stage wrote, read back by later runs (written last).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainManifest {
+    pub inputs: String,
+    pub config: TrainConfig,
+    pub pixels: usize,
+    pub params_grid: usize,
+    pub params_mlp: usize,
+    pub seconds: f64,
+    pub steps_per_second: f64,
+    pub timings: TrainTimings,
+    pub last: StepLosses,
+}
+
+/// Primary hit points of every pixel of `views`.
+pub fn view_points(geometry: &Geometry, views: &[View]) -> Vec<Vec<Option<Vec3>>> {
+    views
+        .iter()
+        .map(|v| {
+            primary_records(geometry, v)
+                .iter()
+                .map(|r| r.map(|r| r.hit.p))
+                .collect()
+        })
+        .collect()
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let Some(preset) = TrainConfig::preset(&a.preset) else {
+        bail!("unknown preset `{}` (paper, balanced, fast)", a.preset)
+    };
+    let mut cfg: TrainConfig = crate::config::load(preset, a.config.as_deref())?;
+    if let Some(s) = a.steps {
+        cfg.steps = s;
+    }
+    cfg.validate()?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
+    let bake_dir = a.out.join("bake");
+    let (bake, shadings) = match load_for_inputs(&bake_dir, &scene.inputs_hash)? {
+        Ok(x) => x,
+        Err(why) => bail!(
+            "{}: {why}; run `fipt bake {} --out {}` first",
+            bake_dir.display(),
+            a.scene.display(),
+            a.out.display()
+        ),
+    };
+    let dir = a.out.join("train");
+    let inputs = format!(
+        "{}+bake:{}",
+        scene.inputs_hash,
+        bake.seconds_total.to_bits()
+    );
+    if !a.force {
+        if let Ok(m) = read_json::<TrainManifest>(&dir.join("manifest.json")) {
+            if m.inputs == inputs
+                && m.config.field.grid.log2_table <= cfg.field.grid.log2_table
+                && {
+                    let mut c = m.config.clone();
+                    c.field.grid.log2_table = cfg.field.grid.log2_table;
+                    c == cfg
+                }
+            {
+                println!(
+                    "reusing the trained field in {} ({} steps in {:.1} s); --force to redo it",
+                    dir.display(),
+                    m.config.steps,
+                    m.seconds
+                );
+                return Ok(());
+            }
+        }
+    }
+    let split = scene.ds.train();
+    let st = Stage::start("training set");
+    let points = view_points(&scene.geometry, &split.views);
+    let Some(bounds) = Bounds::around(points.iter().flatten().flatten().copied(), 1.1) else {
+        bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
+    };
+    let data = TrainingSet::new(&points, &shadings, &scene.images, &bounds)?;
+    let cfg = cfg.sized_for(data.len());
+    st.done();
+    let mut trainer = None;
+    if !a.force {
+        match Trainer::resume(&cfg, bounds, data.levels, &inputs, &dir)? {
+            Ok(t) => {
+                eprintln!("resuming from step {} in {}", t.step_count(), dir.display());
+                trainer = Some(t);
+            }
+            Err(why) if why != "no checkpoint" => eprintln!("starting afresh: {why}"),
+            Err(_) => {}
+        }
+    }
+    let mut trainer = match trainer {
+        Some(t) => t,
+        None => {
+            let mut t = Trainer::new(cfg.clone(), bounds, data.levels)?;
+            t.inputs = inputs.clone();
+            t
+        }
+    };
+    let (pg, pm) = trainer.field.num_params();
+    eprintln!(
+        "training on {} pixels of {} views: {} hash-table + {} MLP parameters, {} steps of {}",
+        data.len(),
+        split.views.len(),
+        pg,
+        pm,
+        cfg.steps,
+        cfg.batch
+    );
+    let pb = bar(cfg.steps as u64, "train");
+    pb.set_position(trainer.step_count() as u64);
+    let st = Stage::start("train");
+    let first = trainer.step_count();
+    trainer.run(&data, Some(&dir), &mut |l| {
+        pb.set_position(l.step as u64);
+        if l.step % 10 == 0 {
+            pb.set_message(format!("loss {:.4}", l.total));
+        }
+    })?;
+    pb.finish_and_clear();
+    let secs = st.done();
+    let t = trainer.timings;
+    let done = (trainer.step_count() - first).max(1);
+    let sps = done as f64 / secs.max(1e-9);
+    eprintln!(
+        "{sps:.1} steps/s; per step: batch {:.1} ms, forward {:.1} ms (hash grid {:.1}), backward {:.1} ms (hash grid {:.1}), optimiser {:.1} ms (hash grid {:.1})",
+        t.batch / done as f64 * 1e3,
+        t.forward / done as f64 * 1e3,
+        t.grid_forward / done as f64 * 1e3,
+        t.backward / done as f64 * 1e3,
+        t.grid_backward / done as f64 * 1e3,
+        t.optimizer / done as f64 * 1e3,
+        t.grid_optimizer / done as f64 * 1e3,
+    );
+    let l = trainer.last;
+    eprintln!(
+        "final losses: total {:.5}, image {:.5}, mask {:.5}, prior {:.5}",
+        l.total, l.image, l.mask, l.prior
+    );
+    let st = Stage::start("export maps");
+    for s in &scene.ds.splits {
+        let shade = (s.name == split.name).then_some(&shadings[..]);
+        let imgs = (s.name == split.name).then_some(&scene.images[..]);
+        export_views(
+            &trainer.field,
+            &scene.geometry,
+            &s.views,
+            shade,
+            imgs,
+            &dir.join("views").join(&s.name),
+        )?;
+    }
+    st.done();
+    let manifest = TrainManifest {
+        inputs,
+        config: cfg,
+        pixels: data.len(),
+        params_grid: pg,
+        params_mlp: pm,
+        seconds: secs,
+        steps_per_second: sps,
+        timings: t,
+        last: l,
+    };
+    write_json_atomic(&dir.join("manifest.json"), &manifest)?;
+    println!("wrote {}", dir.display());
+    Ok(())
+}
+
+/// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view, and
+/// `_render.exr` where shadings exist: the trained model's prediction
+/// (1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT.
+pub fn export_views(
+    field: &NeuralField,
+    geometry: &Geometry,
+    views: &[View],
+    shadings: Option<&[ViewShadings]>,
+    images: Option<&[Image]>,
+    dir: &Path,
+) -> Result<()> {
+    for (vi, v) in views.iter().enumerate() {
+        let (w, h) = (v.camera.width, v.camera.height);
+        let recs = primary_records(geometry, v);
+        let hit: Vec<usize> = (0..w * h).filter(|&i| recs[i].is_some()).collect();
+        let pts: Vec<Vec3> = hit.iter().map(|&i| recs[i].unwrap().hit.p).collect();
+        let (mats, alpha) = field.query(&pts).context("querying the field")?;
+        let mut maps: Vec<(&str, Image)> = ["kd", "ks", "roughness", "metallic", "emission_mask"]
+            .iter()
+            .map(|n| (*n, Image::new(w, h)))
+            .collect();
+        for (j, &i) in hit.iter().enumerate() {
+            let m = &mats[j];
+            maps[0].1.data[i] = m.kd();
+            maps[1].1.data[i] = m.ks();
+            maps[2].1.data[i] = Vec3::splat(m.roughness);
+            maps[3].1.data[i] = Vec3::splat(m.metallic);
+            maps[4].1.data[i] = Vec3::splat(alpha[j]);
+        }
+        if let (Some(sh), Some(imgs)) = (shadings, images) {
+            let s = &sh[vi];
+            let idx: Vec<usize> = hit.iter().copied().filter(|&i| s.valid[i]).collect();
+            let unit = field.to_unit(
+                &idx.iter()
+                    .map(|&i| recs[i].unwrap().hit.p)
+                    .collect::<Vec<_>>(),
+            );
+            let arr = |x: &[Vec3; NUM_LEVELS]| x.map(|c| c.to_array());
+            let ld: Vec<[f32; 3]> = idx.iter().map(|&i| s.ld[i].to_array()).collect();
+            let ls0: Vec<_> = idx.iter().map(|&i| arr(&s.ls0[i])).collect();
+            let ls1: Vec<_> = idx.iter().map(|&i| arr(&s.ls1[i])).collect();
+            let (render, al) = render_factorized(field, &unit, &ld, &ls0, &ls1, s.levels)?;
+            let mut img = Image::new(w, h);
+            for (j, &i) in idx.iter().enumerate() {
+                let r = Vec3::from(render[j]);
+                img.data[i] = r * (1.0 - al[j]) + imgs[vi].data[i] * al[j];
+            }
+            maps.push(("render", img));
+        }
+        for (name, img) in &maps {
+            let k = v.index;
+            img.write_exr(&dir.join(format!("{k:03}_{name}.exr")), ExrPrecision::F32)?;
+            img.write_png(&dir.join("preview").join(format!("{k:03}_{name}.png")), 1.0)?;
+        }
+    }
+    Ok(())
+}
