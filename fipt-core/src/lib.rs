@@ -10,6 +10,7 @@
 //! * [`materials::SceneMaterials`]: ground-truth per-face materials and emitters
 //!   (`scene_gt.json`, or a Mitsuba `scene_parts.json`);
 //! * [`brdf::Brdf`]: the BRDF contract (eval includes cos θi);
+//! * [`emitter::EmitterExtractor`]: which triangles emit, grouped into lights;
 //! * [`field::MaterialField`]: the BRDF field and emission mask contract;
 //! * [`shading`]: the factorised shading model, [`shading::RayQuery`] and the
 //!   [`shading::ShadingBaker`] contract;
@@ -27,6 +28,7 @@ pub mod brdf;
 pub mod camera;
 pub mod color;
 pub mod dataset;
+pub mod emitter;
 pub mod error;
 pub mod field;
 pub mod fsutil;

@@ -1,8 +1,12 @@
 //! # fipt-emitter
 //!
-//! Will own emitter extraction: which triangles emit (from the trained emission mask), their
-//! radiance (per-channel median of the HDR pixels that see them), grouped into lights. A
-//! placeholder until the pipeline issue lands: it holds only its error type.
+//! Emitter extraction (method §4.4) behind [`fipt_core::emitter::EmitterExtractor`]:
+//! [`MaskExtractor`] averages the trained emission mask over uniform points of every triangle,
+//! keeps the triangles above a threshold, gives each the per-channel median of the HDR pixels
+//! whose centre ray hits it, and groups connected emitter triangles into lights.
+mod mask;
+
+pub use mask::{MaskExtractor, MaskExtractorConfig};
 
 /// Errors of emitter extraction.
 #[derive(Debug, thiserror::Error)]

@@ -1,0 +1,300 @@
+//! Emitters from the emission mask and the observed radiance.
+use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs};
+use fipt_core::rng::Pcg32;
+use fipt_core::Result;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+/// Settings of [`MaskExtractor`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaskExtractorConfig {
+    /// A triangle emits when its mean α exceeds this (reference: 0.01).
+    pub threshold: f32,
+    /// Uniform points per triangle at which α is averaged (reference: 100).
+    pub samples_per_triangle: usize,
+    pub seed: u64,
+}
+
+impl Default for MaskExtractorConfig {
+    fn default() -> Self {
+        MaskExtractorConfig {
+            threshold: 0.01,
+            samples_per_triangle: 100,
+            seed: 0,
+        }
+    }
+}
+
+/// The reference's extraction, with grouping into lights and radiance for emitter triangles
+/// that no pixel centre hits (the median of their light's pixels).
+pub struct MaskExtractor {
+    pub config: MaskExtractorConfig,
+}
+
+fn median(v: &mut [f32]) -> f32 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f32::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn find(parent: &mut [usize], mut i: usize) -> usize {
+    while parent[i] != i {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    i
+}
+
+impl EmitterExtractor for MaskExtractor {
+    fn name(&self) -> &str {
+        "emission-mask"
+    }
+
+    fn extract(&self, inp: &EmitterInputs) -> Result<Vec<Emitter>> {
+        let c = &self.config;
+        let ns = c.samples_per_triangle.max(1);
+        let tri_pts =
+            |t: usize| -> [Vec3; 3] { inp.triangles[t].map(|i| inp.positions[i as usize]) };
+        // 1. Mean α per triangle, in chunks of triangles.
+        let n = inp.triangles.len();
+        let mut alpha = vec![0f32; n];
+        let chunk = (262_144 / ns).max(1);
+        for start in (0..n).step_by(chunk) {
+            let end = (start + chunk).min(n);
+            let mut pts = Vec::with_capacity((end - start) * ns);
+            for t in start..end {
+                let [a, b, cc] = tri_pts(t);
+                let mut r = Pcg32::from_keys(&[c.seed, t as u64, 0xE417]);
+                for _ in 0..ns {
+                    let (u, v) = (r.next_f32(), r.next_f32());
+                    let su = u.sqrt();
+                    pts.push(a * (1.0 - su) + b * (su * (1.0 - v)) + cc * (su * v));
+                }
+            }
+            let al = inp.field.emission_mask(&pts)?;
+            for (k, t) in (start..end).enumerate() {
+                alpha[t] = al[k * ns..(k + 1) * ns].iter().sum::<f32>() / ns as f32;
+            }
+        }
+        let is_emitter: Vec<bool> = alpha.iter().map(|&a| a > c.threshold).collect();
+        // 2. Observed pixels per emitter triangle.
+        let mut obs: HashMap<u32, Vec<Vec3>> = HashMap::new();
+        for &(t, l) in inp.pixel_hits {
+            if (t as usize) < n && is_emitter[t as usize] {
+                obs.entry(t).or_default().push(l);
+            }
+        }
+        // 3. Connected groups: emitter triangles sharing a vertex (by position, so that split
+        //    vertices of an OBJ still connect).
+        let key = |p: Vec3| {
+            let q = |x: f32| (x * 1e5).round() as i64;
+            (q(p.x), q(p.y), q(p.z))
+        };
+        let ids: Vec<usize> = (0..n).filter(|&t| is_emitter[t]).collect();
+        let mut parent: Vec<usize> = (0..ids.len()).collect();
+        let mut first: HashMap<(i64, i64, i64), usize> = HashMap::new();
+        for (k, &t) in ids.iter().enumerate() {
+            for p in tri_pts(t) {
+                match first.get(&key(p)) {
+                    Some(&j) => {
+                        let (a, b) = (find(&mut parent, k), find(&mut parent, j));
+                        parent[a.max(b)] = a.min(b);
+                    }
+                    None => {
+                        first.insert(key(p), k);
+                    }
+                }
+            }
+        }
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        let mut slot: HashMap<usize, usize> = HashMap::new();
+        for k in 0..ids.len() {
+            let r = find(&mut parent, k);
+            let g = *slot.entry(r).or_insert_with(|| {
+                groups.push(vec![]);
+                groups.len() - 1
+            });
+            groups[g].push(ids[k]);
+        }
+        // 4. Radiance per triangle: median of its pixels, else of its light's pixels.
+        let channel_median = |ls: &[Vec3]| -> Vec3 {
+            let mut ch: [Vec<f32>; 3] = Default::default();
+            for l in ls {
+                for (i, c) in ch.iter_mut().enumerate() {
+                    c.push(l[i]);
+                }
+            }
+            Vec3::new(median(&mut ch[0]), median(&mut ch[1]), median(&mut ch[2]))
+        };
+        let mut out = Vec::new();
+        for g in groups {
+            let all: Vec<Vec3> = g
+                .iter()
+                .flat_map(|t| obs.get(&(*t as u32)).cloned().unwrap_or_default())
+                .collect();
+            if all.is_empty() {
+                continue; // never seen: no radiance to give it
+            }
+            let fallback = channel_median(&all);
+            let (mut tris, mut rad) = (vec![], vec![]);
+            let (mut area, mut wsum, mut csum) = (0f32, Vec3::ZERO, Vec3::ZERO);
+            for &t in &g {
+                let l = obs
+                    .get(&(t as u32))
+                    .map(|v| channel_median(v))
+                    .unwrap_or(fallback);
+                if l.max_element() <= 0.0 || !l.is_finite() {
+                    continue;
+                }
+                let [a, b, cc] = tri_pts(t);
+                let ar = 0.5 * (b - a).cross(cc - a).length();
+                tris.push(t as u32);
+                rad.push(l.to_array());
+                area += ar;
+                wsum += l * ar;
+                csum += (a + b + cc) / 3.0 * ar;
+            }
+            if tris.is_empty() || area <= 0.0 {
+                continue;
+            }
+            out.push(Emitter {
+                pixels: tris.iter().map(|t| obs.get(t).map_or(0, |v| v.len())).sum(),
+                triangles: tris,
+                radiance: rad,
+                area,
+                mean_radiance: (wsum / area).to_array(),
+                power: (wsum * 2.0 * std::f32::consts::PI).to_array(),
+                centroid: (csum / area).to_array(),
+            });
+        }
+        out.sort_by(|a, b| {
+            let p = |e: &Emitter| e.power.iter().sum::<f32>();
+            p(b).total_cmp(&p(a))
+        });
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fipt_core::field::{Material, MaterialField};
+
+    /// α = 1 inside a box, 0 elsewhere.
+    struct BoxMask(Vec3, Vec3);
+    impl MaterialField for BoxMask {
+        fn name(&self) -> &str {
+            "box"
+        }
+        fn materials(&self, p: &[Vec3]) -> Result<Vec<Material>> {
+            Ok(p.iter()
+                .map(|_| Material {
+                    albedo: Vec3::splat(0.5),
+                    roughness: 1.0,
+                    metallic: 0.0,
+                })
+                .collect())
+        }
+        fn emission_mask(&self, p: &[Vec3]) -> Result<Vec<f32>> {
+            Ok(p.iter()
+                .map(|&q| (q.cmpge(self.0).all() && q.cmple(self.1).all()) as u8 as f32)
+                .collect())
+        }
+    }
+
+    /// Two separate unit quads at x = 0 and x = 10 (2 triangles each, split vertices), and a
+    /// floor quad.
+    fn scene() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mut pos = vec![];
+        let mut tris = vec![];
+        let mut quad = |o: Vec3, u: Vec3, v: Vec3| {
+            for t in [[o, o + u, o + u + v], [o, o + u + v, o + v]] {
+                let b = pos.len() as u32;
+                pos.extend(t);
+                tris.push([b, b + 1, b + 2]);
+            }
+        };
+        quad(Vec3::new(0.0, 2.0, 0.0), Vec3::X, Vec3::Z);
+        quad(Vec3::new(10.0, 2.0, 0.0), Vec3::X * 0.01, Vec3::Z * 0.01); // 1 cm² lamp
+        quad(Vec3::new(-5.0, 0.0, -5.0), Vec3::X * 20.0, Vec3::Z * 20.0);
+        (pos, tris)
+    }
+
+    #[test]
+    fn finds_both_lights_groups_triangles_and_takes_medians() {
+        let (pos, tris) = scene();
+        let field = BoxMask(Vec3::new(-1.0, 1.5, -1.0), Vec3::new(11.0, 2.5, 1.0));
+        let mut hits = vec![];
+        for k in 0..9 {
+            // Triangle 0: 9 pixels around 5 with one outlier; triangle 1 unseen.
+            hits.push((
+                0u32,
+                if k == 8 {
+                    Vec3::splat(1e4)
+                } else {
+                    Vec3::new(5.0, 4.0, 3.0)
+                },
+            ));
+        }
+        hits.push((2, Vec3::new(100.0, 90.0, 80.0))); // the tiny lamp: one pixel
+        hits.push((4, Vec3::splat(0.3))); // floor
+        let ex = MaskExtractor {
+            config: MaskExtractorConfig::default(),
+        };
+        let e = ex
+            .extract(&EmitterInputs {
+                positions: &pos,
+                triangles: &tris,
+                field: &field,
+                pixel_hits: &hits,
+            })
+            .unwrap();
+        assert_eq!(e.len(), 2, "{e:?}");
+        let big = e.iter().find(|e| e.triangles.contains(&0)).unwrap();
+        assert_eq!(big.triangles, vec![0, 1]);
+        assert_eq!(
+            big.radiance[0],
+            [5.0, 4.0, 3.0],
+            "median ignores the outlier"
+        );
+        assert_eq!(
+            big.radiance[1],
+            [5.0, 4.0, 3.0],
+            "unseen triangle takes its light's median"
+        );
+        assert!((big.area - 1.0).abs() < 1e-5);
+        let p = 2.0 * std::f32::consts::PI * 5.0;
+        assert!((big.power[0] - p).abs() < 1e-3 * p);
+        let tiny = e.iter().find(|e| e.triangles.contains(&2)).unwrap();
+        assert_eq!(tiny.triangles, vec![2, 3]);
+        assert_eq!(tiny.pixels, 1);
+        assert!((tiny.area - 1e-4).abs() < 1e-7);
+    }
+
+    #[test]
+    fn nothing_emits_when_the_mask_is_empty() {
+        let (pos, tris) = scene();
+        let field = BoxMask(Vec3::splat(100.0), Vec3::splat(101.0));
+        let hits = vec![(0u32, Vec3::ONE)];
+        let e = MaskExtractor {
+            config: MaskExtractorConfig::default(),
+        }
+        .extract(&EmitterInputs {
+            positions: &pos,
+            triangles: &tris,
+            field: &field,
+            pixel_hits: &hits,
+        })
+        .unwrap();
+        assert!(e.is_empty());
+    }
+}
