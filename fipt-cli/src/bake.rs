@@ -1,11 +1,13 @@
 //! `fipt bake <scene> --out DIR`: the initial shading bake alone.
 use crate::info::Policy;
 use crate::progress::{bar, Stage};
+use crate::scene::LoadedScene;
 use anyhow::{bail, Result};
 use fipt_core::image::Image;
+use fipt_core::shading::ViewShadings;
 use fipt_shading::bake::{BakeConfig, FactorizedBaker};
 use fipt_shading::bake_store::{load_if_current, save, BakeManifest, FORMAT_VERSION};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -35,18 +37,31 @@ pub fn run(a: Args) -> Result<()> {
     let cfg: BakeConfig = crate::config::load(preset, a.config.as_deref())?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     let dir = a.out.join("bake");
+    stage(&scene, &cfg, &dir, a.force)?;
+    println!("wrote {}", dir.display());
+    Ok(())
+}
+
+/// The bake stage: reuses a finished bake of the same inputs and settings in `dir` unless
+/// `force`; otherwise bakes, saves (manifest last) and writes previews of Ld.
+pub fn stage(
+    scene: &LoadedScene,
+    cfg: &BakeConfig,
+    dir: &Path,
+    force: bool,
+) -> Result<(BakeManifest, Vec<ViewShadings>)> {
     let baker = FactorizedBaker::new(cfg.clone());
     let name = fipt_core::shading::ShadingBaker::name(&baker).to_string();
-    if !a.force {
-        match load_if_current(&dir, &scene.inputs_hash, &cfg, &name)? {
-            Ok((m, _)) => {
-                println!(
+    if !force {
+        match load_if_current(dir, &scene.inputs_hash, cfg, &name)? {
+            Ok((m, sh)) => {
+                eprintln!(
                     "reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it",
                     dir.display(),
                     m.views,
                     m.seconds_total
                 );
-                return Ok(());
+                return Ok((m, sh));
             }
             Err(why) => eprintln!("baking: {why}"),
         }
@@ -65,7 +80,7 @@ pub fn run(a: Args) -> Result<()> {
         version: FORMAT_VERSION,
         baker: name,
         inputs_hash: scene.inputs_hash.clone(),
-        config: serde_json::to_value(&cfg)?,
+        config: serde_json::to_value(cfg)?,
         split: split.name.clone(),
         views: shadings.len(),
         width: scene.ds.width,
@@ -73,8 +88,8 @@ pub fn run(a: Args) -> Result<()> {
         stats: stats.clone(),
         seconds_total: secs,
     };
-    let st = Stage::start("write");
-    save(&dir, &manifest, &shadings)?;
+    let st = Stage::start("write bake");
+    save(dir, &manifest, &shadings)?;
     for (k, s) in shadings.iter().enumerate() {
         let img = Image {
             width: s.width,
@@ -101,6 +116,5 @@ pub fn run(a: Args) -> Result<()> {
         stats.valid_pixels as f64 / secs,
         rays as f64 / secs / 1e6
     );
-    println!("wrote {}", dir.display());
-    Ok(())
+    Ok((manifest, shadings))
 }

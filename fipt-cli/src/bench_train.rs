@@ -130,7 +130,9 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
     );
     let mut presets = vec![];
     for name in ["fast", "balanced", "paper"] {
-        let mut cfg = TrainConfig::preset(name).unwrap().sized_for(data.len());
+        let mut cfg = TrainConfig::preset(name)
+            .unwrap()
+            .sized_for(data.len(), None, &bounds);
         cfg.steps = steps + 3;
         let mut t = Trainer::new(cfg.clone(), bounds, data.levels)?;
         for _ in 0..3 {
@@ -167,7 +169,7 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         presets.push(row);
     }
     // Custom op vs plain candle ops, same sizes (balanced), same MLP, same loss.
-    let cfg = TrainConfig::default().sized_for(data.len());
+    let cfg = TrainConfig::default().sized_for(data.len(), None, &bounds);
     let mut r = Pcg32::new(5, 5);
     let batches: Vec<Vec<[f32; 3]>> = (0..steps.min(12))
         .map(|_| {

@@ -6,9 +6,12 @@ mod bench;
 mod bench_bake;
 mod bench_train;
 mod config;
+mod demo;
+mod eval;
 mod info;
 mod progress;
 mod render;
+mod run;
 mod scene;
 mod synth;
 mod train;
@@ -42,6 +45,12 @@ enum Command {
     Synth(synth::Args),
     /// Bake the diffuse and specular shadings of the training views (the first FIPT stage).
     Bake(bake::Args),
+    /// The whole pipeline: bake → train → emitters → maps → report (→ eval with ground truth).
+    Run(run::Args),
+    /// Evaluate the maps of a run against the scene's ground truth (method §6).
+    Eval(eval::Args),
+    /// Generate the `room` scene, run the pipeline on it and evaluate it.
+    Demo(demo::Args),
     /// Fit the material field and emission mask to the baked shadings (the second FIPT stage).
     Train(train::Args),
     /// Path-trace views of a mesh with given materials and cameras (the forward renderer alone).
@@ -66,6 +75,9 @@ fn main() {
         Command::Render(a) => render::run(a),
         Command::Bake(a) => bake::run(a),
         Command::Train(a) => train::run(a),
+        Command::Run(a) => run::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::Demo(a) => demo::run(a),
         Command::Bench(a) => bench::run(a),
     };
     if let Err(e) = result {

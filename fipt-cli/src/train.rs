@@ -2,6 +2,7 @@
 //! checkpoint to OUT/train/ and per-view maps to OUT/train/views/<split>/.
 use crate::info::Policy;
 use crate::progress::{bar, Stage};
+use crate::scene::LoadedScene;
 use anyhow::{bail, Context, Result};
 use fipt_core::dataset::View;
 use fipt_core::fsutil::{read_json, write_json_atomic};
@@ -11,7 +12,7 @@ use fipt_geom::Geometry;
 use fipt_neural::train::{render_factorized, StepLosses, TrainTimings};
 use fipt_neural::{Bounds, NeuralField, TrainConfig, Trainer, TrainingSet};
 use fipt_shading::bake::primary_records;
-use fipt_shading::bake_store::load_for_inputs;
+use fipt_shading::bake_store::{load_for_inputs, BakeManifest};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -55,17 +56,30 @@ pub struct TrainManifest {
     pub last: StepLosses,
 }
 
-/// Primary hit points of every pixel of `views`.
-pub fn view_points(geometry: &Geometry, views: &[View]) -> Vec<Vec<Option<Vec3>>> {
-    views
+/// Primary hit points of every pixel of `views`, and the median pixel footprint (hit
+/// distance / focal length in pixels).
+pub fn view_points(geometry: &Geometry, views: &[View]) -> (Vec<Vec<Option<Vec3>>>, Option<f32>) {
+    let mut foot = vec![];
+    let pts = views
         .iter()
         .map(|v| {
+            let f = v.camera.fx.max(v.camera.fy);
             primary_records(geometry, v)
                 .iter()
-                .map(|r| r.map(|r| r.hit.p))
+                .map(|r| {
+                    r.map(|r| {
+                        foot.push(r.hit.t / f);
+                        r.hit.p
+                    })
+                })
                 .collect()
         })
-        .collect()
+        .collect();
+    let median = (!foot.is_empty()).then(|| {
+        let n = foot.len() / 2;
+        *foot.select_nth_unstable_by(n, f32::total_cmp).1
+    });
+    (pts, median)
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -89,48 +103,76 @@ pub fn run(a: Args) -> Result<()> {
         ),
     };
     let dir = a.out.join("train");
+    let (field, m, fresh) = stage(&scene, &bake, &shadings, &cfg, &dir, a.force)?;
+    if fresh || !dir.join("views").is_dir() {
+        let st = Stage::start("export maps");
+        let split = scene.ds.train();
+        for s in &scene.ds.splits {
+            let train = s.name == split.name;
+            export_views(
+                &field,
+                &scene.geometry,
+                &s.views,
+                train.then_some(&shadings[..]),
+                train.then_some(&scene.images[..]),
+                &dir.join("views").join(&s.name),
+            )?;
+        }
+        st.done();
+    }
+    let _ = m;
+    println!("wrote {}", dir.display());
+    Ok(())
+}
+
+/// The training stage: reuses a finished run in `dir` (same inputs and settings) unless
+/// `force`, resumes an interrupted one, or trains afresh. Returns the field, the manifest
+/// and whether training ran now.
+pub fn stage(
+    scene: &LoadedScene,
+    bake: &BakeManifest,
+    shadings: &[ViewShadings],
+    cfg: &TrainConfig,
+    dir: &Path,
+    force: bool,
+) -> Result<(NeuralField, TrainManifest, bool)> {
     let inputs = format!(
         "{}+bake:{}",
         scene.inputs_hash,
         bake.seconds_total.to_bits()
     );
-    if !a.force {
-        if let Ok(m) = read_json::<TrainManifest>(&dir.join("manifest.json")) {
-            if m.inputs == inputs
-                && m.config.field.grid.log2_table <= cfg.field.grid.log2_table
-                && {
-                    let mut c = m.config.clone();
-                    c.field.grid.log2_table = cfg.field.grid.log2_table;
-                    c == cfg
-                }
-            {
-                println!(
-                    "reusing the trained field in {} ({} steps in {:.1} s); --force to redo it",
-                    dir.display(),
-                    m.config.steps,
-                    m.seconds
-                );
-                return Ok(());
-            }
-        }
-    }
     let split = scene.ds.train();
     let st = Stage::start("training set");
-    let points = view_points(&scene.geometry, &split.views);
+    let (points, footprint) = view_points(&scene.geometry, &split.views);
     let Some(bounds) = Bounds::around(points.iter().flatten().flatten().copied(), 1.1) else {
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
-    let data = TrainingSet::new(&points, &shadings, &scene.images, &bounds)?;
-    let cfg = cfg.sized_for(data.len());
+    let data = TrainingSet::new(&points, shadings, &scene.images, &bounds)?;
+    let cfg = cfg.sized_for(data.len(), footprint, &bounds);
     st.done();
+    if !force {
+        if let Ok(m) = read_json::<TrainManifest>(&dir.join("manifest.json")) {
+            if m.inputs == inputs && m.config == cfg {
+                if let Ok((field, _)) = fipt_neural::train::load_field(dir) {
+                    eprintln!(
+                        "reusing the trained field in {} ({} steps in {:.1} s); --force to redo it",
+                        dir.display(),
+                        m.config.steps,
+                        m.seconds
+                    );
+                    return Ok((field, m, false));
+                }
+            }
+        }
+    }
     let mut trainer = None;
-    if !a.force {
-        match Trainer::resume(&cfg, bounds, data.levels, &inputs, &dir)? {
+    if !force {
+        match Trainer::resume(&cfg, bounds, data.levels, &inputs, dir)? {
             Ok(t) => {
                 eprintln!("resuming from step {} in {}", t.step_count(), dir.display());
                 trainer = Some(t);
             }
-            Err(why) if why != "no checkpoint" => eprintln!("starting afresh: {why}"),
+            Err(why) if why != "no checkpoint" => eprintln!("training afresh: {why}"),
             Err(_) => {}
         }
     }
@@ -156,7 +198,7 @@ pub fn run(a: Args) -> Result<()> {
     pb.set_position(trainer.step_count() as u64);
     let st = Stage::start("train");
     let first = trainer.step_count();
-    trainer.run(&data, Some(&dir), &mut |l| {
+    trainer.run(&data, Some(dir), &mut |l| {
         pb.set_position(l.step as u64);
         if l.step % 10 == 0 {
             pb.set_message(format!("loss {:.4}", l.total));
@@ -182,20 +224,6 @@ pub fn run(a: Args) -> Result<()> {
         "final losses: total {:.5}, image {:.5}, mask {:.5}, prior {:.5}",
         l.total, l.image, l.mask, l.prior
     );
-    let st = Stage::start("export maps");
-    for s in &scene.ds.splits {
-        let shade = (s.name == split.name).then_some(&shadings[..]);
-        let imgs = (s.name == split.name).then_some(&scene.images[..]);
-        export_views(
-            &trainer.field,
-            &scene.geometry,
-            &s.views,
-            shade,
-            imgs,
-            &dir.join("views").join(&s.name),
-        )?;
-    }
-    st.done();
     let manifest = TrainManifest {
         inputs,
         config: cfg,
@@ -208,8 +236,7 @@ pub fn run(a: Args) -> Result<()> {
         last: l,
     };
     write_json_atomic(&dir.join("manifest.json"), &manifest)?;
-    println!("wrote {}", dir.display());
-    Ok(())
+    Ok((trainer.field, manifest, true))
 }
 
 /// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view, and

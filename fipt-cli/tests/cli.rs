@@ -140,7 +140,7 @@ fn bake_reuses_finished_work_and_invalidates_on_change() {
     let bytes = std::fs::read(&file).unwrap();
     // Same inputs and settings: reused, nothing rewritten.
     let (ok, stdout, err) = fipt(&["bake", d, "--out", o, "--config", c]);
-    assert!(ok && stdout.contains("reusing"), "{stdout}{err}");
+    assert!(ok && err.contains("reusing"), "{stdout}{err}");
     assert_eq!(
         std::fs::metadata(&file).unwrap().modified().unwrap(),
         before
@@ -255,8 +255,8 @@ fn train_needs_a_bake_writes_maps_and_reuses_or_resumes() {
     assert!(out.join("train/views/train/000_render.exr").is_file());
     assert!(!out.join("train/views/val/000_render.exr").exists());
     // Same settings again: reused.
-    let (ok, stdout, _) = fipt(&["train", d, "--out", o, "--config", c, "--steps", "10"]);
-    assert!(ok && stdout.contains("reusing"), "{stdout}");
+    let (ok, stdout, err) = fipt(&["train", d, "--out", o, "--config", c, "--steps", "10"]);
+    assert!(ok && err.contains("reusing"), "{stdout}{err}");
     // More steps: resumed from the checkpoint at step 10.
     let (ok, _, err) = fipt(&["train", d, "--out", o, "--config", c, "--steps", "15"]);
     assert!(ok && err.contains("resuming from step 10"), "{err}");

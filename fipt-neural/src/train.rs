@@ -53,6 +53,8 @@ pub struct TrainConfig {
     /// Shrink the hash tables to what the number of training pixels can fill
     /// ([`TrainConfig::sized_for`]). The reference always uses 2^19.
     pub table_from_data: bool,
+    /// Set the finest level from the median pixel footprint ([`TrainConfig::sized_for`]).
+    pub finest_from_data: bool,
     /// Steps between checkpoints (0: only at the end).
     pub checkpoint_every: usize,
 }
@@ -71,6 +73,7 @@ impl Default for TrainConfig {
             prior_norm: PriorNorm::L2,
             prior_ramp: [0.3, 0.6],
             table_from_data: true,
+            finest_from_data: true,
             seed: 9,
             checkpoint_every: 500,
         }
@@ -89,6 +92,7 @@ impl TrainConfig {
             prior_norm: PriorNorm::L1,
             prior_ramp: [0.0, 0.0],
             table_from_data: false,
+            finest_from_data: false,
             ..Self::default()
         }
     }
@@ -120,7 +124,13 @@ impl TrainConfig {
     }
     /// These settings with the hash tables no larger than the data can fill: per level at
     /// most `2^ceil(log2(4·pixels))` entries (at least 2^14), when `table_from_data` is set.
-    pub fn sized_for(&self, pixels: usize) -> TrainConfig {
+    ///
+    /// With `finest_from_data` and a `footprint` (median world-space size of a training pixel,
+    /// same units as `bounds`), `per_level_scale` is set so that the finest level's cells are
+    /// about one pixel footprint wide: finer cells are each seen by a single pixel and fit its
+    /// noise (measured on cornell at 64×48: kd of unseen views 10 dB with 1.6 mm cells for
+    /// 4 cm pixels).
+    pub fn sized_for(&self, pixels: usize, footprint: Option<f32>, bounds: &Bounds) -> TrainConfig {
         let mut c = self.clone();
         if c.table_from_data {
             let need = (4 * pixels.max(1))
@@ -128,6 +138,15 @@ impl TrainConfig {
                 .trailing_zeros()
                 .max(14);
             c.field.grid.log2_table = c.field.grid.log2_table.min(need);
+        }
+        if let (true, Some(f)) = (c.finest_from_data, footprint) {
+            let g = &mut c.field.grid;
+            if f > 0.0 && f.is_finite() && g.levels > 1 {
+                let finest = (bounds.size / f).max(g.base_resolution as f32);
+                let scale = (finest / g.base_resolution as f32).powf(1.0 / (g.levels - 1) as f32);
+                // Rounded so that the value survives a JSON round trip unchanged.
+                g.per_level_scale = ((scale * 1e4).round() / 1e4).clamp(1.0, 4.0);
+            }
         }
         c
     }

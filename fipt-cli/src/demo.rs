@@ -1,0 +1,49 @@
+//! `fipt demo`: the main job on a fresh machine with nothing at hand: generate `room`, run the
+//! pipeline on it with the `balanced` preset, evaluate, and say where everything is.
+use crate::progress::bar;
+use anyhow::Result;
+use fipt_shading::synth::{build, write_dataset, SynthOptions};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Working folder: the scene goes to DIR/room, the results to DIR/out.
+    #[arg(long, default_value = "fipt-demo")]
+    dir: PathBuf,
+    /// Preset of the run.
+    #[arg(long, default_value = "balanced")]
+    preset: String,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let scene = a.dir.join("room");
+    if !scene.join("val").join("transforms.json").is_file() {
+        eprintln!(
+            "generating the `room` scene in {} (a few minutes on 2 cores)",
+            scene.display()
+        );
+        let pb = bar(1, "synth");
+        let opts = SynthOptions::defaults("room");
+        write_dataset(build("room")?, &scene, &opts, &|d, t| {
+            pb.set_length(t as u64);
+            pb.set_position(d as u64);
+        })?;
+        pb.finish_and_clear();
+    } else {
+        eprintln!("using the scene already in {}", scene.display());
+    }
+    crate::run::run(crate::run::Args {
+        scene: scene.clone(),
+        out: a.dir.join("out"),
+        preset: a.preset,
+        config: None,
+        bad_pixels: crate::info::Policy::Reject,
+        force: false,
+    })?;
+    println!(
+        "  previews: {}/views/*/preview/",
+        a.dir.join("out").display()
+    );
+    println!("  metrics:  {}", a.dir.join("out/metrics.json").display());
+    Ok(())
+}

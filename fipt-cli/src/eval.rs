@@ -1,0 +1,196 @@
+//! `fipt eval <scene> OUT`: the evaluation protocol of method §6 against the ground-truth
+//! folders, per view and averaged per split; `OUT/metrics.json`, error maps in `OUT/eval/`.
+//!
+//! kd, a′ and σ PSNR over non-emitter surface pixels, ground truth quantised to 8 bits, σ of
+//! both clamped to [0.2, 1]; emitter IoU (Emit summed over channels > 0) and log-L2 =
+//! MSE(log(1 + E_pred), log(1 + E_gt)) over all pixels.
+use anyhow::{Context, Result};
+use fipt_core::dataset::{Dataset, GtKind};
+use fipt_core::fsutil::write_json_atomic;
+use fipt_core::image::Image;
+use fipt_core::metrics::psnr;
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene folder with ground truth.
+    scene: PathBuf,
+    /// Output folder of `fipt run`.
+    out: PathBuf,
+}
+
+fn q8(v: Vec3) -> Vec3 {
+    (v.clamp(Vec3::ZERO, Vec3::ONE) * 255.0).round() / 255.0
+}
+
+fn mean(v: &[Option<f64>]) -> Option<f64> {
+    let x: Vec<f64> = v
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|x| x.is_finite())
+        .collect();
+    (!x.is_empty()).then(|| x.iter().sum::<f64>() / x.len() as f64)
+}
+
+/// Evaluates the maps in `out/views/<split>/` of every split with ground truth.
+pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
+    let mut splits = serde_json::Map::new();
+    for s in &ds.splits {
+        if !s.has_gt(GtKind::DiffCol) {
+            continue;
+        }
+        let dir = out.join("views").join(&s.name);
+        let mut rows = vec![];
+        let (mut kd_all, mut alb_all, mut r_all, mut iou_all, mut log_all) =
+            (vec![], vec![], vec![], vec![], vec![]);
+        for v in &s.views {
+            let k = v.index;
+            let pred = |name: &str| -> Result<Image> {
+                let p = dir.join(format!("{k:03}_{name}.exr"));
+                Image::read_exr(&p)
+                    .with_context(|| format!("reading {} (run `fipt run` first)", p.display()))
+            };
+            let gt = |kind: GtKind| ds.load_gt(s, kind, k).ok().flatten();
+            let (Some(kd_gt), Some(r_gt)) = (gt(GtKind::DiffCol), gt(GtKind::Roughness)) else {
+                continue;
+            };
+            let emit_gt = gt(GtKind::Emit);
+            let kd = pred("kd")?;
+            let ks = pred("ks")?;
+            let rough = pred("roughness")?;
+            let emis = pred("emission")?;
+            let n = kd.data.len();
+            let is_emit = |i: usize| {
+                emit_gt
+                    .as_ref()
+                    .is_some_and(|e| e.data[i].element_sum() > 0.0)
+            };
+            let valid: Vec<bool> = (0..n)
+                .map(|i| !is_emit(i) && r_gt.data[i].x > 0.0)
+                .collect();
+            let kd_p = psnr(
+                &kd.data
+                    .iter()
+                    .map(|v| v.clamp(Vec3::ZERO, Vec3::ONE))
+                    .collect::<Vec<_>>(),
+                &kd_gt.data.iter().map(|&v| q8(v)).collect::<Vec<_>>(),
+                Some(&valid),
+                1.0,
+            );
+            let alb_p = gt(GtKind::Albedo).and_then(|a| {
+                let pa: Vec<Vec3> = kd
+                    .data
+                    .iter()
+                    .zip(&ks.data)
+                    .map(|(a, b)| (*a + *b).clamp(Vec3::ZERO, Vec3::ONE))
+                    .collect();
+                psnr(
+                    &pa,
+                    &a.data.iter().map(|&v| q8(v)).collect::<Vec<_>>(),
+                    Some(&valid),
+                    1.0,
+                )
+            });
+            let cl = |v: Vec3| Vec3::splat(v.x.clamp(0.2, 1.0));
+            let r_p = psnr(
+                &rough.data.iter().map(|&v| cl(v)).collect::<Vec<_>>(),
+                &r_gt.data.iter().map(|&v| cl(q8(v))).collect::<Vec<_>>(),
+                Some(&valid),
+                1.0,
+            );
+            let (mut inter, mut uni, mut log2) = (0usize, 0usize, 0f64);
+            for i in 0..n {
+                let g = emit_gt.as_ref().map_or(Vec3::ZERO, |e| e.data[i]);
+                let p = emis.data[i];
+                let (a, b) = (p.element_sum() > 0.0, g.element_sum() > 0.0);
+                inter += (a && b) as usize;
+                uni += (a || b) as usize;
+                for c in 0..3 {
+                    let d = (1.0 + p[c].max(0.0) as f64).ln() - (1.0 + g[c].max(0.0) as f64).ln();
+                    log2 += d * d;
+                }
+            }
+            let iou = (uni > 0).then(|| inter as f64 / uni as f64);
+            let log_l2 = log2 / (3 * n) as f64;
+            let err = Image {
+                width: kd.width,
+                height: kd.height,
+                data: (0..n)
+                    .map(|i| {
+                        if valid[i] {
+                            (kd.data[i] - kd_gt.data[i]).abs() * 4.0
+                        } else {
+                            Vec3::ZERO
+                        }
+                    })
+                    .collect(),
+            };
+            err.write_png(
+                &out.join("eval")
+                    .join(&s.name)
+                    .join(format!("{k:03}_kd_error_x4.png")),
+                1.0,
+            )?;
+            kd_all.push(kd_p);
+            alb_all.push(alb_p);
+            r_all.push(r_p);
+            iou_all.push(iou);
+            log_all.push(Some(log_l2));
+            rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2}));
+        }
+        splits.insert(
+            s.name.clone(),
+            serde_json::json!({
+                "mean": {"kd_psnr": mean(&kd_all), "albedo_psnr": mean(&alb_all), "roughness_psnr": mean(&r_all),
+                         "emission_iou": mean(&iou_all), "emission_log_l2": mean(&log_all)},
+                "views": rows,
+            }),
+        );
+    }
+    let m = serde_json::Value::Object(splits);
+    write_json_atomic(&out.join("metrics.json"), &m)?;
+    print_table(&m);
+    Ok(m)
+}
+
+fn print_table(m: &serde_json::Value) {
+    let f = |v: &serde_json::Value, k: &str, p: usize| {
+        v.get(k)
+            .and_then(|x| x.as_f64())
+            .map_or("–".to_string(), |x| format!("{x:.p$}"))
+    };
+    println!(
+        "{:<6} {:>9} {:>9} {:>9} {:>9} {:>10}",
+        "split", "kd dB", "a′ dB", "σ dB", "em. IoU", "em. logL2"
+    );
+    if let Some(o) = m.as_object() {
+        for (name, v) in o {
+            let mean = &v["mean"];
+            println!(
+                "{:<6} {:>9} {:>9} {:>9} {:>9} {:>10}",
+                name,
+                f(mean, "kd_psnr", 2),
+                f(mean, "albedo_psnr", 2),
+                f(mean, "roughness_psnr", 2),
+                f(mean, "emission_iou", 3),
+                f(mean, "emission_log_l2", 5)
+            );
+        }
+    }
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let ds =
+        Dataset::open(&a.scene).with_context(|| format!("opening scene {}", a.scene.display()))?;
+    if !ds.splits.iter().any(|s| s.has_gt(GtKind::DiffCol)) {
+        anyhow::bail!(
+            "{}: no ground truth (DiffCol/) to evaluate against",
+            a.scene.display()
+        );
+    }
+    evaluate(&ds, &a.out)?;
+    println!("wrote {}", a.out.join("metrics.json").display());
+    Ok(())
+}

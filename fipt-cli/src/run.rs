@@ -1,0 +1,264 @@
+//! `fipt run <scene> --out OUT`: bake → train → extract emitters → per-view maps → report
+//! (→ eval when ground truth exists). Every stage writes its results atomically and a manifest
+//! last; re-running skips finished stages and resumes an interrupted training.
+use crate::info::Policy;
+use crate::progress::Stage;
+use anyhow::{bail, Result};
+use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs};
+use fipt_core::fsutil::{write_bytes_atomic, write_json_atomic};
+use fipt_core::image::{ExrPrecision, Image};
+use fipt_emitter::{MaskExtractor, MaskExtractorConfig};
+use fipt_neural::{NeuralField, TrainConfig};
+use fipt_shading::bake::{primary_records, BakeConfig};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene folder (either layout).
+    pub scene: PathBuf,
+    /// Output folder (created; finished stages inside are reused).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Settings preset: paper (the reference's sample counts, sizes and steps), balanced, fast.
+    #[arg(long, default_value = "balanced")]
+    pub preset: String,
+    /// A TOML or JSON file with `[bake]`, `[train]` and `[emitters]` sections laid over the
+    /// preset.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// What to do with NaN/Inf/negative pixels.
+    #[arg(long, value_enum, default_value = "reject")]
+    pub bad_pixels: Policy,
+    /// Redo every stage.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// All settings of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    pub bake: BakeConfig,
+    pub train: TrainConfig,
+    pub emitters: MaskExtractorConfig,
+}
+
+impl RunConfig {
+    pub fn preset(name: &str) -> Option<Self> {
+        Some(RunConfig {
+            bake: BakeConfig::preset(name)?,
+            train: TrainConfig::preset(name)?,
+            emitters: MaskExtractorConfig::default(),
+        })
+    }
+}
+
+#[derive(Serialize)]
+struct StageReport {
+    stage: &'static str,
+    seconds: f64,
+    peak_rss_mib: Option<f64>,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let Some(preset) = RunConfig::preset(&a.preset) else {
+        bail!("unknown preset `{}` (paper, balanced, fast)", a.preset)
+    };
+    let cfg: RunConfig = crate::config::load(preset, a.config.as_deref())?;
+    cfg.train.validate()?;
+    let t_all = std::time::Instant::now();
+    let mut stages = vec![];
+    let mut mark = |stage: &'static str, t: std::time::Instant| {
+        stages.push(StageReport {
+            stage,
+            seconds: t.elapsed().as_secs_f64(),
+            peak_rss_mib: crate::bench::peak_rss_mib(),
+        })
+    };
+    let t = std::time::Instant::now();
+    let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
+    mark("load", t);
+    let t = std::time::Instant::now();
+    let (bake, shadings) = crate::bake::stage(&scene, &cfg.bake, &a.out.join("bake"), a.force)?;
+    mark("bake", t);
+    let t = std::time::Instant::now();
+    let (field, train, _) = crate::train::stage(
+        &scene,
+        &bake,
+        &shadings,
+        &cfg.train,
+        &a.out.join("train"),
+        a.force,
+    )?;
+    mark("train", t);
+
+    let t = std::time::Instant::now();
+    let st = Stage::start("emitters");
+    let split = scene.ds.train();
+    let mut hits = Vec::new();
+    for (v, img) in split.views.iter().zip(&scene.images) {
+        for (r, l) in primary_records(&scene.geometry, v).iter().zip(&img.data) {
+            if let Some(r) = r {
+                hits.push((r.hit.tri, *l));
+            }
+        }
+    }
+    let mesh = &scene.geometry.mesh;
+    let extractor = MaskExtractor {
+        config: cfg.emitters.clone(),
+    };
+    let emitters = extractor.extract(&EmitterInputs {
+        positions: &mesh.positions,
+        triangles: &mesh.triangles,
+        field: &field,
+        pixel_hits: &hits,
+    })?;
+    write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
+    write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
+    st.done();
+    for (i, e) in emitters.iter().enumerate() {
+        eprintln!(
+            "light {i}: {} triangles, area {:.4} m², radiance {:.2?}, power {:.1?} W, {} pixels",
+            e.triangles.len(),
+            e.area,
+            e.mean_radiance,
+            e.power,
+            e.pixels
+        );
+    }
+    mark("emitters", t);
+
+    let t = std::time::Instant::now();
+    let st = Stage::start("maps");
+    let mut emission_of: HashMap<u32, Vec3> = HashMap::new();
+    for e in &emitters {
+        for (t, l) in e.triangles.iter().zip(&e.radiance) {
+            emission_of.insert(*t, Vec3::from(*l));
+        }
+    }
+    for s in &scene.ds.splits {
+        write_maps(
+            &field,
+            &scene.geometry,
+            &s.views,
+            &emission_of,
+            &a.out.join("views").join(&s.name),
+        )?;
+    }
+    st.done();
+    mark("maps", t);
+
+    let has_gt = scene
+        .ds
+        .splits
+        .iter()
+        .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol));
+    let metrics = if has_gt {
+        let t = std::time::Instant::now();
+        let m = crate::eval::evaluate(&scene.ds, &a.out)?;
+        mark("eval", t);
+        Some(m)
+    } else {
+        None
+    };
+    let report = serde_json::json!({
+        "fipt_version": env!("CARGO_PKG_VERSION"),
+        "scene": a.scene,
+        "inputs_hash": scene.inputs_hash,
+        "preset": a.preset,
+        "settings": cfg,
+        "inputs": {
+            "train_views": split.views.len(),
+            "width": scene.ds.width,
+            "height": scene.ds.height,
+            "triangles": mesh.triangles.len(),
+        },
+        "stages": stages,
+        "seconds_total": t_all.elapsed().as_secs_f64(),
+        "bake": { "stats": bake.stats, "seconds": bake.seconds_total },
+        "train": train,
+        "emitters": emitters.iter().map(|e| serde_json::json!({
+            "triangles": e.triangles.len(), "area": e.area, "mean_radiance": e.mean_radiance,
+            "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
+        })).collect::<Vec<_>>(),
+        "modeled": {
+            "material_field": true,
+            "emission_mask": true,
+            "emitters": emitters.len(),
+            "path_grown_refinement": "not implemented yet: the shadings are the initial one-bounce bake",
+            "hash_table_log2": train.config.field.grid.log2_table,
+        },
+        "metrics": metrics,
+    });
+    write_json_atomic(&a.out.join("report.json"), &report)?;
+    println!(
+        "\nfipt run finished in {:.1} s",
+        t_all.elapsed().as_secs_f64()
+    );
+    println!("  maps:     {}", a.out.join("views").display());
+    println!(
+        "  emitters: {} ({} lights)",
+        a.out.join("emitters.json").display(),
+        emitters.len()
+    );
+    println!(
+        "  field:    {}",
+        a.out.join("train/field.safetensors").display()
+    );
+    println!("  report:   {}", a.out.join("report.json").display());
+    Ok(())
+}
+
+/// Writes the emitter triangles as OBJ, one group per light.
+fn write_emitters_obj(path: &Path, mesh: &fipt_geom::Mesh, emitters: &[Emitter]) -> Result<()> {
+    let mut s = String::from("# fipt emitters: one group per light, world space\n");
+    let mut n = 0;
+    for (i, e) in emitters.iter().enumerate() {
+        s.push_str(&format!(
+            "g light_{i}\n# mean radiance {:?}\n",
+            e.mean_radiance
+        ));
+        for &t in &e.triangles {
+            for v in mesh.triangles[t as usize] {
+                let p = mesh.positions[v as usize];
+                s.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z));
+            }
+            s.push_str(&format!("f {} {} {}\n", n + 1, n + 2, n + 3));
+            n += 3;
+        }
+    }
+    write_bytes_atomic(path, s.as_bytes())?;
+    Ok(())
+}
+
+/// Per-view `{k:03}_{kd,ks,roughness,metallic,emission_mask,emission}.exr` and PNG previews.
+fn write_maps(
+    field: &NeuralField,
+    geometry: &fipt_geom::Geometry,
+    views: &[fipt_core::dataset::View],
+    emission_of: &HashMap<u32, Vec3>,
+    dir: &Path,
+) -> Result<()> {
+    crate::train::export_views(field, geometry, views, None, None, dir)?;
+    for v in views {
+        let (w, h) = (v.camera.width, v.camera.height);
+        let mut img = Image::new(w, h);
+        for (i, r) in primary_records(geometry, v).iter().enumerate() {
+            if let Some(r) = r {
+                if let Some(l) = emission_of.get(&r.hit.tri) {
+                    img.data[i] = *l;
+                }
+            }
+        }
+        let k = v.index;
+        img.write_exr(&dir.join(format!("{k:03}_emission.exr")), ExrPrecision::F32)?;
+        img.write_png(
+            &dir.join("preview").join(format!("{k:03}_emission.png")),
+            1.0,
+        )?;
+    }
+    Ok(())
+}
