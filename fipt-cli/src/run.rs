@@ -4,7 +4,7 @@
 use crate::info::Policy;
 use crate::progress::Stage;
 use anyhow::{bail, Result};
-use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs};
+use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::{write_bytes_atomic, write_json_atomic};
 use fipt_core::image::{ExrPrecision, Image};
 use fipt_emitter::{MaskExtractor, MaskExtractorConfig};
@@ -99,10 +99,24 @@ pub fn run(a: Args) -> Result<()> {
     let st = Stage::start("emitters");
     let split = scene.ds.train();
     let mut hits = Vec::new();
-    for (v, img) in split.views.iter().zip(&scene.images) {
-        for (r, l) in primary_records(&scene.geometry, v).iter().zip(&img.data) {
+    for ((v, img), sh) in split.views.iter().zip(&scene.images).zip(&shadings) {
+        for (i, (r, l)) in primary_records(&scene.geometry, v)
+            .iter()
+            .zip(&img.data)
+            .enumerate()
+        {
             if let Some(r) = r {
-                hits.push((r.hit.tri, *l));
+                let max_reflected = sh.valid[i].then(|| {
+                    let m = |x: &[Vec3; fipt_core::shading::NUM_LEVELS]| {
+                        x.iter().fold(Vec3::ZERO, |a, b| a.max(*b))
+                    };
+                    sh.ld[i] + m(&sh.ls0[i]) + m(&sh.ls1[i])
+                });
+                hits.push(PixelHit {
+                    triangle: r.hit.tri,
+                    radiance: *l,
+                    max_reflected,
+                });
             }
         }
     }

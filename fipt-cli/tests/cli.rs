@@ -263,3 +263,118 @@ fn train_needs_a_bake_writes_maps_and_reuses_or_resumes() {
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn run_then_eval_finds_the_light_and_writes_the_layout() {
+    let dir = tmp("run-scene");
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = fipt(&[
+        "synth",
+        "cornell",
+        "--out",
+        d,
+        "--views",
+        "4",
+        "--val-views",
+        "1",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--spp",
+        "16",
+    ]);
+    assert!(ok, "{err}");
+    let out = tmp("run-out");
+    let o = out.to_str().unwrap();
+    let cfg = dir.join("run.toml");
+    std::fs::write(
+        &cfg,
+        "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
+         [train]\nsteps = 1500\nbatch = 1024\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
+         [train.field.grid]\nlevels = 6\n",
+    )
+    .unwrap();
+    let c = cfg.to_str().unwrap();
+    let (ok, stdout, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
+    assert!(ok, "{stdout}{err}");
+    // The layout other tools read.
+    for f in [
+        "report.json",
+        "emitters.json",
+        "emitters.obj",
+        "metrics.json",
+        "train/field.safetensors",
+    ] {
+        assert!(out.join(f).is_file(), "missing {f}");
+    }
+    for split in ["train", "val"] {
+        for map in [
+            "kd",
+            "ks",
+            "roughness",
+            "metallic",
+            "emission",
+            "emission_mask",
+        ] {
+            assert!(
+                out.join(format!("views/{split}/000_{map}.exr")).is_file(),
+                "{split} {map}"
+            );
+        }
+    }
+    // One light: the ceiling quad (2 triangles, 0.25 m², radiance (17, 12, 4)).
+    let e: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("emitters.json")).unwrap()).unwrap();
+    let lights = e.as_array().unwrap();
+    assert_eq!(lights.len(), 1, "{e}");
+    let l = &lights[0];
+    assert!((l["area"].as_f64().unwrap() - 0.25).abs() < 1e-3, "{l}");
+    for (c, want) in [17.0, 12.0, 4.0].iter().enumerate() {
+        let got = l["mean_radiance"][c].as_f64().unwrap();
+        assert!((got - want).abs() < 0.05 * want, "radiance {got} vs {want}");
+    }
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let iou = m["train"]["mean"]["emission_iou"].as_f64().unwrap();
+    assert!(iou >= 0.9, "emission IoU {iou}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(
+        report["stages"].as_array().unwrap().len(),
+        6,
+        "{}",
+        report["stages"]
+    );
+    // Re-running reuses the bake and the field; `fipt eval` alone reproduces the metrics.
+    let (ok, _, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
+    assert!(
+        ok && err.contains("reusing the bake") && err.contains("reusing the trained field"),
+        "{err}"
+    );
+    let (ok, stdout, err) = fipt(&["eval", d, o]);
+    assert!(ok && stdout.contains("kd dB"), "{stdout}{err}");
+    let m2: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(m, m2);
+    let leftovers: Vec<_> = walk(&out)
+        .into_iter()
+        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+fn walk(dir: &std::path::Path) -> Vec<PathBuf> {
+    let mut out = vec![];
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}

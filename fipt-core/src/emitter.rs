@@ -32,8 +32,21 @@ pub struct EmitterInputs<'a> {
     pub positions: &'a [Vec3],
     pub triangles: &'a [[u32; 3]],
     pub field: &'a dyn MaterialField,
-    /// For every training pixel whose centre ray hits the mesh: (triangle, HDR radiance).
-    pub pixel_hits: &'a [(u32, Rgb)],
+    /// Every training pixel whose centre ray hits the mesh.
+    pub pixel_hits: &'a [PixelHit],
+}
+
+/// A training pixel as emitter extraction sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelHit {
+    /// Mesh triangle hit by the pixel-centre ray.
+    pub triangle: u32,
+    /// Observed HDR radiance.
+    pub radiance: Rgb,
+    /// The most this point could reflect under its baked incident light, if known:
+    /// Ld + max_σ Ls0 + max_σ Ls1 (a white surface with kd = ks = 1). Radiance above it must
+    /// be emitted.
+    pub max_reflected: Option<Rgb>,
 }
 
 /// Finds the emitters of a scene.
