@@ -1,6 +1,6 @@
 //! Emitters from the emission mask and the observed radiance.
 use fipt_core::color::luminance;
-use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
+use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs};
 use fipt_core::rng::Pcg32;
 use fipt_core::Result;
 use glam::Vec3;
@@ -210,6 +210,7 @@ impl EmitterExtractor for MaskExtractor {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fipt_core::emitter::PixelHit;
     use fipt_core::field::{Material, MaterialField};
 
     /// α = 1 inside a box, 0 elsewhere.
