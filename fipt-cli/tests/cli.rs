@@ -378,3 +378,57 @@ fn walk(dir: &std::path::Path) -> Vec<PathBuf> {
     }
     out
 }
+
+#[test]
+fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
+    let dir = tmp("kill-scene");
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = fipt(&[
+        "synth", "cornell", "--out", d, "--views", "3", "--val-views", "1", "--width", "24",
+        "--height", "16", "--spp", "8",
+    ]);
+    assert!(ok, "{err}");
+    let cfg = dir.join("run.toml");
+    std::fs::write(
+        &cfg,
+        "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
+         [train]\nsteps = 1200\nbatch = 512\ncheckpoint_every = 50\n[train.field]\nmlp_width = 16\n\
+         mask_width = 16\n[train.field.grid]\nlevels = 4\n",
+    )
+    .unwrap();
+    let c = cfg.to_str().unwrap();
+    // Uninterrupted.
+    let full = tmp("kill-full");
+    let (ok, _, err) = fipt(&["run", d, "--out", full.to_str().unwrap(), "--config", c]);
+    assert!(ok, "{err}");
+    // Killed once the first checkpoint exists, then re-run.
+    let cut = tmp("kill-cut");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fipt"))
+        .args(["run", d, "--out", cut.to_str().unwrap(), "--config", c])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let ckpt = cut.join("train/checkpoint.json");
+    let t0 = std::time::Instant::now();
+    while !ckpt.is_file() && t0.elapsed().as_secs() < 120 {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let _ = child.kill();
+    let status = child.wait().unwrap();
+    let (ok, _, err) = fipt(&["run", d, "--out", cut.to_str().unwrap(), "--config", c]);
+    assert!(ok, "{err}");
+    if !status.success() {
+        // It was killed mid-training (not after finishing): it must have resumed.
+        assert!(err.contains("resuming from step") || err.contains("reusing the trained field"), "{err}");
+    }
+    for f in ["emitters.json", "views/val/000_kd.exr", "views/train/001_roughness.exr", "train/field.safetensors"] {
+        let (a, b) = (std::fs::read(full.join(f)).unwrap(), std::fs::read(cut.join(f)).unwrap());
+        assert!(a == b, "{f} differs after kill and resume");
+    }
+    let leftovers: Vec<_> = walk(&cut).into_iter().filter(|p| p.to_string_lossy().ends_with(".tmp")).collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    for p in [dir, full, cut] {
+        let _ = std::fs::remove_dir_all(p);
+    }
+}

@@ -55,6 +55,8 @@ pub struct TrainConfig {
     pub table_from_data: bool,
     /// Set the finest level from the median pixel footprint ([`TrainConfig::sized_for`]).
     pub finest_from_data: bool,
+    /// The finest cell's width in median pixel footprints (with `finest_from_data`).
+    pub finest_cell_footprints: f32,
     /// Steps between checkpoints (0: only at the end).
     pub checkpoint_every: usize,
 }
@@ -74,6 +76,7 @@ impl Default for TrainConfig {
             prior_ramp: [0.3, 0.6],
             table_from_data: true,
             finest_from_data: true,
+            finest_cell_footprints: 1.0,
             seed: 9,
             checkpoint_every: 500,
         }
@@ -142,7 +145,8 @@ impl TrainConfig {
         if let (true, Some(f)) = (c.finest_from_data, footprint) {
             let g = &mut c.field.grid;
             if f > 0.0 && f.is_finite() && g.levels > 1 {
-                let finest = (bounds.size / f).max(g.base_resolution as f32);
+                let cell = f * c.finest_cell_footprints.max(1e-3);
+                let finest = (bounds.size / cell).max(g.base_resolution as f32);
                 let scale = (finest / g.base_resolution as f32).powf(1.0 / (g.levels - 1) as f32);
                 // Rounded so that the value survives a JSON round trip unchanged.
                 g.per_level_scale = ((scale * 1e4).round() / 1e4).clamp(1.0, 4.0);
