@@ -230,7 +230,9 @@ pub fn run(a: Args) -> Result<()> {
 /// Deletes `*.tmp` files a killed run left behind under `dir` (finished files are only ever
 /// renamed into place, so a temporary is never a result).
 fn remove_stale_temporaries(dir: &Path) {
-    let Ok(rd) = std::fs::read_dir(dir) else { return };
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
     for e in rd.flatten() {
         let p = e.path();
         if p.is_dir() {

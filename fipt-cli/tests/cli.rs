@@ -384,8 +384,20 @@ fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
     let dir = tmp("kill-scene");
     let d = dir.to_str().unwrap();
     let (ok, _, err) = fipt(&[
-        "synth", "cornell", "--out", d, "--views", "3", "--val-views", "1", "--width", "24",
-        "--height", "16", "--spp", "8",
+        "synth",
+        "cornell",
+        "--out",
+        d,
+        "--views",
+        "3",
+        "--val-views",
+        "1",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--spp",
+        "8",
     ]);
     assert!(ok, "{err}");
     let cfg = dir.join("run.toml");
@@ -420,13 +432,27 @@ fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
     assert!(ok, "{err}");
     if !status.success() {
         // It was killed mid-training (not after finishing): it must have resumed.
-        assert!(err.contains("resuming from step") || err.contains("reusing the trained field"), "{err}");
+        assert!(
+            err.contains("resuming from step") || err.contains("reusing the trained field"),
+            "{err}"
+        );
     }
-    for f in ["emitters.json", "views/val/000_kd.exr", "views/train/001_roughness.exr", "train/field.safetensors"] {
-        let (a, b) = (std::fs::read(full.join(f)).unwrap(), std::fs::read(cut.join(f)).unwrap());
+    for f in [
+        "emitters.json",
+        "views/val/000_kd.exr",
+        "views/train/001_roughness.exr",
+        "train/field.safetensors",
+    ] {
+        let (a, b) = (
+            std::fs::read(full.join(f)).unwrap(),
+            std::fs::read(cut.join(f)).unwrap(),
+        );
         assert!(a == b, "{f} differs after kill and resume");
     }
-    let leftovers: Vec<_> = walk(&cut).into_iter().filter(|p| p.to_string_lossy().ends_with(".tmp")).collect();
+    let leftovers: Vec<_> = walk(&cut)
+        .into_iter()
+        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
+        .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
     for p in [dir, full, cut] {
         let _ = std::fs::remove_dir_all(p);

@@ -19,6 +19,14 @@ pub const DEFAULT_LEVELS: [f32; NUM_LEVELS] = [0.02, 0.216, 0.412, 0.608, 0.804,
 /// first/last level). Exact at the levels, continuous between them. `levels` must increase.
 #[inline]
 pub fn lerp_levels(levels: &[f32; NUM_LEVELS], values: &[Rgb; NUM_LEVELS], sigma: f32) -> Rgb {
+    let (i, t) = level_segment(levels, sigma);
+    values[i] * (1.0 - t) + values[i + 1] * t
+}
+
+/// The segment `[levels[i], levels[i+1]]` holding σ (clamped to the levels' range; NaN → the
+/// first level) and the position `t ∈ [0, 1]` in it: the weights of [`lerp_levels`].
+#[inline]
+pub fn level_segment(levels: &[f32; NUM_LEVELS], sigma: f32) -> (usize, f32) {
     let s = if sigma.is_nan() {
         levels[0]
     } else {
@@ -34,7 +42,7 @@ pub fn lerp_levels(levels: &[f32; NUM_LEVELS], values: &[Rgb; NUM_LEVELS], sigma
     } else {
         0.0
     };
-    values[i] * (1.0 - t) + values[i + 1] * t
+    (i, t)
 }
 
 /// Baked shadings of one view, pixel-major (row by row from the top).

@@ -7,7 +7,7 @@
 //!   roughness levels, so that `Σ_l w_l(σ)·Ls[l]` equals
 //!   [`fipt_core::shading::lerp_levels`] and is differentiable in σ.
 use candle_core::{CpuStorage, CustomOp1, Layout, Shape, Tensor};
-use fipt_core::shading::NUM_LEVELS;
+use fipt_core::shading::{level_segment, NUM_LEVELS};
 
 fn contiguous<'a>(s: &'a CpuStorage, l: &Layout, name: &str) -> candle_core::Result<&'a [f32]> {
     let data = match s {
@@ -83,22 +83,15 @@ impl LevelWeights {
     #[inline]
     fn locate(&self, sigma: f32) -> (usize, f32, f32) {
         let lv = &self.0;
+        let (i, t) = level_segment(lv, sigma);
         let inside = sigma > lv[0] && sigma < lv[NUM_LEVELS - 1];
-        let s = if sigma.is_nan() {
-            lv[0]
-        } else {
-            sigma.clamp(lv[0], lv[NUM_LEVELS - 1])
-        };
-        let mut i = 0;
-        while i + 2 < NUM_LEVELS && s > lv[i + 1] {
-            i += 1;
-        }
         let span = lv[i + 1] - lv[i];
-        if span <= 0.0 {
-            return (i, 0.0, 0.0);
-        }
-        let t = ((s - lv[i]) / span).clamp(0.0, 1.0);
-        (i, t, if inside { 1.0 / span } else { 0.0 })
+        let dt = if inside && span > 0.0 {
+            1.0 / span
+        } else {
+            0.0
+        };
+        (i, t, dt)
     }
 }
 

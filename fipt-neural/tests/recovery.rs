@@ -78,9 +78,15 @@ fn training_on_exact_shadings_recovers_materials_and_emitters() {
                     + lerp_levels(&sh.levels, &sh.ls1[i], rough.data[i].x)
             };
             if let (Some(r), true) = (recs[i], sh.valid[i]) {
-                dbg_px.push((k, i, img.data[i], kd.data[i] * sh.ld[i]
-                    + ks.data[i] * lerp_levels(&sh.levels, &sh.ls0[i], rough.data[i].x)
-                    + lerp_levels(&sh.levels, &sh.ls1[i], rough.data[i].x), e.max_element() > 0.0));
+                dbg_px.push((
+                    k,
+                    i,
+                    img.data[i],
+                    kd.data[i] * sh.ld[i]
+                        + ks.data[i] * lerp_levels(&sh.levels, &sh.ls0[i], rough.data[i].x)
+                        + lerp_levels(&sh.levels, &sh.ls1[i], rough.data[i].x),
+                    e.max_element() > 0.0,
+                ));
                 truth.push((
                     r.hit.p,
                     kd.data[i],
@@ -134,17 +140,25 @@ fn training_on_exact_shadings_recovers_materials_and_emitters() {
         use fipt_core::color::srgb_oetf as o;
         let (mut eg, mut ep, mut n) = (0f64, 0f64, 0usize);
         for (j, &(k, i, im, model_gt, em)) in dbg_px.iter().enumerate() {
-            if em { continue; }
+            if em {
+                continue;
+            }
             let sh = &shadings[k];
             let m = &mats[j];
-            let pr = m.kd() * sh.ld[i] + m.ks() * lerp_levels(&sh.levels, &sh.ls0[i], m.roughness) + lerp_levels(&sh.levels, &sh.ls1[i], m.roughness);
+            let pr = m.kd() * sh.ld[i]
+                + m.ks() * lerp_levels(&sh.levels, &sh.ls0[i], m.roughness)
+                + lerp_levels(&sh.levels, &sh.ls1[i], m.roughness);
             for c in 0..3 {
                 eg += ((o(model_gt[c]) - o(im[c])) as f64).powi(2);
                 ep += ((o(pr[c]) - o(im[c])) as f64).powi(2);
             }
             n += 3;
         }
-        eprintln!("non-emitter sRGB MSE: GT materials {:.5}, trained {:.5}", eg / n as f64, ep / n as f64);
+        eprintln!(
+            "non-emitter sRGB MSE: GT materials {:.5}, trained {:.5}",
+            eg / n as f64,
+            ep / n as f64
+        );
     }
     // Roughness of the rough surfaces, clamped to [0.2, 1] as in the evaluation protocol.
     let rough: Vec<bool> = truth.iter().map(|t| !t.3 && !t.4).collect();
