@@ -33,6 +33,19 @@ pub struct FieldConfig {
     /// metallic grows only where the data asks for it (a metal) instead of settling wherever
     /// kd and a·m trade off freely on rough surfaces.
     pub metallic_init_bias: f32,
+    /// `relu`: α = 1 − exp(−relu(m)) (the reference); `softplus`: α = 1 − exp(−softplus(m)).
+    /// With relu, a point whose m falls below 0 has no gradient left: on `room` the 5 cm bulb
+    /// (a few pixels per view) was switched off by the sparsity term early in training and
+    /// never came back. softplus keeps a gradient everywhere; non-emitters settle at α ≈ 0.
+    pub mask_activation: MaskActivation,
+}
+
+/// Activation of the emission mask's output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MaskActivation {
+    Relu,
+    Softplus,
 }
 
 impl Default for FieldConfig {
@@ -46,6 +59,7 @@ impl Default for FieldConfig {
             mask_hidden: 2,
             mask_init_bias: 0.1,
             metallic_init_bias: 0.0,
+            mask_activation: MaskActivation::Softplus,
         }
     }
 }
@@ -136,6 +150,13 @@ pub struct FieldOutput {
 }
 
 impl FieldOutput {
+    /// `[n, 6]`: albedo, σ, metallic, α (the input of [`crate::ops::FactorizedLoss`]).
+    pub fn packed(&self) -> candle_core::Result<Tensor> {
+        Tensor::cat(
+            &[&self.albedo, &self.roughness, &self.metallic, &self.alpha],
+            1,
+        )
+    }
     /// kd = a·(1 − m).
     pub fn kd(&self) -> candle_core::Result<Tensor> {
         self.albedo.broadcast_mul(&self.metallic.affine(-1.0, 1.0)?)
@@ -315,8 +336,18 @@ impl NeuralField {
         let pe = Tensor::from_vec(pe, (n, 3 + 6 * self.config.mask_frequencies), &self.device)
             .ctx("positional encoding")?;
         let m = self.mask.forward(&pe).ctx("mask MLP")?;
-        let alpha = m
-            .relu()
+        let act = match self.config.mask_activation {
+            MaskActivation::Relu => m.relu(),
+            // softplus(x) = relu(x) + ln(1 + exp(−|x|)), stable for any x.
+            MaskActivation::Softplus => m
+                .abs()
+                .and_then(|a| a.neg())
+                .and_then(|a| a.exp())
+                .and_then(|e| e.affine(1.0, 1.0))
+                .and_then(|e| e.log())
+                .and_then(|l| l + m.relu()?),
+        };
+        let alpha = act
             .and_then(|r| r.neg())
             .and_then(|r| r.exp())
             .and_then(|r| r.affine(-1.0, 1.0))

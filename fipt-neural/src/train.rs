@@ -9,7 +9,7 @@ use crate::adam::Adam;
 use crate::error::{CandleContext, NeuralError, Result};
 use crate::field::{Bounds, FieldConfig, NeuralField};
 use crate::hashgrid::{AdamConfig, HashGridConfig};
-use crate::ops::{srgb_oetf, LevelWeights, SrgbOetf};
+use crate::ops::{srgb_oetf, FactorizedLoss, LevelWeights, LossBatch, SrgbOetf};
 use candle_core::{Tensor, D};
 use fipt_core::fsutil::{read_json, write_atomic, write_json_atomic};
 use fipt_core::image::Image;
@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::atomic::Ordering;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Training settings.
@@ -89,6 +90,7 @@ impl TrainConfig {
         TrainConfig {
             field: FieldConfig {
                 grid: HashGridConfig::reference(),
+                mask_activation: crate::field::MaskActivation::Relu,
                 ..FieldConfig::default()
             },
             steps: 10_000,
@@ -386,56 +388,33 @@ impl Trainer {
         }
         let t0 = Instant::now();
         let b = self.config.batch;
-        let dev = self.field.device().clone();
         let mut rng = Pcg32::from_keys(&[self.config.seed, self.step as u64, 0xBA7C]);
         let mut idx: Vec<usize> = (0..b)
             .map(|_| ((rng.next_u32() as u64 * data.len() as u64) >> 32) as usize)
             .collect();
         idx.sort_unstable_by_key(|&i| (data.morton[i], i));
         let unit: Vec<[f32; 3]> = idx.iter().map(|&i| data.unit[i]).collect();
-        let gather3 = |v: &Vec<[f32; 3]>| -> Vec<f32> { idx.iter().flat_map(|&i| v[i]).collect() };
-        let gather_l = |v: &Vec<[[f32; 3]; NUM_LEVELS]>| -> Vec<f32> {
-            idx.iter()
-                .flat_map(|&i| v[i].iter().flatten().copied().collect::<Vec<_>>())
-                .collect()
-        };
-        let gt = gather3(&data.gt);
-        let gt_oetf: Vec<f32> = gt.iter().map(|&x| srgb_oetf(x)).collect();
-        let tensors: candle_core::Result<_> = (|| {
-            Ok((
-                Tensor::from_vec(gather3(&data.ld), (b, 3), &dev)?,
-                Tensor::from_vec(gather_l(&data.ls0), (b, NUM_LEVELS, 3), &dev)?,
-                Tensor::from_vec(gather_l(&data.ls1), (b, NUM_LEVELS, 3), &dev)?,
-                Tensor::from_vec(gt, (b, 3), &dev)?,
-                Tensor::from_vec(gt_oetf, (b, 3), &dev)?,
-            ))
-        })();
-        let (ld, ls0, ls1, gt, gt_oetf) = tensors.ctx("batch")?;
+        let batch = Arc::new(LossBatch {
+            ld: idx.iter().map(|&i| data.ld[i]).collect(),
+            ls0: idx.iter().map(|&i| data.ls0[i]).collect(),
+            ls1: idx.iter().map(|&i| data.ls1[i]).collect(),
+            gt: idx.iter().map(|&i| data.gt[i]).collect(),
+        });
         let t1 = Instant::now();
         let out = self.field.forward(&unit, true)?;
         let cfg = &self.config;
-        let lw = self.level_weights;
-        let prior_weight = cfg.prior_weight * self.prior_ramp();
-        let losses: candle_core::Result<_> = (|| {
-            let w = out.roughness.apply_op1(lw)?.unsqueeze(2)?;
-            let s0 = ls0.broadcast_mul(&w)?.sum(1)?;
-            let s1 = ls1.broadcast_mul(&w)?.sum(1)?;
-            let render = ((out.kd()? * ld)? + (out.ks()? * s0)?)?.add(&s1)?;
-            let keep = out.alpha.affine(-1.0, 1.0)?;
-            let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha)?)?;
-            let diff = (pred.apply_op1(SrgbOetf)? - gt_oetf)?;
-            let image = diff.sqr()?.mean_all()?;
-            let mask = out.alpha.mean_all()?;
-            let dr = out.roughness.affine(1.0, -1.0)?;
-            let prior = match cfg.prior_norm {
-                PriorNorm::L1 => (dr.abs()?.mean_all()? + out.metallic.mean_all()?)?,
-                PriorNorm::L2 => (dr.sqr()?.mean_all()? + out.metallic.sqr()?.mean_all()?)?,
-            };
-            let total = ((image.clone() + mask.affine(cfg.mask_weight as f64, 0.0)?)?
-                + prior.affine(prior_weight as f64, 0.0)?)?;
-            Ok((total, image, mask, prior))
-        })();
-        let (total, image, mask, prior) = losses.ctx("loss")?;
+        let loss = FactorizedLoss {
+            batch,
+            levels: self.level_weights.0,
+            mask_weight: cfg.mask_weight,
+            prior_weight: cfg.prior_weight * self.prior_ramp(),
+            prior_l1: cfg.prior_norm == PriorNorm::L1,
+        };
+        let terms = out.packed().and_then(|p| p.apply_op1(loss)).ctx("loss")?;
+        let total = terms
+            .narrow(0, 0, 1)
+            .and_then(|t| t.sum_all())
+            .ctx("loss")?;
         let t2 = Instant::now();
         let grads = total.backward().ctx("backward")?;
         let t3 = Instant::now();
@@ -446,14 +425,14 @@ impl Trainer {
         };
         self.field.grid().adam_step(&grid_adam);
         let t4 = Instant::now();
-        let scalar = |t: &Tensor| t.to_scalar::<f32>().ctx("loss value");
+        let v = terms.to_vec1::<f32>().ctx("loss value")?;
         self.step += 1;
         self.last = StepLosses {
             step: self.step,
-            total: scalar(&total)?,
-            image: scalar(&image)?,
-            mask: scalar(&mask)?,
-            prior: scalar(&prior)?,
+            total: v[0],
+            image: v[1],
+            mask: v[2],
+            prior: v[3],
         };
         let tm = &mut self.timings;
         tm.steps += 1;
@@ -600,6 +579,56 @@ impl Trainer {
         self.adam.load_state(&map, meta.adam_steps, path)?;
         Ok(())
     }
+}
+
+/// The loss of [`Trainer::step`] written with plain candle ops (`[4]`: total, image, mask,
+/// prior): the reference the fused [`FactorizedLoss`] is tested against.
+pub fn candle_ops_loss(
+    out: &crate::field::FieldOutput,
+    batch: &LossBatch,
+    levels: [f32; NUM_LEVELS],
+    mask_weight: f32,
+    prior_weight: f32,
+    prior_norm: PriorNorm,
+) -> Result<Tensor> {
+    let dev = out.albedo.device();
+    let b = batch.gt.len();
+    let r: candle_core::Result<Tensor> = (|| {
+        let flat3 = |v: &[[f32; 3]]| v.iter().flatten().copied().collect::<Vec<_>>();
+        let flat_l = |v: &[[[f32; 3]; NUM_LEVELS]]| {
+            v.iter().flatten().flatten().copied().collect::<Vec<_>>()
+        };
+        let ld = Tensor::from_vec(flat3(&batch.ld), (b, 3), dev)?;
+        let ls0 = Tensor::from_vec(flat_l(&batch.ls0), (b, NUM_LEVELS, 3), dev)?;
+        let ls1 = Tensor::from_vec(flat_l(&batch.ls1), (b, NUM_LEVELS, 3), dev)?;
+        let gt = Tensor::from_vec(flat3(&batch.gt), (b, 3), dev)?;
+        let gt_oetf = Tensor::from_vec(
+            flat3(&batch.gt).iter().map(|&x| srgb_oetf(x)).collect(),
+            (b, 3),
+            dev,
+        )?;
+        let w = out
+            .roughness
+            .apply_op1(LevelWeights(levels))?
+            .unsqueeze(2)?;
+        let s0 = ls0.broadcast_mul(&w)?.sum(1)?;
+        let s1 = ls1.broadcast_mul(&w)?.sum(1)?;
+        let render = ((out.kd()? * ld)? + (out.ks()? * s0)?)?.add(&s1)?;
+        let keep = out.alpha.affine(-1.0, 1.0)?;
+        let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha)?)?;
+        let diff = (pred.apply_op1(SrgbOetf)? - gt_oetf)?;
+        let image = diff.sqr()?.mean_all()?;
+        let mask = out.alpha.mean_all()?;
+        let dr = out.roughness.affine(1.0, -1.0)?;
+        let prior = match prior_norm {
+            PriorNorm::L1 => (dr.abs()?.mean_all()? + out.metallic.mean_all()?)?,
+            PriorNorm::L2 => (dr.sqr()?.mean_all()? + out.metallic.sqr()?.mean_all()?)?,
+        };
+        let total = ((image.clone() + mask.affine(mask_weight as f64, 0.0)?)?
+            + prior.affine(prior_weight as f64, 0.0)?)?;
+        Tensor::stack(&[total, image, mask, prior], 0)
+    })();
+    r.ctx("candle-ops loss")
 }
 
 /// Loads the parameters (and the grid's optimiser state when `grid_steps` is given).

@@ -106,3 +106,126 @@ fn positional_encoding_layout() {
     assert!((pe[3 + 6 + 5] - 1.0).abs() < 1e-6); // cos(2π)
     assert!(pe.iter().all(|v| v.is_finite()));
 }
+
+#[test]
+fn fused_loss_matches_candle_ops_in_value_and_gradient() {
+    use fipt_neural::field::FieldOutput;
+    use fipt_neural::ops::{FactorizedLoss, LossBatch};
+    use fipt_neural::train::{candle_ops_loss, PriorNorm};
+    let n = 300;
+    let dev = Device::Cpu;
+    let mut r = Pcg32::new(8, 9);
+    let mut u = |lo: f32, hi: f32| lo + (hi - lo) * r.next_f32();
+    let mut batch = LossBatch::default();
+    let mut x = vec![];
+    for j in 0..n {
+        // HDR values from 1e-6 to 1e3, σ across all segments and both clamps, α in [0, 1).
+        let scale = 10f32.powf(u(-6.0, 3.0));
+        batch.ld.push([
+            u(0.0, 1.0) * scale,
+            u(0.0, 1.0) * scale,
+            u(0.0, 1.0) * scale,
+        ]);
+        batch.ls0.push(std::array::from_fn(|_| {
+            [u(0.0, 1.0) * scale, u(0.0, 1.0), u(0.0, 2.0)]
+        }));
+        batch.ls1.push(std::array::from_fn(|_| {
+            [u(0.0, 0.1), u(0.0, 0.1) * scale, u(0.0, 0.1)]
+        }));
+        batch
+            .gt
+            .push([u(0.0, 2.0) * scale, u(0.0, 1.0), u(0.0, 5.0)]);
+        let sigma = if j % 10 == 0 {
+            0.02
+        } else if j % 10 == 1 {
+            1.0
+        } else {
+            u(0.03, 0.99)
+        };
+        x.extend([
+            u(0.0, 1.0),
+            u(0.0, 1.0),
+            u(0.0, 1.0),
+            sigma,
+            u(0.0, 1.0),
+            u(0.0, 0.99),
+        ]);
+    }
+    let batch = std::sync::Arc::new(batch);
+    for (norm, l1) in [(PriorNorm::L2, false), (PriorNorm::L1, true)] {
+        let var = |c: usize, w: usize| {
+            let v: Vec<f32> = (0..n)
+                .flat_map(|j| x[6 * j + c..6 * j + c + w].to_vec())
+                .collect();
+            Var::from_tensor(&Tensor::from_vec(v, (n, w), &dev).unwrap()).unwrap()
+        };
+        let vars = [var(0, 3), var(3, 1), var(4, 1), var(5, 1)];
+        let out = FieldOutput {
+            albedo: vars[0].as_tensor().clone(),
+            roughness: vars[1].as_tensor().clone(),
+            metallic: vars[2].as_tensor().clone(),
+            alpha: vars[3].as_tensor().clone(),
+        };
+        let fused = out
+            .packed()
+            .unwrap()
+            .apply_op1(FactorizedLoss {
+                batch: batch.clone(),
+                levels: DEFAULT_LEVELS,
+                mask_weight: 0.7,
+                prior_weight: 0.3,
+                prior_l1: l1,
+            })
+            .unwrap();
+        let plain = candle_ops_loss(&out, &batch, DEFAULT_LEVELS, 0.7, 0.3, norm).unwrap();
+        let (fv, pv) = (
+            fused.to_vec1::<f32>().unwrap(),
+            plain.to_vec1::<f32>().unwrap(),
+        );
+        for k in 0..4 {
+            assert!(
+                (fv[k] - pv[k]).abs() <= 1e-4 * pv[k].abs().max(1e-3),
+                "{norm:?} term {k}: {} vs {}",
+                fv[k],
+                pv[k]
+            );
+        }
+        let gf = fused
+            .narrow(0, 0, 1)
+            .unwrap()
+            .sum_all()
+            .unwrap()
+            .backward()
+            .unwrap();
+        let gp = plain
+            .narrow(0, 0, 1)
+            .unwrap()
+            .sum_all()
+            .unwrap()
+            .backward()
+            .unwrap();
+        for (vi, v) in vars.iter().enumerate() {
+            let a = gf
+                .get(v.as_tensor())
+                .unwrap()
+                .flatten_all()
+                .unwrap()
+                .to_vec1::<f32>()
+                .unwrap();
+            let b = gp
+                .get(v.as_tensor())
+                .unwrap()
+                .flatten_all()
+                .unwrap()
+                .to_vec1::<f32>()
+                .unwrap();
+            let scale = b.iter().fold(0f32, |m, x| m.max(x.abs()));
+            for (k, (p, q)) in a.iter().zip(&b).enumerate() {
+                assert!(
+                    (p - q).abs() <= 1e-4 * scale + 1e-9,
+                    "{norm:?} input {vi} element {k}: fused {p} vs candle {q}"
+                );
+            }
+        }
+    }
+}
