@@ -68,9 +68,7 @@ fn training_on_exact_shadings_recovers_materials_and_emitters() {
         let mut img = Image::new(sh.width, sh.height);
         for i in 0..sh.width * sh.height {
             let e = emit.data[i];
-            img.data[i] = if std::env::var("FIPT_REAL").is_ok() {
-                rendered[k].data[i]
-            } else if e.max_element() > 0.0 {
+            img.data[i] = if e.max_element() > 0.0 {
                 e
             } else {
                 kd.data[i] * sh.ld[i]
@@ -134,9 +132,10 @@ fn training_on_exact_shadings_recovers_materials_and_emitters() {
         truth.iter().filter(|t| t.3).count(),
         trainer.last
     );
-    eprintln!("timings {:?}", trainer.timings);
-    let rest: Vec<bool> = truth.iter().map(|t| !t.3 && !t.4).collect();
-    if std::env::var("FIPT_REAL").is_ok() {
+    {
+        // With the input views themselves instead of the re-synthesised ones, GT materials fit
+        // at 0.013 and trained ones at 0.0037 with kd at 10 dB: the one-bounce bake, not the
+        // optimiser, limits cornell at 64×48.
         use fipt_core::color::srgb_oetf as o;
         let (mut eg, mut ep, mut n) = (0f64, 0f64, 0usize);
         for (j, &(k, i, im, model_gt, em)) in dbg_px.iter().enumerate() {
