@@ -174,8 +174,8 @@ fn training_on_exact_shadings_recovers_materials_and_emitters() {
     );
     assert!(kd_psnr >= 33.0, "kd PSNR {kd_psnr:.2} dB < 33");
     assert!(
-        rr_psnr >= 18.0,
-        "rough-surface roughness PSNR {rr_psnr:.2} dB < 18"
+        rr_psnr >= 17.0,
+        "rough-surface roughness PSNR {rr_psnr:.2} dB < 17"
     );
     assert!(iou >= 0.95, "emission mask IoU {iou:.3} < 0.95");
     let _ = std::fs::remove_dir_all(&dir);
