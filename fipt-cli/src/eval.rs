@@ -43,8 +43,9 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
         }
         let dir = out.join("views").join(&s.name);
         let mut rows = vec![];
-        let (mut kd_all, mut alb_all, mut r_all, mut iou_all, mut log_all) =
-            (vec![], vec![], vec![], vec![], vec![]);
+        let (mut kd_all, mut alb_all, mut r_all, mut iou_all, mut log_all, mut render_all) =
+            (vec![], vec![], vec![], vec![], vec![], vec![]);
+
         for v in &s.views {
             let k = v.index;
             let pred = |name: &str| -> Result<Image> {
@@ -113,6 +114,17 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
                 }
             }
             let iou = (uni > 0).then(|| inter as f64 / uni as f64);
+            let render_p = dir
+                .join(format!("{k:03}_render.exr"))
+                .is_file()
+                .then(|| -> Result<Option<f64>> {
+                    let r = pred("render")?;
+                    let img = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0;
+                    Ok(fipt_core::metrics::srgb_psnr(&r.data, &img.data, None))
+                })
+                .transpose()?
+                .flatten();
+            render_all.push(render_p);
             let log_l2 = log2 / (3 * n) as f64;
             let err = Image {
                 width: kd.width,
@@ -138,13 +150,13 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
             r_all.push(r_p);
             iou_all.push(iou);
             log_all.push(Some(log_l2));
-            rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2}));
+            rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p}));
         }
         splits.insert(
             s.name.clone(),
             serde_json::json!({
                 "mean": {"kd_psnr": mean(&kd_all), "albedo_psnr": mean(&alb_all), "roughness_psnr": mean(&r_all),
-                         "emission_iou": mean(&iou_all), "emission_log_l2": mean(&log_all)},
+                         "emission_iou": mean(&iou_all), "emission_log_l2": mean(&log_all), "render_psnr": mean(&render_all)},
                 "views": rows,
             }),
         );
@@ -169,13 +181,14 @@ fn print_table(m: &serde_json::Value) {
         for (name, v) in o {
             let mean = &v["mean"];
             println!(
-                "{:<6} {:>9} {:>9} {:>9} {:>9} {:>10}",
+                "{:<6} {:>9} {:>9} {:>9} {:>9} {:>10} {:>10}",
                 name,
                 f(mean, "kd_psnr", 2),
                 f(mean, "albedo_psnr", 2),
                 f(mean, "roughness_psnr", 2),
                 f(mean, "emission_iou", 3),
-                f(mean, "emission_log_l2", 5)
+                f(mean, "emission_log_l2", 5),
+                f(mean, "render_psnr", 2)
             );
         }
     }

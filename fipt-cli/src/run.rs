@@ -10,6 +10,9 @@ use fipt_core::image::{ExrPrecision, Image};
 use fipt_emitter::{MaskExtractor, MaskExtractorConfig};
 use fipt_neural::{NeuralField, TrainConfig};
 use fipt_shading::bake::{primary_records, BakeConfig};
+use fipt_shading::field_surfaces::FieldSurfaces;
+use fipt_shading::render::RenderConfig;
+use fipt_shading::scene::Scene as RenderScene;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -44,6 +47,17 @@ pub struct RunConfig {
     pub bake: BakeConfig,
     pub train: TrainConfig,
     pub emitters: MaskExtractorConfig,
+    pub render: ReRenderConfig,
+}
+
+/// Path-traced re-renders of every view from the recovered scene (`_render.exr`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReRenderConfig {
+    /// 0 disables the stage.
+    pub spp: u32,
+    pub max_bounces: u32,
+    pub seed: u64,
 }
 
 impl RunConfig {
@@ -52,6 +66,15 @@ impl RunConfig {
             bake: BakeConfig::preset(name)?,
             train: TrainConfig::preset(name)?,
             emitters: MaskExtractorConfig::default(),
+            render: ReRenderConfig {
+                spp: match name {
+                    "paper" => 64,
+                    "fast" => 8,
+                    _ => 32,
+                },
+                max_bounces: 7,
+                seed: 0,
+            },
         })
     }
 }
@@ -166,6 +189,51 @@ pub fn run(a: Args) -> Result<()> {
     st.done();
     mark("maps", t);
 
+    if cfg.render.spp > 0 {
+        let t = std::time::Instant::now();
+        let st = Stage::start("re-render");
+        let (all_pts, footprint) = {
+            let views: Vec<_> = scene
+                .ds
+                .splits
+                .iter()
+                .flat_map(|s| s.views.clone())
+                .collect();
+            let (p, f) = crate::train::view_points(&scene.geometry, &views);
+            (p.into_iter().flatten().flatten().collect::<Vec<_>>(), f)
+        };
+        let surfaces = FieldSurfaces::build(
+            &field,
+            mesh,
+            &emitters,
+            all_pts,
+            footprint.unwrap_or(0.01) * 2.0,
+        )?;
+        let rscene = RenderScene::new(mesh.clone(), surfaces);
+        let rc = RenderConfig {
+            spp: cfg.render.spp,
+            max_bounces: cfg.render.max_bounces,
+            seed: cfg.render.seed,
+            ..Default::default()
+        };
+        let total: usize = scene.ds.splits.iter().map(|s| s.views.len()).sum();
+        let pb = crate::progress::bar(total as u64, "re-render");
+        for (si, s) in scene.ds.splits.iter().enumerate() {
+            let dir = a.out.join("views").join(&s.name);
+            for v in &s.views {
+                let key = ((si as u64) << 32) + v.index as u64;
+                let (img, _) = fipt_shading::render::render(&rscene, &v.camera, &rc, key, &|_| {});
+                let k = v.index;
+                img.write_exr(&dir.join(format!("{k:03}_render.exr")), ExrPrecision::F32)?;
+                img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
+                pb.inc(1);
+            }
+        }
+        pb.finish_and_clear();
+        st.done();
+        mark("re-render", t);
+    }
+
     let has_gt = scene
         .ds
         .splits
@@ -204,6 +272,7 @@ pub fn run(a: Args) -> Result<()> {
             "emission_mask": true,
             "emitters": emitters.len(),
             "path_grown_refinement": "not implemented yet: the shadings are the initial one-bounce bake",
+            "re_render": if cfg.render.spp > 0 { format!("path traced at {} spp from the field (voxel cache) and the extracted emitters", cfg.render.spp) } else { "skipped (render.spp = 0)".to_string() },
             "hash_table_log2": train.config.field.grid.log2_table,
         },
         "metrics": metrics,

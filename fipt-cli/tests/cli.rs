@@ -316,6 +316,7 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
             "metallic",
             "emission",
             "emission_mask",
+            "render",
         ] {
             assert!(
                 out.join(format!("views/{split}/000_{map}.exr")).is_file(),
@@ -342,10 +343,14 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(
         report["stages"].as_array().unwrap().len(),
-        6,
+        7,
         "{}",
         report["stages"]
     );
+    // Path-traced re-renders of every view, scored on val.
+    assert!(out.join("views/val/000_render.exr").is_file());
+    let rp = m["val"]["mean"]["render_psnr"].as_f64().unwrap();
+    assert!(rp.is_finite() && rp > 10.0, "re-render PSNR {rp}");
     // Re-running reuses the bake and the field; `fipt eval` alone reproduces the metrics.
     let (ok, _, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
     assert!(
@@ -441,6 +446,7 @@ fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
         "emitters.json",
         "views/val/000_kd.exr",
         "views/train/001_roughness.exr",
+        "views/val/000_render.exr",
         "train/field.safetensors",
     ] {
         let (a, b) = (

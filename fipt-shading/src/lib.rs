@@ -24,6 +24,7 @@ pub mod bake;
 pub mod bake_store;
 pub mod brdf;
 pub mod error;
+pub mod field_surfaces;
 pub mod render;
 pub mod scene;
 pub mod slf;

@@ -1,0 +1,187 @@
+//! Surfaces of a recovered scene, for path tracing it: materials from a
+//! [`MaterialField`] cached on a sparse voxel grid around the observed surface, emission per
+//! triangle from the extracted emitters.
+//!
+//! The field is a network: querying it per path vertex would cost a batch call per sample.
+//! Instead it is evaluated once at the mean point of every occupied voxel (voxels of edge
+//! `cell`, occupied by the given surface points), and per triangle at its centroid as the
+//! fallback for voxels no point occupied.
+use crate::scene::SurfaceModel;
+use fipt_core::color::Rgb;
+use fipt_core::emitter::Emitter;
+use fipt_core::field::{Material, MaterialField};
+use fipt_core::materials::SurfacePoint;
+use fipt_geom::Mesh;
+use glam::Vec3;
+use std::collections::HashMap;
+
+type Key = (i32, i32, i32);
+
+pub struct FieldSurfaces {
+    cell: f32,
+    voxels: HashMap<Key, SurfacePoint>,
+    per_triangle: Vec<SurfacePoint>,
+    emission: Vec<Rgb>,
+}
+
+fn to_surface(m: &Material) -> SurfacePoint {
+    SurfacePoint {
+        kd: m.kd(),
+        ks: m.ks(),
+        roughness: m.roughness,
+        metallic: m.metallic,
+        emission: Vec3::ZERO,
+    }
+}
+
+impl FieldSurfaces {
+    /// Caches `field` at voxels of edge `cell` occupied by `points`, and at triangle centroids.
+    pub fn build(
+        field: &dyn MaterialField,
+        mesh: &Mesh,
+        emitters: &[Emitter],
+        points: impl IntoIterator<Item = Vec3>,
+        cell: f32,
+    ) -> fipt_core::Result<Self> {
+        let cell = if cell > 0.0 && cell.is_finite() {
+            cell
+        } else {
+            0.01
+        };
+        let key = |p: Vec3| -> Key {
+            let q = (p / cell).floor();
+            (q.x as i32, q.y as i32, q.z as i32)
+        };
+        let mut acc: HashMap<Key, (Vec3, u32)> = HashMap::new();
+        for p in points {
+            if p.is_finite() {
+                let e = acc.entry(key(p)).or_insert((Vec3::ZERO, 0));
+                e.0 += p;
+                e.1 += 1;
+            }
+        }
+        let mut keys: Vec<Key> = acc.keys().copied().collect();
+        keys.sort_unstable();
+        let centers: Vec<Vec3> = keys.iter().map(|k| acc[k].0 / acc[k].1 as f32).collect();
+        let mats = field.materials(&centers)?;
+        let voxels = keys.into_iter().zip(mats.iter().map(to_surface)).collect();
+        let centroids: Vec<Vec3> = mesh
+            .triangles
+            .iter()
+            .map(|t| t.iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>() / 3.0)
+            .collect();
+        let per_triangle = field
+            .materials(&centroids)?
+            .iter()
+            .map(to_surface)
+            .collect();
+        let mut emission = vec![Vec3::ZERO; mesh.triangles.len()];
+        for e in emitters {
+            for (t, l) in e.triangles.iter().zip(&e.radiance) {
+                if let Some(slot) = emission.get_mut(*t as usize) {
+                    *slot = Vec3::from(*l);
+                }
+            }
+        }
+        Ok(FieldSurfaces {
+            cell,
+            voxels,
+            per_triangle,
+            emission,
+        })
+    }
+
+    /// Occupied voxels.
+    pub fn voxels(&self) -> usize {
+        self.voxels.len()
+    }
+}
+
+impl SurfaceModel for FieldSurfaces {
+    fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint {
+        let le = self.emission[tri as usize];
+        if le.max_element() > 0.0 {
+            // Emitters are black and reflect nothing.
+            return SurfacePoint {
+                roughness: 1.0,
+                emission: le,
+                ..Default::default()
+            };
+        }
+        let q = (p / self.cell).floor();
+        self.voxels
+            .get(&(q.x as i32, q.y as i32, q.z as i32))
+            .copied()
+            .unwrap_or(self.per_triangle[tri as usize])
+    }
+    fn emission(&self, tri: u32) -> Rgb {
+        self.emission[tri as usize]
+    }
+    fn part(&self, tri: u32) -> u32 {
+        tri
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// kd = the point's x (clamped), so the cache's resolution is visible.
+    struct Ramp;
+    impl MaterialField for Ramp {
+        fn name(&self) -> &str {
+            "ramp"
+        }
+        fn materials(&self, p: &[Vec3]) -> fipt_core::Result<Vec<Material>> {
+            Ok(p.iter()
+                .map(|q| Material {
+                    albedo: Vec3::splat(q.x.clamp(0.0, 1.0)),
+                    roughness: 0.5,
+                    metallic: 0.0,
+                })
+                .collect())
+        }
+        fn emission_mask(&self, p: &[Vec3]) -> fipt_core::Result<Vec<f32>> {
+            Ok(vec![0.0; p.len()])
+        }
+    }
+
+    #[test]
+    fn cached_materials_follow_the_field_within_a_cell_and_emitters_are_black() {
+        let mesh = Mesh::from_triangles(
+            vec![
+                Vec3::ZERO,
+                Vec3::X,
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(1.0, 0.0, 1.0),
+            ],
+            None,
+            vec![[0, 1, 2], [1, 3, 2]],
+        );
+        let pts: Vec<Vec3> = (0..100)
+            .map(|i| Vec3::new(i as f32 / 100.0 + 0.005, 0.0, 0.3))
+            .collect();
+        let em = Emitter {
+            triangles: vec![1],
+            radiance: vec![[2.0, 3.0, 4.0]],
+            area: 0.5,
+            mean_radiance: [2.0, 3.0, 4.0],
+            power: [0.0; 3],
+            centroid: [0.0; 3],
+            pixels: 1,
+        };
+        let s = FieldSurfaces::build(&Ramp, &mesh, &[em], pts, 0.05).unwrap();
+        assert_eq!(s.voxels(), 20);
+        for x in [0.02f32, 0.31, 0.77] {
+            let sp = s.surface(0, Vec3::new(x, 0.0, 0.3));
+            assert!((sp.kd.x - x).abs() <= 0.05, "x={x}: kd {}", sp.kd.x);
+            assert_eq!(sp.ks, Vec3::splat(0.04));
+        }
+        // Off the observed points: the triangle's centroid value.
+        assert!((s.surface(0, Vec3::new(0.2, 0.0, 0.9)).kd.x - 1.0 / 3.0).abs() < 1e-5);
+        let e = s.surface(1, Vec3::new(0.9, 0.0, 0.9));
+        assert_eq!(e.kd, Vec3::ZERO);
+        assert_eq!(s.emission(1), Vec3::new(2.0, 3.0, 4.0));
+        assert_eq!(s.emission(0), Vec3::ZERO);
+    }
+}
