@@ -583,6 +583,23 @@ impl Trainer {
     }
 }
 
+/// kd·Ld + ks·Ls0(σ) + Ls1(σ) in candle ops (`ld` `[n, 3]`, `ls0`/`ls1` `[n, levels, 3]`).
+fn reflected(
+    out: &crate::field::FieldOutput,
+    ld: &Tensor,
+    ls0: &Tensor,
+    ls1: &Tensor,
+    levels: [f32; NUM_LEVELS],
+) -> candle_core::Result<Tensor> {
+    let w = out
+        .roughness
+        .apply_op1(LevelWeights(levels))?
+        .unsqueeze(2)?;
+    let s0 = ls0.broadcast_mul(&w)?.sum(1)?;
+    let s1 = ls1.broadcast_mul(&w)?.sum(1)?;
+    ((out.kd()? * ld)? + (out.ks()? * s0)?)?.add(&s1)
+}
+
 /// The loss of [`Trainer::step`] written with plain candle ops (`[4]`: total, image, mask,
 /// prior): the reference the fused [`FactorizedLoss`] is tested against.
 pub fn candle_ops_loss(
@@ -609,13 +626,7 @@ pub fn candle_ops_loss(
             (b, 3),
             dev,
         )?;
-        let w = out
-            .roughness
-            .apply_op1(LevelWeights(levels))?
-            .unsqueeze(2)?;
-        let s0 = ls0.broadcast_mul(&w)?.sum(1)?;
-        let s1 = ls1.broadcast_mul(&w)?.sum(1)?;
-        let render = ((out.kd()? * ld)? + (out.ks()? * s0)?)?.add(&s1)?;
+        let render = reflected(out, &ld, &ls0, &ls1, levels)?;
         let keep = out.alpha.affine(-1.0, 1.0)?;
         let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha)?)?;
         let diff = (pred.apply_op1(SrgbOetf)? - gt_oetf)?;
@@ -705,13 +716,7 @@ pub fn render_factorized(
         };
         let ls0 = Tensor::from_vec(flat(ls0), (n, NUM_LEVELS, 3), dev)?;
         let ls1 = Tensor::from_vec(flat(ls1), (n, NUM_LEVELS, 3), dev)?;
-        let w = out
-            .roughness
-            .apply_op1(LevelWeights(levels))?
-            .unsqueeze(2)?;
-        let s0 = ls0.broadcast_mul(&w)?.sum(1)?;
-        let s1 = ls1.broadcast_mul(&w)?.sum(1)?;
-        let render = ((out.kd()? * ld)? + (out.ks()? * s0)?)?.add(&s1)?;
+        let render = reflected(&out, &ld, &ls0, &ls1, levels)?;
         Ok((
             render.to_vec2::<f32>()?,
             out.alpha.squeeze(D::Minus1)?.to_vec1::<f32>()?,
