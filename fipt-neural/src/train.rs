@@ -69,7 +69,9 @@ impl Default for TrainConfig {
     fn default() -> Self {
         TrainConfig {
             field: FieldConfig::default(),
-            steps: 3000,
+            // On `room` 1000 steps beat 3000 (val kd 18.2 vs 17.2 dB, σ 14.2 vs 13.0 dB,
+            // re-render 22.0 vs 21.5 dB): longer training fits the shadings' noise.
+            steps: 1000,
             batch: 8192,
             adam: AdamConfig::default(),
             grid_lr_factor: 1.0,
