@@ -27,6 +27,7 @@
 pub mod brdf;
 pub mod camera;
 pub mod color;
+pub mod cube;
 pub mod dataset;
 pub mod emitter;
 pub mod error;

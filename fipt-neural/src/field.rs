@@ -64,40 +64,9 @@ impl Default for FieldConfig {
     }
 }
 
-/// The axis-aligned cube the grid covers: `unit = (p − min) / size`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Bounds {
-    pub min: [f32; 3],
-    pub size: f32,
-}
-
-impl Bounds {
-    /// The cube around `points`, enlarged by `scale` about its centre (the reference uses 1.1).
-    pub fn around(points: impl IntoIterator<Item = Vec3>, scale: f32) -> Option<Bounds> {
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for p in points {
-            if p.is_finite() {
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-        }
-        if lo.x > hi.x {
-            return None;
-        }
-        let c = (lo + hi) * 0.5;
-        let size = ((hi - lo).max_element() * scale).max(1e-6);
-        Some(Bounds {
-            min: (c - Vec3::splat(size * 0.5)).to_array(),
-            size,
-        })
-    }
-    /// Point in the unit cube (clamped).
-    #[inline]
-    pub fn unit(&self, p: Vec3) -> [f32; 3] {
-        let u = ((p - Vec3::from(self.min)) / self.size).clamp(Vec3::ZERO, Vec3::ONE);
-        u.to_array()
-    }
-}
+/// The cube the grid covers (`unit = (p − min) / size`): fipt-core's [`Cube`], under the
+/// name the field's API uses.
+pub use fipt_core::cube::Cube as Bounds;
 
 /// A stack of linear layers with ReLU between them (none after the last).
 pub struct Mlp {

@@ -36,32 +36,7 @@ impl Hasher for VoxelHasher {
 pub type VoxelMap<V> = HashMap<u64, V, BuildHasherDefault<VoxelHasher>>;
 
 /// The cube the SLF covers: all primary hit points, enlarged ×1.1 about their centre.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Cube {
-    pub min: Vec3,
-    pub size: f32,
-}
-
-impl Cube {
-    /// The ×`scale` cube around the bounding box of `points` (None when empty).
-    pub fn around(points: impl Iterator<Item = Vec3>, scale: f32) -> Option<Cube> {
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        let mut any = false;
-        for p in points {
-            lo = lo.min(p);
-            hi = hi.max(p);
-            any = true;
-        }
-        if !any {
-            return None;
-        }
-        let size = ((hi - lo).max_element() * scale).max(1e-6);
-        Some(Cube {
-            min: (lo + hi) * 0.5 - Vec3::splat(0.5 * size),
-            size,
-        })
-    }
-}
+pub use fipt_core::cube::Cube;
 
 /// One level of the SLF: a dense index of 8³-voxel bricks, with storage only for bricks that
 /// hold an observed voxel. Neighbouring voxels share a brick, so lookups of nearby secondary
