@@ -517,11 +517,9 @@ impl CustomOp1 for HashGridOp {
         grad_res: &Tensor,
     ) -> candle_core::Result<Option<Tensor>> {
         let t0 = Instant::now();
-        let pts: Vec<[f32; 3]> = arg
-            .to_vec2::<f32>()?
-            .into_iter()
-            .map(|r| [r[0], r[1], r[2]])
-            .collect();
+        // One flat copy; `to_vec2` would allocate a Vec per point on every training step.
+        let flat = arg.flatten_all()?.to_vec1::<f32>()?;
+        let pts: Vec<[f32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let g = grad_res.flatten_all()?.to_vec1::<f32>()?;
         self.0.accumulate_grad(&pts, &g);
         self.0
