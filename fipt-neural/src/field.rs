@@ -272,10 +272,21 @@ impl NeuralField {
     /// Forward pass at unit-cube points. With `train`, the hash grid's backward is recorded
     /// (call `backward` on a loss built from the output, then step the optimisers).
     pub fn forward(&self, unit: &[[f32; 3]], train: bool) -> Result<FieldOutput> {
+        let (albedo, roughness, metallic) = self.material_forward(unit, train)?;
+        Ok(FieldOutput {
+            albedo,
+            roughness,
+            metallic,
+            alpha: self.mask_forward(unit)?,
+        })
+    }
+
+    /// Hash grid + material MLP: (albedo `[n, 3]`, σ `[n, 1]`, metallic `[n, 1]`).
+    fn material_forward(&self, unit: &[[f32; 3]], train: bool) -> Result<(Tensor, Tensor, Tensor)> {
         let n = unit.len();
-        let flat: Vec<f32> = unit.iter().flatten().copied().collect();
-        let pts = Tensor::from_vec(flat, (n, 3), &self.device).ctx("points")?;
         let enc = if train {
+            let flat: Vec<f32> = unit.iter().flatten().copied().collect();
+            let pts = Tensor::from_vec(flat, (n, 3), &self.device).ctx("points")?;
             // A Var input makes candle record the op, so that its backward is called.
             let v = Var::from_tensor(&pts).ctx("points")?;
             v.as_tensor()
@@ -297,6 +308,12 @@ impl NeuralField {
             .and_then(|r| r.affine(1.0 - MIN_ROUGHNESS as f64, MIN_ROUGHNESS as f64))
             .ctx("roughness")?;
         let metallic = s.narrow(1, 4, 1).ctx("metallic")?;
+        Ok((albedo, roughness, metallic))
+    }
+
+    /// Positional encoding + mask MLP: α `[n, 1]`.
+    fn mask_forward(&self, unit: &[[f32; 3]]) -> Result<Tensor> {
+        let n = unit.len();
         let signed: Vec<[f32; 3]> = unit
             .iter()
             .map(|p| [p[0] * 2.0 - 1.0, p[1] * 2.0 - 1.0, p[2] * 2.0 - 1.0])
@@ -316,51 +333,48 @@ impl NeuralField {
                 .and_then(|e| e.log())
                 .and_then(|l| l + m.relu()?),
         };
-        let alpha = act
-            .and_then(|r| r.neg())
+        act.and_then(|r| r.neg())
             .and_then(|r| r.exp())
             .and_then(|r| r.affine(-1.0, 1.0))
-            .ctx("mask")?;
-        Ok(FieldOutput {
-            albedo,
-            roughness,
-            metallic,
-            alpha,
-        })
+            .ctx("mask")
     }
 
-    /// Queries world points in chunks without recording gradients.
-    pub fn query(&self, points: &[Vec3]) -> Result<(Vec<Material>, Vec<f32>)> {
+    /// Materials at world points, in chunks, without recording gradients (the mask MLP is not
+    /// run).
+    pub fn query_materials(&self, points: &[Vec3]) -> Result<Vec<Material>> {
         let mut mats = Vec::with_capacity(points.len());
+        for chunk in points.chunks(65_536) {
+            let (albedo, roughness, metallic) =
+                self.material_forward(&self.to_unit(chunk), false)?;
+            let flat = |t: &Tensor| t.flatten_all().and_then(|t| t.to_vec1::<f32>());
+            let (a, r, m) = (flat(&albedo), flat(&roughness), flat(&metallic));
+            let (a, r, m) = (a.ctx("albedo")?, r.ctx("roughness")?, m.ctx("metallic")?);
+            mats.extend((0..chunk.len()).map(|i| Material {
+                albedo: Vec3::new(a[3 * i], a[3 * i + 1], a[3 * i + 2]),
+                roughness: r[i],
+                metallic: m[i],
+            }));
+        }
+        Ok(mats)
+    }
+
+    /// Emission mask α at world points, in chunks (the hash grid and material MLP are not run).
+    pub fn query_mask(&self, points: &[Vec3]) -> Result<Vec<f32>> {
         let mut alphas = Vec::with_capacity(points.len());
         for chunk in points.chunks(65_536) {
-            let out = self.forward(&self.to_unit(chunk), false)?;
-            let a = out.albedo.to_vec2::<f32>().ctx("albedo")?;
-            let r = out
-                .roughness
-                .flatten_all()
-                .and_then(|t| t.to_vec1::<f32>())
-                .ctx("roughness")?;
-            let m = out
-                .metallic
-                .flatten_all()
-                .and_then(|t| t.to_vec1::<f32>())
-                .ctx("metallic")?;
-            let al = out
-                .alpha
-                .flatten_all()
-                .and_then(|t| t.to_vec1::<f32>())
-                .ctx("alpha")?;
-            for i in 0..chunk.len() {
-                mats.push(Material {
-                    albedo: Vec3::new(a[i][0], a[i][1], a[i][2]),
-                    roughness: r[i],
-                    metallic: m[i],
-                });
-            }
-            alphas.extend(al);
+            let al = self.mask_forward(&self.to_unit(chunk))?;
+            alphas.extend(
+                al.flatten_all()
+                    .and_then(|t| t.to_vec1::<f32>())
+                    .ctx("alpha")?,
+            );
         }
-        Ok((mats, alphas))
+        Ok(alphas)
+    }
+
+    /// Both [`NeuralField::query_materials`] and [`NeuralField::query_mask`].
+    pub fn query(&self, points: &[Vec3]) -> Result<(Vec<Material>, Vec<f32>)> {
+        Ok((self.query_materials(points)?, self.query_mask(points)?))
     }
 }
 
@@ -369,9 +383,9 @@ impl MaterialField for NeuralField {
         "fipt-hashgrid-mlp"
     }
     fn materials(&self, points: &[Vec3]) -> fipt_core::Result<Vec<Material>> {
-        Ok(self.query(points)?.0)
+        Ok(self.query_materials(points)?)
     }
     fn emission_mask(&self, points: &[Vec3]) -> fipt_core::Result<Vec<f32>> {
-        Ok(self.query(points)?.1)
+        Ok(self.query_mask(points)?)
     }
 }
