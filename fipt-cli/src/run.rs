@@ -6,9 +6,9 @@ use crate::progress::Stage;
 use anyhow::{bail, Result};
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::{write_bytes_atomic, write_json_atomic};
-use fipt_core::image::{ExrPrecision, Image};
+use fipt_core::image::ExrPrecision;
 use fipt_emitter::{MaskExtractor, MaskExtractorConfig};
-use fipt_neural::{NeuralField, TrainConfig};
+use fipt_neural::TrainConfig;
 use fipt_shading::bake::{primary_records, BakeConfig};
 use fipt_shading::field_surfaces::FieldSurfaces;
 use fipt_shading::render::RenderConfig;
@@ -178,11 +178,13 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     for s in &scene.ds.splits {
-        write_maps(
+        crate::train::export_views(
             &field,
             &scene.geometry,
             &s.views,
-            &emission_of,
+            None,
+            None,
+            Some(&emission_of),
             &a.out.join("views").join(&s.name),
         )?;
     }
@@ -331,34 +333,5 @@ fn write_emitters_obj(path: &Path, mesh: &fipt_geom::Mesh, emitters: &[Emitter])
         }
     }
     write_bytes_atomic(path, s.as_bytes())?;
-    Ok(())
-}
-
-/// Per-view `{k:03}_{kd,ks,roughness,metallic,emission_mask,emission}.exr` and PNG previews.
-fn write_maps(
-    field: &NeuralField,
-    geometry: &fipt_geom::Geometry,
-    views: &[fipt_core::dataset::View],
-    emission_of: &HashMap<u32, Vec3>,
-    dir: &Path,
-) -> Result<()> {
-    crate::train::export_views(field, geometry, views, None, None, dir)?;
-    for v in views {
-        let (w, h) = (v.camera.width, v.camera.height);
-        let mut img = Image::new(w, h);
-        for (i, r) in primary_records(geometry, v).iter().enumerate() {
-            if let Some(r) = r {
-                if let Some(l) = emission_of.get(&r.hit.tri) {
-                    img.data[i] = *l;
-                }
-            }
-        }
-        let k = v.index;
-        img.write_exr(&dir.join(format!("{k:03}_emission.exr")), ExrPrecision::F32)?;
-        img.write_png(
-            &dir.join("preview").join(format!("{k:03}_emission.png")),
-            1.0,
-        )?;
-    }
     Ok(())
 }

@@ -15,6 +15,7 @@ use fipt_shading::bake::primary_records;
 use fipt_shading::bake_store::{load_for_inputs, BakeManifest};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -115,6 +116,7 @@ pub fn run(a: Args) -> Result<()> {
                 &s.views,
                 train.then_some(&shadings[..]),
                 train.then_some(&scene.images[..]),
+                None,
                 &dir.join("views").join(&s.name),
             )?;
         }
@@ -239,7 +241,8 @@ pub fn stage(
     Ok((trainer.field, manifest, true))
 }
 
-/// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view, and
+/// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view,
+/// `_emission.exr` (emitted radiance of the given emitter triangles) when `emission` is given, and
 /// `_render.exr` where shadings exist: the trained model's prediction
 /// (1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT.
 pub fn export_views(
@@ -248,6 +251,7 @@ pub fn export_views(
     views: &[View],
     shadings: Option<&[ViewShadings]>,
     images: Option<&[Image]>,
+    emission: Option<&HashMap<u32, Vec3>>,
     dir: &Path,
 ) -> Result<()> {
     for (vi, v) in views.iter().enumerate() {
@@ -267,6 +271,15 @@ pub fn export_views(
             maps[2].1.data[i] = Vec3::splat(m.roughness);
             maps[3].1.data[i] = Vec3::splat(m.metallic);
             maps[4].1.data[i] = Vec3::splat(alpha[j]);
+        }
+        if let Some(em) = emission {
+            let mut img = Image::new(w, h);
+            for &i in &hit {
+                if let Some(l) = em.get(&recs[i].unwrap().hit.tri) {
+                    img.data[i] = *l;
+                }
+            }
+            maps.push(("emission", img));
         }
         if let (Some(sh), Some(imgs)) = (shadings, images) {
             let s = &sh[vi];
