@@ -101,7 +101,7 @@ pub fn run(a: Args) -> Result<()> {
             peak_rss_mib: crate::bench::peak_rss_mib(),
         })
     };
-    remove_stale_temporaries(&a.out);
+    fipt_core::fsutil::remove_stale_temporaries(&a.out);
     let t = std::time::Instant::now();
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     mark("load", t);
@@ -296,22 +296,6 @@ pub fn run(a: Args) -> Result<()> {
     );
     println!("  report:   {}", a.out.join("report.json").display());
     Ok(())
-}
-
-/// Deletes `*.tmp` files a killed run left behind under `dir` (finished files are only ever
-/// renamed into place, so a temporary is never a result).
-fn remove_stale_temporaries(dir: &Path) {
-    let Ok(rd) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in rd.flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            remove_stale_temporaries(&p);
-        } else if p.to_string_lossy().ends_with(".tmp") {
-            let _ = std::fs::remove_file(&p);
-        }
-    }
 }
 
 /// Writes the emitter triangles as OBJ, one group per light.

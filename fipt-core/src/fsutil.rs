@@ -12,6 +12,23 @@ pub fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
+/// Deletes, under `dir` (recursively), the temporaries of [`temp_path`] that a killed process
+/// left behind. Finished files are only ever renamed into place, so a temporary is never a
+/// result; call this before resuming work in `dir`.
+pub fn remove_stale_temporaries(dir: &Path) {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in rd.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            remove_stale_temporaries(&p);
+        } else if p.to_string_lossy().ends_with(".tmp") {
+            let _ = std::fs::remove_file(&p);
+        }
+    }
+}
+
 /// Writes a file atomically: `write` fills a temporary sibling, which is then renamed over
 /// `path`. On error the temporary is removed and any previous `path` is left untouched.
 pub fn write_atomic<F>(path: &Path, write: F) -> Result<()>
