@@ -5,8 +5,9 @@ use crate::error::{CandleContext, Result};
 use crate::hashgrid::HashGrid;
 use candle_core::{Tensor, Var};
 
-/// Corner indices and weights of every point at every level, computed with the grid's level
-/// table: `(idx[level][corner], w[level][corner])`, each a `[n]` tensor.
+/// A copy of a [`HashGrid`]'s tables as one candle `Var` (`[entries, features]`), encoded
+/// with `index_select` per level and corner; corners and weights come from the grid's level
+/// table, so both encodings address the same entries.
 pub struct PlainEncoding {
     pub table: Var,
     features: usize,
