@@ -13,7 +13,7 @@
 //! * [`emitter::EmitterExtractor`]: which triangles emit, grouped into lights;
 //! * [`field::MaterialField`]: the BRDF field and emission mask contract;
 //! * [`shading`]: the factorised shading model, [`shading::RayQuery`] and the
-//!   [`shading::ShadingBaker`] contract;
+//!   [`shading::ShadingBaker`] and [`shading::ShadingRefiner`] contracts;
 //! * [`rng::Pcg32`], [`metrics`], atomic file writing in [`fsutil`].
 //!
 //! ```

@@ -3,9 +3,13 @@
 //! L(x, ωo) = Le + kd·Ld(x) + ks·Ls0(x, ωo, σ) + Ls1(x, ωo, σ): the diffuse shading Ld and the
 //! two specular shadings Ls0/Ls1 are baked once per training pixel, Ls0/Ls1 at
 //! [`NUM_LEVELS`] roughness levels and linearly interpolated in σ ([`lerp_levels`]).
+//! [`ShadingBaker`] computes them first from the observed radiance alone; a
+//! [`ShadingRefiner`] re-computes them once a material field and emitters are known.
 use crate::color::Rgb;
 use crate::dataset::View;
+use crate::emitter::Emitter;
 use crate::error::Result;
+use crate::field::MaterialField;
 use crate::image::Image;
 use glam::Vec3;
 
@@ -127,6 +131,29 @@ pub trait ShadingBaker {
         images: &[Image],
         progress: Progress,
     ) -> Result<Vec<ViewShadings>>;
+}
+
+/// What a [`ShadingRefiner`] works from: the scene, the training views and their images, the
+/// material field of the last training round and the extracted emitters.
+pub struct RefineInputs<'a> {
+    pub geometry: &'a dyn RayQuery,
+    /// Mesh vertex positions and triangles (the triangle indices of `emitters` and of
+    /// [`SurfaceHit::tri`] index `triangles`).
+    pub positions: &'a [Vec3],
+    pub triangles: &'a [[u32; 3]],
+    pub views: &'a [View],
+    pub images: &'a [Image],
+    pub field: &'a dyn MaterialField,
+    pub emitters: &'a [Emitter],
+}
+
+/// Re-computes the shadings of the training views once materials and emitters are known
+/// (method §4.5, path growing), for the next training round.
+pub trait ShadingRefiner {
+    /// A short name for reports.
+    fn name(&self) -> &str;
+    /// Shadings of every view of `inputs.views`, in the same order.
+    fn refine(&self, inputs: &RefineInputs, progress: Progress) -> Result<Vec<ViewShadings>>;
 }
 
 #[cfg(test)]

@@ -9,6 +9,7 @@
 //! * **Low-discrepancy sampling** (`sampler = "stratified"`): a rank-1 lattice (R2 sequence)
 //!   with a random shift per pixel and term, instead of independent random numbers.
 use crate::brdf::{sample_cosine_hemisphere, smith_g1};
+use crate::incident::{power_heuristic, IncidentLight, Incoming};
 use crate::slf::{Cube, SlfBuilder, SurfaceLightField};
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
@@ -22,6 +23,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
+use std::f32::consts::FRAC_1_PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -208,6 +210,16 @@ impl SlfLight<'_> {
     }
 }
 
+impl IncidentLight for SlfLight<'_> {
+    #[inline]
+    fn incoming(&self, origin: Vec3, dir: Vec3, _rng: &mut Pcg32) -> Incoming {
+        match self.geometry.intersect(origin, dir) {
+            Some(h) => Incoming::Radiance(self.slf.lookup(h.p)),
+            None => Incoming::Miss,
+        }
+    }
+}
+
 /// Sample points in [0,1)² for `n` samples.
 pub struct SampleStream {
     kind: SamplerKind,
@@ -245,28 +257,68 @@ impl SampleStream {
     }
 }
 
-/// Ld at a surface point: (1/π)∫ Li cos dω by cosine sampling (weight = Li).
-pub fn diffuse_shading(
-    light: &SlfLight,
+/// Ld at a surface point: (1/π)∫ Li cos dω by `n` cosine samples (weight = Li) and, when the
+/// light has emitters, `n_light` emitter samples, combined by the power heuristic. `rng` drives
+/// the emitter samples and any path continuation.
+#[allow(clippy::too_many_arguments)]
+pub fn diffuse_shading<L: IncidentLight>(
+    light: &L,
+    geometry: &dyn RayQuery,
     p: Vec3,
     ng: Vec3,
     ns: Vec3,
     n: u32,
+    n_light: u32,
     stream: &mut SampleStream,
+    rng: &mut Pcg32,
 ) -> Rgb {
-    if n == 0 {
+    let n_light = if light.has_emitters() { n_light } else { 0 };
+    if n == 0 && n_light == 0 {
         return Vec3::ZERO;
     }
     let frame = Frame::from_normal(ns);
-    let origin = light.geometry.offset(p, ng);
+    let origin = geometry.offset(p, ng);
     let mut sum = Vec3::ZERO;
-    for _ in 0..n {
-        let wi = frame.to_world(sample_cosine_hemisphere(stream.next()));
-        if wi.dot(ng) > 0.0 {
-            sum += light.li(origin, wi);
+    let (nd, nl) = (n as f32, n_light as f32);
+    // MIS weights compare the two techniques' per-sample densities (power heuristic), not
+    // n·pdf: the cosine technique's many samples reach a small lamp in a random number of
+    // hits, which the lamp's own samples do not suffer from.
+    if n > 0 {
+        let mut s = Vec3::ZERO;
+        for _ in 0..n {
+            let wi = frame.to_world(sample_cosine_hemisphere(stream.next()));
+            if wi.dot(ng) <= 0.0 {
+                continue;
+            }
+            s += match light.incoming(origin, wi, rng) {
+                Incoming::Miss => Vec3::ZERO,
+                Incoming::Radiance(l) => l,
+                Incoming::Emitter { le, light_pdf } if n_light > 0 => {
+                    let p_cos = wi.dot(ns).max(0.0) * FRAC_1_PI;
+                    le * power_heuristic(p_cos, light_pdf)
+                }
+                Incoming::Emitter { le, .. } => le,
+            };
         }
+        sum += s / nd;
     }
-    sum / n as f32
+    if n_light > 0 {
+        let mut s = Vec3::ZERO;
+        for _ in 0..n_light {
+            let Some(ls) = light.sample_emitter(origin, rng) else {
+                continue;
+            };
+            let cos = ls.wi.dot(ns);
+            if cos <= 0.0 || ls.wi.dot(ng) <= 0.0 {
+                continue;
+            }
+            let p_cos = cos * FRAC_1_PI;
+            // f·cos/p = Le·(cos/π)/pdf.
+            s += ls.le * (p_cos / ls.pdf * power_heuristic(ls.pdf, p_cos));
+        }
+        sum += s / nl;
+    }
+    sum
 }
 
 /// Ls0 and Ls1 at roughness `sigma` by GGX half-vector sampling:
@@ -321,6 +373,15 @@ fn reflected_li(
     wo: Vec3,
     h: Vec3,
 ) -> Option<(Vec3, f32, Rgb)> {
+    let (wi, voh, wi_w) = reflect_about(frame, ng, wo, h)?;
+    let li = light.li(origin, wi_w);
+    (li != Vec3::ZERO).then_some((wi, voh, li))
+}
+
+/// Reflects `wo` about the half vector `h` (local frame): (local ωi, ωo·h, world ωi), or None
+/// when ωi leaves below the shading or geometric surface.
+#[inline]
+fn reflect_about(frame: &Frame, ng: Vec3, wo: Vec3, h: Vec3) -> Option<(Vec3, f32, Vec3)> {
     let voh = wo.dot(h);
     if voh <= 0.0 {
         return None;
@@ -330,11 +391,7 @@ fn reflected_li(
         return None;
     }
     let wi_w = frame.to_world(wi);
-    if wi_w.dot(ng) <= 0.0 {
-        return None;
-    }
-    let li = light.li(origin, wi_w);
-    (li != Vec3::ZERO).then_some((wi, voh, li))
+    (wi_w.dot(ng) > 0.0).then_some((wi, voh, wi_w))
 }
 
 /// Sample a GGX half vector (local frame) for α from `u` (stable tan² form).
@@ -348,50 +405,193 @@ fn sample_ggx_h(alpha: f32, u: Vec2) -> Vec3 {
 }
 
 /// Ls0/Ls1 at every level at once: `counts[k]` samples from level k's GGX lobe, each sample
-/// weighted for every level l by the balance heuristic,
-/// Li·D_l·G_l·F·(ωo·h) / ((n·ωo)(n·h)·Σ_k counts_k·D_k(h)).
+/// weighted for every level l by the balance heuristic over the level lobes,
+/// Li·D_l·G_l·F·(ωo·h) / ((n·ωo)(n·h)·Σ_k counts_k·D_k(h)); with emitters, `n_light` emitter
+/// samples more, the two techniques (GGX mixture, emitters) combined by the power heuristic.
 #[allow(clippy::too_many_arguments)]
-pub fn specular_shading_mixture(
-    light: &SlfLight,
+pub fn specular_shading_mixture<L: IncidentLight>(
+    light: &L,
+    geometry: &dyn RayQuery,
     p: Vec3,
     ng: Vec3,
     ns: Vec3,
     wo_world: Vec3,
     levels: &[f32; NUM_LEVELS],
     counts: &[u32; NUM_LEVELS],
+    n_light: u32,
     streams: &mut [SampleStream; NUM_LEVELS],
+    rng: &mut Pcg32,
 ) -> ([Rgb; NUM_LEVELS], [Rgb; NUM_LEVELS]) {
     let mut s0 = [Vec3::ZERO; NUM_LEVELS];
     let mut s1 = [Vec3::ZERO; NUM_LEVELS];
+    let n_light = if light.has_emitters() { n_light } else { 0 };
     let frame = Frame::from_normal(ns);
     let mut wo = frame.to_local(wo_world);
     if wo.z < 1e-4 {
         wo = Vec3::new(wo.x, wo.y, 1e-4).normalize();
     }
-    let origin = light.geometry.offset(p, ng);
+    let origin = geometry.offset(p, ng);
     let alphas: [f32; NUM_LEVELS] = std::array::from_fn(|l| levels[l] * levels[l]);
     let g1o: [f32; NUM_LEVELS] = std::array::from_fn(|l| smith_g1(wo.z, levels[l]));
+    let nl = n_light as f32;
+    let n_brdf = counts.iter().sum::<u32>().max(1) as f32;
+    // Adds `li`·(the per-level integrand at wi/h)·`scale` where scale = w/(n·pdf) of the
+    // technique; `q` = Σ_k counts_k·pdf_k(ωi) is the GGX mixture's n·pdf in solid angle.
+    let mut add = |wi: Vec3, voh: f32, d: &[f32; NUM_LEVELS], li: Rgb, scale: f32| {
+        let m = crate::brdf::schlick_fresnel(voh);
+        let common = scale / (4.0 * wo.z);
+        for l in 0..NUM_LEVELS {
+            let w = d[l] * smith_g1(wi.z, levels[l]) * g1o[l] * common;
+            s0[l] += li * (w * (1.0 - m));
+            s1[l] += li * (w * m);
+        }
+    };
+    let mixture_pdf = |h: Vec3, voh: f32| -> ([f32; NUM_LEVELS], f32) {
+        let d: [f32; NUM_LEVELS] = std::array::from_fn(|l| crate::brdf::ggx_d(h, alphas[l]));
+        let q: f32 = (0..NUM_LEVELS)
+            .map(|l| counts[l] as f32 * d[l])
+            .sum::<f32>()
+            * h.z
+            / (4.0 * voh);
+        (d, q)
+    };
     for k in 0..NUM_LEVELS {
         for _ in 0..counts[k] {
             let h = sample_ggx_h(alphas[k], streams[k].next());
-            let Some((wi, voh, li)) = reflected_li(light, &frame, origin, ng, wo, h) else {
+            let Some((wi, voh, wi_w)) = reflect_about(&frame, ng, wo, h) else {
                 continue;
             };
-            let d: [f32; NUM_LEVELS] = std::array::from_fn(|l| crate::brdf::ggx_d(h, alphas[l]));
-            let denom: f32 = (0..NUM_LEVELS).map(|l| counts[l] as f32 * d[l]).sum();
-            if !(denom > 0.0) {
+            let li = match light.incoming(origin, wi_w, rng) {
+                Incoming::Miss => continue,
+                Incoming::Radiance(l) => (l, 0.0),
+                Incoming::Emitter { le, light_pdf } => (le, light_pdf),
+            };
+            if li.0 == Vec3::ZERO {
                 continue;
             }
-            let m = crate::brdf::schlick_fresnel(voh);
-            let common = voh / (wo.z * h.z * denom);
-            for l in 0..NUM_LEVELS {
-                let w = d[l] * smith_g1(wi.z, levels[l]) * g1o[l] * common;
-                s0[l] += li * (w * (1.0 - m));
-                s1[l] += li * (w * m);
+            let (d, q) = mixture_pdf(h, voh);
+            if !(q > 0.0) {
+                continue;
+            }
+            let w = if n_light > 0 && li.1 > 0.0 {
+                power_heuristic(q / n_brdf, li.1)
+            } else {
+                1.0
+            };
+            add(wi, voh, &d, li.0, w / q);
+        }
+    }
+    for _ in 0..n_light {
+        let Some(ls) = light.sample_emitter(origin, rng) else {
+            continue;
+        };
+        let wi = frame.to_local(ls.wi);
+        if wi.z <= 0.0 || ls.wi.dot(ng) <= 0.0 {
+            continue;
+        }
+        let h = (wi + wo).normalize();
+        let voh = wo.dot(h);
+        if !(voh > 0.0) || h.z <= 0.0 {
+            continue;
+        }
+        let (d, q) = mixture_pdf(h, voh);
+        let w = power_heuristic(ls.pdf, q / n_brdf);
+        add(wi, voh, &d, ls.le, w / (nl * ls.pdf));
+    }
+    (s0, s1)
+}
+
+/// The median pixel footprint (hit distance / focal length in pixels) over a sample of the
+/// pixels of `views`.
+pub fn median_footprint(views: &[View], records: &[Vec<Option<PixelRecord>>]) -> Option<f32> {
+    let mut foot = Vec::new();
+    for (v, r) in views.iter().zip(records) {
+        let step = (r.len() / 512).max(1);
+        for rec in r.iter().step_by(step).flatten() {
+            foot.push(rec.hit.t / v.camera.fx);
+        }
+    }
+    median(foot)
+}
+
+/// One surface cell of the diffuse cache: the mean point and shading normal of the pixels
+/// that fall in it.
+#[derive(Clone, Copy, Debug)]
+pub struct DiffuseCell {
+    pub tri: u32,
+    pub p: Vec3,
+    /// Facing geometric normal.
+    pub ng: Vec3,
+    /// Mean facing shading normal.
+    pub ns: Vec3,
+    pub pixels: u32,
+}
+
+/// The diffuse cache's cells (triangle × side × a cubic cell of edge `cell`) and which cell
+/// each pixel of each view falls in. Ld does not depend on the view, so it is integrated once
+/// per cell and shared by every pixel of every view that sees the cell.
+pub struct DiffuseCells {
+    pub entries: Vec<DiffuseCell>,
+    /// Per view, per pixel: the cell index (`u32::MAX` where the pixel misses the mesh).
+    pub assign: Vec<Vec<u32>>,
+}
+
+impl DiffuseCells {
+    /// Groups the pixels of `records` into cells of edge `cell` on a lattice anchored at
+    /// `origin`. Sequential assignment keeps the entry order (and so results) deterministic.
+    pub fn build(records: &[Vec<Option<PixelRecord>>], origin: Vec3, cell: f32) -> Self {
+        let inv = 1.0 / cell;
+        let mut index: HashMap<CellKey, u32> = HashMap::new();
+        let mut entries: Vec<DiffuseCell> = Vec::new(); // sums until the end
+        let mut assign: Vec<Vec<u32>> = Vec::with_capacity(records.len());
+        for r in records {
+            let mut a = Vec::with_capacity(r.len());
+            for rec in r {
+                let Some(rec) = rec else {
+                    a.push(u32::MAX);
+                    continue;
+                };
+                let q = ((rec.hit.p - origin) * inv).floor();
+                let key = CellKey {
+                    tri: rec.hit.tri,
+                    side: rec.ng.dot(rec.hit.ng) > 0.0,
+                    cell: [q.x as i32, q.y as i32, q.z as i32],
+                };
+                let id = *index.entry(key).or_insert_with(|| {
+                    entries.push(DiffuseCell {
+                        tri: rec.hit.tri,
+                        p: Vec3::ZERO,
+                        ng: rec.ng,
+                        ns: Vec3::ZERO,
+                        pixels: 0,
+                    });
+                    entries.len() as u32 - 1
+                });
+                let e = &mut entries[id as usize];
+                e.p += rec.hit.p;
+                e.ns += rec.ns;
+                e.pixels += 1;
+                a.push(id);
+            }
+            assign.push(a);
+        }
+        for e in &mut entries {
+            e.p /= e.pixels as f32;
+            e.ns = e.ns.normalize_or(e.ng);
+        }
+        DiffuseCells { entries, assign }
+    }
+
+    /// Writes each cell's Ld into the pixels of `out` that fall in it.
+    pub fn scatter(assign: &[Vec<u32>], ld: &[Rgb], out: &mut [ViewShadings]) {
+        for (s, a) in out.iter_mut().zip(assign) {
+            for (i, &id) in a.iter().enumerate() {
+                if id != u32::MAX {
+                    s.ld[i] = ld[id as usize];
+                }
             }
         }
     }
-    (s0, s1)
 }
 
 /// The FIPT initial baker (SLF incident light), with the switches of [`BakeConfig`].
@@ -479,68 +679,34 @@ impl FactorizedBaker {
         // Diffuse shading.
         let t = Instant::now();
         if cfg.diffuse_cache {
-            // Cell size: median pixel footprint (distance × angular pixel size) × scale.
-            let mut foot = Vec::new();
-            for (v, r) in views.iter().zip(&records) {
-                let step = (r.len() / 512).max(1);
-                for rec in r.iter().step_by(step).flatten() {
-                    foot.push(rec.hit.t / v.camera.fx);
-                }
-            }
-            let cell = median(foot).unwrap_or(1e-3).max(1e-9) * cfg.cache_cell_scale.max(1e-3);
+            let cell = median_footprint(views, &records).unwrap_or(1e-3).max(1e-9)
+                * cfg.cache_cell_scale.max(1e-3);
             stats.cache_cell = cell;
-            let inv = 1.0 / cell;
-            let origin = slf.cube.min;
-            // Sequential assignment keeps entry order (and so results) deterministic.
-            let mut index: HashMap<CellKey, u32> = HashMap::new();
-            let mut entries: Vec<(Vec3, Vec3, Vec3, u32, CellKey)> = Vec::new(); // (sum p, sum ns, ng, count, key)
-            let mut assign: Vec<Vec<u32>> = Vec::with_capacity(records.len());
-            for r in &records {
-                let mut a = Vec::with_capacity(r.len());
-                for rec in r {
-                    match rec {
-                        None => a.push(u32::MAX),
-                        Some(rec) => {
-                            let q = ((rec.hit.p - origin) * inv).floor();
-                            let key = CellKey {
-                                tri: rec.hit.tri,
-                                side: rec.ng.dot(rec.hit.ng) > 0.0,
-                                cell: [q.x as i32, q.y as i32, q.z as i32],
-                            };
-                            let id = *index.entry(key).or_insert_with(|| {
-                                entries.push((Vec3::ZERO, Vec3::ZERO, rec.ng, 0, key));
-                                entries.len() as u32 - 1
-                            });
-                            let e = &mut entries[id as usize];
-                            e.0 += rec.hit.p;
-                            e.1 += rec.ns;
-                            e.3 += 1;
-                            a.push(id);
-                        }
-                    }
-                }
-                assign.push(a);
-            }
+            let DiffuseCells { entries, assign } =
+                DiffuseCells::build(&records, slf.cube.min, cell);
             stats.cache_entries = entries.len();
             let seed = cfg.seed;
             let ld: Vec<Rgb> = entries
                 .par_iter()
                 .enumerate()
-                .map(|(k, (sp, sn, ng, n, key))| {
-                    let p = *sp / *n as f32;
-                    let ns = sn.normalize_or(*ng);
+                .map(|(k, c)| {
                     let mut st =
-                        SampleStream::new(cfg.sampler, &[seed, 0xD1FF, key.tri as u64, k as u64]);
-                    diffuse_shading(&light, p, *ng, ns, cfg.diffuse_samples, &mut st)
+                        SampleStream::new(cfg.sampler, &[seed, 0xD1FF, c.tri as u64, k as u64]);
+                    let mut rng = Pcg32::new(0, 0);
+                    diffuse_shading(
+                        &light,
+                        geometry,
+                        c.p,
+                        c.ng,
+                        c.ns,
+                        cfg.diffuse_samples,
+                        0,
+                        &mut st,
+                        &mut rng,
+                    )
                 })
                 .collect();
-            for (s, a) in out.iter_mut().zip(&assign) {
-                for (i, &id) in a.iter().enumerate() {
-                    if id != u32::MAX {
-                        s.ld[i] = ld[id as usize];
-                    }
-                }
-            }
+            DiffuseCells::scatter(&assign, &ld, &mut out);
             stats.rays_diffuse = entries.len() as u64 * cfg.diffuse_samples as u64;
             tick(stats.valid_pixels);
         } else {
@@ -557,11 +723,14 @@ impl FactorizedBaker {
                             );
                             *ld = diffuse_shading(
                                 &light,
+                                geometry,
                                 rec.hit.p,
                                 rec.ng,
                                 rec.ns,
                                 cfg.diffuse_samples,
+                                0,
                                 &mut st,
+                                &mut Pcg32::new(0, 0),
                             );
                         }
                     });
@@ -593,13 +762,16 @@ impl FactorizedBaker {
                             });
                             (*l0, *l1) = specular_shading_mixture(
                                 &light,
+                                geometry,
                                 rec.hit.p,
                                 rec.ng,
                                 rec.ns,
                                 rec.wo,
                                 &cfg.levels,
                                 &cfg.specular_samples,
+                                0,
                                 &mut st,
+                                &mut Pcg32::new(0, 0),
                             );
                             return;
                         }

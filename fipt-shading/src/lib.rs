@@ -9,6 +9,7 @@
 //!   and ground-truth AOVs;
 //! * [`slf`] and [`bake`]: the surface light field and the initial factorised bake
 //!   (Ld, Ls0, Ls1 per training pixel), behind [`fipt_core::shading::ShadingBaker`];
+//! * [`refine`]: the path-grown refinement behind [`fipt_core::shading::ShadingRefiner`];
 //! * [`synth`]: procedural scenes with exact ground truth in the reference layout.
 //!
 //! ```
@@ -25,6 +26,8 @@ pub mod bake_store;
 pub mod brdf;
 pub mod error;
 pub mod field_surfaces;
+pub mod incident;
+pub mod refine;
 pub mod render;
 pub mod scene;
 pub mod slf;

@@ -61,7 +61,7 @@ fn uniform_incident_light_gives_known_shadings() {
     let n = -hit.ng; // facing the centre
     let frame = fipt_core::brdf::Frame::from_normal(n);
     let mut st = SampleStream::new(SamplerKind::Stratified, &[1]);
-    let ld = diffuse_shading(&light, hit.p, n, n, 4096, &mut st);
+    let ld = diffuse_shading(&light, &geo, hit.p, n, n, 4096, 0, &mut st, &mut rng);
     // Exact but for cosine samples that graze the surface (z ≈ 0) and are dropped.
     assert!(
         (ld - l).abs().max_element() < 1e-3 * l.max_element(),
@@ -76,13 +76,16 @@ fn uniform_incident_light_gives_known_shadings() {
         });
         let (m0, m1) = specular_shading_mixture(
             &light,
+            &geo,
             hit.p,
             n,
             n,
             wo,
             &DEFAULT_LEVELS,
             &[700; 6],
+            0,
             &mut streams,
+            &mut rng,
         );
         for (k, &sigma) in DEFAULT_LEVELS.iter().enumerate() {
             let mut st =

@@ -1,0 +1,575 @@
+//! Path-grown refinement (method §4.5): once a training round has produced a material field
+//! and emitters have been extracted, the shadings are re-computed by path tracing.
+//!
+//! At a secondary hit, an emitter triangle returns its radiance and stops; a rough surface
+//! (σ above `rough_threshold`) whose SLF voxel holds radiance returns the SLF and stops (the
+//! SLF is a good radiance cache for view-independent reflection); a glossy surface continues
+//! the path, with next-event estimation to the emitters and MIS, for up to `max_bounces` more
+//! vertices (where the budget runs out, the vertex returns its SLF value).
+//!
+//! Beyond the reference:
+//! * **Next-event estimation at the shading point.** Ld and Ls0/Ls1 also sample points on the
+//!   emitters (`light_samples`), combined with the cosine / GGX-mixture samples by the power
+//!   heuristic. A small bright lamp seen through a cosine-sampled hemisphere is the largest
+//!   source of noise in the initial bake; light samples remove most of it.
+//! * The diffuse cache, stratified samples and the specular mixture estimator of the initial
+//!   bake ([`crate::bake`]).
+//! * The field is not evaluated per path vertex: [`FieldSurfaces`] caches it on a voxel grid of
+//!   the observed surface.
+use crate::bake::{
+    build_slf, diffuse_shading, median_footprint, primary_records, specular_shading_mixture,
+    DiffuseCells, PixelRecord, SampleStream, SamplerKind,
+};
+use crate::brdf::FiptBrdf;
+use crate::field_surfaces::FieldSurfaces;
+use crate::incident::{power_heuristic, IncidentLight, Incoming, LightSample};
+use crate::scene::SurfaceModel;
+use crate::slf::SurfaceLightField;
+use fipt_core::brdf::{Brdf, Frame};
+use fipt_core::color::{luminance, Rgb};
+use fipt_core::rng::Pcg32;
+use fipt_core::shading::{
+    Progress, RayQuery, RefineInputs, ShadingRefiner, SurfaceHit, ViewShadings, DEFAULT_LEVELS,
+    NUM_LEVELS,
+};
+use fipt_core::CoreError;
+use fipt_geom::{Mesh, TriangleSampler};
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Settings of the path-grown refinement.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RefineConfig {
+    /// Cosine samples for Ld. Default 128 (the reference's refinement).
+    pub diffuse_samples: u32,
+    /// GGX samples for Ls0/Ls1 at each level. Default 64 each (the reference's refinement).
+    pub specular_samples: [u32; NUM_LEVELS],
+    /// Emitter samples per Ld and per Ls estimate at the shading point (0 = none, as the
+    /// reference). Default 16.
+    pub light_samples: u32,
+    /// Roughness above which a secondary hit returns the SLF. Default 0.6.
+    pub rough_threshold: f32,
+    /// Vertices a path may grow through glossy surfaces. Default 5.
+    pub max_bounces: u32,
+    /// Roughness levels (must equal the bake's). Default linspace(0.02, 1, 6).
+    pub levels: [f32; NUM_LEVELS],
+    /// SLF voxels per axis and coarser fallback grids (as the bake's). Defaults 256 and 3.
+    pub slf_resolution: u32,
+    pub slf_fallback_levels: u32,
+    /// Integrate Ld once per surface cell of `cache_cell_scale` pixel footprints. Default true.
+    pub diffuse_cache: bool,
+    pub cache_cell_scale: f32,
+    /// Voxel edge of the material cache, in pixel footprints. Default 2.
+    pub material_cell_scale: f32,
+    /// "independent" or "stratified" sample directions. Default stratified.
+    pub sampler: SamplerKind,
+    /// Seed of all random streams. Default 1.
+    pub seed: u64,
+}
+
+impl Default for RefineConfig {
+    fn default() -> Self {
+        RefineConfig {
+            diffuse_samples: 128,
+            specular_samples: [64; NUM_LEVELS],
+            light_samples: 16,
+            rough_threshold: 0.6,
+            max_bounces: 5,
+            levels: DEFAULT_LEVELS,
+            slf_resolution: 256,
+            slf_fallback_levels: 3,
+            diffuse_cache: true,
+            cache_cell_scale: 1.0,
+            material_cell_scale: 2.0,
+            sampler: SamplerKind::Stratified,
+            seed: 1,
+        }
+    }
+}
+
+impl RefineConfig {
+    /// The reference's refinement: per-pixel Ld, independent samples, no light samples at the
+    /// shading point, strict SLF.
+    pub fn paper() -> Self {
+        RefineConfig {
+            light_samples: 0,
+            diffuse_cache: false,
+            sampler: SamplerKind::Independent,
+            slf_fallback_levels: 0,
+            ..Default::default()
+        }
+    }
+    /// Half the GGX samples.
+    pub fn balanced() -> Self {
+        RefineConfig {
+            specular_samples: [32; NUM_LEVELS],
+            ..Default::default()
+        }
+    }
+    /// A quarter of the samples.
+    pub fn fast() -> Self {
+        RefineConfig {
+            diffuse_samples: 64,
+            specular_samples: [16; NUM_LEVELS],
+            light_samples: 8,
+            ..Default::default()
+        }
+    }
+    /// Looks a preset up by name.
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "paper" => Some(Self::paper()),
+            "balanced" | "default" => Some(Self::balanced()),
+            "fast" => Some(Self::fast()),
+            _ => None,
+        }
+    }
+}
+
+/// What the secondary rays of a refinement met, and where the time went.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct RefineStats {
+    pub pixels: usize,
+    pub cache_entries: usize,
+    /// Secondary rays by outcome: left the scene, hit an emitter, stopped at a rough surface
+    /// with the SLF, grew a path through a glossy surface, grew a path through a rough surface
+    /// the SLF has no radiance for.
+    pub secondary_miss: u64,
+    pub secondary_emitter: u64,
+    pub secondary_slf: u64,
+    pub secondary_grown: u64,
+    pub secondary_unobserved: u64,
+    /// Grown paths that reached `max_bounces` and returned the SLF there.
+    pub paths_truncated: u64,
+    /// Emitter triangles sampled for next-event estimation.
+    pub emitter_triangles: usize,
+    /// Material-cache voxels.
+    pub material_voxels: usize,
+    pub seconds_setup: f64,
+    pub seconds_diffuse: f64,
+    pub seconds_specular: f64,
+}
+
+/// Outcome counts, one cache-line-aligned set per worker thread (shared counters would bounce
+/// a cache line between cores on every secondary ray).
+#[derive(Default)]
+#[repr(align(128))]
+struct Counters {
+    miss: AtomicU64,
+    emitter: AtomicU64,
+    slf: AtomicU64,
+    grown: AtomicU64,
+    unobserved: AtomicU64,
+    truncated: AtomicU64,
+}
+
+struct ThreadCounters(Vec<Counters>);
+
+impl ThreadCounters {
+    fn new() -> Self {
+        ThreadCounters(
+            (0..rayon::current_num_threads() + 1)
+                .map(|_| Counters::default())
+                .collect(),
+        )
+    }
+    #[inline]
+    fn get(&self) -> &Counters {
+        let i = rayon::current_thread_index().map_or(0, |i| i + 1);
+        &self.0[i % self.0.len()]
+    }
+    fn total(&self, f: impl Fn(&Counters) -> &AtomicU64) -> u64 {
+        self.0.iter().map(|c| f(c).load(Ordering::Relaxed)).sum()
+    }
+}
+
+/// The light of the refinement: emitters, the SLF at rough surfaces, paths through glossy ones.
+pub struct GrownLight<'a> {
+    pub geometry: &'a dyn RayQuery,
+    pub slf: &'a SurfaceLightField,
+    pub surfaces: &'a FieldSurfaces,
+    /// Mesh for emitter sampling.
+    pub mesh: &'a Mesh,
+    pub lights: Option<TriangleSampler>,
+    /// Area density of emitter samples on each triangle (0 off the emitters).
+    pub light_pdf_area: Vec<f32>,
+    pub rough_threshold: f32,
+    pub max_bounces: u32,
+    counters: ThreadCounters,
+}
+
+impl<'a> GrownLight<'a> {
+    pub fn new(
+        geometry: &'a dyn RayQuery,
+        slf: &'a SurfaceLightField,
+        surfaces: &'a FieldSurfaces,
+        mesh: &'a Mesh,
+        rough_threshold: f32,
+        max_bounces: u32,
+    ) -> Self {
+        let mut tris = Vec::new();
+        let mut weights = Vec::new();
+        for t in 0..mesh.triangles.len() as u32 {
+            let w = mesh.area(t as usize) as f64 * luminance(surfaces.emission(t)).max(0.0) as f64;
+            if w > 0.0 {
+                tris.push(t);
+                weights.push(w);
+            }
+        }
+        let lights = TriangleSampler::weighted(mesh, &tris, &weights);
+        let mut light_pdf_area = vec![0.0; mesh.triangles.len()];
+        if let Some(l) = &lights {
+            for (k, &t) in l.triangles().iter().enumerate() {
+                light_pdf_area[t as usize] = l.pdf_area(k);
+            }
+        }
+        GrownLight {
+            geometry,
+            slf,
+            surfaces,
+            mesh,
+            lights,
+            light_pdf_area,
+            rough_threshold,
+            max_bounces,
+            counters: ThreadCounters::new(),
+        }
+    }
+
+    /// Solid-angle density of emitter sampling for a ray that hits emitter triangle `tri` at
+    /// distance `t` with |cos| `cos` at the emitter.
+    #[inline]
+    fn light_pdf(&self, tri: u32, t: f32, cos: f32) -> f32 {
+        if cos > 0.0 {
+            self.light_pdf_area[tri as usize] * t * t / cos
+        } else {
+            0.0
+        }
+    }
+
+    /// Radiance leaving the non-emitter hit `hit` towards `-dir`: the SLF at a rough surface,
+    /// else a path grown through the glossy surface (NEE + MIS at each vertex).
+    fn outgoing(&self, mut hit: SurfaceHit, mut dir: Vec3, rng: &mut Pcg32) -> Rgb {
+        let mut l = Vec3::ZERO;
+        let mut beta = Vec3::ONE;
+        let mut bounce = 0;
+        loop {
+            let sp = self.surfaces.surface(hit.tri, hit.p);
+            let cached = self.slf.lookup(hit.p);
+            if sp.roughness > self.rough_threshold && cached != Vec3::ZERO {
+                if bounce == 0 {
+                    self.counters.get().slf.fetch_add(1, Ordering::Relaxed);
+                }
+                return l + beta * cached;
+            }
+            if bounce == 0 {
+                let c = self.counters.get();
+                if sp.roughness > self.rough_threshold {
+                    c.unobserved.fetch_add(1, Ordering::Relaxed);
+                } else {
+                    c.grown.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+            if bounce >= self.max_bounces {
+                self.counters
+                    .get()
+                    .truncated
+                    .fetch_add(1, Ordering::Relaxed);
+                return l + beta * cached;
+            }
+            let wo_w = -dir;
+            let ng = if hit.ng.dot(wo_w) < 0.0 {
+                -hit.ng
+            } else {
+                hit.ng
+            };
+            let ns = if hit.ns.dot(ng) < 0.0 {
+                -hit.ns
+            } else {
+                hit.ns
+            };
+            let frame = Frame::from_normal(ns);
+            let wo = frame.to_local(wo_w);
+            if wo.z <= 0.0 {
+                return l;
+            }
+            let brdf = FiptBrdf::new(sp.kd, sp.ks, sp.roughness);
+            let origin = self.geometry.offset(hit.p, ng);
+            if let Some(ls) = self.sample_emitter(origin, rng) {
+                let wi = frame.to_local(ls.wi);
+                if wi.z > 0.0 && ls.wi.dot(ng) > 0.0 {
+                    let f = brdf.eval(wo, wi);
+                    let w = power_heuristic(ls.pdf, brdf.pdf(wo, wi));
+                    l += beta * f * ls.le * (w / ls.pdf);
+                }
+            }
+            let Some(s) = brdf.sample(wo, rng.next_f32(), rng.next_2d()) else {
+                return l;
+            };
+            let wi_w = frame.to_world(s.wi);
+            if wi_w.dot(ng) <= 0.0 {
+                return l;
+            }
+            beta *= s.weight;
+            let Some(next) = self.geometry.intersect(origin, wi_w) else {
+                return l;
+            };
+            let le = self.surfaces.emission(next.tri);
+            if le != Vec3::ZERO {
+                let lp = self.light_pdf(next.tri, next.t, next.ng.dot(wi_w).abs());
+                return l + beta * le * power_heuristic(s.pdf, lp);
+            }
+            hit = next;
+            dir = wi_w;
+            bounce += 1;
+        }
+    }
+}
+
+impl IncidentLight for GrownLight<'_> {
+    fn incoming(&self, origin: Vec3, dir: Vec3, rng: &mut Pcg32) -> Incoming {
+        let Some(hit) = self.geometry.intersect(origin, dir) else {
+            self.counters.get().miss.fetch_add(1, Ordering::Relaxed);
+            return Incoming::Miss;
+        };
+        let le = self.surfaces.emission(hit.tri);
+        if le != Vec3::ZERO {
+            self.counters.get().emitter.fetch_add(1, Ordering::Relaxed);
+            return Incoming::Emitter {
+                le,
+                light_pdf: self.light_pdf(hit.tri, hit.t, hit.ng.dot(dir).abs()),
+            };
+        }
+        Incoming::Radiance(self.outgoing(hit, dir, rng))
+    }
+
+    fn has_emitters(&self) -> bool {
+        self.lights.is_some()
+    }
+
+    fn sample_emitter(&self, origin: Vec3, rng: &mut Pcg32) -> Option<LightSample> {
+        let lights = self.lights.as_ref()?;
+        let s = lights.sample(self.mesh, rng.next_f32(), rng.next_2d());
+        let d = s.p - origin;
+        let dist2 = d.length_squared();
+        let dist = dist2.sqrt();
+        if !(dist > 0.0) {
+            return None;
+        }
+        let wi = d / dist;
+        let cos = s.n.dot(wi).abs();
+        if !(cos > 0.0) || self.geometry.occluded(origin, wi, dist * (1.0 - 1e-4)) {
+            return None;
+        }
+        Some(LightSample {
+            wi,
+            dist,
+            le: self.surfaces.emission(s.tri),
+            pdf: s.pdf_area * dist2 / cos,
+        })
+    }
+}
+
+/// The FIPT path-grown refiner, with the switches of [`RefineConfig`].
+#[derive(Clone, Debug, Default)]
+pub struct PathGrownRefiner {
+    pub config: RefineConfig,
+}
+
+impl PathGrownRefiner {
+    pub fn new(config: RefineConfig) -> Self {
+        PathGrownRefiner { config }
+    }
+
+    /// Refines and reports what the secondary rays met and where the time went.
+    pub fn refine_detailed(
+        &self,
+        inputs: &RefineInputs,
+        progress: Progress,
+    ) -> fipt_core::Result<(Vec<ViewShadings>, RefineStats)> {
+        let cfg = &self.config;
+        let RefineInputs {
+            geometry,
+            views,
+            images,
+            ..
+        } = *inputs;
+        if views.len() != images.len() {
+            return Err(CoreError::invalid(
+                "refine",
+                format!("{} views but {} images", views.len(), images.len()),
+            ));
+        }
+        let t = Instant::now();
+        let mut stats = RefineStats::default();
+        let mesh = Mesh::from_triangles(inputs.positions.to_vec(), None, inputs.triangles.to_vec());
+        if mesh.triangles.len() != inputs.triangles.len() {
+            return Err(CoreError::invalid(
+                "refine",
+                "the mesh holds degenerate triangles: pass the mesh as loaded (degenerate triangles dropped)",
+            ));
+        }
+        let records: Vec<Vec<Option<PixelRecord>>> =
+            views.iter().map(|v| primary_records(geometry, v)).collect();
+        stats.pixels = records.iter().flatten().flatten().count();
+        let mut out: Vec<ViewShadings> = views
+            .iter()
+            .zip(&records)
+            .map(|(v, r)| {
+                let mut s = ViewShadings::zeros(v.camera.width, v.camera.height, cfg.levels);
+                for (i, rec) in r.iter().enumerate() {
+                    s.valid[i] = rec.is_some();
+                }
+                s
+            })
+            .collect();
+        let Some(slf) = build_slf(
+            &records,
+            images,
+            cfg.slf_resolution,
+            cfg.slf_fallback_levels,
+        ) else {
+            return Ok((out, stats));
+        };
+        let footprint = median_footprint(views, &records).unwrap_or(1e-3).max(1e-9);
+        let surfaces = FieldSurfaces::build(
+            inputs.field,
+            &mesh,
+            inputs.emitters,
+            records.iter().flatten().flatten().map(|r| r.hit.p),
+            footprint * cfg.material_cell_scale,
+        )?;
+        stats.material_voxels = surfaces.voxels();
+        let light = GrownLight::new(
+            geometry,
+            &slf,
+            &surfaces,
+            &mesh,
+            cfg.rough_threshold,
+            cfg.max_bounces,
+        );
+        stats.emitter_triangles = light.lights.as_ref().map_or(0, |l| l.len());
+        stats.seconds_setup = t.elapsed().as_secs_f64();
+        let is_emitter = |r: &PixelRecord| surfaces.emission(r.hit.tri) != Vec3::ZERO;
+        let total = stats.pixels * 2;
+        let done = AtomicUsize::new(0);
+        let tick = |n: usize| progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
+
+        // Ld: per cache cell, or per pixel.
+        let t = Instant::now();
+        let seed = cfg.seed;
+        let ld_at = |key: &[u64], p: Vec3, ng: Vec3, ns: Vec3| {
+            let mut st = SampleStream::new(cfg.sampler, key);
+            let mut rng = Pcg32::from_keys(&[key, &[0x9A7]].concat());
+            diffuse_shading(
+                &light,
+                geometry,
+                p,
+                ng,
+                ns,
+                cfg.diffuse_samples,
+                cfg.light_samples,
+                &mut st,
+                &mut rng,
+            )
+        };
+        if cfg.diffuse_cache {
+            let cells = DiffuseCells::build(
+                &records,
+                slf.cube.min,
+                footprint * cfg.cache_cell_scale.max(1e-3),
+            );
+            stats.cache_entries = cells.entries.len();
+            let ld: Vec<Rgb> = cells
+                .entries
+                .par_iter()
+                .enumerate()
+                .map(|(k, c)| {
+                    if surfaces.emission(c.tri) != Vec3::ZERO {
+                        return Vec3::ZERO;
+                    }
+                    ld_at(&[seed, 0xD1FF, c.tri as u64, k as u64], c.p, c.ng, c.ns)
+                })
+                .collect();
+            DiffuseCells::scatter(&cells.assign, &ld, &mut out);
+            tick(stats.pixels);
+        } else {
+            for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
+                s.ld.par_iter_mut()
+                    .zip(r.par_iter())
+                    .enumerate()
+                    .for_each(|(i, (ld, rec))| {
+                        if let Some(rec) = rec.filter(|r| !is_emitter(r)) {
+                            let key = [seed, 0xD1FF, vi as u64, i as u64];
+                            *ld = ld_at(&key, rec.hit.p, rec.ng, rec.ns);
+                        }
+                    });
+                tick(r.iter().flatten().count());
+            }
+        }
+        stats.seconds_diffuse = t.elapsed().as_secs_f64();
+
+        // Ls0/Ls1 per pixel (emitter pixels keep 0: the mask explains them).
+        let t = Instant::now();
+        for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
+            let ViewShadings { ls0, ls1, .. } = s;
+            ls0.par_iter_mut()
+                .zip(ls1.par_iter_mut())
+                .zip(r.par_iter())
+                .enumerate()
+                .with_min_len(64)
+                .for_each(|(i, ((l0, l1), rec))| {
+                    let Some(rec) = rec.filter(|r| !is_emitter(r)) else {
+                        return;
+                    };
+                    let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
+                        SampleStream::new(
+                            cfg.sampler,
+                            &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
+                        )
+                    });
+                    let mut rng = Pcg32::from_keys(&[seed, 0x5BED, vi as u64, i as u64]);
+                    (*l0, *l1) = specular_shading_mixture(
+                        &light,
+                        geometry,
+                        rec.hit.p,
+                        rec.ng,
+                        rec.ns,
+                        rec.wo,
+                        &cfg.levels,
+                        &cfg.specular_samples,
+                        cfg.light_samples,
+                        &mut st,
+                        &mut rng,
+                    );
+                });
+            tick(r.iter().flatten().count());
+        }
+        stats.seconds_specular = t.elapsed().as_secs_f64();
+        let c = &light.counters;
+        stats.secondary_miss = c.total(|c| &c.miss);
+        stats.secondary_emitter = c.total(|c| &c.emitter);
+        stats.secondary_slf = c.total(|c| &c.slf);
+        stats.secondary_grown = c.total(|c| &c.grown);
+        stats.secondary_unobserved = c.total(|c| &c.unobserved);
+        stats.paths_truncated = c.total(|c| &c.truncated);
+        Ok((out, stats))
+    }
+}
+
+impl ShadingRefiner for PathGrownRefiner {
+    fn name(&self) -> &str {
+        "fipt-path-grown"
+    }
+    fn refine(
+        &self,
+        inputs: &RefineInputs,
+        progress: Progress,
+    ) -> fipt_core::Result<Vec<ViewShadings>> {
+        Ok(self.refine_detailed(inputs, progress)?.0)
+    }
+}
