@@ -10,7 +10,7 @@ use crate::error::{CandleContext, NeuralError, Result};
 use crate::field::{Bounds, FieldConfig, NeuralField};
 use crate::hashgrid::{AdamConfig, HashGridConfig};
 use crate::ops::{srgb_oetf, FactorizedLoss, LevelWeights, LossBatch, SrgbOetf};
-use candle_core::{Tensor, D};
+use candle_core::{Tensor, Var, D};
 use fipt_core::fsutil::{read_json, write_atomic, write_json_atomic};
 use fipt_core::image::Image;
 use fipt_core::rng::Pcg32;
@@ -362,6 +362,30 @@ impl Trainer {
             level_weights: LevelWeights(levels),
             inputs: String::new(),
         })
+    }
+
+    /// Starts from the parameters of a trained field (a warm start): the field's weights are
+    /// copied, the optimiser state starts afresh. The fields must have the same sizes and
+    /// bounds.
+    pub fn warm_start(&mut self, from: &NeuralField) -> Result<()> {
+        if from.config() != self.field.config() || from.bounds() != self.field.bounds() {
+            return Err(NeuralError::config(
+                "warm start",
+                "the previous round's field has other sizes or bounds",
+            ));
+        }
+        let src: HashMap<String, Var> = from.vars().into_iter().collect();
+        for (name, var) in self.field.vars() {
+            let t = src.get(&name).ok_or_else(|| {
+                NeuralError::config("warm start", format!("the previous field lacks `{name}`"))
+            })?;
+            var.set(t.as_tensor()).ctx("warm start")?;
+        }
+        let params = from.grid().params();
+        let n = params.len();
+        self.field
+            .grid()
+            .set_state(params, vec![0.0; n], vec![0.0; n], 0)
     }
 
     /// The prior's ramp factor at the current step.

@@ -134,3 +134,35 @@ fn bad_settings_are_rejected_with_the_key() {
     let bad: Result<TrainConfig, _> = serde_json::from_str(r#"{"steps": 10, "bogus": 1}"#);
     assert!(bad.is_err());
 }
+
+/// A warm start copies the trained weights exactly (same queries before any step), continues
+/// from there (its first loss is the trained field's, not a fresh field's), and refuses a
+/// field of other sizes.
+#[test]
+fn warm_start_continues_from_the_previous_field() {
+    let (set, bounds) = data();
+    let cfg = config();
+    let mut a = Trainer::new(cfg.clone(), bounds, set.levels).unwrap();
+    a.run(&set, None, &mut |_| {}).unwrap();
+    let trained_loss = a.last.image;
+
+    let mut w = Trainer::new(cfg.clone(), bounds, set.levels).unwrap();
+    let fresh = query(&w);
+    w.warm_start(&a.field).unwrap();
+    assert_eq!(query(&w), query(&a), "warm start must copy the field");
+    assert_ne!(fresh, query(&a));
+    assert_eq!(w.step_count(), 0);
+    let first = w.step(&set).unwrap().image;
+    let mut f = Trainer::new(cfg.clone(), bounds, set.levels).unwrap();
+    let fresh_first = f.step(&set).unwrap().image;
+    assert!(
+        (first - trained_loss).abs() < 0.25 * trained_loss
+            && (first - fresh_first).abs() > 0.25 * trained_loss,
+        "warm first loss {first}, fresh {fresh_first}, trained {trained_loss}"
+    );
+
+    let mut other = cfg.clone();
+    other.field.mlp_width = 32;
+    let mut o = Trainer::new(other, bounds, set.levels).unwrap();
+    assert!(o.warm_start(&a.field).is_err());
+}
