@@ -3,7 +3,6 @@
 //! sampler, specular estimator, SLF fallback) with their accuracy.
 use crate::bench::{make_rays, peak_rss_mib, throughput};
 use anyhow::{bail, Context, Result};
-use fipt_core::dataset::GtKind;
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::metrics::{psnr, srgb_psnr};
 use fipt_core::shading::ViewShadings;
@@ -12,41 +11,6 @@ use glam::Vec3;
 use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
-
-fn closure_psnr(scene: &crate::scene::LoadedScene, sh: &[ViewShadings]) -> Result<Option<f64>> {
-    let ds = &scene.ds;
-    let split = ds.train();
-    if ![
-        GtKind::DiffCol,
-        GtKind::Specular,
-        GtKind::Roughness,
-        GtKind::Emit,
-    ]
-    .iter()
-    .all(|&k| split.has_gt(k))
-    {
-        return Ok(None);
-    }
-    let mut sum = 0.0;
-    for (k, s) in sh.iter().enumerate() {
-        let v = &split.views[k];
-        let g = |kind| {
-            ds.load_gt(split, kind, v.index)
-                .map(|x| x.expect("present"))
-        };
-        let (kd, ks, ro, le) = (
-            g(GtKind::DiffCol)?,
-            g(GtKind::Specular)?,
-            g(GtKind::Roughness)?,
-            g(GtKind::Emit)?,
-        );
-        let pred: Vec<Vec3> = (0..kd.data.len())
-            .map(|i| le.data[i] + s.reflected(i, kd.data[i], ks.data[i], ro.data[i].x))
-            .collect();
-        sum += srgb_psnr(&pred, &scene.images[k].data, None).unwrap_or(0.0);
-    }
-    Ok(Some(sum / sh.len() as f64))
-}
 
 /// PSNR between two bakes' Ld (and specular at level 3) on valid pixels, in the sRGB space of
 /// the loss.
@@ -136,7 +100,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
         );
         let secs = t.elapsed().as_secs_f64();
         let rays = (stats.rays_diffuse + stats.rays_specular) as f64;
-        let closure = closure_psnr(&scene, &sh).context("closure PSNR")?;
+        let closure = crate::eval::closure_psnr(&scene, &sh).context("closure PSNR")?;
         eprintln!(
             "{name:<20} {secs:>7.1} s  diffuse {:>6.1} s  specular {:>6.1} s  {:>8.0} px/s  {:>5.2} Mrays/s ({:.0} % of raw)  closure {}",
             stats.seconds_diffuse,

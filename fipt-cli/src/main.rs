@@ -10,6 +10,7 @@ mod demo;
 mod eval;
 mod info;
 mod progress;
+mod refine;
 mod render;
 mod run;
 mod scene;

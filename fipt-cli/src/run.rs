@@ -1,6 +1,7 @@
-//! `fipt run <scene> --out OUT`: bake → train → extract emitters → per-view maps → report
-//! (→ eval when ground truth exists). Every stage writes its results atomically and a manifest
-//! last; re-running skips finished stages and resumes an interrupted training.
+//! `fipt run <scene> --out OUT`: bake → train → extract emitters → (refine → train) × rounds →
+//! per-view maps → re-render → report (→ eval when ground truth exists). Every stage writes
+//! its results atomically and a manifest last; re-running skips finished stages and resumes an
+//! interrupted training.
 use crate::info::Policy;
 use crate::progress::Stage;
 use anyhow::{bail, Result};
@@ -11,6 +12,7 @@ use fipt_emitter::{MaskExtractor, MaskExtractorConfig};
 use fipt_neural::TrainConfig;
 use fipt_shading::bake::{primary_records, BakeConfig};
 use fipt_shading::field_surfaces::FieldSurfaces;
+use fipt_shading::refine::RefineConfig;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::scene::Scene as RenderScene;
 use glam::Vec3;
@@ -47,7 +49,20 @@ pub struct RunConfig {
     pub bake: BakeConfig,
     pub train: TrainConfig,
     pub emitters: MaskExtractorConfig,
+    pub refine: RefineConfig,
+    pub rounds: RoundsConfig,
     pub render: ReRenderConfig,
+}
+
+/// The refine → train rounds after the first training round.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoundsConfig {
+    /// Number of refine → train rounds (the reference: 2; 0 = the initial bake only).
+    pub refinements: u32,
+    /// Start each later training round from the previous round's field (the reference
+    /// starts afresh).
+    pub warm_start: bool,
 }
 
 /// Path-traced re-renders of every view from the recovered scene (`_render.exr`).
@@ -66,6 +81,11 @@ impl RunConfig {
             bake: BakeConfig::preset(name)?,
             train: TrainConfig::preset(name)?,
             emitters: MaskExtractorConfig::default(),
+            refine: RefineConfig::preset(name)?,
+            rounds: RoundsConfig {
+                refinements: if name == "paper" { 2 } else { 1 },
+                warm_start: name != "paper",
+            },
             render: ReRenderConfig {
                 spp: match name {
                     "paper" => 64,
@@ -108,52 +128,28 @@ pub fn run(a: Args) -> Result<()> {
     let t = std::time::Instant::now();
     let (bake, shadings) = crate::bake::stage(&scene, &cfg.bake, &a.out.join("bake"), a.force)?;
     mark("bake", t);
+    let mesh = &scene.geometry.mesh;
+    let has_gt = scene
+        .ds
+        .splits
+        .iter()
+        .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol));
     let t = std::time::Instant::now();
-    let (field, train, _) = crate::train::stage(
+    let bake_id = fipt_shading::bake_store::fingerprint(&bake);
+    let (mut field, mut train, _) = crate::train::stage(
         &scene,
-        &bake,
+        &bake_id,
         &shadings,
         &cfg.train,
         &a.out.join("train"),
         a.force,
+        None,
     )?;
     mark("train", t);
 
     let t = std::time::Instant::now();
     let st = Stage::start("emitters");
-    let split = scene.ds.train();
-    let mut hits = Vec::new();
-    for ((v, img), sh) in split.views.iter().zip(&scene.images).zip(&shadings) {
-        for (i, (r, l)) in primary_records(&scene.geometry, v)
-            .iter()
-            .zip(&img.data)
-            .enumerate()
-        {
-            if let Some(r) = r {
-                let max_reflected = sh.valid[i].then(|| {
-                    let m = |x: &[Vec3; fipt_core::shading::NUM_LEVELS]| {
-                        x.iter().fold(Vec3::ZERO, |a, b| a.max(*b))
-                    };
-                    sh.ld[i] + m(&sh.ls0[i]) + m(&sh.ls1[i])
-                });
-                hits.push(PixelHit {
-                    triangle: r.hit.tri,
-                    radiance: *l,
-                    max_reflected,
-                });
-            }
-        }
-    }
-    let mesh = &scene.geometry.mesh;
-    let extractor = MaskExtractor {
-        config: cfg.emitters.clone(),
-    };
-    let emitters = extractor.extract(&EmitterInputs {
-        positions: &mesh.positions,
-        triangles: &mesh.triangles,
-        field: &field,
-        pixel_hits: &hits,
-    })?;
+    let emitters = extract_emitters(&scene, &field, &shadings, &cfg.emitters)?;
     write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     st.done();
@@ -168,6 +164,78 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     mark("emitters", t);
+
+    // Refine → train rounds, unless nothing in the scene needs them.
+    let split = scene.ds.train();
+    let mut closure = vec![];
+    if has_gt {
+        closure.push(serde_json::json!({
+            "shadings": "bake",
+            "psnr_db": crate::eval::closure_psnr(&scene, &shadings)?,
+        }));
+    }
+    let glossy = glossy_fraction(&scene, &field, cfg.refine.rough_threshold)?;
+    let refine_plan = if cfg.rounds.refinements == 0 {
+        Err("skipped: rounds.refinements = 0".to_string())
+    } else if emitters.is_empty() && glossy < 1e-3 {
+        Err(format!(
+            "skipped: no emitter was found and no observed surface is glossier than σ = {} (path growing and emitter sampling would change nothing)",
+            cfg.refine.rough_threshold
+        ))
+    } else {
+        Ok(format!(
+            "{} round(s), {}; {} emitter triangles sampled, {:.1} % of the observed surface glossier than σ = {}",
+            cfg.rounds.refinements,
+            if cfg.rounds.warm_start { "each training round warm-started from the previous" } else { "each training round from fresh networks (as the reference)" },
+            emitters.iter().map(|e| e.triangles.len()).sum::<usize>(),
+            glossy * 100.0,
+            cfg.refine.rough_threshold
+        ))
+    };
+    let mut rounds = vec![];
+    if let Ok(plan) = &refine_plan {
+        eprintln!("refinement: {plan}");
+        for r in 1..=cfg.rounds.refinements {
+            let t = std::time::Instant::now();
+            let refined = crate::refine::stage(
+                &scene,
+                &field,
+                &train.fingerprint(),
+                &emitters,
+                &cfg.refine,
+                &a.out.join(format!("refine{r}")),
+                a.force,
+            )?;
+            mark("refine", t);
+            if has_gt {
+                closure.push(serde_json::json!({
+                    "shadings": format!("refine{r}"),
+                    "psnr_db": crate::eval::closure_psnr(&scene, &refined.shadings)?,
+                }));
+            }
+            let t = std::time::Instant::now();
+            let prev_id = train.fingerprint();
+            let (f, m, _) = crate::train::stage(
+                &scene,
+                &refined.key,
+                &refined.shadings,
+                &cfg.train,
+                &a.out.join(format!("train{r}")),
+                a.force,
+                cfg.rounds.warm_start.then_some((&field, prev_id.as_str())),
+            )?;
+            mark("train", t);
+            rounds.push(serde_json::json!({
+                "round": r,
+                "refine": { "seconds": refined.seconds, "stats": refined.stats },
+                "train": m,
+            }));
+            field = f;
+            train = m;
+        }
+    } else if let Err(why) = &refine_plan {
+        eprintln!("refinement {why}");
+    }
 
     let t = std::time::Instant::now();
     let st = Stage::start("maps");
@@ -236,11 +304,6 @@ pub fn run(a: Args) -> Result<()> {
         mark("re-render", t);
     }
 
-    let has_gt = scene
-        .ds
-        .splits
-        .iter()
-        .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol));
     let metrics = if has_gt {
         let t = std::time::Instant::now();
         let m = crate::eval::evaluate(&scene.ds, &a.out)?;
@@ -265,6 +328,8 @@ pub fn run(a: Args) -> Result<()> {
         "seconds_total": t_all.elapsed().as_secs_f64(),
         "bake": { "stats": bake.stats, "seconds": bake.seconds_total },
         "train": train,
+        "rounds": rounds,
+        "shading_closure": closure,
         "emitters": emitters.iter().map(|e| serde_json::json!({
             "triangles": e.triangles.len(), "area": e.area, "mean_radiance": e.mean_radiance,
             "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
@@ -273,13 +338,17 @@ pub fn run(a: Args) -> Result<()> {
             "material_field": true,
             "emission_mask": true,
             "emitters": emitters.len(),
-            "path_grown_refinement": "not implemented yet: the shadings are the initial one-bounce bake",
+            "path_grown_refinement": match &refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
             "re_render": if cfg.render.spp > 0 { format!("path traced at {} spp from the field (voxel cache) and the extracted emitters", cfg.render.spp) } else { "skipped (render.spp = 0)".to_string() },
             "hash_table_log2": train.config.field.grid.log2_table,
         },
         "metrics": metrics,
     });
     write_json_atomic(&a.out.join("report.json"), &report)?;
+    let final_train_dir = match (&refine_plan, cfg.rounds.refinements) {
+        (Ok(_), r) if r > 0 => format!("train{r}"),
+        _ => "train".to_string(),
+    };
     println!(
         "\nfipt run finished in {:.1} s",
         t_all.elapsed().as_secs_f64()
@@ -292,10 +361,80 @@ pub fn run(a: Args) -> Result<()> {
     );
     println!(
         "  field:    {}",
-        a.out.join("train/field.safetensors").display()
+        a.out
+            .join(final_train_dir)
+            .join("field.safetensors")
+            .display()
     );
     println!("  report:   {}", a.out.join("report.json").display());
     Ok(())
+}
+
+/// Emitter extraction from the field's mask and the training pixels (with what the initial
+/// shadings say each pixel could at most reflect).
+fn extract_emitters(
+    scene: &crate::scene::LoadedScene,
+    field: &dyn fipt_core::field::MaterialField,
+    shadings: &[fipt_core::shading::ViewShadings],
+    cfg: &MaskExtractorConfig,
+) -> Result<Vec<Emitter>> {
+    let split = scene.ds.train();
+    let mut hits = Vec::new();
+    for ((v, img), sh) in split.views.iter().zip(&scene.images).zip(shadings) {
+        for (i, (r, l)) in primary_records(&scene.geometry, v)
+            .iter()
+            .zip(&img.data)
+            .enumerate()
+        {
+            if let Some(r) = r {
+                let max_reflected = sh.valid[i].then(|| {
+                    let m = |x: &[Vec3; fipt_core::shading::NUM_LEVELS]| {
+                        x.iter().fold(Vec3::ZERO, |a, b| a.max(*b))
+                    };
+                    sh.ld[i] + m(&sh.ls0[i]) + m(&sh.ls1[i])
+                });
+                hits.push(PixelHit {
+                    triangle: r.hit.tri,
+                    radiance: *l,
+                    max_reflected,
+                });
+            }
+        }
+    }
+    let mesh = &scene.geometry.mesh;
+    let extractor = MaskExtractor {
+        config: cfg.clone(),
+    };
+    Ok(extractor.extract(&EmitterInputs {
+        positions: &mesh.positions,
+        triangles: &mesh.triangles,
+        field,
+        pixel_hits: &hits,
+    })?)
+}
+
+/// Fraction of the observed surface (every 7th primary hit of the training views) whose
+/// trained roughness is at most `threshold`.
+fn glossy_fraction(
+    scene: &crate::scene::LoadedScene,
+    field: &dyn fipt_core::field::MaterialField,
+    threshold: f32,
+) -> Result<f64> {
+    let pts: Vec<Vec3> = scene
+        .ds
+        .train()
+        .views
+        .iter()
+        .flat_map(|v| primary_records(&scene.geometry, v))
+        .flatten()
+        .step_by(7)
+        .map(|r| r.hit.p)
+        .collect();
+    if pts.is_empty() {
+        return Ok(0.0);
+    }
+    let mats = field.materials(&pts)?;
+    Ok(mats.iter().filter(|m| m.roughness <= threshold).count() as f64 / mats.len() as f64)
 }
 
 /// Writes the emitter triangles as OBJ, one group per light.

@@ -12,7 +12,7 @@ use fipt_geom::Geometry;
 use fipt_neural::train::{render_factorized, StepLosses, TrainTimings};
 use fipt_neural::{Bounds, NeuralField, TrainConfig, Trainer, TrainingSet};
 use fipt_shading::bake::primary_records;
-use fipt_shading::bake_store::{load_for_inputs, BakeManifest};
+use fipt_shading::bake_store::{fingerprint, load_for_inputs};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -55,6 +55,15 @@ pub struct TrainManifest {
     pub steps_per_second: f64,
     pub timings: TrainTimings,
     pub last: StepLosses,
+}
+
+impl TrainManifest {
+    /// What the trained field is a function of: its inputs and settings (training is
+    /// deterministic). Later stages key on it.
+    pub fn fingerprint(&self) -> String {
+        let cfg = serde_json::to_string(&self.config).unwrap_or_default();
+        fipt_core::fsutil::hash_bytes(format!("{}|{cfg}", self.inputs).as_bytes())
+    }
 }
 
 /// Primary hit points of every pixel of `views`, and the median pixel footprint (hit
@@ -104,7 +113,15 @@ pub fn run(a: Args) -> Result<()> {
         ),
     };
     let dir = a.out.join("train");
-    let (field, m, fresh) = stage(&scene, &bake, &shadings, &cfg, &dir, a.force)?;
+    let (field, m, fresh) = stage(
+        &scene,
+        &fingerprint(&bake),
+        &shadings,
+        &cfg,
+        &dir,
+        a.force,
+        None,
+    )?;
     if fresh || !dir.join("views").is_dir() {
         let st = Stage::start("export maps");
         let split = scene.ds.train();
@@ -128,20 +145,22 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 /// The training stage: reuses a finished run in `dir` (same inputs and settings) unless
-/// `force`, resumes an interrupted one, or trains afresh. Returns the field, the manifest
-/// and whether training ran now.
+/// `force`, resumes an interrupted one, or trains afresh (from `warm`'s field, identified by
+/// its fingerprint, when given). `shadings_id` fingerprints the shadings. Returns the field,
+/// the manifest and whether training ran now.
 pub fn stage(
     scene: &LoadedScene,
-    bake: &BakeManifest,
+    shadings_id: &str,
     shadings: &[ViewShadings],
     cfg: &TrainConfig,
     dir: &Path,
     force: bool,
+    warm: Option<(&NeuralField, &str)>,
 ) -> Result<(NeuralField, TrainManifest, bool)> {
     let inputs = format!(
-        "{}+bake:{}",
+        "{}+shadings:{shadings_id}+warm:{}",
         scene.inputs_hash,
-        bake.seconds_total.to_bits()
+        warm.map_or("none", |w| w.1)
     );
     let split = scene.ds.train();
     let st = Stage::start("training set");
@@ -183,6 +202,10 @@ pub fn stage(
         None => {
             let mut t = Trainer::new(cfg.clone(), bounds, data.levels)?;
             t.inputs = inputs.clone();
+            if let Some((field, _)) = warm {
+                t.warm_start(field)?;
+                eprintln!("warm start from the previous round's field");
+            }
             t
         }
     };

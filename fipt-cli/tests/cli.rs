@@ -291,6 +291,7 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
     std::fs::write(
         &cfg,
         "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
+         [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
          [train]\nsteps = 1500\nbatch = 1024\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
          [train.field.grid]\nlevels = 6\n",
     )
@@ -305,6 +306,8 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
         "emitters.obj",
         "metrics.json",
         "train/field.safetensors",
+        "refine1/manifest.json",
+        "train1/field.safetensors",
     ] {
         assert!(out.join(f).is_file(), "missing {f}");
     }
@@ -341,11 +344,41 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
     assert!(iou >= 0.9, "emission IoU {iou}");
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let stages: Vec<&str> = report["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap())
+        .collect();
     assert_eq!(
-        report["stages"].as_array().unwrap().len(),
-        7,
+        stages,
+        [
+            "load",
+            "bake",
+            "train",
+            "emitters",
+            "refine",
+            "train",
+            "maps",
+            "re-render",
+            "eval"
+        ]
+    );
+    // The refinement explains the views better than the initial bake (closure with the
+    // ground-truth materials), and the report says what was modeled.
+    let closure = report["shading_closure"].as_array().unwrap();
+    let (c0, c1) = (
+        closure[0]["psnr_db"].as_f64().unwrap(),
+        closure[1]["psnr_db"].as_f64().unwrap(),
+    );
+    assert!(c1 > c0, "closure bake {c0} dB, refined {c1} dB");
+    assert!(
+        report["modeled"]["path_grown_refinement"]
+            .as_str()
+            .unwrap()
+            .starts_with("1 round"),
         "{}",
-        report["stages"]
+        report["modeled"]
     );
     // Path-traced re-renders of every view, scored on val.
     assert!(out.join("views/val/000_render.exr").is_file());
@@ -354,7 +387,9 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
     // Re-running reuses the bake and the field; `fipt eval` alone reproduces the metrics.
     let (ok, _, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
     assert!(
-        ok && err.contains("reusing the bake") && err.contains("reusing the trained field"),
+        ok && err.contains("reusing the bake")
+            && err.contains("reusing the trained field")
+            && err.contains("reusing the refined shadings"),
         "{err}"
     );
     let (ok, stdout, err) = fipt(&["eval", d, o]);
@@ -409,6 +444,7 @@ fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
     std::fs::write(
         &cfg,
         "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
+         [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
          [train]\nsteps = 1200\nbatch = 512\ncheckpoint_every = 50\n[train.field]\nmlp_width = 16\n\
          mask_width = 16\n[train.field.grid]\nlevels = 4\n",
     )
@@ -448,6 +484,8 @@ fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
         "views/train/001_roughness.exr",
         "views/val/000_render.exr",
         "train/field.safetensors",
+        "refine1/train/001.fsh",
+        "train1/field.safetensors",
     ] {
         let (a, b) = (
             std::fs::read(full.join(f)).unwrap(),

@@ -78,17 +78,29 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     })
 }
 
+/// FNV-1a 64, the fingerprint hash of stage inputs.
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+    fn feed(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01B3);
+        }
+    }
+    fn hex(&self) -> String {
+        format!("{:016x}", self.0)
+    }
+}
+
 /// FNV-1a 64 over the contents (and lengths) of `paths`, in order: a fingerprint of a stage's
 /// inputs. Returned as 16 hex digits.
 pub fn hash_files(paths: &[std::path::PathBuf]) -> Result<String> {
     use std::io::Read;
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut feed = |bytes: &[u8]| {
-        for &b in bytes {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01B3);
-        }
-    };
+    let mut h = Fnv::new();
     let mut buf = vec![0u8; 1 << 16];
     for p in paths {
         let mut f = std::fs::File::open(p).map_err(|e| CoreError::io(p, e))?;
@@ -99,9 +111,75 @@ pub fn hash_files(paths: &[std::path::PathBuf]) -> Result<String> {
                 break;
             }
             len += n as u64;
-            feed(&buf[..n]);
+            h.feed(&buf[..n]);
         }
-        feed(&len.to_le_bytes());
+        h.feed(&len.to_le_bytes());
     }
-    Ok(format!("{h:016x}"))
+    Ok(h.hex())
+}
+
+/// FNV-1a 64 of `bytes` as 16 hex digits (fingerprints of settings and upstream results).
+pub fn hash_bytes(bytes: &[u8]) -> String {
+    let mut h = Fnv::new();
+    h.feed(bytes);
+    h.hex()
+}
+
+/// [`hash_bytes`] of a JSON value in a canonical form: keys sorted, floating-point numbers
+/// rounded to f32. Settings are f32 and serde_json's text round trip of their f64 widening is
+/// not exact (0.412f32 reads back one f64 ulp off), so hashing the raw value would change after
+/// a save and load.
+pub fn hash_json(v: &serde_json::Value) -> String {
+    fn canon(v: &serde_json::Value, out: &mut String) {
+        use serde_json::Value;
+        match v {
+            Value::Null | Value::Bool(_) | Value::String(_) => out.push_str(&v.to_string()),
+            Value::Number(n) => match (n.as_i64(), n.as_u64(), n.as_f64()) {
+                (Some(i), _, _) => out.push_str(&i.to_string()),
+                (_, Some(u), _) => out.push_str(&u.to_string()),
+                (_, _, Some(f)) => out.push_str(&format!("{:?}", f as f32)),
+                _ => out.push_str(&n.to_string()),
+            },
+            Value::Array(a) => {
+                out.push('[');
+                for x in a {
+                    canon(x, out);
+                    out.push(',');
+                }
+                out.push(']');
+            }
+            Value::Object(o) => {
+                let mut keys: Vec<&String> = o.keys().collect();
+                keys.sort();
+                out.push('{');
+                for k in keys {
+                    out.push_str(&format!("{k:?}:"));
+                    canon(&o[k], out);
+                    out.push(',');
+                }
+                out.push('}');
+            }
+        }
+    }
+    let mut s = String::new();
+    canon(v, &mut s);
+    hash_bytes(s.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_hash_survives_a_text_round_trip_of_f32_settings() {
+        let v =
+            serde_json::json!({ "b": [0.412f32, 0.216f32, 1], "a": { "x": 0.608f32, "s": "t" } });
+        let back: serde_json::Value = serde_json::from_str(&v.to_string()).unwrap();
+        assert_eq!(hash_json(&v), hash_json(&back));
+        let other =
+            serde_json::json!({ "b": [0.413f32, 0.216f32, 1], "a": { "x": 0.608f32, "s": "t" } });
+        assert_ne!(hash_json(&v), hash_json(&other));
+        assert_eq!(hash_bytes(b"abc"), hash_bytes(b"abc"));
+        assert_ne!(hash_bytes(b"abc"), hash_bytes(b"abd"));
+    }
 }

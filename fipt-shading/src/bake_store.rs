@@ -172,6 +172,39 @@ pub fn mismatch(
     None
 }
 
+/// A fingerprint of what a stored bake holds: its baker, inputs and settings (bakes are
+/// deterministic, so equal fingerprints mean equal shadings). Later stages key on it.
+pub fn fingerprint(m: &BakeManifest) -> String {
+    let settings = fipt_core::fsutil::hash_json(&m.config);
+    fipt_core::fsutil::hash_bytes(
+        format!("{}|{}|{}|{settings}", m.version, m.baker, m.inputs_hash).as_bytes(),
+    )
+}
+
+/// Loads a stored bake made by `baker` from these inputs whose settings JSON has `key` at
+/// `config.key` (for stages keyed by a fingerprint of their settings and upstream results).
+/// `Ok(Err(reason))` says why not.
+pub fn load_keyed(
+    dir: &Path,
+    inputs_hash: &str,
+    baker: &str,
+    key: &str,
+) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
+    load_checked(dir, |m| {
+        if m.version != FORMAT_VERSION {
+            Some(format!("format version {}", m.version))
+        } else if m.inputs_hash != inputs_hash {
+            Some("the scene's mesh, cameras or images changed".into())
+        } else if m.baker != baker {
+            Some(format!("made by {} (now {baker})", m.baker))
+        } else if m.config.get("key").and_then(|k| k.as_str()) != Some(key) {
+            Some("the settings or the upstream results changed".into())
+        } else {
+            None
+        }
+    })
+}
+
 /// Loads a stored bake if it matches the inputs and settings. `Ok(Err(reason))` says why not.
 pub fn load_if_current(
     dir: &Path,

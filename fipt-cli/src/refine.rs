@@ -1,0 +1,115 @@
+//! The path-grown refinement stage of `fipt run`: re-computes the shadings of the training
+//! views from the last round's field and the extracted emitters, stored like a bake in
+//! `OUT/refine<k>/` (manifest last), keyed by the settings and the upstream fingerprints.
+use crate::progress::{bar, Stage};
+use crate::scene::LoadedScene;
+use anyhow::Result;
+use fipt_core::emitter::Emitter;
+use fipt_core::field::MaterialField;
+use fipt_core::fsutil::{hash_bytes, read_json, write_json_atomic};
+use fipt_core::shading::{RefineInputs, ShadingRefiner, ViewShadings};
+use fipt_shading::bake_store::{load_keyed, save, BakeManifest, FORMAT_VERSION};
+use fipt_shading::refine::{PathGrownRefiner, RefineConfig, RefineStats};
+use std::path::Path;
+
+/// A finished refinement: its shadings, their fingerprint and what the rays met.
+pub struct Refined {
+    pub shadings: Vec<ViewShadings>,
+    pub key: String,
+    pub stats: RefineStats,
+    pub seconds: f64,
+}
+
+/// Runs (or reuses) the refinement of the field fingerprinted `field_id` with `emitters`.
+pub fn stage(
+    scene: &LoadedScene,
+    field: &dyn MaterialField,
+    field_id: &str,
+    emitters: &[Emitter],
+    cfg: &RefineConfig,
+    dir: &Path,
+    force: bool,
+) -> Result<Refined> {
+    let refiner = PathGrownRefiner::new(cfg.clone());
+    let name = refiner.name().to_string();
+    let key = hash_bytes(
+        format!(
+            "{}|{field_id}|{}",
+            serde_json::to_string(cfg)?,
+            serde_json::to_string(emitters)?
+        )
+        .as_bytes(),
+    );
+    let stats_path = dir.join("refine_stats.json");
+    if !force {
+        match load_keyed(dir, &scene.inputs_hash, &name, &key)? {
+            Ok((m, shadings)) => {
+                eprintln!(
+                    "reusing the refined shadings in {} (computed in {:.1} s); --force to redo them",
+                    dir.display(),
+                    m.seconds_total
+                );
+                let stats = read_json(&stats_path).unwrap_or_default();
+                return Ok(Refined {
+                    shadings,
+                    key,
+                    stats,
+                    seconds: m.seconds_total,
+                });
+            }
+            Err(why) if why != "no finished bake found" => eprintln!("refining: {why}"),
+            Err(_) => {}
+        }
+    }
+    let split = scene.ds.train();
+    let mesh = &scene.geometry.mesh;
+    let inputs = RefineInputs {
+        geometry: &scene.geometry,
+        positions: &mesh.positions,
+        triangles: &mesh.triangles,
+        views: &split.views,
+        images: &scene.images,
+        field,
+        emitters,
+    };
+    let pb = bar(1, "refine");
+    let st = Stage::start("refine");
+    let (shadings, stats) = refiner.refine_detailed(&inputs, &|d, t| {
+        pb.set_length(t as u64);
+        pb.set_position(d as u64);
+    })?;
+    pb.finish_and_clear();
+    let secs = st.done();
+    eprintln!(
+        "refine: setup {:.1} s, diffuse {:.1} s ({} cells), specular {:.1} s; secondary rays: {} to emitters, {} SLF at rough surfaces, {} grown through glossy ones, {} through unobserved rough ones, {} left the scene",
+        stats.seconds_setup,
+        stats.seconds_diffuse,
+        stats.cache_entries,
+        stats.seconds_specular,
+        stats.secondary_emitter,
+        stats.secondary_slf,
+        stats.secondary_grown,
+        stats.secondary_unobserved,
+        stats.secondary_miss
+    );
+    let manifest = BakeManifest {
+        version: FORMAT_VERSION,
+        baker: name,
+        inputs_hash: scene.inputs_hash.clone(),
+        config: serde_json::json!({ "key": key, "settings": cfg, "field": field_id }),
+        split: split.name.clone(),
+        views: shadings.len(),
+        width: scene.ds.width,
+        height: scene.ds.height,
+        stats: Default::default(),
+        seconds_total: secs,
+    };
+    write_json_atomic(&stats_path, &stats)?;
+    save(dir, &manifest, &shadings)?;
+    Ok(Refined {
+        shadings,
+        key,
+        stats,
+        seconds: secs,
+    })
+}
