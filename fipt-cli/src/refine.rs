@@ -81,6 +81,12 @@ pub fn stage(
     pb.finish_and_clear();
     let secs = st.done();
     eprintln!(
+        "refine: {:.0} pixels/s, {:.2} Mrays/s ({} rays)",
+        stats.pixels as f64 / secs.max(1e-9),
+        stats.rays as f64 / secs.max(1e-9) / 1e6,
+        stats.rays
+    );
+    eprintln!(
         "refine: setup {:.1} s, diffuse {:.1} s ({} cells), specular {:.1} s; secondary rays: {} to emitters, {} SLF at rough surfaces, {} grown through glossy ones, {} through unobserved rough ones, {} left the scene",
         stats.seconds_setup,
         stats.seconds_diffuse,

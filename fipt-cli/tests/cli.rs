@@ -265,7 +265,7 @@ fn train_needs_a_bake_writes_maps_and_reuses_or_resumes() {
 }
 
 #[test]
-fn run_then_eval_finds_the_light_and_writes_the_layout() {
+fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     let dir = tmp("run-scene");
     let d = dir.to_str().unwrap();
     let (ok, _, err) = fipt(&[
@@ -274,15 +274,15 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
         "--out",
         d,
         "--views",
-        "4",
+        "12",
         "--val-views",
-        "1",
+        "2",
         "--width",
-        "32",
+        "48",
         "--height",
-        "24",
+        "36",
         "--spp",
-        "16",
+        "64",
     ]);
     assert!(ok, "{err}");
     let out = tmp("run-out");
@@ -290,10 +290,10 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
     let cfg = dir.join("run.toml");
     std::fs::write(
         &cfg,
-        "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
-         [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
-         [train]\nsteps = 1500\nbatch = 1024\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
-         [train.field.grid]\nlevels = 6\n",
+        "[bake]\ndiffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
+         [refine]\ndiffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\nlight_samples = 8\n\
+         [train]\nsteps = 1500\nbatch = 2048\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
+         [train.field.grid]\nlevels = 8\n",
     )
     .unwrap();
     let c = cfg.to_str().unwrap();
@@ -342,6 +342,19 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     let iou = m["train"]["mean"]["emission_iou"].as_f64().unwrap();
     assert!(iou >= 0.9, "emission IoU {iou}");
+    // Accuracy floors of this small, noisy setting (12 views of 48×36 at 64 spp, a few dozen
+    // shading samples). Measured: kd 15.6 / 14.8 dB, σ 16.5 / 19.7 dB (train / val).
+    for (split, kd_floor, sigma_floor) in [("train", 13.5, 14.0), ("val", 12.5, 16.0)] {
+        let mean = &m[split]["mean"];
+        let (kd, sigma) = (
+            mean["kd_psnr"].as_f64().unwrap(),
+            mean["roughness_psnr"].as_f64().unwrap(),
+        );
+        assert!(
+            kd >= kd_floor && sigma >= sigma_floor,
+            "{split}: kd {kd:.2} dB (floor {kd_floor}), σ {sigma:.2} dB (floor {sigma_floor})"
+        );
+    }
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     let stages: Vec<&str> = report["stages"]
@@ -371,7 +384,8 @@ fn run_then_eval_finds_the_light_and_writes_the_layout() {
         closure[0]["psnr_db"].as_f64().unwrap(),
         closure[1]["psnr_db"].as_f64().unwrap(),
     );
-    assert!(c1 > c0, "closure bake {c0} dB, refined {c1} dB");
+    // Measured: 16.2 → 22.5 dB.
+    assert!(c1 >= c0 + 3.0, "closure bake {c0} dB, refined {c1} dB");
     assert!(
         report["modeled"]["path_grown_refinement"]
             .as_str()

@@ -145,6 +145,8 @@ pub struct RefineStats {
     pub secondary_unobserved: u64,
     /// Grown paths that reached `max_bounces` and returned the SLF there.
     pub paths_truncated: u64,
+    /// Rays cast (secondary, continuation and shadow rays).
+    pub rays: u64,
     /// Emitter triangles sampled for next-event estimation.
     pub emitter_triangles: usize,
     /// Material-cache voxels.
@@ -165,6 +167,7 @@ struct Counters {
     grown: AtomicU64,
     unobserved: AtomicU64,
     truncated: AtomicU64,
+    rays: AtomicU64,
 }
 
 struct ThreadCounters(Vec<Counters>);
@@ -315,6 +318,7 @@ impl<'a> GrownLight<'a> {
                 return l;
             }
             beta *= s.weight;
+            self.counters.get().rays.fetch_add(1, Ordering::Relaxed);
             let Some(next) = self.geometry.intersect(origin, wi_w) else {
                 return l;
             };
@@ -332,6 +336,7 @@ impl<'a> GrownLight<'a> {
 
 impl IncidentLight for GrownLight<'_> {
     fn incoming(&self, origin: Vec3, dir: Vec3, rng: &mut Pcg32) -> Incoming {
+        self.counters.get().rays.fetch_add(1, Ordering::Relaxed);
         let Some(hit) = self.geometry.intersect(origin, dir) else {
             self.counters.get().miss.fetch_add(1, Ordering::Relaxed);
             return Incoming::Miss;
@@ -362,7 +367,11 @@ impl IncidentLight for GrownLight<'_> {
         }
         let wi = d / dist;
         let cos = s.n.dot(wi).abs();
-        if !(cos > 0.0) || self.geometry.occluded(origin, wi, dist * (1.0 - 1e-4)) {
+        if !(cos > 0.0) {
+            return None;
+        }
+        self.counters.get().rays.fetch_add(1, Ordering::Relaxed);
+        if self.geometry.occluded(origin, wi, dist * (1.0 - 1e-4)) {
             return None;
         }
         Some(LightSample {
@@ -557,6 +566,7 @@ impl PathGrownRefiner {
         stats.secondary_grown = c.total(|c| &c.grown);
         stats.secondary_unobserved = c.total(|c| &c.unobserved);
         stats.paths_truncated = c.total(|c| &c.truncated);
+        stats.rays = c.total(|c| &c.rays);
         Ok((out, stats))
     }
 }
