@@ -175,6 +175,25 @@ pub fn primary_records(geometry: &dyn RayQuery, view: &View) -> Vec<Option<Pixel
         .collect()
 }
 
+/// All-zero shadings for `views`, valid where the pixel-centre ray hit the mesh.
+pub fn empty_shadings(
+    views: &[View],
+    records: &[Vec<Option<PixelRecord>>],
+    levels: [f32; NUM_LEVELS],
+) -> Vec<ViewShadings> {
+    views
+        .iter()
+        .zip(records)
+        .map(|(v, r)| {
+            let mut s = ViewShadings::zeros(v.camera.width, v.camera.height, levels);
+            for (i, rec) in r.iter().enumerate() {
+                s.valid[i] = rec.is_some();
+            }
+            s
+        })
+        .collect()
+}
+
 /// Builds the SLF from primary records and the matching HDR images.
 pub fn build_slf(
     records: &[Vec<Option<PixelRecord>>],
@@ -664,17 +683,7 @@ impl FactorizedBaker {
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             progress(d, total_work);
         };
-        let mut out: Vec<ViewShadings> = views
-            .iter()
-            .zip(&records)
-            .map(|(v, r)| {
-                let mut s = ViewShadings::zeros(v.camera.width, v.camera.height, cfg.levels);
-                for (i, rec) in r.iter().enumerate() {
-                    s.valid[i] = rec.is_some();
-                }
-                s
-            })
-            .collect();
+        let mut out = empty_shadings(views, &records, cfg.levels);
 
         // Diffuse shading.
         let t = Instant::now();

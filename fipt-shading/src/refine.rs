@@ -17,8 +17,8 @@
 //! * The field is not evaluated per path vertex: [`FieldSurfaces`] caches it on a voxel grid of
 //!   the observed surface.
 use crate::bake::{
-    build_slf, diffuse_shading, median_footprint, primary_records, specular_shading_mixture,
-    DiffuseCells, PixelRecord, SampleStream, SamplerKind,
+    build_slf, diffuse_shading, empty_shadings, median_footprint, primary_records,
+    specular_shading_mixture, DiffuseCells, PixelRecord, SampleStream, SamplerKind,
 };
 use crate::brdf::FiptBrdf;
 use crate::field_surfaces::FieldSurfaces;
@@ -26,7 +26,7 @@ use crate::incident::{power_heuristic, IncidentLight, Incoming, LightSample};
 use crate::scene::SurfaceModel;
 use crate::slf::SurfaceLightField;
 use fipt_core::brdf::{Brdf, Frame};
-use fipt_core::color::{luminance, Rgb};
+use fipt_core::color::Rgb;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
     Progress, RayQuery, RefineInputs, ShadingRefiner, SurfaceHit, ViewShadings, DEFAULT_LEVELS,
@@ -214,22 +214,8 @@ impl<'a> GrownLight<'a> {
         rough_threshold: f32,
         max_bounces: u32,
     ) -> Self {
-        let mut tris = Vec::new();
-        let mut weights = Vec::new();
-        for t in 0..mesh.triangles.len() as u32 {
-            let w = mesh.area(t as usize) as f64 * luminance(surfaces.emission(t)).max(0.0) as f64;
-            if w > 0.0 {
-                tris.push(t);
-                weights.push(w);
-            }
-        }
-        let lights = TriangleSampler::weighted(mesh, &tris, &weights);
-        let mut light_pdf_area = vec![0.0; mesh.triangles.len()];
-        if let Some(l) = &lights {
-            for (k, &t) in l.triangles().iter().enumerate() {
-                light_pdf_area[t as usize] = l.pdf_area(k);
-            }
-        }
+        let (lights, light_pdf_area) =
+            crate::scene::emitter_sampler(mesh, |t| surfaces.emission(t));
         GrownLight {
             geometry,
             slf,
@@ -425,17 +411,7 @@ impl PathGrownRefiner {
         let records: Vec<Vec<Option<PixelRecord>>> =
             views.iter().map(|v| primary_records(geometry, v)).collect();
         stats.pixels = records.iter().flatten().flatten().count();
-        let mut out: Vec<ViewShadings> = views
-            .iter()
-            .zip(&records)
-            .map(|(v, r)| {
-                let mut s = ViewShadings::zeros(v.camera.width, v.camera.height, cfg.levels);
-                for (i, rec) in r.iter().enumerate() {
-                    s.valid[i] = rec.is_some();
-                }
-                s
-            })
-            .collect();
+        let mut out = empty_shadings(views, &records, cfg.levels);
         let Some(slf) = build_slf(
             &records,
             images,

@@ -89,6 +89,32 @@ impl SurfaceModel for LambertSurfaces {
     }
 }
 
+/// The emitter sampler of a mesh whose triangle `t` emits `emission(t)`: triangles chosen ∝
+/// area × luminance(Le) (None when nothing emits), and the area density of the samples on
+/// every mesh triangle (0 off the emitters), for the MIS weights of BRDF-sampled hits.
+pub fn emitter_sampler(
+    mesh: &Mesh,
+    emission: impl Fn(u32) -> Rgb,
+) -> (Option<TriangleSampler>, Vec<f32>) {
+    let mut tris = Vec::new();
+    let mut weights = Vec::new();
+    for t in 0..mesh.triangles.len() as u32 {
+        let w = mesh.area(t as usize) as f64 * luminance(emission(t)).max(0.0) as f64;
+        if w > 0.0 {
+            tris.push(t);
+            weights.push(w);
+        }
+    }
+    let lights = TriangleSampler::weighted(mesh, &tris, &weights);
+    let mut pdf_area = vec![0.0; mesh.triangles.len()];
+    if let Some(l) = &lights {
+        for (k, &t) in l.triangles().iter().enumerate() {
+            pdf_area[t as usize] = l.pdf_area(k);
+        }
+    }
+    (lights, pdf_area)
+}
+
 /// A scene ready for path tracing.
 pub struct Scene<S: SurfaceModel> {
     pub mesh: Mesh,
@@ -108,23 +134,7 @@ impl<S: SurfaceModel> Scene<S> {
     }
 
     pub fn with_bvh(mesh: Mesh, bvh: Bvh, surfaces: S) -> Self {
-        let mut tris = Vec::new();
-        let mut weights = Vec::new();
-        for t in 0..mesh.triangles.len() as u32 {
-            let le = surfaces.emission(t);
-            let w = mesh.area(t as usize) as f64 * luminance(le).max(0.0) as f64;
-            if w > 0.0 {
-                tris.push(t);
-                weights.push(w);
-            }
-        }
-        let lights = TriangleSampler::weighted(&mesh, &tris, &weights);
-        let mut light_pdf_area = vec![0.0; mesh.triangles.len()];
-        if let Some(l) = &lights {
-            for (k, &t) in l.triangles().iter().enumerate() {
-                light_pdf_area[t as usize] = l.pdf_area(k);
-            }
-        }
+        let (lights, light_pdf_area) = emitter_sampler(&mesh, |t| surfaces.emission(t));
         Scene {
             mesh,
             bvh,

@@ -69,29 +69,51 @@ fn floor_and_lamp(a: f32, h: f32, le: Vec3) -> (Mesh, Emitter) {
     (mesh, e)
 }
 
+/// [`floor_and_lamp`] with a rough grey floor and an empty SLF: all light comes from the lamp.
+struct LampScene {
+    mesh: Mesh,
+    geo: Geometry,
+    surfaces: FieldSurfaces,
+    slf: fipt_shading::slf::SurfaceLightField,
+}
+
+impl LampScene {
+    fn new(a: f32, h: f32, le: Vec3) -> Self {
+        let (mesh, e) = floor_and_lamp(a, h, le);
+        let field = Uniform(Material {
+            albedo: Vec3::splat(0.5),
+            roughness: 0.9,
+            metallic: 0.0,
+        });
+        let surfaces = FieldSurfaces::build(&field, &mesh, &[e], [], 0.1).unwrap();
+        let slf = SlfBuilder::new(
+            Cube {
+                min: Vec3::splat(-60.0),
+                size: 120.0,
+            },
+            16,
+        )
+        .finish();
+        LampScene {
+            geo: Geometry::new(mesh.clone()),
+            mesh,
+            surfaces,
+            slf,
+        }
+    }
+    fn light(&self) -> GrownLight<'_> {
+        GrownLight::new(&self.geo, &self.slf, &self.surfaces, &self.mesh, 0.6, 5)
+    }
+}
+
 /// Ld under a square lamp is Le times the form factor, with emitter samples (MIS with the
 /// cosine samples) and without; both within 1 %. The light samples cut the error's spread.
 #[test]
 fn next_event_estimation_matches_the_form_factor() {
     let (a, h) = (0.3f32, 1.0f32);
     let le = Vec3::new(1e-6, 3.0, 1e5); // extremes of radiance scale exactly
-    let (mesh, e) = floor_and_lamp(a, h, le);
-    let geo = Geometry::new(mesh.clone());
-    let field = Uniform(Material {
-        albedo: Vec3::splat(0.5),
-        roughness: 0.9,
-        metallic: 0.0,
-    });
-    let surfaces = FieldSurfaces::build(&field, &mesh, &[e], [], 0.1).unwrap();
-    let slf = SlfBuilder::new(
-        Cube {
-            min: Vec3::splat(-60.0),
-            size: 120.0,
-        },
-        16,
-    )
-    .finish();
-    let light = GrownLight::new(&geo, &slf, &surfaces, &mesh, 0.6, 5);
+    let scene = LampScene::new(a, h, le);
+    let (geo, light) = (&scene.geo, scene.light());
     let exact = le * 4.0 * corner_form_factor(a, a, h);
     let n = Vec3::Z;
     let spread = |n_cos: u32, n_light: u32| -> (f32, f32) {
@@ -102,7 +124,7 @@ fn next_event_estimation_matches_the_form_factor() {
                 let mut rng = Pcg32::from_keys(&[k, 7]);
                 let ld = diffuse_shading(
                     &light,
-                    &geo,
+                    geo,
                     Vec3::new(0.0, 0.0, 0.0),
                     n,
                     n,
@@ -150,23 +172,8 @@ fn next_event_estimation_matches_the_form_factor() {
 fn emitter_samples_leave_the_specular_shadings_unbiased() {
     let (a, h) = (0.3f32, 1.0f32);
     let le = Vec3::splat(4.0);
-    let (mesh, e) = floor_and_lamp(a, h, le);
-    let geo = Geometry::new(mesh.clone());
-    let field = Uniform(Material {
-        albedo: Vec3::splat(0.5),
-        roughness: 0.9,
-        metallic: 0.0,
-    });
-    let surfaces = FieldSurfaces::build(&field, &mesh, &[e], [], 0.1).unwrap();
-    let slf = SlfBuilder::new(
-        Cube {
-            min: Vec3::splat(-60.0),
-            size: 120.0,
-        },
-        16,
-    )
-    .finish();
-    let light = GrownLight::new(&geo, &slf, &surfaces, &mesh, 0.6, 5);
+    let scene = LampScene::new(a, h, le);
+    let (geo, light) = (&scene.geo, scene.light());
     let n = Vec3::Z;
     // Points beside the lamp, seen so that the mirror direction passes near it.
     for (p, wo) in [
@@ -186,7 +193,7 @@ fn emitter_samples_leave_the_specular_shadings_unbiased() {
             let mut rng = Pcg32::from_keys(&[key, 99]);
             specular_shading_mixture(
                 &light,
-                &geo,
+                geo,
                 p,
                 n,
                 n,
