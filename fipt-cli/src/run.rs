@@ -349,6 +349,16 @@ pub fn run(a: Args) -> Result<()> {
         (Ok(_), r) if r > 0 => format!("train{r}"),
         _ => "train".to_string(),
     };
+    println!("\n{:<10} {:>9} {:>14}", "stage", "seconds", "peak RSS MiB");
+    for st in &stages {
+        println!(
+            "{:<10} {:>9.1} {:>14}",
+            st.stage,
+            st.seconds,
+            st.peak_rss_mib
+                .map_or("–".to_string(), |m| format!("{m:.0}"))
+        );
+    }
     println!(
         "\nfipt run finished in {:.1} s",
         t_all.elapsed().as_secs_f64()

@@ -58,7 +58,11 @@ pub struct TrainConfig {
     pub table_from_data: bool,
     /// Set the finest level from the median pixel footprint ([`TrainConfig::sized_for`]).
     pub finest_from_data: bool,
-    /// The finest cell's width in median pixel footprints (with `finest_from_data`).
+    /// The finest cell's width in median pixel footprints (with `finest_from_data`). Default 4:
+    /// wider cells pool more pixels (less noise from the views and the shadings) but blur
+    /// texture edges; on `room` after one refinement, val kd measured 22.1 / 24.6 / 26.1 /
+    /// 26.8 / 27.5 dB at 1 / 2 / 3 / 4 / 6 footprints, with the checker floor visibly blurred
+    /// at 6.
     pub finest_cell_footprints: f32,
     /// Steps between checkpoints (0: only at the end).
     pub checkpoint_every: usize,
@@ -81,7 +85,7 @@ impl Default for TrainConfig {
             prior_ramp: [0.3, 0.6],
             table_from_data: true,
             finest_from_data: true,
-            finest_cell_footprints: 1.0,
+            finest_cell_footprints: 4.0,
             seed: 9,
             checkpoint_every: 500,
         }
