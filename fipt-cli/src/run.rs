@@ -30,8 +30,8 @@ pub struct Args {
     /// Settings preset: paper (the reference's sample counts, sizes and steps), balanced, fast.
     #[arg(long, default_value = "balanced")]
     pub preset: String,
-    /// A TOML or JSON file with `[bake]`, `[train]` and `[emitters]` sections laid over the
-    /// preset.
+    /// A TOML or JSON file with `[bake]`, `[train]`, `[emitters]`, `[refine]`, `[rounds]` and
+    /// `[render]` sections laid over the preset.
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// What to do with NaN/Inf/negative pixels.
