@@ -44,12 +44,14 @@ use std::time::Instant;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RefineConfig {
-    /// Cosine samples for Ld. Default 128 (the reference's refinement).
+    /// Cosine samples for Ld (per diffuse-cache cell). Default 512 (the reference: 128 per
+    /// pixel). Ld noise limits kd: on `room`, 512 + 64 emitter samples instead of 128 + 16
+    /// raised val kd from 26.7 to 27.9 dB for 32 s more.
     pub diffuse_samples: u32,
     /// GGX samples for Ls0/Ls1 at each level. Default 64 each (the reference's refinement).
     pub specular_samples: [u32; NUM_LEVELS],
     /// Emitter samples per Ld and per Ls estimate at the shading point (0 = none, as the
-    /// reference). Default 16.
+    /// reference). Default 64.
     pub light_samples: u32,
     /// Roughness above which a secondary hit returns the SLF. Default 0.6.
     pub rough_threshold: f32,
@@ -74,9 +76,9 @@ pub struct RefineConfig {
 impl Default for RefineConfig {
     fn default() -> Self {
         RefineConfig {
-            diffuse_samples: 128,
+            diffuse_samples: 512,
             specular_samples: [64; NUM_LEVELS],
-            light_samples: 16,
+            light_samples: 64,
             rough_threshold: 0.6,
             max_bounces: 5,
             levels: DEFAULT_LEVELS,
@@ -96,6 +98,7 @@ impl RefineConfig {
     /// shading point, strict SLF.
     pub fn paper() -> Self {
         RefineConfig {
+            diffuse_samples: 128,
             light_samples: 0,
             diffuse_cache: false,
             sampler: SamplerKind::Independent,
@@ -110,12 +113,12 @@ impl RefineConfig {
             ..Default::default()
         }
     }
-    /// A quarter of the samples.
+    /// Half the Ld samples, a quarter of the GGX samples.
     pub fn fast() -> Self {
         RefineConfig {
-            diffuse_samples: 64,
+            diffuse_samples: 256,
             specular_samples: [16; NUM_LEVELS],
-            light_samples: 8,
+            light_samples: 32,
             ..Default::default()
         }
     }
