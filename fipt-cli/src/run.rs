@@ -10,7 +10,7 @@ use fipt_core::fsutil::{write_bytes_atomic, write_json_atomic};
 use fipt_core::image::ExrPrecision;
 use fipt_emitter::{MaskExtractor, MaskExtractorConfig};
 use fipt_neural::TrainConfig;
-use fipt_shading::bake::{primary_records, BakeConfig};
+use fipt_shading::bake::{primary_records, BakeConfig, PixelRecord};
 use fipt_shading::field_surfaces::FieldSurfaces;
 use fipt_shading::refine::RefineConfig;
 use fipt_shading::render::RenderConfig;
@@ -149,7 +149,16 @@ pub fn run(a: Args) -> Result<()> {
 
     let t = std::time::Instant::now();
     let st = Stage::start("emitters");
-    let emitters = extract_emitters(&scene, &field, &shadings, &cfg.emitters)?;
+    // Primary hits of the training views, shared by the emitter extraction and the glossiness
+    // check below.
+    let records: Vec<_> = scene
+        .ds
+        .train()
+        .views
+        .iter()
+        .map(|v| primary_records(&scene.geometry, v))
+        .collect();
+    let emitters = extract_emitters(&scene, &records, &field, &shadings, &cfg.emitters)?;
     write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     st.done();
@@ -174,7 +183,7 @@ pub fn run(a: Args) -> Result<()> {
             "psnr_db": crate::eval::closure_psnr(&scene, &shadings)?,
         }));
     }
-    let glossy = glossy_fraction(&scene, &field, cfg.refine.rough_threshold)?;
+    let glossy = glossy_fraction(&records, &field, cfg.refine.rough_threshold)?;
     let refine_plan = if cfg.rounds.refinements == 0 {
         Err("skipped: rounds.refinements = 0".to_string())
     } else if emitters.is_empty() && glossy < 1e-3 {
@@ -384,18 +393,14 @@ pub fn run(a: Args) -> Result<()> {
 /// shadings say each pixel could at most reflect).
 fn extract_emitters(
     scene: &crate::scene::LoadedScene,
+    records: &[Vec<Option<PixelRecord>>],
     field: &dyn fipt_core::field::MaterialField,
     shadings: &[fipt_core::shading::ViewShadings],
     cfg: &MaskExtractorConfig,
 ) -> Result<Vec<Emitter>> {
-    let split = scene.ds.train();
     let mut hits = Vec::new();
-    for ((v, img), sh) in split.views.iter().zip(&scene.images).zip(shadings) {
-        for (i, (r, l)) in primary_records(&scene.geometry, v)
-            .iter()
-            .zip(&img.data)
-            .enumerate()
-        {
+    for ((recs, img), sh) in records.iter().zip(&scene.images).zip(shadings) {
+        for (i, (r, l)) in recs.iter().zip(&img.data).enumerate() {
             if let Some(r) = r {
                 let max_reflected = sh.valid[i].then(|| {
                     let m = |x: &[Vec3; fipt_core::shading::NUM_LEVELS]| {
@@ -426,16 +431,13 @@ fn extract_emitters(
 /// Fraction of the observed surface (every 7th primary hit of the training views) whose
 /// trained roughness is at most `threshold`.
 fn glossy_fraction(
-    scene: &crate::scene::LoadedScene,
+    records: &[Vec<Option<PixelRecord>>],
     field: &dyn fipt_core::field::MaterialField,
     threshold: f32,
 ) -> Result<f64> {
-    let pts: Vec<Vec3> = scene
-        .ds
-        .train()
-        .views
+    let pts: Vec<Vec3> = records
         .iter()
-        .flat_map(|v| primary_records(&scene.geometry, v))
+        .flatten()
         .flatten()
         .step_by(7)
         .map(|r| r.hit.p)
