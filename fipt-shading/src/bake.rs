@@ -220,22 +220,25 @@ pub struct SlfLight<'a> {
 }
 
 impl SlfLight<'_> {
+    /// The SLF radiance at the closest hit along `origin + t·dir` (None on a miss).
+    #[inline]
+    fn at_hit(&self, origin: Vec3, dir: Vec3) -> Option<Rgb> {
+        self.geometry
+            .intersect(origin, dir)
+            .map(|h| self.slf.lookup(h.p))
+    }
+    /// The radiance arriving at `origin` from `dir` (0 on a miss).
     #[inline]
     pub fn li(&self, origin: Vec3, dir: Vec3) -> Rgb {
-        match self.geometry.intersect(origin, dir) {
-            Some(h) => self.slf.lookup(h.p),
-            None => Vec3::ZERO,
-        }
+        self.at_hit(origin, dir).unwrap_or(Vec3::ZERO)
     }
 }
 
 impl IncidentLight for SlfLight<'_> {
     #[inline]
     fn incoming(&self, origin: Vec3, dir: Vec3, _rng: &mut Pcg32) -> Incoming {
-        match self.geometry.intersect(origin, dir) {
-            Some(h) => Incoming::Radiance(self.slf.lookup(h.p)),
-            None => Incoming::Miss,
-        }
+        self.at_hit(origin, dir)
+            .map_or(Incoming::Miss, Incoming::Radiance)
     }
 }
 
