@@ -20,27 +20,33 @@ fn tmp(name: &str) -> PathBuf {
     d
 }
 
-#[test]
-fn synth_info_render_round_trip() {
-    let dir = tmp("scene");
-    let d = dir.to_str().unwrap();
+/// `fipt synth cornell --out dir` with [views, val views, width, height, spp].
+fn synth_cornell(dir: &str, [views, val, w, h, spp]: [u32; 5]) {
+    let args = [views, val, w, h, spp].map(|v| v.to_string());
     let (ok, _, err) = fipt(&[
         "synth",
         "cornell",
         "--out",
-        d,
+        dir,
         "--views",
-        "3",
+        &args[0],
         "--val-views",
-        "1",
+        &args[1],
         "--width",
-        "24",
+        &args[2],
         "--height",
-        "16",
+        &args[3],
         "--spp",
-        "4",
+        &args[4],
     ]);
     assert!(ok, "{err}");
+}
+
+#[test]
+fn synth_info_render_round_trip() {
+    let dir = tmp("scene");
+    let d = dir.to_str().unwrap();
+    synth_cornell(d, [3, 1, 24, 16, 4]);
     // A second synth into the same folder refuses to overwrite.
     let (ok, _, err) = fipt(&["synth", "cornell", "--out", d]);
     assert!(
@@ -103,23 +109,7 @@ fn synth_info_render_round_trip() {
 fn bake_reuses_finished_work_and_invalidates_on_change() {
     let dir = tmp("bake-scene");
     let d = dir.to_str().unwrap();
-    let (ok, _, err) = fipt(&[
-        "synth",
-        "cornell",
-        "--out",
-        d,
-        "--views",
-        "3",
-        "--val-views",
-        "1",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--spp",
-        "4",
-    ]);
-    assert!(ok, "{err}");
+    synth_cornell(d, [3, 1, 16, 12, 4]);
     let out = tmp("bake-out");
     let o = out.to_str().unwrap();
     let cfg = dir.join("small.toml");
@@ -194,23 +184,7 @@ fn bake_reuses_finished_work_and_invalidates_on_change() {
 fn train_needs_a_bake_writes_maps_and_reuses_or_resumes() {
     let dir = tmp("train-scene");
     let d = dir.to_str().unwrap();
-    let (ok, _, err) = fipt(&[
-        "synth",
-        "cornell",
-        "--out",
-        d,
-        "--views",
-        "2",
-        "--val-views",
-        "1",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--spp",
-        "4",
-    ]);
-    assert!(ok, "{err}");
+    synth_cornell(d, [2, 1, 16, 12, 4]);
     let out = tmp("train-out");
     let o = out.to_str().unwrap();
     let cfg = dir.join("train.toml");
@@ -268,23 +242,7 @@ fn train_needs_a_bake_writes_maps_and_reuses_or_resumes() {
 fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     let dir = tmp("run-scene");
     let d = dir.to_str().unwrap();
-    let (ok, _, err) = fipt(&[
-        "synth",
-        "cornell",
-        "--out",
-        d,
-        "--views",
-        "12",
-        "--val-views",
-        "2",
-        "--width",
-        "48",
-        "--height",
-        "36",
-        "--spp",
-        "64",
-    ]);
-    assert!(ok, "{err}");
+    synth_cornell(d, [12, 2, 48, 36, 64]);
     let out = tmp("run-out");
     let o = out.to_str().unwrap();
     let cfg = dir.join("run.toml");
@@ -437,23 +395,7 @@ fn walk(dir: &std::path::Path) -> Vec<PathBuf> {
 fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
     let dir = tmp("kill-scene");
     let d = dir.to_str().unwrap();
-    let (ok, _, err) = fipt(&[
-        "synth",
-        "cornell",
-        "--out",
-        d,
-        "--views",
-        "3",
-        "--val-views",
-        "1",
-        "--width",
-        "24",
-        "--height",
-        "16",
-        "--spp",
-        "8",
-    ]);
-    assert!(ok, "{err}");
+    synth_cornell(d, [3, 1, 24, 16, 8]);
     let cfg = dir.join("run.toml");
     std::fs::write(
         &cfg,
