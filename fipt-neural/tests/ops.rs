@@ -190,20 +190,16 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
                 pv[k]
             );
         }
-        let gf = fused
-            .narrow(0, 0, 1)
-            .unwrap()
-            .sum_all()
-            .unwrap()
-            .backward()
-            .unwrap();
-        let gp = plain
-            .narrow(0, 0, 1)
-            .unwrap()
-            .sum_all()
-            .unwrap()
-            .backward()
-            .unwrap();
+        // Gradients of the total (term 0).
+        let grads = |t: &Tensor| {
+            t.narrow(0, 0, 1)
+                .unwrap()
+                .sum_all()
+                .unwrap()
+                .backward()
+                .unwrap()
+        };
+        let (gf, gp) = (grads(&fused), grads(&plain));
         for (vi, v) in vars.iter().enumerate() {
             let a = gf
                 .get(v.as_tensor())
