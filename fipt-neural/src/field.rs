@@ -2,9 +2,10 @@
 //! emission mask: positional encoding + MLP → α = 1 − exp(−relu(m)).
 use crate::error::{CandleContext, NeuralError, Result};
 use crate::hashgrid::{HashGrid, HashGridConfig, HashGridOp};
+use crate::mlp::Mlp;
 use crate::ops::positional_encoding;
 use candle_core::{DType, Device, Module, Tensor, Var};
-use candle_nn::{Linear, VarBuilder, VarMap};
+use candle_nn::{VarBuilder, VarMap};
 use fipt_core::field::{Material, MaterialField};
 use fipt_core::materials::MIN_ROUGHNESS;
 use fipt_core::rng::Pcg32;
@@ -67,46 +68,6 @@ impl Default for FieldConfig {
 /// The cube the grid covers (`unit = (p − min) / size`): fipt-core's [`Cube`], under the
 /// name the field's API uses.
 pub use fipt_core::cube::Cube as Bounds;
-
-/// A stack of linear layers with ReLU between them (none after the last).
-pub struct Mlp {
-    layers: Vec<Linear>,
-}
-
-impl Mlp {
-    /// `input → width (× hidden) → output`, parameters named `name.{i}.weight|bias`.
-    pub fn new(
-        vb: VarBuilder,
-        input: usize,
-        width: usize,
-        hidden: usize,
-        output: usize,
-    ) -> Result<Self> {
-        let mut dims = vec![input];
-        dims.extend(std::iter::repeat_n(width, hidden));
-        dims.push(output);
-        let layers = dims
-            .windows(2)
-            .enumerate()
-            .map(|(i, w)| candle_nn::linear(w[0], w[1], vb.pp(i.to_string())))
-            .collect::<candle_core::Result<Vec<_>>>()
-            .ctx("creating an MLP")?;
-        Ok(Mlp { layers })
-    }
-}
-
-impl Module for Mlp {
-    fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
-        let mut h = x.clone();
-        for (i, l) in self.layers.iter().enumerate() {
-            h = l.forward(&h)?;
-            if i + 1 < self.layers.len() {
-                h = h.relu()?;
-            }
-        }
-        Ok(h)
-    }
-}
 
 /// Outputs of a forward pass, each `[n, k]`.
 pub struct FieldOutput {
@@ -204,32 +165,31 @@ impl NeuralField {
             config.mask_hidden,
             1,
         )?;
-        // Deterministic initialisation (candle's CPU RNG cannot be seeded): He-uniform weights,
-        // small uniform biases.
+        // Deterministic initialisation (candle's CPU RNG cannot be seeded), layer by layer,
+        // mask first: biases uniform in ±0.1/√out, then He-uniform weights (±√(6/in)); the
+        // last layers' biases are the configured starting points.
         let mut rng = Pcg32::new(seed, 0x3C1D);
-        let last_mask_bias = format!("mask.{}.bias", config.mask_hidden);
-        let last_material_bias = format!("material.{}.bias", config.mlp_hidden);
-        for (name, var) in sorted_vars(&varmap) {
-            let dims = var.dims().to_vec();
-            let fan_in = if dims.len() == 2 { dims[1] } else { dims[0] } as f32;
-            let n: usize = dims.iter().product();
-            let values: Vec<f32> = if name == last_mask_bias {
-                vec![config.mask_init_bias; n]
-            } else if name == last_material_bias {
-                let mut b = vec![0.0; n];
-                b[4] = config.metallic_init_bias;
-                b
-            } else if name.ends_with("weight") {
-                let b = (6.0 / fan_in).sqrt();
-                (0..n).map(|_| (rng.next_f32() * 2.0 - 1.0) * b).collect()
-            } else {
-                let b = 1.0 / fan_in.sqrt();
-                (0..n)
-                    .map(|_| (rng.next_f32() * 2.0 - 1.0) * b * 0.1)
-                    .collect()
-            };
-            var.set(&Tensor::from_vec(values, dims, &device).ctx("init")?)
-                .ctx("init")?;
+        for (net, last_bias) in [
+            (&mask, vec![config.mask_init_bias]),
+            (&mlp, vec![0.0, 0.0, 0.0, 0.0, config.metallic_init_bias]),
+        ] {
+            let layers = net.layers();
+            let mut values = vec![0f32; layers.last().map_or(0, |l| l.bias.end)];
+            for (i, l) in layers.iter().enumerate() {
+                if i + 1 == layers.len() {
+                    values[l.bias.clone()].copy_from_slice(&last_bias);
+                } else {
+                    let b = 0.1 / (l.output as f32).sqrt();
+                    for v in &mut values[l.bias.clone()] {
+                        *v = (rng.next_f32() * 2.0 - 1.0) * b;
+                    }
+                }
+                let b = (6.0 / l.input as f32).sqrt();
+                for v in &mut values[l.weight.clone()] {
+                    *v = (rng.next_f32() * 2.0 - 1.0) * b;
+                }
+            }
+            net.set_params(values)?;
         }
         Ok(NeuralField {
             config,

@@ -9,6 +9,8 @@
 //!   α = 1 − exp(−relu(m)). Implements [`fipt_core::field::MaterialField`];
 //! * [`train::Trainer`]: batches of training pixels, the loss of the reference (sRGB-OETF MSE,
 //!   mask sparsity, roughness/metallic prior), Adam, checkpoints (safetensors) and exact resume;
+//! * [`mlp::Mlp`]: the field's MLPs, whose forward and backward are one fused CPU op each
+//!   (blocks of rows in parallel, matrix products by `gemm`);
 //! * [`plain`]: the same encoding from plain candle ops, the baseline of the benchmark.
 //!
 //! CPU by default; the `cuda` feature enables candle's CUDA backend for the MLPs (the hash
@@ -17,6 +19,7 @@ pub mod adam;
 pub mod error;
 pub mod field;
 pub mod hashgrid;
+pub mod mlp;
 pub mod ops;
 pub mod plain;
 pub mod train;

@@ -335,7 +335,8 @@ pub struct CheckpointMeta {
     pub inputs: String,
 }
 
-const CHECKPOINT_VERSION: u32 = 1;
+/// 2: each MLP is one packed `<name>.params` tensor (was one tensor per layer weight and bias).
+const CHECKPOINT_VERSION: u32 = 2;
 
 /// Runs the optimisation.
 pub struct Trainer {
