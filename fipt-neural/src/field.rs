@@ -1,7 +1,7 @@
 //! The neural material field: hash grid + MLP → (albedo, roughness, metallic), and the
 //! emission mask: positional encoding + MLP → α = 1 − exp(−relu(m)).
 use crate::error::{CandleContext, NeuralError, Result};
-use crate::hashgrid::{HashGrid, HashGridConfig, HashGridOp};
+use crate::hashgrid::{AdamConfig, HashGrid, HashGridConfig, HashGridOp};
 use crate::mlp::Mlp;
 use crate::ops::positional_encoding;
 use candle_core::{DType, Device, Module, Tensor, Var};
@@ -97,6 +97,17 @@ impl FieldOutput {
             .broadcast_mul(&self.metallic)?
             .broadcast_add(&self.metallic.affine(-0.04, 0.04)?)
     }
+}
+
+/// What the hash grid's backward does in a forward pass.
+#[derive(Clone, Copy)]
+enum GridGrad {
+    /// No backward (queries).
+    None,
+    /// Accumulate the tables' gradient.
+    Accumulate,
+    /// Accumulate and take the tables' Adam step.
+    Step(AdamConfig),
 }
 
 /// The trainable field.
@@ -232,7 +243,23 @@ impl NeuralField {
     /// Forward pass at unit-cube points. With `train`, the hash grid's backward is recorded
     /// (call `backward` on a loss built from the output, then step the optimisers).
     pub fn forward(&self, unit: &[[f32; 3]], train: bool) -> Result<FieldOutput> {
-        let (albedo, roughness, metallic) = self.material_forward(unit, train)?;
+        let grid = if train {
+            GridGrad::Accumulate
+        } else {
+            GridGrad::None
+        };
+        self.forward_with(unit, grid)
+    }
+
+    /// [`NeuralField::forward`] for training whose backward also takes the hash tables' Adam
+    /// step with `grid_adam` (level by level, while the touched entries are in cache): the
+    /// caller then steps only the MLPs' optimiser.
+    pub fn forward_step(&self, unit: &[[f32; 3]], grid_adam: AdamConfig) -> Result<FieldOutput> {
+        self.forward_with(unit, GridGrad::Step(grid_adam))
+    }
+
+    fn forward_with(&self, unit: &[[f32; 3]], grid: GridGrad) -> Result<FieldOutput> {
+        let (albedo, roughness, metallic) = self.material_forward(unit, grid)?;
         Ok(FieldOutput {
             albedo,
             roughness,
@@ -242,16 +269,23 @@ impl NeuralField {
     }
 
     /// Hash grid + material MLP: (albedo `[n, 3]`, σ `[n, 1]`, metallic `[n, 1]`).
-    fn material_forward(&self, unit: &[[f32; 3]], train: bool) -> Result<(Tensor, Tensor, Tensor)> {
+    fn material_forward(
+        &self,
+        unit: &[[f32; 3]],
+        grid: GridGrad,
+    ) -> Result<(Tensor, Tensor, Tensor)> {
         let n = unit.len();
-        let enc = if train {
+        let op = match grid {
+            GridGrad::None => None,
+            GridGrad::Accumulate => Some(HashGridOp::new(self.grid.clone())),
+            GridGrad::Step(cfg) => Some(HashGridOp::stepping(self.grid.clone(), cfg)),
+        };
+        let enc = if let Some(op) = op {
             let flat: Vec<f32> = unit.iter().flatten().copied().collect();
             let pts = Tensor::from_vec(flat, (n, 3), &self.device).ctx("points")?;
             // A Var input makes candle record the op, so that its backward is called.
             let v = Var::from_tensor(&pts).ctx("points")?;
-            v.as_tensor()
-                .apply_op1(HashGridOp(self.grid.clone()))
-                .ctx("hash grid")?
+            v.as_tensor().apply_op1(op).ctx("hash grid")?
         } else {
             Tensor::from_vec(
                 self.grid.encode(unit),
@@ -305,7 +339,7 @@ impl NeuralField {
         let mut mats = Vec::with_capacity(points.len());
         for chunk in points.chunks(65_536) {
             let (albedo, roughness, metallic) =
-                self.material_forward(&self.to_unit(chunk), false)?;
+                self.material_forward(&self.to_unit(chunk), GridGrad::None)?;
             let flat = |t: &Tensor| t.flatten_all().and_then(|t| t.to_vec1::<f32>());
             let (a, r, m) = (flat(&albedo), flat(&roughness), flat(&metallic));
             let (a, r, m) = (a.ctx("albedo")?, r.ctx("roughness")?, m.ctx("metallic")?);

@@ -20,8 +20,9 @@ use candle_core::{CpuStorage, CustomOp1, Layout, Shape, Tensor};
 use fipt_core::rng::Pcg32;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, RwLock};
+use std::sync::{Arc, RwLock};
 use std::time::Instant;
 
 /// Sizes of a hash-grid encoding.
@@ -127,7 +128,8 @@ fn corners(level: &Level, p: [f32; 3]) -> ([usize; 8], [f32; 8]) {
         } else {
             p[a].clamp(0.0, 1.0) * r as f32
         };
-        let c = (x.floor() as u32).min(r - 1);
+        // x ≥ 0, so truncation is floor (without a libm call on baseline x86-64).
+        let c = (x as u32).min(r - 1);
         cell[a] = c;
         frac[a] = (x - c as f32).clamp(0.0, 1.0);
     }
@@ -159,11 +161,66 @@ fn entry(level: &Level, c: [u32; 3]) -> usize {
     }
 }
 
-/// Gradient accumulation and optimiser state of the tables.
-struct Train {
-    /// Per entry, interleaved so that one touched entry is one cache line:
-    /// `[grad × F, m × F, v × F]`.
-    opt: Vec<f32>,
+/// Points processed ahead of the one being used: their records are prefetched, so that the
+/// random table accesses of several points are in flight at once.
+const AHEAD: usize = 8;
+
+/// Calls `f(i, corners, weights)` for every point at `level`, in order (corners indexed from
+/// the level's start), after prefetching the records of the points [`AHEAD`] further on:
+/// `record` floats each in the level's `records` (an address range only, so that `f` may hold
+/// the records mutably).
+#[inline]
+fn for_each_cell(
+    level: &Level,
+    points: &[[f32; 3]],
+    records: Range<*const f32>,
+    record: usize,
+    mut f: impl FnMut(usize, &[usize; 8], &[f32; 8]),
+) {
+    let mut ring = [([0usize; 8], [0f32; 8]); AHEAD];
+    for i in 0..points.len() + AHEAD {
+        if i >= AHEAD {
+            let (idx, w) = &ring[(i - AHEAD) % AHEAD];
+            f(i - AHEAD, idx, w);
+        }
+        if let Some(p) = points.get(i) {
+            let (mut idx, w) = corners(level, *p);
+            for e in &mut idx {
+                *e -= level.offset;
+                prefetch(&records, *e * record);
+            }
+            ring[i % AHEAD] = (idx, w);
+        }
+    }
+}
+
+/// A hint to fetch the cache line of element `at` of `buf` (no effect off x86-64 or out of
+/// range).
+#[inline(always)]
+fn prefetch(buf: &Range<*const f32>, at: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let p = buf.start.wrapping_add(at);
+        if p < buf.end {
+            // SAFETY: a prefetch reads nothing and never faults; the address is within `buf`.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    p as *const i8,
+                )
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (buf, at);
+}
+
+/// The tables with their gradient and optimiser state.
+struct Tables {
+    /// One record per entry, `[param × F, grad × F, m × F, v × F]` (32 bytes for F = 2): the
+    /// forward's gather, the backward's scatter and the Adam update of an entry all touch the
+    /// same cache line, where separate arrays cost three or four random memory accesses per
+    /// touched entry and step.
+    rec: Vec<f32>,
     /// Per level, a bit per entry: touched since the last step. A bitmap (64 KiB for a 2^19
     /// table) stays in cache where a per-entry stamp was one more random memory access per
     /// corner, and sweeping it yields the touched entries in table order without a sort.
@@ -171,11 +228,50 @@ struct Train {
     steps: u64,
 }
 
-/// Calls `f(e)` for every set bit `e` of `bits`, in increasing order, clearing them.
+/// Record components.
+const PARAM: usize = 0;
+const GRAD: usize = 1;
+const M: usize = 2;
+const V: usize = 3;
+
+/// One Adam update of a record (`f` features) from its accumulated gradient, which is
+/// cleared.
 #[inline]
-fn drain_bits(bits: &mut [u64], mut f: impl FnMut(usize)) {
-    for (wi, word) in bits.iter_mut().enumerate() {
-        let mut w = std::mem::take(word);
+fn adam_record(r: &mut [f32], f: usize, cfg: &AdamConfig, (lr_t, inv_sqrt_bc2): (f32, f32)) {
+    for j in 0..f {
+        let g = std::mem::take(&mut r[GRAD * f + j]);
+        let m = cfg.beta1 * r[M * f + j] + (1.0 - cfg.beta1) * g;
+        let v = cfg.beta2 * r[V * f + j] + (1.0 - cfg.beta2) * g * g;
+        r[M * f + j] = m;
+        r[V * f + j] = v;
+        // lr·(m/bc1)/(√(v/bc2) + ε) with the corrections folded into two per-step constants:
+        // one square root and one division per value (the update is bound by them).
+        r[PARAM * f + j] -= lr_t * m / (v.sqrt() * inv_sqrt_bc2 + cfg.eps);
+    }
+}
+
+/// Calls `f(e)` for every set bit `e` of `bits`, in increasing order, clearing them; the
+/// records (`record` floats each in the address range `records`) of the next word's entries
+/// are prefetched meanwhile.
+#[inline]
+fn drain_bits(
+    bits: &mut [u64],
+    records: Range<*const f32>,
+    record: usize,
+    mut f: impl FnMut(usize),
+) {
+    for wi in 0..bits.len() {
+        if let Some(&next) = bits.get(wi + 1) {
+            let mut w = next;
+            while w != 0 {
+                prefetch(
+                    &records,
+                    ((wi + 1) * 64 + w.trailing_zeros() as usize) * record,
+                );
+                w &= w - 1;
+            }
+        }
+        let mut w = std::mem::take(&mut bits[wi]);
         while w != 0 {
             f(wi * 64 + w.trailing_zeros() as usize);
             w &= w - 1;
@@ -210,14 +306,16 @@ pub struct GridTimers {
     pub forward_ns: AtomicU64,
     pub backward_ns: AtomicU64,
     pub adam_ns: AtomicU64,
+    /// The part of `adam_ns` spent inside the backward ([`HashGrid::accumulate_and_step`]),
+    /// excluded from `backward_ns`.
+    pub update_in_backward_ns: AtomicU64,
 }
 
 /// A multi-resolution hash grid: level table, feature tables and their optimiser state.
 pub struct HashGrid {
     config: HashGridConfig,
     levels: Vec<Level>,
-    params: RwLock<Vec<f32>>,
-    train: Mutex<Train>,
+    tables: RwLock<Tables>,
     pub timers: GridTimers,
 }
 
@@ -243,20 +341,24 @@ impl HashGrid {
             });
             offset += size;
         }
-        let n = offset * config.features;
+        let f = config.features;
         let mut rng = Pcg32::new(seed, 0x4A54);
         let s = config.init_scale;
-        let params: Vec<f32> = (0..n).map(|_| (rng.next_f32() * 2.0 - 1.0) * s).collect();
+        let mut rec = vec![0f32; offset * 4 * f];
+        for r in rec.chunks_exact_mut(4 * f) {
+            for v in &mut r[..f] {
+                *v = (rng.next_f32() * 2.0 - 1.0) * s;
+            }
+        }
         Ok(HashGrid {
-            train: Mutex::new(Train {
-                opt: vec![0.0; 3 * n],
+            tables: RwLock::new(Tables {
+                rec,
                 dirty: levels
                     .iter()
                     .map(|l| vec![0; l.size.div_ceil(64)])
                     .collect(),
                 steps: 0,
             }),
-            params: RwLock::new(params),
             levels,
             config,
             timers: GridTimers::default(),
@@ -271,7 +373,7 @@ impl HashGrid {
     }
     /// Number of trainable values.
     pub fn num_params(&self) -> usize {
-        self.params.read().unwrap().len()
+        self.levels.last().map_or(0, |l| l.offset + l.size) * self.config.features
     }
     /// Width of the encoding.
     pub fn output_dim(&self) -> usize {
@@ -279,11 +381,11 @@ impl HashGrid {
     }
     /// A copy of the tables.
     pub fn params(&self) -> Vec<f32> {
-        self.params.read().unwrap().clone()
+        self.component(PARAM)
     }
     /// Adam steps taken.
     pub fn steps(&self) -> u64 {
-        self.train.lock().unwrap().steps
+        self.tables.read().unwrap().steps
     }
 
     /// Encodes points of the unit cube (`[x, y, z]` triples, clamped to [0, 1]) into
@@ -292,21 +394,24 @@ impl HashGrid {
         let d = self.output_dim();
         let f = self.config.features;
         let mut out = vec![0f32; points.len() * d];
-        let params = self.params.read().unwrap();
-        out.par_chunks_mut(d * 64)
-            .zip(points.par_chunks(64))
+        let tables = self.tables.read().unwrap();
+        let rec = &tables.rec;
+        // Level by level over a block of points, the records of the next points prefetched.
+        out.par_chunks_mut(d * 256)
+            .zip(points.par_chunks(256))
             .for_each(|(rows, pts)| {
-                for (row, p) in rows.chunks_mut(d).zip(pts) {
-                    for (l, level) in self.levels.iter().enumerate() {
-                        let (idx, w) = corners(level, *p);
-                        let o = &mut row[l * f..(l + 1) * f];
+                for (l, level) in self.levels.iter().enumerate() {
+                    let base = level.offset * 4 * f;
+                    let recs = &rec[base..base + level.size * 4 * f];
+                    for_each_cell(level, pts, recs.as_ptr_range(), 4 * f, |i, idx, w| {
+                        let o = &mut rows[i * d + l * f..i * d + (l + 1) * f];
                         for k in 0..8 {
-                            let e = &params[idx[k] * f..idx[k] * f + f];
+                            let e = &recs[idx[k] * 4 * f..idx[k] * 4 * f + f];
                             for j in 0..f {
                                 o[j] += w[k] * e[j];
                             }
                         }
-                    }
+                    });
                 }
             });
         out
@@ -315,64 +420,82 @@ impl HashGrid {
     /// Adds the gradient of the tables for `d loss / d encoding = grad_out` (row per point) to
     /// the accumulated gradient, one level per task (levels own disjoint table ranges).
     pub fn accumulate_grad(&self, points: &[[f32; 3]], grad_out: &[f32]) {
+        self.backward(points, grad_out, None);
+    }
+
+    /// [`HashGrid::accumulate_grad`] then [`HashGrid::adam_step`], level by level: a level's
+    /// records are updated right after its gradient is complete, while they are still in
+    /// cache (the separate Adam pass read them all from memory again). The result is the same
+    /// as the two calls, bit for bit.
+    pub fn accumulate_and_step(&self, points: &[[f32; 3]], grad_out: &[f32], cfg: &AdamConfig) {
+        self.backward(points, grad_out, Some(cfg));
+    }
+
+    fn backward(&self, points: &[[f32; 3]], grad_out: &[f32], step: Option<&AdamConfig>) {
         let d = self.output_dim();
         let f = self.config.features;
         assert_eq!(grad_out.len(), points.len() * d, "gradient shape");
-        let mut guard = self.train.lock().unwrap();
-        let tr = &mut *guard;
-        let mut grad_slices = split_levels(&mut tr.opt, &self.levels, 3 * f);
-        grad_slices
+        let mut guard = self.tables.write().unwrap();
+        let tb = &mut *guard;
+        let bias = step.map(|cfg| {
+            tb.steps += 1;
+            bias_corrections(cfg, tb.steps)
+        });
+        let update_ns = AtomicU64::new(0);
+        let mut rec_slices = split_levels(&mut tb.rec, &self.levels, 4 * f);
+        rec_slices
             .par_iter_mut()
-            .zip(tr.dirty.par_iter_mut())
+            .zip(tb.dirty.par_iter_mut())
             .zip(self.levels.par_iter().enumerate())
-            .for_each(|((g, dirty), (l, level))| {
-                for (p, go) in points.iter().zip(grad_out.chunks_exact(d)) {
-                    let go = &go[l * f..(l + 1) * f];
+            .for_each(|((rec, dirty), (l, level))| {
+                let range = rec.as_ptr_range();
+                for_each_cell(level, points, range, 4 * f, |i, idx, w| {
+                    let go = &grad_out[i * d + l * f..i * d + (l + 1) * f];
                     if go.iter().all(|&x| x == 0.0) {
-                        continue;
+                        return;
                     }
-                    let (idx, w) = corners(level, *p);
                     for k in 0..8 {
-                        let e = idx[k] - level.offset;
+                        let e = idx[k];
+                        let g = &mut rec[e * 4 * f + GRAD * f..e * 4 * f + GRAD * f + f];
                         for j in 0..f {
-                            g[e * 3 * f + j] += w[k] * go[j];
+                            g[j] += w[k] * go[j];
                         }
                         dirty[e >> 6] |= 1 << (e & 63);
                     }
+                });
+                if let (Some(cfg), Some(bias)) = (step, bias) {
+                    let t0 = Instant::now();
+                    drain_bits(dirty, rec.as_ptr_range(), 4 * f, |e| {
+                        adam_record(&mut rec[e * 4 * f..(e + 1) * 4 * f], f, cfg, bias)
+                    });
+                    update_ns.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
                 }
             });
+        // The updates ran inside the level tasks: book their share of the wall time (their
+        // summed time over the threads) as the optimiser's; the op books the rest as backward.
+        let update = update_ns.into_inner() / rayon::current_num_threads().max(1) as u64;
+        self.timers.adam_ns.fetch_add(update, Ordering::Relaxed);
+        self.timers
+            .update_in_backward_ns
+            .fetch_add(update, Ordering::Relaxed);
     }
 
     /// One lazy-Adam step on the entries touched since the last step; clears their gradient.
     pub fn adam_step(&self, cfg: &AdamConfig) {
         let t0 = Instant::now();
         let f = self.config.features;
-        let mut guard = self.train.lock().unwrap();
-        let tr = &mut *guard;
-        tr.steps += 1;
-        let t = tr.steps as i32;
-        let bc1 = 1.0 - cfg.beta1.powi(t);
-        let bc2 = 1.0 - cfg.beta2.powi(t);
-        let mut params = self.params.write().unwrap();
-        let p_s = split_levels(&mut params, &self.levels, f);
-        let o_s = split_levels(&mut tr.opt, &self.levels, 3 * f);
-        p_s.into_par_iter()
-            .zip(o_s)
-            .zip(tr.dirty.par_iter_mut())
-            .for_each(|((p, o), dirty)| {
+        let mut guard = self.tables.write().unwrap();
+        let tb = &mut *guard;
+        tb.steps += 1;
+        let bias = bias_corrections(cfg, tb.steps);
+        split_levels(&mut tb.rec, &self.levels, 4 * f)
+            .into_par_iter()
+            .zip(tb.dirty.par_iter_mut())
+            .for_each(|(rec, dirty)| {
                 // In table order, the scattered entries become a forward sweep the hardware
-                // prefetcher can follow (cornell, 16 levels: 19.3 → 13.7 ms a step).
-                drain_bits(dirty, |e| {
-                    let st = &mut o[e * 3 * f..(e + 1) * 3 * f];
-                    for j in 0..f {
-                        let gj = st[j];
-                        st[j] = 0.0;
-                        let m = cfg.beta1 * st[f + j] + (1.0 - cfg.beta1) * gj;
-                        let v = cfg.beta2 * st[2 * f + j] + (1.0 - cfg.beta2) * gj * gj;
-                        st[f + j] = m;
-                        st[2 * f + j] = v;
-                        p[e * f + j] -= cfg.lr * (m / bc1) / ((v / bc2).sqrt() + cfg.eps);
-                    }
+                // prefetcher can follow.
+                drain_bits(dirty, rec.as_ptr_range(), 4 * f, |e| {
+                    adam_record(&mut rec[e * 4 * f..(e + 1) * 4 * f], f, cfg, bias)
                 });
             });
         self.timers
@@ -382,40 +505,40 @@ impl HashGrid {
 
     /// The accumulated (not yet applied) gradient, for tests.
     pub fn pending_grad(&self) -> Vec<f32> {
-        self.interleaved(0)
+        self.component(GRAD)
     }
 
-    /// Component `c` (0 grad, 1 m, 2 v) of the optimiser state, entry-major.
-    fn interleaved(&self, c: usize) -> Vec<f32> {
+    /// Component `c` of the records, entry-major.
+    fn component(&self, c: usize) -> Vec<f32> {
         let f = self.config.features;
-        let tr = self.train.lock().unwrap();
-        tr.opt
-            .chunks_exact(3 * f)
-            .flat_map(|st| st[c * f..(c + 1) * f].iter().copied())
+        let tb = self.tables.read().unwrap();
+        tb.rec
+            .chunks_exact(4 * f)
+            .flat_map(|r| r[c * f..(c + 1) * f].iter().copied())
             .collect()
     }
 
     /// Discards the accumulated gradient.
     pub fn zero_grad(&self) {
-        let mut guard = self.train.lock().unwrap();
-        let tr = &mut *guard;
+        let mut guard = self.tables.write().unwrap();
+        let tb = &mut *guard;
         let f = self.config.features;
-        for (level, dirty) in self.levels.iter().zip(&mut tr.dirty) {
-            drain_bits(dirty, |e| {
-                let base = (level.offset + e) * 3 * f;
-                tr.opt[base..base + f].fill(0.0);
+        for (level, dirty) in self.levels.iter().zip(&mut tb.dirty) {
+            let base = tb.rec[level.offset * 4 * f..].as_ptr_range();
+            drain_bits(dirty, base, 4 * f, |e| {
+                let base = (level.offset + e) * 4 * f + GRAD * f;
+                tb.rec[base..base + f].fill(0.0);
             });
         }
     }
 
     /// Tables and optimiser state for a checkpoint: (params, m, v, steps).
     pub fn state(&self) -> (Vec<f32>, Vec<f32>, Vec<f32>, u64) {
-        let steps = self.train.lock().unwrap().steps;
         (
-            self.params(),
-            self.interleaved(1),
-            self.interleaved(2),
-            steps,
+            self.component(PARAM),
+            self.component(M),
+            self.component(V),
+            self.steps(),
         )
     }
 
@@ -433,24 +556,34 @@ impl HashGrid {
                 ),
             ));
         }
-        *self.params.write().unwrap() = params;
         let f = self.config.features;
-        let mut tr = self.train.lock().unwrap();
-        for (e, st) in tr.opt.chunks_exact_mut(3 * f).enumerate() {
-            st[..f].fill(0.0);
-            st[f..2 * f].copy_from_slice(&m[e * f..(e + 1) * f]);
-            st[2 * f..].copy_from_slice(&v[e * f..(e + 1) * f]);
+        let mut tb = self.tables.write().unwrap();
+        for (e, r) in tb.rec.chunks_exact_mut(4 * f).enumerate() {
+            let src = e * f..(e + 1) * f;
+            r[PARAM * f..PARAM * f + f].copy_from_slice(&params[src.clone()]);
+            r[GRAD * f..GRAD * f + f].fill(0.0);
+            r[M * f..M * f + f].copy_from_slice(&m[src.clone()]);
+            r[V * f..V * f + f].copy_from_slice(&v[src]);
         }
-        tr.steps = steps;
-        drop(tr);
-        self.zero_grad();
+        tb.dirty.iter_mut().for_each(|d| d.fill(0));
+        tb.steps = steps;
         Ok(())
     }
 
     /// Overwrites one table value (finite-difference tests).
     pub fn set_param(&self, i: usize, value: f32) {
-        self.params.write().unwrap()[i] = value;
+        let f = self.config.features;
+        self.tables.write().unwrap().rec[(i / f) * 4 * f + PARAM * f + i % f] = value;
     }
+}
+
+/// Adam's bias corrections at step `t` as `(lr / (1 − β1^t), 1 / √(1 − β2^t))`.
+fn bias_corrections(cfg: &AdamConfig, t: u64) -> (f32, f32) {
+    let t = t.min(i32::MAX as u64) as i32;
+    (
+        cfg.lr / (1.0 - cfg.beta1.powi(t)),
+        1.0 / (1.0 - cfg.beta2.powi(t)).sqrt(),
+    )
 }
 
 /// Splits a per-entry buffer (`width` values per entry) into per-level mutable slices.
@@ -466,9 +599,28 @@ fn split_levels<'a, T>(mut buf: &'a mut [T], levels: &[Level], width: usize) -> 
 
 /// The encoding as a candle op: input `[n, 3]` points of the unit cube, output
 /// `[n, levels·features]`. For gradients to flow, the input must track gradients (wrap it in a
-/// `Var`); the op's backward accumulates into the grid and returns no input gradient.
+/// `Var`); the op's backward accumulates into the grid and returns no input gradient. With
+/// `step`, the backward also takes the tables' Adam step ([`HashGrid::accumulate_and_step`]):
+/// the training loop's fast path.
 #[derive(Clone)]
-pub struct HashGridOp(pub Arc<HashGrid>);
+pub struct HashGridOp {
+    pub grid: Arc<HashGrid>,
+    pub step: Option<AdamConfig>,
+}
+
+impl HashGridOp {
+    /// The encoding; its backward accumulates the tables' gradient.
+    pub fn new(grid: Arc<HashGrid>) -> Self {
+        HashGridOp { grid, step: None }
+    }
+    /// The encoding; its backward accumulates the gradient and steps the tables with `cfg`.
+    pub fn stepping(grid: Arc<HashGrid>, cfg: AdamConfig) -> Self {
+        HashGridOp {
+            grid,
+            step: Some(cfg),
+        }
+    }
+}
 
 fn points_of(storage: &CpuStorage, layout: &Layout) -> candle_core::Result<Vec<[f32; 3]>> {
     let data = match storage {
@@ -498,9 +650,9 @@ impl CustomOp1 for HashGridOp {
     ) -> candle_core::Result<(CpuStorage, Shape)> {
         let t0 = Instant::now();
         let pts = points_of(storage, layout)?;
-        let out = self.0.encode(&pts);
-        let shape = Shape::from((pts.len(), self.0.output_dim()));
-        self.0
+        let out = self.grid.encode(&pts);
+        let shape = Shape::from((pts.len(), self.grid.output_dim()));
+        self.grid
             .timers
             .forward_ns
             .fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
@@ -514,15 +666,29 @@ impl CustomOp1 for HashGridOp {
         grad_res: &Tensor,
     ) -> candle_core::Result<Option<Tensor>> {
         let t0 = Instant::now();
+        let update0 = self
+            .grid
+            .timers
+            .update_in_backward_ns
+            .load(Ordering::Relaxed);
         // One flat copy; `to_vec2` would allocate a Vec per point on every training step.
         let flat = arg.flatten_all()?.to_vec1::<f32>()?;
         let pts: Vec<[f32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let g = grad_res.flatten_all()?.to_vec1::<f32>()?;
-        self.0.accumulate_grad(&pts, &g);
-        self.0
+        match &self.step {
+            Some(cfg) => self.grid.accumulate_and_step(&pts, &g, cfg),
+            None => self.grid.accumulate_grad(&pts, &g),
+        }
+        let update = self
+            .grid
             .timers
-            .backward_ns
-            .fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+            .update_in_backward_ns
+            .load(Ordering::Relaxed)
+            - update0;
+        self.grid.timers.backward_ns.fetch_add(
+            (t0.elapsed().as_nanos() as u64).saturating_sub(update),
+            Ordering::Relaxed,
+        );
         Ok(None)
     }
 }

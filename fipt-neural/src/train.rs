@@ -434,8 +434,13 @@ impl Trainer {
             gt: idx.iter().map(|&i| data.gt[i]).collect(),
         });
         let t1 = Instant::now();
-        let out = self.field.forward(&unit, true)?;
         let cfg = &self.config;
+        // The tables' Adam step is taken inside the backward (see `forward_step`).
+        let grid_adam = AdamConfig {
+            lr: cfg.adam.lr * cfg.grid_lr_factor,
+            ..cfg.adam
+        };
+        let out = self.field.forward_step(&unit, grid_adam)?;
         let loss = FactorizedLoss {
             batch,
             levels: self.level_weights.0,
@@ -452,11 +457,6 @@ impl Trainer {
         let grads = total.backward().ctx("backward")?;
         let t3 = Instant::now();
         self.adam.step(&grads)?;
-        let grid_adam = AdamConfig {
-            lr: cfg.adam.lr * cfg.grid_lr_factor,
-            ..cfg.adam
-        };
-        self.field.grid().adam_step(&grid_adam);
         let t4 = Instant::now();
         let v = terms.to_vec1::<f32>().ctx("loss value")?;
         self.step += 1;
