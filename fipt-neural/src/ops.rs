@@ -132,20 +132,26 @@ impl CustomOp1 for LevelWeights {
 /// NeRF positional encoding of points in [-1, 1]³: `[p, sin(2^k π p), cos(2^k π p)]` for
 /// k < `frequencies`, as rows of `3 + 6·frequencies` values.
 pub fn positional_encoding(points: &[[f32; 3]], frequencies: usize) -> Vec<f32> {
+    use rayon::prelude::*;
     let d = 3 + 6 * frequencies;
-    let mut out = Vec::with_capacity(points.len() * d);
-    for p in points {
-        out.extend_from_slice(p);
-        for k in 0..frequencies {
-            let f = (1u32 << k) as f32 * std::f32::consts::PI;
-            for &x in p {
-                out.push((f * x).sin());
+    let mut out = vec![0f32; points.len() * d];
+    // In parallel: 60 sin/cos per point are ~2.5 ms of a training step on one core.
+    out.par_chunks_mut(d * 512)
+        .zip(points.par_chunks(512))
+        .for_each(|(rows, pts)| {
+            for (row, p) in rows.chunks_exact_mut(d).zip(pts) {
+                row[..3].copy_from_slice(p);
+                for k in 0..frequencies {
+                    let f = (1u32 << k) as f32 * std::f32::consts::PI;
+                    let o = &mut row[3 + 6 * k..9 + 6 * k];
+                    for a in 0..3 {
+                        let (sin, cos) = (f * p[a]).sin_cos();
+                        o[a] = sin;
+                        o[3 + a] = cos;
+                    }
+                }
             }
-            for &x in p {
-                out.push((f * x).cos());
-            }
-        }
-    }
+        });
     out
 }
 
