@@ -107,7 +107,12 @@ fn encoding_step_ms(cfg: &TrainConfig, unit: &[Vec<[f32; 3]>], plain: bool) -> R
                 .as_tensor()
                 .apply_op1(HashGridOp::new(grid.clone()))?,
         };
-        let y = candle_nn::ops::sigmoid(&mlp.forward(&enc)?)?;
+        let h = if plain_enc.is_some() {
+            mlp.forward_candle(&enc)?
+        } else {
+            mlp.forward(&enc)?
+        };
+        let y = candle_nn::ops::sigmoid(&h)?;
         let loss = y.affine(1.0, -0.3)?.sqr()?.mean_all()?;
         opt.backward_step(&loss)?;
         if plain_enc.is_none() {
@@ -121,18 +126,73 @@ fn encoding_step_ms(cfg: &TrainConfig, unit: &[Vec<[f32; 3]>], plain: bool) -> R
     Ok(times[times.len() / 2] * 1e3)
 }
 
+/// Median forward + backward of one MLP on 8192 rows: the fused op or plain candle ops.
+fn mlp_step_ms(
+    input: usize,
+    width: usize,
+    hidden: usize,
+    output: usize,
+    plain: bool,
+) -> Result<f64> {
+    let dev = Device::Cpu;
+    let varmap = VarMap::new();
+    let mlp = Mlp::new(
+        VarBuilder::from_varmap(&varmap, DType::F32, &dev),
+        input,
+        width,
+        hidden,
+        output,
+    )?;
+    let mut r = Pcg32::new(3, 4);
+    let n = mlp.params().elem_count();
+    mlp.set_params((0..n).map(|_| r.next_f32() * 0.2 - 0.1).collect())?;
+    let x = Var::from_tensor(&Tensor::from_vec(
+        (0..8192 * input).map(|_| r.next_f32()).collect::<Vec<_>>(),
+        (8192, input),
+        &dev,
+    )?)?;
+    let mut times = vec![];
+    for k in 0..23 {
+        let t0 = Instant::now();
+        let y = if plain {
+            mlp.forward_candle(x.as_tensor())?
+        } else {
+            mlp.forward(x.as_tensor())?
+        };
+        let grads = y.sqr()?.mean_all()?.backward()?;
+        anyhow::ensure!(
+            grads.get(mlp.params().as_tensor()).is_some(),
+            "no MLP gradient"
+        );
+        if k >= 3 {
+            times.push(t0.elapsed().as_secs_f64());
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(times[times.len() / 2] * 1e3)
+}
+
 pub fn run(quick: bool, out: &Path) -> Result<()> {
-    let steps = if quick { 6 } else { 25 };
+    let steps = if quick { 6 } else { 50 };
     let (data, bounds) = samples(if quick { 300_000 } else { 1_000_000 });
     eprintln!(
         "{} synthetic surface samples; batch 8192; {steps} timed steps per preset",
         data.len()
     );
+    // The samples' spacing stands for the median pixel footprint a real run measures:
+    // √(surface area / samples) (the three boxes have 150 + 6 + 9.5 m² of faces).
+    let footprint = (165.5 / data.len() as f32).sqrt();
     let mut presets = vec![];
-    for name in ["fast", "balanced", "paper"] {
+    // Each preset as a run sizes it on data with that footprint, then without a footprint
+    // (the finest level stays at the preset's fixed scale: for balanced, 2000 cells across).
+    let sizings = [("data", Some(footprint)), ("no_footprint", None)];
+    for (name, (sizing, fp)) in ["fast", "balanced", "paper"]
+        .into_iter()
+        .flat_map(|n| sizings.iter().map(move |s| (n, *s)))
+    {
         let mut cfg = TrainConfig::preset(name)
             .unwrap()
-            .sized_for(data.len(), None, &bounds);
+            .sized_for(data.len(), fp, &bounds);
         cfg.steps = steps + 3;
         let mut t = Trainer::new(cfg.clone(), bounds, data.levels)?;
         for _ in 0..3 {
@@ -140,10 +200,16 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         }
         let warm = t.timings;
         let t0 = Instant::now();
+        let mut each = Vec::with_capacity(steps);
         for _ in 0..steps {
+            let t1 = Instant::now();
             t.step(&data)?;
+            each.push(t1.elapsed().as_secs_f64());
         }
         let secs = t0.elapsed().as_secs_f64();
+        // The median step is robust to the other work of a shared machine.
+        each.sort_by(f64::total_cmp);
+        let median = each[each.len() / 2];
         let tm = t.timings;
         let grid = (tm.grid_forward - warm.grid_forward)
             + (tm.grid_backward - warm.grid_backward)
@@ -152,10 +218,14 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         let total = tm.total() - warm.total();
         let row = serde_json::json!({
             "preset": name,
+            "sizing": sizing,
+            "footprint_m": fp,
             "levels": cfg.field.grid.levels,
+            "per_level_scale": cfg.field.grid.per_level_scale,
             "log2_table": cfg.field.grid.log2_table,
             "params": t.field.num_params(),
             "steps_per_second": steps as f64 / secs,
+            "steps_per_second_median": 1.0 / median,
             "ms_per_step": ms(secs, steps),
             "ms_hash_grid": ms(grid, steps),
             "ms_hash_grid_forward": ms(tm.grid_forward - warm.grid_forward, steps),
@@ -167,7 +237,17 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
             "ms_mlp_optimizer": ms(opt, steps),
             "ms_batch_gather": ms(tm.batch - warm.batch, steps),
         });
-        eprintln!("{row}");
+        eprintln!(
+            "{name:>8} sized {sizing:<12} finest {:>5.0} cells, 2^{} tables: {:.1} steps/s (median step {:.1}); ms per step: hash grid {:.1}, MLPs and loss {:.1}, batch {:.1}",
+            cfg.field.grid.base_resolution as f32
+                * cfg.field.grid.per_level_scale.powi(cfg.field.grid.levels as i32 - 1),
+            cfg.field.grid.log2_table,
+            steps as f64 / secs,
+            1.0 / median,
+            row["ms_hash_grid"].as_f64().unwrap_or(0.0),
+            row["ms_mlp_and_loss"].as_f64().unwrap_or(0.0),
+            row["ms_batch_gather"].as_f64().unwrap_or(0.0),
+        );
         presets.push(row);
     }
     // Custom op vs plain candle ops, same sizes (balanced), same MLP, same loss.
@@ -182,7 +262,35 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         .collect();
     let custom = encoding_step_ms(&cfg, &batches, false)?;
     let plain = encoding_step_ms(&cfg, &batches, true)?;
-    eprintln!("encoding + MLP + Adam step, balanced sizes: custom op {custom:.1} ms, plain candle {plain:.1} ms (×{:.2})", plain / custom);
+    eprintln!("encoding + MLP + Adam step, balanced sizes: custom ops {custom:.1} ms, plain candle {plain:.1} ms (×{:.2})", plain / custom);
+    let mut mlps = vec![];
+    for (name, input, width, output) in [
+        (
+            "material",
+            cfg.field.grid.output_dim(),
+            cfg.field.mlp_width,
+            5,
+        ),
+        (
+            "mask",
+            3 + 6 * cfg.field.mask_frequencies,
+            cfg.field.mask_width,
+            1,
+        ),
+    ] {
+        let hidden = if name == "mask" {
+            cfg.field.mask_hidden
+        } else {
+            cfg.field.mlp_hidden
+        };
+        let fused = mlp_step_ms(input, width, hidden, output, false)?;
+        let plain = mlp_step_ms(input, width, hidden, output, true)?;
+        eprintln!("{name} MLP forward + backward, 8192 rows: fused op {fused:.2} ms, plain candle {plain:.2} ms (×{:.2})", plain / fused);
+        mlps.push(serde_json::json!({
+            "mlp": name, "input": input, "width": width, "hidden": hidden, "output": output,
+            "fused_ms": fused, "plain_candle_ms": plain, "speedup": plain / fused,
+        }));
+    }
     let report = serde_json::json!({
         "suite": "train",
         "threads": rayon::current_num_threads(),
@@ -190,6 +298,7 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         "batch": 8192,
         "presets": presets,
         "encoding_step_ms": {"custom_op": custom, "plain_candle": plain, "speedup": plain / custom},
+        "mlp_step_ms": mlps,
         "peak_rss_mib": crate::bench::peak_rss_mib(),
     });
     write_json_atomic(out, &report)?;

@@ -235,14 +235,14 @@ pub fn stage(
     let done = (trainer.step_count() - first).max(1);
     let sps = done as f64 / secs.max(1e-9);
     eprintln!(
-        "{sps:.1} steps/s; per step: batch {:.1} ms, forward {:.1} ms (hash grid {:.1}), backward {:.1} ms (hash grid {:.1}), optimiser {:.1} ms (hash grid {:.1})",
+        "{sps:.1} steps/s; per step: batch {:.1} ms, forward {:.1} ms (hash grid {:.1}), backward {:.1} ms (hash grid {:.1}, with its Adam update {:.1}), MLP optimiser {:.1} ms",
         t.batch / done as f64 * 1e3,
         t.forward / done as f64 * 1e3,
         t.grid_forward / done as f64 * 1e3,
         t.backward / done as f64 * 1e3,
-        t.grid_backward / done as f64 * 1e3,
-        t.optimizer / done as f64 * 1e3,
+        (t.grid_backward + t.grid_optimizer) / done as f64 * 1e3,
         t.grid_optimizer / done as f64 * 1e3,
+        t.optimizer / done as f64 * 1e3,
     );
     let l = trainer.last;
     eprintln!(

@@ -305,10 +305,14 @@ pub struct TrainTimings {
     pub steps: usize,
     pub batch: f64,
     pub forward: f64,
+    /// The whole backward, the hash tables' Adam update included (it runs inside it).
     pub backward: f64,
+    /// The MLPs' optimiser.
     pub optimizer: f64,
     pub grid_forward: f64,
+    /// The tables' gradient scatter (part of `backward`).
     pub grid_backward: f64,
+    /// The tables' Adam update (part of `backward`).
     pub grid_optimizer: f64,
 }
 
