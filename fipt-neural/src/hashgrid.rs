@@ -623,18 +623,11 @@ impl HashGridOp {
 }
 
 fn points_of(storage: &CpuStorage, layout: &Layout) -> candle_core::Result<Vec<[f32; 3]>> {
-    let data = match storage {
-        CpuStorage::F32(v) => v,
-        _ => candle_core::bail!("hash grid: points must be f32"),
-    };
     let dims = layout.shape().dims();
     if dims.len() != 2 || dims[1] != 3 {
         candle_core::bail!("hash grid: points must be [n, 3], got {:?}", dims);
     }
-    let slice = match layout.contiguous_offsets() {
-        Some((a, b)) => &data[a..b],
-        None => candle_core::bail!("hash grid: points must be contiguous"),
-    };
+    let slice = crate::ops::contiguous(storage, layout, "hash grid points")?;
     Ok(slice.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
 }
 

@@ -12,6 +12,7 @@
 //! the optimiser see an ordinary `[input, params] → output` op. Layer `i` occupies
 //! `W_i` (`[out, in]`, row-major, `y = x·Wᵀ + b` as candle's `Linear`) then `b_i` (`[out]`).
 use crate::error::{CandleContext, Result};
+use crate::ops::contiguous;
 use candle_core::{CpuStorage, CustomOp2, Layout, Module, Shape, Tensor, Var};
 use candle_nn::VarBuilder;
 use rayon::prelude::*;
@@ -143,17 +144,6 @@ pub struct MlpOp {
     /// Hidden activations of the last forward, layer-major (`[n, width]` per hidden layer),
     /// for the backward.
     stash: Arc<Mutex<Vec<f32>>>,
-}
-
-fn contiguous<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> candle_core::Result<&'a [f32]> {
-    let data = match s {
-        CpuStorage::F32(v) => v,
-        _ => candle_core::bail!("mlp: {what} must be f32"),
-    };
-    match l.contiguous_offsets() {
-        Some((a, b)) => Ok(&data[a..b]),
-        None => candle_core::bail!("mlp: {what} must be contiguous"),
-    }
 }
 
 /// `c (+)= a · b` on row/column-strided views: `c` is `m × n` (row stride `c_rs`, unit column
@@ -293,8 +283,8 @@ impl CustomOp2 for MlpOp {
         s2: &CpuStorage,
         l2: &Layout,
     ) -> candle_core::Result<(CpuStorage, Shape)> {
-        let x = contiguous(s1, l1, "input")?;
-        let p = contiguous(s2, l2, "parameters")?;
+        let x = contiguous(s1, l1, "fused-mlp input")?;
+        let p = contiguous(s2, l2, "fused-mlp parameters")?;
         let (d_in, d_out) = (self.dims[0], *self.dims.last().unwrap());
         let n_params = layer_ranges(&self.dims).last().map_or(0, |l| l.bias.end);
         if l1.shape().dims() != [x.len() / d_in.max(1), d_in] || p.len() != n_params {

@@ -9,7 +9,12 @@
 use candle_core::{CpuStorage, CustomOp1, Layout, Shape, Tensor};
 use fipt_core::shading::{level_segment, NUM_LEVELS};
 
-fn contiguous<'a>(s: &'a CpuStorage, l: &Layout, name: &str) -> candle_core::Result<&'a [f32]> {
+/// The f32 values of a contiguous CPU tensor; `name` says which in errors.
+pub(crate) fn contiguous<'a>(
+    s: &'a CpuStorage,
+    l: &Layout,
+    name: &str,
+) -> candle_core::Result<&'a [f32]> {
     let data = match s {
         CpuStorage::F32(v) => v,
         _ => candle_core::bail!("{name}: expects f32"),
