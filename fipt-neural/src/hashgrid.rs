@@ -11,7 +11,9 @@
 //! costs ~50 ms on 2 cores whatever the batch. Instead the op's backward (called by candle's
 //! autograd, so the MLP after it keeps candle's gradients) accumulates into the grid's own
 //! gradient buffer and records which entries were touched; [`HashGrid::adam_step`] then updates
-//! only those entries (lazy Adam: moments of untouched entries are left as they are).
+//! only those entries (lazy Adam: moments of untouched entries are left as they are). The
+//! training loop uses [`HashGrid::accumulate_and_step`], which does both level by level inside
+//! the backward, while a level's touched entries are still in cache.
 //!
 //! Level resolutions are computed once, in [`HashGrid::new`], and every code path reads that
 //! table: recomputing `base·scale^l` at two call sites can round differently and move corners.
