@@ -264,7 +264,7 @@ impl NeuralField {
             albedo,
             roughness,
             metallic,
-            alpha: self.mask_forward(unit)?,
+            alpha: self.mask_forward(unit, !matches!(grid, GridGrad::None))?,
         })
     }
 
@@ -280,6 +280,7 @@ impl NeuralField {
             GridGrad::Accumulate => Some(HashGridOp::new(self.grid.clone())),
             GridGrad::Step(cfg) => Some(HashGridOp::stepping(self.grid.clone(), cfg)),
         };
+        let record = op.is_some();
         let enc = if let Some(op) = op {
             let flat: Vec<f32> = unit.iter().flatten().copied().collect();
             let pts = Tensor::from_vec(flat, (n, 3), &self.device).ctx("points")?;
@@ -294,7 +295,12 @@ impl NeuralField {
             )
             .ctx("hash grid")?
         };
-        let h = self.mlp.forward(&enc).ctx("material MLP")?;
+        let h = if record {
+            self.mlp.forward(&enc)
+        } else {
+            self.mlp.forward_inference(&enc)
+        }
+        .ctx("material MLP")?;
         let s = candle_nn::ops::sigmoid(&h).ctx("sigmoid")?;
         let albedo = s.narrow(1, 0, 3).ctx("albedo")?;
         let roughness = s
@@ -305,8 +311,8 @@ impl NeuralField {
         Ok((albedo, roughness, metallic))
     }
 
-    /// Positional encoding + mask MLP: α `[n, 1]`.
-    fn mask_forward(&self, unit: &[[f32; 3]]) -> Result<Tensor> {
+    /// Positional encoding + mask MLP: α `[n, 1]`; `record`: for a backward.
+    fn mask_forward(&self, unit: &[[f32; 3]], record: bool) -> Result<Tensor> {
         let n = unit.len();
         let signed: Vec<[f32; 3]> = unit
             .iter()
@@ -315,7 +321,12 @@ impl NeuralField {
         let pe = positional_encoding(&signed, self.config.mask_frequencies);
         let pe = Tensor::from_vec(pe, (n, 3 + 6 * self.config.mask_frequencies), &self.device)
             .ctx("positional encoding")?;
-        let m = self.mask.forward(&pe).ctx("mask MLP")?;
+        let m = if record {
+            self.mask.forward(&pe)
+        } else {
+            self.mask.forward_inference(&pe)
+        }
+        .ctx("mask MLP")?;
         let act = match self.config.mask_activation {
             MaskActivation::Relu => m.relu(),
             // softplus(x) = relu(x) + ln(1 + exp(−|x|)), stable for any x.
@@ -356,7 +367,7 @@ impl NeuralField {
     pub fn query_mask(&self, points: &[Vec3]) -> Result<Vec<f32>> {
         let mut alphas = Vec::with_capacity(points.len());
         for chunk in points.chunks(65_536) {
-            let al = self.mask_forward(&self.to_unit(chunk))?;
+            let al = self.mask_forward(&self.to_unit(chunk), false)?;
             alphas.extend(
                 al.flatten_all()
                     .and_then(|t| t.to_vec1::<f32>())

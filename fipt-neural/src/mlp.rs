@@ -103,8 +103,14 @@ impl Mlp {
     /// The same network in plain candle ops (matmul, broadcast_add, relu), for tests and
     /// benchmarks against the fused op, and for devices without a fused kernel.
     pub fn forward_candle(&self, x: &Tensor) -> candle_core::Result<Tensor> {
-        let p = self.params.as_tensor();
-        let layers = self.layers();
+        Mlp::forward_candle_with(&self.layers(), x, self.params.as_tensor())
+    }
+
+    fn forward_candle_with(
+        layers: &[LayerRange],
+        x: &Tensor,
+        p: &Tensor,
+    ) -> candle_core::Result<Tensor> {
         let mut h = x.clone();
         for (i, l) in layers.iter().enumerate() {
             let w = p
@@ -130,7 +136,27 @@ impl Module for Mlp {
             self.params.as_tensor(),
             MlpOp {
                 dims: self.dims.clone(),
-                stash: Arc::new(Mutex::new(Vec::new())),
+                stash: Some(Arc::new(Mutex::new(Vec::new()))),
+            },
+        )
+    }
+}
+
+impl Mlp {
+    /// [`Module::forward`] for queries: no gradient is recorded and the hidden activations
+    /// are not kept (a 65,536-row query chunk kept 32 MB of them for a backward that never
+    /// comes, as the parameters are a `Var`).
+    pub fn forward_inference(&self, x: &Tensor) -> candle_core::Result<Tensor> {
+        let params = self.params.as_tensor().detach();
+        let x = x.detach();
+        if !x.device().is_cpu() {
+            return Mlp::forward_candle_with(&self.layers(), &x, &params);
+        }
+        x.apply_op2(
+            &params,
+            MlpOp {
+                dims: self.dims.clone(),
+                stash: None,
             },
         )
     }
@@ -141,9 +167,9 @@ impl Module for Mlp {
 #[derive(Clone)]
 pub struct MlpOp {
     dims: Vec<usize>,
-    /// Hidden activations of the last forward, layer-major (`[n, width]` per hidden layer),
-    /// for the backward.
-    stash: Arc<Mutex<Vec<f32>>>,
+    /// Where the forward leaves its hidden activations for the backward (block-major: each
+    /// block's hidden layers together); `None` for queries, which keep none.
+    stash: Option<Arc<Mutex<Vec<f32>>>>,
 }
 
 /// `c (+)= a · b` on row/column-strided views: `c` is `m × n` (row stride `c_rs`, unit column
@@ -302,16 +328,29 @@ impl CustomOp2 for MlpOp {
         // owns one contiguous slice; at least one value per row, so that a network without
         // hidden layers still splits into the same blocks.
         let per_row: usize = widths.iter().sum::<usize>().max(1);
-        let mut stash = vec![0f32; n * per_row];
-        out.par_chunks_mut(BLOCK * d_out)
-            .zip(stash.par_chunks_mut(BLOCK * per_row))
-            .zip(x.par_chunks(BLOCK * d_in))
-            .for_each(|((o, st), xb)| {
-                let rows = xb.len() / d_in;
-                let mut hidden = split_ranges(st, &self.hidden_offsets(rows));
-                self.forward_block(p, xb, &mut hidden, o);
-            });
-        *self.stash.lock().unwrap() = stash;
+        match &self.stash {
+            Some(keep) => {
+                let mut stash = vec![0f32; n * per_row];
+                out.par_chunks_mut(BLOCK * d_out)
+                    .zip(stash.par_chunks_mut(BLOCK * per_row))
+                    .zip(x.par_chunks(BLOCK * d_in))
+                    .for_each(|((o, st), xb)| {
+                        let rows = xb.len() / d_in;
+                        let mut hidden = split_ranges(st, &self.hidden_offsets(rows));
+                        self.forward_block(p, xb, &mut hidden, o);
+                    });
+                *keep.lock().unwrap() = stash;
+            }
+            None => out
+                .par_chunks_mut(BLOCK * d_out)
+                .zip(x.par_chunks(BLOCK * d_in))
+                .for_each(|(o, xb)| {
+                    let rows = xb.len() / d_in;
+                    let mut st = vec![0f32; rows * per_row];
+                    let mut hidden = split_ranges(&mut st, &self.hidden_offsets(rows));
+                    self.forward_block(p, xb, &mut hidden, o);
+                }),
+        }
         Ok((CpuStorage::F32(out), Shape::from((n, d_out))))
     }
 
@@ -330,7 +369,10 @@ impl CustomOp2 for MlpOp {
         let n = x.len() / d_in;
         let widths = &self.dims[1..self.dims.len() - 1];
         let per_row: usize = widths.iter().sum::<usize>().max(1);
-        let mut stash = std::mem::take(&mut *self.stash.lock().unwrap());
+        let mut stash = match &self.stash {
+            Some(keep) => std::mem::take(&mut *keep.lock().unwrap()),
+            None => Vec::new(),
+        };
         if stash.len() != n * per_row {
             // No forward recorded for this input (the op was not run through `cpu_fwd`):
             // recompute the activations.

@@ -171,3 +171,17 @@ fn fused_gradient_is_identical_across_thread_counts() {
     assert_eq!(a.1, b.1);
     assert_eq!(a.2, b.2);
 }
+
+#[test]
+fn inference_forward_matches_and_records_no_gradient() {
+    let (mlp, _vm) = net(63, 64, 2, 1, 5);
+    let mut r = Pcg32::new(2, 2);
+    let rows = 700;
+    let x = Tensor::from_vec(random(rows * 63, 1.0, &mut r), (rows, 63), &Device::Cpu).unwrap();
+    let a = mlp.forward(&x).unwrap();
+    let b = mlp.forward_inference(&x).unwrap();
+    assert!(a.track_op(), "the training forward records the op");
+    assert!(!b.track_op(), "a query records nothing");
+    let flat = |t: &Tensor| t.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+    assert_eq!(flat(&a), flat(&b));
+}
