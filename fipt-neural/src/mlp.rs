@@ -127,18 +127,9 @@ impl Mlp {
 }
 
 impl Module for Mlp {
-    /// The fused op on CPU; plain candle ops elsewhere.
+    /// The fused op on CPU (activations kept for the backward); plain candle ops elsewhere.
     fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
-        if !x.device().is_cpu() {
-            return self.forward_candle(x);
-        }
-        x.apply_op2(
-            self.params.as_tensor(),
-            MlpOp {
-                dims: self.dims.clone(),
-                stash: Some(Arc::new(Mutex::new(Vec::new()))),
-            },
-        )
+        self.fused(x, self.params.as_tensor(), true)
     }
 }
 
@@ -147,16 +138,19 @@ impl Mlp {
     /// are not kept (a 65,536-row query chunk kept 32 MB of them for a backward that never
     /// comes, as the parameters are a `Var`).
     pub fn forward_inference(&self, x: &Tensor) -> candle_core::Result<Tensor> {
-        let params = self.params.as_tensor().detach();
-        let x = x.detach();
+        self.fused(&x.detach(), &self.params.as_tensor().detach(), false)
+    }
+
+    fn fused(&self, x: &Tensor, params: &Tensor, keep: bool) -> candle_core::Result<Tensor> {
         if !x.device().is_cpu() {
-            return Mlp::forward_candle_with(&self.layers(), &x, &params);
+            return Mlp::forward_candle_with(&self.layers(), x, params);
         }
         x.apply_op2(
-            &params,
+            params,
             MlpOp {
+                layers: self.layers(),
                 dims: self.dims.clone(),
-                stash: None,
+                stash: keep.then(|| Arc::new(Mutex::new(Vec::new()))),
             },
         )
     }
@@ -167,6 +161,8 @@ impl Mlp {
 #[derive(Clone)]
 pub struct MlpOp {
     dims: Vec<usize>,
+    /// `layer_ranges(dims)`, computed once.
+    layers: Vec<LayerRange>,
     /// Where the forward leaves its hidden activations for the backward (block-major: each
     /// block's hidden layers together); `None` for queries, which keep none.
     stash: Option<Arc<Mutex<Vec<f32>>>>,
@@ -238,7 +234,7 @@ impl MlpOp {
     /// Forward of rows `x` (`[rows, dims[0]]`) into `out`, with each hidden layer's
     /// activations written to `hidden[i]` (`[rows, dims[i + 1]]`).
     fn forward_block(&self, p: &[f32], x: &[f32], hidden: &mut [&mut [f32]], out: &mut [f32]) {
-        let layers = layer_ranges(&self.dims);
+        let layers = &self.layers;
         let rows = x.len() / self.dims[0];
         for (i, l) in layers.iter().enumerate() {
             let (done, rest) = hidden.split_at_mut(i);
@@ -267,6 +263,27 @@ impl MlpOp {
                 dst.iter_mut().for_each(|v| *v = v.max(0.0));
             }
         }
+    }
+
+    /// Forward of all rows of `x` into `out`, each block's hidden activations into its slice
+    /// of `stash` (`per_row` values per row, block-major).
+    fn forward_keeping(
+        &self,
+        p: &[f32],
+        x: &[f32],
+        out: &mut [f32],
+        stash: &mut [f32],
+        per_row: usize,
+    ) {
+        let (d_in, d_out) = (self.dims[0], *self.dims.last().unwrap());
+        out.par_chunks_mut(BLOCK * d_out)
+            .zip(stash.par_chunks_mut(BLOCK * per_row))
+            .zip(x.par_chunks(BLOCK * d_in))
+            .for_each(|((o, st), xb)| {
+                let rows = xb.len() / d_in;
+                let mut hidden = split_ranges(st, &self.hidden_offsets(rows));
+                self.forward_block(p, xb, &mut hidden, o);
+            });
     }
 
     /// Hidden-layer widths and their offsets in a `rows`-row stash.
@@ -312,7 +329,7 @@ impl CustomOp2 for MlpOp {
         let x = contiguous(s1, l1, "fused-mlp input")?;
         let p = contiguous(s2, l2, "fused-mlp parameters")?;
         let (d_in, d_out) = (self.dims[0], *self.dims.last().unwrap());
-        let n_params = layer_ranges(&self.dims).last().map_or(0, |l| l.bias.end);
+        let n_params = self.layers.last().map_or(0, |l| l.bias.end);
         if l1.shape().dims() != [x.len() / d_in.max(1), d_in] || p.len() != n_params {
             candle_core::bail!(
                 "mlp: input {:?} and {} parameters for widths {:?}",
@@ -331,14 +348,7 @@ impl CustomOp2 for MlpOp {
         match &self.stash {
             Some(keep) => {
                 let mut stash = vec![0f32; n * per_row];
-                out.par_chunks_mut(BLOCK * d_out)
-                    .zip(stash.par_chunks_mut(BLOCK * per_row))
-                    .zip(x.par_chunks(BLOCK * d_in))
-                    .for_each(|((o, st), xb)| {
-                        let rows = xb.len() / d_in;
-                        let mut hidden = split_ranges(st, &self.hidden_offsets(rows));
-                        self.forward_block(p, xb, &mut hidden, o);
-                    });
+                self.forward_keeping(p, x, &mut out, &mut stash, per_row);
                 *keep.lock().unwrap() = stash;
             }
             None => out
@@ -364,7 +374,7 @@ impl CustomOp2 for MlpOp {
         let x = arg1.flatten_all()?.to_vec1::<f32>()?;
         let p = arg2.to_vec1::<f32>()?;
         let g = grad_res.flatten_all()?.to_vec1::<f32>()?;
-        let layers = layer_ranges(&self.dims);
+        let layers = &self.layers;
         let (d_in, d_out) = (self.dims[0], *self.dims.last().unwrap());
         let n = x.len() / d_in;
         let widths = &self.dims[1..self.dims.len() - 1];
@@ -377,16 +387,7 @@ impl CustomOp2 for MlpOp {
             // No forward recorded for this input (the op was not run through `cpu_fwd`):
             // recompute the activations.
             stash = vec![0f32; n * per_row];
-            let mut scratch = vec![0f32; n * d_out];
-            stash
-                .par_chunks_mut(BLOCK * per_row)
-                .zip(x.par_chunks(BLOCK * d_in))
-                .zip(scratch.par_chunks_mut(BLOCK * d_out))
-                .for_each(|((st, xb), o)| {
-                    let rows = xb.len() / d_in;
-                    let mut hidden = split_ranges(st, &self.hidden_offsets(rows));
-                    self.forward_block(&p, xb, &mut hidden, o);
-                });
+            self.forward_keeping(&p, &x, &mut vec![0f32; n * d_out], &mut stash, per_row);
         }
         let want_dx = arg1.track_op();
         // Per block: its share of the parameter gradient, and its rows of dx.
