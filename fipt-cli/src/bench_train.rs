@@ -59,6 +59,12 @@ fn samples(n: usize) -> (TrainingSet, Bounds) {
     )
 }
 
+/// The median of timings (the upper one of an even count).
+fn median(mut t: Vec<f64>) -> f64 {
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
 fn ms(x: f64, n: usize) -> f64 {
     x / n as f64 * 1e3
 }
@@ -122,8 +128,7 @@ fn encoding_step_ms(cfg: &TrainConfig, unit: &[Vec<[f32; 3]>], plain: bool) -> R
             times.push(t0.elapsed().as_secs_f64());
         }
     }
-    times.sort_by(f64::total_cmp);
-    Ok(times[times.len() / 2] * 1e3)
+    Ok(median(times) * 1e3)
 }
 
 /// Median forward + backward of one MLP on 8192 rows: the fused op or plain candle ops.
@@ -168,8 +173,7 @@ fn mlp_step_ms(
             times.push(t0.elapsed().as_secs_f64());
         }
     }
-    times.sort_by(f64::total_cmp);
-    Ok(times[times.len() / 2] * 1e3)
+    Ok(median(times) * 1e3)
 }
 
 pub fn run(quick: bool, out: &Path) -> Result<()> {
@@ -208,8 +212,7 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         }
         let secs = t0.elapsed().as_secs_f64();
         // The median step is robust to the other work of a shared machine.
-        each.sort_by(f64::total_cmp);
-        let median = each[each.len() / 2];
+        let median = median(each);
         let tm = t.timings;
         let grid = (tm.grid_forward - warm.grid_forward)
             + (tm.grid_backward - warm.grid_backward)
@@ -238,9 +241,8 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
             "ms_batch_gather": ms(tm.batch - warm.batch, steps),
         });
         eprintln!(
-            "{name:>8} sized {sizing:<12} finest {:>5.0} cells, 2^{} tables: {:.1} steps/s (median step {:.1}); ms per step: hash grid {:.1}, MLPs and loss {:.1}, batch {:.1}",
-            cfg.field.grid.base_resolution as f32
-                * cfg.field.grid.per_level_scale.powi(cfg.field.grid.levels as i32 - 1),
+            "{name:>8} sized {sizing:<12} finest {:>5} cells, 2^{} tables: {:.1} steps/s (median step {:.1}); ms per step: hash grid {:.1}, MLPs and loss {:.1}, batch {:.1}",
+            t.field.grid().levels().last().map_or(0, |l| l.resolution),
             cfg.field.grid.log2_table,
             steps as f64 / secs,
             1.0 / median,
@@ -264,25 +266,23 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
     let plain = encoding_step_ms(&cfg, &batches, true)?;
     eprintln!("encoding + MLP + Adam step, balanced sizes: custom ops {custom:.1} ms, plain candle {plain:.1} ms (×{:.2})", plain / custom);
     let mut mlps = vec![];
-    for (name, input, width, output) in [
+    let f = &cfg.field;
+    for (name, input, width, hidden, output) in [
         (
             "material",
-            cfg.field.grid.output_dim(),
-            cfg.field.mlp_width,
+            f.grid.output_dim(),
+            f.mlp_width,
+            f.mlp_hidden,
             5,
         ),
         (
             "mask",
-            3 + 6 * cfg.field.mask_frequencies,
-            cfg.field.mask_width,
+            3 + 6 * f.mask_frequencies,
+            f.mask_width,
+            f.mask_hidden,
             1,
         ),
     ] {
-        let hidden = if name == "mask" {
-            cfg.field.mask_hidden
-        } else {
-            cfg.field.mlp_hidden
-        };
         let fused = mlp_step_ms(input, width, hidden, output, false)?;
         let plain = mlp_step_ms(input, width, hidden, output, true)?;
         eprintln!("{name} MLP forward + backward, 8192 rows: fused op {fused:.2} ms, plain candle {plain:.2} ms (×{:.2})", plain / fused);
