@@ -24,25 +24,25 @@ fn q8(v: Vec3) -> Vec3 {
     (v.clamp(Vec3::ZERO, Vec3::ONE) * 255.0).round() / 255.0
 }
 
-fn mean(v: &[Option<f64>]) -> Option<f64> {
-    let x: Vec<f64> = v
-        .iter()
+/// The views' finite values (a view without the quantity, or with an undefined PSNR, counts
+/// for neither the mean nor the median).
+fn finite(v: &[Option<f64>]) -> Vec<f64> {
+    v.iter()
         .flatten()
         .copied()
         .filter(|x| x.is_finite())
-        .collect();
+        .collect()
+}
+
+fn mean(v: &[Option<f64>]) -> Option<f64> {
+    let x = finite(v);
     (!x.is_empty()).then(|| x.iter().sum::<f64>() / x.len() as f64)
 }
 
 /// Median of the finite values: next to the protocol's mean, which one near-exact view (a
 /// PSNR of 60–100 dB, e.g. a view of walls whose σ = 1 is met exactly) can carry.
 fn median(v: &[Option<f64>]) -> Option<f64> {
-    let mut x: Vec<f64> = v
-        .iter()
-        .flatten()
-        .copied()
-        .filter(|x| x.is_finite())
-        .collect();
+    let mut x = finite(v);
     x.sort_by(f64::total_cmp);
     let n = x.len();
     (n > 0).then(|| {
