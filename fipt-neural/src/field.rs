@@ -110,6 +110,13 @@ enum GridGrad {
     Step(AdamConfig),
 }
 
+impl GridGrad {
+    /// Whether the pass is recorded for a backward (the MLPs then keep their activations).
+    fn records(self) -> bool {
+        !matches!(self, GridGrad::None)
+    }
+}
+
 /// The trainable field.
 pub struct NeuralField {
     config: FieldConfig,
@@ -264,7 +271,7 @@ impl NeuralField {
             albedo,
             roughness,
             metallic,
-            alpha: self.mask_forward(unit, !matches!(grid, GridGrad::None))?,
+            alpha: self.mask_forward(unit, grid.records())?,
         })
     }
 
@@ -280,7 +287,7 @@ impl NeuralField {
             GridGrad::Accumulate => Some(HashGridOp::new(self.grid.clone())),
             GridGrad::Step(cfg) => Some(HashGridOp::stepping(self.grid.clone(), cfg)),
         };
-        let record = op.is_some();
+        let record = grid.records();
         let enc = if let Some(op) = op {
             let flat: Vec<f32> = unit.iter().flatten().copied().collect();
             let pts = Tensor::from_vec(flat, (n, 3), &self.device).ctx("points")?;
