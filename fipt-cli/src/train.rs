@@ -4,16 +4,17 @@ use crate::info::Policy;
 use crate::progress::{bar, Stage};
 use crate::scene::LoadedScene;
 use anyhow::{bail, Context, Result};
-use fipt_core::dataset::View;
+use fipt_core::dataset::{GtKind, View};
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{ExrPrecision, Image};
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_geom::Geometry;
-use fipt_neural::train::{render_factorized, StepLosses, TrainTimings};
+use fipt_neural::train::{render_factorized, SegmentSource, StepLosses, TrainTimings};
 use fipt_neural::{Bounds, NeuralField, TrainConfig, Trainer, TrainingSet};
 use fipt_shading::bake::primary_records;
 use fipt_shading::bake_store::{fingerprint, load_for_inputs};
 use glam::Vec3;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -144,6 +145,46 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
+/// Attaches the scene's part ids (`IndexMA/`) to the training set as `source` asks; with them,
+/// a fingerprint of the id files.
+fn with_segments(
+    scene: &LoadedScene,
+    data: TrainingSet,
+    source: SegmentSource,
+) -> Result<(TrainingSet, Option<String>)> {
+    let split = scene.ds.train();
+    let has_parts = split.has_gt(GtKind::IndexMA);
+    match source {
+        SegmentSource::None => return Ok((data, None)),
+        SegmentSource::Auto if !has_parts => {
+            eprintln!("no part ids (IndexMA/) in the scene: training without the segment prior");
+            return Ok((data, None));
+        }
+        SegmentSource::Parts if !has_parts => bail!(
+            "train.segments = \"parts\" but {} has no IndexMA/ folder (use \"auto\" or \"none\")",
+            split.dir.display()
+        ),
+        _ => {}
+    }
+    let ids = (0..split.views.len())
+        .into_par_iter()
+        .map(|k| {
+            scene
+                .ds
+                .load_ids(split, GtKind::IndexMA, k)
+                .map(|v| v.unwrap_or_default())
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .context("reading the part ids (IndexMA/)")?;
+    let files: Vec<PathBuf> = (0..split.views.len())
+        .map(|k| split.gt_path(GtKind::IndexMA, k))
+        .collect();
+    let hash = fipt_core::fsutil::hash_files(&files)?;
+    let data = data.with_segments(&ids)?;
+    eprintln!("segment prior on {} parts (IndexMA/)", data.segments);
+    Ok((data, Some(hash)))
+}
+
 /// The training stage: reuses a finished run in `dir` (same inputs and settings) unless
 /// `force`, resumes an interrupted one, or trains afresh (from `warm`'s field, identified by
 /// its fingerprint, when given). `shadings_id` fingerprints the shadings. Returns the field,
@@ -157,11 +198,6 @@ pub fn stage(
     force: bool,
     warm: Option<(&NeuralField, &str)>,
 ) -> Result<(NeuralField, TrainManifest, bool)> {
-    let inputs = format!(
-        "{}+shadings:{shadings_id}+warm:{}",
-        scene.inputs_hash,
-        warm.map_or("none", |w| w.1)
-    );
     let split = scene.ds.train();
     let st = Stage::start("training set");
     let (points, footprint) = view_points(&scene.geometry, &split.views);
@@ -169,7 +205,16 @@ pub fn stage(
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
     let data = TrainingSet::new(&points, shadings, &scene.images, &bounds)?;
+    let (data, segments_id) = with_segments(scene, data, cfg.segments)?;
     let cfg = cfg.sized_for(data.len(), footprint, &bounds);
+    let mut inputs = format!(
+        "{}+shadings:{shadings_id}+warm:{}",
+        scene.inputs_hash,
+        warm.map_or("none", |w| w.1)
+    );
+    if let Some(id) = segments_id {
+        inputs += &format!("+parts:{id}");
+    }
     st.done();
     if !force {
         if let Ok(m) = read_json::<TrainManifest>(&dir.join("manifest.json")) {

@@ -207,6 +207,42 @@ impl Dataset {
     }
 }
 
+impl Dataset {
+    /// The per-pixel ids of an id map (`IndexMA/` parts or `segmentation/` classes) of view `k`,
+    /// from its first channel: non-negative whole numbers are ids; negative, fractional or
+    /// non-finite values mean "no id" (−1). `None` when the split has no such folder.
+    pub fn load_ids(&self, split: &Split, kind: GtKind, k: usize) -> Result<Option<Vec<i64>>> {
+        if !split.has_gt(kind) {
+            return Ok(None);
+        }
+        let p = split.gt_path(kind, k);
+        let img = Image::read_exr(&p)?;
+        if (img.width, img.height) != (self.width, self.height) {
+            return Err(CoreError::SizeMismatch {
+                path: p,
+                got_w: img.width,
+                got_h: img.height,
+                expected_w: self.width,
+                expected_h: self.height,
+                hint: "an id map must have the size of its view".into(),
+            });
+        }
+        Ok(Some(
+            img.data
+                .iter()
+                .map(|v| {
+                    let x = v.x;
+                    if x.is_finite() && x >= 0.0 && x.fract() == 0.0 && x < 1e15 {
+                        x as i64
+                    } else {
+                        -1
+                    }
+                })
+                .collect(),
+        ))
+    }
+}
+
 fn load_checked(
     path: &Path,
     w: usize,

@@ -167,14 +167,36 @@ pub struct LossBatch {
     pub ls0: Vec<[[f32; 3]; NUM_LEVELS]>,
     pub ls1: Vec<[[f32; 3]; NUM_LEVELS]>,
     pub gt: Vec<[f32; 3]>,
+    /// Dense segment id of each pixel (`< segments`, or [`NO_SEGMENT`]: the prior skips it), for
+    /// the segment-consistency prior; empty when the scene has no segmentation.
+    pub segment: Vec<u32>,
+    /// Number of segment ids.
+    pub segments: usize,
 }
+
+/// The specular weight of a pixel in its segment's mean (method §4.3, the reference's
+/// part prior): the mean over channels of its specular shading ks·Ls0(σ) + Ls1(σ), plus 1e-4,
+/// so that the pixels whose σ and m the views observe (highlights) decide the segment's
+/// values. Not differentiated (a constant of each step).
+pub const SEGMENT_WEIGHT_FLOOR: f32 = 1e-4;
+
+/// The segment id of a pixel that belongs to no segment.
+pub const NO_SEGMENT: u32 = u32::MAX;
 
 /// The whole training loss of method §4.3 fused into one op (the per-pixel shading
 /// composition, sRGB OETF, MSE, mask sparsity and the roughness/metallic prior), instead of
 /// ~30 small candle ops and their backward.
 ///
-/// Input `[n, 6]`: albedo (3), σ, metallic, α per pixel (after their activations). Output `[4]`:
-/// total, image MSE, mean α, prior; the backward honours gradients on all four.
+/// The prior is `roughness_prior_scale·|σ − 1| + m` (L1) or the squares (L2).
+///
+/// Input `[n, 6]`: albedo (3), σ, metallic, α per pixel (after their activations). Output `[5]`:
+/// total, image MSE, mean α, prior, segment prior; the backward honours gradients on all five.
+///
+/// The segment prior (the reference's part prior, used when the batch has segment ids):
+/// `mean_j |σ_j − σ̄_s(j)| + |m_j − m̄_s(j)|`, where σ̄_s and m̄_s are the means over the batch's
+/// pixels of segment s weighted by each pixel's specular shading ([`SEGMENT_WEIGHT_FLOOR`]).
+/// σ and m are only observable where a surface shows a highlight; this carries them across
+/// the rest of the surface, where the roughness prior alone pulls σ to 1.
 #[derive(Clone, Debug)]
 pub struct FactorizedLoss {
     pub batch: std::sync::Arc<LossBatch>,
@@ -183,6 +205,31 @@ pub struct FactorizedLoss {
     pub prior_weight: f32,
     /// L1 (the reference) or L2 prior.
     pub prior_l1: bool,
+    /// Weight of the segment prior (ignored when the batch has no segment ids).
+    pub segment_weight: f32,
+    /// Scale of the prior's roughness part (1: the reference's mean|σ − 1| + mean(m)).
+    pub roughness_prior_scale: f32,
+}
+
+/// Per-segment sums of one batch: Σw, Σw·σ, Σw·m, then Σsign(σ − σ̄), Σsign(m − m̄).
+#[derive(Clone, Debug, Default)]
+struct SegmentSums {
+    w: Vec<f64>,
+    mean_sigma: Vec<f32>,
+    mean_m: Vec<f32>,
+    sign_sigma: Vec<f32>,
+    sign_m: Vec<f32>,
+}
+
+#[inline]
+fn sign(x: f32) -> f32 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
 }
 
 /// Per-pixel terms: (Σ_c e_c², α, prior) and the gradient of each term w.r.t. the 6 inputs.
@@ -220,14 +267,19 @@ impl FactorizedLoss {
             d[4] += dr * (-a[c] * ld[c] + (a[c] - 0.04) * s0);
             d[5] += dp * (g[c] - r);
         }
+        let k = self.roughness_prior_scale;
         let (prior, dps, dpm) = if self.prior_l1 {
             (
-                (sigma - 1.0).abs() + m,
-                if sigma < 1.0 { -1.0 } else { 1.0 },
+                k * (sigma - 1.0).abs() + m,
+                if sigma < 1.0 { -k } else { k },
                 1.0,
             )
         } else {
-            ((sigma - 1.0).powi(2) + m * m, 2.0 * (sigma - 1.0), 2.0 * m)
+            (
+                k * (sigma - 1.0).powi(2) + m * m,
+                k * 2.0 * (sigma - 1.0),
+                2.0 * m,
+            )
         };
         let mut d_prior = [0f32; 6];
         d_prior[3] = dps;
@@ -241,6 +293,73 @@ impl FactorizedLoss {
     }
 }
 
+impl FactorizedLoss {
+    fn has_segments(&self) -> bool {
+        !self.batch.segment.is_empty()
+    }
+
+    /// The specular shading weight of pixel `j` in its segment's means.
+    #[inline]
+    fn segment_weight_of(&self, j: usize, x: &[f32]) -> f32 {
+        let b = &*self.batch;
+        let (sigma, m) = (x[3], x[4]);
+        let (i, t, _) = LevelWeights(self.levels).locate(sigma);
+        let mut sum = 0.0;
+        for c in 0..3 {
+            let s0 = b.ls0[j][i][c] * (1.0 - t) + b.ls0[j][i + 1][c] * t;
+            let s1 = b.ls1[j][i][c] * (1.0 - t) + b.ls1[j][i + 1][c] * t;
+            let ks = 0.04 * (1.0 - m) + x[c] * m;
+            sum += ks * s0 + s1;
+        }
+        let w = sum / 3.0;
+        // Shadings are non-negative; a NaN or negative weight must not reach the means.
+        (if w.is_finite() { w.max(0.0) } else { 0.0 }) + SEGMENT_WEIGHT_FLOOR
+    }
+
+    /// The weighted means and sign sums of every segment (sequential: a fixed order of
+    /// summation, and only a few flops per pixel).
+    fn segment_sums(&self, x: &[f32]) -> SegmentSums {
+        let b = &*self.batch;
+        let k = b.segments;
+        let n = b.segment.len();
+        let (mut w, mut ws, mut wm) = (vec![0f64; k], vec![0f64; k], vec![0f64; k]);
+        for j in 0..n {
+            if b.segment[j] == NO_SEGMENT {
+                continue;
+            }
+            let r = &x[6 * j..6 * j + 6];
+            let s = b.segment[j] as usize;
+            let wj = self.segment_weight_of(j, r) as f64;
+            w[s] += wj;
+            ws[s] += wj * r[3] as f64;
+            wm[s] += wj * r[4] as f64;
+        }
+        let mean = |a: &[f64]| -> Vec<f32> {
+            a.iter()
+                .zip(&w)
+                .map(|(a, w)| if *w > 0.0 { (a / w) as f32 } else { 0.0 })
+                .collect()
+        };
+        let (mean_sigma, mean_m) = (mean(&ws), mean(&wm));
+        let (mut sign_sigma, mut sign_m) = (vec![0f32; k], vec![0f32; k]);
+        for j in 0..n {
+            if b.segment[j] == NO_SEGMENT {
+                continue;
+            }
+            let s = b.segment[j] as usize;
+            sign_sigma[s] += sign(x[6 * j + 3] - mean_sigma[s]);
+            sign_m[s] += sign(x[6 * j + 4] - mean_m[s]);
+        }
+        SegmentSums {
+            w,
+            mean_sigma,
+            mean_m,
+            sign_sigma,
+            sign_m,
+        }
+    }
+}
+
 impl CustomOp1 for FactorizedLoss {
     fn name(&self) -> &'static str {
         "factorized-loss"
@@ -249,7 +368,16 @@ impl CustomOp1 for FactorizedLoss {
         use rayon::prelude::*;
         let x = contiguous(s, l, "factorized-loss")?;
         let n = x.len() / 6;
-        if n != self.batch.gt.len() || l.shape().dims() != [n, 6] {
+        let nseg = self.batch.segment.len();
+        if n != self.batch.gt.len()
+            || l.shape().dims() != [n, 6]
+            || (nseg != 0 && nseg != n)
+            || self
+                .batch
+                .segment
+                .iter()
+                .any(|&s| s != NO_SEGMENT && s as usize >= self.batch.segments)
+        {
             candle_core::bail!(
                 "factorized-loss: input {:?} for a batch of {}",
                 l.shape(),
@@ -280,10 +408,35 @@ impl CustomOp1 for FactorizedLoss {
         let image = sum[0] / (3 * n) as f64;
         let mask = sum[1] / n as f64;
         let prior = sum[2] / n as f64;
-        let total = image + self.mask_weight as f64 * mask + self.prior_weight as f64 * prior;
+        let segment = if self.has_segments() {
+            let seg = self.segment_sums(x);
+            let b = &*self.batch;
+            let mut acc = 0f64;
+            for j in 0..n {
+                if b.segment[j] == NO_SEGMENT {
+                    continue;
+                }
+                let s = b.segment[j] as usize;
+                acc += ((x[6 * j + 3] - seg.mean_sigma[s]).abs()
+                    + (x[6 * j + 4] - seg.mean_m[s]).abs()) as f64;
+            }
+            acc / n as f64
+        } else {
+            0.0
+        };
+        let total = image
+            + self.mask_weight as f64 * mask
+            + self.prior_weight as f64 * prior
+            + self.segment_weight as f64 * segment;
         Ok((
-            CpuStorage::F32(vec![total as f32, image as f32, mask as f32, prior as f32]),
-            Shape::from(4),
+            CpuStorage::F32(vec![
+                total as f32,
+                image as f32,
+                mask as f32,
+                prior as f32,
+                segment as f32,
+            ]),
+            Shape::from(5),
         ))
     }
     fn bwd(
@@ -300,6 +453,9 @@ impl CustomOp1 for FactorizedLoss {
         let gi = (g[0] + g[1]) / (3 * n) as f32;
         let gm = (g[0] * self.mask_weight + g[2]) / n as f32;
         let gp = (g[0] * self.prior_weight + g[3]) / n as f32;
+        let gs = (g[0] * self.segment_weight + g[4]) / n as f32;
+        // d/dσ_j mean_i |σ_i − σ̄_s(i)| = (sign_j − w_j/W_s · Σ_{i∈s} sign_i) / n (w constant).
+        let seg = (self.has_segments() && gs != 0.0).then(|| self.segment_sums(&x));
         let mut out = vec![0f32; x.len()];
         out.par_chunks_mut(6 * 256)
             .enumerate()
@@ -311,6 +467,14 @@ impl CustomOp1 for FactorizedLoss {
                         row[q] = gi * p.d_image[q] + gp * p.d_prior[q];
                     }
                     row[5] += gm;
+                    if let Some(seg) = seg.as_ref().filter(|_| self.batch.segment[j] != NO_SEGMENT)
+                    {
+                        let r = &x[6 * j..6 * j + 6];
+                        let s = self.batch.segment[j] as usize;
+                        let share = (self.segment_weight_of(j, r) as f64 / seg.w[s]) as f32;
+                        row[3] += gs * (sign(r[3] - seg.mean_sigma[s]) - share * seg.sign_sigma[s]);
+                        row[4] += gs * (sign(r[4] - seg.mean_m[s]) - share * seg.sign_m[s]);
+                    }
                 }
             });
         Ok(Some(Tensor::from_vec(out, arg.shape(), arg.device())?))

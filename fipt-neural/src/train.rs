@@ -1,15 +1,19 @@
 //! Fitting the field to the training pixels through the factorised image model (method §4.3).
 //!
 //! Prediction per pixel: `(1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT`. Loss:
-//! `MSE(oetf(pred), oetf(GT)) + mask_weight·mean(α) + prior_weight·(mean|σ − 1| + mean(m))`,
-//! with the sRGB OETF unclamped. Batches are drawn uniformly from all valid training pixels by
+//! `MSE(oetf(pred), oetf(GT)) + mask_weight·mean(α) + prior_weight·(roughness_prior·mean|σ − 1|
+//! + mean(m))
+//! + segment_weight·mean(|σ − σ̄_seg| + |m − m̄_seg|)`, with the sRGB OETF unclamped and the
+//! segment means weighted by specular shading (when the scene has segment ids). Batches are drawn uniformly from all valid training pixels by
 //! a generator keyed on (seed, step), so a resumed run draws exactly the batches the
 //! uninterrupted one would have.
 use crate::adam::Adam;
 use crate::error::{CandleContext, NeuralError, Result};
 use crate::field::{Bounds, FieldConfig, NeuralField};
 use crate::hashgrid::{AdamConfig, HashGridConfig};
-use crate::ops::{srgb_oetf, FactorizedLoss, LevelWeights, LossBatch, SrgbOetf};
+use crate::ops::{
+    srgb_oetf, FactorizedLoss, LevelWeights, LossBatch, SrgbOetf, NO_SEGMENT, SEGMENT_WEIGHT_FLOOR,
+};
 use candle_core::{Tensor, Var, D};
 use fipt_core::fsutil::{read_json, write_atomic, write_json_atomic};
 use fipt_core::image::Image;
@@ -52,6 +56,24 @@ pub struct TrainConfig {
     /// gradients in σ and m nearly vanish; letting the data shape the field first avoids it.
     /// `[0, 0]`: full weight from the start (the reference).
     pub prior_ramp: [f32; 2],
+    /// Scale of the prior's σ part, |σ − 1| (1: the reference; the metallic part is always
+    /// on). 0 in `balanced` and `fast`: under Adam, a small pull of the same sign at every pixel
+    /// outweighs the weak, noisy gradient σ gets from the views, so any σ pull sends every
+    /// surface to σ = 1 (on cornell with exact shadings the glossy block went from 42.6 dB to
+    /// 2.5 dB with a σ pull of 5e-4, the reference's weight). The segment prior carries σ
+    /// from the highlights across each surface instead.
+    #[serde(default = "unit_scale")]
+    pub roughness_prior: f32,
+    /// Which segment ids the segment-consistency prior uses (the caller loads them): `auto`
+    /// takes the scene's part ids (`IndexMA/`) when it has them, `parts` requires them, `none`
+    /// disables the prior.
+    #[serde(default)]
+    pub segments: SegmentSource,
+    /// Weight of the segment-consistency prior (the reference's part prior, 5e-3): each pixel's
+    /// σ and metallic are pulled towards its segment's means in the batch, weighted by the
+    /// pixels' specular shading (see [`FactorizedLoss`]).
+    #[serde(default = "default_segment_weight")]
+    pub segment_weight: f32,
     pub seed: u64,
     /// Shrink the hash tables to what the number of training pixels can fill
     /// ([`TrainConfig::sized_for`]). The reference always uses 2^19.
@@ -83,6 +105,9 @@ impl Default for TrainConfig {
             prior_weight: 0.02,
             prior_norm: PriorNorm::L1,
             prior_ramp: [0.3, 0.6],
+            roughness_prior: 0.0,
+            segments: SegmentSource::Auto,
+            segment_weight: default_segment_weight(),
             table_from_data: true,
             finest_from_data: true,
             finest_cell_footprints: 4.0,
@@ -99,11 +124,13 @@ impl TrainConfig {
             field: FieldConfig {
                 grid: HashGridConfig::reference(),
                 mask_activation: crate::field::MaskActivation::Relu,
+                roughness_gain: 1.0,
                 ..FieldConfig::default()
             },
             steps: 10_000,
             prior_weight: 5e-4,
             prior_ramp: [0.0, 0.0],
+            roughness_prior: 1.0,
             table_from_data: false,
             finest_from_data: false,
             ..Self::default()
@@ -183,6 +210,27 @@ impl TrainConfig {
     }
 }
 
+fn unit_scale() -> f32 {
+    1.0
+}
+
+fn default_segment_weight() -> f32 {
+    5e-3
+}
+
+/// Where the ids of the segment-consistency prior come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SegmentSource {
+    /// Part ids when the scene has them, else no segment prior.
+    #[default]
+    Auto,
+    /// Part ids (`IndexMA/`), required.
+    Parts,
+    /// No segment prior.
+    None,
+}
+
 /// Norm of the roughness/metallic prior.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -205,6 +253,11 @@ pub struct TrainingSet {
     /// Morton code of each sample's position: batches are processed in this order, so that
     /// neighbouring rows share hash-grid cells and cache lines.
     pub morton: Vec<u64>,
+    /// Dense segment id of each sample ([`NO_SEGMENT`] for none); empty without segments
+    /// ([`TrainingSet::with_segments`]).
+    pub segment: Vec<u32>,
+    /// Number of distinct segment ids.
+    pub segments: usize,
 }
 
 /// 3 × 21-bit Morton code of a unit-cube point.
@@ -254,6 +307,8 @@ impl TrainingSet {
             gt: vec![],
             origin: vec![],
             morton: vec![],
+            segment: vec![],
+            segments: 0,
         };
         for (v, ((pts, sh), img)) in points.iter().zip(shadings).zip(images).enumerate() {
             let n = sh.width * sh.height;
@@ -281,6 +336,44 @@ impl TrainingSet {
         Ok(set)
     }
 
+    /// Attaches segment ids: `ids[v][i]` is the id of pixel `i` of view `v` (a part or
+    /// semantic id as stored in the scene; negative for none). Ids are renumbered densely.
+    pub fn with_segments(mut self, ids: &[Vec<i64>]) -> Result<Self> {
+        let mut dense: std::collections::BTreeMap<i64, u32> = Default::default();
+        for (v, view) in ids.iter().enumerate() {
+            if view.len() != ids.first().map_or(0, |f| f.len()) {
+                return Err(NeuralError::config(
+                    "segments",
+                    format!("view {v} has {} ids, view 0 {}", view.len(), ids[0].len()),
+                ));
+            }
+        }
+        let mut segment = Vec::with_capacity(self.len());
+        for &(v, i) in &self.origin {
+            let id = ids
+                .get(v as usize)
+                .and_then(|view| view.get(i as usize))
+                .copied()
+                .ok_or_else(|| {
+                    NeuralError::config(
+                        "segments",
+                        format!(
+                            "no id for pixel {i} of view {v}: one id per pixel of every view is needed"
+                        ),
+                    )
+                })?;
+            segment.push(if id < 0 {
+                NO_SEGMENT
+            } else {
+                let next = dense.len() as u32;
+                *dense.entry(id).or_insert(next)
+            });
+        }
+        self.segments = dense.len();
+        self.segment = segment;
+        Ok(self)
+    }
+
     pub fn len(&self) -> usize {
         self.unit.len()
     }
@@ -297,6 +390,9 @@ pub struct StepLosses {
     pub image: f32,
     pub mask: f32,
     pub prior: f32,
+    /// The segment prior (0 without segments).
+    #[serde(default)]
+    pub segment: f32,
 }
 
 /// Where training time went (seconds, cumulative).
@@ -436,6 +532,14 @@ impl Trainer {
             ls0: idx.iter().map(|&i| data.ls0[i]).collect(),
             ls1: idx.iter().map(|&i| data.ls1[i]).collect(),
             gt: idx.iter().map(|&i| data.gt[i]).collect(),
+            segment: if self.config.segments == SegmentSource::None {
+                vec![]
+            } else {
+                idx.iter()
+                    .filter_map(|&i| data.segment.get(i).copied())
+                    .collect()
+            },
+            segments: data.segments,
         });
         let t1 = Instant::now();
         let cfg = &self.config;
@@ -451,6 +555,8 @@ impl Trainer {
             mask_weight: cfg.mask_weight,
             prior_weight: cfg.prior_weight * self.prior_ramp(),
             prior_l1: cfg.prior_norm == PriorNorm::L1,
+            segment_weight: cfg.segment_weight,
+            roughness_prior_scale: cfg.roughness_prior,
         };
         let terms = out.packed().and_then(|p| p.apply_op1(loss)).ctx("loss")?;
         let total = terms
@@ -470,6 +576,7 @@ impl Trainer {
             image: v[1],
             mask: v[2],
             prior: v[3],
+            segment: v[4],
         };
         let tm = &mut self.timings;
         tm.steps += 1;
@@ -618,6 +725,19 @@ impl Trainer {
     }
 }
 
+/// Ls(σ) interpolated over the levels in candle ops (`ls` `[n, levels, 3]` → `[n, 3]`).
+fn reflected_specular(
+    out: &crate::field::FieldOutput,
+    ls: &Tensor,
+    levels: [f32; NUM_LEVELS],
+) -> candle_core::Result<Tensor> {
+    let w = out
+        .roughness
+        .apply_op1(LevelWeights(levels))?
+        .unsqueeze(2)?;
+    ls.broadcast_mul(&w)?.sum(1)
+}
+
 /// kd·Ld + ks·Ls0(σ) + Ls1(σ) in candle ops (`ld` `[n, 3]`, `ls0`/`ls1` `[n, levels, 3]`).
 fn reflected(
     out: &crate::field::FieldOutput,
@@ -626,25 +746,37 @@ fn reflected(
     ls1: &Tensor,
     levels: [f32; NUM_LEVELS],
 ) -> candle_core::Result<Tensor> {
-    let w = out
-        .roughness
-        .apply_op1(LevelWeights(levels))?
-        .unsqueeze(2)?;
-    let s0 = ls0.broadcast_mul(&w)?.sum(1)?;
-    let s1 = ls1.broadcast_mul(&w)?.sum(1)?;
+    let s0 = reflected_specular(out, ls0, levels)?;
+    let s1 = reflected_specular(out, ls1, levels)?;
     ((out.kd()? * ld)? + (out.ks()? * s0)?)?.add(&s1)
 }
 
-/// The loss of [`Trainer::step`] written with plain candle ops (`[4]`: total, image, mask,
-/// prior): the reference the fused [`FactorizedLoss`] is tested against.
+/// The weights of a [`candle_ops_loss`].
+#[derive(Clone, Copy, Debug)]
+pub struct LossWeights {
+    pub mask: f32,
+    pub prior: f32,
+    pub prior_norm: PriorNorm,
+    /// Scale of the prior's σ part ([`TrainConfig::roughness_prior`]).
+    pub roughness_prior: f32,
+    pub segment: f32,
+}
+
+/// The loss of [`Trainer::step`] written with plain candle ops (`[5]`: total, image, mask,
+/// prior, segment prior): the reference the fused [`FactorizedLoss`] is tested against.
 pub fn candle_ops_loss(
     out: &crate::field::FieldOutput,
     batch: &LossBatch,
     levels: [f32; NUM_LEVELS],
-    mask_weight: f32,
-    prior_weight: f32,
-    prior_norm: PriorNorm,
+    weights: LossWeights,
 ) -> Result<Tensor> {
+    let LossWeights {
+        mask: mask_weight,
+        prior: prior_weight,
+        prior_norm,
+        roughness_prior,
+        segment: segment_weight,
+    } = weights;
     let dev = out.albedo.device();
     let b = batch.gt.len();
     let r: candle_core::Result<Tensor> = (|| {
@@ -668,13 +800,46 @@ pub fn candle_ops_loss(
         let image = diff.sqr()?.mean_all()?;
         let mask = out.alpha.mean_all()?;
         let dr = out.roughness.affine(1.0, -1.0)?;
+        let k = roughness_prior as f64;
         let prior = match prior_norm {
-            PriorNorm::L1 => (dr.abs()?.mean_all()? + out.metallic.mean_all()?)?,
-            PriorNorm::L2 => (dr.sqr()?.mean_all()? + out.metallic.sqr()?.mean_all()?)?,
+            PriorNorm::L1 => (dr.abs()?.mean_all()?.affine(k, 0.0)? + out.metallic.mean_all()?)?,
+            PriorNorm::L2 => {
+                (dr.sqr()?.mean_all()?.affine(k, 0.0)? + out.metallic.sqr()?.mean_all()?)?
+            }
         };
-        let total = ((image.clone() + mask.affine(mask_weight as f64, 0.0)?)?
-            + prior.affine(prior_weight as f64, 0.0)?)?;
-        Tensor::stack(&[total, image, mask, prior], 0)
+        let segment = if batch.segment.is_empty() {
+            Tensor::zeros((), candle_core::DType::F32, dev)?
+        } else {
+            // Pixels of no segment gather from, and scatter to, one extra slot that is dropped.
+            let k = batch.segments;
+            let ids: Vec<u32> = batch
+                .segment
+                .iter()
+                .map(|&s| if s == NO_SEGMENT { k as u32 } else { s })
+                .collect();
+            let keep: Vec<f32> = ids
+                .iter()
+                .map(|&s| u8::from(s as usize != k) as f32)
+                .collect();
+            let ids = Tensor::from_vec(ids, b, dev)?;
+            let keep = Tensor::from_vec(keep, (b, 1), dev)?;
+            let spec = ((out.ks()? * reflected_specular(out, &ls0, levels)?)?
+                + reflected_specular(out, &ls1, levels)?)?;
+            let w = (spec.mean_keepdim(1)?.relu()? + SEGMENT_WEIGHT_FLOOR as f64)?.detach();
+            let zeros = Tensor::zeros((k + 1, 1), candle_core::DType::F32, dev)?;
+            let total_w = zeros.index_add(&ids, &w, 0)?;
+            let seg_mean = |v: &Tensor| -> candle_core::Result<Tensor> {
+                let sums = zeros.index_add(&ids, &(v * &w)?, 0)?;
+                (sums / &total_w)?.index_select(&ids, 0)
+            };
+            let ds = (&out.roughness - seg_mean(&out.roughness)?)?.abs()?;
+            let dm = (&out.metallic - seg_mean(&out.metallic)?)?.abs()?;
+            ((ds + dm)? * keep)?.mean_all()?
+        };
+        let total = (((image.clone() + mask.affine(mask_weight as f64, 0.0)?)?
+            + prior.affine(prior_weight as f64, 0.0)?)?
+            + segment.affine(segment_weight as f64, 0.0)?)?;
+        Tensor::stack(&[total, image, mask, prior, segment], 0)
     })();
     r.ctx("candle-ops loss")
 }

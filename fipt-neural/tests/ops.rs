@@ -110,8 +110,9 @@ fn positional_encoding_layout() {
 #[test]
 fn fused_loss_matches_candle_ops_in_value_and_gradient() {
     use fipt_neural::field::FieldOutput;
+    use fipt_neural::ops::NO_SEGMENT;
     use fipt_neural::ops::{FactorizedLoss, LossBatch};
-    use fipt_neural::train::{candle_ops_loss, PriorNorm};
+    use fipt_neural::train::{candle_ops_loss, LossWeights, PriorNorm};
     let n = 300;
     let dev = Device::Cpu;
     let mut r = Pcg32::new(8, 9);
@@ -151,8 +152,22 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
             u(0.0, 0.99),
         ]);
     }
-    let batch = std::sync::Arc::new(batch);
-    for (norm, l1) in [(PriorNorm::L2, false), (PriorNorm::L1, true)] {
+    let unsegmented = std::sync::Arc::new(batch.clone());
+    // 7 segments of uneven sizes, and pixels of none.
+    batch.segment = (0..n)
+        .map(|j| match j % 13 {
+            0 => NO_SEGMENT,
+            k => ((k * k + j / 50) % 7) as u32,
+        })
+        .collect();
+    batch.segments = 7;
+    let segmented = std::sync::Arc::new(batch);
+    for (norm, l1, batch, rp) in [
+        (PriorNorm::L2, false, &unsegmented, 1.0),
+        (PriorNorm::L1, true, &unsegmented, 1.0),
+        (PriorNorm::L1, true, &segmented, 0.35),
+        (PriorNorm::L2, false, &segmented, 0.0),
+    ] {
         let var = |c: usize, w: usize| {
             let v: Vec<f32> = (0..n)
                 .flat_map(|j| x[6 * j + c..6 * j + c + w].to_vec())
@@ -175,14 +190,30 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
                 mask_weight: 0.7,
                 prior_weight: 0.3,
                 prior_l1: l1,
+                segment_weight: 0.4,
+                roughness_prior_scale: rp,
             })
             .unwrap();
-        let plain = candle_ops_loss(&out, &batch, DEFAULT_LEVELS, 0.7, 0.3, norm).unwrap();
+        let weights = LossWeights {
+            mask: 0.7,
+            prior: 0.3,
+            prior_norm: norm,
+            roughness_prior: rp,
+            segment: 0.4,
+        };
+        let plain = candle_ops_loss(&out, batch, DEFAULT_LEVELS, weights).unwrap();
         let (fv, pv) = (
             fused.to_vec1::<f32>().unwrap(),
             plain.to_vec1::<f32>().unwrap(),
         );
-        for k in 0..4 {
+        // The segment term is 0 exactly without segments, and counts with them.
+        assert_eq!(
+            batch.segment.is_empty(),
+            fv[4] == 0.0,
+            "segment term {}",
+            fv[4]
+        );
+        for k in 0..5 {
             assert!(
                 (fv[k] - pv[k]).abs() <= 1e-4 * pv[k].abs().max(1e-3),
                 "{norm:?} term {k}: {} vs {}",
