@@ -63,6 +63,13 @@ pub struct RoundsConfig {
     /// Start each later training round from the previous round's field (the reference
     /// starts afresh).
     pub warm_start: bool,
+    /// `train.roughness_prior` (the σ pull) in the training rounds after a refinement; absent:
+    /// as in `[train]`. 0 in `balanced` and `fast`: the first round needs the pull (σ would
+    /// absorb the one-bounce bake's noise and make most of the room "glossy", so that path
+    /// growing costs 8×), the refined shadings are clean enough for σ to follow the
+    /// highlights, from a warm start at σ ≈ 1.
+    #[serde(default)]
+    pub roughness_prior: Option<f32>,
 }
 
 /// Path-traced re-renders of every view from the recovered scene (`_render.exr`).
@@ -85,6 +92,7 @@ impl RunConfig {
             rounds: RoundsConfig {
                 refinements: if name == "paper" { 2 } else { 1 },
                 warm_start: name != "paper",
+                roughness_prior: (name != "paper").then_some(0.0),
             },
             render: ReRenderConfig {
                 spp: match name {
@@ -224,11 +232,15 @@ pub fn run(a: Args) -> Result<()> {
             }
             let t = std::time::Instant::now();
             let prev_id = train.fingerprint();
+            let mut round_cfg = cfg.train.clone();
+            if let Some(p) = cfg.rounds.roughness_prior {
+                round_cfg.roughness_prior = p;
+            }
             let (f, m, _) = crate::train::stage(
                 &scene,
                 &refined.key,
                 &refined.shadings,
-                &cfg.train,
+                &round_cfg,
                 &a.out.join(format!("train{r}")),
                 a.force,
                 cfg.rounds.warm_start.then_some((&field, prev_id.as_str())),

@@ -41,6 +41,12 @@ pub struct FieldConfig {
     /// 1500 steps (15 dB); with gain 10 and the segment prior it reached 0.25 (42.6 dB).
     #[serde(default = "unit_gain")]
     pub roughness_gain: f32,
+    /// σ where training starts (through the bias of σ's output). The reference starts at
+    /// 0.51 and pulls every point towards σ = 1 with its prior; `balanced` starts at 0.98
+    /// without the pull instead, so σ stays rough where the views say nothing about it (rough
+    /// walls) and drops only where highlights ask for it.
+    #[serde(default = "default_roughness_init")]
+    pub roughness_init: f32,
     /// `relu`: α = 1 − exp(−relu(m)) (the reference); `softplus`: α = 1 − exp(−softplus(m)).
     /// With relu, a point whose m falls below 0 has no gradient left: on `room` the 5 cm bulb
     /// (a few pixels per view) was switched off by the sparsity term early in training and
@@ -69,12 +75,27 @@ impl Default for FieldConfig {
             metallic_init_bias: 0.0,
             mask_activation: MaskActivation::Softplus,
             roughness_gain: 10.0,
+            roughness_init: 0.98,
         }
     }
 }
 
 fn unit_gain() -> f32 {
     1.0
+}
+
+/// σ at a zero logit (the reference's start).
+fn default_roughness_init() -> f32 {
+    MIN_ROUGHNESS + (1.0 - MIN_ROUGHNESS) * 0.5
+}
+
+impl FieldConfig {
+    /// The bias of σ's output that starts σ at `roughness_init`.
+    fn roughness_bias(&self) -> f32 {
+        let s =
+            ((self.roughness_init - MIN_ROUGHNESS) / (1.0 - MIN_ROUGHNESS)).clamp(1e-4, 1.0 - 1e-4);
+        (s / (1.0 - s)).ln() / self.roughness_gain.max(1e-6)
+    }
 }
 
 /// The cube the grid covers (`unit = (p − min) / size`): fipt-core's [`Cube`], under the
@@ -201,7 +222,16 @@ impl NeuralField {
         let mut rng = Pcg32::new(seed, 0x3C1D);
         for (net, last_bias) in [
             (&mask, vec![config.mask_init_bias]),
-            (&mlp, vec![0.0, 0.0, 0.0, 0.0, config.metallic_init_bias]),
+            (
+                &mlp,
+                vec![
+                    0.0,
+                    0.0,
+                    0.0,
+                    config.roughness_bias(),
+                    config.metallic_init_bias,
+                ],
+            ),
         ] {
             let layers = net.layers();
             let mut values = vec![0f32; layers.last().map_or(0, |l| l.bias.end)];

@@ -187,7 +187,7 @@ pub const NO_SEGMENT: u32 = u32::MAX;
 /// composition, sRGB OETF, MSE, mask sparsity and the roughness/metallic prior), instead of
 /// ~30 small candle ops and their backward.
 ///
-/// The prior is `roughness_prior_scale·|σ − 1| + m` (L1) or the squares (L2).
+/// The prior is `roughness_prior_scale·|σ − 1| + m` (L1), or the square of either part.
 ///
 /// Input `[n, 6]`: albedo (3), σ, metallic, α per pixel (after their activations). Output `[5]`:
 /// total, image MSE, mean α, prior, segment prior; the backward honours gradients on all five.
@@ -203,8 +203,10 @@ pub struct FactorizedLoss {
     pub levels: [f32; NUM_LEVELS],
     pub mask_weight: f32,
     pub prior_weight: f32,
-    /// L1 (the reference) or L2 prior.
+    /// L1 (the reference) or L2 prior on σ.
     pub prior_l1: bool,
+    /// L1 (the reference) or L2 prior on metallic.
+    pub metallic_l1: bool,
     /// Weight of the segment prior (ignored when the batch has no segment ids).
     pub segment_weight: f32,
     /// Scale of the prior's roughness part (1: the reference's mean|σ − 1| + mean(m)).
@@ -215,6 +217,8 @@ pub struct FactorizedLoss {
 #[derive(Clone, Debug, Default)]
 struct SegmentSums {
     w: Vec<f64>,
+    /// Each pixel's weight.
+    pixel_w: Vec<f32>,
     mean_sigma: Vec<f32>,
     mean_m: Vec<f32>,
     sign_sigma: Vec<f32>,
@@ -268,19 +272,17 @@ impl FactorizedLoss {
             d[5] += dp * (g[c] - r);
         }
         let k = self.roughness_prior_scale;
-        let (prior, dps, dpm) = if self.prior_l1 {
-            (
-                k * (sigma - 1.0).abs() + m,
-                if sigma < 1.0 { -k } else { k },
-                1.0,
-            )
+        let (prior_s, dps) = if self.prior_l1 {
+            (k * (sigma - 1.0).abs(), if sigma < 1.0 { -k } else { k })
         } else {
-            (
-                k * (sigma - 1.0).powi(2) + m * m,
-                k * 2.0 * (sigma - 1.0),
-                2.0 * m,
-            )
+            (k * (sigma - 1.0).powi(2), k * 2.0 * (sigma - 1.0))
         };
+        let (prior_m, dpm) = if self.metallic_l1 {
+            (m, 1.0)
+        } else {
+            (m * m, 2.0 * m)
+        };
+        let prior = prior_s + prior_m;
         let mut d_prior = [0f32; 6];
         d_prior[3] = dps;
         d_prior[4] = dpm;
@@ -322,6 +324,15 @@ impl FactorizedLoss {
         let b = &*self.batch;
         let k = b.segments;
         let n = b.segment.len();
+        // The per-pixel weights in parallel, the sums in pixel order (deterministic).
+        let pixel_w: Vec<f32> = {
+            use rayon::prelude::*;
+            (0..n)
+                .into_par_iter()
+                .with_min_len(1024)
+                .map(|j| self.segment_weight_of(j, &x[6 * j..6 * j + 6]))
+                .collect()
+        };
         let (mut w, mut ws, mut wm) = (vec![0f64; k], vec![0f64; k], vec![0f64; k]);
         for j in 0..n {
             if b.segment[j] == NO_SEGMENT {
@@ -329,7 +340,7 @@ impl FactorizedLoss {
             }
             let r = &x[6 * j..6 * j + 6];
             let s = b.segment[j] as usize;
-            let wj = self.segment_weight_of(j, r) as f64;
+            let wj = pixel_w[j] as f64;
             w[s] += wj;
             ws[s] += wj * r[3] as f64;
             wm[s] += wj * r[4] as f64;
@@ -352,6 +363,7 @@ impl FactorizedLoss {
         }
         SegmentSums {
             w,
+            pixel_w,
             mean_sigma,
             mean_m,
             sign_sigma,
@@ -471,7 +483,7 @@ impl CustomOp1 for FactorizedLoss {
                     {
                         let r = &x[6 * j..6 * j + 6];
                         let s = self.batch.segment[j] as usize;
-                        let share = (self.segment_weight_of(j, r) as f64 / seg.w[s]) as f32;
+                        let share = (seg.pixel_w[j] as f64 / seg.w[s]) as f32;
                         row[3] += gs * (sign(r[3] - seg.mean_sigma[s]) - share * seg.sign_sigma[s]);
                         row[4] += gs * (sign(r[4] - seg.mean_m[s]) - share * seg.sign_m[s]);
                     }

@@ -48,7 +48,11 @@ pub struct TrainConfig {
     /// vanishes at the target: with Adam, the L1 pull of every pixel on the MLP's shared output
     /// bias saturates the sigmoids (σ → 1, m → 0 everywhere) and drowns the few glossy or
     /// metallic pixels that observe them (measured on cornell with a gold block: glossy σ at
-    /// 2.5 dB with L1).
+    /// 2.5 dB with L1). `l2_roughness`: L2 on σ, L1 on metallic (`balanced`, `fast`). On `room`
+    /// an L1 σ pull saturated σ at 1 in the first round and the later, pull-free round could
+    /// not bring it back (σ of the median val view 10.5 dB); with L2 it did (12.5 dB), and val
+    /// kd rose 27.5 → 28.2 dB. L2 on metallic let small metallic values linger and cost 1.9 dB
+    /// of val kd on a 12-view cornell (the e2e test).
     pub prior_norm: PriorNorm,
     /// The prior's weight ramps linearly from 0 at `prior_ramp[0]·steps` to full at
     /// `prior_ramp[1]·steps`. A prior active from the first step pulls every point to
@@ -57,11 +61,13 @@ pub struct TrainConfig {
     /// `[0, 0]`: full weight from the start (the reference).
     pub prior_ramp: [f32; 2],
     /// Scale of the prior's σ part, |σ − 1| (1: the reference; the metallic part is always
-    /// on). 0 in `balanced` and `fast`: under Adam, a small pull of the same sign at every pixel
-    /// outweighs the weak, noisy gradient σ gets from the views, so any σ pull sends every
-    /// surface to σ = 1 (on cornell with exact shadings the glossy block went from 42.6 dB to
-    /// 2.5 dB with a σ pull of 5e-4, the reference's weight). The segment prior carries σ
-    /// from the highlights across each surface instead.
+    /// on). Under Adam, a small pull of the same sign at every pixel outweighs the weak
+    /// gradient σ gets from the views, so any σ pull sends every surface to σ = 1 (on cornell
+    /// with exact shadings the glossy block's σ went from 42.6 dB without it to 2.5 dB with the
+    /// reference's 5e-4); without it, σ absorbs the noise of the shadings (on `room` after
+    /// the initial bake, 88 % of the surface came out glossier than 0.6). `fipt run` keeps it
+    /// for the first round and drops it after a refinement (`rounds.roughness_prior`); the
+    /// segment prior carries σ from the highlights across each surface.
     #[serde(default = "unit_scale")]
     pub roughness_prior: f32,
     /// Which segment ids the segment-consistency prior uses (the caller loads them): `auto`
@@ -103,9 +109,9 @@ impl Default for TrainConfig {
             grid_lr_factor: 1.0,
             mask_weight: 1.0,
             prior_weight: 0.02,
-            prior_norm: PriorNorm::L1,
+            prior_norm: PriorNorm::L2Roughness,
             prior_ramp: [0.3, 0.6],
-            roughness_prior: 0.0,
+            roughness_prior: 1.0,
             segments: SegmentSource::Auto,
             segment_weight: default_segment_weight(),
             table_from_data: true,
@@ -125,10 +131,12 @@ impl TrainConfig {
                 grid: HashGridConfig::reference(),
                 mask_activation: crate::field::MaskActivation::Relu,
                 roughness_gain: 1.0,
+                roughness_init: 0.51,
                 ..FieldConfig::default()
             },
             steps: 10_000,
             prior_weight: 5e-4,
+            prior_norm: PriorNorm::L1,
             prior_ramp: [0.0, 0.0],
             roughness_prior: 1.0,
             table_from_data: false,
@@ -200,6 +208,32 @@ impl TrainConfig {
                 format!("batch = {} (use 1..=4194304)", self.batch),
             ));
         }
+        let f = &self.field;
+        if !(f.roughness_gain > 0.0 && f.roughness_gain <= 100.0) {
+            return Err(NeuralError::config(
+                "train.field",
+                format!("roughness_gain = {} (use (0, 100])", f.roughness_gain),
+            ));
+        }
+        if !(f.roughness_init >= 0.02 && f.roughness_init <= 1.0) {
+            return Err(NeuralError::config(
+                "train.field",
+                format!("roughness_init = {} (use [0.02, 1])", f.roughness_init),
+            ));
+        }
+        for (key, v) in [
+            ("segment_weight", self.segment_weight),
+            ("roughness_prior", self.roughness_prior),
+            ("prior_weight", self.prior_weight),
+            ("mask_weight", self.mask_weight),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(NeuralError::config(
+                    "train",
+                    format!("{key} = {v} (use a finite weight ≥ 0)"),
+                ));
+            }
+        }
         if !(self.adam.lr > 0.0 && self.adam.lr.is_finite()) {
             return Err(NeuralError::config(
                 "train.adam",
@@ -237,6 +271,8 @@ pub enum SegmentSource {
 pub enum PriorNorm {
     L1,
     L2,
+    /// L2 on σ, L1 on metallic.
+    L2Roughness,
 }
 
 /// The training pixels, structure of arrays.
@@ -555,6 +591,7 @@ impl Trainer {
             mask_weight: cfg.mask_weight,
             prior_weight: cfg.prior_weight * self.prior_ramp(),
             prior_l1: cfg.prior_norm == PriorNorm::L1,
+            metallic_l1: cfg.prior_norm != PriorNorm::L2,
             segment_weight: cfg.segment_weight,
             roughness_prior_scale: cfg.roughness_prior,
         };
@@ -801,12 +838,15 @@ pub fn candle_ops_loss(
         let mask = out.alpha.mean_all()?;
         let dr = out.roughness.affine(1.0, -1.0)?;
         let k = roughness_prior as f64;
-        let prior = match prior_norm {
-            PriorNorm::L1 => (dr.abs()?.mean_all()?.affine(k, 0.0)? + out.metallic.mean_all()?)?,
-            PriorNorm::L2 => {
-                (dr.sqr()?.mean_all()?.affine(k, 0.0)? + out.metallic.sqr()?.mean_all()?)?
-            }
+        let ps = match prior_norm {
+            PriorNorm::L1 => dr.abs()?.mean_all()?,
+            PriorNorm::L2 | PriorNorm::L2Roughness => dr.sqr()?.mean_all()?,
         };
+        let pm = match prior_norm {
+            PriorNorm::L2 => out.metallic.sqr()?.mean_all()?,
+            PriorNorm::L1 | PriorNorm::L2Roughness => out.metallic.mean_all()?,
+        };
+        let prior = (ps.affine(k, 0.0)? + pm)?;
         let segment = if batch.segment.is_empty() {
             Tensor::zeros((), candle_core::DType::F32, dev)?
         } else {

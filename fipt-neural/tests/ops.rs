@@ -162,11 +162,12 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
         .collect();
     batch.segments = 7;
     let segmented = std::sync::Arc::new(batch);
-    for (norm, l1, batch, rp) in [
-        (PriorNorm::L2, false, &unsegmented, 1.0),
-        (PriorNorm::L1, true, &unsegmented, 1.0),
-        (PriorNorm::L1, true, &segmented, 0.35),
-        (PriorNorm::L2, false, &segmented, 0.0),
+    for (norm, l1, ml1, batch, rp) in [
+        (PriorNorm::L2, false, false, &unsegmented, 1.0),
+        (PriorNorm::L1, true, true, &unsegmented, 1.0),
+        (PriorNorm::L1, true, true, &segmented, 0.35),
+        (PriorNorm::L2, false, false, &segmented, 0.0),
+        (PriorNorm::L2Roughness, false, true, &segmented, 0.7),
     ] {
         let var = |c: usize, w: usize| {
             let v: Vec<f32> = (0..n)
@@ -190,6 +191,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
                 mask_weight: 0.7,
                 prior_weight: 0.3,
                 prior_l1: l1,
+                metallic_l1: ml1,
                 segment_weight: 0.4,
                 roughness_prior_scale: rp,
             })

@@ -133,6 +133,80 @@ fn bad_settings_are_rejected_with_the_key() {
     assert!(e.contains("log2_table"), "{e}");
     let bad: Result<TrainConfig, _> = serde_json::from_str(r#"{"steps": 10, "bogus": 1}"#);
     assert!(bad.is_err());
+    for (key, set_bad) in [
+        (
+            "roughness_gain",
+            (|c: &mut TrainConfig| c.field.roughness_gain = 0.0) as fn(&mut TrainConfig),
+        ),
+        ("roughness_init", |c| c.field.roughness_init = 1.5),
+        ("segment_weight", |c| c.segment_weight = f32::NAN),
+        ("roughness_prior", |c| c.roughness_prior = -1.0),
+    ] {
+        let mut c = config();
+        set_bad(&mut c);
+        let e = Trainer::new(c, bounds, set.levels)
+            .err()
+            .expect("rejected")
+            .to_string();
+        assert!(e.contains(key), "{key}: {e}");
+    }
+}
+
+/// A fresh field starts at σ = `roughness_init` whatever the gain (hash features start near 0,
+/// so σ's output is its bias, up to the hidden layers' small random biases times the gain).
+#[test]
+fn roughness_starts_at_its_setting() {
+    let (_, bounds) = data();
+    let pts: Vec<Vec3> = (0..20).map(|i| Vec3::splat(0.2 + i as f32 * 0.1)).collect();
+    for (gain, init) in [(1.0, 0.51), (10.0, 0.98), (4.0, 0.3), (10.0, 0.02)] {
+        let mut cfg = config();
+        cfg.field.roughness_gain = gain;
+        cfg.field.roughness_init = init;
+        let t = Trainer::new(cfg, bounds, DEFAULT_LEVELS).unwrap();
+        for m in t.field.materials(&pts).unwrap() {
+            assert!(
+                (m.roughness - init).abs() < 0.02,
+                "gain {gain}: σ {} for init {init}",
+                m.roughness
+            );
+        }
+    }
+}
+
+#[test]
+fn segment_ids_are_renumbered_densely_and_must_cover_every_pixel() {
+    let (set, _) = data();
+    // Ids 1000 and 7 alternate, negative ids mean none.
+    let ids: Vec<i64> = (0..1024)
+        .map(|i| match i % 3 {
+            0 => 1000,
+            1 => 7,
+            _ => -1,
+        })
+        .collect();
+    let origin = set.origin.clone();
+    let seg = set.with_segments(&[ids]).unwrap();
+    assert_eq!(seg.segments, 2);
+    let first = |r: usize| {
+        origin
+            .iter()
+            .position(|&(_, i)| i as usize % 3 == r)
+            .map(|j| seg.segment[j])
+            .unwrap()
+    };
+    let (a, b) = (first(0), first(1));
+    assert!(a != b && a < 2 && b < 2);
+    for (j, &(_, i)) in origin.iter().enumerate() {
+        let want = match i % 3 {
+            0 => a,
+            1 => b,
+            _ => fipt_neural::ops::NO_SEGMENT,
+        };
+        assert_eq!(seg.segment[j], want, "pixel {i}");
+    }
+    // Too few ids for the view: an error, not a silent default.
+    let (set, _) = data();
+    assert!(set.with_segments(&[vec![0; 100]]).is_err());
 }
 
 /// A warm start copies the trained weights exactly (same queries before any step), continues
