@@ -145,8 +145,8 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// Attaches the scene's part ids (`IndexMA/`) to the training set as `source` asks; with them,
-/// a fingerprint of the id files.
+/// Attaches the scene's part ids (`IndexMA/`) or semantic classes (`segmentation/`) to the
+/// training set as `source` asks; with them, a fingerprint of the id files.
 fn with_segments(
     scene: &LoadedScene,
     data: TrainingSet,
@@ -154,35 +154,59 @@ fn with_segments(
 ) -> Result<(TrainingSet, Option<String>)> {
     let split = scene.ds.train();
     let has_parts = split.has_gt(GtKind::IndexMA);
-    match source {
+    let has_classes = split.has_gt(GtKind::Segmentation);
+    let kind = match source {
         SegmentSource::None => return Ok((data, None)),
-        SegmentSource::Auto if !has_parts => {
-            eprintln!("no part ids (IndexMA/) in the scene: training without the segment prior");
+        SegmentSource::Auto if has_parts => GtKind::IndexMA,
+        SegmentSource::Auto if has_classes => GtKind::Segmentation,
+        SegmentSource::Auto => {
+            eprintln!(
+                "no part ids (IndexMA/) or classes (segmentation/) in the scene: training without the segment prior"
+            );
             return Ok((data, None));
         }
-        SegmentSource::Parts if !has_parts => bail!(
-            "train.segments = \"parts\" but {} has no IndexMA/ folder (use \"auto\" or \"none\")",
-            split.dir.display()
+        SegmentSource::Parts if has_parts => GtKind::IndexMA,
+        SegmentSource::Semantic if has_classes => GtKind::Segmentation,
+        SegmentSource::Parts | SegmentSource::Semantic => bail!(
+            "train.segments = \"{}\" but {} has no {}/ folder (use \"auto\" or \"none\")",
+            if source == SegmentSource::Parts {
+                "parts"
+            } else {
+                "semantic"
+            },
+            split.dir.display(),
+            if source == SegmentSource::Parts {
+                "IndexMA"
+            } else {
+                "segmentation"
+            },
         ),
-        _ => {}
-    }
+    };
+    let folder = kind.folder();
     let ids = (0..split.views.len())
         .into_par_iter()
         .map(|k| {
             scene
                 .ds
-                .load_ids(split, GtKind::IndexMA, k)
+                .load_ids(split, kind, k)
                 .map(|v| v.unwrap_or_default())
         })
         .collect::<Result<Vec<_>, _>>()
-        .context("reading the part ids (IndexMA/)")?;
+        .with_context(|| format!("reading the segment ids ({folder}/)"))?;
     let files: Vec<PathBuf> = (0..split.views.len())
-        .map(|k| split.gt_path(GtKind::IndexMA, k))
+        .map(|k| split.gt_path(kind, k))
         .collect();
     let hash = fipt_core::fsutil::hash_files(&files)?;
-    let data = data.with_segments(&ids)?;
-    eprintln!("segment prior on {} parts (IndexMA/)", data.segments);
-    Ok((data, Some(hash)))
+    let data = if kind == GtKind::IndexMA {
+        let d = data.with_segments(&ids)?;
+        eprintln!("segment prior on {} parts ({folder}/)", d.segments);
+        d
+    } else {
+        let d = data.with_classes(&ids)?;
+        eprintln!("semantic prior on {} classes ({folder}/)", d.segments);
+        d
+    };
+    Ok((data, Some(format!("{folder}:{hash}"))))
 }
 
 /// The training stage: reuses a finished run in `dir` (same inputs and settings) unless
@@ -213,7 +237,7 @@ pub fn stage(
         warm.map_or("none", |w| w.1)
     );
     if let Some(id) = segments_id {
-        inputs += &format!("+parts:{id}");
+        inputs += &format!("+segments:{id}");
     }
     st.done();
     if !force {

@@ -234,6 +234,27 @@ fn train_needs_a_bake_writes_maps_and_reuses_or_resumes() {
     // More steps: resumed from the checkpoint at step 10.
     let (ok, _, err) = fipt(&["train", d, "--out", o, "--config", c, "--steps", "15"]);
     assert!(ok && err.contains("resuming from step 10"), "{err}");
+    // The segment prior's ids: parts by default, semantic classes on request or when the
+    // scene has no parts, and a clear error when the asked folder is missing.
+    assert!(err.contains("segment prior on"), "{err}");
+    let sem = dir.join("semantic.toml");
+    let base = std::fs::read_to_string(&cfg).unwrap();
+    std::fs::write(&sem, format!("segments = \"semantic\"\n{base}")).unwrap();
+    let s = sem.to_str().unwrap();
+    let (ok, _, err) = fipt(&["train", d, "--out", o, "--config", s, "--steps", "5"]);
+    assert!(ok && err.contains("semantic prior on"), "{err}");
+    std::fs::remove_dir_all(dir.join("train/IndexMA")).unwrap();
+    let (ok, _, err) = fipt(&["train", d, "--out", o, "--config", c, "--steps", "5"]);
+    assert!(
+        ok && err.contains("semantic prior on"),
+        "auto without parts: {err}"
+    );
+    std::fs::remove_dir_all(dir.join("train/segmentation")).unwrap();
+    let (ok, _, err) = fipt(&["train", d, "--out", o, "--config", s, "--steps", "5"]);
+    assert!(
+        !ok && err.contains("segmentation") && err.contains("auto"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -172,6 +172,31 @@ pub struct LossBatch {
     pub segment: Vec<u32>,
     /// Number of segment ids.
     pub segments: usize,
+    /// With semantic classes as segment ids: each pixel's partners for the bilateral prior
+    /// (instead of the part prior's segment means).
+    pub semantic: Option<SemanticPartners>,
+}
+
+/// The partners of the semantic prior (the reference's prior for `segmentation/` classes):
+/// `k` pixels of the same class per pixel, drawn by the trainer, and the position part of
+/// their weights.
+///
+/// Each pixel i is compared with the weighted mean of its partners j:
+/// `w_ij = pos_w_ij · exp(−|a_i − a_j|² / (2 sigma_albedo²))` (albedo not differentiated), so
+/// a class (e.g. "furniture") is not one surface: only nearby pixels of similar albedo pull
+/// each other's σ and metallic. The term is `Σ_classes mean_{i ∈ class} |σ̄_i − σ_i| +
+/// |m̄_i − m_i|` (the reference sums over classes). The means include the pixel itself with the
+/// weight floor 1e-4, so a pixel with no partner of similar albedo is not pulled (in the
+/// reference the floor only divides, pulling such a pixel's σ and m towards 0: on cornell
+/// with 64 partners that took kd from 42 to 22 dB).
+#[derive(Clone, Debug, Default)]
+pub struct SemanticPartners {
+    pub k: usize,
+    /// `k` batch rows per pixel (pixels of no class: any rows, ignored).
+    pub index: Vec<u32>,
+    /// `exp(−|x_i − x_j|² / (2 sigma_position²))` per partner.
+    pub pos_w: Vec<f32>,
+    pub sigma_albedo: f32,
 }
 
 /// The specular weight of a pixel in its segment's mean (method §4.3, the reference's
@@ -372,6 +397,113 @@ impl FactorizedLoss {
     }
 }
 
+/// The semantic prior of one batch: per pixel its partners' normalised weights, the weighted
+/// means of (σ, m), the class normalisation 1/n_c, and the loss.
+struct SemanticTerms {
+    /// `k` weights w_ij / W_i per pixel.
+    w: Vec<f32>,
+    mean: Vec<[f32; 2]>,
+    inv_count: Vec<f32>,
+    loss: f64,
+}
+
+impl FactorizedLoss {
+    fn semantic_terms(&self, x: &[f32]) -> SemanticTerms {
+        use rayon::prelude::*;
+        let b = &*self.batch;
+        let sem = b.semantic.as_ref().expect("semantic partners");
+        let (n, k) = (b.segment.len(), sem.k);
+        let mut count = vec![0u32; b.segments];
+        for &s in &b.segment {
+            if s != NO_SEGMENT {
+                count[s as usize] += 1;
+            }
+        }
+        let inv_count: Vec<f32> = b
+            .segment
+            .iter()
+            .map(|&s| {
+                if s == NO_SEGMENT {
+                    0.0
+                } else {
+                    1.0 / count[s as usize] as f32
+                }
+            })
+            .collect();
+        let inv2 = 1.0 / (2.0 * sem.sigma_albedo * sem.sigma_albedo);
+        let mut w = vec![0f32; n * k];
+        let mut mean = vec![[0f32; 2]; n];
+        if k > 0 {
+            w.par_chunks_mut(k)
+                .zip(mean.par_iter_mut())
+                .enumerate()
+                .for_each(|(i, (wi, mi))| {
+                    if b.segment[i] == NO_SEGMENT {
+                        return;
+                    }
+                    let ai = &x[6 * i..6 * i + 3];
+                    let mut total = SEGMENT_WEIGHT_FLOOR as f64;
+                    for q in 0..k {
+                        let j = sem.index[i * k + q] as usize;
+                        let aj = &x[6 * j..6 * j + 3];
+                        let d2: f32 = (0..3).map(|c| (ai[c] - aj[c]).powi(2)).sum();
+                        let v = sem.pos_w[i * k + q] * (-d2 * inv2).exp();
+                        wi[q] = if v.is_finite() { v } else { 0.0 };
+                        total += wi[q] as f64;
+                    }
+                    // The floor is the pixel's own weight: without a similar partner it is
+                    // pulled towards itself (not towards 0).
+                    let own = SEGMENT_WEIGHT_FLOOR as f64 / total;
+                    let (mut ms, mut mm) = (own * x[6 * i + 3] as f64, own * x[6 * i + 4] as f64);
+                    for q in 0..k {
+                        wi[q] = (wi[q] as f64 / total) as f32;
+                        let j = sem.index[i * k + q] as usize;
+                        ms += (wi[q] * x[6 * j + 3]) as f64;
+                        mm += (wi[q] * x[6 * j + 4]) as f64;
+                    }
+                    *mi = [ms as f32, mm as f32];
+                });
+        }
+        let mut loss = 0f64;
+        for i in 0..n {
+            loss += (inv_count[i]
+                * ((mean[i][0] - x[6 * i + 3]).abs() + (mean[i][1] - x[6 * i + 4]).abs()))
+                as f64;
+        }
+        SemanticTerms {
+            w,
+            mean,
+            inv_count,
+            loss,
+        }
+    }
+
+    /// d(semantic prior)/d(σ, m) per pixel.
+    fn semantic_grad(&self, x: &[f32]) -> Vec<[f32; 2]> {
+        let b = &*self.batch;
+        let sem = b.semantic.as_ref().expect("semantic partners");
+        let t = self.semantic_terms(x);
+        let (n, k) = (b.segment.len(), sem.k);
+        let mut g = vec![[0f32; 2]; n];
+        for i in 0..n {
+            if b.segment[i] == NO_SEGMENT {
+                continue;
+            }
+            // |σ̄_i − σ_i|: sign·(own − 1) on σ_i, +sign·w_ij on each partner's σ_j (same for m).
+            let own = 1.0 - t.w[i * k..(i + 1) * k].iter().sum::<f32>();
+            for c in 0..2 {
+                let sg = t.inv_count[i] * sign(t.mean[i][c] - x[6 * i + 3 + c]);
+                g[i][c] -= sg * (1.0 - own);
+                for q in 0..k {
+                    let j = sem.index[i * k + q] as usize;
+                    g[j][c] += sg * t.w[i * k + q];
+                }
+            }
+        }
+        g
+    }
+}
+
 impl CustomOp1 for FactorizedLoss {
     fn name(&self) -> &'static str {
         "factorized-loss"
@@ -389,6 +521,11 @@ impl CustomOp1 for FactorizedLoss {
                 .segment
                 .iter()
                 .any(|&s| s != NO_SEGMENT && s as usize >= self.batch.segments)
+            || self.batch.semantic.as_ref().is_some_and(|p| {
+                p.index.len() != n * p.k
+                    || p.pos_w.len() != n * p.k
+                    || p.index.iter().any(|&j| j as usize >= n)
+            })
         {
             candle_core::bail!(
                 "factorized-loss: input {:?} for a batch of {}",
@@ -420,7 +557,9 @@ impl CustomOp1 for FactorizedLoss {
         let image = sum[0] / (3 * n) as f64;
         let mask = sum[1] / n as f64;
         let prior = sum[2] / n as f64;
-        let segment = if self.has_segments() {
+        let segment = if self.batch.semantic.is_some() && self.has_segments() {
+            self.semantic_terms(x).loss
+        } else if self.has_segments() {
             let seg = self.segment_sums(x);
             let b = &*self.batch;
             let mut acc = 0f64;
@@ -465,9 +604,16 @@ impl CustomOp1 for FactorizedLoss {
         let gi = (g[0] + g[1]) / (3 * n) as f32;
         let gm = (g[0] * self.mask_weight + g[2]) / n as f32;
         let gp = (g[0] * self.prior_weight + g[3]) / n as f32;
-        let gs = (g[0] * self.segment_weight + g[4]) / n as f32;
+        let semantic = self.batch.semantic.is_some() && self.has_segments();
+        // The part prior is a mean over pixels; the semantic one a sum of per-class means
+        // (1/n_class is inside its gradient).
+        let gs = (g[0] * self.segment_weight + g[4]) / if semantic { 1.0 } else { n as f32 };
         // d/dσ_j mean_i |σ_i − σ̄_s(i)| = (sign_j − w_j/W_s · Σ_{i∈s} sign_i) / n (w constant).
-        let seg = (self.has_segments() && gs != 0.0).then(|| self.segment_sums(&x));
+        let semantic = semantic && gs != 0.0;
+        let seg = (!semantic && self.has_segments() && gs != 0.0).then(|| self.segment_sums(&x));
+        // The semantic prior's gradient: its own term per pixel plus what it receives as a
+        // partner of others (scattered in pixel order: deterministic).
+        let sem_grad: Option<Vec<[f32; 2]>> = semantic.then(|| self.semantic_grad(&x));
         let mut out = vec![0f32; x.len()];
         out.par_chunks_mut(6 * 256)
             .enumerate()
@@ -479,6 +625,10 @@ impl CustomOp1 for FactorizedLoss {
                         row[q] = gi * p.d_image[q] + gp * p.d_prior[q];
                     }
                     row[5] += gm;
+                    if let Some(g) = &sem_grad {
+                        row[3] += gs * g[j][0];
+                        row[4] += gs * g[j][1];
+                    }
                     if let Some(seg) = seg.as_ref().filter(|_| self.batch.segment[j] != NO_SEGMENT)
                     {
                         let r = &x[6 * j..6 * j + 6];

@@ -12,7 +12,8 @@ use crate::error::{CandleContext, NeuralError, Result};
 use crate::field::{Bounds, FieldConfig, NeuralField};
 use crate::hashgrid::{AdamConfig, HashGridConfig};
 use crate::ops::{
-    srgb_oetf, FactorizedLoss, LevelWeights, LossBatch, SrgbOetf, NO_SEGMENT, SEGMENT_WEIGHT_FLOOR,
+    srgb_oetf, FactorizedLoss, LevelWeights, LossBatch, SemanticPartners, SrgbOetf, NO_SEGMENT,
+    SEGMENT_WEIGHT_FLOOR,
 };
 use candle_core::{Tensor, Var, D};
 use fipt_core::fsutil::{read_json, write_atomic, write_json_atomic};
@@ -80,6 +81,9 @@ pub struct TrainConfig {
     /// pixels' specular shading (see [`FactorizedLoss`]).
     #[serde(default = "default_segment_weight")]
     pub segment_weight: f32,
+    /// The semantic prior, used instead when the ids are semantic classes (`segmentation/`).
+    #[serde(default)]
+    pub semantic: SemanticPrior,
     pub seed: u64,
     /// Shrink the hash tables to what the number of training pixels can fill
     /// ([`TrainConfig::sized_for`]). The reference always uses 2^19.
@@ -114,6 +118,7 @@ impl Default for TrainConfig {
             roughness_prior: 1.0,
             segments: SegmentSource::Auto,
             segment_weight: default_segment_weight(),
+            semantic: SemanticPrior::default(),
             table_from_data: true,
             finest_from_data: true,
             finest_cell_footprints: 4.0,
@@ -221,7 +226,26 @@ impl TrainConfig {
                 format!("roughness_init = {} (use [0.02, 1])", f.roughness_init),
             ));
         }
+        let sp = &self.semantic;
+        if sp.partners == 0 || sp.partners > 4096 {
+            return Err(NeuralError::config(
+                "train.semantic",
+                format!("partners = {} (use 1..=4096)", sp.partners),
+            ));
+        }
         for (key, v) in [
+            ("sigma_albedo", sp.sigma_albedo),
+            ("sigma_position", sp.sigma_position),
+        ] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(NeuralError::config(
+                    "train.semantic",
+                    format!("{key} = {v} (use a width > 0)"),
+                ));
+            }
+        }
+        for (key, v) in [
+            ("semantic.weight", sp.weight),
             ("segment_weight", self.segment_weight),
             ("roughness_prior", self.roughness_prior),
             ("prior_weight", self.prior_weight),
@@ -252,15 +276,43 @@ fn default_segment_weight() -> f32 {
     5e-3
 }
 
+/// The reference's prior for semantic classes (see [`SemanticPartners`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SemanticPrior {
+    /// Weight (the reference: 1e-3).
+    pub weight: f32,
+    /// Partners drawn per pixel among the batch's pixels of its class (the reference: 1024).
+    pub partners: usize,
+    /// Albedo kernel width (the reference: 0.05/3).
+    pub sigma_albedo: f32,
+    /// Position kernel width, in the scene cube's [−1, 1] coordinates (the reference: 0.1).
+    pub sigma_position: f32,
+}
+
+impl Default for SemanticPrior {
+    fn default() -> Self {
+        SemanticPrior {
+            weight: 1e-3,
+            partners: 64,
+            sigma_albedo: 0.05 / 3.0,
+            sigma_position: 0.1,
+        }
+    }
+}
+
 /// Where the ids of the segment-consistency prior come from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SegmentSource {
-    /// Part ids when the scene has them, else no segment prior.
+    /// Part ids when the scene has them, else semantic classes when it has them, else no
+    /// segment prior.
     #[default]
     Auto,
     /// Part ids (`IndexMA/`), required.
     Parts,
+    /// Semantic classes (`segmentation/`), required.
+    Semantic,
     /// No segment prior.
     None,
 }
@@ -294,6 +346,8 @@ pub struct TrainingSet {
     pub segment: Vec<u32>,
     /// Number of distinct segment ids.
     pub segments: usize,
+    /// The ids are semantic classes ([`TrainingSet::with_classes`]), not parts.
+    pub semantic: bool,
 }
 
 /// 3 × 21-bit Morton code of a unit-cube point.
@@ -345,6 +399,7 @@ impl TrainingSet {
             morton: vec![],
             segment: vec![],
             segments: 0,
+            semantic: false,
         };
         for (v, ((pts, sh), img)) in points.iter().zip(shadings).zip(images).enumerate() {
             let n = sh.width * sh.height;
@@ -408,6 +463,13 @@ impl TrainingSet {
         self.segments = dense.len();
         self.segment = segment;
         Ok(self)
+    }
+
+    /// [`TrainingSet::with_segments`] for semantic classes: the semantic prior is used.
+    pub fn with_classes(self, ids: &[Vec<i64>]) -> Result<Self> {
+        let mut s = self.with_segments(ids)?;
+        s.semantic = true;
+        Ok(s)
     }
 
     pub fn len(&self) -> usize {
@@ -542,6 +604,45 @@ impl Trainer {
         }
     }
 
+    /// The semantic prior's partners for the batch rows `idx` (rows of the training set):
+    /// `k` rows of the same class per row, drawn with a generator keyed on (seed, step).
+    fn partners(&self, data: &TrainingSet, idx: &[usize]) -> SemanticPartners {
+        let sp = self.config.semantic;
+        let k = sp.partners;
+        let mut members: Vec<Vec<u32>> = vec![vec![]; data.segments];
+        for (row, &i) in idx.iter().enumerate() {
+            let s = data.segment.get(i).copied().unwrap_or(NO_SEGMENT);
+            if s != NO_SEGMENT {
+                members[s as usize].push(row as u32);
+            }
+        }
+        let mut rng = Pcg32::from_keys(&[self.config.seed, self.step as u64, 0x5E3A]);
+        let inv2 = 1.0 / (2.0 * sp.sigma_position * sp.sigma_position);
+        let mut index = Vec::with_capacity(idx.len() * k);
+        let mut pos_w = Vec::with_capacity(idx.len() * k);
+        for (row, &i) in idx.iter().enumerate() {
+            let s = data.segment.get(i).copied().unwrap_or(NO_SEGMENT);
+            let m = (s != NO_SEGMENT).then(|| &members[s as usize]);
+            for _ in 0..k {
+                let j = match m {
+                    Some(m) => m[((rng.next_u32() as u64 * m.len() as u64) >> 32) as usize],
+                    None => row as u32,
+                };
+                let (a, b) = (data.unit[i], data.unit[idx[j as usize]]);
+                // Unit-cube distance × 2: the reference's [−1, 1] coordinates.
+                let d2: f32 = (0..3).map(|c| (2.0 * (a[c] - b[c])).powi(2)).sum();
+                index.push(j);
+                pos_w.push((-d2 * inv2).exp());
+            }
+        }
+        SemanticPartners {
+            k,
+            index,
+            pos_w,
+            sigma_albedo: sp.sigma_albedo,
+        }
+    }
+
     /// Steps taken so far.
     pub fn step_count(&self) -> usize {
         self.step
@@ -576,6 +677,8 @@ impl Trainer {
                     .collect()
             },
             segments: data.segments,
+            semantic: (data.semantic && self.config.segments != SegmentSource::None)
+                .then(|| self.partners(data, &idx)),
         });
         let t1 = Instant::now();
         let cfg = &self.config;
@@ -592,7 +695,11 @@ impl Trainer {
             prior_weight: cfg.prior_weight * self.prior_ramp(),
             prior_l1: cfg.prior_norm == PriorNorm::L1,
             metallic_l1: cfg.prior_norm != PriorNorm::L2,
-            segment_weight: cfg.segment_weight,
+            segment_weight: if data.semantic {
+                cfg.semantic.weight
+            } else {
+                cfg.segment_weight
+            },
             roughness_prior_scale: cfg.roughness_prior,
         };
         let terms = out.packed().and_then(|p| p.apply_op1(loss)).ctx("loss")?;
@@ -849,6 +956,50 @@ pub fn candle_ops_loss(
         let prior = (ps.affine(k, 0.0)? + pm)?;
         let segment = if batch.segment.is_empty() {
             Tensor::zeros((), candle_core::DType::F32, dev)?
+        } else if let Some(sem) = &batch.semantic {
+            // Constants of the step: the normalised bilateral weights (albedo not
+            // differentiated) and 1/n_class; σ and m of the partners are gathered with autograd.
+            let k = sem.k;
+            let albedo = out.albedo.to_vec2::<f32>()?;
+            let mut count = vec![0f32; batch.segments];
+            for &s in &batch.segment {
+                if s != NO_SEGMENT {
+                    count[s as usize] += 1.0;
+                }
+            }
+            let mut w = vec![0f32; b * k];
+            let mut inv = vec![0f32; b];
+            let mut own = vec![0f32; b];
+            for i in 0..b {
+                if batch.segment[i] == NO_SEGMENT {
+                    continue;
+                }
+                inv[i] = 1.0 / count[batch.segment[i] as usize];
+                let mut total = SEGMENT_WEIGHT_FLOOR as f64;
+                for q in 0..k {
+                    let j = sem.index[i * k + q] as usize;
+                    let d2: f32 = (0..3).map(|c| (albedo[i][c] - albedo[j][c]).powi(2)).sum();
+                    let v = sem.pos_w[i * k + q]
+                        * (-d2 / (2.0 * sem.sigma_albedo * sem.sigma_albedo)).exp();
+                    w[i * k + q] = v;
+                    total += v as f64;
+                }
+                for q in 0..k {
+                    w[i * k + q] = (w[i * k + q] as f64 / total) as f32;
+                }
+                own[i] = (SEGMENT_WEIGHT_FLOOR as f64 / total) as f32;
+            }
+            let idx = Tensor::from_vec(sem.index.clone(), b * k, dev)?;
+            let w = Tensor::from_vec(w, (b, k), dev)?;
+            let inv = Tensor::from_vec(inv, (b, 1), dev)?;
+            let own = Tensor::from_vec(own, (b, 1), dev)?;
+            let mean = |v: &Tensor| -> candle_core::Result<Tensor> {
+                let partners = v.squeeze(1)?.index_select(&idx, 0)?.reshape((b, k))?;
+                (partners * &w)?.sum_keepdim(1)? + (v * &own)?
+            };
+            let ds = (mean(&out.roughness)? - &out.roughness)?.abs()?;
+            let dm = (mean(&out.metallic)? - &out.metallic)?.abs()?;
+            ((ds + dm)? * inv)?.sum_all()?
         } else {
             // Pixels of no segment gather from, and scatter to, one extra slot that is dropped.
             let k = batch.segments;

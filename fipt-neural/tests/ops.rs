@@ -161,13 +161,39 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
         })
         .collect();
     batch.segments = 7;
-    let segmented = std::sync::Arc::new(batch);
+    let segmented = std::sync::Arc::new(batch.clone());
+    // Semantic classes: 5 partners per pixel among its class (itself included at times),
+    // position weights from 0.05 to 1.
+    let mut partners = fipt_neural::ops::SemanticPartners {
+        k: 5,
+        sigma_albedo: 0.3,
+        ..Default::default()
+    };
+    for (i, &s) in batch.segment.iter().enumerate() {
+        let same: Vec<u32> = (0..n as u32)
+            .filter(|&j| batch.segment[j as usize] == s)
+            .collect();
+        for q in 0..5 {
+            let j = if s == NO_SEGMENT {
+                i as u32
+            } else {
+                same[(i * 7 + q * 13) % same.len()]
+            };
+            partners.index.push(j);
+            partners
+                .pos_w
+                .push(0.05 + 0.95 * ((i + 3 * q) % 10) as f32 / 9.0);
+        }
+    }
+    batch.semantic = Some(partners);
+    let semantic = std::sync::Arc::new(batch);
     for (norm, l1, ml1, batch, rp) in [
         (PriorNorm::L2, false, false, &unsegmented, 1.0),
         (PriorNorm::L1, true, true, &unsegmented, 1.0),
         (PriorNorm::L1, true, true, &segmented, 0.35),
         (PriorNorm::L2, false, false, &segmented, 0.0),
         (PriorNorm::L2Roughness, false, true, &segmented, 0.7),
+        (PriorNorm::L2Roughness, false, true, &semantic, 0.7),
     ] {
         let var = |c: usize, w: usize| {
             let v: Vec<f32> = (0..n)

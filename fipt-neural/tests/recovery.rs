@@ -28,7 +28,23 @@ static ALLOC: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 #[test]
 fn training_on_exact_shadings_recovers_materials_and_emitters() {
-    let dir = std::env::temp_dir().join(format!("fipt-neural-recovery-{}", std::process::id()));
+    recover(GtKind::IndexMA);
+}
+
+/// The same with the semantic classes (`segmentation/`: the three blocks are one class,
+/// "furniture") and the semantic prior instead of part ids, as a real scene would have them.
+/// Measured: kd 43.1 dB, glossy block's σ 29.2 dB, rough surfaces 20.0 dB.
+#[test]
+fn training_with_semantic_classes_recovers_the_glossy_block() {
+    recover(GtKind::Segmentation);
+}
+
+fn recover(ids: GtKind) {
+    let dir = std::env::temp_dir().join(format!(
+        "fipt-neural-recovery-{}-{}",
+        ids.folder(),
+        std::process::id()
+    ));
     let _ = std::fs::remove_dir_all(&dir);
     let opts = SynthOptions {
         train_views: 16,
@@ -103,12 +119,15 @@ fn training_on_exact_shadings_recovers_materials_and_emitters() {
     }
     let bounds = Bounds::around(points.iter().flatten().flatten().copied(), 1.1).unwrap();
     let parts: Vec<Vec<i64>> = (0..split.views.len())
-        .map(|k| ds.load_ids(split, GtKind::IndexMA, k).unwrap().unwrap())
+        .map(|k| ds.load_ids(split, ids, k).unwrap().unwrap())
         .collect();
-    let data = TrainingSet::new(&points, &shadings, &images, &bounds)
-        .unwrap()
-        .with_segments(&parts)
-        .unwrap();
+    let data = TrainingSet::new(&points, &shadings, &images, &bounds).unwrap();
+    let data = if ids == GtKind::Segmentation {
+        data.with_classes(&parts)
+    } else {
+        data.with_segments(&parts)
+    }
+    .unwrap();
     let mut cfg = TrainConfig::fast();
     // Exact shadings: as in a round after a refinement, no σ pull (`rounds.roughness_prior`).
     cfg.roughness_prior = 0.0;
@@ -138,7 +157,8 @@ fn training_on_exact_shadings_recovers_materials_and_emitters() {
     }
     let iou = inter as f64 / uni.max(1) as f64;
     eprintln!(
-        "recovery on cornell ({} pixels, {} glossy, {} emitter; 1500 steps of 4096 in {secs:.1} s): kd {kd_psnr:.2} dB, glossy roughness {r_psnr:.2} dB, mask IoU {iou:.3}, final loss {:?}",
+        "recovery on cornell with {} ({} pixels, {} glossy, {} emitter; 1500 steps of 4096 in {secs:.1} s): kd {kd_psnr:.2} dB, glossy roughness {r_psnr:.2} dB, mask IoU {iou:.3}, final loss {:?}",
+        ids.folder(),
         truth.len(),
         glossy.iter().filter(|&&g| g).count(),
         truth.iter().filter(|t| t.3).count(),
