@@ -616,25 +616,35 @@ impl Trainer {
                 members[s as usize].push(row as u32);
             }
         }
-        let mut rng = Pcg32::from_keys(&[self.config.seed, self.step as u64, 0x5E3A]);
         let inv2 = 1.0 / (2.0 * sp.sigma_position * sp.sigma_position);
-        let mut index = Vec::with_capacity(idx.len() * k);
-        let mut pos_w = Vec::with_capacity(idx.len() * k);
-        for (row, &i) in idx.iter().enumerate() {
-            let s = data.segment.get(i).copied().unwrap_or(NO_SEGMENT);
-            let m = (s != NO_SEGMENT).then(|| &members[s as usize]);
-            for _ in 0..k {
-                let j = match m {
-                    Some(m) => m[((rng.next_u32() as u64 * m.len() as u64) >> 32) as usize],
-                    None => row as u32,
-                };
-                let (a, b) = (data.unit[i], data.unit[idx[j as usize]]);
-                // Unit-cube distance × 2: the reference's [−1, 1] coordinates.
-                let d2: f32 = (0..3).map(|c| (2.0 * (a[c] - b[c])).powi(2)).sum();
-                index.push(j);
-                pos_w.push((-d2 * inv2).exp());
-            }
-        }
+        let mut index = vec![0u32; idx.len() * k];
+        let mut pos_w = vec![0f32; idx.len() * k];
+        // The batch's positions, in cache, for the partners' look-ups.
+        let unit: Vec<[f32; 3]> = idx.iter().map(|&i| data.unit[i]).collect();
+        // One generator per row keyed on (seed, step, row): parallel and deterministic.
+        use rayon::prelude::*;
+        index
+            .par_chunks_mut(k)
+            .zip(pos_w.par_chunks_mut(k))
+            .enumerate()
+            .for_each(|(row, (ix, pw))| {
+                let i = idx[row];
+                let s = data.segment.get(i).copied().unwrap_or(NO_SEGMENT);
+                let m = (s != NO_SEGMENT).then(|| &members[s as usize]);
+                let mut rng =
+                    Pcg32::from_keys(&[self.config.seed, self.step as u64, 0x5E3A, row as u64]);
+                for q in 0..k {
+                    let j = match m {
+                        Some(m) => m[((rng.next_u32() as u64 * m.len() as u64) >> 32) as usize],
+                        None => row as u32,
+                    };
+                    let (a, b) = (unit[row], unit[j as usize]);
+                    // Unit-cube distance × 2: the reference's [−1, 1] coordinates.
+                    let d2: f32 = (0..3).map(|c| (2.0 * (a[c] - b[c])).powi(2)).sum();
+                    ix[q] = j;
+                    pw[q] = (-d2 * inv2).exp();
+                }
+            });
         SemanticPartners {
             k,
             index,
