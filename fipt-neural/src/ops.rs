@@ -236,6 +236,26 @@ pub struct FactorizedLoss {
     pub segment_weight: f32,
     /// Scale of the prior's roughness part (1: the reference's mean|σ − 1| + mean(m)).
     pub roughness_prior_scale: f32,
+    /// The segment prior's terms of the forward, for the backward (leave it `Default`).
+    pub cache: PriorCache,
+}
+
+/// The segment prior's per-batch terms that the forward computes and the backward needs (for
+/// the semantic prior, 0.5 M bilateral weights a step), kept with the input they came from.
+#[derive(Debug, Default)]
+pub struct PriorCache(std::sync::Mutex<Option<(Vec<f32>, PriorTerms)>>);
+
+/// A cache is not shared by a clone.
+impl Clone for PriorCache {
+    fn clone(&self) -> Self {
+        PriorCache::default()
+    }
+}
+
+#[derive(Debug)]
+enum PriorTerms {
+    Parts(SegmentSums),
+    Semantic(SemanticTerms),
 }
 
 /// Per-segment sums of one batch: Σw, Σw·σ, Σw·m, then Σsign(σ − σ̄), Σsign(m − m̄).
@@ -399,6 +419,7 @@ impl FactorizedLoss {
 
 /// The semantic prior of one batch: per pixel its partners' normalised weights, the weighted
 /// means of (σ, m), the class normalisation 1/n_c, and the loss.
+#[derive(Debug)]
 struct SemanticTerms {
     /// `k` weights w_ij / W_i per pixel.
     w: Vec<f32>,
@@ -478,11 +499,20 @@ impl FactorizedLoss {
         }
     }
 
+    /// The segment prior's terms of input `x`: the forward's when it had the same input.
+    fn prior_terms(&self, x: &[f32]) -> PriorTerms {
+        let cached = self.cache.0.lock().ok().and_then(|mut c| c.take());
+        match cached {
+            Some((input, terms)) if input == x => terms,
+            _ if self.batch.semantic.is_some() => PriorTerms::Semantic(self.semantic_terms(x)),
+            _ => PriorTerms::Parts(self.segment_sums(x)),
+        }
+    }
+
     /// d(semantic prior)/d(σ, m) per pixel.
-    fn semantic_grad(&self, x: &[f32]) -> Vec<[f32; 2]> {
+    fn semantic_grad(&self, x: &[f32], t: &SemanticTerms) -> Vec<[f32; 2]> {
         let b = &*self.batch;
         let sem = b.semantic.as_ref().expect("semantic partners");
-        let t = self.semantic_terms(x);
         let (n, k) = (b.segment.len(), sem.k);
         let mut g = vec![[0f32; 2]; n];
         for i in 0..n {
@@ -557,8 +587,9 @@ impl CustomOp1 for FactorizedLoss {
         let image = sum[0] / (3 * n) as f64;
         let mask = sum[1] / n as f64;
         let prior = sum[2] / n as f64;
-        let segment = if self.batch.semantic.is_some() && self.has_segments() {
-            self.semantic_terms(x).loss
+        let (segment, terms) = if self.batch.semantic.is_some() && self.has_segments() {
+            let t = self.semantic_terms(x);
+            (t.loss, Some(PriorTerms::Semantic(t)))
         } else if self.has_segments() {
             let seg = self.segment_sums(x);
             let b = &*self.batch;
@@ -571,10 +602,13 @@ impl CustomOp1 for FactorizedLoss {
                 acc += ((x[6 * j + 3] - seg.mean_sigma[s]).abs()
                     + (x[6 * j + 4] - seg.mean_m[s]).abs()) as f64;
             }
-            acc / n as f64
+            (acc / n as f64, Some(PriorTerms::Parts(seg)))
         } else {
-            0.0
+            (0.0, None)
         };
+        if let (Some(t), Ok(mut c)) = (terms, self.cache.0.lock()) {
+            *c = Some((x.to_vec(), t));
+        }
         let total = image
             + self.mask_weight as f64 * mask
             + self.prior_weight as f64 * prior
@@ -609,11 +643,14 @@ impl CustomOp1 for FactorizedLoss {
         // (1/n_class is inside its gradient).
         let gs = (g[0] * self.segment_weight + g[4]) / if semantic { 1.0 } else { n as f32 };
         // d/dσ_j mean_i |σ_i − σ̄_s(i)| = (sign_j − w_j/W_s · Σ_{i∈s} sign_i) / n (w constant).
-        let semantic = semantic && gs != 0.0;
-        let seg = (!semantic && self.has_segments() && gs != 0.0).then(|| self.segment_sums(&x));
+        let terms = (self.has_segments() && gs != 0.0).then(|| self.prior_terms(&x));
         // The semantic prior's gradient: its own term per pixel plus what it receives as a
         // partner of others (scattered in pixel order: deterministic).
-        let sem_grad: Option<Vec<[f32; 2]>> = semantic.then(|| self.semantic_grad(&x));
+        let (seg, sem_grad) = match &terms {
+            Some(PriorTerms::Parts(s)) => (Some(s), None),
+            Some(PriorTerms::Semantic(t)) => (None, Some(self.semantic_grad(&x, t))),
+            None => (None, None),
+        };
         let mut out = vec![0f32; x.len()];
         out.par_chunks_mut(6 * 256)
             .enumerate()
@@ -629,8 +666,7 @@ impl CustomOp1 for FactorizedLoss {
                         row[3] += gs * g[j][0];
                         row[4] += gs * g[j][1];
                     }
-                    if let Some(seg) = seg.as_ref().filter(|_| self.batch.segment[j] != NO_SEGMENT)
-                    {
+                    if let Some(seg) = seg.filter(|_| self.batch.segment[j] != NO_SEGMENT) {
                         let r = &x[6 * j..6 * j + 6];
                         let s = self.batch.segment[j] as usize;
                         let share = (seg.pixel_w[j] as f64 / seg.w[s]) as f32;

@@ -711,6 +711,7 @@ impl Trainer {
                 cfg.segment_weight
             },
             roughness_prior_scale: cfg.roughness_prior,
+            cache: Default::default(),
         };
         let terms = out.packed().and_then(|p| p.apply_op1(loss)).ctx("loss")?;
         let total = terms

@@ -220,6 +220,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
                 metallic_l1: ml1,
                 segment_weight: 0.4,
                 roughness_prior_scale: rp,
+                cache: Default::default(),
             })
             .unwrap();
         let weights = LossWeights {
