@@ -167,19 +167,13 @@ fn with_segments(
         }
         SegmentSource::Parts if has_parts => GtKind::IndexMA,
         SegmentSource::Semantic if has_classes => GtKind::Segmentation,
-        SegmentSource::Parts | SegmentSource::Semantic => bail!(
-            "train.segments = \"{}\" but {} has no {}/ folder (use \"auto\" or \"none\")",
-            if source == SegmentSource::Parts {
-                "parts"
-            } else {
-                "semantic"
-            },
-            split.dir.display(),
-            if source == SegmentSource::Parts {
-                "IndexMA"
-            } else {
-                "segmentation"
-            },
+        SegmentSource::Parts => bail!(
+            "train.segments = \"parts\" but {} has no IndexMA/ folder (use \"auto\" or \"none\")",
+            split.dir.display()
+        ),
+        SegmentSource::Semantic => bail!(
+            "train.segments = \"semantic\" but {} has no segmentation/ folder (use \"auto\" or \"none\")",
+            split.dir.display()
         ),
     };
     let folder = kind.folder();

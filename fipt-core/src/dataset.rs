@@ -205,9 +205,7 @@ impl Dataset {
         let p = split.gt_path(kind, k);
         load_checked(&p, self.width, self.height, BadPixelPolicy::Reject).map(|(i, _)| Some(i))
     }
-}
 
-impl Dataset {
     /// The per-pixel ids of an id map (`IndexMA/` parts or `segmentation/` classes) of view `k`,
     /// from its first channel: non-negative whole numbers are ids; negative, fractional or
     /// non-finite values mean "no id" (−1). `None` when the split has no such folder.
@@ -215,18 +213,12 @@ impl Dataset {
         if !split.has_gt(kind) {
             return Ok(None);
         }
-        let p = split.gt_path(kind, k);
-        let img = Image::read_exr(&p)?;
-        if (img.width, img.height) != (self.width, self.height) {
-            return Err(CoreError::SizeMismatch {
-                path: p,
-                got_w: img.width,
-                got_h: img.height,
-                expected_w: self.width,
-                expected_h: self.height,
-                hint: "an id map must have the size of its view".into(),
-            });
-        }
+        let img = read_sized(
+            &split.gt_path(kind, k),
+            self.width,
+            self.height,
+            "an id map must have the size of its view",
+        )?;
         Ok(Some(
             img.data
                 .iter()
@@ -243,13 +235,9 @@ impl Dataset {
     }
 }
 
-fn load_checked(
-    path: &Path,
-    w: usize,
-    h: usize,
-    policy: BadPixelPolicy,
-) -> Result<(Image, BadPixelCount)> {
-    let mut img = Image::read_exr(path)?;
+/// Reads an EXR of `w`×`h` pixels; another size is an error naming the file, with `hint`.
+fn read_sized(path: &Path, w: usize, h: usize, hint: &str) -> Result<Image> {
+    let img = Image::read_exr(path)?;
     if (img.width, img.height) != (w, h) {
         return Err(CoreError::SizeMismatch {
             path: path.to_path_buf(),
@@ -257,9 +245,19 @@ fn load_checked(
             got_h: img.height,
             expected_w: w,
             expected_h: h,
-            hint: "all views of a scene must have the same size".into(),
+            hint: hint.into(),
         });
     }
+    Ok(img)
+}
+
+fn load_checked(
+    path: &Path,
+    w: usize,
+    h: usize,
+    policy: BadPixelPolicy,
+) -> Result<(Image, BadPixelCount)> {
+    let mut img = read_sized(path, w, h, "all views of a scene must have the same size")?;
     let bad = img.sanitize(policy, path)?;
     Ok((img, bad))
 }
