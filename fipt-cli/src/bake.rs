@@ -2,7 +2,7 @@
 use crate::info::Policy;
 use crate::progress::{bar, Stage};
 use crate::scene::LoadedScene;
-use anyhow::{bail, Result};
+use anyhow::Result;
 use fipt_core::image::Image;
 use fipt_core::shading::ViewShadings;
 use fipt_shading::bake::{BakeConfig, FactorizedBaker};
@@ -16,7 +16,7 @@ pub struct Args {
     /// Output folder; the shadings go to OUT/bake/.
     #[arg(long)]
     out: PathBuf,
-    /// Settings preset: paper (the reference's sample counts and behaviour), balanced, fast.
+    /// Settings preset: paper or balanced (the reference's sample counts), fast, reference (its estimators too).
     #[arg(long, default_value = "balanced")]
     preset: String,
     /// A TOML or JSON file of bake settings laid over the preset.
@@ -31,10 +31,8 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let Some(preset) = BakeConfig::preset(&a.preset) else {
-        bail!("unknown preset `{}` (paper, balanced, fast)", a.preset)
-    };
-    let cfg: BakeConfig = crate::config::load(preset, a.config.as_deref())?;
+    let cfg: BakeConfig =
+        crate::config::load_preset(&a.preset, BakeConfig::preset, a.config.as_deref())?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     let dir = a.out.join("bake");
     stage(&scene, &cfg, &dir, a.force)?;

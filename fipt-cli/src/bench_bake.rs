@@ -85,7 +85,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
                 ..base.clone()
             },
         ),
-        ("paper", BakeConfig::paper()),
+        ("reference", BakeConfig::reference()),
         ("fast", BakeConfig::fast()),
     ];
     let mut rows = Vec::new();

@@ -1,5 +1,5 @@
 //! Typed configuration files (TOML or JSON) applied on top of a named preset.
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use serde::{de::DeserializeOwned, Serialize};
 use std::path::Path;
 
@@ -17,6 +17,23 @@ fn merge(base: &mut serde_json::Value, over: serde_json::Value) {
         }
         (b, o) => *b = o,
     }
+}
+
+/// The presets every stage knows: `paper` (the reference's sample counts, sizes and steps with
+/// this project's estimators and losses), `balanced`, `fast`, and `reference` (the reference's
+/// behaviour as well, for comparison).
+pub const PRESETS: &str = "paper, balanced, fast, reference";
+
+/// The preset `name` (found by `lookup`) with the keys of `file` laid over it (see [`load`]).
+pub fn load_preset<T: Serialize + DeserializeOwned>(
+    name: &str,
+    lookup: impl FnOnce(&str) -> Option<T>,
+    file: Option<&Path>,
+) -> Result<T> {
+    let Some(preset) = lookup(name) else {
+        bail!("unknown preset `{name}` (use one of {PRESETS})")
+    };
+    load(preset, file)
 }
 
 /// `preset` with the keys of `file` (TOML, or JSON for `.json`) laid over it. Unknown keys are
@@ -66,5 +83,35 @@ mod tests {
             "{err}"
         );
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Every stage knows every preset name, and an unknown one names the valid ones.
+    #[test]
+    fn every_stage_knows_every_preset() {
+        use crate::run::RunConfig;
+        use fipt_neural::TrainConfig;
+        use fipt_shading::refine::RefineConfig;
+        for name in PRESETS.split(", ") {
+            assert!(BakeConfig::preset(name).is_some(), "bake: {name}");
+            assert!(TrainConfig::preset(name).is_some(), "train: {name}");
+            assert!(RefineConfig::preset(name).is_some(), "refine: {name}");
+            assert!(RunConfig::preset(name).is_some(), "run: {name}");
+        }
+        let err = load_preset("papr", RunConfig::preset, None)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("`papr`") && err.contains(PRESETS), "{err}");
+        // `paper` departs from `reference` only where this project measured better.
+        let (p, r) = (
+            RunConfig::preset("paper").unwrap(),
+            RunConfig::preset("reference").unwrap(),
+        );
+        assert_eq!(
+            (p.train.steps, p.train.batch, p.train.field.grid.levels),
+            (r.train.steps, r.train.batch, r.train.field.grid.levels)
+        );
+        assert_eq!(p.rounds.refinements, r.rounds.refinements);
+        assert_eq!(p.bake.diffuse_samples, r.bake.diffuse_samples);
+        assert_eq!(p.refine.specular_samples, r.refine.specular_samples);
     }
 }

@@ -4,7 +4,7 @@
 //! interrupted training.
 use crate::info::Policy;
 use crate::progress::Stage;
-use anyhow::{bail, Result};
+use anyhow::Result;
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::{write_bytes_atomic, write_json_atomic};
 use fipt_core::image::ExrPrecision;
@@ -27,7 +27,7 @@ pub struct Args {
     /// Output folder (created; finished stages inside are reused).
     #[arg(long)]
     pub out: PathBuf,
-    /// Settings preset: paper (the reference's sample counts, sizes and steps), balanced, fast.
+    /// Settings preset: paper (the reference's sample counts, sizes and steps), balanced, fast, reference (its behaviour too).
     #[arg(long, default_value = "balanced")]
     pub preset: String,
     /// A TOML or JSON file with `[bake]`, `[train]`, `[emitters]`, `[refine]`, `[rounds]` and
@@ -90,13 +90,17 @@ impl RunConfig {
             emitters: MaskExtractorConfig::default(),
             refine: RefineConfig::preset(name)?,
             rounds: RoundsConfig {
-                refinements: if name == "paper" { 2 } else { 1 },
-                warm_start: name != "paper",
-                roughness_prior: (name != "paper").then_some(0.0),
+                refinements: if matches!(name, "paper" | "reference") {
+                    2
+                } else {
+                    1
+                },
+                warm_start: name != "reference",
+                roughness_prior: (name != "reference").then_some(0.0),
             },
             render: ReRenderConfig {
                 spp: match name {
-                    "paper" => 64,
+                    "paper" | "reference" => 64,
                     "fast" => 8,
                     _ => 32,
                 },
@@ -115,10 +119,8 @@ struct StageReport {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let Some(preset) = RunConfig::preset(&a.preset) else {
-        bail!("unknown preset `{}` (paper, balanced, fast)", a.preset)
-    };
-    let cfg: RunConfig = crate::config::load(preset, a.config.as_deref())?;
+    let cfg: RunConfig =
+        crate::config::load_preset(&a.preset, RunConfig::preset, a.config.as_deref())?;
     cfg.train.validate()?;
     let t_all = std::time::Instant::now();
     let mut stages = vec![];

@@ -26,7 +26,7 @@ pub struct Args {
     /// Output folder holding OUT/bake/ (from `fipt bake`); results go to OUT/train/.
     #[arg(long)]
     out: PathBuf,
-    /// Settings preset: paper (the reference's sizes and 10k steps), balanced, fast.
+    /// Settings preset: paper (the reference's sizes and 10k steps), balanced, fast, reference.
     #[arg(long, default_value = "balanced")]
     preset: String,
     /// A TOML or JSON file of training settings laid over the preset.
@@ -94,10 +94,8 @@ pub fn view_points(geometry: &Geometry, views: &[View]) -> (Vec<Vec<Option<Vec3>
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let Some(preset) = TrainConfig::preset(&a.preset) else {
-        bail!("unknown preset `{}` (paper, balanced, fast)", a.preset)
-    };
-    let mut cfg: TrainConfig = crate::config::load(preset, a.config.as_deref())?;
+    let mut cfg: TrainConfig =
+        crate::config::load_preset(&a.preset, TrainConfig::preset, a.config.as_deref())?;
     if let Some(s) = a.steps {
         cfg.steps = s;
     }

@@ -35,6 +35,11 @@ impl Adam {
         })
     }
 
+    /// Sets the learning rate of the following steps (a schedule's value at the step).
+    pub fn set_lr(&mut self, lr: f32) {
+        self.cfg.lr = lr;
+    }
+
     pub fn steps(&self) -> u64 {
         self.steps
     }

@@ -27,4 +27,4 @@ pub mod train;
 pub use error::{NeuralError, Result};
 pub use field::{Bounds, FieldConfig, NeuralField};
 pub use hashgrid::{AdamConfig, HashGrid, HashGridConfig};
-pub use train::{PriorNorm, TrainConfig, Trainer, TrainingSet};
+pub use train::{LrDecay, PriorNorm, TrainConfig, Trainer, TrainingSet};

@@ -39,9 +39,12 @@ pub struct TrainConfig {
     pub adam: AdamConfig,
     /// The hash tables' learning rate as a multiple of `adam.lr`.
     pub grid_lr_factor: f32,
+    /// Learning-rate decay within a training round (the reference: none).
+    #[serde(default)]
+    pub lr_decay: LrDecay,
     /// Weight of mean(α) (mask sparsity).
     pub mask_weight: f32,
-    /// Weight of the roughness/metallic prior. The reference's 5e-4 (`paper`) leaves metallic
+    /// Weight of the roughness/metallic prior. The reference's 5e-4 (`reference`) leaves metallic
     /// flipping between neighbouring points; 0.02 (`balanced`) measured +2.5 dB kd and +4 dB σ
     /// on `room` (val: kd 15.7 → 18.2 dB), and 0 loses 1 dB more.
     pub prior_weight: f32,
@@ -111,6 +114,7 @@ impl Default for TrainConfig {
             batch: 8192,
             adam: AdamConfig::default(),
             grid_lr_factor: 1.0,
+            lr_decay: LrDecay::default(),
             mask_weight: 1.0,
             prior_weight: 0.02,
             prior_norm: PriorNorm::L2Roughness,
@@ -129,8 +133,29 @@ impl Default for TrainConfig {
 }
 
 impl TrainConfig {
-    /// The reference: 32 levels × 2^19, 10k steps of 8192 pixels, lr 1e-3, seed 9.
+    /// The reference's sizes and steps (32 levels × 2 features × 2^19, base 16; 10k steps of
+    /// 8192 pixels, lr 1e-3, seed 9) with this crate's losses and sizing: the finest level
+    /// from the pixel footprint (the reference's scale 1.3 makes cells far below a pixel),
+    /// the learning rate decayed over the second half of the steps.
     pub fn paper() -> Self {
+        TrainConfig {
+            field: FieldConfig {
+                grid: HashGridConfig::reference(),
+                ..FieldConfig::default()
+            },
+            steps: 10_000,
+            table_from_data: false,
+            lr_decay: LrDecay {
+                start: 0.5,
+                factor: 0.1,
+            },
+            ..Self::default()
+        }
+    }
+    /// The reference as it is: its sizes and steps, and its mask activation (relu), σ
+    /// parametrisation (gain 1 from 0.51), prior (5e-4·(mean|σ − 1| + mean(m)) from the first
+    /// step), constant learning rate and fixed per-level scale.
+    pub fn reference() -> Self {
         TrainConfig {
             field: FieldConfig {
                 grid: HashGridConfig::reference(),
@@ -166,10 +191,11 @@ impl TrainConfig {
             ..Self::default()
         }
     }
-    /// A named preset: `paper`, `balanced` (or `default`), `fast`.
+    /// A named preset: `paper`, `balanced` (or `default`), `fast`, `reference`.
     pub fn preset(name: &str) -> Option<Self> {
         match name {
             "paper" => Some(Self::paper()),
+            "reference" => Some(Self::reference()),
             "balanced" | "default" => Some(Self::default()),
             "fast" => Some(Self::fast()),
             _ => None,
@@ -226,6 +252,16 @@ impl TrainConfig {
                 format!("roughness_init = {} (use [0.02, 1])", f.roughness_init),
             ));
         }
+        let d = self.lr_decay;
+        if !((0.0..=1.0).contains(&d.start) && d.factor > 0.0 && d.factor <= 1.0) {
+            return Err(NeuralError::config(
+                "train.lr_decay",
+                format!(
+                    "start = {}, factor = {} (use start in [0, 1] and factor in (0, 1])",
+                    d.start, d.factor
+                ),
+            ));
+        }
         let sp = &self.semantic;
         if sp.partners == 0 || sp.partners > 4096 {
             return Err(NeuralError::config(
@@ -274,6 +310,41 @@ fn unit_scale() -> f32 {
 
 fn default_segment_weight() -> f32 {
     5e-3
+}
+
+/// Geometric learning-rate decay: `adam.lr` until `start·steps`, then down to
+/// `factor·adam.lr` at the last step (`lr·factor^((x − start)/(1 − start))` at the fraction x
+/// of the steps). At a constant rate Adam's iterate keeps jumping around the optimum by the
+/// batch noise; a decay lets the last steps average it out. `start = 1` or `factor = 1`: none.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LrDecay {
+    /// Fraction of the steps at which the decay begins, in [0, 1].
+    pub start: f32,
+    /// The rate at the last step as a multiple of `adam.lr`, in (0, 1].
+    pub factor: f32,
+}
+
+impl Default for LrDecay {
+    fn default() -> Self {
+        LrDecay {
+            start: 1.0,
+            factor: 1.0,
+        }
+    }
+}
+
+impl LrDecay {
+    /// The multiple of the learning rate at step `step` (0-based) of `steps`.
+    pub fn scale(&self, step: usize, steps: usize) -> f32 {
+        let x = step as f32 / steps.saturating_sub(1).max(1) as f32;
+        if x <= self.start || self.start >= 1.0 {
+            1.0
+        } else {
+            self.factor
+                .powf(((x - self.start) / (1.0 - self.start)).min(1.0))
+        }
+    }
 }
 
 /// The reference's prior for semantic classes (see [`SemanticPartners`]).
@@ -693,8 +764,9 @@ impl Trainer {
         let t1 = Instant::now();
         let cfg = &self.config;
         // The tables' Adam step is taken inside the backward (see `forward_step`).
+        let lr = cfg.adam.lr * cfg.lr_decay.scale(self.step, cfg.steps);
         let grid_adam = AdamConfig {
-            lr: cfg.adam.lr * cfg.grid_lr_factor,
+            lr: lr * cfg.grid_lr_factor,
             ..cfg.adam
         };
         let out = self.field.forward_step(&unit, grid_adam)?;
@@ -721,6 +793,7 @@ impl Trainer {
         let t2 = Instant::now();
         let grads = total.backward().ctx("backward")?;
         let t3 = Instant::now();
+        self.adam.set_lr(lr);
         self.adam.step(&grads)?;
         let t4 = Instant::now();
         let v = terms.to_vec1::<f32>().ctx("loss value")?;

@@ -4,7 +4,7 @@ use fipt_core::image::Image;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{ViewShadings, DEFAULT_LEVELS, NUM_LEVELS};
 use fipt_neural::hashgrid::HashGridConfig;
-use fipt_neural::{Bounds, FieldConfig, TrainConfig, Trainer, TrainingSet};
+use fipt_neural::{Bounds, FieldConfig, LrDecay, TrainConfig, Trainer, TrainingSet};
 use glam::Vec3;
 
 /// One 32×32 "view" of random points with random positive shadings and images.
@@ -141,6 +141,8 @@ fn bad_settings_are_rejected_with_the_key() {
         ("roughness_init", |c| c.field.roughness_init = 1.5),
         ("segment_weight", |c| c.segment_weight = f32::NAN),
         ("roughness_prior", |c| c.roughness_prior = -1.0),
+        ("lr_decay", |c| c.lr_decay.factor = 0.0),
+        ("lr_decay", |c| c.lr_decay.start = 1.5),
     ] {
         let mut c = config();
         set_bad(&mut c);
@@ -150,6 +152,42 @@ fn bad_settings_are_rejected_with_the_key() {
             .to_string();
         assert!(e.contains(key), "{key}: {e}");
     }
+}
+
+/// The decay keeps the rate until `start`, ends at `factor` on the last step, and is geometric
+/// in between; the defaults (and the reference) keep it constant.
+#[test]
+fn learning_rate_decay_follows_its_schedule() {
+    let d = LrDecay {
+        start: 0.5,
+        factor: 0.1,
+    };
+    let steps = 101;
+    assert_eq!(d.scale(0, steps), 1.0);
+    assert_eq!(d.scale(50, steps), 1.0);
+    assert!((d.scale(75, steps) - 0.1f32.sqrt()).abs() < 1e-6);
+    assert!((d.scale(100, steps) - 0.1).abs() < 1e-6);
+    let mut prev = 1.0;
+    for s in 0..steps {
+        let v = d.scale(s, steps);
+        assert!(v <= prev && v >= 0.1 - 1e-6, "step {s}: {v}");
+        prev = v;
+    }
+    for s in [0, 500, 999] {
+        assert_eq!(LrDecay::default().scale(s, 1000), 1.0);
+        assert_eq!(TrainConfig::reference().lr_decay.scale(s, 1000), 1.0);
+    }
+    // A decayed run ends elsewhere than a constant-rate one (the schedule reaches Adam).
+    let (set, bounds) = data();
+    let mut runs = vec![];
+    for decay in [LrDecay::default(), d] {
+        let mut cfg = config();
+        cfg.lr_decay = decay;
+        let mut t = Trainer::new(cfg, bounds, set.levels).unwrap();
+        t.run(&set, None, &mut |_| {}).unwrap();
+        runs.push(query(&t));
+    }
+    assert_ne!(runs[0], runs[1]);
 }
 
 /// A fresh field starts at σ = `roughness_init` whatever the gain (hash features start near 0,

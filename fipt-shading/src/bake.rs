@@ -92,8 +92,14 @@ impl Default for BakeConfig {
 }
 
 impl BakeConfig {
-    /// The reference implementation: per-pixel Ld, independent samples.
+    /// The reference's sample counts with this crate's estimators: the same as `balanced`,
+    /// whose counts are the reference's already.
     pub fn paper() -> Self {
+        Self::default()
+    }
+    /// The reference implementation's estimators too: per-pixel Ld, independent samples,
+    /// one estimate per roughness level, strict SLF.
+    pub fn reference() -> Self {
         BakeConfig {
             diffuse_cache: false,
             sampler: SamplerKind::Independent,
@@ -114,6 +120,7 @@ impl BakeConfig {
     pub fn preset(name: &str) -> Option<Self> {
         match name {
             "paper" => Some(Self::paper()),
+            "reference" => Some(Self::reference()),
             "balanced" | "default" => Some(Self::default()),
             "fast" => Some(Self::fast()),
             _ => None,

@@ -94,9 +94,14 @@ impl Default for RefineConfig {
 }
 
 impl RefineConfig {
+    /// The reference's GGX samples ([64; 6]) with this crate's estimators; Ld keeps 512
+    /// samples per cache cell (the reference: 128 per pixel, fewer than `balanced`).
+    pub fn paper() -> Self {
+        Self::default()
+    }
     /// The reference's refinement: per-pixel Ld, independent samples, no light samples at the
     /// shading point, strict SLF.
-    pub fn paper() -> Self {
+    pub fn reference() -> Self {
         RefineConfig {
             diffuse_samples: 128,
             light_samples: 0,
@@ -126,6 +131,7 @@ impl RefineConfig {
     pub fn preset(name: &str) -> Option<Self> {
         match name {
             "paper" => Some(Self::paper()),
+            "reference" => Some(Self::reference()),
             "balanced" | "default" => Some(Self::balanced()),
             "fast" => Some(Self::fast()),
             _ => None,

@@ -185,8 +185,8 @@ fn closure_with_ground_truth_materials_reproduces_the_views() {
             BakeConfig::default(),
         ),
         (
-            "paper (per-pixel Ld, independent, strict SLF)",
-            BakeConfig::paper(),
+            "reference (per-pixel Ld, independent, strict SLF)",
+            BakeConfig::reference(),
         ),
     ] {
         let (sh, stats, _) =
@@ -243,7 +243,7 @@ fn closure_with_ground_truth_materials_reproduces_the_views() {
     for (_, line) in &report {
         eprintln!("{line}");
     }
-    // Measured: 25.5 dB (default) vs 16.3 dB (paper) with 24 views of 64×48: the strict SLF
+    // Measured: 25.5 dB (default) vs 16.3 dB (reference) with 24 views of 64×48: the strict SLF
     // loses the direct light of the small emitter, seen in few pixels.
     assert!(report[0].0 >= 24.0, "{}", report[0].1);
     assert!(
