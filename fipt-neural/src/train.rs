@@ -114,7 +114,12 @@ impl Default for TrainConfig {
             batch: 8192,
             adam: AdamConfig::default(),
             grid_lr_factor: 1.0,
-            lr_decay: LrDecay::default(),
+            // On `room` (whole run): val kd 27.99 → 28.39 dB, σ 22.98 → 23.07 dB, median view
+            // σ 12.00 → 12.50 dB against a constant rate.
+            lr_decay: LrDecay {
+                start: 0.5,
+                factor: 0.1,
+            },
             mask_weight: 1.0,
             prior_weight: 0.02,
             prior_norm: PriorNorm::L2Roughness,
@@ -136,7 +141,7 @@ impl TrainConfig {
     /// The reference's sizes and steps (32 levels × 2 features × 2^19, base 16; 10k steps of
     /// 8192 pixels, lr 1e-3, seed 9) with this crate's losses and sizing: the finest level
     /// from the pixel footprint (the reference's scale 1.3 makes cells far below a pixel),
-    /// the learning rate decayed over the second half of the steps.
+    /// the learning rate decayed over the second half of the steps (as `balanced`).
     pub fn paper() -> Self {
         TrainConfig {
             field: FieldConfig {
@@ -145,10 +150,6 @@ impl TrainConfig {
             },
             steps: 10_000,
             table_from_data: false,
-            lr_decay: LrDecay {
-                start: 0.5,
-                factor: 0.1,
-            },
             ..Self::default()
         }
     }
@@ -171,6 +172,7 @@ impl TrainConfig {
             roughness_prior: 1.0,
             table_from_data: false,
             finest_from_data: false,
+            lr_decay: LrDecay::default(),
             ..Self::default()
         }
     }
