@@ -110,7 +110,10 @@ mod tests {
             (p.train.steps, p.train.batch, p.train.field.grid.levels),
             (r.train.steps, r.train.batch, r.train.field.grid.levels)
         );
-        assert_eq!(p.rounds.refinements, r.rounds.refinements);
+        assert_eq!(
+            (p.rounds.refinements, p.rounds.warm_start),
+            (r.rounds.refinements, r.rounds.warm_start)
+        );
         assert_eq!(p.bake.diffuse_samples, r.bake.diffuse_samples);
         assert_eq!(p.refine.specular_samples, r.refine.specular_samples);
     }
