@@ -340,7 +340,7 @@ impl LrDecay {
     /// The multiple of the learning rate at step `step` (0-based) of `steps`.
     pub fn scale(&self, step: usize, steps: usize) -> f32 {
         let x = step as f32 / steps.saturating_sub(1).max(1) as f32;
-        if x <= self.start || self.start >= 1.0 {
+        if x <= self.start {
             1.0
         } else {
             self.factor
@@ -677,9 +677,10 @@ impl Trainer {
         }
     }
 
-    /// The semantic prior's partners for the batch rows `idx` (rows of the training set):
-    /// `k` rows of the same class per row, drawn with a generator keyed on (seed, step).
-    fn partners(&self, data: &TrainingSet, idx: &[usize]) -> SemanticPartners {
+    /// The semantic prior's partners for the batch rows `idx` (rows of the training set, at
+    /// the batch's positions `unit`): `k` rows of the same class per row, drawn with a
+    /// generator keyed on (seed, step).
+    fn partners(&self, data: &TrainingSet, idx: &[usize], unit: &[[f32; 3]]) -> SemanticPartners {
         let sp = self.config.semantic;
         let k = sp.partners;
         let mut members: Vec<Vec<u32>> = vec![vec![]; data.segments];
@@ -692,8 +693,6 @@ impl Trainer {
         let inv2 = 1.0 / (2.0 * sp.sigma_position * sp.sigma_position);
         let mut index = vec![0u32; idx.len() * k];
         let mut pos_w = vec![0f32; idx.len() * k];
-        // The batch's positions, in cache, for the partners' look-ups.
-        let unit: Vec<[f32; 3]> = idx.iter().map(|&i| data.unit[i]).collect();
         // One generator per row keyed on (seed, step, row): parallel and deterministic.
         use rayon::prelude::*;
         index
@@ -761,7 +760,7 @@ impl Trainer {
             },
             segments: data.segments,
             semantic: (data.semantic && self.config.segments != SegmentSource::None)
-                .then(|| self.partners(data, &idx)),
+                .then(|| self.partners(data, &idx, &unit)),
         });
         let t1 = Instant::now();
         let cfg = &self.config;
