@@ -11,9 +11,11 @@ mod eval;
 mod info;
 mod progress;
 mod refine;
+mod regions;
 mod render;
 mod run;
 mod scene;
+mod search;
 mod synth;
 mod train;
 
@@ -70,6 +72,9 @@ enum Command {
     Train(train::Args),
     /// Path-trace views of a mesh with given materials and cameras (the forward renderer alone).
     Render(render::Args),
+    /// The material search's cost curves per region over roughness and metallic (a diagnostic of
+    /// the shadings; with ground truth, also at the true base colour).
+    Profile(search::Args),
     /// Measure BVH build, ray throughput and path-tracing speed; writes JSON.
     Bench(bench::Args),
 }
@@ -95,6 +100,7 @@ fn main() {
         Command::Eval(a) => eval::run(a),
         Command::Demo(a) => demo::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Profile(a) => search::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -15,6 +15,7 @@ use fipt_shading::field_surfaces::FieldSurfaces;
 use fipt_shading::refine::RefineConfig;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::scene::Scene as RenderScene;
+use fipt_shading::search::SearchConfig;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -52,6 +53,9 @@ pub struct RunConfig {
     pub refine: RefineConfig,
     pub rounds: RoundsConfig,
     pub render: ReRenderConfig,
+    /// The material search before each training round (absent: as the preset).
+    #[serde(default)]
+    pub search: SearchConfig,
 }
 
 /// The refine → train rounds after the first training round.
@@ -109,6 +113,11 @@ impl RunConfig {
                 max_bounces: 7,
                 seed: 0,
             },
+            search: if name == "reference" {
+                SearchConfig::off()
+            } else {
+                SearchConfig::default()
+            },
         })
     }
 }
@@ -146,6 +155,24 @@ pub fn run(a: Args) -> Result<()> {
         .splits
         .iter()
         .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol));
+    // Primary hits of the training views, shared by the search, the emitter extraction and the
+    // glossiness check below.
+    let records: Vec<_> = scene
+        .ds
+        .train()
+        .views
+        .iter()
+        .map(|v| primary_records(&scene.geometry, v))
+        .collect();
+    let footprint = crate::train::view_points(&scene.geometry, &scene.ds.train().views)
+        .1
+        .unwrap_or(0.01);
+    let mut searches = vec![];
+    let t = std::time::Instant::now();
+    let searched = crate::search::stage(&scene, &records, &shadings, &cfg.search, footprint)?;
+    if searched.is_some() {
+        mark("search", t);
+    }
     let t = std::time::Instant::now();
     let bake_id = fipt_shading::bake_store::fingerprint(&bake);
     let (mut field, mut train, _) = crate::train::stage(
@@ -156,20 +183,13 @@ pub fn run(a: Args) -> Result<()> {
         &a.out.join("train"),
         a.force,
         None,
+        searched.as_ref().map(|s| &s.targets[..]),
     )?;
     mark("train", t);
+    searches.push(serde_json::json!({ "shadings": "bake", "search": searched }));
 
     let t = std::time::Instant::now();
     let st = Stage::start("emitters");
-    // Primary hits of the training views, shared by the emitter extraction and the glossiness
-    // check below.
-    let records: Vec<_> = scene
-        .ds
-        .train()
-        .views
-        .iter()
-        .map(|v| primary_records(&scene.geometry, v))
-        .collect();
     let emitters = extract_emitters(&scene, &records, &field, &shadings, &cfg.emitters)?;
     write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
@@ -235,6 +255,12 @@ pub fn run(a: Args) -> Result<()> {
                 }));
             }
             let t = std::time::Instant::now();
+            let searched =
+                crate::search::stage(&scene, &records, &refined.shadings, &cfg.search, footprint)?;
+            if searched.is_some() {
+                mark("search", t);
+            }
+            let t = std::time::Instant::now();
             let prev_id = train.fingerprint();
             let mut round_cfg = cfg.train.clone();
             if let Some(p) = cfg.rounds.roughness_prior {
@@ -248,8 +274,10 @@ pub fn run(a: Args) -> Result<()> {
                 &a.out.join(format!("train{r}")),
                 a.force,
                 cfg.rounds.warm_start.then_some((&field, prev_id.as_str())),
+                searched.as_ref().map(|s| &s.targets[..]),
             )?;
             mark("train", t);
+            searches.push(serde_json::json!({ "shadings": format!("refine{r}"), "search": searched }));
             rounds.push(serde_json::json!({
                 "round": r,
                 "refine": { "seconds": refined.seconds, "stats": refined.stats },
@@ -355,12 +383,14 @@ pub fn run(a: Args) -> Result<()> {
         "train": train,
         "rounds": rounds,
         "shading_closure": closure,
+        "search": searches,
         "emitters": emitters.iter().map(|e| serde_json::json!({
             "triangles": e.triangles.len(), "area": e.area, "mean_radiance": e.mean_radiance,
             "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
         })).collect::<Vec<_>>(),
         "modeled": {
             "material_field": true,
+            "material_search": if cfg.search.enabled { format!("per region ({:?}): σ over {} values, metallic over {:?}, pulled towards with weight {}", cfg.search.regions, cfg.search.roughness_steps, cfg.search.metallic, cfg.train.target_weight) } else { "skipped (search.enabled = false)".to_string() },
             "emission_mask": true,
             "emitters": emitters.len(),
             "path_grown_refinement": match &refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },

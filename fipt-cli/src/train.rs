@@ -120,6 +120,7 @@ pub fn run(a: Args) -> Result<()> {
         &dir,
         a.force,
         None,
+        None,
     )?;
     if fresh || !dir.join("views").is_dir() {
         let st = Stage::start("export maps");
@@ -213,6 +214,7 @@ pub fn stage(
     dir: &Path,
     force: bool,
     warm: Option<(&NeuralField, &str)>,
+    targets: Option<&[Vec<Option<[f32; 2]>>]>,
 ) -> Result<(NeuralField, TrainManifest, bool)> {
     let split = scene.ds.train();
     let st = Stage::start("training set");
@@ -221,7 +223,18 @@ pub fn stage(
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
     let data = TrainingSet::new(&points, shadings, &scene.images, &bounds)?;
-    let (data, segments_id) = with_segments(scene, data, cfg.segments)?;
+    let (mut data, segments_id) = with_segments(scene, data, cfg.segments)?;
+    let mut targets_id = None;
+    if let Some(t) = targets {
+        data = data.with_targets(t)?;
+        let bytes: Vec<u8> = data
+            .target
+            .iter()
+            .flat_map(|t| [t[0].to_le_bytes(), t[1].to_le_bytes()])
+            .flatten()
+            .collect();
+        targets_id = Some(fipt_core::fsutil::hash_bytes(&bytes));
+    }
     let cfg = cfg.sized_for(data.len(), footprint, &bounds);
     let mut inputs = format!(
         "{}+shadings:{shadings_id}+warm:{}",
@@ -230,6 +243,9 @@ pub fn stage(
     );
     if let Some(id) = segments_id {
         inputs += &format!("+segments:{id}");
+    }
+    if let Some(id) = targets_id {
+        inputs += &format!("+targets:{id}");
     }
     st.done();
     if !force {

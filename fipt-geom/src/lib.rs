@@ -18,6 +18,7 @@ pub mod bvh;
 pub mod error;
 pub mod geometry;
 pub mod mesh;
+pub mod patches;
 pub mod sampling;
 
 pub use bvh::{hit_point, offset_ray_origin, shading_normal, BuildQuality, Bvh, Hit};

@@ -175,6 +175,11 @@ pub struct LossBatch {
     /// With semantic classes as segment ids: each pixel's partners for the bilateral prior
     /// (instead of the part prior's segment means).
     pub semantic: Option<SemanticPartners>,
+    /// Per pixel the material search's (σ*, m*), which the prior pulls towards (L2, weight
+    /// [`FactorizedLoss::target_weight`]) instead of (1, 0); a NaN part has no target (the
+    /// default prior applies to it).
+    /// Empty when the run has no search.
+    pub target: Vec<[f32; 2]>,
 }
 
 /// The partners of the semantic prior (the reference's prior for `segmentation/` classes):
@@ -212,10 +217,13 @@ pub const NO_SEGMENT: u32 = u32::MAX;
 /// composition, sRGB OETF, MSE, mask sparsity and the roughness/metallic prior), instead of
 /// ~30 small candle ops and their backward.
 ///
-/// The prior is `roughness_prior_scale·|σ − 1| + m` (L1), or the square of either part.
+/// The prior of a pixel is `prior_weight·(roughness_prior_scale·|σ − 1| + m)` (L1), or the
+/// square of either part; a part with a search target is `target_weight·(σ − σ*)²` or
+/// `target_weight·(m − m*)²` instead.
 ///
 /// Input `[n, 6]`: albedo (3), σ, metallic, α per pixel (after their activations). Output `[5]`:
-/// total, image MSE, mean α, prior, segment prior; the backward honours gradients on all five.
+/// total, image MSE, mean α, weighted prior (its weights inside), segment prior; the backward
+/// honours gradients on all five.
 ///
 /// The segment prior (the reference's part prior, used when the batch has segment ids):
 /// `mean_j |σ_j − σ̄_s(j)| + |m_j − m̄_s(j)|`, where σ̄_s and m̄_s are the means over the batch's
@@ -236,6 +244,9 @@ pub struct FactorizedLoss {
     pub segment_weight: f32,
     /// Scale of the prior's roughness part (1: the reference's mean|σ − 1| + mean(m)).
     pub roughness_prior_scale: f32,
+    /// Weight of the pull towards the search's targets (pixels with one; no ramp, whatever
+    /// `roughness_prior_scale`): (σ − σ*)² + (m − m*)².
+    pub target_weight: f32,
     /// The segment prior's terms of the forward, for the backward (leave it `Default`).
     pub cache: PriorCache,
 }
@@ -316,16 +327,22 @@ impl FactorizedLoss {
             d[4] += dr * (-a[c] * ld[c] + (a[c] - 0.04) * s0);
             d[5] += dp * (g[c] - r);
         }
-        let k = self.roughness_prior_scale;
-        let (prior_s, dps) = if self.prior_l1 {
-            (k * (sigma - 1.0).abs(), if sigma < 1.0 { -k } else { k })
+        // Each part: the search's target pull where it has one, the default prior elsewhere.
+        let [ts, tm] = b.target.get(j).copied().unwrap_or([f32::NAN; 2]);
+        let (pw, tw, k) = (self.prior_weight, self.target_weight, self.roughness_prior_scale);
+        let (prior_s, dps) = if ts.is_finite() {
+            (tw * (sigma - ts).powi(2), tw * 2.0 * (sigma - ts))
+        } else if self.prior_l1 {
+            (pw * k * (sigma - 1.0).abs(), pw * if sigma < 1.0 { -k } else { k })
         } else {
-            (k * (sigma - 1.0).powi(2), k * 2.0 * (sigma - 1.0))
+            (pw * k * (sigma - 1.0).powi(2), pw * k * 2.0 * (sigma - 1.0))
         };
-        let (prior_m, dpm) = if self.metallic_l1 {
-            (m, 1.0)
+        let (prior_m, dpm) = if tm.is_finite() {
+            (tw * (m - tm).powi(2), tw * 2.0 * (m - tm))
+        } else if self.metallic_l1 {
+            (pw * m, pw)
         } else {
-            (m * m, 2.0 * m)
+            (pw * m * m, pw * 2.0 * m)
         };
         let prior = prior_s + prior_m;
         let mut d_prior = [0f32; 6];
@@ -611,7 +628,7 @@ impl CustomOp1 for FactorizedLoss {
         }
         let total = image
             + self.mask_weight as f64 * mask
-            + self.prior_weight as f64 * prior
+            + prior
             + self.segment_weight as f64 * segment;
         Ok((
             CpuStorage::F32(vec![
@@ -634,10 +651,11 @@ impl CustomOp1 for FactorizedLoss {
         let x = arg.flatten_all()?.to_vec1::<f32>()?;
         let g = grad.to_vec1::<f32>()?;
         let n = x.len() / 6;
-        // d total = d image + w_m d mask + w_p d prior, plus the outputs' own gradients.
+        // d total = d image + w_m d mask + d prior (weighted per pixel), plus the outputs' own
+        // gradients.
         let gi = (g[0] + g[1]) / (3 * n) as f32;
         let gm = (g[0] * self.mask_weight + g[2]) / n as f32;
-        let gp = (g[0] * self.prior_weight + g[3]) / n as f32;
+        let gp = (g[0] + g[3]) / n as f32;
         let semantic = self.batch.semantic.is_some() && self.has_segments();
         // The part prior is a mean over pixels; the semantic one a sum of per-class means
         // (1/n_class is inside its gradient).

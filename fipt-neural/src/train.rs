@@ -87,6 +87,11 @@ pub struct TrainConfig {
     /// The semantic prior, used instead when the ids are semantic classes (`segmentation/`).
     #[serde(default)]
     pub semantic: SemanticPrior,
+    /// Weight of the pull towards the material search's (σ*, m*) at the pixels that have one
+    /// (`[search]` in `fipt run`): `(σ − σ*)² + (m − m*)²`, from the first step and in every
+    /// round; it replaces the roughness/metallic prior there. Ignored without targets.
+    #[serde(default = "default_target_weight")]
+    pub target_weight: f32,
     pub seed: u64,
     /// Shrink the hash tables to what the number of training pixels can fill
     /// ([`TrainConfig::sized_for`]). The reference always uses 2^19.
@@ -128,6 +133,7 @@ impl Default for TrainConfig {
             segments: SegmentSource::Auto,
             segment_weight: default_segment_weight(),
             semantic: SemanticPrior::default(),
+            target_weight: default_target_weight(),
             table_from_data: true,
             finest_from_data: true,
             finest_cell_footprints: 4.0,
@@ -285,6 +291,7 @@ impl TrainConfig {
         for (key, v) in [
             ("semantic.weight", sp.weight),
             ("segment_weight", self.segment_weight),
+            ("target_weight", self.target_weight),
             ("roughness_prior", self.roughness_prior),
             ("prior_weight", self.prior_weight),
             ("mask_weight", self.mask_weight),
@@ -308,6 +315,10 @@ impl TrainConfig {
 
 fn unit_scale() -> f32 {
     1.0
+}
+
+fn default_target_weight() -> f32 {
+    0.02
 }
 
 fn default_segment_weight() -> f32 {
@@ -421,6 +432,9 @@ pub struct TrainingSet {
     pub segments: usize,
     /// The ids are semantic classes ([`TrainingSet::with_classes`]), not parts.
     pub semantic: bool,
+    /// The material search's (σ*, m*) per sample (NaN: none); empty without a search
+    /// ([`TrainingSet::with_targets`]).
+    pub target: Vec<[f32; 2]>,
 }
 
 /// 3 × 21-bit Morton code of a unit-cube point.
@@ -473,6 +487,7 @@ impl TrainingSet {
             segment: vec![],
             segments: 0,
             semantic: false,
+            target: vec![],
         };
         for (v, ((pts, sh), img)) in points.iter().zip(shadings).zip(images).enumerate() {
             let n = sh.width * sh.height;
@@ -535,6 +550,26 @@ impl TrainingSet {
         }
         self.segments = dense.len();
         self.segment = segment;
+        Ok(self)
+    }
+
+    /// Attaches the material search's targets: `targets[v][i]` is (σ*, m*) of pixel `i` of view
+    /// `v`, None where the search has none (the default prior applies there).
+    pub fn with_targets(mut self, targets: &[Vec<Option<[f32; 2]>>]) -> Result<Self> {
+        let mut out = Vec::with_capacity(self.len());
+        for &(v, i) in &self.origin {
+            let t = targets
+                .get(v as usize)
+                .and_then(|view| view.get(i as usize))
+                .ok_or_else(|| {
+                    NeuralError::config(
+                        "targets",
+                        format!("no target entry for pixel {i} of view {v}: one per pixel of every view is needed"),
+                    )
+                })?;
+            out.push(t.unwrap_or([f32::NAN; 2]));
+        }
+        self.target = out;
         Ok(self)
     }
 
@@ -761,6 +796,11 @@ impl Trainer {
             segments: data.segments,
             semantic: (data.semantic && self.config.segments != SegmentSource::None)
                 .then(|| self.partners(data, &idx, &unit)),
+            target: if data.target.is_empty() {
+                vec![]
+            } else {
+                idx.iter().map(|&i| data.target[i]).collect()
+            },
         });
         let t1 = Instant::now();
         let cfg = &self.config;
@@ -784,6 +824,7 @@ impl Trainer {
                 cfg.segment_weight
             },
             roughness_prior_scale: cfg.roughness_prior,
+            target_weight: cfg.target_weight,
             cache: Default::default(),
         };
         let terms = out.packed().and_then(|p| p.apply_op1(loss)).ctx("loss")?;
@@ -989,10 +1030,12 @@ pub struct LossWeights {
     /// Scale of the prior's σ part ([`TrainConfig::roughness_prior`]).
     pub roughness_prior: f32,
     pub segment: f32,
+    /// [`TrainConfig::target_weight`].
+    pub target: f32,
 }
 
 /// The loss of [`Trainer::step`] written with plain candle ops (`[5]`: total, image, mask,
-/// prior, segment prior): the reference the fused [`FactorizedLoss`] is tested against.
+/// weighted prior, segment prior): the reference the fused [`FactorizedLoss`] is tested against.
 pub fn candle_ops_loss(
     out: &crate::field::FieldOutput,
     batch: &LossBatch,
@@ -1005,6 +1048,7 @@ pub fn candle_ops_loss(
         prior_norm,
         roughness_prior,
         segment: segment_weight,
+        target: target_weight,
     } = weights;
     let dev = out.albedo.device();
     let b = batch.gt.len();
@@ -1030,15 +1074,33 @@ pub fn candle_ops_loss(
         let mask = out.alpha.mean_all()?;
         let dr = out.roughness.affine(1.0, -1.0)?;
         let k = roughness_prior as f64;
+        // Per pixel and part: the search's target pull where there is one, the default prior
+        // elsewhere.
+        let part = |c: usize| -> candle_core::Result<(Tensor, Tensor)> {
+            let t: Vec<f32> = (0..b)
+                .map(|j| batch.target.get(j).map_or(f32::NAN, |t| t[c]))
+                .collect();
+            let has: Vec<f32> = t.iter().map(|v| u8::from(v.is_finite()) as f32).collect();
+            let t: Vec<f32> = t.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
+            Ok((
+                Tensor::from_vec(has, (b, 1), dev)?,
+                Tensor::from_vec(t, (b, 1), dev)?,
+            ))
+        };
+        let ((hs, ts), (hm, tm)) = (part(0)?, part(1)?);
+        let pull = (((&out.roughness - ts)?.sqr()? * &hs)? + ((&out.metallic - tm)?.sqr()? * &hm)?)?
+            .mean_all()?;
+        let (ns, nm) = (hs.affine(-1.0, 1.0)?, hm.affine(-1.0, 1.0)?);
         let ps = match prior_norm {
-            PriorNorm::L1 => dr.abs()?.mean_all()?,
-            PriorNorm::L2 | PriorNorm::L2Roughness => dr.sqr()?.mean_all()?,
+            PriorNorm::L1 => (dr.abs()? * &ns)?.mean_all()?,
+            PriorNorm::L2 | PriorNorm::L2Roughness => (dr.sqr()? * &ns)?.mean_all()?,
         };
         let pm = match prior_norm {
-            PriorNorm::L2 => out.metallic.sqr()?.mean_all()?,
-            PriorNorm::L1 | PriorNorm::L2Roughness => out.metallic.mean_all()?,
+            PriorNorm::L2 => (out.metallic.sqr()? * &nm)?.mean_all()?,
+            PriorNorm::L1 | PriorNorm::L2Roughness => (&out.metallic * &nm)?.mean_all()?,
         };
-        let prior = (ps.affine(k, 0.0)? + pm)?;
+        let prior = ((ps.affine(k, 0.0)? + pm)?.affine(prior_weight as f64, 0.0)?
+            + pull.affine(target_weight as f64, 0.0)?)?;
         let segment = if batch.segment.is_empty() {
             Tensor::zeros((), candle_core::DType::F32, dev)?
         } else if let Some(sem) = &batch.semantic {
@@ -1113,7 +1175,7 @@ pub fn candle_ops_loss(
             ((ds + dm)? * keep)?.mean_all()?
         };
         let total = (((image.clone() + mask.affine(mask_weight as f64, 0.0)?)?
-            + prior.affine(prior_weight as f64, 0.0)?)?
+            + &prior)?
             + segment.affine(segment_weight as f64, 0.0)?)?;
         Tensor::stack(&[total, image, mask, prior, segment], 0)
     })();

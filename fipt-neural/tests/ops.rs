@@ -186,7 +186,19 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
         }
     }
     batch.semantic = Some(partners);
-    let semantic = std::sync::Arc::new(batch);
+    let semantic = std::sync::Arc::new(batch.clone());
+    // Search targets on both parts, on one, or none (NaN: the default prior), with segments.
+    let mut targeted = batch;
+    targeted.semantic = None;
+    targeted.target = (0..n)
+        .map(|j| match j % 4 {
+            0 => [f32::NAN; 2],
+            1 => [0.02 + 0.98 * ((j * 7) % 11) as f32 / 10.0, 1.0],
+            2 => [f32::NAN, 0.0],
+            _ => [0.3, f32::NAN],
+        })
+        .collect();
+    let targeted = std::sync::Arc::new(targeted);
     for (norm, l1, ml1, batch, rp) in [
         (PriorNorm::L2, false, false, &unsegmented, 1.0),
         (PriorNorm::L1, true, true, &unsegmented, 1.0),
@@ -194,6 +206,8 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
         (PriorNorm::L2, false, false, &segmented, 0.0),
         (PriorNorm::L2Roughness, false, true, &segmented, 0.7),
         (PriorNorm::L2Roughness, false, true, &semantic, 0.7),
+        (PriorNorm::L2Roughness, false, true, &targeted, 0.0),
+        (PriorNorm::L1, true, true, &targeted, 1.0),
     ] {
         let var = |c: usize, w: usize| {
             let v: Vec<f32> = (0..n)
@@ -220,6 +234,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
                 metallic_l1: ml1,
                 segment_weight: 0.4,
                 roughness_prior_scale: rp,
+                target_weight: 0.25,
                 cache: Default::default(),
             })
             .unwrap();
@@ -229,6 +244,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
             prior_norm: norm,
             roughness_prior: rp,
             segment: 0.4,
+            target: 0.25,
         };
         let plain = candle_ops_loss(&out, batch, DEFAULT_LEVELS, weights).unwrap();
         let (fv, pv) = (

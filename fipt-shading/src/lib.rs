@@ -30,6 +30,7 @@ pub mod incident;
 pub mod refine;
 pub mod render;
 pub mod scene;
+pub mod search;
 pub mod slf;
 pub mod synth;
 

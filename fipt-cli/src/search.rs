@@ -1,0 +1,227 @@
+//! The material search between the bake (or a refinement) and a training round, and
+//! `fipt profile <scene> OUT`, which prints its cost curves per region (with the ground truth's
+//! base colour beside the fitted one when the scene has it).
+use crate::info::Policy;
+use crate::regions::Regions;
+use crate::scene::LoadedScene;
+use anyhow::{bail, Result};
+use fipt_core::dataset::GtKind;
+use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+use fipt_shading::bake::PixelRecord;
+use fipt_shading::search::{
+    choose, gather_pixels, profile, sigma_grid, Albedo, RegionChoice, RegionProfile, RegionSource,
+    SearchConfig, SearchPixel,
+};
+use glam::Vec3;
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// What the search found: per region the decision, and per training pixel its targets
+/// (σ*, m*), None off the regions.
+#[derive(Serialize)]
+pub struct Searched {
+    pub source: &'static str,
+    pub regions: Vec<(i64, RegionChoice)>,
+    #[serde(skip)]
+    pub targets: Vec<Vec<Option<[f32; 2]>>>,
+    pub seconds: f64,
+}
+
+/// The search's pixels, regions and σ grid for `shadings`.
+fn prepare(
+    scene: &LoadedScene,
+    records: &[Vec<Option<PixelRecord>>],
+    shadings: &[ViewShadings],
+    cfg: &SearchConfig,
+    footprint: f32,
+) -> Result<Option<(Regions, Vec<SearchPixel>, Vec<f32>)>> {
+    let Some(regions) = crate::regions::load(scene, records, cfg.regions, cfg.mesh_angle_deg)?
+    else {
+        return Ok(None);
+    };
+    let pixels = gather_pixels(
+        records,
+        shadings,
+        cfg.cell_footprints * footprint,
+        &|v, i, _| regions.ids[v][i],
+    );
+    let levels = shadings
+        .first()
+        .map_or(fipt_core::shading::DEFAULT_LEVELS, |s| s.levels);
+    let grid = sigma_grid(levels[0], levels[NUM_LEVELS - 1], cfg.roughness_steps);
+    Ok(Some((regions, pixels, grid)))
+}
+
+/// Runs the search (None when it is off or has no regions; the reason is printed).
+pub fn stage(
+    scene: &LoadedScene,
+    records: &[Vec<Option<PixelRecord>>],
+    shadings: &[ViewShadings],
+    cfg: &SearchConfig,
+    footprint: f32,
+) -> Result<Option<Searched>> {
+    if !cfg.enabled {
+        return Ok(None);
+    }
+    let t = std::time::Instant::now();
+    let Some((regions, pixels, grid)) = prepare(scene, records, shadings, cfg, footprint)? else {
+        eprintln!("search: skipped (search.regions = \"none\")");
+        return Ok(None);
+    };
+    let profiles = profile(
+        &pixels,
+        shadings,
+        &scene.images,
+        regions.len(),
+        &grid,
+        &cfg.metallic,
+        Albedo::Fitted,
+    );
+    let choices: Vec<RegionChoice> = profiles.iter().map(|p| choose(p, cfg)).collect();
+    let targets = regions
+        .ids
+        .iter()
+        .map(|v| {
+            v.iter()
+                .map(|r| {
+                    r.map(|r| {
+                        let c = &choices[r as usize];
+                        [c.roughness.unwrap_or(f32::NAN), c.metallic.unwrap_or(f32::NAN)]
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let seconds = t.elapsed().as_secs_f64();
+    let glossy = choices.iter().filter(|c| c.roughness.is_some()).count();
+    let metal = choices.iter().filter(|c| c.metallic > Some(0.5)).count();
+    eprintln!(
+        "search: {} regions ({}): {} with a σ target, {} metal, in {:.1} s",
+        regions.len(),
+        regions.source,
+        glossy,
+        metal,
+        seconds
+    );
+    Ok(Some(Searched {
+        source: regions.source,
+        regions: regions.labels.iter().copied().zip(choices).collect(),
+        targets,
+        seconds,
+    }))
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene folder.
+    scene: PathBuf,
+    /// Output folder of `fipt run` / `fipt bake`.
+    out: PathBuf,
+    /// Which shadings in OUT: `bake`, `refine1`, ...
+    #[arg(long, default_value = "bake")]
+    shadings: String,
+    /// Regions: auto, parts, semantic, mesh.
+    #[arg(long, default_value = "auto")]
+    regions: String,
+    /// Write the profiles as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    #[arg(long, value_enum, default_value = "reject")]
+    bad_pixels: Policy,
+}
+
+/// One region's lines of `fipt profile`.
+#[derive(Serialize)]
+struct ProfileRow {
+    label: i64,
+    fitted: RegionProfile,
+    given: Option<RegionProfile>,
+    choice: RegionChoice,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
+    let dir = a.out.join(&a.shadings);
+    let shadings = match fipt_shading::bake_store::load_for_inputs(&dir, &scene.inputs_hash)? {
+        Ok((_, s)) => s,
+        Err(why) => bail!("{}: {why} (run `fipt run` or `fipt bake` first)", dir.display()),
+    };
+    let regions: RegionSource = serde_json::from_value(serde_json::json!(a.regions))
+        .map_err(|_| anyhow::anyhow!("--regions {}: use auto, parts, semantic or mesh", a.regions))?;
+    let cfg = SearchConfig {
+        regions,
+        ..SearchConfig::default()
+    };
+    let split = scene.ds.train();
+    let records: Vec<_> = split
+        .views
+        .iter()
+        .map(|v| fipt_shading::bake::primary_records(&scene.geometry, v))
+        .collect();
+    let (_, footprint) = crate::train::view_points(&scene.geometry, &split.views);
+    let Some((regions, pixels, grid)) =
+        prepare(&scene, &records, &shadings, &cfg, footprint.unwrap_or(0.01))?
+    else {
+        bail!("no regions");
+    };
+    let fitted = profile(&pixels, &shadings, &scene.images, regions.len(), &grid, &cfg.metallic, Albedo::Fitted);
+    // The ground truth's base colour: kd for dielectrics, ks for metals.
+    let gt_kinds = [GtKind::DiffCol, GtKind::Specular, GtKind::Metallic];
+    let given = if gt_kinds.iter().all(|&k| split.has_gt(k)) {
+        let mut maps = vec![];
+        for k in 0..split.views.len() {
+            let g = |kind| -> Result<Vec<Vec3>> {
+                Ok(scene.ds.load_gt(split, kind, split.views[k].index)?.map(|i| i.data).unwrap_or_default())
+            };
+            maps.push((g(GtKind::DiffCol)?, g(GtKind::Specular)?, g(GtKind::Metallic)?));
+        }
+        let base: Vec<Vec3> = pixels
+            .iter()
+            .map(|p| {
+                let (kd, ks, m) = &maps[p.view as usize];
+                let i = p.pixel as usize;
+                if m[i].x > 0.5 { ks[i] } else { kd[i] }
+            })
+            .collect();
+        let metal_grid = [0.0, 0.25, 0.5, 0.75, 1.0];
+        Some(profile(&pixels, &shadings, &scene.images, regions.len(), &grid, &metal_grid, Albedo::Given(&base)))
+    } else {
+        None
+    };
+    println!(
+        "{:>6} {:>7} {:>6} | {:>18} | {:>8} {:>8} | {:>9} {:>9} {:>9} | chosen σ, m",
+        "region", "pixels", "cells", "GT a: argmin σ@m", "fit σ m0", "fit σ m1", "cost σ=1", "best m0", "best m1"
+    );
+    let mut rows = vec![];
+    for (r, f) in fitted.into_iter().enumerate() {
+        let c = choose(&f, &cfg);
+        let g = given.as_ref().map(|g| g[r].clone());
+        let gt = g.as_ref().map_or("–".to_string(), |g| {
+            // argmin over σ at each metallic of the given base colour; print m = 0 and m = 1.
+            let am = |row: &Vec<f64>| {
+                row.iter().enumerate().filter(|x| x.1.is_finite()).min_by(|a, b| a.1.total_cmp(b.1)).map_or(f32::NAN, |x| g.sigma[x.0])
+            };
+            format!("{:.2}@0 {:.2}@1", am(&g.cost[0]), am(&g.cost[4]))
+        });
+        println!(
+            "{:>6} {:>7} {:>6} | {:>18} | {:>8.2} {:>8.2} | {:>9.6} {:>9.6} {:>9.6} | {}, {}",
+            regions.labels[r],
+            f.pixels,
+            f.cells,
+            gt,
+            c.argmin_sigma[0],
+            c.argmin_sigma.get(1).copied().unwrap_or(f32::NAN),
+            c.default_cost,
+            c.best_cost[0],
+            c.best_cost.get(1).copied().unwrap_or(f64::NAN),
+            c.roughness.map_or("–".into(), |v| format!("{v:.2}")),
+            c.metallic.map_or("–".into(), |v| format!("{v:.0}"))
+        );
+        rows.push(ProfileRow { label: regions.labels[r], fitted: f, given: g, choice: c });
+    }
+    if let Some(path) = &a.json {
+        fipt_core::fsutil::write_json_atomic(path, &rows)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,103 @@
+//! Smooth patches of a mesh: triangles joined across shared edges whose faces bend by less than
+//! a given angle. A box falls into its six faces, a tessellated sphere stays one patch, a room's
+//! walls separate at their corners. Used as material regions when a scene has no segmentation.
+use crate::mesh::Mesh;
+use std::collections::HashMap;
+
+/// Patch id of every triangle (dense, in order of first triangle) and the number of patches.
+/// Vertices are matched by position, so meshes that split vertices for normals or UVs still
+/// join; an edge shared by more than two triangles joins all pairs within the angle.
+pub fn smooth_patches(mesh: &Mesh, max_angle_deg: f32) -> (Vec<u32>, usize) {
+    let n = mesh.triangles.len();
+    let key = |v: u32| {
+        let p = mesh.positions[v as usize];
+        [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+    };
+    let mut edges: HashMap<([u32; 3], [u32; 3]), Vec<u32>> = HashMap::new();
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for e in 0..3 {
+            let (a, b) = (key(tri[e]), key(tri[(e + 1) % 3]));
+            let k = if a <= b { (a, b) } else { (b, a) };
+            edges.entry(k).or_default().push(t as u32);
+        }
+    }
+    let normals: Vec<_> = (0..n).map(|t| mesh.face_normal(t)).collect();
+    let cos_max = max_angle_deg.to_radians().cos();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
+    for tris in edges.values() {
+        for (i, &a) in tris.iter().enumerate() {
+            for &b in &tris[i + 1..] {
+                if normals[a as usize].dot(normals[b as usize]) >= cos_max {
+                    let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+                    if ra != rb {
+                        parent[ra.max(rb) as usize] = ra.min(rb);
+                    }
+                }
+            }
+        }
+    }
+    let mut dense: HashMap<u32, u32> = HashMap::new();
+    let ids = (0..n as u32)
+        .map(|t| {
+            let r = find(&mut parent, t);
+            let next = dense.len() as u32;
+            *dense.entry(r).or_insert(next)
+        })
+        .collect();
+    (ids, dense.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn mesh(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+        Mesh::from_triangles(positions, None, triangles)
+    }
+
+    #[test]
+    fn a_cube_falls_into_six_faces_and_a_bent_strip_joins_below_the_angle() {
+        // Unit cube with 8 shared vertices, 12 triangles (outward winding).
+        let p: Vec<Vec3> = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, (i >> 1 & 1) as f32, (i >> 2 & 1) as f32))
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let tris: Vec<[u32; 3]> = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        let (ids, n) = smooth_patches(&mesh(p, tris), 30.0);
+        assert_eq!(n, 6);
+        for f in 0..6 {
+            assert_eq!(ids[2 * f], ids[2 * f + 1]);
+        }
+        // Two quads meeting at 20°: one patch at 30°, two at 10°.
+        let a = 20f32.to_radians();
+        let p = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(1.0 + a.cos(), 0.0, a.sin()),
+            Vec3::new(1.0 + a.cos(), 1.0, a.sin()),
+        ];
+        let tris = vec![[0, 2, 3], [0, 3, 1], [2, 4, 5], [2, 5, 3]];
+        assert_eq!(smooth_patches(&mesh(p.clone(), tris.clone()), 30.0).1, 1);
+        assert_eq!(smooth_patches(&mesh(p, tris), 10.0).1, 2);
+    }
+}

@@ -1,0 +1,399 @@
+//! Material search over the factorised shadings: per region, the image loss as a function of
+//! roughness σ and metallic m, and the (σ, m) it prefers.
+//!
+//! For a fixed (σ, m) the factorised image is linear in the base colour a:
+//! `I ≈ a·b + c` with `b = (1 − m)·Ld + m·Ls0(σ)` and `c = 0.04·(1 − m)·Ls0(σ) + Ls1(σ)`
+//! (kd = a·(1 − m), ks = 0.04·(1 − m) + a·m). So at every candidate (σ, m) the best base colour
+//! of each surface cell (the pixels of all views whose primary hit falls in one small voxel) is a
+//! weighted least-squares fit in closed form, and what is left is the part of the views that
+//! this (σ, m) cannot explain: how the cell's radiance changes with the viewing direction. The
+//! search sums that residual over each region (a part, or a patch of the mesh) and keeps the
+//! roughest σ and the non-metal answer unless the data prefers another by a stated margin.
+//! Nothing here saturates or depends on an initialisation: it is an exhaustive search on a grid.
+//!
+//! [`profile`] computes the cost curves (also with a given base colour, the diagnostic of how
+//! well the shadings explain the views at the true materials); [`choose`] turns a curve into a
+//! decision. The residual is the training's: squared difference of sRGB-encoded values (no
+//! clamp), averaged over pixels and channels.
+use crate::bake::PixelRecord;
+use fipt_core::color::{srgb_oetf, Rgb};
+use fipt_core::image::Image;
+use fipt_core::shading::{level_segment, ViewShadings};
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+/// Dielectric specular reflectance of the metallic workflow (method §2).
+const F0_DIELECTRIC: f32 = 0.04;
+
+/// Settings of the search (`[search]` in a run config).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SearchConfig {
+    /// Run the search and pull the training towards its answer (false: the pull to σ = 1,
+    /// m = 0 of `[train]`).
+    pub enabled: bool,
+    /// σ candidates: this many values evenly spaced over the bake's levels' range.
+    pub roughness_steps: usize,
+    /// Metallic candidates.
+    pub metallic: Vec<f32>,
+    /// Edge of a surface cell (the pixels whose albedo is fitted together) in median pixel
+    /// footprints.
+    pub cell_footprints: f32,
+    /// A dielectric region's σ is the roughest whose cost is within this fraction of its
+    /// minimum; when that is the roughest candidate, the search sets no σ target (the training
+    /// decides). A 4 % specular lobe leaves dielectrics little σ evidence, and a diffuse lobe
+    /// that is not the data's (Mitsuba's Burley diffuse against FIPT's Lambert) makes up
+    /// gains of the same size: on `studio-mitsuba` the diffuse box (σ 1) costs 13 % less as a
+    /// mirror (README, *Why σ and metallic did not move*).
+    pub dielectric_tolerance: f32,
+    /// The same for metal regions, whose lobe carries all their light.
+    pub metal_tolerance: f32,
+    /// A region is metal when its best metal cost is below its best dielectric cost by at
+    /// least this fraction.
+    pub metal_margin: f32,
+    /// Regions with fewer pixels keep σ = 1, m = 0.
+    pub min_pixels: usize,
+    /// Where regions come from: `auto` (part ids, else semantic classes, else the mesh),
+    /// `parts`, `semantic`, `mesh` (smooth connected patches of the mesh) or `none` (one region
+    /// per surface cell is too noisy to decide: the search is then skipped).
+    pub regions: RegionSource,
+    /// Largest dihedral angle (degrees) across which a mesh patch grows (`regions = "mesh"`).
+    pub mesh_angle_deg: f32,
+}
+
+/// Where the search's regions come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RegionSource {
+    Auto,
+    Parts,
+    Semantic,
+    Mesh,
+    None,
+}
+
+impl Default for SearchConfig {
+    fn default() -> Self {
+        SearchConfig {
+            enabled: true,
+            roughness_steps: 50,
+            metallic: vec![0.0, 1.0],
+            cell_footprints: 4.0,
+            dielectric_tolerance: 0.25,
+            metal_tolerance: 0.02,
+            metal_margin: 0.2,
+            min_pixels: 200,
+            regions: RegionSource::Auto,
+            mesh_angle_deg: 30.0,
+        }
+    }
+}
+
+impl SearchConfig {
+    /// The search off (the reference's behaviour).
+    pub fn off() -> Self {
+        SearchConfig {
+            enabled: false,
+            ..Default::default()
+        }
+    }
+}
+
+/// One training pixel taking part in the search.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SearchPixel {
+    pub view: u32,
+    pub pixel: u32,
+    pub region: u32,
+    /// Surface cell (dense, unique across regions).
+    pub cell: u32,
+}
+
+/// The base colour at each candidate: fitted per surface cell, or given per pixel (the
+/// diagnostic with ground truth).
+pub enum Albedo<'a> {
+    Fitted,
+    /// Base colour a of each entry of the pixel list.
+    Given(&'a [Rgb]),
+}
+
+/// The cost of every candidate for one region: `cost[mi][si]` is the mean squared sRGB error
+/// at `metallic[mi]`, `sigma[si]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RegionProfile {
+    pub region: u32,
+    pub pixels: usize,
+    pub cells: usize,
+    pub sigma: Vec<f32>,
+    pub metallic: Vec<f32>,
+    pub cost: Vec<Vec<f64>>,
+}
+
+/// What the search decided for a region, with the evidence. None: no target (too few pixels,
+/// or no σ evidence beyond the tolerance).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RegionChoice {
+    pub region: u32,
+    pub pixels: usize,
+    pub roughness: Option<f32>,
+    pub metallic: Option<f32>,
+    /// The minimum over σ for each metallic candidate, and where it is.
+    pub best_cost: Vec<f64>,
+    pub argmin_sigma: Vec<f32>,
+    /// Cost at (σ = 1, m = 0), the default answer.
+    pub default_cost: f64,
+}
+
+/// The σ candidates: `steps` values evenly spaced over `[lo, hi]`.
+pub fn sigma_grid(lo: f32, hi: f32, steps: usize) -> Vec<f32> {
+    let n = steps.max(2);
+    (0..n)
+        .map(|i| lo + (hi - lo) * i as f32 / (n - 1) as f32)
+        .collect()
+}
+
+/// Dense cell ids for `points` (with their region): voxels of edge `cell` per region.
+pub fn cell_ids(points: &[(Vec3, u32)], cell: f32) -> Vec<u32> {
+    let inv = 1.0 / cell.max(1e-9);
+    let mut map: HashMap<(u32, [i32; 3]), u32> = HashMap::new();
+    points
+        .iter()
+        .map(|&(p, r)| {
+            let q = (p * inv).floor();
+            let key = (r, [q.x as i32, q.y as i32, q.z as i32]);
+            let next = map.len() as u32;
+            *map.entry(key).or_insert(next)
+        })
+        .collect()
+}
+
+/// The search's pixels of the training views: every valid pixel whose `region_of` is `Some`,
+/// with cells of edge `cell`.
+pub fn gather_pixels(
+    records: &[Vec<Option<PixelRecord>>],
+    shadings: &[ViewShadings],
+    cell: f32,
+    region_of: &dyn Fn(usize, usize, &PixelRecord) -> Option<u32>,
+) -> Vec<SearchPixel> {
+    let mut keyed = vec![];
+    for (v, (recs, sh)) in records.iter().zip(shadings).enumerate() {
+        for (i, r) in recs.iter().enumerate() {
+            let Some(r) = r else { continue };
+            if !sh.valid.get(i).copied().unwrap_or(false) {
+                continue;
+            }
+            if let Some(region) = region_of(v, i, r) {
+                keyed.push((v as u32, i as u32, region, r.hit.p));
+            }
+        }
+    }
+    let pts: Vec<(Vec3, u32)> = keyed.iter().map(|k| (k.3, k.2)).collect();
+    let cells = cell_ids(&pts, cell);
+    keyed
+        .iter()
+        .zip(cells)
+        .map(|(&(view, pixel, region, _), cell)| SearchPixel {
+            view,
+            pixel,
+            region,
+            cell,
+        })
+        .collect()
+}
+
+#[inline]
+fn oetf_grad(x: f32) -> f32 {
+    let x = x.max(1e-3);
+    if x <= 0.0031308 {
+        12.92
+    } else {
+        1.055 / 2.4 * x.powf(1.0 / 2.4 - 1.0)
+    }
+}
+
+/// (b, c) of the linear model `a·b + c` at (σ, m) for one pixel.
+#[inline]
+fn linear_terms(sh: &ViewShadings, i: usize, sigma: f32, m: f32) -> (Rgb, Rgb) {
+    let (k, t) = level_segment(&sh.levels, sigma);
+    let s0 = sh.ls0[i][k] * (1.0 - t) + sh.ls0[i][k + 1] * t;
+    let s1 = sh.ls1[i][k] * (1.0 - t) + sh.ls1[i][k + 1] * t;
+    (
+        sh.ld[i] * (1.0 - m) + s0 * m,
+        s0 * (F0_DIELECTRIC * (1.0 - m)) + s1,
+    )
+}
+
+#[inline]
+fn sq_err(pred: Rgb, gt: Rgb) -> f64 {
+    let e = |p: f32, g: f32| {
+        let d = srgb_oetf(p) - srgb_oetf(g);
+        (d * d) as f64
+    };
+    e(pred.x, gt.x) + e(pred.y, gt.y) + e(pred.z, gt.z)
+}
+
+/// The cost curves of every region over the candidates `sigma` × `metallic`. Regions are
+/// `0..regions`; a region without pixels gets an empty profile (`pixels` 0, costs NaN).
+pub fn profile(
+    pixels: &[SearchPixel],
+    shadings: &[ViewShadings],
+    images: &[Image],
+    regions: usize,
+    sigma: &[f32],
+    metallic: &[f32],
+    albedo: Albedo,
+) -> Vec<RegionProfile> {
+    // Pixel indices grouped by region, then by cell.
+    let mut order: Vec<usize> = (0..pixels.len()).collect();
+    order.sort_unstable_by_key(|&j| (pixels[j].region, pixels[j].cell, j));
+    let mut spans: Vec<Vec<std::ops::Range<usize>>> = vec![vec![]; regions];
+    let mut s = 0;
+    while s < order.len() {
+        let p = pixels[order[s]];
+        let mut e = s + 1;
+        while e < order.len() && pixels[order[e]].cell == p.cell {
+            e += 1;
+        }
+        if (p.region as usize) < regions {
+            spans[p.region as usize].push(s..e);
+        }
+        s = e;
+    }
+    let candidates: Vec<(usize, usize, usize)> = (0..regions)
+        .flat_map(|r| {
+            (0..metallic.len()).flat_map(move |mi| (0..sigma.len()).map(move |si| (r, mi, si)))
+        })
+        .collect();
+    let costs: Vec<f64> = candidates
+        .par_iter()
+        .map(|&(r, mi, si)| {
+            let (sg, m) = (sigma[si], metallic[mi]);
+            let mut total = 0.0f64;
+            let mut count = 0usize;
+            for span in &spans[r] {
+                let idx = &order[span.clone()];
+                let fitted = match albedo {
+                    Albedo::Fitted => {
+                        let (mut sbb, mut sbr) = (Vec3::ZERO, Vec3::ZERO);
+                        for &j in idx {
+                            let p = pixels[j];
+                            let (sh, i) = (&shadings[p.view as usize], p.pixel as usize);
+                            let g = images[p.view as usize].data[i];
+                            let (b, c) = linear_terms(sh, i, sg, m);
+                            let w = Vec3::new(oetf_grad(g.x), oetf_grad(g.y), oetf_grad(g.z));
+                            let w = w * w;
+                            sbb += w * b * b;
+                            sbr += w * b * (g - c);
+                        }
+                        let a = Vec3::select(sbb.cmpgt(Vec3::splat(1e-20)), sbr / sbb, Vec3::ZERO);
+                        Some(a.clamp(Vec3::ZERO, Vec3::ONE))
+                    }
+                    Albedo::Given(_) => None,
+                };
+                for &j in idx {
+                    let p = pixels[j];
+                    let (sh, i) = (&shadings[p.view as usize], p.pixel as usize);
+                    let g = images[p.view as usize].data[i];
+                    let a = match (&albedo, fitted) {
+                        (_, Some(a)) => a,
+                        (Albedo::Given(given), None) => given[j],
+                        (Albedo::Fitted, None) => unreachable!(),
+                    };
+                    let (b, c) = linear_terms(sh, i, sg, m);
+                    total += sq_err(a * b + c, g);
+                    count += 3;
+                }
+            }
+            if count == 0 {
+                f64::NAN
+            } else {
+                total / count as f64
+            }
+        })
+        .collect();
+    let per_region = metallic.len() * sigma.len();
+    (0..regions)
+        .map(|r| RegionProfile {
+            region: r as u32,
+            pixels: spans[r].iter().map(|s| s.len()).sum(),
+            cells: spans[r].len(),
+            sigma: sigma.to_vec(),
+            metallic: metallic.to_vec(),
+            cost: costs[r * per_region..(r + 1) * per_region]
+                .chunks(sigma.len())
+                .map(|c| c.to_vec())
+                .collect(),
+        })
+        .collect()
+}
+
+/// Index of the smallest finite value (None when there is none).
+fn argmin(v: &[f64]) -> Option<usize> {
+    v.iter()
+        .enumerate()
+        .filter(|(_, c)| c.is_finite())
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(i, _)| i)
+}
+
+/// The decision for one region (see [`SearchConfig`]): metal when its best cost beats the best
+/// dielectric one by `metal_margin`; then the roughest σ within the tolerance of the minimum
+/// for that metallic (none for a dielectric whose answer is the roughest candidate). No target
+/// on too few pixels.
+pub fn choose(p: &RegionProfile, cfg: &SearchConfig) -> RegionChoice {
+    let best: Vec<Option<usize>> = p.cost.iter().map(|c| argmin(c)).collect();
+    let best_cost: Vec<f64> = best
+        .iter()
+        .zip(&p.cost)
+        .map(|(b, c)| b.map_or(f64::NAN, |i| c[i]))
+        .collect();
+    let argmin_sigma: Vec<f32> = best
+        .iter()
+        .map(|b| b.map_or(f32::NAN, |i| p.sigma[i]))
+        .collect();
+    let dielectric = p.metallic.iter().position(|&m| m == 0.0);
+    let default_cost = dielectric
+        .and_then(|d| p.cost[d].last().copied())
+        .unwrap_or(f64::NAN);
+    let fallback = RegionChoice {
+        region: p.region,
+        pixels: p.pixels,
+        roughness: None,
+        metallic: None,
+        best_cost: best_cost.clone(),
+        argmin_sigma: argmin_sigma.clone(),
+        default_cost,
+    };
+    if p.pixels < cfg.min_pixels || p.sigma.is_empty() {
+        return fallback;
+    }
+    // The metallic candidate: the dielectric one unless another beats it by the margin.
+    let mut mi = dielectric.unwrap_or(0);
+    for (k, &c) in best_cost.iter().enumerate() {
+        let base = best_cost[mi];
+        if c.is_finite() && (!base.is_finite() || c < base * (1.0 - cfg.metal_margin as f64)) {
+            mi = k;
+        }
+    }
+    let Some(b) = best[mi] else {
+        return fallback;
+    };
+    let metal = p.metallic[mi] > 0.5;
+    let tol = if metal {
+        cfg.metal_tolerance
+    } else {
+        cfg.dielectric_tolerance
+    };
+    let limit = p.cost[mi][b] * (1.0 + tol as f64);
+    let si = (b..p.sigma.len())
+        .rev()
+        .find(|&s| p.cost[mi][s] <= limit)
+        .unwrap_or(b);
+    RegionChoice {
+        roughness: (metal || si + 1 < p.sigma.len()).then_some(p.sigma[si]),
+        metallic: Some(p.metallic[mi]),
+        ..fallback
+    }
+}

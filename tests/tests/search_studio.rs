@@ -1,0 +1,116 @@
+//! The σ / metallic diagnostic on `studio-mitsuba` (rendered by Mitsuba 3's `principled` BSDF):
+//! with the ground truth's base colour, the image loss over the baked shadings as a function of
+//! σ and metallic, per object (`IndexMA/`). Where its minimum sits at the true material, the
+//! shadings carry the evidence and recovering it is the optimiser's job; where it does not,
+//! no optimiser of this reflectance model can find the truth.
+//!
+//! Measured (README, *Why σ and metallic did not move*): the metals and the walls hold; the
+//! floor and both boxes put their minimum far from the truth under the FIPT model (Lambert
+//! diffuse, Schlick-GGX masking) and at the truth when the same scene is rendered with that
+//! model. This test pins both halves: the first must hold, the second is the model mismatch
+//! the principled reflectance model is to remove (when it stops holding, update the README).
+use fipt_core::dataset::{Dataset, GtKind};
+use fipt_core::image::BadPixelPolicy;
+use fipt_geom::{Geometry, Mesh};
+use fipt_shading::bake::{primary_records, BakeConfig, FactorizedBaker};
+use fipt_shading::search::{gather_pixels, profile, sigma_grid, Albedo, RegionProfile};
+use fipt_tests::studio_scene;
+use glam::Vec3;
+
+/// One level spacing of the bake's roughness levels.
+const SPACING: f32 = 0.196;
+
+fn argmin(p: &RegionProfile) -> (f32, f32) {
+    let mut best = (f64::INFINITY, 0.0, 0.0);
+    for (mi, row) in p.cost.iter().enumerate() {
+        for (si, &c) in row.iter().enumerate() {
+            if c < best.0 {
+                best = (c, p.sigma[si], p.metallic[mi]);
+            }
+        }
+    }
+    (best.1, best.2)
+}
+
+#[test]
+fn the_loss_minimum_sits_at_the_true_metals_and_walls_and_shows_the_model_mismatch() {
+    let Some(root) = studio_scene() else { return };
+    let ds = Dataset::open(&root).unwrap();
+    let split = ds.train();
+    let geometry = Geometry::new(Mesh::load(&ds.mesh).unwrap());
+    let images: Vec<_> = split
+        .views
+        .iter()
+        .map(|v| ds.load_image(v, BadPixelPolicy::Reject).unwrap().0)
+        .collect();
+    // `fast`'s sample counts: the minima below hold with them as with `balanced`'s.
+    let baker = FactorizedBaker {
+        config: BakeConfig::fast(),
+    };
+    let (shadings, _, _) = baker.bake_detailed(&geometry, &split.views, &images, &|_, _| {});
+    let records: Vec<_> = split
+        .views
+        .iter()
+        .map(|v| primary_records(&geometry, v))
+        .collect();
+    let gt = |kind, k: usize| {
+        ds.load_gt(split, kind, split.views[k].index)
+            .unwrap()
+            .unwrap()
+            .data
+    };
+    let ids: Vec<Vec<i64>> = (0..split.views.len())
+        .map(|k| ds.load_ids(split, GtKind::IndexMA, k).unwrap().unwrap())
+        .collect();
+    let regions = 12;
+    let pixels = gather_pixels(&records, &shadings, 0.05, &|v, i, _| {
+        let id = ids[v][i];
+        (0..regions as i64).contains(&id).then_some(id as u32)
+    });
+    let maps: Vec<_> = (0..split.views.len())
+        .map(|k| (gt(GtKind::DiffCol, k), gt(GtKind::Specular, k), gt(GtKind::Metallic, k)))
+        .collect();
+    let base: Vec<Vec3> = pixels
+        .iter()
+        .map(|p| {
+            let (kd, ks, m) = &maps[p.view as usize];
+            let i = p.pixel as usize;
+            if m[i].x > 0.5 {
+                ks[i]
+            } else {
+                kd[i]
+            }
+        })
+        .collect();
+    let grid = sigma_grid(0.02, 1.0, 50);
+    let metals = [0.0, 0.25, 0.5, 0.75, 1.0];
+    let prof = profile(
+        &pixels,
+        &shadings,
+        &images,
+        regions,
+        &grid,
+        &metals,
+        Albedo::Given(&base),
+    );
+    let found: Vec<(f32, f32)> = prof.iter().map(argmin).collect();
+    for (r, (s, m)) in found.iter().enumerate() {
+        eprintln!("object {r}: argmin σ {s:.2}, metallic {m:.2}");
+    }
+    // Must hold: the metals (metallic 1 at their base colour, σ within a level spacing) and
+    // three walls (σ 0.9; the back wall's 0.95 needs the refined shadings).
+    for (object, sigma) in [(9, 0.25), (10, 0.05)] {
+        let (s, m) = found[object];
+        assert_eq!(m, 1.0, "object {object}: metallic argmin {m}");
+        assert!((s - sigma).abs() <= SPACING, "object {object}: σ argmin {s}, true {sigma}");
+    }
+    for object in [2, 3, 5] {
+        let (s, m) = found[object];
+        assert_eq!(m, 0.0, "wall {object}: metallic argmin {m}");
+        assert!((s - 0.9).abs() <= SPACING, "wall {object}: σ argmin {s}, true 0.9");
+    }
+    // The model mismatch: the boxes (σ 0.3 and 1.0) prefer a near-mirror lobe.
+    for object in [8, 11] {
+        assert!(found[object].0 < 0.15, "object {object}: σ argmin {} (the mismatch is gone: update the README)", found[object].0);
+    }
+}
