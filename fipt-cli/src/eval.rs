@@ -1,8 +1,10 @@
 //! `fipt eval <scene> OUT`: the evaluation protocol of method §6 against the ground-truth
 //! folders, per view and averaged per split; `OUT/metrics.json`, error maps in `OUT/eval/`.
 //!
-//! kd, a′ and σ PSNR over non-emitter surface pixels, ground truth quantised to 8 bits, σ of
-//! both clamped to [0.2, 1]; emitter IoU (Emit summed over channels > 0) and log-L2 =
+//! kd PSNR over GT-diffuse (metallic < 0.5) non-emitter pixels, a′ and σ PSNR over non-emitter
+//! surface pixels, ground truth quantised to 8 bits, σ of both clamped to [0.2, 1]; metallic
+//! pooled over the split: the share of metal pixels predicted ≥ 0.8 and of dielectric ones
+//! predicted > 0.1; emitter IoU (Emit summed over channels > 0) and log-L2 =
 //! MSE(log(1 + E_pred), log(1 + E_gt)) over all pixels.
 use anyhow::{Context, Result};
 use fipt_core::dataset::{Dataset, GtKind};
@@ -65,6 +67,9 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
         let mut rows = vec![];
         let (mut kd_all, mut alb_all, mut r_all, mut iou_all, mut log_all, mut render_all) =
             (vec![], vec![], vec![], vec![], vec![], vec![]);
+        // Metallic, pooled over the split's pixels: [metal pixels, of them predicted ≥ 0.8,
+        // dielectric pixels, of them predicted > 0.1].
+        let mut metal = [0usize; 4];
 
         for v in &s.views {
             let k = v.index;
@@ -91,13 +96,18 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
             let valid: Vec<bool> = (0..n)
                 .map(|i| !is_emit(i) && r_gt.data[i].x > 0.0)
                 .collect();
+            // kd over GT-diffuse pixels (method §6): metals' kd is 0 by definition.
+            let m_gt = gt(GtKind::Metallic);
+            let diffuse: Vec<bool> = (0..n)
+                .map(|i| valid[i] && m_gt.as_ref().is_none_or(|m| m.data[i].x < 0.5))
+                .collect();
             let kd_p = psnr(
                 &kd.data
                     .iter()
                     .map(|v| v.clamp(Vec3::ZERO, Vec3::ONE))
                     .collect::<Vec<_>>(),
                 &kd_gt.data.iter().map(|&v| q8(v)).collect::<Vec<_>>(),
-                Some(&valid),
+                Some(&diffuse),
                 1.0,
             );
             let alb_p = gt(GtKind::Albedo).and_then(|a| {
@@ -114,6 +124,19 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
                     1.0,
                 )
             });
+            if let Some(m_gt) = &m_gt {
+                let m = pred("metallic")?;
+                for i in (0..n).filter(|&i| valid[i]) {
+                    let (g, p) = (m_gt.data[i].x, m.data[i].x);
+                    if g >= 0.5 {
+                        metal[0] += 1;
+                        metal[1] += usize::from(p >= 0.8);
+                    } else {
+                        metal[2] += 1;
+                        metal[3] += usize::from(p > 0.1);
+                    }
+                }
+            }
             let cl = |v: Vec3| Vec3::splat(v.x.clamp(0.2, 1.0));
             let r_p = psnr(
                 &rough.data.iter().map(|&v| cl(v)).collect::<Vec<_>>(),
@@ -172,9 +195,12 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
             log_all.push(Some(log_l2));
             rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p}));
         }
+        let share = |a: usize, b: usize| (b > 0).then(|| a as f64 / b as f64);
         splits.insert(
             s.name.clone(),
             serde_json::json!({
+                "metallic": {"metal_recall": share(metal[1], metal[0]), "false_metal": share(metal[3], metal[2]),
+                             "metal_pixels": metal[0], "dielectric_pixels": metal[2]},
                 "mean": {"kd_psnr": mean(&kd_all), "albedo_psnr": mean(&alb_all), "roughness_psnr": mean(&r_all),
                          "emission_iou": mean(&iou_all), "emission_log_l2": mean(&log_all), "render_psnr": mean(&render_all)},
                 "median": {"kd_psnr": median(&kd_all), "albedo_psnr": median(&alb_all), "roughness_psnr": median(&r_all),
@@ -196,22 +222,29 @@ fn print_table(m: &serde_json::Value) {
             .map_or("–".to_string(), |x| format!("{x:.p$}"))
     };
     println!(
-        "{:<13} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11}",
-        "split", "kd dB", "a′ dB", "σ dB", "em. IoU", "em. logL2", "render dB"
+        "{:<13} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>13}",
+        "split", "kd dB", "a′ dB", "σ dB", "em. IoU", "em. logL2", "render dB", "metal ≥0.8"
     );
     if let Some(o) = m.as_object() {
         for (name, v) in o {
             for (stat, label) in [("mean", name.clone()), ("median", format!("{name} median"))] {
                 let x = &v[stat];
+                let metal = if stat == "mean" {
+                    let r = &v["metallic"];
+                    format!("{} ({} false)", f(r, "metal_recall", 2), f(r, "false_metal", 3))
+                } else {
+                    String::new()
+                };
                 println!(
-                    "{:<13} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11}",
+                    "{:<13} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>13}",
                     label,
                     f(x, "kd_psnr", 2),
                     f(x, "albedo_psnr", 2),
                     f(x, "roughness_psnr", 2),
                     f(x, "emission_iou", 3),
                     f(x, "emission_log_l2", 5),
-                    f(x, "render_psnr", 2)
+                    f(x, "render_psnr", 2),
+                    metal
                 );
             }
         }

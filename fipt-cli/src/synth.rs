@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Scene to generate: cornell (tiny, for tests) or room (a furnished room).
+    /// Scene to generate: cornell (tiny, for tests), cornell-metal (cornell with a glossy floor and a gold block) or room (a furnished room).
     name: String,
     /// Output folder (must be empty or absent unless --force).
     #[arg(long)]

@@ -479,3 +479,38 @@ fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
         let _ = std::fs::remove_dir_all(p);
     }
 }
+
+/// σ and metallic on a tiny scene without any segmentation: the search's regions are the mesh's
+/// smooth patches. `cornell-metal`: a glossy floor (σ 0.3) and a gold block (σ 0.3, metal).
+#[test]
+fn search_recovers_a_metal_and_a_glossy_floor_without_segmentation() {
+    let dir = tmp("metal-scene");
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = fipt(&[
+        "synth", "cornell-metal", "--out", d, "--views", "12", "--val-views", "2", "--width",
+        "64", "--height", "48", "--spp", "64",
+    ]);
+    assert!(ok, "{err}");
+    for split in ["train", "val"] {
+        for ids in ["IndexMA", "segmentation"] {
+            std::fs::remove_dir_all(dir.join(split).join(ids)).unwrap();
+        }
+    }
+    let out = tmp("metal-out");
+    let o = out.to_str().unwrap();
+    let (ok, stdout, err) = fipt(&["run", d, "--out", o, "--preset", "fast"]);
+    assert!(ok, "{stdout}{err}");
+    assert!(err.contains("regions (mesh)"), "{err}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let t = &m["train"];
+    let (recall, false_metal, sigma) = (
+        t["metallic"]["metal_recall"].as_f64().unwrap(),
+        t["metallic"]["false_metal"].as_f64().unwrap(),
+        t["mean"]["roughness_psnr"].as_f64().unwrap(),
+    );
+    eprintln!("metal recall {recall:.2}, false metal {false_metal:.3}, σ {sigma:.1} dB");
+    assert!(recall >= 0.8, "metal recall {recall}");
+    assert!(false_metal <= 0.05, "false metal {false_metal}");
+    assert!(sigma >= 15.0, "σ {sigma} dB");
+}

@@ -10,7 +10,7 @@ pub enum ShadingError {
     Geom(#[from] fipt_geom::GeomError),
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
-    #[error("unknown synthetic scene `{0}` (available: cornell, room)")]
+    #[error("unknown synthetic scene `{0}` (available: cornell, cornell-metal, room)")]
     UnknownScene(String),
 }
 

@@ -21,7 +21,7 @@ use glam::{Vec2, Vec3};
 use std::path::Path;
 
 /// Names of the built-in scenes.
-pub const SCENES: [&str; 2] = ["cornell", "room"];
+pub const SCENES: [&str; 3] = ["cornell", "cornell-metal", "room"];
 
 /// An axis-aligned box that cameras must stay out of.
 #[derive(Clone, Copy, Debug)]
@@ -339,6 +339,18 @@ fn add_box(b: &mut Builder, mat: MaterialDesc, class: u32, center: Vec3, half: V
 
 /// The tiny test scene.
 pub fn cornell() -> SynthScene {
+    let block = principled("glossy_block", rgb(0.8, 0.6, 0.1), Texture::Scalar(0.25), 0.0);
+    cornell_box("cornell", 0.8, block)
+}
+
+/// `cornell` with a glossy floor (σ 0.3) and a gold metal block (σ 0.3) for the glossy one:
+/// recovery of σ and metallic on a tiny scene.
+pub fn cornell_metal() -> SynthScene {
+    let block = principled("gold_block", rgb(0.95, 0.72, 0.4), Texture::Scalar(0.3), 1.0);
+    cornell_box("cornell-metal", 0.3, block)
+}
+
+fn cornell_box(name: &str, floor_roughness: f32, third_block: MaterialDesc) -> SynthScene {
     let mut b = Builder::new();
     let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0));
     let white = || principled("white", rgb(0.75, 0.75, 0.72), Texture::Scalar(0.9), 0.0);
@@ -346,7 +358,12 @@ pub fn cornell() -> SynthScene {
         &mut b,
         lo,
         hi,
-        principled("floor", rgb(0.7, 0.68, 0.62), Texture::Scalar(0.8), 0.0),
+        principled(
+            "floor",
+            rgb(0.7, 0.68, 0.62),
+            Texture::Scalar(floor_roughness),
+            0.0,
+        ),
         white(),
         [
             principled("red", rgb(0.63, 0.07, 0.05), Texture::Scalar(0.9), 0.0),
@@ -400,18 +417,13 @@ pub fn cornell() -> SynthScene {
     );
     add_box(
         &mut b,
-        principled(
-            "glossy_block",
-            rgb(0.8, 0.6, 0.1),
-            Texture::Scalar(0.25),
-            0.0,
-        ),
+        third_block,
         FURNITURE,
         Vec3::new(0.45, 0.2, -0.45),
         Vec3::new(0.18, 0.2, 0.18),
         0.5,
     );
-    b.finish("cornell", lo, hi, 60f32.to_radians())
+    b.finish(name, lo, hi, 60f32.to_radians())
 }
 
 /// The realistic small room.
@@ -576,6 +588,7 @@ pub fn room() -> SynthScene {
 pub fn build(name: &str) -> Result<SynthScene> {
     match name {
         "cornell" => Ok(cornell()),
+        "cornell-metal" => Ok(cornell_metal()),
         "room" => Ok(room()),
         other => Err(ShadingError::UnknownScene(other.to_string())),
     }
@@ -595,7 +608,7 @@ impl SynthOptions {
     /// Defaults per scene: `cornell` is tiny (tests), `room` matches the benchmark size.
     pub fn defaults(name: &str) -> Self {
         match name {
-            "cornell" => SynthOptions {
+            "cornell" | "cornell-metal" => SynthOptions {
                 train_views: 12,
                 val_views: 4,
                 width: 64,
