@@ -169,7 +169,11 @@ pub fn run(a: Args) -> Result<()> {
         .unwrap_or(0.01);
     let mut searches = vec![];
     let t = std::time::Instant::now();
-    let searched = crate::search::stage(&scene, &records, &shadings, &cfg.search, footprint)?;
+    let mut searched = if cfg.search.on_bake {
+        crate::search::stage(&scene, &records, &shadings, &cfg.search, footprint, None)?
+    } else {
+        None
+    };
     if searched.is_some() {
         mark("search", t);
     }
@@ -186,7 +190,9 @@ pub fn run(a: Args) -> Result<()> {
         searched.as_ref().map(|s| &s.targets[..]),
     )?;
     mark("train", t);
-    searches.push(serde_json::json!({ "shadings": "bake", "search": searched }));
+    if cfg.search.on_bake {
+        searches.push(serde_json::json!({ "shadings": "bake", "search": &searched }));
+    }
 
     let t = std::time::Instant::now();
     let st = Stage::start("emitters");
@@ -255,15 +261,24 @@ pub fn run(a: Args) -> Result<()> {
                 }));
             }
             let t = std::time::Instant::now();
-            let searched =
-                crate::search::stage(&scene, &records, &refined.shadings, &cfg.search, footprint)?;
+            searched = crate::search::stage(
+                &scene,
+                &records,
+                &refined.shadings,
+                &cfg.search,
+                footprint,
+                searched.as_ref(),
+            )?;
             if searched.is_some() {
                 mark("search", t);
             }
             let t = std::time::Instant::now();
             let prev_id = train.fingerprint();
             let mut round_cfg = cfg.train.clone();
-            if let Some(p) = cfg.rounds.roughness_prior {
+            // With search targets, the regions without a σ target keep the σ pull: the search
+            // found no gloss there, and a free σ drifts towards the targets' values through the
+            // shared network (on `cornell-metal` without segments the walls went to σ ≈ 0.4).
+            if let (Some(p), None) = (cfg.rounds.roughness_prior, &searched) {
                 round_cfg.roughness_prior = p;
             }
             let (f, m, _) = crate::train::stage(
@@ -277,7 +292,7 @@ pub fn run(a: Args) -> Result<()> {
                 searched.as_ref().map(|s| &s.targets[..]),
             )?;
             mark("train", t);
-            searches.push(serde_json::json!({ "shadings": format!("refine{r}"), "search": searched }));
+            searches.push(serde_json::json!({ "shadings": format!("refine{r}"), "search": &searched }));
             rounds.push(serde_json::json!({
                 "round": r,
                 "refine": { "seconds": refined.seconds, "stats": refined.stats },
@@ -390,7 +405,7 @@ pub fn run(a: Args) -> Result<()> {
         })).collect::<Vec<_>>(),
         "modeled": {
             "material_field": true,
-            "material_search": if cfg.search.enabled { format!("per region ({:?}): σ over {} values, metallic over {:?}, pulled towards with weight {}", cfg.search.regions, cfg.search.roughness_steps, cfg.search.metallic, cfg.train.target_weight) } else { "skipped (search.enabled = false)".to_string() },
+            "material_search": if cfg.search.enabled { format!("per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}", cfg.search.regions, if cfg.search.on_bake { "the bake and each refinement" } else { "each refinement (none without one)" }, cfg.search.roughness_steps, cfg.search.metallic, cfg.train.target_weight) } else { "skipped (search.enabled = false)".to_string() },
             "emission_mask": true,
             "emitters": emitters.len(),
             "path_grown_refinement": match &refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },

@@ -59,6 +59,7 @@ pub fn stage(
     shadings: &[ViewShadings],
     cfg: &SearchConfig,
     footprint: f32,
+    previous: Option<&Searched>,
 ) -> Result<Option<Searched>> {
     if !cfg.enabled {
         return Ok(None);
@@ -77,7 +78,17 @@ pub fn stage(
         &cfg.metallic,
         Albedo::Fitted,
     );
-    let choices: Vec<RegionChoice> = profiles.iter().map(|p| choose(p, cfg)).collect();
+    let was_metal = |label: i64| {
+        previous.is_some_and(|s| {
+            s.regions
+                .iter()
+                .any(|(l, c)| *l == label && c.metallic > Some(0.5))
+        })
+    };
+    let choices: Vec<RegionChoice> = profiles
+        .iter()
+        .map(|p| choose(p, cfg, was_metal(regions.labels[p.region as usize])))
+        .collect();
     let targets = regions
         .ids
         .iter()
@@ -194,7 +205,7 @@ pub fn run(a: Args) -> Result<()> {
     );
     let mut rows = vec![];
     for (r, f) in fitted.into_iter().enumerate() {
-        let c = choose(&f, &cfg);
+        let c = choose(&f, &cfg, false);
         let g = given.as_ref().map(|g| g[r].clone());
         let gt = g.as_ref().map_or("–".to_string(), |g| {
             // argmin over σ at each metallic of the given base colour; print m = 0 and m = 1.

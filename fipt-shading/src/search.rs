@@ -34,6 +34,12 @@ pub struct SearchConfig {
     /// Run the search and pull the training towards its answer (false: the pull to σ = 1,
     /// m = 0 of `[train]`).
     pub enabled: bool,
+    /// Search on the initial bake too (before the first training round), not only on the
+    /// refined shadings. Off in every preset: on a noisy bake (a 12-view cornell with 8 GGX
+    /// samples a level) it called three dielectric walls metal and the first round's field
+    /// never recovered (train kd 19.9 → 14.7 dB); the refined shadings hold the same metals on
+    /// `studio-mitsuba` and `room` by wide margins.
+    pub on_bake: bool,
     /// σ candidates: this many values evenly spaced over the bake's levels' range.
     pub roughness_steps: usize,
     /// Metallic candidates.
@@ -50,6 +56,15 @@ pub struct SearchConfig {
     pub dielectric_tolerance: f32,
     /// The same for metal regions, whose lobe carries all their light.
     pub metal_tolerance: f32,
+    /// A dielectric whose minimum lies inside the σ range (at least `interior_sigma`) gets
+    /// that minimum as its target when σ = 1 costs this fraction more (weaker evidence than
+    /// `dielectric_tolerance` asks for). A minimum at the mirror end is what a mismatched
+    /// diffuse lobe produces (on `studio-mitsuba` both boxes, whatever their σ); an interior
+    /// one is a lobe the data has (the glossy floor of `cornell-metal`: 0.34 for 0.3, σ = 1
+    /// costs 14 % more).
+    pub interior_gain: f32,
+    /// See `interior_gain`.
+    pub interior_sigma: f32,
     /// A region is metal when its best metal cost is below its best dielectric cost by at
     /// least this fraction.
     pub metal_margin: f32,
@@ -78,11 +93,14 @@ impl Default for SearchConfig {
     fn default() -> Self {
         SearchConfig {
             enabled: true,
+            on_bake: false,
             roughness_steps: 50,
             metallic: vec![0.0, 1.0],
             cell_footprints: 4.0,
             dielectric_tolerance: 0.25,
             metal_tolerance: 0.02,
+            interior_gain: 0.05,
+            interior_sigma: 0.1,
             metal_margin: 0.2,
             min_pixels: 200,
             regions: RegionSource::Auto,
@@ -340,9 +358,13 @@ fn argmin(v: &[f64]) -> Option<usize> {
 
 /// The decision for one region (see [`SearchConfig`]): metal when its best cost beats the best
 /// dielectric one by `metal_margin`; then the roughest σ within the tolerance of the minimum
-/// for that metallic (none for a dielectric whose answer is the roughest candidate). No target
-/// on too few pixels.
-pub fn choose(p: &RegionProfile, cfg: &SearchConfig) -> RegionChoice {
+/// for that metallic (none for a dielectric whose answer is the roughest candidate, unless its
+/// minimum is interior and beats σ = 1 by `interior_gain`). No target on too few pixels.
+///
+/// `was_metal`: the previous search (on earlier shadings) called this region metal; it stays
+/// metal unless the dielectric answer beats it by `metal_margin` (hysteresis: the margin is
+/// needed to switch either way, so that a small region's decision does not flip on noise).
+pub fn choose(p: &RegionProfile, cfg: &SearchConfig, was_metal: bool) -> RegionChoice {
     let best: Vec<Option<usize>> = p.cost.iter().map(|c| argmin(c)).collect();
     let best_cost: Vec<f64> = best
         .iter()
@@ -371,6 +393,13 @@ pub fn choose(p: &RegionProfile, cfg: &SearchConfig) -> RegionChoice {
     }
     // The metallic candidate: the dielectric one unless another beats it by the margin.
     let mut mi = dielectric.unwrap_or(0);
+    if was_metal {
+        if let Some(k) = p.metallic.iter().position(|&m| m == 1.0) {
+            if best_cost[k].is_finite() && best_cost[mi] >= best_cost[k] * (1.0 - cfg.metal_margin as f64) {
+                mi = k;
+            }
+        }
+    }
     for (k, &c) in best_cost.iter().enumerate() {
         let base = best_cost[mi];
         if c.is_finite() && (!base.is_finite() || c < base * (1.0 - cfg.metal_margin as f64)) {
@@ -386,13 +415,25 @@ pub fn choose(p: &RegionProfile, cfg: &SearchConfig) -> RegionChoice {
     } else {
         cfg.dielectric_tolerance
     };
-    let limit = p.cost[mi][b] * (1.0 + tol as f64);
-    let si = (b..p.sigma.len())
-        .rev()
-        .find(|&s| p.cost[mi][s] <= limit)
-        .unwrap_or(b);
+    let roughest_within = |tol: f32| {
+        let limit = p.cost[mi][b] * (1.0 + tol as f64);
+        (b..p.sigma.len())
+            .rev()
+            .find(|&s| p.cost[mi][s] <= limit)
+            .unwrap_or(b)
+    };
+    let n = p.sigma.len();
+    let mut si = roughest_within(tol);
+    let gain = p.cost[mi][n - 1] / p.cost[mi][b] - 1.0;
+    if !metal
+        && si + 1 == n
+        && p.sigma[b] >= cfg.interior_sigma
+        && gain >= cfg.interior_gain as f64
+    {
+        si = roughest_within(cfg.metal_tolerance);
+    }
     RegionChoice {
-        roughness: (metal || si + 1 < p.sigma.len()).then_some(p.sigma[si]),
+        roughness: (metal || si + 1 < n).then_some(p.sigma[si]),
         metallic: Some(p.metallic[mi]),
         ..fallback
     }
