@@ -22,6 +22,9 @@ pub struct Args {
     out: PathBuf,
 }
 
+/// A pixel is *observed* when at least this many training pixels fall in its surface cell.
+const OBSERVED_MIN: f32 = 8.0;
+
 fn q8(v: Vec3) -> Vec3 {
     (v.clamp(Vec3::ZERO, Vec3::ONE) * 255.0).round() / 255.0
 }
@@ -70,6 +73,7 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
         // Metallic, pooled over the split's pixels: [metal pixels, of them predicted ≥ 0.8,
         // dielectric pixels, of them predicted > 0.1].
         let mut metal = [0usize; 4];
+        let (mut kd_obs, mut r_obs, mut obs_share) = (vec![], vec![], vec![]);
 
         for v in &s.views {
             let k = v.index;
@@ -101,15 +105,9 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
             let diffuse: Vec<bool> = (0..n)
                 .map(|i| valid[i] && m_gt.as_ref().is_none_or(|m| m.data[i].x < 0.5))
                 .collect();
-            let kd_p = psnr(
-                &kd.data
-                    .iter()
-                    .map(|v| v.clamp(Vec3::ZERO, Vec3::ONE))
-                    .collect::<Vec<_>>(),
-                &kd_gt.data.iter().map(|&v| q8(v)).collect::<Vec<_>>(),
-                Some(&diffuse),
-                1.0,
-            );
+            let kd_clamped: Vec<Vec3> = kd.data.iter().map(|v| v.clamp(Vec3::ZERO, Vec3::ONE)).collect();
+            let kd_q8: Vec<Vec3> = kd_gt.data.iter().map(|&v| q8(v)).collect();
+            let kd_p = psnr(&kd_clamped, &kd_q8, Some(&diffuse), 1.0);
             let alb_p = gt(GtKind::Albedo).and_then(|a| {
                 let pa: Vec<Vec3> = kd
                     .data
@@ -138,12 +136,23 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
                 }
             }
             let cl = |v: Vec3| Vec3::splat(v.x.clamp(0.2, 1.0));
-            let r_p = psnr(
-                &rough.data.iter().map(|&v| cl(v)).collect::<Vec<_>>(),
-                &r_gt.data.iter().map(|&v| cl(q8(v))).collect::<Vec<_>>(),
-                Some(&valid),
-                1.0,
-            );
+            let r_pred: Vec<Vec3> = rough.data.iter().map(|&v| cl(v)).collect();
+            let r_true: Vec<Vec3> = r_gt.data.iter().map(|&v| cl(q8(v))).collect();
+            let r_p = psnr(&r_pred, &r_true, Some(&valid), 1.0);
+            // The same on observed pixels: surface cells that at least OBSERVED_MIN training
+            // pixels saw (`_observed.exr` of `fipt run`).
+            let obs_path = dir.join(format!("{k:03}_observed.exr"));
+            if obs_path.is_file() {
+                let o = Image::read_exr(&obs_path)
+                    .with_context(|| format!("reading {}", obs_path.display()))?;
+                let seen = |i: usize| o.data[i].x >= OBSERVED_MIN;
+                let od: Vec<bool> = (0..n).map(|i| diffuse[i] && seen(i)).collect();
+                let ov: Vec<bool> = (0..n).map(|i| valid[i] && seen(i)).collect();
+                kd_obs.push(psnr(&kd_clamped, &kd_q8, Some(&od), 1.0));
+                r_obs.push(psnr(&r_pred, &r_true, Some(&ov), 1.0));
+                let nv = valid.iter().filter(|&&v| v).count();
+                obs_share.push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
+            }
             let (mut inter, mut uni, mut log2) = (0usize, 0usize, 0f64);
             for i in 0..n {
                 let g = emit_gt.as_ref().map_or(Vec3::ZERO, |e| e.data[i]);
@@ -199,6 +208,8 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
         splits.insert(
             s.name.clone(),
             serde_json::json!({
+                "observed": {"min_count": OBSERVED_MIN, "kd_psnr": mean(&kd_obs), "kd_psnr_median": median(&kd_obs),
+                             "roughness_psnr": mean(&r_obs), "roughness_psnr_median": median(&r_obs), "share": mean(&obs_share)},
                 "metallic": {"metal_recall": share(metal[1], metal[0]), "false_metal": share(metal[3], metal[2]),
                              "metal_pixels": metal[0], "dielectric_pixels": metal[2]},
                 "mean": {"kd_psnr": mean(&kd_all), "albedo_psnr": mean(&alb_all), "roughness_psnr": mean(&r_all),

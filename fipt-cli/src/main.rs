@@ -17,6 +17,7 @@ mod run;
 mod scene;
 mod search;
 mod synth;
+mod table;
 mod train;
 
 use clap::{Parser, Subcommand};
@@ -75,6 +76,8 @@ enum Command {
     /// The material search's cost curves per region over roughness and metallic (a diagnostic of
     /// the shadings; with ground truth, also at the true base colour).
     Profile(search::Args),
+    /// The accuracy table (Markdown) of finished runs: kd, σ, metallic, IoU, re-render, wall time.
+    Table(table::Args),
     /// Measure BVH build, ray throughput and path-tracing speed; writes JSON.
     Bench(bench::Args),
 }
@@ -101,6 +104,7 @@ fn main() {
         Command::Demo(a) => demo::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Profile(a) => search::run(a),
+        Command::Table(a) => table::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -170,7 +170,7 @@ pub fn run(a: Args) -> Result<()> {
     let mut searches = vec![];
     let t = std::time::Instant::now();
     let mut searched = if cfg.search.on_bake {
-        crate::search::stage(&scene, &records, &shadings, &cfg.search, footprint, None)?
+        crate::search::stage(&scene, &records, &shadings, &cfg.search, footprint, None, true)?
     } else {
         None
     };
@@ -268,6 +268,7 @@ pub fn run(a: Args) -> Result<()> {
                 &cfg.search,
                 footprint,
                 searched.as_ref(),
+                false,
             )?;
             if searched.is_some() {
                 mark("search", t);
@@ -307,6 +308,11 @@ pub fn run(a: Args) -> Result<()> {
 
     let t = std::time::Instant::now();
     let st = Stage::start("maps");
+    // Observation counts per surface cell (the search's cells: 4 footprints).
+    let observed = fipt_shading::search::CellCounts::new(
+        records.iter().flatten().flatten().map(|r| r.hit.p),
+        cfg.search.cell_footprints * footprint,
+    );
     let mut emission_of: HashMap<u32, Vec3> = HashMap::new();
     for e in &emitters {
         for (t, l) in e.triangles.iter().zip(&e.radiance) {
@@ -321,6 +327,7 @@ pub fn run(a: Args) -> Result<()> {
             None,
             None,
             Some(&emission_of),
+            Some(&observed),
             &a.out.join("views").join(&s.name),
         )?;
     }

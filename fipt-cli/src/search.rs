@@ -60,10 +60,16 @@ pub fn stage(
     cfg: &SearchConfig,
     footprint: f32,
     previous: Option<&Searched>,
+    on_bake: bool,
 ) -> Result<Option<Searched>> {
     if !cfg.enabled {
         return Ok(None);
     }
+    let bake_cfg = SearchConfig {
+        metal_margin: cfg.bake_metal_margin,
+        ..cfg.clone()
+    };
+    let cfg = if on_bake { &bake_cfg } else { cfg };
     let t = std::time::Instant::now();
     let Some((regions, pixels, grid)) = prepare(scene, records, shadings, cfg, footprint)? else {
         eprintln!("search: skipped (search.regions = \"none\")");
@@ -87,7 +93,14 @@ pub fn stage(
     };
     let choices: Vec<RegionChoice> = profiles
         .iter()
-        .map(|p| choose(p, cfg, was_metal(regions.labels[p.region as usize])))
+        .map(|p| {
+            let mut c = choose(p, cfg, was_metal(regions.labels[p.region as usize]));
+            // On the bake, dielectric σ waits for the refined shadings.
+            if on_bake && c.metallic < Some(0.5) {
+                c.roughness = None;
+            }
+            c
+        })
         .collect();
     let targets = regions
         .ids

@@ -134,6 +134,7 @@ pub fn run(a: Args) -> Result<()> {
                 train.then_some(&shadings[..]),
                 train.then_some(&scene.images[..]),
                 None,
+                None,
                 &dir.join("views").join(&s.name),
             )?;
         }
@@ -352,6 +353,7 @@ pub fn export_views(
     shadings: Option<&[ViewShadings]>,
     images: Option<&[Image]>,
     emission: Option<&HashMap<u32, Vec3>>,
+    observed: Option<&fipt_shading::search::CellCounts>,
     dir: &Path,
 ) -> Result<()> {
     for (vi, v) in views.iter().enumerate() {
@@ -381,6 +383,13 @@ pub fn export_views(
             }
             maps.push(("emission", img));
         }
+        if let Some(counts) = observed {
+            let mut img = Image::new(w, h);
+            for &i in &hit {
+                img.data[i] = Vec3::splat(counts.count(recs[i].unwrap().hit.p) as f32);
+            }
+            maps.push(("observed", img));
+        }
         if let (Some(sh), Some(imgs)) = (shadings, images) {
             let s = &sh[vi];
             let idx: Vec<usize> = hit.iter().copied().filter(|&i| s.valid[i]).collect();
@@ -404,7 +413,9 @@ pub fn export_views(
         for (name, img) in &maps {
             let k = v.index;
             img.write_exr(&dir.join(format!("{k:03}_{name}.exr")), ExrPrecision::F32)?;
-            img.write_png(&dir.join("preview").join(format!("{k:03}_{name}.png")), 1.0)?;
+            // Counts: white at 64 training pixels a cell.
+            let exposure = if *name == "observed" { 1.0 / 64.0 } else { 1.0 };
+            img.write_png(&dir.join("preview").join(format!("{k:03}_{name}.png")), exposure)?;
         }
     }
     Ok(())

@@ -34,12 +34,16 @@ pub struct SearchConfig {
     /// Run the search and pull the training towards its answer (false: the pull to σ = 1,
     /// m = 0 of `[train]`).
     pub enabled: bool,
-    /// Search on the initial bake too (before the first training round), not only on the
-    /// refined shadings. Off in every preset: on a noisy bake (a 12-view cornell with 8 GGX
-    /// samples a level) it called three dielectric walls metal and the first round's field
-    /// never recovered (train kd 19.9 → 14.7 dB); the refined shadings hold the same metals on
-    /// `studio-mitsuba` and `room` by wide margins.
+    /// Search on the initial bake too (before the first training round). The bake's one-bounce
+    /// shadings are noisier, so there the search only acts on overwhelming evidence: metals
+    /// whose cost is below `bake_metal_margin` of the dielectric one, and no dielectric σ
+    /// targets. Metals found before the first round are what makes the refinement grow paths
+    /// through them (val kd +1.1 dB on `studio-mitsuba`, +1.0 dB on `room`).
     pub on_bake: bool,
+    /// `metal_margin` on the bake. Measured metal/dielectric cost ratios on bakes: true metals
+    /// 0.05–0.34 (`studio-mitsuba`, `room`, `cornell-metal`), false ones 0.41–0.60 (walls of a
+    /// 12-view cornell baked with 8 GGX samples a level; `cornell-metal`'s `fast` bake).
+    pub bake_metal_margin: f32,
     /// σ candidates: this many values evenly spaced over the bake's levels' range.
     pub roughness_steps: usize,
     /// Metallic candidates.
@@ -93,7 +97,8 @@ impl Default for SearchConfig {
     fn default() -> Self {
         SearchConfig {
             enabled: true,
-            on_bake: false,
+            on_bake: true,
+            bake_metal_margin: 0.6,
             roughness_steps: 50,
             metallic: vec![0.0, 1.0],
             cell_footprints: 4.0,
@@ -172,6 +177,13 @@ pub fn sigma_grid(lo: f32, hi: f32, steps: usize) -> Vec<f32> {
         .collect()
 }
 
+/// The surface cell (voxel of edge 1/`inv`) holding `p`.
+#[inline]
+fn cell_of(p: Vec3, inv: f32) -> [i32; 3] {
+    let q = (p * inv).floor();
+    [q.x as i32, q.y as i32, q.z as i32]
+}
+
 /// Dense cell ids for `points` (with their region): voxels of edge `cell` per region.
 pub fn cell_ids(points: &[(Vec3, u32)], cell: f32) -> Vec<u32> {
     let inv = 1.0 / cell.max(1e-9);
@@ -179,12 +191,34 @@ pub fn cell_ids(points: &[(Vec3, u32)], cell: f32) -> Vec<u32> {
     points
         .iter()
         .map(|&(p, r)| {
-            let q = (p * inv).floor();
-            let key = (r, [q.x as i32, q.y as i32, q.z as i32]);
             let next = map.len() as u32;
-            *map.entry(key).or_insert(next)
+            *map.entry((r, cell_of(p, inv))).or_insert(next)
         })
         .collect()
+}
+
+/// How many training pixels fall in each surface cell: where the views observed a surface
+/// (`{k:03}_observed.exr`), so users know where to trust the maps.
+pub struct CellCounts {
+    inv: f32,
+    counts: HashMap<[i32; 3], u32>,
+}
+
+impl CellCounts {
+    /// Counts of `points` in voxels of edge `cell`.
+    pub fn new(points: impl IntoIterator<Item = Vec3>, cell: f32) -> Self {
+        let inv = 1.0 / cell.max(1e-9);
+        let mut counts: HashMap<[i32; 3], u32> = HashMap::new();
+        for p in points {
+            *counts.entry(cell_of(p, inv)).or_default() += 1;
+        }
+        CellCounts { inv, counts }
+    }
+
+    /// Training pixels in the cell of `p` (0: never observed).
+    pub fn count(&self, p: Vec3) -> u32 {
+        self.counts.get(&cell_of(p, self.inv)).copied().unwrap_or(0)
+    }
 }
 
 /// The search's pixels of the training views: every valid pixel whose `region_of` is `Some`,
