@@ -347,9 +347,11 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
         [
             "load",
             "bake",
+            "search",
             "train",
             "emitters",
             "refine",
+            "search",
             "train",
             "maps",
             "re-render",
