@@ -43,7 +43,8 @@ pub fn load(
         RegionSource::Parts if parts => Some(GtKind::IndexMA),
         RegionSource::Semantic if classes => Some(GtKind::Segmentation),
         RegionSource::Parts | RegionSource::Semantic => bail!(
-            "search.regions = {source:?} but {} has no {} folder (use \"auto\", \"mesh\" or \"none\")",
+            "search.regions = \"{}\" but {} has no {} folder (use \"auto\", \"mesh\" or \"none\")",
+            format!("{source:?}").to_lowercase(),
             split.dir.display(),
             if source == RegionSource::Parts { "IndexMA/" } else { "segmentation/" }
         ),
