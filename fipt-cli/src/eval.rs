@@ -105,7 +105,11 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
             let diffuse: Vec<bool> = (0..n)
                 .map(|i| valid[i] && m_gt.as_ref().is_none_or(|m| m.data[i].x < 0.5))
                 .collect();
-            let kd_clamped: Vec<Vec3> = kd.data.iter().map(|v| v.clamp(Vec3::ZERO, Vec3::ONE)).collect();
+            let kd_clamped: Vec<Vec3> = kd
+                .data
+                .iter()
+                .map(|v| v.clamp(Vec3::ZERO, Vec3::ONE))
+                .collect();
             let kd_q8: Vec<Vec3> = kd_gt.data.iter().map(|&v| q8(v)).collect();
             let kd_p = psnr(&kd_clamped, &kd_q8, Some(&diffuse), 1.0);
             let alb_p = gt(GtKind::Albedo).and_then(|a| {
@@ -151,7 +155,8 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
                 kd_obs.push(psnr(&kd_clamped, &kd_q8, Some(&od), 1.0));
                 r_obs.push(psnr(&r_pred, &r_true, Some(&ov), 1.0));
                 let nv = valid.iter().filter(|&&v| v).count();
-                obs_share.push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
+                obs_share
+                    .push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
             }
             let (mut inter, mut uni, mut log2) = (0usize, 0usize, 0f64);
             for i in 0..n {
@@ -242,7 +247,11 @@ fn print_table(m: &serde_json::Value) {
                 let x = &v[stat];
                 let metal = if stat == "mean" {
                     let r = &v["metallic"];
-                    format!("{} ({} false)", f(r, "metal_recall", 2), f(r, "false_metal", 3))
+                    format!(
+                        "{} ({} false)",
+                        f(r, "metal_recall", 2),
+                        f(r, "false_metal", 3)
+                    )
                 } else {
                     String::new()
                 };

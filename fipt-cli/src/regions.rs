@@ -34,21 +34,22 @@ pub fn load(
         split.has_gt(GtKind::IndexMA),
         split.has_gt(GtKind::Segmentation),
     );
-    let kind = match source {
-        RegionSource::None => return Ok(None),
-        RegionSource::Mesh => None,
-        RegionSource::Auto if parts => Some(GtKind::IndexMA),
-        RegionSource::Auto if classes => Some(GtKind::Segmentation),
-        RegionSource::Auto => None,
-        RegionSource::Parts if parts => Some(GtKind::IndexMA),
-        RegionSource::Semantic if classes => Some(GtKind::Segmentation),
-        RegionSource::Parts | RegionSource::Semantic => bail!(
+    let kind =
+        match source {
+            RegionSource::None => return Ok(None),
+            RegionSource::Mesh => None,
+            RegionSource::Auto if parts => Some(GtKind::IndexMA),
+            RegionSource::Auto if classes => Some(GtKind::Segmentation),
+            RegionSource::Auto => None,
+            RegionSource::Parts if parts => Some(GtKind::IndexMA),
+            RegionSource::Semantic if classes => Some(GtKind::Segmentation),
+            RegionSource::Parts | RegionSource::Semantic => bail!(
             "search.regions = \"{}\" but {} has no {} folder (use \"auto\", \"mesh\" or \"none\")",
             format!("{source:?}").to_lowercase(),
             split.dir.display(),
             if source == RegionSource::Parts { "IndexMA/" } else { "segmentation/" }
         ),
-    };
+        };
     let Some(kind) = kind else {
         let (patch, n) = fipt_geom::patches::smooth_patches(&scene.geometry.mesh, mesh_angle_deg);
         let ids = records
@@ -67,7 +68,12 @@ pub fn load(
     };
     let raw = (0..split.views.len())
         .into_par_iter()
-        .map(|k| scene.ds.load_ids(split, kind, k).map(|v| v.unwrap_or_default()))
+        .map(|k| {
+            scene
+                .ds
+                .load_ids(split, kind, k)
+                .map(|v| v.unwrap_or_default())
+        })
         .collect::<Result<Vec<_>, _>>()
         .with_context(|| format!("reading the region ids ({}/)", kind.folder()))?;
     let mut dense: BTreeMap<i64, u32> = BTreeMap::new();
@@ -88,6 +94,10 @@ pub fn load(
     Ok(Some(Regions {
         ids,
         labels,
-        source: if kind == GtKind::IndexMA { "parts" } else { "semantic" },
+        source: if kind == GtKind::IndexMA {
+            "parts"
+        } else {
+            "semantic"
+        },
     }))
 }

@@ -181,7 +181,15 @@ pub fn run(a: Args) -> Result<()> {
     let mut searches = vec![];
     let t = std::time::Instant::now();
     let mut searched = if cfg.search.on_bake {
-        crate::search::stage(&scene, &records, &shadings, &cfg.search, footprint, None, true)?
+        crate::search::stage(
+            &scene,
+            &records,
+            &shadings,
+            &cfg.search,
+            footprint,
+            None,
+            true,
+        )?
     } else {
         None
     };
@@ -304,7 +312,8 @@ pub fn run(a: Args) -> Result<()> {
                 searched.as_ref().map(|s| &s.targets[..]),
             )?;
             mark("train", t);
-            searches.push(serde_json::json!({ "shadings": format!("refine{r}"), "search": &searched }));
+            searches
+                .push(serde_json::json!({ "shadings": format!("refine{r}"), "search": &searched }));
             rounds.push(serde_json::json!({
                 "round": r,
                 "refine": { "seconds": refined.seconds, "stats": refined.stats },

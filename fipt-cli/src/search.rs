@@ -110,7 +110,10 @@ pub fn stage(
                 .map(|r| {
                     r.map(|r| {
                         let c = &choices[r as usize];
-                        [c.roughness.unwrap_or(f32::NAN), c.metallic.unwrap_or(f32::NAN)]
+                        [
+                            c.roughness.unwrap_or(f32::NAN),
+                            c.metallic.unwrap_or(f32::NAN),
+                        ]
                     })
                 })
                 .collect()
@@ -168,10 +171,15 @@ pub fn run(a: Args) -> Result<()> {
     let dir = a.out.join(&a.shadings);
     let shadings = match fipt_shading::bake_store::load_for_inputs(&dir, &scene.inputs_hash)? {
         Ok((_, s)) => s,
-        Err(why) => bail!("{}: {why} (run `fipt run` or `fipt bake` first)", dir.display()),
+        Err(why) => bail!(
+            "{}: {why} (run `fipt run` or `fipt bake` first)",
+            dir.display()
+        ),
     };
-    let regions: RegionSource = serde_json::from_value(serde_json::json!(a.regions))
-        .map_err(|_| anyhow::anyhow!("--regions {}: use auto, parts, semantic or mesh", a.regions))?;
+    let regions: RegionSource =
+        serde_json::from_value(serde_json::json!(a.regions)).map_err(|_| {
+            anyhow::anyhow!("--regions {}: use auto, parts, semantic or mesh", a.regions)
+        })?;
     let cfg = SearchConfig {
         regions,
         ..SearchConfig::default()
@@ -188,33 +196,69 @@ pub fn run(a: Args) -> Result<()> {
     else {
         bail!("no regions");
     };
-    let fitted = profile(&pixels, &shadings, &scene.images, regions.len(), &grid, &cfg.metallic, Albedo::Fitted);
+    let fitted = profile(
+        &pixels,
+        &shadings,
+        &scene.images,
+        regions.len(),
+        &grid,
+        &cfg.metallic,
+        Albedo::Fitted,
+    );
     // The ground truth's base colour: kd for dielectrics, ks for metals.
     let gt_kinds = [GtKind::DiffCol, GtKind::Specular, GtKind::Metallic];
     let given = if gt_kinds.iter().all(|&k| split.has_gt(k)) {
         let mut maps = vec![];
         for k in 0..split.views.len() {
             let g = |kind| -> Result<Vec<Vec3>> {
-                Ok(scene.ds.load_gt(split, kind, split.views[k].index)?.map(|i| i.data).unwrap_or_default())
+                Ok(scene
+                    .ds
+                    .load_gt(split, kind, split.views[k].index)?
+                    .map(|i| i.data)
+                    .unwrap_or_default())
             };
-            maps.push((g(GtKind::DiffCol)?, g(GtKind::Specular)?, g(GtKind::Metallic)?));
+            maps.push((
+                g(GtKind::DiffCol)?,
+                g(GtKind::Specular)?,
+                g(GtKind::Metallic)?,
+            ));
         }
         let base: Vec<Vec3> = pixels
             .iter()
             .map(|p| {
                 let (kd, ks, m) = &maps[p.view as usize];
                 let i = p.pixel as usize;
-                if m[i].x > 0.5 { ks[i] } else { kd[i] }
+                if m[i].x > 0.5 {
+                    ks[i]
+                } else {
+                    kd[i]
+                }
             })
             .collect();
         let metal_grid = [0.0, 0.25, 0.5, 0.75, 1.0];
-        Some(profile(&pixels, &shadings, &scene.images, regions.len(), &grid, &metal_grid, Albedo::Given(&base)))
+        Some(profile(
+            &pixels,
+            &shadings,
+            &scene.images,
+            regions.len(),
+            &grid,
+            &metal_grid,
+            Albedo::Given(&base),
+        ))
     } else {
         None
     };
     println!(
         "{:>6} {:>7} {:>6} | {:>18} | {:>8} {:>8} | {:>9} {:>9} {:>9} | chosen σ, m",
-        "region", "pixels", "cells", "GT a: argmin σ@m", "fit σ m0", "fit σ m1", "cost σ=1", "best m0", "best m1"
+        "region",
+        "pixels",
+        "cells",
+        "GT a: argmin σ@m",
+        "fit σ m0",
+        "fit σ m1",
+        "cost σ=1",
+        "best m0",
+        "best m1"
     );
     let mut rows = vec![];
     for (r, f) in fitted.into_iter().enumerate() {
@@ -223,7 +267,11 @@ pub fn run(a: Args) -> Result<()> {
         let gt = g.as_ref().map_or("–".to_string(), |g| {
             // argmin over σ at each metallic of the given base colour; print m = 0 and m = 1.
             let am = |row: &Vec<f64>| {
-                row.iter().enumerate().filter(|x| x.1.is_finite()).min_by(|a, b| a.1.total_cmp(b.1)).map_or(f32::NAN, |x| g.sigma[x.0])
+                row.iter()
+                    .enumerate()
+                    .filter(|x| x.1.is_finite())
+                    .min_by(|a, b| a.1.total_cmp(b.1))
+                    .map_or(f32::NAN, |x| g.sigma[x.0])
             };
             format!("{:.2}@0 {:.2}@1", am(&g.cost[0]), am(&g.cost[4]))
         });
@@ -241,7 +289,12 @@ pub fn run(a: Args) -> Result<()> {
             c.roughness.map_or("–".into(), |v| format!("{v:.2}")),
             c.metallic.map_or("–".into(), |v| format!("{v:.0}"))
         );
-        rows.push(ProfileRow { label: regions.labels[r], fitted: f, given: g, choice: c });
+        rows.push(ProfileRow {
+            label: regions.labels[r],
+            fitted: f,
+            given: g,
+            choice: c,
+        });
     }
     if let Some(path) = &a.json {
         fipt_core::fsutil::write_json_atomic(path, &rows)?;

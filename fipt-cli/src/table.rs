@@ -28,7 +28,9 @@ pub fn run(a: Args) -> Result<()> {
         let report = read(&out.join("report.json"))?;
         let metrics = read(&out.join("metrics.json"))?;
         let m = &metrics[&a.split];
-        let f = |v: &serde_json::Value, p: usize| v.as_f64().map_or("–".into(), |x| format!("{x:.p$}"));
+        let f = |v: &serde_json::Value, p: usize| {
+            v.as_f64().map_or("–".into(), |x| format!("{x:.p$}"))
+        };
         let pair = |k: &str| format!("{} / {}", f(&m["mean"][k], 2), f(&m["median"][k], 2));
         let scene = report["scene"].as_str().map_or("?".into(), |s| {
             std::path::Path::new(s)

@@ -415,7 +415,10 @@ pub fn export_views(
             img.write_exr(&dir.join(format!("{k:03}_{name}.exr")), ExrPrecision::F32)?;
             // Counts: white at 64 training pixels a cell.
             let exposure = if *name == "observed" { 1.0 / 64.0 } else { 1.0 };
-            img.write_png(&dir.join("preview").join(format!("{k:03}_{name}.png")), exposure)?;
+            img.write_png(
+                &dir.join("preview").join(format!("{k:03}_{name}.png")),
+                exposure,
+            )?;
         }
     }
     Ok(())

@@ -489,8 +489,20 @@ fn search_recovers_a_metal_and_a_glossy_floor_without_segmentation() {
     let dir = tmp("metal-scene");
     let d = dir.to_str().unwrap();
     let (ok, _, err) = fipt(&[
-        "synth", "cornell-metal", "--out", d, "--views", "12", "--val-views", "2", "--width",
-        "64", "--height", "48", "--spp", "64",
+        "synth",
+        "cornell-metal",
+        "--out",
+        d,
+        "--views",
+        "12",
+        "--val-views",
+        "2",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "64",
     ]);
     assert!(ok, "{err}");
     for split in ["train", "val"] {

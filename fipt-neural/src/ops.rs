@@ -329,11 +329,18 @@ impl FactorizedLoss {
         }
         // Each part: the search's target pull where it has one, the default prior elsewhere.
         let [ts, tm] = b.target.get(j).copied().unwrap_or([f32::NAN; 2]);
-        let (pw, tw, k) = (self.prior_weight, self.target_weight, self.roughness_prior_scale);
+        let (pw, tw, k) = (
+            self.prior_weight,
+            self.target_weight,
+            self.roughness_prior_scale,
+        );
         let (prior_s, dps) = if ts.is_finite() {
             (tw * (sigma - ts).powi(2), tw * 2.0 * (sigma - ts))
         } else if self.prior_l1 {
-            (pw * k * (sigma - 1.0).abs(), pw * if sigma < 1.0 { -k } else { k })
+            (
+                pw * k * (sigma - 1.0).abs(),
+                pw * if sigma < 1.0 { -k } else { k },
+            )
         } else {
             (pw * k * (sigma - 1.0).powi(2), pw * k * 2.0 * (sigma - 1.0))
         };
@@ -626,10 +633,8 @@ impl CustomOp1 for FactorizedLoss {
         if let (Some(t), Ok(mut c)) = (terms, self.cache.0.lock()) {
             *c = Some((x.to_vec(), t));
         }
-        let total = image
-            + self.mask_weight as f64 * mask
-            + prior
-            + self.segment_weight as f64 * segment;
+        let total =
+            image + self.mask_weight as f64 * mask + prior + self.segment_weight as f64 * segment;
         Ok((
             CpuStorage::F32(vec![
                 total as f32,

@@ -1081,14 +1081,18 @@ pub fn candle_ops_loss(
                 .map(|j| batch.target.get(j).map_or(f32::NAN, |t| t[c]))
                 .collect();
             let has: Vec<f32> = t.iter().map(|v| u8::from(v.is_finite()) as f32).collect();
-            let t: Vec<f32> = t.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
+            let t: Vec<f32> = t
+                .iter()
+                .map(|v| if v.is_finite() { *v } else { 0.0 })
+                .collect();
             Ok((
                 Tensor::from_vec(has, (b, 1), dev)?,
                 Tensor::from_vec(t, (b, 1), dev)?,
             ))
         };
         let ((hs, ts), (hm, tm)) = (part(0)?, part(1)?);
-        let pull = (((&out.roughness - ts)?.sqr()? * &hs)? + ((&out.metallic - tm)?.sqr()? * &hm)?)?
+        let pull = (((&out.roughness - ts)?.sqr()? * &hs)?
+            + ((&out.metallic - tm)?.sqr()? * &hm)?)?
             .mean_all()?;
         let (ns, nm) = (hs.affine(-1.0, 1.0)?, hm.affine(-1.0, 1.0)?);
         let ps = match prior_norm {
@@ -1174,8 +1178,7 @@ pub fn candle_ops_loss(
             let dm = (&out.metallic - seg_mean(&out.metallic)?)?.abs()?;
             ((ds + dm)? * keep)?.mean_all()?
         };
-        let total = (((image.clone() + mask.affine(mask_weight as f64, 0.0)?)?
-            + &prior)?
+        let total = (((image.clone() + mask.affine(mask_weight as f64, 0.0)?)? + &prior)?
             + segment.affine(segment_weight as f64, 0.0)?)?;
         Tensor::stack(&[total, image, mask, prior, segment], 0)
     })();

@@ -429,7 +429,9 @@ pub fn choose(p: &RegionProfile, cfg: &SearchConfig, was_metal: bool) -> RegionC
     let mut mi = dielectric.unwrap_or(0);
     if was_metal {
         if let Some(k) = p.metallic.iter().position(|&m| m == 1.0) {
-            if best_cost[k].is_finite() && best_cost[mi] >= best_cost[k] * (1.0 - cfg.metal_margin as f64) {
+            if best_cost[k].is_finite()
+                && best_cost[mi] >= best_cost[k] * (1.0 - cfg.metal_margin as f64)
+            {
                 mi = k;
             }
         }
@@ -459,10 +461,7 @@ pub fn choose(p: &RegionProfile, cfg: &SearchConfig, was_metal: bool) -> RegionC
     let n = p.sigma.len();
     let mut si = roughest_within(tol);
     let gain = p.cost[mi][n - 1] / p.cost[mi][b] - 1.0;
-    if !metal
-        && si + 1 == n
-        && p.sigma[b] >= cfg.interior_sigma
-        && gain >= cfg.interior_gain as f64
+    if !metal && si + 1 == n && p.sigma[b] >= cfg.interior_sigma && gain >= cfg.interior_gain as f64
     {
         si = roughest_within(cfg.metal_tolerance);
     }
@@ -484,7 +483,9 @@ mod tests {
     fn scene(sigma: f32, m: f32) -> (Vec<SearchPixel>, Vec<ViewShadings>, Vec<Image>) {
         let mut rng = Pcg32::new(3, 7);
         let mut u = || rng.next_f32();
-        let base: Vec<Rgb> = (0..16).map(|_| Vec3::new(0.2 + 0.7 * u(), 0.2 + 0.7 * u(), 0.2 + 0.7 * u())).collect();
+        let base: Vec<Rgb> = (0..16)
+            .map(|_| Vec3::new(0.2 + 0.7 * u(), 0.2 + 0.7 * u(), 0.2 + 0.7 * u()))
+            .collect();
         let (mut pixels, mut shadings, mut images) = (vec![], vec![], vec![]);
         for v in 0..8u32 {
             let mut sh = ViewShadings::zeros(8, 8, DEFAULT_LEVELS);
@@ -500,7 +501,12 @@ mod tests {
                 let cell = ((v as usize * 64 + i) % 16) as u32;
                 let (b, c) = linear_terms(&sh, i, sigma, m);
                 img.data[i] = base[cell as usize] * b + c;
-                pixels.push(SearchPixel { view: v, pixel: i as u32, region: 0, cell });
+                pixels.push(SearchPixel {
+                    view: v,
+                    pixel: i as u32,
+                    region: 0,
+                    cell,
+                });
             }
             shadings.push(sh);
             images.push(img);
@@ -516,19 +522,33 @@ mod tests {
             let p = &profile(&px, &sh, &img, 1, &grid, &[0.0, 1.0], Albedo::Fitted)[0];
             let mi = usize::from(m == 1.0);
             let si = grid.iter().position(|&s| s == sigma).unwrap();
-            assert!(p.cost[mi][si] < 1e-10, "({sigma}, {m}): cost at the truth {}", p.cost[mi][si]);
+            assert!(
+                p.cost[mi][si] < 1e-10,
+                "({sigma}, {m}): cost at the truth {}",
+                p.cost[mi][si]
+            );
             for (k, row) in p.cost.iter().enumerate() {
                 for (j, &c) in row.iter().enumerate() {
                     if (k, j) != (mi, si) {
-                        assert!(c > 1e-6, "({sigma}, {m}): candidate ({k}, {j}) also fits: {c}");
+                        assert!(
+                            c > 1e-6,
+                            "({sigma}, {m}): candidate ({k}, {j}) also fits: {c}"
+                        );
                     }
                 }
             }
-            let cfg = SearchConfig { min_pixels: 1, ..Default::default() };
+            let cfg = SearchConfig {
+                min_pixels: 1,
+                ..Default::default()
+            };
             let c = choose(p, &cfg, false);
             assert_eq!(c.metallic, Some(m));
             // A dielectric at σ = 1 gets no σ target (the training decides); the others theirs.
-            assert_eq!(c.roughness, (sigma < 1.0).then_some(sigma), "({sigma}, {m})");
+            assert_eq!(
+                c.roughness,
+                (sigma < 1.0).then_some(sigma),
+                "({sigma}, {m})"
+            );
         }
     }
 

@@ -339,14 +339,24 @@ fn add_box(b: &mut Builder, mat: MaterialDesc, class: u32, center: Vec3, half: V
 
 /// The tiny test scene.
 pub fn cornell() -> SynthScene {
-    let block = principled("glossy_block", rgb(0.8, 0.6, 0.1), Texture::Scalar(0.25), 0.0);
+    let block = principled(
+        "glossy_block",
+        rgb(0.8, 0.6, 0.1),
+        Texture::Scalar(0.25),
+        0.0,
+    );
     cornell_box("cornell", 0.8, block)
 }
 
 /// `cornell` with a glossy floor (σ 0.3) and a gold metal block (σ 0.3) for the glossy one:
 /// recovery of σ and metallic on a tiny scene.
 pub fn cornell_metal() -> SynthScene {
-    let block = principled("gold_block", rgb(0.95, 0.72, 0.4), Texture::Scalar(0.3), 1.0);
+    let block = principled(
+        "gold_block",
+        rgb(0.95, 0.72, 0.4),
+        Texture::Scalar(0.3),
+        1.0,
+    );
     cornell_box("cornell-metal", 0.3, block)
 }
 

@@ -23,7 +23,9 @@ const SPACING: f32 = 0.196;
 /// σ at the minimum of metallic row `mi`, and that minimum.
 fn argmin_sigma(p: &RegionProfile, mi: usize) -> (f32, f64) {
     let row = &p.cost[mi];
-    let si = (0..row.len()).min_by(|&a, &b| row[a].total_cmp(&row[b])).unwrap();
+    let si = (0..row.len())
+        .min_by(|&a, &b| row[a].total_cmp(&row[b]))
+        .unwrap();
     (p.sigma[si], row[si])
 }
 
@@ -72,7 +74,13 @@ fn the_loss_minimum_sits_at_the_true_metals_and_walls_and_shows_the_model_mismat
         (0..regions as i64).contains(&id).then_some(id as u32)
     });
     let maps: Vec<_> = (0..split.views.len())
-        .map(|k| (gt(GtKind::DiffCol, k), gt(GtKind::Specular, k), gt(GtKind::Metallic, k)))
+        .map(|k| {
+            (
+                gt(GtKind::DiffCol, k),
+                gt(GtKind::Specular, k),
+                gt(GtKind::Metallic, k),
+            )
+        })
         .collect();
     let base: Vec<Vec3> = pixels
         .iter()
@@ -112,17 +120,33 @@ fn the_loss_minimum_sits_at_the_true_metals_and_walls_and_shows_the_model_mismat
     for (object, sigma) in [(9, 0.25), (10, 0.05)] {
         let p = &prof[object];
         let ((s, metal), (_, dielectric)) = (argmin_sigma(p, last), argmin_sigma(p, 0));
-        assert!((s - sigma).abs() <= SPACING, "object {object}: σ argmin {s}, true {sigma}");
-        assert!(metal < 0.5 * dielectric, "object {object}: metal {metal} vs dielectric {dielectric}");
-        assert!(argmin_metallic(p) >= 0.75, "object {object}: metallic argmin {}", argmin_metallic(p));
+        assert!(
+            (s - sigma).abs() <= SPACING,
+            "object {object}: σ argmin {s}, true {sigma}"
+        );
+        assert!(
+            metal < 0.5 * dielectric,
+            "object {object}: metal {metal} vs dielectric {dielectric}"
+        );
+        assert!(
+            argmin_metallic(p) >= 0.75,
+            "object {object}: metallic argmin {}",
+            argmin_metallic(p)
+        );
     }
     for object in [2, 3, 5] {
         let s = argmin_sigma(&prof[object], 0).0;
-        assert!((s - 0.9).abs() <= SPACING, "wall {object}: σ argmin {s}, true 0.9");
+        assert!(
+            (s - 0.9).abs() <= SPACING,
+            "wall {object}: σ argmin {s}, true 0.9"
+        );
     }
     // The model mismatch: the boxes (σ 0.3 and 1.0) prefer a near-mirror lobe.
     for object in [8, 11] {
         let s = argmin_sigma(&prof[object], 0).0;
-        assert!(s < 0.15, "object {object}: σ argmin {s} (the mismatch is gone: update the README)");
+        assert!(
+            s < 0.15,
+            "object {object}: σ argmin {s} (the mismatch is gone: update the README)"
+        );
     }
 }
