@@ -27,6 +27,13 @@ pub struct Searched {
     pub seconds: f64,
 }
 
+/// The search's regions, pixels and σ candidates for one set of shadings.
+struct Prepared {
+    regions: Regions,
+    pixels: Vec<SearchPixel>,
+    grid: Vec<f32>,
+}
+
 /// The search's pixels, regions and σ grid for `shadings`.
 fn prepare(
     scene: &LoadedScene,
@@ -34,7 +41,7 @@ fn prepare(
     shadings: &[ViewShadings],
     cfg: &SearchConfig,
     footprint: f32,
-) -> Result<Option<(Regions, Vec<SearchPixel>, Vec<f32>)>> {
+) -> Result<Option<Prepared>> {
     let Some(regions) = crate::regions::load(scene, records, cfg.regions, cfg.mesh_angle_deg)?
     else {
         return Ok(None);
@@ -49,7 +56,11 @@ fn prepare(
         .first()
         .map_or(fipt_core::shading::DEFAULT_LEVELS, |s| s.levels);
     let grid = sigma_grid(levels[0], levels[NUM_LEVELS - 1], cfg.roughness_steps);
-    Ok(Some((regions, pixels, grid)))
+    Ok(Some(Prepared {
+        regions,
+        pixels,
+        grid,
+    }))
 }
 
 /// Runs the search (None when it is off or has no regions; the reason is printed).
@@ -71,7 +82,12 @@ pub fn stage(
     };
     let cfg = if on_bake { &bake_cfg } else { cfg };
     let t = std::time::Instant::now();
-    let Some((regions, pixels, grid)) = prepare(scene, records, shadings, cfg, footprint)? else {
+    let Some(Prepared {
+        regions,
+        pixels,
+        grid,
+    }) = prepare(scene, records, shadings, cfg, footprint)?
+    else {
         eprintln!("search: skipped (search.regions = \"none\")");
         return Ok(None);
     };
@@ -191,8 +207,11 @@ pub fn run(a: Args) -> Result<()> {
         .map(|v| fipt_shading::bake::primary_records(&scene.geometry, v))
         .collect();
     let (_, footprint) = crate::train::view_points(&scene.geometry, &split.views);
-    let Some((regions, pixels, grid)) =
-        prepare(&scene, &records, &shadings, &cfg, footprint.unwrap_or(0.01))?
+    let Some(Prepared {
+        regions,
+        pixels,
+        grid,
+    }) = prepare(&scene, &records, &shadings, &cfg, footprint.unwrap_or(0.01))?
     else {
         bail!("no regions");
     };
