@@ -22,6 +22,21 @@ impl Regions {
     }
 }
 
+/// The id maps (`IndexMA/` or `segmentation/`) of every training view, in view order.
+pub fn split_ids(scene: &LoadedScene, kind: GtKind) -> Result<Vec<Vec<i64>>> {
+    let split = scene.ds.train();
+    (0..split.views.len())
+        .into_par_iter()
+        .map(|k| {
+            scene
+                .ds
+                .load_ids(split, kind, k)
+                .map(|v| v.unwrap_or_default())
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .with_context(|| format!("reading the ids in {}/", kind.folder()))
+}
+
 /// The regions `source` asks for (None for `none`).
 pub fn load(
     scene: &LoadedScene,
@@ -66,16 +81,7 @@ pub fn load(
             source: "mesh",
         }));
     };
-    let raw = (0..split.views.len())
-        .into_par_iter()
-        .map(|k| {
-            scene
-                .ds
-                .load_ids(split, kind, k)
-                .map(|v| v.unwrap_or_default())
-        })
-        .collect::<Result<Vec<_>, _>>()
-        .with_context(|| format!("reading the region ids ({}/)", kind.folder()))?;
+    let raw = split_ids(scene, kind)?;
     let mut dense: BTreeMap<i64, u32> = BTreeMap::new();
     for &id in raw.iter().flatten() {
         if id >= 0 {

@@ -247,11 +247,7 @@ pub fn run(a: Args) -> Result<()> {
             .map(|p| {
                 let (kd, ks, m) = &maps[p.view as usize];
                 let i = p.pixel as usize;
-                if m[i].x > 0.5 {
-                    ks[i]
-                } else {
-                    kd[i]
-                }
+                fipt_shading::search::base_colour(kd[i], ks[i], m[i].x)
             })
             .collect();
         let metal_grid = [0.0, 0.25, 0.5, 0.75, 1.0];

@@ -14,7 +14,6 @@ use fipt_neural::{Bounds, NeuralField, TrainConfig, Trainer, TrainingSet};
 use fipt_shading::bake::primary_records;
 use fipt_shading::bake_store::{fingerprint, load_for_inputs};
 use glam::Vec3;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -177,16 +176,7 @@ fn with_segments(
         ),
     };
     let folder = kind.folder();
-    let ids = (0..split.views.len())
-        .into_par_iter()
-        .map(|k| {
-            scene
-                .ds
-                .load_ids(split, kind, k)
-                .map(|v| v.unwrap_or_default())
-        })
-        .collect::<Result<Vec<_>, _>>()
-        .with_context(|| format!("reading the segment ids ({folder}/)"))?;
+    let ids = crate::regions::split_ids(scene, kind)?;
     let files: Vec<PathBuf> = (0..split.views.len())
         .map(|k| split.gt_path(kind, k))
         .collect();

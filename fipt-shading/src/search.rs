@@ -169,6 +169,16 @@ pub struct RegionChoice {
     pub default_cost: f64,
 }
 
+/// The base colour a of the metallic workflow from a material's kd, ks and metallic as the
+/// ground-truth maps store them: kd for a dielectric, ks (= a) for a metal.
+pub fn base_colour(kd: Rgb, ks: Rgb, metallic: f32) -> Rgb {
+    if metallic > 0.5 {
+        ks
+    } else {
+        kd
+    }
+}
+
 /// The σ candidates: `steps` values evenly spaced over `[lo, hi]`.
 pub fn sigma_grid(lo: f32, hi: f32, steps: usize) -> Vec<f32> {
     let n = steps.max(2);

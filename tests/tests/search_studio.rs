@@ -87,11 +87,7 @@ fn the_loss_minimum_sits_at_the_true_metals_and_walls_and_shows_the_model_mismat
         .map(|p| {
             let (kd, ks, m) = &maps[p.view as usize];
             let i = p.pixel as usize;
-            if m[i].x > 0.5 {
-                ks[i]
-            } else {
-                kd[i]
-            }
+            fipt_shading::search::base_colour(kd[i], ks[i], m[i].x)
         })
         .collect();
     let grid = sigma_grid(0.02, 1.0, 50);
