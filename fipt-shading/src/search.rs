@@ -38,7 +38,7 @@ pub struct SearchConfig {
     /// shadings are noisier, so there the search only acts on overwhelming evidence: metals
     /// whose cost is below `bake_metal_margin` of the dielectric one, and no dielectric σ
     /// targets. Metals found before the first round are what makes the refinement grow paths
-    /// through them (val kd +1.1 dB on `studio-mitsuba`, +1.0 dB on `room`).
+    /// through them (val kd +1.0 dB on `studio-mitsuba`, +0.6 dB on `room`, against the refined shadings only).
     pub on_bake: bool,
     /// `metal_margin` on the bake. Measured metal/dielectric cost ratios on bakes: true metals
     /// 0.05–0.34 (`studio-mitsuba`, `room`, `cornell-metal`), false ones 0.41–0.60 (walls of a
