@@ -1,0 +1,385 @@
+//! The training settings: presets, the learning-rate schedule, priors and segment sources.
+use super::*;
+
+/// Training settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainConfig {
+    pub field: FieldConfig,
+    pub steps: usize,
+    /// Pixels per batch.
+    pub batch: usize,
+    pub adam: AdamConfig,
+    /// The hash tables' learning rate as a multiple of `adam.lr`.
+    pub grid_lr_factor: f32,
+    /// Learning-rate decay within a training round (the reference: none).
+    #[serde(default)]
+    pub lr_decay: LrDecay,
+    /// Weight of mean(α) (mask sparsity).
+    pub mask_weight: f32,
+    /// Weight of the roughness/metallic prior. The reference's 5e-4 (`reference`) leaves metallic
+    /// flipping between neighbouring points; 0.02 (`balanced`) measured +2.5 dB kd and +4 dB σ
+    /// on `room` (val: kd 15.7 → 18.2 dB), and 0 loses 1 dB more.
+    pub prior_weight: f32,
+    /// `l1`: mean|σ − 1| + mean(m) (the reference). `l2`: mean((σ − 1)²) + mean(m²), whose pull
+    /// vanishes at the target: with Adam, the L1 pull of every pixel on the MLP's shared output
+    /// bias saturates the sigmoids (σ → 1, m → 0 everywhere) and drowns the few glossy or
+    /// metallic pixels that observe them (measured on cornell with a gold block: glossy σ at
+    /// 2.5 dB with L1). `l2_roughness`: L2 on σ, L1 on metallic (`balanced`, `fast`). On `room`
+    /// an L1 σ pull saturated σ at 1 in the first round and the later, pull-free round could
+    /// not bring it back (σ of the median val view 10.5 dB); with L2 it did (12.5 dB), and val
+    /// kd rose 27.5 → 28.2 dB. L2 on metallic let small metallic values linger and cost 1.9 dB
+    /// of val kd on a 12-view cornell (the e2e test).
+    pub prior_norm: PriorNorm,
+    /// The prior's weight ramps linearly from 0 at `prior_ramp[0]·steps` to full at
+    /// `prior_ramp[1]·steps`. A prior active from the first step pulls every point to
+    /// (σ = 1, m = 0), where a metal explained as a diffuse surface is a local minimum whose
+    /// gradients in σ and m nearly vanish; letting the data shape the field first avoids it.
+    /// `[0, 0]`: full weight from the start (the reference).
+    pub prior_ramp: [f32; 2],
+    /// Scale of the prior's σ part, |σ − 1| (1: the reference; the metallic part is always
+    /// on). Under Adam, a small pull of the same sign at every pixel outweighs the weak
+    /// gradient σ gets from the views, so any σ pull sends every surface to σ = 1 (on cornell
+    /// with exact shadings the glossy block's σ went from 42.6 dB without it to 2.5 dB with the
+    /// reference's 5e-4); without it, σ absorbs the noise of the shadings (on `room` after
+    /// the initial bake, 88 % of the surface came out glossier than 0.6). `fipt run` keeps it
+    /// for the first round and drops it after a refinement (`rounds.roughness_prior`); the
+    /// segment prior carries σ from the highlights across each surface.
+    #[serde(default = "unit_scale")]
+    pub roughness_prior: f32,
+    /// Which segment ids the segment-consistency prior uses (the caller loads them): `auto`
+    /// takes the scene's part ids (`IndexMA/`) when it has them, `parts` requires them, `none`
+    /// disables the prior.
+    #[serde(default)]
+    pub segments: SegmentSource,
+    /// Weight of the segment-consistency prior (the reference's part prior, 5e-3): each pixel's
+    /// σ and metallic are pulled towards its segment's means in the batch, weighted by the
+    /// pixels' specular shading (see [`FactorizedLoss`]).
+    #[serde(default = "default_segment_weight")]
+    pub segment_weight: f32,
+    /// The semantic prior, used instead when the ids are semantic classes (`segmentation/`).
+    #[serde(default)]
+    pub semantic: SemanticPrior,
+    /// Weight of the pull towards the material search's (σ*, m*) at the pixels that have one
+    /// (`[search]` in `fipt run`): `(σ − σ*)² + (m − m*)²`, from the first step and in every
+    /// round; it replaces the roughness/metallic prior there. Ignored without targets.
+    #[serde(default = "default_target_weight")]
+    pub target_weight: f32,
+    pub seed: u64,
+    /// Shrink the hash tables to what the number of training pixels can fill
+    /// ([`TrainConfig::sized_for`]). The reference always uses 2^19.
+    pub table_from_data: bool,
+    /// Set the finest level from the median pixel footprint ([`TrainConfig::sized_for`]).
+    pub finest_from_data: bool,
+    /// The finest cell's width in median pixel footprints (with `finest_from_data`). Default 4:
+    /// wider cells pool more pixels (less noise from the views and the shadings) but blur
+    /// texture edges; on `room` after one refinement, val kd measured 22.1 / 24.6 / 26.1 /
+    /// 26.8 / 27.5 dB at 1 / 2 / 3 / 4 / 6 footprints, with the checker floor visibly blurred
+    /// at 6.
+    pub finest_cell_footprints: f32,
+    /// Steps between checkpoints (0: only at the end).
+    pub checkpoint_every: usize,
+}
+
+impl Default for TrainConfig {
+    /// The `balanced` preset.
+    fn default() -> Self {
+        TrainConfig {
+            field: FieldConfig::default(),
+            // On `room` 1000 steps beat 3000 (val kd 18.2 vs 17.2 dB, σ 14.2 vs 13.0 dB,
+            // re-render 22.0 vs 21.5 dB): longer training fits the shadings' noise.
+            steps: 1000,
+            batch: 8192,
+            adam: AdamConfig::default(),
+            grid_lr_factor: 1.0,
+            // On `room` (whole run): val kd 27.99 → 28.39 dB, σ 22.98 → 23.07 dB, median view
+            // σ 12.00 → 12.50 dB against a constant rate.
+            lr_decay: LrDecay {
+                start: 0.5,
+                factor: 0.1,
+            },
+            mask_weight: 1.0,
+            prior_weight: 0.02,
+            prior_norm: PriorNorm::L2Roughness,
+            prior_ramp: [0.3, 0.6],
+            roughness_prior: 1.0,
+            segments: SegmentSource::Auto,
+            segment_weight: default_segment_weight(),
+            semantic: SemanticPrior::default(),
+            target_weight: default_target_weight(),
+            table_from_data: true,
+            finest_from_data: true,
+            finest_cell_footprints: 4.0,
+            seed: 9,
+            checkpoint_every: 500,
+        }
+    }
+}
+
+impl TrainConfig {
+    /// The reference's sizes and steps (32 levels × 2 features × 2^19, base 16; 10k steps of
+    /// 8192 pixels, lr 1e-3, seed 9) with this crate's losses and sizing: the finest level
+    /// from the pixel footprint (the reference's scale 1.3 makes cells far below a pixel),
+    /// the learning rate decayed over the second half of the steps (as `balanced`).
+    pub fn paper() -> Self {
+        TrainConfig {
+            field: FieldConfig {
+                grid: HashGridConfig::reference(),
+                ..FieldConfig::default()
+            },
+            steps: 10_000,
+            table_from_data: false,
+            ..Self::default()
+        }
+    }
+    /// The reference as it is: its sizes and steps, and its mask activation (relu), σ
+    /// parametrisation (gain 1 from 0.51), prior (5e-4·(mean|σ − 1| + mean(m)) from the first
+    /// step), constant learning rate and fixed per-level scale.
+    pub fn reference() -> Self {
+        TrainConfig {
+            field: FieldConfig {
+                grid: HashGridConfig::reference(),
+                mask_activation: crate::field::MaskActivation::Relu,
+                roughness_gain: 1.0,
+                roughness_init: 0.51,
+                ..FieldConfig::default()
+            },
+            steps: 10_000,
+            prior_weight: 5e-4,
+            prior_norm: PriorNorm::L1,
+            prior_ramp: [0.0, 0.0],
+            roughness_prior: 1.0,
+            table_from_data: false,
+            finest_from_data: false,
+            lr_decay: LrDecay::default(),
+            ..Self::default()
+        }
+    }
+    /// Fewer, smaller levels and steps.
+    pub fn fast() -> Self {
+        TrainConfig {
+            field: FieldConfig {
+                grid: HashGridConfig {
+                    levels: 12,
+                    log2_table: 17,
+                    per_level_scale: 1.5,
+                    ..HashGridConfig::default()
+                },
+                mask_width: 32,
+                ..FieldConfig::default()
+            },
+            steps: 1000,
+            ..Self::default()
+        }
+    }
+    /// A named preset: `paper`, `balanced` (or `default`), `fast`, `reference`.
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "paper" => Some(Self::paper()),
+            "reference" => Some(Self::reference()),
+            "balanced" | "default" => Some(Self::default()),
+            "fast" => Some(Self::fast()),
+            _ => None,
+        }
+    }
+    /// These settings with the hash tables no larger than the data can fill: per level at
+    /// most `2^ceil(log2(4·pixels))` entries (at least 2^14), when `table_from_data` is set.
+    ///
+    /// With `finest_from_data` and a `footprint` (median world-space size of a training pixel,
+    /// same units as `bounds`), `per_level_scale` is set so that the finest level's cells are
+    /// about one pixel footprint wide: finer cells are each seen by a single pixel and fit its
+    /// noise (measured on cornell at 64×48: kd of unseen views 10 dB with 1.6 mm cells for
+    /// 4 cm pixels).
+    pub fn sized_for(&self, pixels: usize, footprint: Option<f32>, bounds: &Bounds) -> TrainConfig {
+        let mut c = self.clone();
+        if c.table_from_data {
+            let need = (4 * pixels.max(1))
+                .next_power_of_two()
+                .trailing_zeros()
+                .max(14);
+            c.field.grid.log2_table = c.field.grid.log2_table.min(need);
+        }
+        if let (true, Some(f)) = (c.finest_from_data, footprint) {
+            let g = &mut c.field.grid;
+            if f > 0.0 && f.is_finite() && g.levels > 1 {
+                let cell = f * c.finest_cell_footprints.max(1e-3);
+                let finest = (bounds.size / cell).max(g.base_resolution as f32);
+                let scale = (finest / g.base_resolution as f32).powf(1.0 / (g.levels - 1) as f32);
+                // Rounded so that the value survives a JSON round trip unchanged.
+                g.per_level_scale = ((scale * 1e4).round() / 1e4).clamp(1.0, 4.0);
+            }
+        }
+        c
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        self.field.grid.validate("train.field.grid")?;
+        if self.batch == 0 || self.batch > 1 << 22 {
+            return Err(NeuralError::config(
+                "train",
+                format!("batch = {} (use 1..=4194304)", self.batch),
+            ));
+        }
+        let f = &self.field;
+        if !(f.roughness_gain > 0.0 && f.roughness_gain <= 100.0) {
+            return Err(NeuralError::config(
+                "train.field",
+                format!("roughness_gain = {} (use (0, 100])", f.roughness_gain),
+            ));
+        }
+        if !(f.roughness_init >= 0.02 && f.roughness_init <= 1.0) {
+            return Err(NeuralError::config(
+                "train.field",
+                format!("roughness_init = {} (use [0.02, 1])", f.roughness_init),
+            ));
+        }
+        let d = self.lr_decay;
+        if !((0.0..=1.0).contains(&d.start) && d.factor > 0.0 && d.factor <= 1.0) {
+            return Err(NeuralError::config(
+                "train.lr_decay",
+                format!(
+                    "start = {}, factor = {} (use start in [0, 1] and factor in (0, 1])",
+                    d.start, d.factor
+                ),
+            ));
+        }
+        let sp = &self.semantic;
+        if sp.partners == 0 || sp.partners > 4096 {
+            return Err(NeuralError::config(
+                "train.semantic",
+                format!("partners = {} (use 1..=4096)", sp.partners),
+            ));
+        }
+        for (key, v) in [
+            ("sigma_albedo", sp.sigma_albedo),
+            ("sigma_position", sp.sigma_position),
+        ] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(NeuralError::config(
+                    "train.semantic",
+                    format!("{key} = {v} (use a width > 0)"),
+                ));
+            }
+        }
+        for (key, v) in [
+            ("semantic.weight", sp.weight),
+            ("segment_weight", self.segment_weight),
+            ("target_weight", self.target_weight),
+            ("roughness_prior", self.roughness_prior),
+            ("prior_weight", self.prior_weight),
+            ("mask_weight", self.mask_weight),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(NeuralError::config(
+                    "train",
+                    format!("{key} = {v} (use a finite weight ≥ 0)"),
+                ));
+            }
+        }
+        if !(self.adam.lr > 0.0 && self.adam.lr.is_finite()) {
+            return Err(NeuralError::config(
+                "train.adam",
+                format!("lr = {}", self.adam.lr),
+            ));
+        }
+        Ok(())
+    }
+}
+
+fn unit_scale() -> f32 {
+    1.0
+}
+
+fn default_target_weight() -> f32 {
+    0.02
+}
+
+fn default_segment_weight() -> f32 {
+    5e-3
+}
+
+/// Geometric learning-rate decay: `adam.lr` until `start·steps`, then down to
+/// `factor·adam.lr` at the last step (`lr·factor^((x − start)/(1 − start))` at the fraction x
+/// of the steps). At a constant rate Adam's iterate keeps jumping around the optimum by the
+/// batch noise; a decay lets the last steps average it out. `start = 1` or `factor = 1`: none.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LrDecay {
+    /// Fraction of the steps at which the decay begins, in [0, 1].
+    pub start: f32,
+    /// The rate at the last step as a multiple of `adam.lr`, in (0, 1].
+    pub factor: f32,
+}
+
+impl Default for LrDecay {
+    fn default() -> Self {
+        LrDecay {
+            start: 1.0,
+            factor: 1.0,
+        }
+    }
+}
+
+impl LrDecay {
+    /// The multiple of the learning rate at step `step` (0-based) of `steps`.
+    pub fn scale(&self, step: usize, steps: usize) -> f32 {
+        let x = step as f32 / steps.saturating_sub(1).max(1) as f32;
+        if x <= self.start {
+            1.0
+        } else {
+            self.factor
+                .powf(((x - self.start) / (1.0 - self.start)).min(1.0))
+        }
+    }
+}
+
+/// The reference's prior for semantic classes (see [`SemanticPartners`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SemanticPrior {
+    /// Weight (the reference: 1e-3).
+    pub weight: f32,
+    /// Partners drawn per pixel among the batch's pixels of its class (the reference: 1024).
+    pub partners: usize,
+    /// Albedo kernel width (the reference: 0.05/3).
+    pub sigma_albedo: f32,
+    /// Position kernel width, in the scene cube's [−1, 1] coordinates (the reference: 0.1).
+    pub sigma_position: f32,
+}
+
+impl Default for SemanticPrior {
+    fn default() -> Self {
+        SemanticPrior {
+            weight: 1e-3,
+            partners: 64,
+            sigma_albedo: 0.05 / 3.0,
+            sigma_position: 0.1,
+        }
+    }
+}
+
+/// Where the ids of the segment-consistency prior come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SegmentSource {
+    /// Part ids when the scene has them, else semantic classes when it has them, else no
+    /// segment prior.
+    #[default]
+    Auto,
+    /// Part ids (`IndexMA/`), required.
+    Parts,
+    /// Semantic classes (`segmentation/`), required.
+    Semantic,
+    /// No segment prior.
+    None,
+}
+
+/// Norm of the roughness/metallic prior.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PriorNorm {
+    L1,
+    L2,
+    /// L2 on σ, L1 on metallic.
+    L2Roughness,
+}
