@@ -4,6 +4,7 @@ use crate::progress::{bar, Stage};
 use crate::scene::LoadedScene;
 use anyhow::Result;
 use fipt_core::image::Image;
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::ViewShadings;
 use fipt_shading::bake::{BakeConfig, FactorizedBaker};
 use fipt_shading::bake_store::{load_if_current, save, BakeManifest, FORMAT_VERSION};
@@ -28,6 +29,9 @@ pub struct Args {
     /// Bake again even if a finished bake with the same inputs and settings exists.
     #[arg(long)]
     force: bool,
+    /// The reflectance model whose shadings are baked: fipt or principled.
+    #[arg(long, default_value = "fipt")]
+    brdf: ReflectanceModel,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -35,7 +39,7 @@ pub fn run(a: Args) -> Result<()> {
         crate::config::load_preset(&a.preset, BakeConfig::preset, a.config.as_deref())?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     let dir = a.out.join("bake");
-    stage(&scene, &cfg, &dir, a.force)?;
+    stage(&scene, &cfg, a.brdf, &dir, a.force)?;
     println!("wrote {}", dir.display());
     Ok(())
 }
@@ -45,10 +49,11 @@ pub fn run(a: Args) -> Result<()> {
 pub fn stage(
     scene: &LoadedScene,
     cfg: &BakeConfig,
+    model: ReflectanceModel,
     dir: &Path,
     force: bool,
 ) -> Result<(BakeManifest, Vec<ViewShadings>)> {
-    let baker = FactorizedBaker::new(cfg.clone());
+    let baker = FactorizedBaker::new(cfg.clone()).with_model(model);
     let name = fipt_core::shading::ShadingBaker::name(&baker).to_string();
     if !force {
         match load_if_current(dir, &scene.inputs_hash, cfg, &name)? {

@@ -7,6 +7,7 @@ use anyhow::Result;
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{hash_bytes, read_json, write_json_atomic};
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::{RefineInputs, ShadingRefiner, ViewShadings};
 use fipt_shading::bake_store::{load_keyed, save, BakeManifest, FORMAT_VERSION};
 use fipt_shading::refine::{PathGrownRefiner, RefineConfig, RefineStats};
@@ -27,10 +28,11 @@ pub fn stage(
     field_id: &str,
     emitters: &[Emitter],
     cfg: &RefineConfig,
+    model: ReflectanceModel,
     dir: &Path,
     force: bool,
 ) -> Result<Refined> {
-    let refiner = PathGrownRefiner::new(cfg.clone());
+    let refiner = PathGrownRefiner::new(cfg.clone()).with_model(model);
     let name = refiner.name().to_string();
     let key = hash_bytes(
         format!(

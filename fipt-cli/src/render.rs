@@ -34,6 +34,9 @@ pub struct Args {
     /// Render only these view indices (default: all).
     #[arg(long, value_delimiter = ',')]
     views: Option<Vec<usize>>,
+    /// The reflectance model the materials are rendered with: fipt or principled.
+    #[arg(long, default_value = "fipt")]
+    brdf: fipt_core::reflectance::ReflectanceModel,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -51,7 +54,8 @@ pub fn run(a: Args) -> Result<()> {
     let st = Stage::start("load");
     let mesh = Mesh::load(&mesh_path)?;
     let materials = SceneMaterials::read_any(&a.materials)?;
-    let surfaces = TableSurfaces::new(materials, &mesh, &a.materials)?;
+    let mut surfaces = TableSurfaces::new(materials, &mesh, &a.materials)?;
+    surfaces.model = a.brdf;
     let size = a.size.as_ref().map(|s| (s[0], s[1]));
     let cams = read_transforms(&a.cameras, size)?;
     let scene = Scene::new(mesh, surfaces);

@@ -8,6 +8,7 @@ use anyhow::Result;
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::{write_bytes_atomic, write_json_atomic};
 use fipt_core::image::ExrPrecision;
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_emitter::{MaskExtractor, MaskExtractorConfig};
 use fipt_neural::TrainConfig;
 use fipt_shading::bake::{primary_records, BakeConfig, PixelRecord};
@@ -31,8 +32,10 @@ pub struct Args {
     /// Settings preset: paper (the reference's sample counts, sizes and steps), balanced, fast, reference (its behaviour too).
     #[arg(long, default_value = "balanced")]
     pub preset: String,
-    /// A TOML or JSON file with `[bake]`, `[train]`, `[emitters]`, `[refine]`, `[rounds]` and
-    /// `[render]` sections laid over the preset.
+    /// A TOML or JSON file with `[model]`, `[bake]`, `[train]`, `[emitters]`, `[refine]`,
+    /// `[rounds]`, `[render]` and `[search]` sections laid over the preset. Reflectance models
+    /// (`[model] brdf = "…"`): fipt (Lambert + GGX, the method's; default) or principled
+    /// (Burley + GGX: Mitsuba 3's `principled`, Blender, glTF).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// What to do with NaN/Inf/negative pixels.
@@ -56,6 +59,18 @@ pub struct RunConfig {
     /// The material search before each training round (absent: as the preset).
     #[serde(default)]
     pub search: SearchConfig,
+    /// The reflectance model fitted (absent: FIPT's).
+    #[serde(default)]
+    pub model: ModelConfig,
+}
+
+/// `[model]`: the reflectance model the shadings are baked for and the field is fitted in.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ModelConfig {
+    /// `fipt` (Lambert + GGX, the method's) or `principled` (Burley + GGX: Mitsuba 3's
+    /// `principled`, Blender's and glTF's metallic-roughness model).
+    pub brdf: ReflectanceModel,
 }
 
 /// The refine → train rounds after the first training round.
@@ -129,6 +144,7 @@ impl RunConfig {
             } else {
                 SearchConfig::default()
             },
+            model: ModelConfig::default(),
         })
     }
 }
@@ -158,7 +174,13 @@ pub fn run(a: Args) -> Result<()> {
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     mark("load", t);
     let t = std::time::Instant::now();
-    let (bake, shadings) = crate::bake::stage(&scene, &cfg.bake, &a.out.join("bake"), a.force)?;
+    let (bake, shadings) = crate::bake::stage(
+        &scene,
+        &cfg.bake,
+        cfg.model.brdf,
+        &a.out.join("bake"),
+        a.force,
+    )?;
     mark("bake", t);
     let mesh = &scene.geometry.mesh;
     let has_gt = scene
@@ -269,6 +291,7 @@ pub fn run(a: Args) -> Result<()> {
                 &train.fingerprint(),
                 &emitters,
                 &cfg.refine,
+                cfg.model.brdf,
                 &a.out.join(format!("refine{r}")),
                 a.force,
             )?;
@@ -373,7 +396,8 @@ pub fn run(a: Args) -> Result<()> {
             &emitters,
             all_pts,
             footprint.unwrap_or(0.01) * 2.0,
-        )?;
+        )?
+        .with_model(cfg.model.brdf);
         let rscene = RenderScene::new(mesh.clone(), surfaces);
         let rc = RenderConfig {
             spp: cfg.render.spp,
@@ -439,6 +463,7 @@ pub fn run(a: Args) -> Result<()> {
             "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
         })).collect::<Vec<_>>(),
         "modeled": {
+            "reflectance_model": cfg.model.brdf,
             "material_field": true,
             "material_search": if cfg.search.enabled { format!("per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}", cfg.search.regions, if cfg.search.on_bake { "the bake and each refinement" } else { "each refinement (none without one)" }, cfg.search.roughness_steps, cfg.search.metallic, cfg.train.target_weight) } else { "skipped (search.enabled = false)".to_string() },
             "emission_mask": true,

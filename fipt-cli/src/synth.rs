@@ -30,6 +30,9 @@ pub struct Args {
     /// Write into a non-empty folder (files of the same name are replaced).
     #[arg(long)]
     force: bool,
+    /// The reflectance model the views are rendered with: fipt or principled.
+    #[arg(long, default_value = "fipt")]
+    brdf: fipt_core::reflectance::ReflectanceModel,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -58,13 +61,15 @@ pub fn run(a: Args) -> Result<()> {
     opts.height = a.height.unwrap_or(opts.height);
     opts.render.spp = a.spp.unwrap_or(opts.render.spp);
     opts.render.seed = a.seed;
+    opts.model = a.brdf;
     if opts.train_views == 0 || opts.width == 0 || opts.height == 0 || opts.render.spp == 0 {
         bail!("--views, --width, --height and --spp must be positive");
     }
     let scene = build(&a.name)?;
     eprintln!(
-        "synth {}: {} triangles, {} train + {} val views at {}x{}, {} spp → {}",
+        "synth {} ({} model): {} triangles, {} train + {} val views at {}x{}, {} spp → {}",
         a.name,
+        a.brdf,
         scene.mesh.triangles.len(),
         opts.train_views,
         opts.val_views,

@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use fipt_core::dataset::{GtKind, View};
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{ExrPrecision, Image};
-use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+use fipt_core::shading::ViewShadings;
 use fipt_geom::Geometry;
 use fipt_neural::train::{render_factorized, SegmentSource, StepLosses, TrainTimings};
 use fipt_neural::{Bounds, NeuralField, TrainConfig, Trainer, TrainingSet};
@@ -388,11 +388,7 @@ pub fn export_views(
                     .map(|&i| recs[i].unwrap().hit.p)
                     .collect::<Vec<_>>(),
             );
-            let arr = |x: &[Vec3; NUM_LEVELS]| x.map(|c| c.to_array());
-            let ld: Vec<[f32; 3]> = idx.iter().map(|&i| s.ld[i].to_array()).collect();
-            let ls0: Vec<_> = idx.iter().map(|&i| arr(&s.ls0[i])).collect();
-            let ls1: Vec<_> = idx.iter().map(|&i| arr(&s.ls1[i])).collect();
-            let (render, al) = render_factorized(field, &unit, &ld, &ls0, &ls1, s.levels)?;
+            let (render, al) = render_factorized(field, &unit, s, &idx)?;
             let mut img = Image::new(w, h);
             for (j, &i) in idx.iter().enumerate() {
                 let r = Vec3::from(render[j]);

@@ -531,3 +531,107 @@ fn search_recovers_a_metal_and_a_glossy_floor_without_segmentation() {
     assert!(false_metal <= 0.05, "false metal {false_metal}");
     assert!(sigma >= 17.0, "σ {sigma} dB");
 }
+
+/// `[model] brdf = "principled"` end to end on a `cornell` rendered with the principled model:
+/// the output contract, the model in the report and in the stored shadings (format version 2),
+/// accuracy floors, and a bake of the other model is not mistaken for it.
+#[test]
+fn principled_model_runs_end_to_end() {
+    let dir = tmp("principled-scene");
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = fipt(&[
+        "synth",
+        "cornell",
+        "--out",
+        d,
+        "--views",
+        "12",
+        "--val-views",
+        "2",
+        "--width",
+        "48",
+        "--height",
+        "36",
+        "--spp",
+        "64",
+        "--brdf",
+        "principled",
+    ]);
+    assert!(ok, "{err}");
+    let out = tmp("principled-out");
+    let o = out.to_str().unwrap();
+    let cfg = dir.join("run.toml");
+    std::fs::write(
+        &cfg,
+        "[model]\nbrdf = \"principled\"\n\
+         [bake]\ndiffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
+         [refine]\ndiffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\nlight_samples = 8\n\
+         [train]\nsteps = 1500\nbatch = 2048\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
+         [train.field.grid]\nlevels = 8\n",
+    )
+    .unwrap();
+    let c = cfg.to_str().unwrap();
+    let (ok, stdout, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
+    assert!(ok, "{stdout}{err}");
+    for f in [
+        "report.json",
+        "emitters.json",
+        "metrics.json",
+        "train1/field.safetensors",
+        "views/val/000_kd.exr",
+        "views/val/000_render.exr",
+    ] {
+        assert!(out.join(f).is_file(), "missing {f}");
+    }
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["modeled"]["reflectance_model"], "principled");
+    assert_eq!(report["settings"]["model"]["brdf"], "principled");
+    // The shadings carry the diffuse σ polynomial (format version 2).
+    let fsh = std::fs::read(out.join("bake/train/000.fsh")).unwrap();
+    assert_eq!(u32::from_le_bytes(fsh[8..12].try_into().unwrap()), 2);
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let iou = m["train"]["mean"]["emission_iou"].as_f64().unwrap();
+    assert!(iou >= 0.9, "emission IoU {iou}");
+    let kd = m["train"]["mean"]["kd_psnr"].as_f64().unwrap();
+    let sigma = m["train"]["mean"]["roughness_psnr"].as_f64().unwrap();
+    eprintln!("principled on principled cornell: train kd {kd:.2} dB, σ {sigma:.2} dB");
+    // The floors of the FIPT-model test on the FIPT-rendered cornell.
+    assert!(
+        kd >= 17.5 && sigma >= 14.5,
+        "kd {kd:.2} dB, σ {sigma:.2} dB"
+    );
+    // The FIPT model's bake is another bake.
+    let (ok, _, err) = fipt(&["bake", d, "--out", o, "--preset", "fast", "--config", c]);
+    assert!(
+        !ok && err.contains("model"),
+        "a run config is not a bake config: {err}"
+    );
+    let bc = dir.join("bake.toml");
+    std::fs::write(
+        &bc,
+        "diffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\n",
+    )
+    .unwrap();
+    let b = bc.to_str().unwrap();
+    let (ok, _, err) = fipt(&[
+        "bake",
+        d,
+        "--out",
+        o,
+        "--preset",
+        "fast",
+        "--config",
+        b,
+        "--brdf",
+        "principled",
+    ]);
+    assert!(ok && err.contains("reusing the bake"), "{err}");
+    let (ok, _, err) = fipt(&["bake", d, "--out", o, "--preset", "fast", "--config", b]);
+    assert!(ok && !err.contains("reusing the bake"), "{err}");
+    let fsh = std::fs::read(out.join("bake/train/000.fsh")).unwrap();
+    assert_eq!(u32::from_le_bytes(fsh[8..12].try_into().unwrap()), 1);
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&out);
+}

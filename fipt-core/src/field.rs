@@ -23,12 +23,12 @@ impl Material {
     /// Diffuse albedo kd = a·(1 − m).
     #[inline]
     pub fn kd(&self) -> Rgb {
-        self.albedo * (1.0 - self.metallic)
+        crate::reflectance::metallic_workflow(self.albedo, self.metallic).0
     }
     /// Specular reflectance (Fresnel F0) ks = 0.04·(1 − m) + a·m.
     #[inline]
     pub fn ks(&self) -> Rgb {
-        Vec3::splat(0.04 * (1.0 - self.metallic)) + self.albedo * self.metallic
+        crate::reflectance::metallic_workflow(self.albedo, self.metallic).1
     }
 }
 

@@ -10,6 +10,8 @@
 //! * [`materials::SceneMaterials`]: ground-truth per-face materials and emitters
 //!   (`scene_gt.json`, or a Mitsuba `scene_parts.json`);
 //! * [`brdf::Brdf`]: the BRDF contract (eval includes cos θi);
+//! * [`reflectance::ReflectanceModel`]: the reflectance models (FIPT, principled) and every
+//!   formula they decide: metallic workflow, masking, diffuse lobe, the factorised image;
 //! * [`emitter::EmitterExtractor`]: which triangles emit, grouped into lights;
 //! * [`field::MaterialField`]: the BRDF field and emission mask contract;
 //! * [`shading`]: the factorised shading model, [`shading::RayQuery`] and the
@@ -36,6 +38,7 @@ pub mod fsutil;
 pub mod image;
 pub mod materials;
 pub mod metrics;
+pub mod reflectance;
 pub mod rng;
 pub mod shading;
 

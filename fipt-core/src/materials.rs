@@ -1,7 +1,7 @@
 //! Ground-truth scene description: per-face materials and emitters (`scene_gt.json`).
 //!
 //! Materials follow the metallic workflow of FIPT (method §2): base colour `a`, roughness σ,
-//! metallic `m`; kd = a·(1−m), ks = 0.04·(1−m) + a·m. Emitters are opaque, double-sided,
+//! metallic `m`; kd and ks by [`crate::reflectance::metallic_workflow`]. Emitters are opaque, double-sided,
 //! reflect nothing and have constant radiance.
 //!
 //! Parameters may vary in space through procedural [`Texture`]s evaluated at world positions,
@@ -136,8 +136,7 @@ impl SurfacePoint {
     }
 }
 
-/// Lowest roughness the FIPT parametrisation reaches (σ = 0.02 + 0.98·s).
-pub const MIN_ROUGHNESS: f32 = 0.02;
+pub use crate::reflectance::MIN_ROUGHNESS;
 
 /// A contiguous range of faces `[start, end)` sharing a material.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -213,9 +212,10 @@ impl SceneMaterials {
             } => {
                 let a = base_color.eval(p).clamp(Vec3::ZERO, Vec3::ONE);
                 let mtl = metallic.eval(p).x.clamp(0.0, 1.0);
+                let (kd, ks) = crate::reflectance::metallic_workflow(a, mtl);
                 SurfacePoint {
-                    kd: a * (1.0 - mtl),
-                    ks: Vec3::splat(0.04 * (1.0 - mtl)) + a * mtl,
+                    kd,
+                    ks,
                     roughness: roughness.eval(p).x.clamp(MIN_ROUGHNESS, 1.0),
                     metallic: mtl,
                     emission: Vec3::ZERO,

@@ -2,7 +2,9 @@
 //!
 //! L(x, ωo) = Le + kd·Ld(x) + ks·Ls0(x, ωo, σ) + Ls1(x, ωo, σ): the diffuse shading Ld and the
 //! two specular shadings Ls0/Ls1 are baked once per training pixel, Ls0/Ls1 at
-//! [`NUM_LEVELS`] roughness levels and linearly interpolated in σ ([`lerp_levels`]).
+//! [`NUM_LEVELS`] roughness levels and linearly interpolated in σ ([`lerp_levels`]). Under a
+//! reflectance model whose diffuse lobe depends on σ (`principled`), Ld is the polynomial
+//! Ld0 + σ·Ld1 + σ²·Ld2 (exact, see [`crate::reflectance`]) and the shadings carry Ld1, Ld2.
 //! [`ShadingBaker`] computes them first from the observed radiance alone; a
 //! [`ShadingRefiner`] re-computes them once a material field and emitters are known.
 use crate::color::Rgb;
@@ -55,8 +57,10 @@ pub struct ViewShadings {
     pub width: usize,
     pub height: usize,
     pub levels: [f32; NUM_LEVELS],
-    /// Ld per pixel.
+    /// Ld per pixel (Ld0 when [`ViewShadings::ld_poly`] is not empty).
     pub ld: Vec<Rgb>,
+    /// [Ld1, Ld2] per pixel when the model's diffuse lobe depends on σ, else empty.
+    pub ld_poly: Vec<[Rgb; 2]>,
     /// Ls0 per pixel and level.
     pub ls0: Vec<[Rgb; NUM_LEVELS]>,
     /// Ls1 per pixel and level.
@@ -74,18 +78,44 @@ impl ViewShadings {
             height,
             levels,
             ld: vec![Vec3::ZERO; n],
+            ld_poly: Vec::new(),
             ls0: vec![[Vec3::ZERO; NUM_LEVELS]; n],
             ls1: vec![[Vec3::ZERO; NUM_LEVELS]; n],
             valid: vec![false; n],
         }
     }
 
-    /// Reflected radiance of pixel `i` for material (kd, ks, σ): kd·Ld + ks·Ls0(σ) + Ls1(σ).
+    /// All-zero shadings whose diffuse shading is a polynomial in σ when `poly`.
+    pub fn zeros_for(width: usize, height: usize, levels: [f32; NUM_LEVELS], poly: bool) -> Self {
+        let mut s = Self::zeros(width, height, levels);
+        if poly {
+            s.ld_poly = vec![[Vec3::ZERO; 2]; width * height];
+        }
+        s
+    }
+
+    /// [Ld1, Ld2] of pixel `i`, or None when Ld does not depend on σ.
+    #[inline]
+    pub fn poly(&self, i: usize) -> Option<&[Rgb; 2]> {
+        self.ld_poly.get(i)
+    }
+
+    /// The diffuse shading of pixel `i` at roughness σ.
+    #[inline]
+    pub fn diffuse(&self, i: usize, sigma: f32) -> Rgb {
+        crate::reflectance::diffuse_at(self.ld[i], self.poly(i), sigma).0
+    }
+
+    /// Reflected radiance of pixel `i` for material (kd, ks, σ): kd·Ld(σ) + ks·Ls0(σ) + Ls1(σ).
     #[inline]
     pub fn reflected(&self, i: usize, kd: Rgb, ks: Rgb, sigma: f32) -> Rgb {
-        kd * self.ld[i]
-            + ks * lerp_levels(&self.levels, &self.ls0[i], sigma)
-            + lerp_levels(&self.levels, &self.ls1[i], sigma)
+        crate::reflectance::image(
+            kd,
+            ks,
+            self.diffuse(i, sigma),
+            lerp_levels(&self.levels, &self.ls0[i], sigma),
+            lerp_levels(&self.levels, &self.ls1[i], sigma),
+        )
     }
 }
 

@@ -124,11 +124,12 @@ impl FieldOutput {
     pub fn kd(&self) -> candle_core::Result<Tensor> {
         self.albedo.broadcast_mul(&self.metallic.affine(-1.0, 1.0)?)
     }
-    /// ks = 0.04·(1 − m) + a·m.
+    /// ks = 0.04·(1 − m) + a·m ([`fipt_core::reflectance::metallic_workflow`]).
     pub fn ks(&self) -> candle_core::Result<Tensor> {
+        let f0 = fipt_core::reflectance::DIELECTRIC_F0 as f64;
         self.albedo
             .broadcast_mul(&self.metallic)?
-            .broadcast_add(&self.metallic.affine(-0.04, 0.04)?)
+            .broadcast_add(&self.metallic.affine(-f0, f0)?)
     }
 }
 

@@ -7,6 +7,7 @@
 //!   roughness levels, so that `Σ_l w_l(σ)·Ls[l]` equals
 //!   [`fipt_core::shading::lerp_levels`] and is differentiable in σ.
 use candle_core::{CpuStorage, CustomOp1, Layout, Shape, Tensor};
+use fipt_core::reflectance::DIELECTRIC_F0;
 use fipt_core::shading::{level_segment, NUM_LEVELS};
 
 /// The f32 values of a contiguous CPU tensor; `name` says which in errors.
@@ -164,6 +165,9 @@ pub fn positional_encoding(points: &[[f32; 3]], frequencies: usize) -> Vec<f32> 
 #[derive(Clone, Debug, Default)]
 pub struct LossBatch {
     pub ld: Vec<[f32; 3]>,
+    /// [Ld1, Ld2] per pixel when the diffuse shading depends on σ (`principled`: Ld(σ) =
+    /// Ld + σ·Ld1 + σ²·Ld2), else empty.
+    pub ld_poly: Vec<[[f32; 3]; 2]>,
     pub ls0: Vec<[[f32; 3]; NUM_LEVELS]>,
     pub ls1: Vec<[[f32; 3]; NUM_LEVELS]>,
     pub gt: Vec<[f32; 3]>,
@@ -307,14 +311,22 @@ impl FactorizedLoss {
         let (a, sigma, m, alpha) = ([x[0], x[1], x[2]], x[3], x[4], x[5]);
         let lw = LevelWeights(self.levels);
         let (i, t, dt) = lw.locate(sigma);
-        let (ld, s0l, s1l, g) = (b.ld[j], &b.ls0[j], &b.ls1[j], b.gt[j]);
+        let (ld0, s0l, s1l, g) = (b.ld[j], &b.ls0[j], &b.ls1[j], b.gt[j]);
+        // Ld(σ) and dLd/dσ (the diffuse σ polynomial of `principled`; constant otherwise).
+        let (ld, dld) = match b.ld_poly.get(j) {
+            None => (ld0, [0.0; 3]),
+            Some([p1, p2]) => (
+                std::array::from_fn(|c| ld0[c] + sigma * (p1[c] + sigma * p2[c])),
+                std::array::from_fn(|c| p1[c] + 2.0 * sigma * p2[c]),
+            ),
+        };
         let mut sq = 0.0;
         let mut d = [0f32; 6];
         for c in 0..3 {
             let s0 = s0l[i][c] * (1.0 - t) + s0l[i + 1][c] * t;
             let s1 = s1l[i][c] * (1.0 - t) + s1l[i + 1][c] * t;
             let kd = a[c] * (1.0 - m);
-            let ks = 0.04 * (1.0 - m) + a[c] * m;
+            let ks = DIELECTRIC_F0 * (1.0 - m) + a[c] * m;
             let r = kd * ld[c] + ks * s0 + s1;
             let p = (1.0 - alpha) * r + alpha * g[c];
             let e = srgb_oetf(p) - srgb_oetf(g[c]);
@@ -323,8 +335,9 @@ impl FactorizedLoss {
             let dp = 2.0 * e * srgb_oetf_grad(p);
             let dr = dp * (1.0 - alpha);
             d[c] += dr * ((1.0 - m) * ld[c] + m * s0);
-            d[3] += dr * (ks * (s0l[i + 1][c] - s0l[i][c]) + (s1l[i + 1][c] - s1l[i][c])) * dt;
-            d[4] += dr * (-a[c] * ld[c] + (a[c] - 0.04) * s0);
+            d[3] += dr * (ks * (s0l[i + 1][c] - s0l[i][c]) + (s1l[i + 1][c] - s1l[i][c])) * dt
+                + dr * kd * dld[c];
+            d[4] += dr * (-a[c] * ld[c] + (a[c] - DIELECTRIC_F0) * s0);
             d[5] += dp * (g[c] - r);
         }
         // Each part: the search's target pull where it has one, the default prior elsewhere.
@@ -379,7 +392,7 @@ impl FactorizedLoss {
         for c in 0..3 {
             let s0 = b.ls0[j][i][c] * (1.0 - t) + b.ls0[j][i + 1][c] * t;
             let s1 = b.ls1[j][i][c] * (1.0 - t) + b.ls1[j][i + 1][c] * t;
-            let ks = 0.04 * (1.0 - m) + x[c] * m;
+            let ks = DIELECTRIC_F0 * (1.0 - m) + x[c] * m;
             sum += ks * s0 + s1;
         }
         let w = sum / 3.0;

@@ -40,6 +40,8 @@ pub struct TrainingSet {
     /// Unit-cube positions of the primary hits.
     pub unit: Vec<[f32; 3]>,
     pub ld: Vec<[f32; 3]>,
+    /// [Ld1, Ld2] of each sample when the shadings' diffuse part depends on σ, else empty.
+    pub ld_poly: Vec<[[f32; 3]; 2]>,
     pub ls0: Vec<[[f32; 3]; NUM_LEVELS]>,
     pub ls1: Vec<[[f32; 3]; NUM_LEVELS]>,
     pub gt: Vec<[f32; 3]>,
@@ -102,6 +104,7 @@ impl TrainingSet {
             levels,
             unit: vec![],
             ld: vec![],
+            ld_poly: vec![],
             ls0: vec![],
             ls1: vec![],
             gt: vec![],
@@ -112,8 +115,15 @@ impl TrainingSet {
             semantic: false,
             target: vec![],
         };
+        let poly = shadings.first().is_some_and(|s| !s.ld_poly.is_empty());
         for (v, ((pts, sh), img)) in points.iter().zip(shadings).zip(images).enumerate() {
             let n = sh.width * sh.height;
+            if poly != !sh.ld_poly.is_empty() {
+                return Err(NeuralError::config(
+                    "training set",
+                    format!("view {v}: shadings of two reflectance models are mixed"),
+                ));
+            }
             if pts.len() != n || img.data.len() != n || sh.levels != levels {
                 return Err(NeuralError::config(
                     "training set",
@@ -129,6 +139,9 @@ impl TrainingSet {
                 set.unit.push(bounds.unit(p));
                 set.morton.push(morton(bounds.unit(p)));
                 set.ld.push(sh.ld[i].to_array());
+                if let Some(p) = sh.poly(i) {
+                    set.ld_poly.push(p.map(|c| c.to_array()));
+                }
                 set.ls0.push(arr(&sh.ls0[i]));
                 set.ls1.push(arr(&sh.ls1[i]));
                 set.gt.push(img.data[i].to_array());
@@ -406,6 +419,11 @@ impl Trainer {
         let unit: Vec<[f32; 3]> = idx.iter().map(|&i| data.unit[i]).collect();
         let batch = Arc::new(LossBatch {
             ld: idx.iter().map(|&i| data.ld[i]).collect(),
+            ld_poly: if data.ld_poly.is_empty() {
+                vec![]
+            } else {
+                idx.iter().map(|&i| data.ld_poly[i]).collect()
+            },
             ls0: idx.iter().map(|&i| data.ls0[i]).collect(),
             ls1: idx.iter().map(|&i| data.ls1[i]).collect(),
             gt: idx.iter().map(|&i| data.gt[i]).collect(),
@@ -666,31 +684,43 @@ pub fn load_field(dir: &Path) -> Result<(NeuralField, CheckpointMeta)> {
     Ok((field, meta))
 }
 
-/// Mean over the last dimension helper for reports: per-sample reflected radiance of the
-/// factorised model with the field's current materials (no mask): `[n, 3]`.
+/// The factorised image of pixels `idx` of one view's shadings `sh` with the field's current
+/// materials at `unit` (one per index), for reports: (reflected radiance `[n]`, mask α `[n]`).
 pub fn render_factorized(
     field: &NeuralField,
     unit: &[[f32; 3]],
-    ld: &[[f32; 3]],
-    ls0: &[[[f32; 3]; NUM_LEVELS]],
-    ls1: &[[[f32; 3]; NUM_LEVELS]],
-    levels: [f32; NUM_LEVELS],
+    sh: &ViewShadings,
+    idx: &[usize],
 ) -> Result<(Vec<[f32; 3]>, Vec<f32>)> {
     let n = unit.len();
     let dev = field.device();
     let out = field.forward(unit, false)?;
     let r: candle_core::Result<_> = (|| {
-        let ld = Tensor::from_vec(
-            ld.iter().flatten().copied().collect::<Vec<_>>(),
-            (n, 3),
-            dev,
-        )?;
-        let flat = |x: &[[[f32; 3]; NUM_LEVELS]]| {
-            x.iter().flatten().flatten().copied().collect::<Vec<_>>()
+        let rgb = |f: &dyn Fn(usize) -> Vec3| {
+            let v: Vec<f32> = idx.iter().flat_map(|&i| f(i).to_array()).collect();
+            Tensor::from_vec(v, (n, 3), dev)
         };
-        let ls0 = Tensor::from_vec(flat(ls0), (n, NUM_LEVELS, 3), dev)?;
-        let ls1 = Tensor::from_vec(flat(ls1), (n, NUM_LEVELS, 3), dev)?;
-        let render = reflected(&out, &ld, &ls0, &ls1, levels)?;
+        let ld = rgb(&|i| sh.ld[i])?;
+        let poly = match sh.ld_poly.is_empty() {
+            true => None,
+            false => Some((rgb(&|i| sh.ld_poly[i][0])?, rgb(&|i| sh.ld_poly[i][1])?)),
+        };
+        let levels = |x: &[[Vec3; NUM_LEVELS]]| {
+            let v: Vec<f32> = idx
+                .iter()
+                .flat_map(|&i| x[i].iter().flat_map(|c| c.to_array()))
+                .collect();
+            Tensor::from_vec(v, (n, NUM_LEVELS, 3), dev)
+        };
+        let (ls0, ls1) = (levels(&sh.ls0)?, levels(&sh.ls1)?);
+        let render = reflected(
+            &out,
+            &ld,
+            poly.as_ref().map(|(a, b)| (a, b)),
+            &ls0,
+            &ls1,
+            sh.levels,
+        )?;
         Ok((
             render.to_vec2::<f32>()?,
             out.alpha.squeeze(D::Minus1)?.to_vec1::<f32>()?,

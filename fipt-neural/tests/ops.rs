@@ -198,8 +198,22 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
             _ => [0.3, f32::NAN],
         })
         .collect();
+    // The principled model's diffuse σ polynomial (Ld1 of either sign: retro-reflection
+    // brightens, the grazing Fresnel darkens), with targets and segments.
+    let mut poly = targeted.clone();
+    poly.ld_poly = poly
+        .ld
+        .iter()
+        .enumerate()
+        .map(|(j, ld)| {
+            let k = ((j * 5) % 7) as f32 / 6.0 - 0.4;
+            [ld.map(|v| v * k), ld.map(|v| v * 0.3 * (1.0 - k))]
+        })
+        .collect();
+    let poly = std::sync::Arc::new(poly);
     let targeted = std::sync::Arc::new(targeted);
     for (norm, l1, ml1, batch, rp) in [
+        (PriorNorm::L2Roughness, false, true, &poly, 0.0),
         (PriorNorm::L2, false, false, &unsegmented, 1.0),
         (PriorNorm::L1, true, true, &unsegmented, 1.0),
         (PriorNorm::L1, true, true, &segmented, 0.35),

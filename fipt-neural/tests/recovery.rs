@@ -56,6 +56,7 @@ fn recover(ids: GtKind) {
             spp: 32,
             ..Default::default()
         },
+        model: Default::default(),
     };
     let scene = build("cornell").unwrap();
     write_dataset(scene, &dir, &opts, &|_, _| {}).unwrap();

@@ -8,13 +8,16 @@
 //!   every pixel of every view that sees the cell, instead of once per pixel.
 //! * **Low-discrepancy sampling** (`sampler = "stratified"`): a rank-1 lattice (R2 sequence)
 //!   with a random shift per pixel and term, instead of independent random numbers.
-use crate::brdf::{sample_cosine_hemisphere, smith_g1};
+pub use crate::diffuse::{
+    diffuse_moments, diffuse_shading, DiffuseCell, DiffuseCells, DiffuseMoments,
+};
 use crate::incident::{power_heuristic, IncidentLight, Incoming};
 use crate::slf::{Cube, SlfBuilder, SurfaceLightField};
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
 use fipt_core::dataset::View;
 use fipt_core::image::Image;
+use fipt_core::reflectance::{ggx_d, schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
     Progress, RayQuery, ShadingBaker, SurfaceHit, ViewShadings, DEFAULT_LEVELS, NUM_LEVELS,
@@ -22,8 +25,6 @@ use fipt_core::shading::{
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
-use std::f32::consts::FRAC_1_PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -182,17 +183,19 @@ pub fn primary_records(geometry: &dyn RayQuery, view: &View) -> Vec<Option<Pixel
         .collect()
 }
 
-/// All-zero shadings for `views`, valid where the pixel-centre ray hit the mesh.
+/// All-zero shadings of `model` for `views`, valid where the pixel-centre ray hit the mesh.
 pub fn empty_shadings(
     views: &[View],
     records: &[Vec<Option<PixelRecord>>],
     levels: [f32; NUM_LEVELS],
+    model: ReflectanceModel,
 ) -> Vec<ViewShadings> {
+    let poly = model.diffuse_depends_on_roughness();
     views
         .iter()
         .zip(records)
         .map(|(v, r)| {
-            let mut s = ViewShadings::zeros(v.camera.width, v.camera.height, levels);
+            let mut s = ViewShadings::zeros_for(v.camera.width, v.camera.height, levels, poly);
             for (i, rec) in r.iter().enumerate() {
                 s.valid[i] = rec.is_some();
             }
@@ -286,70 +289,6 @@ impl SampleStream {
     }
 }
 
-/// Ld at a surface point: (1/π)∫ Li cos dω by `n` cosine samples (weight = Li) and, when the
-/// light has emitters, `n_light` emitter samples, combined by the power heuristic. `rng` drives
-/// the emitter samples and any path continuation.
-#[allow(clippy::too_many_arguments)]
-pub fn diffuse_shading<L: IncidentLight>(
-    light: &L,
-    geometry: &dyn RayQuery,
-    p: Vec3,
-    ng: Vec3,
-    ns: Vec3,
-    n: u32,
-    n_light: u32,
-    stream: &mut SampleStream,
-    rng: &mut Pcg32,
-) -> Rgb {
-    let n_light = if light.has_emitters() { n_light } else { 0 };
-    if n == 0 && n_light == 0 {
-        return Vec3::ZERO;
-    }
-    let frame = Frame::from_normal(ns);
-    let origin = geometry.offset(p, ng);
-    let mut sum = Vec3::ZERO;
-    let (nd, nl) = (n as f32, n_light as f32);
-    // MIS weights compare the two techniques' per-sample densities (power heuristic), not
-    // n·pdf: the cosine technique's many samples reach a small lamp in a random number of
-    // hits, which the lamp's own samples do not suffer from.
-    if n > 0 {
-        let mut s = Vec3::ZERO;
-        for _ in 0..n {
-            let wi = frame.to_world(sample_cosine_hemisphere(stream.next()));
-            if wi.dot(ng) <= 0.0 {
-                continue;
-            }
-            s += match light.incoming(origin, wi, rng) {
-                Incoming::Miss => Vec3::ZERO,
-                Incoming::Radiance(l) => l,
-                Incoming::Emitter { le, light_pdf } if n_light > 0 => {
-                    let p_cos = wi.dot(ns).max(0.0) * FRAC_1_PI;
-                    le * power_heuristic(p_cos, light_pdf)
-                }
-                Incoming::Emitter { le, .. } => le,
-            };
-        }
-        sum += s / nd;
-    }
-    if n_light > 0 {
-        let mut s = Vec3::ZERO;
-        for _ in 0..n_light {
-            let Some(ls) = light.sample_emitter(origin, rng) else {
-                continue;
-            };
-            let cos = ls.wi.dot(ns);
-            if cos <= 0.0 || ls.wi.dot(ng) <= 0.0 {
-                continue;
-            }
-            let p_cos = cos * FRAC_1_PI;
-            // f·cos/p = Le·(cos/π)/pdf.
-            s += ls.le * (p_cos / ls.pdf * power_heuristic(ls.pdf, p_cos));
-        }
-        sum += s / nl;
-    }
-    sum
-}
-
 /// Ls0 and Ls1 at roughness `sigma` by GGX half-vector sampling:
 /// weight = Li·F_k·G·(ωo·h)/((n·h)(n·ωo)), F0 = 1 − (1−ωo·h)⁵, F1 = (1−ωo·h)⁵.
 #[allow(clippy::too_many_arguments)]
@@ -362,6 +301,7 @@ pub fn specular_shading(
     sigma: f32,
     n: u32,
     stream: &mut SampleStream,
+    model: ReflectanceModel,
 ) -> (Rgb, Rgb) {
     if n == 0 {
         return (Vec3::ZERO, Vec3::ZERO);
@@ -374,16 +314,16 @@ pub fn specular_shading(
     }
     let origin = light.geometry.offset(p, ng);
     let alpha = sigma * sigma;
-    let g1o = smith_g1(wo.z, sigma);
+    let g1o = model.g1(wo.z, sigma);
     let (mut s0, mut s1) = (Vec3::ZERO, Vec3::ZERO);
     for _ in 0..n {
         let h = sample_ggx_h(alpha, stream.next());
         let Some((wi, voh, li)) = reflected_li(light, &frame, origin, ng, wo, h) else {
             continue;
         };
-        let g = smith_g1(wi.z, sigma) * g1o;
+        let g = model.g1(wi.z, sigma) * g1o;
         let w = g * voh / (h.z * wo.z);
-        let m = crate::brdf::schlick_fresnel(voh);
+        let m = schlick_weight(voh);
         s0 += li * (w * (1.0 - m));
         s1 += li * (w * m);
     }
@@ -450,6 +390,7 @@ pub fn specular_shading_mixture<L: IncidentLight>(
     n_light: u32,
     streams: &mut [SampleStream; NUM_LEVELS],
     rng: &mut Pcg32,
+    model: ReflectanceModel,
 ) -> ([Rgb; NUM_LEVELS], [Rgb; NUM_LEVELS]) {
     let mut s0 = [Vec3::ZERO; NUM_LEVELS];
     let mut s1 = [Vec3::ZERO; NUM_LEVELS];
@@ -461,22 +402,22 @@ pub fn specular_shading_mixture<L: IncidentLight>(
     }
     let origin = geometry.offset(p, ng);
     let alphas: [f32; NUM_LEVELS] = std::array::from_fn(|l| levels[l] * levels[l]);
-    let g1o: [f32; NUM_LEVELS] = std::array::from_fn(|l| smith_g1(wo.z, levels[l]));
+    let g1o: [f32; NUM_LEVELS] = std::array::from_fn(|l| model.g1(wo.z, levels[l]));
     let nl = n_light as f32;
     let n_brdf = counts.iter().sum::<u32>().max(1) as f32;
     // Adds `li`·(the per-level integrand at wi/h)·`scale` where scale = w/(n·pdf) of the
     // technique; `q` = Σ_k counts_k·pdf_k(ωi) is the GGX mixture's n·pdf in solid angle.
     let mut add = |wi: Vec3, voh: f32, d: &[f32; NUM_LEVELS], li: Rgb, scale: f32| {
-        let m = crate::brdf::schlick_fresnel(voh);
+        let m = schlick_weight(voh);
         let common = scale / (4.0 * wo.z);
         for l in 0..NUM_LEVELS {
-            let w = d[l] * smith_g1(wi.z, levels[l]) * g1o[l] * common;
+            let w = d[l] * model.g1(wi.z, levels[l]) * g1o[l] * common;
             s0[l] += li * (w * (1.0 - m));
             s1[l] += li * (w * m);
         }
     };
     let mixture_pdf = |h: Vec3, voh: f32| -> ([f32; NUM_LEVELS], f32) {
-        let d: [f32; NUM_LEVELS] = std::array::from_fn(|l| crate::brdf::ggx_d(h, alphas[l]));
+        let d: [f32; NUM_LEVELS] = std::array::from_fn(|l| ggx_d(h, alphas[l]));
         let q: f32 = (0..NUM_LEVELS)
             .map(|l| counts[l] as f32 * d[l])
             .sum::<f32>()
@@ -543,97 +484,12 @@ pub fn median_footprint(views: &[View], records: &[Vec<Option<PixelRecord>>]) ->
     median(foot)
 }
 
-/// One surface cell of the diffuse cache: the mean point and shading normal of the pixels
-/// that fall in it.
-#[derive(Clone, Copy, Debug)]
-pub struct DiffuseCell {
-    pub tri: u32,
-    pub p: Vec3,
-    /// Facing geometric normal.
-    pub ng: Vec3,
-    /// Mean facing shading normal.
-    pub ns: Vec3,
-    pub pixels: u32,
-}
-
-/// The diffuse cache's cells (triangle × side × a cubic cell of edge `cell`) and which cell
-/// each pixel of each view falls in. Ld does not depend on the view, so it is integrated once
-/// per cell and shared by every pixel of every view that sees the cell.
-pub struct DiffuseCells {
-    pub entries: Vec<DiffuseCell>,
-    /// Per view, per pixel: the cell index (`u32::MAX` where the pixel misses the mesh).
-    pub assign: Vec<Vec<u32>>,
-}
-
-impl DiffuseCells {
-    /// Groups the pixels of `records` into cells of edge `cell` on a lattice anchored at
-    /// `origin`. Sequential assignment keeps the entry order (and so results) deterministic.
-    pub fn build(records: &[Vec<Option<PixelRecord>>], origin: Vec3, cell: f32) -> Self {
-        let inv = 1.0 / cell;
-        let mut index: HashMap<CellKey, u32> = HashMap::new();
-        let mut entries: Vec<DiffuseCell> = Vec::new(); // sums until the end
-        let mut assign: Vec<Vec<u32>> = Vec::with_capacity(records.len());
-        for r in records {
-            let mut a = Vec::with_capacity(r.len());
-            for rec in r {
-                let Some(rec) = rec else {
-                    a.push(u32::MAX);
-                    continue;
-                };
-                let q = ((rec.hit.p - origin) * inv).floor();
-                let key = CellKey {
-                    tri: rec.hit.tri,
-                    side: rec.ng.dot(rec.hit.ng) > 0.0,
-                    cell: [q.x as i32, q.y as i32, q.z as i32],
-                };
-                let id = *index.entry(key).or_insert_with(|| {
-                    entries.push(DiffuseCell {
-                        tri: rec.hit.tri,
-                        p: Vec3::ZERO,
-                        ng: rec.ng,
-                        ns: Vec3::ZERO,
-                        pixels: 0,
-                    });
-                    entries.len() as u32 - 1
-                });
-                let e = &mut entries[id as usize];
-                e.p += rec.hit.p;
-                e.ns += rec.ns;
-                e.pixels += 1;
-                a.push(id);
-            }
-            assign.push(a);
-        }
-        for e in &mut entries {
-            e.p /= e.pixels as f32;
-            e.ns = e.ns.normalize_or(e.ng);
-        }
-        DiffuseCells { entries, assign }
-    }
-
-    /// Writes each cell's Ld into the pixels of `out` that fall in it.
-    pub fn scatter(assign: &[Vec<u32>], ld: &[Rgb], out: &mut [ViewShadings]) {
-        for (s, a) in out.iter_mut().zip(assign) {
-            for (i, &id) in a.iter().enumerate() {
-                if id != u32::MAX {
-                    s.ld[i] = ld[id as usize];
-                }
-            }
-        }
-    }
-}
-
-/// The FIPT initial baker (SLF incident light), with the switches of [`BakeConfig`].
+/// The FIPT initial baker (SLF incident light), with the switches of [`BakeConfig`], for the
+/// shadings of a [`ReflectanceModel`].
 #[derive(Clone, Debug, Default)]
 pub struct FactorizedBaker {
     pub config: BakeConfig,
-}
-
-#[derive(Hash, PartialEq, Eq, Clone, Copy)]
-struct CellKey {
-    tri: u32,
-    side: bool,
-    cell: [i32; 3],
+    pub model: ReflectanceModel,
 }
 
 fn median(mut v: Vec<f32>) -> Option<f32> {
@@ -646,8 +502,18 @@ fn median(mut v: Vec<f32>) -> Option<f32> {
 }
 
 impl FactorizedBaker {
+    /// A baker of FIPT-model shadings.
     pub fn new(config: BakeConfig) -> Self {
-        FactorizedBaker { config }
+        FactorizedBaker {
+            config,
+            model: ReflectanceModel::Fipt,
+        }
+    }
+
+    /// The same baker for `model`'s shadings.
+    pub fn with_model(mut self, model: ReflectanceModel) -> Self {
+        self.model = model;
+        self
     }
 
     /// Bakes and reports where the time went.
@@ -675,7 +541,14 @@ impl FactorizedBaker {
         ) else {
             let out = views
                 .iter()
-                .map(|v| ViewShadings::zeros(v.camera.width, v.camera.height, cfg.levels))
+                .map(|v| {
+                    ViewShadings::zeros_for(
+                        v.camera.width,
+                        v.camera.height,
+                        cfg.levels,
+                        self.model.diffuse_depends_on_roughness(),
+                    )
+                })
                 .collect();
             return (out, stats, None);
         };
@@ -693,66 +566,70 @@ impl FactorizedBaker {
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             progress(d, total_work);
         };
-        let mut out = empty_shadings(views, &records, cfg.levels);
+        let mut out = empty_shadings(views, &records, cfg.levels, self.model);
 
         // Diffuse shading.
         let t = Instant::now();
+        let model = self.model;
+        let full = model.diffuse_depends_on_roughness();
+        let seed = cfg.seed;
         if cfg.diffuse_cache {
             let cell = median_footprint(views, &records).unwrap_or(1e-3).max(1e-9)
                 * cfg.cache_cell_scale.max(1e-3);
             stats.cache_cell = cell;
-            let DiffuseCells { entries, assign } =
-                DiffuseCells::build(&records, slf.cube.min, cell);
-            stats.cache_entries = entries.len();
-            let seed = cfg.seed;
-            let ld: Vec<Rgb> = entries
-                .par_iter()
-                .enumerate()
-                .map(|(k, c)| {
-                    let mut st =
-                        SampleStream::new(cfg.sampler, &[seed, 0xD1FF, c.tri as u64, k as u64]);
-                    let mut rng = Pcg32::new(0, 0);
-                    diffuse_shading(
-                        &light,
-                        geometry,
-                        c.p,
-                        c.ng,
-                        c.ns,
-                        cfg.diffuse_samples,
-                        0,
-                        &mut st,
-                        &mut rng,
-                    )
-                })
-                .collect();
-            DiffuseCells::scatter(&assign, &ld, &mut out);
-            stats.rays_diffuse = entries.len() as u64 * cfg.diffuse_samples as u64;
+            let cells = DiffuseCells::build(&records, slf.cube.min, cell);
+            stats.cache_entries = cells.entries.len();
+            cells.integrate_and_scatter(model, &records, &mut out, |k, c| {
+                let mut st =
+                    SampleStream::new(cfg.sampler, &[seed, 0xD1FF, c.tri as u64, k as u64]);
+                let mut rng = Pcg32::new(0, 0);
+                diffuse_moments(
+                    &light,
+                    geometry,
+                    c.p,
+                    c.ng,
+                    c.ns,
+                    cfg.diffuse_samples,
+                    0,
+                    &mut st,
+                    &mut rng,
+                    full,
+                )
+            });
+            stats.rays_diffuse = cells.entries.len() as u64 * cfg.diffuse_samples as u64;
             tick(stats.valid_pixels);
         } else {
             for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
-                let seed = cfg.seed;
-                s.ld.par_iter_mut()
-                    .zip(r.par_iter())
-                    .enumerate()
-                    .for_each(|(i, (ld, rec))| {
-                        if let Some(rec) = rec {
-                            let mut st = SampleStream::new(
-                                cfg.sampler,
-                                &[seed, 0xD1FF, vi as u64, i as u64],
-                            );
-                            *ld = diffuse_shading(
-                                &light,
-                                geometry,
-                                rec.hit.p,
-                                rec.ng,
-                                rec.ns,
-                                cfg.diffuse_samples,
-                                0,
-                                &mut st,
-                                &mut Pcg32::new(0, 0),
-                            );
-                        }
-                    });
+                let n = s.ld.len();
+                let computed: Vec<(Rgb, [Rgb; 2])> = (0..n)
+                    .into_par_iter()
+                    .map(|i| {
+                        let Some(rec) = &r[i] else {
+                            return (Vec3::ZERO, [Vec3::ZERO; 2]);
+                        };
+                        let mut st =
+                            SampleStream::new(cfg.sampler, &[seed, 0xD1FF, vi as u64, i as u64]);
+                        diffuse_moments(
+                            &light,
+                            geometry,
+                            rec.hit.p,
+                            rec.ng,
+                            rec.ns,
+                            cfg.diffuse_samples,
+                            0,
+                            &mut st,
+                            &mut Pcg32::new(0, 0),
+                            full,
+                        )
+                        .shading(model, rec.wo, rec.ns)
+                    })
+                    .collect();
+                for (i, (l0, lp)) in computed.into_iter().enumerate() {
+                    s.ld[i] = l0;
+                    if let Some(slot) = s.ld_poly.get_mut(i) {
+                        *slot = lp;
+                    }
+                }
                 tick(r.iter().flatten().count());
             }
             stats.rays_diffuse = stats.valid_pixels as u64 * cfg.diffuse_samples as u64;
@@ -791,6 +668,7 @@ impl FactorizedBaker {
                                 0,
                                 &mut st,
                                 &mut Pcg32::new(0, 0),
+                                self.model,
                             );
                             return;
                         }
@@ -808,6 +686,7 @@ impl FactorizedBaker {
                                 cfg.levels[l],
                                 cfg.specular_samples[l],
                                 &mut st,
+                                self.model,
                             );
                             l0[l] = a;
                             l1[l] = b;
@@ -824,7 +703,10 @@ impl FactorizedBaker {
 
 impl ShadingBaker for FactorizedBaker {
     fn name(&self) -> &str {
-        "fipt-slf"
+        match self.model {
+            ReflectanceModel::Fipt => "fipt-slf",
+            ReflectanceModel::Principled => "fipt-slf/principled",
+        }
     }
     fn bake(
         &self,

@@ -8,7 +8,9 @@
 //!
 //! `.fsh` format (little endian): magic `FIPTSHD\0`, u32 version, u32 width, u32 height,
 //! u32 levels, f32 × levels, u8 × pixels (valid), f32 × 3 × pixels (Ld),
-//! f32 × 3 × levels × pixels (Ls0), the same for Ls1.
+//! [version 2 only: f32 × 3 × 2 × pixels (Ld1, Ld2: the diffuse shading's σ polynomial)],
+//! f32 × 3 × levels × pixels (Ls0), the same for Ls1. Version 1 is written when the shadings
+//! have no σ polynomial (FIPT's model), version 2 when they do (`principled`).
 use crate::bake::{BakeConfig, BakeStats};
 use fipt_core::fsutil::{read_json, write_bytes_atomic, write_json_atomic};
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
@@ -18,8 +20,10 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"FIPTSHD\0";
-/// Version of the `.fsh` format and of the manifest.
+/// Version of the `.fsh` format (without the diffuse σ polynomial) and of the manifest.
 pub const FORMAT_VERSION: u32 = 1;
+/// Version of `.fsh` files that carry the diffuse σ polynomial.
+const FORMAT_VERSION_POLY: u32 = 2;
 
 /// What a stored bake was computed from and how.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -48,10 +52,17 @@ pub fn view_path(dir: &Path, split: &str, k: usize) -> PathBuf {
 /// Encodes one view's shadings.
 pub fn encode(s: &ViewShadings) -> Vec<u8> {
     let n = s.width * s.height;
-    let mut out = Vec::with_capacity(28 + NUM_LEVELS * 4 + n * (1 + 12 * (1 + 2 * NUM_LEVELS)));
+    let poly = !s.ld_poly.is_empty();
+    let mut out = Vec::with_capacity(
+        28 + NUM_LEVELS * 4 + n * (1 + 12 * (1 + 2 * poly as usize + 2 * NUM_LEVELS)),
+    );
     out.extend_from_slice(MAGIC);
     for v in [
-        FORMAT_VERSION,
+        if poly {
+            FORMAT_VERSION_POLY
+        } else {
+            FORMAT_VERSION
+        },
         s.width as u32,
         s.height as u32,
         NUM_LEVELS as u32,
@@ -68,6 +79,7 @@ pub fn encode(s: &ViewShadings) -> Vec<u8> {
         }
     };
     s.ld.iter().for_each(|&v| put(v));
+    s.ld_poly.iter().flatten().for_each(|&v| put(v));
     s.ls0.iter().flatten().for_each(|&v| put(v));
     s.ls1.iter().flatten().for_each(|&v| put(v));
     out
@@ -86,11 +98,12 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
     }
     let u = |i: usize| u32::from_le_bytes(bytes[8 + 4 * i..12 + 4 * i].try_into().unwrap());
     let (ver, w, h, nl) = (u(0), u(1) as usize, u(2) as usize, u(3) as usize);
-    if ver != FORMAT_VERSION || nl != NUM_LEVELS {
+    if !(ver == FORMAT_VERSION || ver == FORMAT_VERSION_POLY) || nl != NUM_LEVELS {
         return Err(bad(&format!("version {ver} with {nl} levels")));
     }
+    let poly = ver == FORMAT_VERSION_POLY;
     let n = w * h;
-    let expected = 24 + 4 * nl + n + 12 * n * (1 + 2 * nl);
+    let expected = 24 + 4 * nl + n + 12 * n * (1 + 2 * poly as usize + 2 * nl);
     if bytes.len() != expected {
         return Err(bad(&format!(
             "{} bytes, expected {expected} (truncated?)",
@@ -112,6 +125,13 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
         v
     };
     let ld = (0..n).map(|_| vec3(&mut off)).collect();
+    let ld_poly = if poly {
+        (0..n)
+            .map(|_| std::array::from_fn(|_| vec3(&mut off)))
+            .collect()
+    } else {
+        Vec::new()
+    };
     let ls0 = (0..n)
         .map(|_| std::array::from_fn(|_| vec3(&mut off)))
         .collect();
@@ -123,6 +143,7 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
         height: h,
         levels,
         ld,
+        ld_poly,
         ls0,
         ls1,
         valid,
@@ -279,6 +300,14 @@ mod tests {
         }
         let b = encode(&s);
         assert_eq!(decode(&b, Path::new("x.fsh")).unwrap(), s);
+        // With the diffuse σ polynomial (version 2).
+        let mut p = s.clone();
+        p.ld_poly = (0..15)
+            .map(|i| [Vec3::splat(i as f32), Vec3::new(-1.0, 2e-7, 3e4)])
+            .collect();
+        let bp = encode(&p);
+        assert_eq!(bp.len(), b.len() + 15 * 24);
+        assert_eq!(decode(&bp, Path::new("x.fsh")).unwrap(), p);
         let err = decode(&b[..b.len() - 4], Path::new("v/003.fsh"))
             .unwrap_err()
             .to_string();

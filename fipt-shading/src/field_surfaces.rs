@@ -11,6 +11,7 @@ use fipt_core::color::Rgb;
 use fipt_core::emitter::Emitter;
 use fipt_core::field::{Material, MaterialField};
 use fipt_core::materials::SurfacePoint;
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
 use glam::Vec3;
 use std::collections::HashMap;
@@ -22,6 +23,7 @@ pub struct FieldSurfaces {
     voxels: HashMap<Key, SurfacePoint>,
     per_triangle: Vec<SurfacePoint>,
     emission: Vec<Rgb>,
+    model: ReflectanceModel,
 }
 
 fn to_surface(m: &Material) -> SurfacePoint {
@@ -88,7 +90,14 @@ impl FieldSurfaces {
             voxels,
             per_triangle,
             emission,
+            model: ReflectanceModel::Fipt,
         })
+    }
+
+    /// The same surfaces under reflectance model `model` (FIPT's by default).
+    pub fn with_model(mut self, model: ReflectanceModel) -> Self {
+        self.model = model;
+        self
     }
 
     /// Occupied voxels.
@@ -98,6 +107,9 @@ impl FieldSurfaces {
 }
 
 impl SurfaceModel for FieldSurfaces {
+    fn model(&self) -> ReflectanceModel {
+        self.model
+    }
     fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint {
         let le = self.emission[tri as usize];
         if le.max_element() > 0.0 {

@@ -1,12 +1,13 @@
 //! # fipt-shading
 //!
 //! Light transport for fipt-rs:
-//! * [`brdf`]: FIPT's metallic-workflow BRDF and a Lambertian one, one per file, behind the
+//! * [`brdf`]: the metallic-workflow microfacet BRDF of each [`fipt_core::reflectance::ReflectanceModel`] and a Lambertian one, one per file, behind the
 //!   [`fipt_core::brdf::Brdf`] contract (eval includes cos θi), dispatched per ray through the
 //!   closed enum [`brdf::BrdfModel`];
 //! * [`scene`]: a renderable scene (mesh, BVH, [`scene::SurfaceModel`], emitter sampling);
 //! * [`render`]: the forward path tracer (NEE + MIS, Russian roulette, reproducible streams)
 //!   and ground-truth AOVs;
+//! * [`diffuse`]: the diffuse shading of either model and its per-cell cache;
 //! * [`slf`] and [`bake`]: the surface light field and the initial factorised bake
 //!   (Ld, Ls0, Ls1 per training pixel), behind [`fipt_core::shading::ShadingBaker`];
 //! * [`refine`]: the path-grown refinement behind [`fipt_core::shading::ShadingRefiner`];
@@ -14,9 +15,9 @@
 //!
 //! ```
 //! use fipt_core::brdf::Brdf;
-//! use fipt_shading::brdf::FiptBrdf;
+//! use fipt_shading::brdf::MicrofacetBrdf;
 //! use glam::Vec3;
-//! let b = FiptBrdf::new(Vec3::splat(0.5), Vec3::splat(0.04), 0.3);
+//! let b = MicrofacetBrdf::new(Vec3::splat(0.5), Vec3::splat(0.04), 0.3);
 //! let (wo, wi) = (Vec3::new(0.0, 0.6, 0.8), Vec3::new(0.0, -0.6, 0.8));
 //! // eval includes cos θi, and the BRDF is reciprocal:
 //! assert!((b.eval(wo, wi) / wi.z - b.eval(wi, wo) / wo.z).length() < 1e-5);
@@ -24,6 +25,7 @@
 pub mod bake;
 pub mod bake_store;
 pub mod brdf;
+pub mod diffuse;
 pub mod error;
 pub mod field_surfaces;
 pub mod incident;

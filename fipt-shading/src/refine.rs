@@ -17,16 +17,17 @@
 //! * The field is not evaluated per path vertex: [`FieldSurfaces`] caches it on a voxel grid of
 //!   the observed surface.
 use crate::bake::{
-    build_slf, diffuse_shading, empty_shadings, median_footprint, primary_records,
-    specular_shading_mixture, DiffuseCells, PixelRecord, SampleStream, SamplerKind,
+    build_slf, diffuse_moments, empty_shadings, median_footprint, primary_records,
+    specular_shading_mixture, DiffuseCells, DiffuseMoments, PixelRecord, SampleStream, SamplerKind,
 };
-use crate::brdf::FiptBrdf;
+use crate::brdf::MicrofacetBrdf;
 use crate::field_surfaces::FieldSurfaces;
 use crate::incident::{power_heuristic, IncidentLight, Incoming, LightSample};
 use crate::scene::SurfaceModel;
 use crate::slf::SurfaceLightField;
 use fipt_core::brdf::{Brdf, Frame};
 use fipt_core::color::Rgb;
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
     Progress, RayQuery, RefineInputs, ShadingRefiner, SurfaceHit, ViewShadings, DEFAULT_LEVELS,
@@ -295,7 +296,8 @@ impl<'a> GrownLight<'a> {
             if wo.z <= 0.0 {
                 return l;
             }
-            let brdf = FiptBrdf::new(sp.kd, sp.ks, sp.roughness);
+            let brdf =
+                MicrofacetBrdf::with_model(self.surfaces.model(), sp.kd, sp.ks, sp.roughness);
             let origin = self.geometry.offset(hit.p, ng);
             if let Some(ls) = self.sample_emitter(origin, rng) {
                 let wi = frame.to_local(ls.wi);
@@ -378,15 +380,27 @@ impl IncidentLight for GrownLight<'_> {
     }
 }
 
-/// The FIPT path-grown refiner, with the switches of [`RefineConfig`].
+/// The FIPT path-grown refiner, with the switches of [`RefineConfig`], for the shadings (and
+/// the paths) of a [`ReflectanceModel`].
 #[derive(Clone, Debug, Default)]
 pub struct PathGrownRefiner {
     pub config: RefineConfig,
+    pub model: ReflectanceModel,
 }
 
 impl PathGrownRefiner {
+    /// A refiner of FIPT-model shadings.
     pub fn new(config: RefineConfig) -> Self {
-        PathGrownRefiner { config }
+        PathGrownRefiner {
+            config,
+            model: ReflectanceModel::Fipt,
+        }
+    }
+
+    /// The same refiner for `model`.
+    pub fn with_model(mut self, model: ReflectanceModel) -> Self {
+        self.model = model;
+        self
     }
 
     /// Refines and reports what the secondary rays met and where the time went.
@@ -420,7 +434,8 @@ impl PathGrownRefiner {
         let records: Vec<Vec<Option<PixelRecord>>> =
             views.iter().map(|v| primary_records(geometry, v)).collect();
         stats.pixels = records.iter().flatten().flatten().count();
-        let mut out = empty_shadings(views, &records, cfg.levels);
+        let model = self.model;
+        let mut out = empty_shadings(views, &records, cfg.levels, model);
         let Some(slf) = build_slf(
             &records,
             images,
@@ -436,7 +451,8 @@ impl PathGrownRefiner {
             inputs.emitters,
             records.iter().flatten().flatten().map(|r| r.hit.p),
             footprint * cfg.material_cell_scale,
-        )?;
+        )?
+        .with_model(model);
         stats.material_voxels = surfaces.voxels();
         let light = GrownLight::new(
             geometry,
@@ -456,10 +472,11 @@ impl PathGrownRefiner {
         // Ld: per cache cell, or per pixel.
         let t = Instant::now();
         let seed = cfg.seed;
-        let ld_at = |key: &[u64], p: Vec3, ng: Vec3, ns: Vec3| {
+        let full = model.diffuse_depends_on_roughness();
+        let moments_at = |key: &[u64], p: Vec3, ng: Vec3, ns: Vec3| {
             let mut st = SampleStream::new(cfg.sampler, key);
             let mut rng = Pcg32::from_keys(&[key, &[0x9A7]].concat());
-            diffuse_shading(
+            diffuse_moments(
                 &light,
                 geometry,
                 p,
@@ -469,6 +486,7 @@ impl PathGrownRefiner {
                 cfg.light_samples,
                 &mut st,
                 &mut rng,
+                full,
             )
         };
         if cfg.diffuse_cache {
@@ -478,30 +496,32 @@ impl PathGrownRefiner {
                 footprint * cfg.cache_cell_scale.max(1e-3),
             );
             stats.cache_entries = cells.entries.len();
-            let ld: Vec<Rgb> = cells
-                .entries
-                .par_iter()
-                .enumerate()
-                .map(|(k, c)| {
-                    if surfaces.emission(c.tri) != Vec3::ZERO {
-                        return Vec3::ZERO;
-                    }
-                    ld_at(&[seed, 0xD1FF, c.tri as u64, k as u64], c.p, c.ng, c.ns)
-                })
-                .collect();
-            DiffuseCells::scatter(&cells.assign, &ld, &mut out);
+            cells.integrate_and_scatter(model, &records, &mut out, |k, c| {
+                if surfaces.emission(c.tri) != Vec3::ZERO {
+                    return DiffuseMoments::default();
+                }
+                moments_at(&[seed, 0xD1FF, c.tri as u64, k as u64], c.p, c.ng, c.ns)
+            });
             tick(stats.pixels);
         } else {
             for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
-                s.ld.par_iter_mut()
-                    .zip(r.par_iter())
-                    .enumerate()
-                    .for_each(|(i, (ld, rec))| {
-                        if let Some(rec) = rec.filter(|r| !is_emitter(r)) {
+                let computed: Vec<(Rgb, [Rgb; 2])> = (0..s.ld.len())
+                    .into_par_iter()
+                    .map(|i| match r[i].filter(|r| !is_emitter(r)) {
+                        None => (Vec3::ZERO, [Vec3::ZERO; 2]),
+                        Some(rec) => {
                             let key = [seed, 0xD1FF, vi as u64, i as u64];
-                            *ld = ld_at(&key, rec.hit.p, rec.ng, rec.ns);
+                            moments_at(&key, rec.hit.p, rec.ng, rec.ns)
+                                .shading(model, rec.wo, rec.ns)
                         }
-                    });
+                    })
+                    .collect();
+                for (i, (l0, lp)) in computed.into_iter().enumerate() {
+                    s.ld[i] = l0;
+                    if let Some(slot) = s.ld_poly.get_mut(i) {
+                        *slot = lp;
+                    }
+                }
                 tick(r.iter().flatten().count());
             }
         }
@@ -539,6 +559,7 @@ impl PathGrownRefiner {
                         cfg.light_samples,
                         &mut st,
                         &mut rng,
+                        model,
                     );
                 });
             tick(r.iter().flatten().count());
@@ -558,7 +579,10 @@ impl PathGrownRefiner {
 
 impl ShadingRefiner for PathGrownRefiner {
     fn name(&self) -> &str {
-        "fipt-path-grown"
+        match self.model {
+            ReflectanceModel::Fipt => "fipt-path-grown",
+            ReflectanceModel::Principled => "fipt-path-grown/principled",
+        }
     }
     fn refine(
         &self,

@@ -1,7 +1,8 @@
 //! A renderable scene: mesh, BVH, surfaces and the emitter sampler.
-use crate::brdf::{BrdfModel, FiptBrdf, Lambert};
+use crate::brdf::{BrdfModel, Lambert, MicrofacetBrdf};
 use fipt_core::color::{luminance, Rgb};
 use fipt_core::materials::{SceneMaterials, SurfacePoint};
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::{BuildQuality, Bvh, Mesh, TriangleSampler};
 use glam::Vec3;
 
@@ -14,9 +15,18 @@ pub trait SurfaceModel: Sync {
     fn emission(&self, tri: u32) -> Rgb;
     /// Index of the material/part of triangle `tri` (for the `IndexMA` map).
     fn part(&self, tri: u32) -> u32;
-    /// The BRDF at a surface point (FIPT's model unless overridden).
+    /// The reflectance model of the surfaces (FIPT's unless overridden).
+    fn model(&self) -> ReflectanceModel {
+        ReflectanceModel::Fipt
+    }
+    /// The BRDF at a surface point (the [`SurfaceModel::model`]'s unless overridden).
     fn brdf(&self, sp: &SurfacePoint) -> BrdfModel {
-        BrdfModel::Fipt(FiptBrdf::new(sp.kd, sp.ks, sp.roughness))
+        BrdfModel::Microfacet(MicrofacetBrdf::with_model(
+            self.model(),
+            sp.kd,
+            sp.ks,
+            sp.roughness,
+        ))
     }
 }
 
@@ -27,6 +37,8 @@ pub struct TableSurfaces {
     pub tri_material: Vec<u32>,
     /// Emitted radiance of each material (0 for reflecting ones).
     material_emission: Vec<Rgb>,
+    /// The reflectance model the table's parameters are meant for.
+    pub model: ReflectanceModel,
 }
 
 impl TableSurfaces {
@@ -45,11 +57,15 @@ impl TableSurfaces {
             materials,
             tri_material,
             material_emission,
+            model: ReflectanceModel::Fipt,
         })
     }
 }
 
 impl SurfaceModel for TableSurfaces {
+    fn model(&self) -> ReflectanceModel {
+        self.model
+    }
     #[inline]
     fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint {
         self.materials.eval(self.tri_material[tri as usize], p)

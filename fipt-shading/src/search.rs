@@ -2,8 +2,9 @@
 //! roughness σ and metallic m, and the (σ, m) it prefers.
 //!
 //! For a fixed (σ, m) the factorised image is linear in the base colour a:
-//! `I ≈ a·b + c` with `b = (1 − m)·Ld + m·Ls0(σ)` and `c = 0.04·(1 − m)·Ls0(σ) + Ls1(σ)`
-//! (kd = a·(1 − m), ks = 0.04·(1 − m) + a·m). So at every candidate (σ, m) the best base colour
+//! `I ≈ a·b + c` with `b = (1 − m)·Ld(σ) + m·Ls0(σ)` and `c = 0.04·(1 − m)·Ls0(σ) + Ls1(σ)`
+//! (kd = a·(1 − m), ks = 0.04·(1 − m) + a·m; Ld(σ) is constant under FIPT's model and a
+//! polynomial in σ under `principled`, see [`fipt_core::reflectance`]). So at every candidate (σ, m) the best base colour
 //! of each surface cell (the pixels of all views whose primary hit falls in one small voxel) is a
 //! weighted least-squares fit in closed form, and what is left is the part of the views that
 //! this (σ, m) cannot explain: how the cell's radiance changes with the viewing direction. The
@@ -24,8 +25,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
-/// Dielectric specular reflectance of the metallic workflow (method §2).
-const F0_DIELECTRIC: f32 = 0.04;
+use fipt_core::reflectance::DIELECTRIC_F0 as F0_DIELECTRIC;
 
 /// Settings of the search (`[search]` in a run config).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -282,7 +282,7 @@ fn linear_terms(sh: &ViewShadings, i: usize, sigma: f32, m: f32) -> (Rgb, Rgb) {
     let s0 = sh.ls0[i][k] * (1.0 - t) + sh.ls0[i][k + 1] * t;
     let s1 = sh.ls1[i][k] * (1.0 - t) + sh.ls1[i][k + 1] * t;
     (
-        sh.ld[i] * (1.0 - m) + s0 * m,
+        sh.diffuse(i, sigma) * (1.0 - m) + s0 * m,
         s0 * (F0_DIELECTRIC * (1.0 - m)) + s1,
     )
 }

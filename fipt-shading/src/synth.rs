@@ -15,6 +15,7 @@ use fipt_core::camera::Camera;
 use fipt_core::dataset::{image_file_name, write_transforms, GtKind};
 use fipt_core::image::{ExrPrecision, Image};
 use fipt_core::materials::{FaceRange, MaterialDesc, Pattern, SceneMaterials, Texture};
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_geom::Mesh;
 use glam::{Vec2, Vec3};
@@ -516,6 +517,8 @@ pub struct SynthOptions {
     pub width: usize,
     pub height: usize,
     pub render: RenderConfig,
+    /// The reflectance model the views are rendered with.
+    pub model: ReflectanceModel,
 }
 
 impl SynthOptions {
@@ -531,6 +534,7 @@ impl SynthOptions {
                     spp: 64,
                     ..Default::default()
                 },
+                model: ReflectanceModel::Fipt,
             },
             _ => SynthOptions {
                 train_views: 48,
@@ -541,6 +545,7 @@ impl SynthOptions {
                     spp: 128,
                     ..Default::default()
                 },
+                model: ReflectanceModel::Fipt,
             },
         }
     }
@@ -730,7 +735,8 @@ pub fn write_dataset(
         opts.height,
         &bvh,
     );
-    let surfaces = TableSurfaces::new(scene.materials, &scene.mesh, &table)?;
+    let mut surfaces = TableSurfaces::new(scene.materials, &scene.mesh, &table)?;
+    surfaces.model = opts.model;
     let rs = Scene::with_bvh(scene.mesh, bvh, surfaces);
     let total = (train.len() + val.len()) * opts.width * opts.height;
     let done = std::sync::atomic::AtomicUsize::new(0);

@@ -3,14 +3,15 @@ use fipt_core::brdf::Brdf;
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::metrics::srgb_psnr;
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, DEFAULT_LEVELS};
 use fipt_geom::{Geometry, Mesh, TriangleSampler};
 use fipt_shading::bake::{
-    diffuse_shading, specular_shading, specular_shading_mixture, BakeConfig, FactorizedBaker,
-    SampleStream, SamplerKind, SlfLight,
+    diffuse_moments, diffuse_shading, specular_shading, specular_shading_mixture, BakeConfig,
+    FactorizedBaker, SampleStream, SamplerKind, SlfLight,
 };
-use fipt_shading::brdf::FiptBrdf;
+use fipt_shading::brdf::MicrofacetBrdf;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::slf::{Cube, SlfBuilder};
 use fipt_shading::synth::{build, icosphere_mesh, write_dataset, SynthOptions};
@@ -18,7 +19,7 @@ use glam::Vec3;
 use std::f32::consts::PI;
 
 /// ∫ eval dωi by midpoint quadrature on a (θ, φ) grid.
-fn quadrature(b: &FiptBrdf, wo: Vec3, nt: usize, np: usize) -> Vec3 {
+fn quadrature(b: &MicrofacetBrdf, wo: Vec3, nt: usize, np: usize) -> Vec3 {
     let mut acc = Vec3::ZERO;
     let (dt, dp) = (0.5 * PI / nt as f32, 2.0 * PI / np as f32);
     for i in 0..nt {
@@ -32,13 +33,22 @@ fn quadrature(b: &FiptBrdf, wo: Vec3, nt: usize, np: usize) -> Vec3 {
     acc
 }
 
-/// Inside a closed sphere whose every SLF voxel holds L: Ld = L, and Ls0 + Ls1 at each level
-/// is L times the GGX directional albedo with F ≡ 1 (Ls1 alone: F = (1−ωo·h)⁵), checked
-/// against brute-force quadrature of the BRDF, for both specular estimators (per level: 4096
-/// stratified samples; mixture: 700 per level shared by all levels); tolerance
-/// 2 % of L (or 0.003 L absolute).
+/// Inside a closed sphere whose every SLF voxel holds L, for both reflectance models: Ld = L
+/// under FIPT's model, and under `principled` Ld0 + σ·Ld1 + σ²·Ld2 is L times Burley's
+/// directional albedo at every σ and view (from one set of view-independent moments); Ls0 + Ls1
+/// at each level is L times the GGX directional albedo with F ≡ 1 (Ls1 alone: F = (1−ωo·h)⁵),
+/// with the model's masking. All checked against brute-force quadrature of the BRDF, for both
+/// specular estimators (per level: 4096 stratified samples; mixture: 700 per level shared by
+/// all levels); tolerance 2 % of L (or 0.003 L absolute).
 #[test]
 fn uniform_incident_light_gives_known_shadings() {
+    for model in ReflectanceModel::ALL {
+        uniform_light_case(model);
+    }
+}
+
+fn uniform_light_case(model: ReflectanceModel) {
+    let brdf = |kd: Vec3, ks: Vec3, s: f32| MicrofacetBrdf::with_model(model, kd, ks, s);
     let mesh = icosphere_mesh(Vec3::ZERO, 1.0, 3);
     let all: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
     let sampler = TriangleSampler::uniform_area(&mesh, &all).unwrap();
@@ -67,6 +77,22 @@ fn uniform_incident_light_gives_known_shadings() {
         (ld - l).abs().max_element() < 1e-3 * l.max_element(),
         "Ld = {ld}, L = {l}"
     );
+    let mut st = SampleStream::new(SamplerKind::Stratified, &[1]);
+    let moments = diffuse_moments(&light, &geo, hit.p, n, n, 4096, 0, &mut st, &mut rng, true);
+    for theta_deg in [0.0f32, 45.0, 80.0] {
+        let th = theta_deg.to_radians();
+        let wo_local = Vec3::new(th.sin(), 0.0, th.cos());
+        let (l0, [l1, l2]) = moments.shading(model, frame.to_world(wo_local), n);
+        for sigma in [0.02f32, 0.5, 1.0] {
+            let got = (l0 + l1 * sigma + l2 * sigma * sigma) / l;
+            let want = quadrature(&brdf(Vec3::ONE, Vec3::ZERO, sigma), wo_local, 600, 300)
+                - quadrature(&brdf(Vec3::ZERO, Vec3::ZERO, sigma), wo_local, 600, 300);
+            assert!(
+                (got - want).abs().max_element() < 0.01 * want.x,
+                "{model} σ={sigma} θo={theta_deg}: Ld(σ) = {got} L, albedo {want}"
+            );
+        }
+    }
     for theta_deg in [0.0f32, 45.0, 75.0, 85.0] {
         let th = theta_deg.to_radians();
         let wo_local = Vec3::new(th.sin(), 0.0, th.cos());
@@ -86,24 +112,19 @@ fn uniform_incident_light_gives_known_shadings() {
             0,
             &mut streams,
             &mut rng,
+            model,
         );
         for (k, &sigma) in DEFAULT_LEVELS.iter().enumerate() {
             let mut st =
                 SampleStream::new(SamplerKind::Stratified, &[2, k as u64, theta_deg as u64]);
-            let (p0, p1) = specular_shading(&light, hit.p, n, n, wo, sigma, 4096, &mut st);
+            let (p0, p1) = specular_shading(&light, hit.p, n, n, wo, sigma, 4096, &mut st, model);
             for (s0, s1, est) in [(p0, p1, "per-level"), (m0[k], m1[k], "mixture")] {
                 // F ≡ 1: ks = 1 gives F = 1·(1−m) + m.
                 let both = if sigma >= 0.2 && theta_deg <= 75.0 {
-                    quadrature(
-                        &FiptBrdf::new(Vec3::ZERO, Vec3::ONE, sigma),
-                        wo_local,
-                        600,
-                        300,
-                    )
-                    .x
+                    quadrature(&brdf(Vec3::ZERO, Vec3::ONE, sigma), wo_local, 600, 300).x
                 } else {
                     // Narrow or grazing lobes: the BRDF's own importance sampler (chi-square tested).
-                    let b = FiptBrdf::new(Vec3::ZERO, Vec3::ONE, sigma);
+                    let b = brdf(Vec3::ZERO, Vec3::ONE, sigma);
                     let mut r = Pcg32::new(9, k as u64);
                     let n = 400_000;
                     // u_lobe ≥ 0.5 picks the GGX lobe.
@@ -117,16 +138,11 @@ fn uniform_incident_light_gives_known_shadings() {
                 let got = (s0 + s1) / l;
                 assert!(
                     (got - Vec3::splat(both)).abs().max_element() < tol,
-                    "{est} σ={sigma} θo={theta_deg}: Ls0+Ls1 = {got} L, albedo {both}"
+                    "{model} {est} σ={sigma} θo={theta_deg}: Ls0+Ls1 = {got} L, albedo {both}"
                 );
                 if sigma >= 0.2 && theta_deg <= 75.0 {
-                    let only1 = quadrature(
-                        &FiptBrdf::new(Vec3::ZERO, Vec3::ZERO, sigma),
-                        wo_local,
-                        600,
-                        300,
-                    )
-                    .x;
+                    let only1 =
+                        quadrature(&brdf(Vec3::ZERO, Vec3::ZERO, sigma), wo_local, 600, 300).x;
                     let got1 = s1 / l;
                     assert!(
                         (got1 - Vec3::splat(only1)).abs().max_element() < (0.03 * only1).max(0.003),
@@ -141,7 +157,7 @@ fn uniform_incident_light_gives_known_shadings() {
 
 /// Importance weight of the specular lobe alone for a sample drawn by GGX half-vector
 /// sampling: f_spec·cos / pdf_spec.
-fn spec_only_weight(b: &FiptBrdf, wo: Vec3, wi: Vec3) -> f32 {
+fn spec_only_weight(b: &MicrofacetBrdf, wo: Vec3, wi: Vec3) -> f32 {
     let h = (wo + wi).normalize();
     let pdf_spec = fipt_shading::brdf::ggx_d(h, b.alpha()) * h.z / (4.0 * wo.dot(h));
     let f = b.eval(wo, wi).x; // kd = 0: specular only
@@ -168,6 +184,7 @@ fn closure_with_ground_truth_materials_reproduces_the_views() {
             spp: 256,
             ..Default::default()
         },
+        model: Default::default(),
     };
     write_dataset(build("cornell").unwrap(), &dir, &opts, &|_, _| {}).unwrap();
     let ds = Dataset::open(&dir).unwrap();

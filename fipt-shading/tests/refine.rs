@@ -203,6 +203,7 @@ fn emitter_samples_leave_the_specular_shadings_unbiased() {
                 n_light,
                 &mut st,
                 &mut rng,
+                fipt_core::reflectance::ReflectanceModel::Fipt,
             )
         };
         let (b0, b1) = est(0, [40_000; 6], 1);
@@ -341,6 +342,7 @@ fn refined_shadings_raise_the_closure_psnr() {
             spp: 256,
             ..Default::default()
         },
+        model: Default::default(),
     };
     let scene = build("cornell").unwrap();
     write_dataset(scene, &dir, &opts, &|_, _| {}).unwrap();

@@ -21,6 +21,7 @@ fn tiny_cornell(dir: &Path) {
             spp: 4,
             ..Default::default()
         },
+        model: Default::default(),
     };
     write_dataset(build("cornell").unwrap(), dir, &opts, &|_, _| {}).unwrap();
 }

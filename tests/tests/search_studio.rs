@@ -50,9 +50,7 @@ fn the_loss_minimum_sits_at_the_true_metals_and_walls_and_shows_the_model_mismat
         .collect();
     // `balanced`'s sample counts: with `fast`'s quarter, the noisier shadings move the walls'
     // minima to σ 0.52–0.68 (measured).
-    let baker = FactorizedBaker {
-        config: BakeConfig::default(),
-    };
+    let baker = FactorizedBaker::new(BakeConfig::default());
     let (shadings, _, _) = baker.bake_detailed(&geometry, &split.views, &images, &|_, _| {});
     let records: Vec<_> = split
         .views

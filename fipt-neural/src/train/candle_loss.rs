@@ -15,16 +15,25 @@ fn reflected_specular(
     ls.broadcast_mul(&w)?.sum(1)
 }
 
-/// kd·Ld + ks·Ls0(σ) + Ls1(σ) in candle ops (`ld` `[n, 3]`, `ls0`/`ls1` `[n, levels, 3]`).
+/// kd·Ld(σ) + ks·Ls0(σ) + Ls1(σ) in candle ops (`ld` `[n, 3]`, `ls0`/`ls1` `[n, levels, 3]`;
+/// `poly` = (Ld1, Ld2) `[n, 3]` each when Ld(σ) = Ld + σ·Ld1 + σ²·Ld2).
 pub(super) fn reflected(
     out: &crate::field::FieldOutput,
     ld: &Tensor,
+    poly: Option<(&Tensor, &Tensor)>,
     ls0: &Tensor,
     ls1: &Tensor,
     levels: [f32; NUM_LEVELS],
 ) -> candle_core::Result<Tensor> {
     let s0 = reflected_specular(out, ls0, levels)?;
     let s1 = reflected_specular(out, ls1, levels)?;
+    let ld = match poly {
+        None => ld.clone(),
+        Some((p1, p2)) => {
+            let s = &out.roughness;
+            (ld + p1.broadcast_mul(s)?)?.add(&p2.broadcast_mul(&s.sqr()?)?)?
+        }
+    };
     ((out.kd()? * ld)? + (out.ks()? * s0)?)?.add(&s1)
 }
 
@@ -73,7 +82,23 @@ pub fn candle_ops_loss(
             (b, 3),
             dev,
         )?;
-        let render = reflected(out, &ld, &ls0, &ls1, levels)?;
+        let poly = if batch.ld_poly.is_empty() {
+            None
+        } else {
+            let part = |k: usize| {
+                let v: Vec<f32> = batch.ld_poly.iter().flat_map(|p| p[k]).collect();
+                Tensor::from_vec(v, (b, 3), dev)
+            };
+            Some((part(0)?, part(1)?))
+        };
+        let render = reflected(
+            out,
+            &ld,
+            poly.as_ref().map(|(a, b)| (a, b)),
+            &ls0,
+            &ls1,
+            levels,
+        )?;
         let keep = out.alpha.affine(-1.0, 1.0)?;
         let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha)?)?;
         let diff = (pred.apply_op1(SrgbOetf)? - gt_oetf)?;

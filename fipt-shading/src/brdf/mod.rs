@@ -2,11 +2,13 @@
 //!
 //! Every model implements [`fipt_core::brdf::Brdf`]: `eval` returns f·cos θi in the local
 //! frame (normal = +z), `sample` returns `weight = eval / pdf`.
-mod fipt;
+pub mod ladder;
 mod lambert;
+mod microfacet;
 
-pub use fipt::{ggx_d, schlick_fresnel, smith_g1, FiptBrdf};
+pub use fipt_core::reflectance::{ggx_d, schlick_weight};
 pub use lambert::Lambert;
+pub use microfacet::MicrofacetBrdf;
 
 use fipt_core::brdf::{Brdf, BrdfSample};
 use fipt_core::color::Rgb;
@@ -41,7 +43,7 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
 /// The reflectance models a renderer dispatches over per ray (closed set, no virtual call).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum BrdfModel {
-    Fipt(FiptBrdf),
+    Microfacet(MicrofacetBrdf),
     Lambert(Lambert),
 }
 
@@ -49,7 +51,7 @@ impl BrdfModel {
     /// True when the model reflects nothing (emitters).
     pub fn is_black(&self) -> bool {
         match self {
-            BrdfModel::Fipt(b) => b.is_black(),
+            BrdfModel::Microfacet(b) => b.is_black(),
             BrdfModel::Lambert(l) => l.albedo == Vec3::ZERO,
         }
     }
@@ -59,21 +61,21 @@ impl Brdf for BrdfModel {
     #[inline]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self {
-            BrdfModel::Fipt(b) => b.eval(wo, wi),
+            BrdfModel::Microfacet(b) => b.eval(wo, wi),
             BrdfModel::Lambert(b) => b.eval(wo, wi),
         }
     }
     #[inline]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
-            BrdfModel::Fipt(b) => b.pdf(wo, wi),
+            BrdfModel::Microfacet(b) => b.pdf(wo, wi),
             BrdfModel::Lambert(b) => b.pdf(wo, wi),
         }
     }
     #[inline]
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
         match self {
-            BrdfModel::Fipt(b) => b.sample(wo, u_lobe, u),
+            BrdfModel::Microfacet(b) => b.sample(wo, u_lobe, u),
             BrdfModel::Lambert(b) => b.sample(wo, u_lobe, u),
         }
     }

@@ -1,12 +1,14 @@
-//! FIPT's metallic-workflow BRDF (method §2).
+//! The metallic-workflow microfacet BRDF of a [`ReflectanceModel`] (FIPT's or `principled`).
 //!
-//! f(ωo, ωi) = kd/π + D·G·F / (4 (n·ωi)(n·ωo)) with
+//! f(ωo, ωi) = kd/π·B(σ) + D·G·F / (4 (n·ωi)(n·ωo)) with
+//! * B: the model's diffuse factor (1 for FIPT, Burley with retro-reflection for `principled`);
 //! * D: GGX (Trowbridge–Reitz), α = σ²: D(h) = α² / (π ((n·h)²(α²−1)+1)²);
-//! * G: separable Smith with the Schlick-GGX G1(c) = c / (c(1−k)+k), k = (σ+1)²/8;
+//! * G: separable Smith with the model's G1 (Schlick-GGX k = (σ+1)²/8, or exact GGX);
 //! * F: Schlick on ωo·h, F = ks + (1−ks)(1−ωo·h)⁵.
 //!
-//! The diffuse lobe has no (1−F) factor, so kd + specular albedo can exceed 1 for bright
-//! dielectrics (as in the reference). Sampling: 50 % cosine, 50 % GGX half-vector
+//! Every formula comes from [`fipt_core::reflectance`]. The diffuse lobe has no (1−F) factor,
+//! so kd + specular albedo can exceed 1 for bright dielectrics (as in the reference and in
+//! Mitsuba's `principled`). Sampling: 50 % cosine, 50 % GGX half-vector
 //! (cos²θh = (1−u)/(u(α²−1)+1), evaluated as tan²θh = α²u/(1−u)), pdf = ½·cosθi/π + ½·D·(n·h)/(4 ωo·h).
 //!
 //! | parameter | meaning | range |
@@ -16,62 +18,35 @@
 //! | `roughness` | σ (GGX α = σ²) | [0.02, 1] (clamped) |
 use fipt_core::brdf::{Brdf, BrdfSample};
 use fipt_core::color::Rgb;
-use fipt_core::materials::MIN_ROUGHNESS;
+use fipt_core::reflectance::{clamp_roughness, ggx_d, schlick_weight, ReflectanceModel};
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, PI, TAU};
+use std::f32::consts::{FRAC_1_PI, TAU};
 
-/// GGX normal distribution for α = σ² at the local half vector `h` (unit, normal = +z).
-///
-/// Written as α² / (π (α² cos²θh + sin²θh)²) with sin²θh = hx² + hy², which stays accurate
-/// for α² near f32's epsilon (σ = 0.02 gives α² = 1.6e-7), where the textbook form
-/// cos²θh(α²−1)+1 cancels catastrophically.
-#[inline]
-pub fn ggx_d(h: Vec3, alpha: f32) -> f32 {
-    if h.z <= 0.0 {
-        return 0.0;
-    }
-    let a2 = alpha * alpha;
-    let s2 = h.x * h.x + h.y * h.y;
-    let d = a2 * h.z * h.z + s2;
-    if d <= 0.0 {
-        return 0.0;
-    }
-    a2 / (PI * d * d)
-}
-
-/// Schlick-GGX masking for one direction with k = (σ+1)²/8.
-#[inline]
-pub fn smith_g1(cos: f32, roughness: f32) -> f32 {
-    let k = (roughness + 1.0) * (roughness + 1.0) / 8.0;
-    cos / (cos * (1.0 - k) + k)
-}
-
-/// Schlick's Fresnel weight (1 − c)⁵.
-#[inline]
-pub fn schlick_fresnel(c: f32) -> f32 {
-    let m = (1.0 - c).clamp(0.0, 1.0);
-    let m2 = m * m;
-    m2 * m2 * m
-}
-
-/// The FIPT BRDF at one surface point.
+/// The BRDF of a [`ReflectanceModel`] at one surface point.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FiptBrdf {
+pub struct MicrofacetBrdf {
+    pub model: ReflectanceModel,
     pub kd: Rgb,
     pub ks: Rgb,
-    /// σ, clamped to [0.02, 1] by [`FiptBrdf::new`].
+    /// σ, clamped to [0.02, 1] by the constructors.
     pub roughness: f32,
 }
 
-impl FiptBrdf {
+impl MicrofacetBrdf {
+    /// FIPT's model.
     pub fn new(kd: Rgb, ks: Rgb, roughness: f32) -> Self {
-        FiptBrdf {
-            kd,
-            ks,
-            roughness: roughness.clamp(MIN_ROUGHNESS, 1.0),
-        }
+        Self::with_model(ReflectanceModel::Fipt, kd, ks, roughness)
     }
 
+    /// The BRDF of `model`.
+    pub fn with_model(model: ReflectanceModel, kd: Rgb, ks: Rgb, roughness: f32) -> Self {
+        MicrofacetBrdf {
+            model,
+            kd,
+            ks,
+            roughness: clamp_roughness(roughness),
+        }
+    }
     /// GGX α = σ².
     #[inline]
     pub fn alpha(&self) -> f32 {
@@ -93,19 +68,22 @@ impl FiptBrdf {
         let h = (wo + wi).normalize();
         let voh = wo.dot(h).max(0.0);
         let d = ggx_d(h, self.alpha());
-        let g = smith_g1(wi.z, self.roughness) * smith_g1(wo.z, self.roughness);
-        Some((d * g / (4.0 * wo.z), schlick_fresnel(voh)))
+        let g = self.model.g1(wi.z, self.roughness) * self.model.g1(wo.z, self.roughness);
+        Some((d * g / (4.0 * wo.z), schlick_weight(voh)))
     }
 }
 
-impl Brdf for FiptBrdf {
+impl Brdf for MicrofacetBrdf {
     #[inline]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self.spec_terms(wo, wi) {
             None => Vec3::ZERO,
             Some((dg, m)) => {
                 let f = self.ks * (1.0 - m) + Vec3::splat(m);
-                self.kd * (FRAC_1_PI * wi.z) + f * dg
+                let [b0, b1, b2] = self.model.diffuse_basis(wo.z, wi.z, wo.dot(wi));
+                let s = self.roughness;
+                let b = b0 + s * (b1 + s * b2);
+                self.kd * (FRAC_1_PI * wi.z * b) + f * dg
             }
         }
     }

@@ -1,0 +1,253 @@
+//! The reflectance models: every formula a model decides, in one place.
+//!
+//! Both models share the metallic workflow (base colour a, roughness σ, metallic m):
+//! kd = a·(1 − m), ks = F0 = [`DIELECTRIC_F0`]·(1 − m) + a·m, GGX with α = σ² and Schlick's
+//! Fresnel F = ks + (1 − ks)(1 − ωo·h)⁵. They differ in the diffuse lobe and the masking:
+//!
+//! | model | diffuse f_d / (kd/π) | Smith masking G1 |
+//! |---|---|---|
+//! | [`ReflectanceModel::Fipt`] (FIPT, method §2) | 1 (Lambert) | Schlick-GGX, k = (σ+1)²/8 |
+//! | [`ReflectanceModel::Principled`] (Mitsuba 3 `principled`, Disney 2015, glTF base) | Burley with retro-reflection (below) | exact GGX, 2 / (1 + √(1 + α² tan²θ)) |
+//!
+//! Burley's factor, with F_x = (1 − cos θx)⁵ and R = 2σ (h·ωo)² = σ (1 + ωi·ωo), is
+//! (1 − F_o/2)(1 − F_i/2) + R (F_o + F_i + F_o F_i (R − 1)): a polynomial of degree 2 in σ,
+//! B = b0 + σ b1 + σ² b2 ([`ReflectanceModel::diffuse_basis`]). The factorised image stays
+//! linear in kd and ks for a fixed σ:
+//!
+//! L = kd·(Ld0 + σ·Ld1 + σ²·Ld2) + ks·Ls0(σ) + Ls1(σ)
+//!
+//! with Ld_k = ∫ Li·b_k·cos θi/π dω (Ld1 = Ld2 = 0 under FIPT) and
+//! Ls0/Ls1 = ∫ Li·D·G·{1 − F_c, F_c}/(4 cos θo) dω, F_c = (1 − ωo·h)⁵ ([`image`]).
+//!
+//! Dielectrics of `principled` use Schlick from F0 = 0.08·specular with specular = 0.5 (the
+//! default of Blender and Mitsuba), i.e. 0.04 as in FIPT. (Mitsuba evaluates the exact
+//! dielectric Fresnel of η = 1.5 instead, which Schlick approximates within 0.02 below 75°.)
+//! The masking is Smith's separable form as in Mitsuba (glTF's viewers use the
+//! height-correlated one; the two differ by < 2 % below σ = 0.5).
+use crate::color::Rgb;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::f32::consts::PI;
+
+/// F0 of a dielectric: 0.08·specular with specular = 0.5.
+pub const DIELECTRIC_F0: f32 = 0.04;
+
+/// Lowest roughness the parametrisation reaches (σ = 0.02 + 0.98·s).
+pub const MIN_ROUGHNESS: f32 = 0.02;
+
+/// The reflectance model of a run (`[model] brdf`): a closed set, dispatched per ray by a match.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReflectanceModel {
+    /// FIPT's model: Lambert + GGX with Schlick-GGX masking.
+    #[default]
+    Fipt,
+    /// The principled / glTF metallic-roughness model: Burley + GGX with Smith masking.
+    Principled,
+}
+
+impl ReflectanceModel {
+    /// Every model, for help texts and reports.
+    pub const ALL: [ReflectanceModel; 2] = [ReflectanceModel::Fipt, ReflectanceModel::Principled];
+
+    /// The config name (`fipt`, `principled`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ReflectanceModel::Fipt => "fipt",
+            ReflectanceModel::Principled => "principled",
+        }
+    }
+
+    /// Whether the diffuse lobe depends on σ (then shadings carry Ld1 and Ld2).
+    #[inline]
+    pub fn diffuse_depends_on_roughness(self) -> bool {
+        matches!(self, ReflectanceModel::Principled)
+    }
+
+    /// Smith masking G1 for one direction at cosine `cos` (> 0) and roughness σ.
+    #[inline]
+    pub fn g1(self, cos: f32, sigma: f32) -> f32 {
+        match self {
+            ReflectanceModel::Fipt => {
+                let k = (sigma + 1.0) * (sigma + 1.0) / 8.0;
+                cos / (cos * (1.0 - k) + k)
+            }
+            ReflectanceModel::Principled => {
+                let a2 = sigma * sigma * sigma * sigma;
+                let c2 = cos * cos;
+                if c2 >= 1.0 {
+                    return 1.0;
+                }
+                // α² tan²θ = α² (1 − c²)/c²; written so that c → 0 gives 0, not NaN.
+                let t = a2 * (1.0 - c2);
+                2.0 * cos / (cos + (c2 + t).sqrt())
+            }
+        }
+    }
+
+    /// The coefficients (b0, b1, b2) of the diffuse factor B = b0 + σ·b1 + σ²·b2, where
+    /// f_d = kd/π·B; `cos_o`, `cos_i` are the cosines to the normal, `io` = ωi·ωo.
+    #[inline]
+    pub fn diffuse_basis(self, cos_o: f32, cos_i: f32, io: f32) -> [f32; 3] {
+        match self {
+            ReflectanceModel::Fipt => [1.0, 0.0, 0.0],
+            ReflectanceModel::Principled => {
+                let (fo, fi) = (schlick_weight(cos_o), schlick_weight(cos_i));
+                let r = 1.0 + io; // R / σ = 2 (h·ωo)²
+                [
+                    (1.0 - 0.5 * fo) * (1.0 - 0.5 * fi),
+                    r * (fo + fi - fo * fi),
+                    r * r * fo * fi,
+                ]
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for ReflectanceModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for ReflectanceModel {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        ReflectanceModel::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| format!("unknown reflectance model `{s}` (use fipt or principled)"))
+    }
+}
+
+/// The metallic workflow: (kd, ks) of base colour `a` and metallic `m`.
+#[inline]
+pub fn metallic_workflow(a: Rgb, m: f32) -> (Rgb, Rgb) {
+    (
+        a * (1.0 - m),
+        Vec3::splat(DIELECTRIC_F0 * (1.0 - m)) + a * m,
+    )
+}
+
+/// σ clamped to the model's range [0.02, 1].
+#[inline]
+pub fn clamp_roughness(sigma: f32) -> f32 {
+    sigma.clamp(MIN_ROUGHNESS, 1.0)
+}
+
+/// GGX normal distribution for α at the local half vector `h` (unit, normal = +z).
+///
+/// Written as α² / (π (α² cos²θh + sin²θh)²) with sin²θh = hx² + hy², which stays accurate
+/// for α² near f32's epsilon (σ = 0.02 gives α² = 1.6e-7), where the textbook form
+/// cos²θh(α²−1)+1 cancels catastrophically.
+#[inline]
+pub fn ggx_d(h: Vec3, alpha: f32) -> f32 {
+    if h.z <= 0.0 {
+        return 0.0;
+    }
+    let a2 = alpha * alpha;
+    let s2 = h.x * h.x + h.y * h.y;
+    let d = a2 * h.z * h.z + s2;
+    if d <= 0.0 {
+        return 0.0;
+    }
+    a2 / (PI * d * d)
+}
+
+/// Schlick's Fresnel weight (1 − c)⁵.
+#[inline]
+pub fn schlick_weight(c: f32) -> f32 {
+    let m = (1.0 - c).clamp(0.0, 1.0);
+    let m2 = m * m;
+    m2 * m2 * m
+}
+
+/// The diffuse shading at σ and its derivative in σ: Ld0 + σ·Ld1 + σ²·Ld2 (`poly` = [Ld1, Ld2],
+/// `None` when the model's diffuse lobe does not depend on σ).
+#[inline]
+pub fn diffuse_at(ld: Rgb, poly: Option<&[Rgb; 2]>, sigma: f32) -> (Rgb, Rgb) {
+    match poly {
+        None => (ld, Vec3::ZERO),
+        Some([l1, l2]) => (
+            ld + *l1 * sigma + *l2 * (sigma * sigma),
+            *l1 + *l2 * (2.0 * sigma),
+        ),
+    }
+}
+
+/// The factorised image kd·Ld(σ) + ks·Ls0(σ) + Ls1(σ) from shadings already taken at σ.
+#[inline]
+pub fn image(kd: Rgb, ks: Rgb, ld: Rgb, ls0: Rgb, ls1: Rgb) -> Rgb {
+    kd * ld + ks * ls0 + ls1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Burley's factor written out as in the Disney notes, against the basis.
+    #[test]
+    fn diffuse_basis_is_burley_with_retro_reflection() {
+        let dirs = [
+            (Vec3::new(0.3, 0.1, 0.95), Vec3::new(-0.5, 0.2, 0.84)),
+            (Vec3::new(0.9, 0.0, 0.1), Vec3::new(0.8, 0.3, 0.2)),
+            (Vec3::Z, Vec3::new(0.99, 0.0, 0.01)),
+        ];
+        for (o, i) in dirs {
+            let (o, i) = (o.normalize(), i.normalize());
+            let h = (o + i).normalize();
+            for sigma in [0.02f32, 0.3, 1.0] {
+                let (fo, fi) = (schlick_weight(o.z), schlick_weight(i.z));
+                let rr = 2.0 * sigma * h.dot(o).powi(2);
+                let want =
+                    (1.0 - 0.5 * fo) * (1.0 - 0.5 * fi) + rr * (fo + fi + fo * fi * (rr - 1.0));
+                let b = ReflectanceModel::Principled.diffuse_basis(o.z, i.z, o.dot(i));
+                let got = b[0] + sigma * b[1] + sigma * sigma * b[2];
+                assert!((got - want).abs() < 1e-5, "{got} vs {want}");
+            }
+            assert_eq!(
+                ReflectanceModel::Fipt.diffuse_basis(o.z, i.z, o.dot(i)),
+                [1.0, 0.0, 0.0]
+            );
+        }
+    }
+
+    /// Exact Smith G1 of GGX: 1 at normal incidence, 0 at grazing, and the closed form
+    /// 2/(1 + √(1 + α² tan²θ)) in between; Schlick-GGX is its usual approximation.
+    #[test]
+    fn masking_limits_and_closed_form() {
+        let p = ReflectanceModel::Principled;
+        for sigma in [0.02f32, 0.5, 1.0] {
+            assert_eq!(p.g1(1.0, sigma), 1.0);
+            assert!(p.g1(0.0, sigma).abs() < 1e-6);
+            let c = 0.4f32;
+            let a = sigma * sigma;
+            let tan2 = (1.0 - c * c) / (c * c);
+            let want = 2.0 / (1.0 + (1.0 + a * a * tan2).sqrt());
+            assert!((p.g1(c, sigma) - want).abs() < 1e-6);
+        }
+        // FIPT's Schlick-GGX (k = (σ+1)²/8, the remapping for analytic lights) is exact at σ = 1
+        // and too dark for smooth surfaces (0.84 instead of 1.0 at σ = 0.02, cos 0.4).
+        let f = ReflectanceModel::Fipt;
+        assert!((f.g1(0.4, 1.0) - p.g1(0.4, 1.0)).abs() < 1e-4);
+        assert!(p.g1(0.4, 0.02) - f.g1(0.4, 0.02) > 0.15);
+    }
+
+    #[test]
+    fn names_round_trip_and_workflow_limits() {
+        for m in ReflectanceModel::ALL {
+            assert_eq!(m.name().parse::<ReflectanceModel>().unwrap(), m);
+            let j = serde_json::to_string(&m).unwrap();
+            assert_eq!(j, format!("\"{}\"", m.name()));
+        }
+        assert!("pbr"
+            .parse::<ReflectanceModel>()
+            .unwrap_err()
+            .contains("principled"));
+        let a = Vec3::new(0.9, 0.5, 0.1);
+        assert_eq!(metallic_workflow(a, 0.0), (a, Vec3::splat(0.04)));
+        assert_eq!(metallic_workflow(a, 1.0), (Vec3::ZERO, a));
+        let (d, d1) = diffuse_at(Vec3::ONE, Some(&[Vec3::splat(2.0), Vec3::splat(3.0)]), 0.5);
+        assert_eq!((d, d1), (Vec3::splat(2.75), Vec3::splat(5.0)));
+    }
+}

@@ -1,0 +1,326 @@
+//! The diffuse shading Ld and its cache, for every [`ReflectanceModel`].
+//!
+//! Under FIPT's Lambert lobe Ld = (1/π)∫ Li cos θi dω does not depend on the view. Under
+//! `principled` the diffuse factor is b0 + σ·b1 + σ²·b2 (see [`fipt_core::reflectance`]) and
+//! each b_k depends on ωo, but only through F_o = (1 − cos θo)⁵ and ωi·ωo:
+//!
+//! * b0 = (1 − F_o/2)·(1 − F_i/2),
+//! * b1 = (1 + ωi·ωo)·(F_o + F_i·(1 − F_o)),
+//! * b2 = (1 + ωi·ωo)²·F_o·F_i.
+//!
+//! So a few view-independent moments of the incident light ([`DiffuseMoments`]: Σ L, Σ L·ωi,
+//! Σ L·F_i, Σ L·F_i·ωi, Σ L·F_i·ωi ωiᵀ, Σ L·(1 − F_i/2)) give Ld0, Ld1 and Ld2 exactly for any
+//! ωo ([`DiffuseMoments::shading`]), and the diffuse cache (one integral per surface cell, shared
+//! by every pixel of every view that sees it) serves both models.
+use crate::bake::{PixelRecord, SampleStream};
+use crate::brdf::sample_cosine_hemisphere;
+use crate::incident::{power_heuristic, IncidentLight, Incoming};
+use fipt_core::brdf::Frame;
+use fipt_core::color::Rgb;
+use fipt_core::reflectance::{schlick_weight, ReflectanceModel};
+use fipt_core::rng::Pcg32;
+use fipt_core::shading::{RayQuery, ViewShadings};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::f32::consts::FRAC_1_PI;
+
+/// View-independent integrals of the incident light at a point (each an estimate of
+/// (1/π)∫ Li·g(ωi)·cos θi dω for the g named), from which the diffuse shadings of any view follow.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DiffuseMoments {
+    /// g = 1: Lambert's Ld.
+    pub m0: Rgb,
+    /// g = ωi (world), per axis.
+    pub m1: [Rgb; 3],
+    /// g = 1 − F_i/2.
+    pub a: Rgb,
+    /// g = F_i.
+    pub n0: Rgb,
+    /// g = F_i·ωi.
+    pub n1: [Rgb; 3],
+    /// g = F_i·ωi ωiᵀ (xx, xy, xz, yy, yz, zz).
+    pub q: [Rgb; 6],
+}
+
+impl DiffuseMoments {
+    /// Adds one sample of weight `l` (radiance × estimator weight) from world direction `wi`
+    /// with cosine `cos` to the normal; only m0 unless `full`.
+    #[inline]
+    fn add(&mut self, wi: Vec3, cos: f32, l: Rgb, full: bool) {
+        self.m0 += l;
+        if !full {
+            return;
+        }
+        let fi = schlick_weight(cos);
+        let lf = l * fi;
+        self.a += l * (1.0 - 0.5 * fi);
+        self.n0 += lf;
+        for k in 0..3 {
+            self.m1[k] += l * wi[k];
+            self.n1[k] += lf * wi[k];
+        }
+        let (x, y, z) = (wi.x, wi.y, wi.z);
+        for (q, w) in self
+            .q
+            .iter_mut()
+            .zip([x * x, x * y, x * z, y * y, y * z, z * z])
+        {
+            *q += lf * w;
+        }
+    }
+
+    fn scale(&mut self, s: f32) {
+        self.m0 *= s;
+        self.a *= s;
+        self.n0 *= s;
+        self.m1.iter_mut().chain(&mut self.n1).for_each(|v| *v *= s);
+        self.q.iter_mut().for_each(|v| *v *= s);
+    }
+
+    fn accumulate(&mut self, o: &DiffuseMoments) {
+        self.m0 += o.m0;
+        self.a += o.a;
+        self.n0 += o.n0;
+        for k in 0..3 {
+            self.m1[k] += o.m1[k];
+            self.n1[k] += o.n1[k];
+        }
+        for k in 0..6 {
+            self.q[k] += o.q[k];
+        }
+    }
+
+    /// (Ld0, [Ld1, Ld2]) for the view direction `wo` (world, unit) at a surface of shading
+    /// normal `ns`, under `model`.
+    #[inline]
+    pub fn shading(&self, model: ReflectanceModel, wo: Vec3, ns: Vec3) -> (Rgb, [Rgb; 2]) {
+        if !model.diffuse_depends_on_roughness() {
+            return (self.m0, [Vec3::ZERO; 2]);
+        }
+        let fo = schlick_weight(wo.dot(ns).max(0.0));
+        let dot = |v: &[Rgb; 3]| v[0] * wo.x + v[1] * wo.y + v[2] * wo.z;
+        let (x, y, z) = (wo.x, wo.y, wo.z);
+        let q = &self.q;
+        let quad = q[0] * (x * x)
+            + q[3] * (y * y)
+            + q[5] * (z * z)
+            + (q[1] * (x * y) + q[2] * (x * z) + q[4] * (y * z)) * 2.0;
+        let n1o = dot(&self.n1);
+        (
+            self.a * (1.0 - 0.5 * fo),
+            [
+                (self.m0 + dot(&self.m1)) * fo + (self.n0 + n1o) * (1.0 - fo),
+                (self.n0 + n1o * 2.0 + quad) * fo,
+            ],
+        )
+    }
+}
+
+/// Ld at a surface point: (1/π)∫ Li cos dω by `n` cosine samples (weight = Li) and, when the
+/// light has emitters, `n_light` emitter samples, combined by the power heuristic. `rng` drives
+/// the emitter samples and any path continuation.
+#[allow(clippy::too_many_arguments)]
+pub fn diffuse_shading<L: IncidentLight>(
+    light: &L,
+    geometry: &dyn RayQuery,
+    p: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    n: u32,
+    n_light: u32,
+    stream: &mut SampleStream,
+    rng: &mut Pcg32,
+) -> Rgb {
+    diffuse_moments(light, geometry, p, ng, ns, n, n_light, stream, rng, false).m0
+}
+
+/// The [`DiffuseMoments`] at a surface point, by the estimator of [`diffuse_shading`] (the same
+/// samples); all of them when `full`, else m0 alone.
+#[allow(clippy::too_many_arguments)]
+pub fn diffuse_moments<L: IncidentLight>(
+    light: &L,
+    geometry: &dyn RayQuery,
+    p: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    n: u32,
+    n_light: u32,
+    stream: &mut SampleStream,
+    rng: &mut Pcg32,
+    full: bool,
+) -> DiffuseMoments {
+    let n_light = if light.has_emitters() { n_light } else { 0 };
+    let mut sum = DiffuseMoments::default();
+    if n == 0 && n_light == 0 {
+        return sum;
+    }
+    let frame = Frame::from_normal(ns);
+    let origin = geometry.offset(p, ng);
+    // MIS weights compare the two techniques' per-sample densities (power heuristic), not
+    // n·pdf: the cosine technique's many samples reach a small lamp in a random number of
+    // hits, which the lamp's own samples do not suffer from.
+    if n > 0 {
+        let mut s = DiffuseMoments::default();
+        for _ in 0..n {
+            let wl = sample_cosine_hemisphere(stream.next());
+            let wi = frame.to_world(wl);
+            if wi.dot(ng) <= 0.0 {
+                continue;
+            }
+            let l = match light.incoming(origin, wi, rng) {
+                Incoming::Miss => continue,
+                Incoming::Radiance(l) => l,
+                Incoming::Emitter { le, light_pdf } if n_light > 0 => {
+                    let p_cos = wi.dot(ns).max(0.0) * FRAC_1_PI;
+                    le * power_heuristic(p_cos, light_pdf)
+                }
+                Incoming::Emitter { le, .. } => le,
+            };
+            s.add(wi, wl.z, l, full);
+        }
+        s.scale(1.0 / n as f32);
+        sum.accumulate(&s);
+    }
+    if n_light > 0 {
+        let mut s = DiffuseMoments::default();
+        for _ in 0..n_light {
+            let Some(ls) = light.sample_emitter(origin, rng) else {
+                continue;
+            };
+            let cos = ls.wi.dot(ns);
+            if cos <= 0.0 || ls.wi.dot(ng) <= 0.0 {
+                continue;
+            }
+            let p_cos = cos * FRAC_1_PI;
+            // f·cos/p = Le·(cos/π)/pdf.
+            let l = ls.le * (p_cos / ls.pdf * power_heuristic(ls.pdf, p_cos));
+            s.add(ls.wi, cos, l, full);
+        }
+        s.scale(1.0 / n_light as f32);
+        sum.accumulate(&s);
+    }
+    sum
+}
+
+/// One surface cell of the diffuse cache: the mean point and shading normal of the pixels
+/// that fall in it.
+#[derive(Clone, Copy, Debug)]
+pub struct DiffuseCell {
+    pub tri: u32,
+    pub p: Vec3,
+    /// Facing geometric normal.
+    pub ng: Vec3,
+    /// Mean facing shading normal.
+    pub ns: Vec3,
+    pub pixels: u32,
+}
+
+/// The diffuse cache's cells (triangle × side × a cubic cell of edge `cell`) and which cell
+/// each pixel of each view falls in. The moments of the incident light do not depend on the
+/// view, so they are integrated once per cell and shared by every pixel of every view that sees
+/// the cell.
+pub struct DiffuseCells {
+    pub entries: Vec<DiffuseCell>,
+    /// Per view, per pixel: the cell index (`u32::MAX` where the pixel misses the mesh).
+    pub assign: Vec<Vec<u32>>,
+}
+
+#[derive(Hash, PartialEq, Eq, Clone, Copy)]
+struct CellKey {
+    tri: u32,
+    side: bool,
+    cell: [i32; 3],
+}
+
+impl DiffuseCells {
+    /// Groups the pixels of `records` into cells of edge `cell` on a lattice anchored at
+    /// `origin`. Sequential assignment keeps the entry order (and so results) deterministic.
+    pub fn build(records: &[Vec<Option<PixelRecord>>], origin: Vec3, cell: f32) -> Self {
+        let inv = 1.0 / cell;
+        let mut index: HashMap<CellKey, u32> = HashMap::new();
+        let mut entries: Vec<DiffuseCell> = Vec::new(); // sums until the end
+        let mut assign: Vec<Vec<u32>> = Vec::with_capacity(records.len());
+        for r in records {
+            let mut a = Vec::with_capacity(r.len());
+            for rec in r {
+                let Some(rec) = rec else {
+                    a.push(u32::MAX);
+                    continue;
+                };
+                let q = ((rec.hit.p - origin) * inv).floor();
+                let key = CellKey {
+                    tri: rec.hit.tri,
+                    side: rec.ng.dot(rec.hit.ng) > 0.0,
+                    cell: [q.x as i32, q.y as i32, q.z as i32],
+                };
+                let id = *index.entry(key).or_insert_with(|| {
+                    entries.push(DiffuseCell {
+                        tri: rec.hit.tri,
+                        p: Vec3::ZERO,
+                        ng: rec.ng,
+                        ns: Vec3::ZERO,
+                        pixels: 0,
+                    });
+                    entries.len() as u32 - 1
+                });
+                let e = &mut entries[id as usize];
+                e.p += rec.hit.p;
+                e.ns += rec.ns;
+                e.pixels += 1;
+                a.push(id);
+            }
+            assign.push(a);
+        }
+        for e in &mut entries {
+            e.p /= e.pixels as f32;
+            e.ns = e.ns.normalize_or(e.ng);
+        }
+        DiffuseCells { entries, assign }
+    }
+
+    /// Integrates every cell with `moments(cell index, cell)` and writes the diffuse shadings
+    /// of `model` into the pixels of `out` (each pixel with its own ωo).
+    pub fn integrate_and_scatter(
+        &self,
+        model: ReflectanceModel,
+        records: &[Vec<Option<PixelRecord>>],
+        out: &mut [ViewShadings],
+        moments: impl Fn(usize, &DiffuseCell) -> DiffuseMoments + Sync,
+    ) {
+        if !model.diffuse_depends_on_roughness() {
+            // Lambert: one colour per cell (keeps the cache 15× smaller).
+            let ld: Vec<Rgb> = self
+                .entries
+                .par_iter()
+                .enumerate()
+                .map(|(k, c)| moments(k, c).m0)
+                .collect();
+            for (s, a) in out.iter_mut().zip(&self.assign) {
+                for (i, &id) in a.iter().enumerate() {
+                    if id != u32::MAX {
+                        s.ld[i] = ld[id as usize];
+                    }
+                }
+            }
+            return;
+        }
+        let m: Vec<DiffuseMoments> = self
+            .entries
+            .par_iter()
+            .enumerate()
+            .map(|(k, c)| moments(k, c))
+            .collect();
+        for ((s, a), r) in out.iter_mut().zip(&self.assign).zip(records) {
+            let ViewShadings { ld, ld_poly, .. } = s;
+            ld.par_iter_mut()
+                .zip(ld_poly.par_iter_mut())
+                .zip(a.par_iter().zip(r.par_iter()))
+                .for_each(|((l0, lp), (&id, rec))| {
+                    if let (Some(rec), true) = (rec, id != u32::MAX) {
+                        (*l0, *lp) = m[id as usize].shading(model, rec.wo, rec.ns);
+                    }
+                });
+        }
+    }
+}
