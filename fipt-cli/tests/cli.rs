@@ -564,8 +564,8 @@ fn principled_model_runs_end_to_end() {
     std::fs::write(
         &cfg,
         "[model]\nbrdf = \"principled\"\n\
-         [bake]\ndiffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
-         [refine]\ndiffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\nlight_samples = 8\n\
+         [bake]\ndiffuse_samples = 128\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
+         [refine]\ndiffuse_samples = 128\nspecular_samples = [8, 8, 8, 8, 8, 8]\nlight_samples = 8\n\
          [train]\nsteps = 1500\nbatch = 2048\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
          [train.field.grid]\nlevels = 8\n",
     )
@@ -611,7 +611,7 @@ fn principled_model_runs_end_to_end() {
     let bc = dir.join("bake.toml");
     std::fs::write(
         &bc,
-        "diffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\n",
+        "diffuse_samples = 128\nspecular_samples = [8, 8, 8, 8, 8, 8]\n",
     )
     .unwrap();
     let b = bc.to_str().unwrap();

@@ -13,8 +13,9 @@
 //!   (blocks of rows in parallel, matrix products by `gemm`);
 //! * [`plain`]: the same encoding from plain candle ops, the baseline of the benchmark.
 //!
-//! CPU by default; the `cuda` feature enables candle's CUDA backend for the MLPs (the hash
-//! grid's kernels are CPU-only).
+//! CPU only: the hash grid, the MLPs and the loss are fused CPU ops with hand-written
+//! backward passes; there is no GPU backend (no kernel here has a CUDA version, so a `cuda`
+//! feature would change nothing and is not offered).
 pub mod adam;
 pub mod error;
 pub mod field;

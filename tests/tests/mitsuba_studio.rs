@@ -6,6 +6,7 @@ use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::materials::SceneMaterials;
 use fipt_core::metrics::{psnr, srgb_psnr};
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
 use fipt_shading::render::{render, render_aovs, RenderConfig};
 use fipt_shading::scene::{Scene, TableSurfaces};
@@ -118,16 +119,16 @@ fn render_psnr(a: &[Vec3], b: &[Vec3]) -> f64 {
     srgb_psnr(a, b, None).unwrap()
 }
 
-/// Our path tracer (FIPT BRDF, two-sided emitters) against Mitsuba's principled BSDF renders:
-/// close but not exact by construction. 64 spp, the 8 val views.
-#[test]
-fn path_traced_views_come_close_to_mitsuba() {
-    let Some(root) = studio_scene() else { return };
+/// Our path tracer (two-sided emitters) against Mitsuba's principled BSDF renders, 64 spp,
+/// the 8 val views: (mean PSNR, mean radiance ratio ours / Mitsuba per view).
+fn render_against_mitsuba(model: ReflectanceModel) -> Option<(f64, Vec<f64>)> {
+    let root = studio_scene()?;
     let ds = Dataset::open(&root).unwrap();
     let mesh = Mesh::load(&ds.mesh).unwrap();
     let table = root.join("scene_parts.json");
-    let surfaces =
+    let mut surfaces =
         TableSurfaces::new(SceneMaterials::read_any(&table).unwrap(), &mesh, &table).unwrap();
+    surfaces.model = model;
     let scene = Scene::new(mesh, surfaces);
     let cfg = RenderConfig {
         spp: 64,
@@ -148,7 +149,20 @@ fn path_traced_views_come_close_to_mitsuba() {
         rel.push(mo / mg);
     }
     let mean = ps.iter().sum::<f64>() / ps.len() as f64;
-    eprintln!("path-traced val views vs Mitsuba: PSNR per view {:?}, mean {mean:.2} dB; mean radiance ratio ours/Mitsuba {:?}", ps.iter().map(|p| format!("{p:.1}")).collect::<Vec<_>>(), rel.iter().map(|r| format!("{r:.3}")).collect::<Vec<_>>());
+    eprintln!("{model}: path-traced val views vs Mitsuba: PSNR per view {:?}, mean {mean:.2} dB; mean radiance ratio ours/Mitsuba {:?}", ps.iter().map(|p| format!("{p:.1}")).collect::<Vec<_>>(), rel.iter().map(|r| format!("{r:.3}")).collect::<Vec<_>>());
+    Some((mean, rel))
+}
+
+/// Both models come close to Mitsuba's renders of its own materials; the principled model (the
+/// renderer's) comes closer than FIPT's. Measured (64 spp, so the PSNR is mostly noise): FIPT's
+/// model 25.60 dB with every view 0–11 % darker than Mitsuba's; principled 25.89 dB and
+/// 1.2–1.9 % brighter (the rest: Schlick for the exact dielectric Fresnel, see
+/// `fipt_core::reflectance`).
+#[test]
+fn path_traced_views_come_close_to_mitsuba() {
+    let Some((fipt, rel)) = render_against_mitsuba(ReflectanceModel::Fipt) else {
+        return;
+    };
     for r in &rel {
         assert!(
             (r - 1.0).abs() < 0.15,
@@ -156,5 +170,17 @@ fn path_traced_views_come_close_to_mitsuba() {
             100.0 * (r - 1.0)
         );
     }
-    assert!(mean >= 24.0, "mean re-render PSNR {mean:.2} dB");
+    assert!(fipt >= 24.0, "mean re-render PSNR {fipt:.2} dB");
+    let (principled, rel) = render_against_mitsuba(ReflectanceModel::Principled).unwrap();
+    for r in &rel {
+        assert!(
+            (r - 1.0).abs() < 0.03,
+            "principled: mean radiance differs by {:.1} %",
+            100.0 * (r - 1.0)
+        );
+    }
+    assert!(
+        principled > fipt,
+        "principled {principled:.2} dB, FIPT {fipt:.2} dB"
+    );
 }
