@@ -85,6 +85,21 @@ impl ReflectanceModel {
         }
     }
 
+    /// G1 at cosine `cos` for every roughness of `sigmas` (one dispatch, a loop the compiler can
+    /// vectorise: the bake evaluates it per sample for all levels).
+    #[inline]
+    pub fn g1_levels<const N: usize>(self, cos: f32, sigmas: &[f32; N]) -> [f32; N] {
+        match self {
+            ReflectanceModel::Fipt => std::array::from_fn(|l| {
+                let k = (sigmas[l] + 1.0) * (sigmas[l] + 1.0) / 8.0;
+                cos / (cos * (1.0 - k) + k)
+            }),
+            ReflectanceModel::Principled => {
+                std::array::from_fn(|l| ReflectanceModel::Principled.g1(cos, sigmas[l]))
+            }
+        }
+    }
+
     /// The coefficients (b0, b1, b2) of the diffuse factor B = b0 + σ·b1 + σ²·b2, where
     /// f_d = kd/π·B; `cos_o`, `cos_i` are the cosines to the normal, `io` = ωi·ωo.
     #[inline]
@@ -225,6 +240,10 @@ mod tests {
             let tan2 = (1.0 - c * c) / (c * c);
             let want = 2.0 / (1.0 + (1.0 + a * a * tan2).sqrt());
             assert!((p.g1(c, sigma) - want).abs() < 1e-6);
+        }
+        for m in ReflectanceModel::ALL {
+            let s = [0.02, 0.3, 1.0];
+            assert_eq!(m.g1_levels(0.4, &s), s.map(|x| m.g1(0.4, x)));
         }
         // FIPT's Schlick-GGX (k = (σ+1)²/8, the remapping for analytic lights) is exact at σ = 1
         // and too dark for smooth surfaces (0.84 instead of 1.0 at σ = 0.02, cos 0.4).

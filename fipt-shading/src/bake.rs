@@ -402,7 +402,7 @@ pub fn specular_shading_mixture<L: IncidentLight>(
     }
     let origin = geometry.offset(p, ng);
     let alphas: [f32; NUM_LEVELS] = std::array::from_fn(|l| levels[l] * levels[l]);
-    let g1o: [f32; NUM_LEVELS] = std::array::from_fn(|l| model.g1(wo.z, levels[l]));
+    let g1o = model.g1_levels(wo.z, levels);
     let nl = n_light as f32;
     let n_brdf = counts.iter().sum::<u32>().max(1) as f32;
     // Adds `li`·(the per-level integrand at wi/h)·`scale` where scale = w/(n·pdf) of the
@@ -410,8 +410,9 @@ pub fn specular_shading_mixture<L: IncidentLight>(
     let mut add = |wi: Vec3, voh: f32, d: &[f32; NUM_LEVELS], li: Rgb, scale: f32| {
         let m = schlick_weight(voh);
         let common = scale / (4.0 * wo.z);
+        let g1i = model.g1_levels(wi.z, levels);
         for l in 0..NUM_LEVELS {
-            let w = d[l] * model.g1(wi.z, levels[l]) * g1o[l] * common;
+            let w = d[l] * g1i[l] * g1o[l] * common;
             s0[l] += li * (w * (1.0 - m));
             s1[l] += li * (w * m);
         }

@@ -132,7 +132,7 @@ pub fn diffuse_shading<L: IncidentLight>(
     stream: &mut SampleStream,
     rng: &mut Pcg32,
 ) -> Rgb {
-    diffuse_moments(light, geometry, p, ng, ns, n, n_light, stream, rng, false).m0
+    moments::<L, false>(light, geometry, p, ng, ns, n, n_light, stream, rng).m0
 }
 
 /// The [`DiffuseMoments`] at a surface point, by the estimator of [`diffuse_shading`] (the same
@@ -149,6 +149,26 @@ pub fn diffuse_moments<L: IncidentLight>(
     stream: &mut SampleStream,
     rng: &mut Pcg32,
     full: bool,
+) -> DiffuseMoments {
+    if full {
+        moments::<L, true>(light, geometry, p, ng, ns, n, n_light, stream, rng)
+    } else {
+        moments::<L, false>(light, geometry, p, ng, ns, n, n_light, stream, rng)
+    }
+}
+
+/// [`diffuse_moments`], monomorphised on `FULL` (Lambert's m0 alone compiles to a plain sum).
+#[allow(clippy::too_many_arguments)]
+fn moments<L: IncidentLight, const FULL: bool>(
+    light: &L,
+    geometry: &dyn RayQuery,
+    p: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    n: u32,
+    n_light: u32,
+    stream: &mut SampleStream,
+    rng: &mut Pcg32,
 ) -> DiffuseMoments {
     let n_light = if light.has_emitters() { n_light } else { 0 };
     let mut sum = DiffuseMoments::default();
@@ -177,7 +197,7 @@ pub fn diffuse_moments<L: IncidentLight>(
                 }
                 Incoming::Emitter { le, .. } => le,
             };
-            s.add(wi, wl.z, l, full);
+            s.add(wi, wl.z, l, FULL);
         }
         s.scale(1.0 / n as f32);
         sum.accumulate(&s);
@@ -195,7 +215,7 @@ pub fn diffuse_moments<L: IncidentLight>(
             let p_cos = cos * FRAC_1_PI;
             // f·cos/p = Le·(cos/π)/pdf.
             let l = ls.le * (p_cos / ls.pdf * power_heuristic(ls.pdf, p_cos));
-            s.add(ls.wi, cos, l, full);
+            s.add(ls.wi, cos, l, FULL);
         }
         s.scale(1.0 / n_light as f32);
         sum.accumulate(&s);

@@ -11,27 +11,13 @@ use fipt_shading::bake::{
     diffuse_moments, diffuse_shading, specular_shading, specular_shading_mixture, BakeConfig,
     FactorizedBaker, SampleStream, SamplerKind, SlfLight,
 };
+use fipt_shading::brdf::ladder::albedo_quadrature as quadrature;
 use fipt_shading::brdf::MicrofacetBrdf;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::slf::{Cube, SlfBuilder};
 use fipt_shading::synth::{build, icosphere_mesh, write_dataset, SynthOptions};
 use glam::Vec3;
 use std::f32::consts::PI;
-
-/// ∫ eval dωi by midpoint quadrature on a (θ, φ) grid.
-fn quadrature(b: &MicrofacetBrdf, wo: Vec3, nt: usize, np: usize) -> Vec3 {
-    let mut acc = Vec3::ZERO;
-    let (dt, dp) = (0.5 * PI / nt as f32, 2.0 * PI / np as f32);
-    for i in 0..nt {
-        let t = (i as f32 + 0.5) * dt;
-        for j in 0..np {
-            let p = (j as f32 + 0.5) * dp;
-            let wi = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
-            acc += b.eval(wo, wi) * (t.sin() * dt * dp);
-        }
-    }
-    acc
-}
 
 /// Inside a closed sphere whose every SLF voxel holds L, for both reflectance models: Ld = L
 /// under FIPT's model, and under `principled` Ld0 + σ·Ld1 + σ²·Ld2 is L times Burley's
