@@ -29,8 +29,9 @@ pub struct Args {
     /// Bake again even if a finished bake with the same inputs and settings exists.
     #[arg(long)]
     force: bool,
-    /// The reflectance model whose shadings are baked: fipt or principled.
-    #[arg(long, default_value = "fipt")]
+    /// The reflectance model whose shadings are baked: principled (as `fipt run`'s presets) or
+    /// fipt (as `--preset reference`).
+    #[arg(long, default_value = "principled")]
     brdf: ReflectanceModel,
 }
 
