@@ -15,7 +15,7 @@ pub struct Args {
     preset: String,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     let scene = a.dir.join("room");
     if !scene.join("val").join("transforms.json").is_file() {
         eprintln!(
@@ -32,14 +32,17 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         eprintln!("using the scene already in {}", scene.display());
     }
-    crate::run::run(crate::run::Args {
-        scene: scene.clone(),
-        out: a.dir.join("out"),
-        preset: a.preset,
-        config: None,
-        bad_pixels: crate::info::Policy::Reject,
-        force: false,
-    })?;
+    crate::run::run(
+        crate::run::Args {
+            scene: scene.clone(),
+            out: a.dir.join("out"),
+            preset: a.preset,
+            config: None,
+            bad_pixels: crate::info::Policy::Reject,
+            force: false,
+        },
+        components,
+    )?;
     println!(
         "  previews: {}/views/*/preview/",
         a.dir.join("out").display()

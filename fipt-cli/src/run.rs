@@ -9,7 +9,7 @@ use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::{write_bytes_atomic, write_json_atomic};
 use fipt_core::image::ExrPrecision;
 use fipt_core::reflectance::ReflectanceModel;
-use fipt_emitter::{MaskExtractor, MaskExtractorConfig};
+use fipt_emitter::MaskExtractorConfig;
 use fipt_neural::TrainConfig;
 use fipt_shading::bake::{primary_records, BakeConfig, PixelRecord};
 use fipt_shading::field_surfaces::FieldSurfaces;
@@ -32,8 +32,10 @@ pub struct Args {
     /// Settings preset: paper (the reference's sample counts, sizes and steps), balanced, fast, reference (its behaviour too).
     #[arg(long, default_value = "balanced")]
     pub preset: String,
-    /// A TOML or JSON file with `[model]`, `[bake]`, `[train]`, `[emitters]`, `[refine]`,
-    /// `[rounds]`, `[render]` and `[search]` sections laid over the preset. Reflectance models
+    /// A TOML or JSON file with `[model]`, `[pipeline]`, `[bake]`, `[train]`, `[emitters]`,
+    /// `[refine]`, `[rounds]`, `[render]`, `[search]` and `[plugins.<name>]` sections laid over
+    /// the preset. Emitter extractors (`[pipeline] extractor = "…"`): mask (built in) and those
+    /// the binary registers (report.json lists them). Reflectance models
     /// (`[model] brdf = "…"`): principled (Burley + GGX: Mitsuba 3's `principled`, Blender, glTF;
     /// every preset but reference) or fipt (Lambert + GGX, the method's; reference).
     #[arg(long)]
@@ -62,6 +64,46 @@ pub struct RunConfig {
     /// The reflectance model fitted (absent: as the preset).
     #[serde(default)]
     pub model: ModelConfig,
+    /// Which registered components run (absent: the built-in ones).
+    #[serde(default)]
+    pub pipeline: PipelineConfig,
+    /// Settings of registered plug-in components, by name (`[plugins.<name>]`).
+    #[serde(default)]
+    pub plugins: std::collections::BTreeMap<String, serde_json::Value>,
+}
+
+/// `[pipeline]`: the components `fipt run` composes, by registered name
+/// ([`crate::Components`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// The emitter extractor: `mask` (built in, settings `[emitters]`) or a plug-in's name
+    /// (settings `[plugins.<name>]`).
+    pub extractor: String,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        PipelineConfig {
+            extractor: crate::components::MASK_EXTRACTOR.to_string(),
+        }
+    }
+}
+
+impl RunConfig {
+    /// The settings of the configured extractor: `[emitters]` for the built-in one, else
+    /// `[plugins.<name>]` (an empty table when absent).
+    fn extractor_settings(&self) -> Result<serde_json::Value> {
+        let name = &self.pipeline.extractor;
+        Ok(if name == crate::components::MASK_EXTRACTOR {
+            serde_json::to_value(&self.emitters)?
+        } else {
+            self.plugins
+                .get(name)
+                .cloned()
+                .unwrap_or_else(|| serde_json::json!({}))
+        })
+    }
 }
 
 /// `[model]`: the reflectance model the shadings are baked for and the field is fitted in.
@@ -155,6 +197,8 @@ impl RunConfig {
                     ReflectanceModel::Principled
                 },
             },
+            pipeline: PipelineConfig::default(),
+            plugins: Default::default(),
         })
     }
 }
@@ -166,10 +210,12 @@ struct StageReport {
     peak_rss_mib: Option<f64>,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     let cfg: RunConfig =
         crate::config::load_preset(&a.preset, RunConfig::preset, a.config.as_deref())?;
     cfg.train.validate()?;
+    // Components first: a misspelt name or bad plug-in settings fail before any work.
+    let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
     let t_all = std::time::Instant::now();
     let mut stages = vec![];
     let mut mark = |stage: &'static str, t: std::time::Instant| {
@@ -247,7 +293,7 @@ pub fn run(a: Args) -> Result<()> {
 
     let t = std::time::Instant::now();
     let st = Stage::start("emitters");
-    let emitters = extract_emitters(&scene, &records, &field, &shadings, &cfg.emitters)?;
+    let emitters = extract_emitters(&scene, &records, &field, &shadings, extractor.as_ref())?;
     write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     st.done();
@@ -472,6 +518,13 @@ pub fn run(a: Args) -> Result<()> {
             "triangles": e.triangles.len(), "area": e.area, "mean_radiance": e.mean_radiance,
             "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
         })).collect::<Vec<_>>(),
+        "components": {
+            "reflectance_model": cfg.model.brdf,
+            "baker": bake.baker,
+            "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
+            "material_field": fipt_core::field::MaterialField::name(&field),
+            "registered": components.describe(),
+        },
         "modeled": {
             "reflectance_model": cfg.model.brdf,
             "material_field": true,
@@ -527,7 +580,7 @@ fn extract_emitters(
     records: &[Vec<Option<PixelRecord>>],
     field: &dyn fipt_core::field::MaterialField,
     shadings: &[fipt_core::shading::ViewShadings],
-    cfg: &MaskExtractorConfig,
+    extractor: &dyn EmitterExtractor,
 ) -> Result<Vec<Emitter>> {
     let mut hits = Vec::new();
     for ((recs, img), sh) in records.iter().zip(&scene.images).zip(shadings) {
@@ -548,9 +601,6 @@ fn extract_emitters(
         }
     }
     let mesh = &scene.geometry.mesh;
-    let extractor = MaskExtractor {
-        config: cfg.clone(),
-    };
     Ok(extractor.extract(&EmitterInputs {
         positions: &mesh.positions,
         triangles: &mesh.triangles,

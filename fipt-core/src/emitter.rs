@@ -27,6 +27,40 @@ pub struct Emitter {
     pub pixels: usize,
 }
 
+impl Emitter {
+    /// The light of triangles `tris` (indices into `triangles`, vertices in `positions`) with
+    /// radiance `radiance` each: area, area-weighted mean radiance and centroid, and the
+    /// double-sided Lambertian power 2π·Σ A·L. None when the area is zero or a triangle index is
+    /// out of range. `pixels`: training pixels that saw it.
+    pub fn from_triangles(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        tris: Vec<u32>,
+        radiance: Vec<Rgb>,
+        pixels: usize,
+    ) -> Option<Emitter> {
+        let (mut area, mut wsum, mut csum) = (0f32, Vec3::ZERO, Vec3::ZERO);
+        for (&t, &l) in tris.iter().zip(&radiance) {
+            let tri = triangles.get(t as usize)?;
+            let [a, b, c] = tri.map(|v| positions.get(v as usize).copied());
+            let (a, b, c) = (a?, b?, c?);
+            let ar = 0.5 * (b - a).cross(c - a).length();
+            area += ar;
+            wsum += l * ar;
+            csum += (a + b + c) / 3.0 * ar;
+        }
+        (area > 0.0 && tris.len() == radiance.len()).then(|| Emitter {
+            triangles: tris,
+            radiance: radiance.iter().map(|l| l.to_array()).collect(),
+            area,
+            mean_radiance: (wsum / area).to_array(),
+            power: (wsum * 2.0 * std::f32::consts::PI).to_array(),
+            centroid: (csum / area).to_array(),
+            pixels,
+        })
+    }
+}
+
 /// The geometry and observations an extractor works from.
 pub struct EmitterInputs<'a> {
     pub positions: &'a [Vec3],

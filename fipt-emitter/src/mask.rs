@@ -169,7 +169,6 @@ impl EmitterExtractor for MaskExtractor {
             }
             let fallback = channel_median(&all);
             let (mut tris, mut rad) = (vec![], vec![]);
-            let (mut area, mut wsum, mut csum) = (0f32, Vec3::ZERO, Vec3::ZERO);
             for &t in &g {
                 let l = obs
                     .get(&(t as u32))
@@ -178,26 +177,17 @@ impl EmitterExtractor for MaskExtractor {
                 if l.max_element() <= 0.0 || !l.is_finite() {
                     continue;
                 }
-                let [a, b, cc] = tri_pts(t);
-                let ar = 0.5 * (b - a).cross(cc - a).length();
                 tris.push(t as u32);
-                rad.push(l.to_array());
-                area += ar;
-                wsum += l * ar;
-                csum += (a + b + cc) / 3.0 * ar;
+                rad.push(l);
             }
-            if tris.is_empty() || area <= 0.0 {
-                continue;
-            }
-            out.push(Emitter {
-                pixels: tris.iter().map(|t| obs.get(t).map_or(0, |v| v.len())).sum(),
-                triangles: tris,
-                radiance: rad,
-                area,
-                mean_radiance: (wsum / area).to_array(),
-                power: (wsum * 2.0 * std::f32::consts::PI).to_array(),
-                centroid: (csum / area).to_array(),
-            });
+            let pixels = tris.iter().map(|t| obs.get(t).map_or(0, |v| v.len())).sum();
+            out.extend(Emitter::from_triangles(
+                inp.positions,
+                inp.triangles,
+                tris,
+                rad,
+                pixels,
+            ));
         }
         out.sort_by(|a, b| {
             let p = |e: &Emitter| e.power.iter().sum::<f32>();
