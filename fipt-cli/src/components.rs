@@ -5,37 +5,48 @@
 //!
 //! | kind | chosen by | built in |
 //! |---|---|---|
+//! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | `fipt`: bake → search → train → emitters → (refine → search → train) × rounds |
 //! | emitter extractor (`fipt_core::emitter::EmitterExtractor`) | `[pipeline] extractor` | `mask`: the emission-mask extractor, settings `[emitters]` |
 //! | reflectance model (closed set, `fipt_core::reflectance`) | `[model] brdf` | `principled`, `fipt` |
 //!
-//! A registered extractor's settings are the run config's `[plugins.<name>]` table, passed to
+//! A registered component's settings are the run config's `[plugins.<name>]` table, passed to
 //! its factory as JSON (the factory validates them and names the bad key).
 use anyhow::{bail, Result};
 use fipt_core::emitter::EmitterExtractor;
+use fipt_core::fit::MaterialFitter;
 use std::collections::BTreeMap;
 
 /// Builds an extractor from its settings.
 pub type ExtractorFactory =
     Box<dyn Fn(&serde_json::Value) -> Result<Box<dyn EmitterExtractor>> + Send + Sync>;
 
-struct Entry {
+/// Builds a fitter (a method) from its settings.
+pub type FitterFactory =
+    Box<dyn Fn(&serde_json::Value) -> Result<Box<dyn MaterialFitter>> + Send + Sync>;
+
+struct Entry<F> {
     description: String,
-    factory: ExtractorFactory,
+    factory: F,
 }
 
 /// The registry of named components.
 pub struct Components {
-    extractors: BTreeMap<String, Entry>,
+    extractors: BTreeMap<String, Entry<ExtractorFactory>>,
+    fitters: BTreeMap<String, Entry<FitterFactory>>,
 }
 
 /// The built-in emitter extractor's name.
 pub const MASK_EXTRACTOR: &str = "mask";
+
+/// The built-in method's name (FIPT's rounds, not a registered fitter).
+pub const FIPT_METHOD: &str = "fipt";
 
 impl Components {
     /// The components of the `fipt` binary.
     pub fn builtin() -> Self {
         Components {
             extractors: BTreeMap::new(),
+            fitters: BTreeMap::new(),
         }
         .with_extractor(
             MASK_EXTRACTOR,
@@ -64,6 +75,47 @@ impl Components {
         self
     }
 
+    /// Registers (or replaces) the method `name` (not `fipt`, the built-in one).
+    pub fn with_fitter(mut self, name: &str, description: &str, factory: FitterFactory) -> Self {
+        assert_ne!(name, FIPT_METHOD, "`fipt` is the built-in method");
+        self.fitters.insert(
+            name.to_string(),
+            Entry {
+                description: description.to_string(),
+                factory,
+            },
+        );
+        self
+    }
+
+    /// The names of the methods: `fipt` and the registered fitters.
+    pub fn method_names(&self) -> Vec<&str> {
+        std::iter::once(FIPT_METHOD)
+            .chain(self.fitters.keys().map(|k| k.as_str()))
+            .collect()
+    }
+
+    /// The fitter of method `name` built from `settings`; None for `fipt`, the built-in
+    /// method; an unknown name lists the registered ones.
+    pub fn fitter(
+        &self,
+        name: &str,
+        settings: &serde_json::Value,
+    ) -> Result<Option<Box<dyn MaterialFitter>>> {
+        if name == FIPT_METHOD {
+            return Ok(None);
+        }
+        let Some(e) = self.fitters.get(name) else {
+            bail!(
+                "[pipeline] method = \"{name}\" is not registered (this binary has: {})",
+                self.method_names().join(", ")
+            );
+        };
+        (e.factory)(settings)
+            .map(Some)
+            .map_err(|err| anyhow::anyhow!("settings of method `{name}`: {err:#}"))
+    }
+
     /// The names of the registered extractors.
     pub fn extractor_names(&self) -> Vec<&str> {
         self.extractors.keys().map(|k| k.as_str()).collect()
@@ -71,10 +123,20 @@ impl Components {
 
     /// One line per registered component, for help texts and reports.
     pub fn describe(&self) -> Vec<String> {
-        self.extractors
+        let methods = self
+            .fitters
             .iter()
-            .map(|(k, e)| format!("extractor `{k}`: {}", e.description))
-            .collect()
+            .map(|(k, e)| format!("method `{k}`: {}", e.description));
+        let extractors = self
+            .extractors
+            .iter()
+            .map(|(k, e)| format!("extractor `{k}`: {}", e.description));
+        std::iter::once(format!(
+            "method `{FIPT_METHOD}`: bake, search, train, emitters, refine rounds (built in)"
+        ))
+        .chain(methods)
+        .chain(extractors)
+        .collect()
     }
 
     /// The extractor `name` built from `settings`; an unknown name lists the registered ones.

@@ -10,6 +10,7 @@ mod bench_train;
 mod config;
 mod demo;
 mod eval;
+mod fit;
 mod info;
 mod progress;
 mod refine;

@@ -77,6 +77,9 @@ pub struct RunConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PipelineConfig {
+    /// The method: `fipt` (built in: bake, search, train, emitters, refinement rounds) or a
+    /// registered fitter's name (settings `[plugins.<name>]`).
+    pub method: String,
     /// The emitter extractor: `mask` (built in, settings `[emitters]`) or a plug-in's name
     /// (settings `[plugins.<name>]`).
     pub extractor: String,
@@ -85,6 +88,7 @@ pub struct PipelineConfig {
 impl Default for PipelineConfig {
     fn default() -> Self {
         PipelineConfig {
+            method: crate::components::FIPT_METHOD.to_string(),
             extractor: crate::components::MASK_EXTRACTOR.to_string(),
         }
     }
@@ -92,17 +96,22 @@ impl Default for PipelineConfig {
 
 impl RunConfig {
     /// The settings of the configured extractor: `[emitters]` for the built-in one, else
-    /// `[plugins.<name>]` (an empty table when absent).
+    /// `[plugins.<name>]`.
     fn extractor_settings(&self) -> Result<serde_json::Value> {
         let name = &self.pipeline.extractor;
         Ok(if name == crate::components::MASK_EXTRACTOR {
             serde_json::to_value(&self.emitters)?
         } else {
-            self.plugins
-                .get(name)
-                .cloned()
-                .unwrap_or_else(|| serde_json::json!({}))
+            self.plugin_settings(name)
         })
+    }
+
+    /// `[plugins.<name>]` (an empty table when absent).
+    fn plugin_settings(&self, name: &str) -> serde_json::Value {
+        self.plugins
+            .get(name)
+            .cloned()
+            .unwrap_or_else(|| serde_json::json!({}))
     }
 }
 
@@ -203,8 +212,19 @@ impl RunConfig {
     }
 }
 
+impl StageReport {
+    /// The stage `stage` that started at `t`, ending now.
+    pub(crate) fn since(stage: &'static str, t: std::time::Instant) -> Self {
+        StageReport {
+            stage,
+            seconds: t.elapsed().as_secs_f64(),
+            peak_rss_mib: crate::bench::peak_rss_mib(),
+        }
+    }
+}
+
 #[derive(Serialize)]
-struct StageReport {
+pub(crate) struct StageReport {
     stage: &'static str,
     seconds: f64,
     peak_rss_mib: Option<f64>,
@@ -216,15 +236,14 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     cfg.train.validate()?;
     // Components first: a misspelt name or bad plug-in settings fail before any work.
     let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
+    let method = &cfg.pipeline.method;
+    if let Some(fitter) = components.fitter(method, &cfg.plugin_settings(method))? {
+        return crate::fit::run(&a, &cfg, components, fitter.as_ref(), extractor.as_ref());
+    }
     let t_all = std::time::Instant::now();
     let mut stages = vec![];
-    let mut mark = |stage: &'static str, t: std::time::Instant| {
-        stages.push(StageReport {
-            stage,
-            seconds: t.elapsed().as_secs_f64(),
-            peak_rss_mib: crate::bench::peak_rss_mib(),
-        })
-    };
+    let mut mark =
+        |stage: &'static str, t: std::time::Instant| stages.push(StageReport::since(stage, t));
     fipt_core::fsutil::remove_stale_temporaries(&a.out);
     let t = std::time::Instant::now();
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
@@ -293,7 +312,13 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
 
     let t = std::time::Instant::now();
     let st = Stage::start("emitters");
-    let emitters = extract_emitters(&scene, &records, &field, &shadings, extractor.as_ref())?;
+    let emitters = extract_emitters(
+        &scene,
+        &records,
+        &field,
+        Some(&shadings),
+        extractor.as_ref(),
+    )?;
     write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     st.done();
@@ -405,87 +430,20 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         eprintln!("refinement {why}");
     }
 
-    let t = std::time::Instant::now();
-    let st = Stage::start("maps");
     // Observation counts per surface cell (the search's cells: 4 footprints).
     let observed = fipt_shading::search::CellCounts::new(
         records.iter().flatten().flatten().map(|r| r.hit.p),
         cfg.search.cell_footprints * footprint,
     );
-    let mut emission_of: HashMap<u32, Vec3> = HashMap::new();
-    for e in &emitters {
-        for (t, l) in e.triangles.iter().zip(&e.radiance) {
-            emission_of.insert(*t, Vec3::from(*l));
-        }
-    }
-    for s in &scene.ds.splits {
-        crate::train::export_views(
-            &field,
-            &scene.geometry,
-            &s.views,
-            None,
-            None,
-            Some(&emission_of),
-            Some(&observed),
-            &a.out.join("views").join(&s.name),
-        )?;
-    }
-    st.done();
-    mark("maps", t);
-
-    if cfg.render.spp > 0 {
-        let t = std::time::Instant::now();
-        let st = Stage::start("re-render");
-        let (all_pts, footprint) = {
-            let views: Vec<_> = scene
-                .ds
-                .splits
-                .iter()
-                .flat_map(|s| s.views.clone())
-                .collect();
-            let (p, f) = crate::train::view_points(&scene.geometry, &views);
-            (p.into_iter().flatten().flatten().collect::<Vec<_>>(), f)
-        };
-        let surfaces = FieldSurfaces::build(
-            &field,
-            mesh,
-            &emitters,
-            all_pts,
-            footprint.unwrap_or(0.01) * 2.0,
-        )?
-        .with_model(cfg.model.brdf);
-        let rscene = RenderScene::new(mesh.clone(), surfaces);
-        let rc = RenderConfig {
-            spp: cfg.render.spp,
-            max_bounces: cfg.render.max_bounces,
-            seed: cfg.render.seed,
-            ..Default::default()
-        };
-        let total: usize = scene.ds.splits.iter().map(|s| s.views.len()).sum();
-        let pb = crate::progress::bar(total as u64, "re-render");
-        for (si, s) in scene.ds.splits.iter().enumerate() {
-            let dir = a.out.join("views").join(&s.name);
-            let rc = RenderConfig {
-                spp: if s.name == split.name || cfg.render.val_spp == 0 {
-                    cfg.render.spp
-                } else {
-                    cfg.render.val_spp
-                },
-                ..rc.clone()
-            };
-            for v in &s.views {
-                let key = ((si as u64) << 32) + v.index as u64;
-                let (img, _) = fipt_shading::render::render(&rscene, &v.camera, &rc, key, &|_| {});
-                let k = v.index;
-                img.write_exr(&dir.join(format!("{k:03}_render.exr")), ExrPrecision::F32)?;
-                img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
-                pb.inc(1);
-            }
-        }
-        pb.finish_and_clear();
-        st.done();
-        mark("re-render", t);
-    }
+    write_views(
+        &scene,
+        &cfg,
+        &a.out,
+        &field,
+        &emitters,
+        Some(&observed),
+        &mut mark,
+    )?;
 
     let metrics = if has_gt {
         let t = std::time::Instant::now();
@@ -521,6 +479,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         "components": {
             "reflectance_model": cfg.model.brdf,
             "baker": bake.baker,
+            "method": cfg.pipeline.method,
             "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
             "material_field": fipt_core::field::MaterialField::name(&field),
             "registered": components.describe(),
@@ -573,20 +532,111 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     Ok(())
 }
 
+/// The stages every method ends with: per-view maps of every split (`maps`) and path-traced
+/// re-renders of every view from the recovered scene (`re-render`).
+pub(crate) fn write_views(
+    scene: &crate::scene::LoadedScene,
+    cfg: &RunConfig,
+    out: &Path,
+    field: &dyn fipt_core::field::MaterialField,
+    emitters: &[Emitter],
+    observed: Option<&fipt_shading::search::CellCounts>,
+    mark: &mut dyn FnMut(&'static str, std::time::Instant),
+) -> Result<()> {
+    let mesh = &scene.geometry.mesh;
+    let t = std::time::Instant::now();
+    let st = Stage::start("maps");
+    let mut emission_of: HashMap<u32, Vec3> = HashMap::new();
+    for e in emitters {
+        for (t, l) in e.triangles.iter().zip(&e.radiance) {
+            emission_of.insert(*t, Vec3::from(*l));
+        }
+    }
+    for s in &scene.ds.splits {
+        crate::train::export_views(
+            field,
+            &scene.geometry,
+            &s.views,
+            None,
+            Some(&emission_of),
+            observed,
+            &out.join("views").join(&s.name),
+        )?;
+    }
+    st.done();
+    mark("maps", t);
+
+    if cfg.render.spp > 0 {
+        let t = std::time::Instant::now();
+        let st = Stage::start("re-render");
+        let (all_pts, footprint) = {
+            let views: Vec<_> = scene
+                .ds
+                .splits
+                .iter()
+                .flat_map(|s| s.views.clone())
+                .collect();
+            let (p, f) = crate::train::view_points(&scene.geometry, &views);
+            (p.into_iter().flatten().flatten().collect::<Vec<_>>(), f)
+        };
+        let surfaces = FieldSurfaces::build(
+            field,
+            mesh,
+            &emitters,
+            all_pts,
+            footprint.unwrap_or(0.01) * 2.0,
+        )?
+        .with_model(cfg.model.brdf);
+        let rscene = RenderScene::new(mesh.clone(), surfaces);
+        let rc = RenderConfig {
+            spp: cfg.render.spp,
+            max_bounces: cfg.render.max_bounces,
+            seed: cfg.render.seed,
+            ..Default::default()
+        };
+        let total: usize = scene.ds.splits.iter().map(|s| s.views.len()).sum();
+        let pb = crate::progress::bar(total as u64, "re-render");
+        for (si, s) in scene.ds.splits.iter().enumerate() {
+            let dir = out.join("views").join(&s.name);
+            let rc = RenderConfig {
+                spp: if s.name == scene.ds.train().name || cfg.render.val_spp == 0 {
+                    cfg.render.spp
+                } else {
+                    cfg.render.val_spp
+                },
+                ..rc.clone()
+            };
+            for v in &s.views {
+                let key = ((si as u64) << 32) + v.index as u64;
+                let (img, _) = fipt_shading::render::render(&rscene, &v.camera, &rc, key, &|_| {});
+                let k = v.index;
+                img.write_exr(&dir.join(format!("{k:03}_render.exr")), ExrPrecision::F32)?;
+                img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
+                pb.inc(1);
+            }
+        }
+        pb.finish_and_clear();
+        st.done();
+        mark("re-render", t);
+    }
+    Ok(())
+}
+
 /// Emitter extraction from the field's mask and the training pixels (with what the initial
 /// shadings say each pixel could at most reflect).
-fn extract_emitters(
+pub(crate) fn extract_emitters(
     scene: &crate::scene::LoadedScene,
     records: &[Vec<Option<PixelRecord>>],
     field: &dyn fipt_core::field::MaterialField,
-    shadings: &[fipt_core::shading::ViewShadings],
+    shadings: Option<&[fipt_core::shading::ViewShadings]>,
     extractor: &dyn EmitterExtractor,
 ) -> Result<Vec<Emitter>> {
     let mut hits = Vec::new();
-    for ((recs, img), sh) in records.iter().zip(&scene.images).zip(shadings) {
+    for (v, (recs, img)) in records.iter().zip(&scene.images).enumerate() {
+        let sh = shadings.and_then(|s| s.get(v));
         for (i, (r, l)) in recs.iter().zip(&img.data).enumerate() {
             if let Some(r) = r {
-                let max_reflected = sh.valid[i].then(|| {
+                let max_reflected = sh.filter(|sh| sh.valid[i]).map(|sh| {
                     let m = |x: &[Vec3; fipt_core::shading::NUM_LEVELS]| {
                         x.iter().fold(Vec3::ZERO, |a, b| a.max(*b))
                     };
@@ -631,7 +681,11 @@ fn glossy_fraction(
 }
 
 /// Writes the emitter triangles as OBJ, one group per light.
-fn write_emitters_obj(path: &Path, mesh: &fipt_geom::Mesh, emitters: &[Emitter]) -> Result<()> {
+pub(crate) fn write_emitters_obj(
+    path: &Path,
+    mesh: &fipt_geom::Mesh,
+    emitters: &[Emitter],
+) -> Result<()> {
     let mut s = String::from("# fipt emitters: one group per light, world space\n");
     let mut n = 0;
     for (i, e) in emitters.iter().enumerate() {

@@ -130,8 +130,7 @@ pub fn run(a: Args) -> Result<()> {
                 &field,
                 &scene.geometry,
                 &s.views,
-                train.then_some(&shadings[..]),
-                train.then_some(&scene.images[..]),
+                train.then_some((&field, &shadings[..], &scene.images[..])),
                 None,
                 None,
                 &dir.join("views").join(&s.name),
@@ -337,11 +336,10 @@ pub fn stage(
 /// `_render.exr` where shadings exist: the trained model's prediction
 /// (1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT.
 pub fn export_views(
-    field: &NeuralField,
+    field: &dyn fipt_core::field::MaterialField,
     geometry: &Geometry,
     views: &[View],
-    shadings: Option<&[ViewShadings]>,
-    images: Option<&[Image]>,
+    factorized: Option<(&NeuralField, &[ViewShadings], &[Image])>,
     emission: Option<&HashMap<u32, Vec3>>,
     observed: Option<&fipt_shading::search::CellCounts>,
     dir: &Path,
@@ -351,7 +349,8 @@ pub fn export_views(
         let recs = primary_records(geometry, v);
         let hit: Vec<usize> = (0..w * h).filter(|&i| recs[i].is_some()).collect();
         let pts: Vec<Vec3> = hit.iter().map(|&i| recs[i].unwrap().hit.p).collect();
-        let (mats, alpha) = field.query(&pts).context("querying the field")?;
+        let mats = field.materials(&pts).context("querying the field")?;
+        let alpha = field.emission_mask(&pts).context("querying the field")?;
         let mut maps: Vec<(&str, Image)> = ["kd", "ks", "roughness", "metallic", "emission_mask"]
             .iter()
             .map(|n| (*n, Image::new(w, h)))
@@ -380,7 +379,7 @@ pub fn export_views(
             }
             maps.push(("observed", img));
         }
-        if let (Some(sh), Some(imgs)) = (shadings, images) {
+        if let Some((field, sh, imgs)) = factorized {
             let s = &sh[vi];
             let idx: Vec<usize> = hit.iter().copied().filter(|&i| s.valid[i]).collect();
             let unit = field.to_unit(

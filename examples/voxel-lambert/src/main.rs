@@ -1,0 +1,5 @@
+//! `fipt-voxel-lambert`: the `fipt` tool with the `voxel-lambert` method registered.
+fn main() {
+    let components = voxel_lambert::register(fipt_cli::Components::builtin());
+    std::process::exit(fipt_cli::main_with(components));
+}

@@ -1,0 +1,148 @@
+//! `fipt run` with a registered method (`[pipeline] method`, a [`MaterialFitter`]) in place of
+//! FIPT's rounds: (bake, when the fitter asks for it) → fit → emitters (the fitter's, or the
+//! run's extractor on the fitted field) → maps → re-renders → report (→ eval), with the outputs
+//! of every method in the same places.
+use crate::run::{extract_emitters, write_emitters_obj, write_views, Args, RunConfig, StageReport};
+use crate::Components;
+use anyhow::Result;
+use fipt_core::emitter::EmitterExtractor;
+use fipt_core::fit::{FitInputs, MaterialFitter};
+use fipt_core::fsutil::write_json_atomic;
+use fipt_shading::bake::primary_records;
+use std::time::Instant;
+
+/// Runs `fitter` on the scene of `a` and writes the output contract into `a.out`.
+pub fn run(
+    a: &Args,
+    cfg: &RunConfig,
+    components: &Components,
+    fitter: &dyn MaterialFitter,
+    extractor: &dyn EmitterExtractor,
+) -> Result<()> {
+    let t_all = Instant::now();
+    let mut stages: Vec<StageReport> = vec![];
+    fipt_core::fsutil::remove_stale_temporaries(&a.out);
+    let t = Instant::now();
+    let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
+    stages.push(StageReport::since("load", t));
+    let split = scene.ds.train();
+    let mesh = &scene.geometry.mesh;
+    let shadings = if fitter.needs_shadings() {
+        let t = Instant::now();
+        let (_, sh) = crate::bake::stage(
+            &scene,
+            &cfg.bake,
+            cfg.model.brdf,
+            &a.out.join("bake"),
+            a.force,
+        )?;
+        stages.push(StageReport::since("bake", t));
+        Some(sh)
+    } else {
+        None
+    };
+    let t = Instant::now();
+    let dir = a.out.join("fit");
+    std::fs::create_dir_all(&dir)?;
+    let st = crate::progress::Stage::start("fit");
+    let pb = crate::progress::bar(1, fitter.name());
+    let fitted = fitter.fit(
+        &FitInputs {
+            geometry: &scene.geometry,
+            positions: &mesh.positions,
+            triangles: &mesh.triangles,
+            views: &split.views,
+            images: &scene.images,
+            shadings: shadings.as_deref(),
+            model: cfg.model.brdf,
+            dir: &dir,
+        },
+        &|d, n| {
+            pb.set_length(n as u64);
+            pb.set_position(d as u64);
+        },
+    )?;
+    pb.finish_and_clear();
+    st.done();
+    stages.push(StageReport::since("fit", t));
+    let t = Instant::now();
+    let field = fitted.field.as_ref();
+    let emitters = match fitted.emitters {
+        Some(e) => e,
+        None => {
+            let records: Vec<_> = split
+                .views
+                .iter()
+                .map(|v| primary_records(&scene.geometry, v))
+                .collect();
+            extract_emitters(&scene, &records, field, shadings.as_deref(), extractor)?
+        }
+    };
+    write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
+    write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
+    stages.push(StageReport::since("emitters", t));
+    let mut mark = |stage: &'static str, t: Instant| stages.push(StageReport::since(stage, t));
+    write_views(&scene, cfg, &a.out, field, &emitters, None, &mut mark)?;
+    let has_gt = scene
+        .ds
+        .splits
+        .iter()
+        .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol));
+    let metrics = if has_gt {
+        let t = Instant::now();
+        let m = crate::eval::evaluate(&scene.ds, &a.out)?;
+        stages.push(StageReport::since("eval", t));
+        Some(m)
+    } else {
+        None
+    };
+    let report = serde_json::json!({
+        "fipt_version": env!("CARGO_PKG_VERSION"),
+        "scene": a.scene,
+        "inputs_hash": scene.inputs_hash,
+        "preset": a.preset,
+        "settings": cfg,
+        "inputs": {
+            "train_views": split.views.len(),
+            "width": scene.ds.width,
+            "height": scene.ds.height,
+            "triangles": mesh.triangles.len(),
+        },
+        "stages": stages,
+        "seconds_total": t_all.elapsed().as_secs_f64(),
+        "fit": fitted.report,
+        "emitters": emitters.iter().map(|e| serde_json::json!({
+            "triangles": e.triangles.len(), "area": e.area, "mean_radiance": e.mean_radiance,
+            "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
+        })).collect::<Vec<_>>(),
+        "components": {
+            "reflectance_model": cfg.model.brdf,
+            "method": { "name": cfg.pipeline.method, "implementation": fitter.name() },
+            "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
+            "material_field": field.name(),
+            "registered": components.describe(),
+        },
+        "modeled": {
+            "reflectance_model": cfg.model.brdf,
+            "material_field": format!("fitted by method `{}`", cfg.pipeline.method),
+            "emitters": emitters.len(),
+            "initial_bake": if shadings.is_some() { "baked for the fitter" } else { "skipped (the fitter does not use shadings)" },
+            "search_and_refinement": "skipped (FIPT's rounds; this run's method replaces them)",
+        },
+        "metrics": metrics,
+    });
+    write_json_atomic(&a.out.join("report.json"), &report)?;
+    println!(
+        "\nfipt run ({}) finished in {:.1} s",
+        cfg.pipeline.method,
+        t_all.elapsed().as_secs_f64()
+    );
+    println!("  maps:     {}", a.out.join("views").display());
+    println!(
+        "  emitters: {} ({} lights)",
+        a.out.join("emitters.json").display(),
+        emitters.len()
+    );
+    println!("  report:   {}", a.out.join("report.json").display());
+    Ok(())
+}
