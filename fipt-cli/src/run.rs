@@ -34,7 +34,8 @@ pub struct Args {
     pub preset: String,
     /// A TOML or JSON file with `[model]`, `[pipeline]`, `[bake]`, `[train]`, `[emitters]`,
     /// `[refine]`, `[rounds]`, `[render]`, `[search]` and `[plugins.<name>]` sections laid over
-    /// the preset. Emitter extractors (`[pipeline] extractor = "…"`): mask (built in) and those
+    /// the preset. Methods (`[pipeline] method = "…"`): fipt (built in) and those the binary
+    /// registers; emitter extractors (`[pipeline] extractor = "…"`): mask (built in) and those
     /// the binary registers (report.json lists them). Reflectance models
     /// (`[model] brdf = "…"`): principled (Burley + GGX: Mitsuba 3's `principled`, Blender, glTF;
     /// every preset but reference) or fipt (Lambert + GGX, the method's; reference).

@@ -227,10 +227,11 @@ impl TrainConfig {
                 format!("roughness_gain = {} (use (0, 100])", f.roughness_gain),
             ));
         }
-        if !(f.roughness_init >= 0.02 && f.roughness_init <= 1.0) {
+        let lo = fipt_core::reflectance::MIN_ROUGHNESS;
+        if !(f.roughness_init >= lo && f.roughness_init <= 1.0) {
             return Err(NeuralError::config(
                 "train.field",
-                format!("roughness_init = {} (use [0.02, 1])", f.roughness_init),
+                format!("roughness_init = {} (use [{lo}, 1])", f.roughness_init),
             ));
         }
         let d = self.lr_decay;
