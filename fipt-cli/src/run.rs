@@ -278,7 +278,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         .unwrap_or(0.01);
     let mut searches = vec![];
     let t = std::time::Instant::now();
-    let mut searched = if cfg.search.on_bake {
+    let searched = if cfg.search.on_bake {
         crate::search::stage(
             &scene,
             &records,
@@ -323,16 +323,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     st.done();
-    for (i, e) in emitters.iter().enumerate() {
-        eprintln!(
-            "light {i}: {} triangles, area {:.4} m², radiance {:.2?}, power {:.1?} W, {} pixels",
-            e.triangles.len(),
-            e.area,
-            e.mean_radiance,
-            e.power,
-            e.pixels
-        );
-    }
+    print_lights(&emitters);
     mark("emitters", t);
 
     // Refine → train rounds, unless nothing in the scene needs them.
@@ -345,90 +336,33 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         }));
     }
     let glossy = glossy_fraction(&records, &field, cfg.refine.rough_threshold)?;
-    let refine_plan = if cfg.rounds.refinements == 0 {
-        Err("skipped: rounds.refinements = 0".to_string())
-    } else if emitters.is_empty() && glossy < 1e-3 {
-        Err(format!(
-            "skipped: no emitter was found and no observed surface is glossier than σ = {} (path growing and emitter sampling would change nothing)",
-            cfg.refine.rough_threshold
-        ))
-    } else {
-        Ok(format!(
-            "{} round(s), {}; {} emitter triangles sampled, {:.1} % of the observed surface glossier than σ = {}",
-            cfg.rounds.refinements,
-            if cfg.rounds.warm_start { "each training round warm-started from the previous" } else { "each training round from fresh networks (as the reference)" },
-            emitters.iter().map(|e| e.triangles.len()).sum::<usize>(),
-            glossy * 100.0,
-            cfg.refine.rough_threshold
-        ))
-    };
+    let refine_plan = refine_plan(&cfg, &emitters, glossy);
     let mut rounds = vec![];
-    if let Ok(plan) = &refine_plan {
-        eprintln!("refinement: {plan}");
-        for r in 1..=cfg.rounds.refinements {
-            let t = std::time::Instant::now();
-            let refined = crate::refine::stage(
-                &scene,
-                &field,
-                &train.fingerprint(),
-                &emitters,
-                &cfg.refine,
-                cfg.model.brdf,
-                &a.out.join(format!("refine{r}")),
-                a.force,
-            )?;
-            mark("refine", t);
-            if has_gt {
-                closure.push(serde_json::json!({
-                    "shadings": format!("refine{r}"),
-                    "psnr_db": crate::eval::closure_psnr(&scene, &refined.shadings)?,
-                }));
-            }
-            let t = std::time::Instant::now();
-            searched = crate::search::stage(
-                &scene,
-                &records,
-                &refined.shadings,
-                &cfg.search,
+    match &refine_plan {
+        Ok(plan) => {
+            eprintln!("refinement: {plan}");
+            let mut state = Rounds {
+                field,
+                train,
+                searched,
+                searches: &mut searches,
+                closure: &mut closure,
+                reports: &mut rounds,
+            };
+            let ctx = RoundsContext {
+                scene: &scene,
+                cfg: &cfg,
+                out: &a.out,
+                force: a.force,
+                records: &records,
                 footprint,
-                searched.as_ref(),
-                false,
-            )?;
-            if searched.is_some() {
-                mark("search", t);
-            }
-            let t = std::time::Instant::now();
-            let prev_id = train.fingerprint();
-            let mut round_cfg = cfg.train.clone();
-            // With search targets, the regions without a σ target keep the σ pull: the search
-            // found no gloss there, and a free σ drifts towards the targets' values through the
-            // shared network (on `cornell-metal` without segments the walls went to σ ≈ 0.4).
-            if let (Some(p), None) = (cfg.rounds.roughness_prior, &searched) {
-                round_cfg.roughness_prior = p;
-            }
-            let (f, m, _) = crate::train::stage(
-                &scene,
-                &refined.key,
-                &refined.shadings,
-                &round_cfg,
-                &a.out.join(format!("train{r}")),
-                a.force,
-                cfg.rounds.warm_start.then_some((&field, prev_id.as_str())),
-                searched.as_ref().map(|s| &s.targets[..]),
-            )?;
-            mark("train", t);
-            searches
-                .push(serde_json::json!({ "shadings": format!("refine{r}"), "search": &searched }));
-            rounds.push(serde_json::json!({
-                "round": r,
-                "refine": { "seconds": refined.seconds, "stats": refined.stats },
-                "train": m,
-            }));
-            field = f;
-            train = m;
+                emitters: &emitters,
+                has_gt,
+            };
+            refinement_rounds(&ctx, &mut state, &mut mark)?;
+            (field, train) = (state.field, state.train);
         }
-    } else if let Err(why) = &refine_plan {
-        eprintln!("refinement {why}");
+        Err(why) => eprintln!("refinement {why}"),
     }
 
     // Observation counts per surface cell (the search's cells: 4 footprints).
@@ -502,8 +436,20 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         (Ok(_), r) if r > 0 => format!("train{r}"),
         _ => "train".to_string(),
     };
+    print_summary(&stages, t_all, &a.out, emitters.len(), &final_train_dir);
+    Ok(())
+}
+
+/// The stage table and where the outputs are.
+fn print_summary(
+    stages: &[StageReport],
+    t_all: std::time::Instant,
+    out: &Path,
+    lights: usize,
+    final_train_dir: &str,
+) {
     println!("\n{:<10} {:>9} {:>14}", "stage", "seconds", "peak RSS MiB");
-    for st in &stages {
+    for st in stages {
         println!(
             "{:<10} {:>9.1} {:>14}",
             st.stage,
@@ -516,20 +462,150 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         "\nfipt run finished in {:.1} s",
         t_all.elapsed().as_secs_f64()
     );
-    println!("  maps:     {}", a.out.join("views").display());
+    println!("  maps:     {}", out.join("views").display());
     println!(
         "  emitters: {} ({} lights)",
-        a.out.join("emitters.json").display(),
-        emitters.len()
+        out.join("emitters.json").display(),
+        lights
     );
     println!(
         "  field:    {}",
-        a.out
-            .join(final_train_dir)
+        out.join(final_train_dir)
             .join("field.safetensors")
             .display()
     );
-    println!("  report:   {}", a.out.join("report.json").display());
+    println!("  report:   {}", out.join("report.json").display());
+}
+
+/// Whether the refinement rounds run (Ok: what they do) or why not (Err).
+fn refine_plan(cfg: &RunConfig, emitters: &[Emitter], glossy: f64) -> Result<String, String> {
+    if cfg.rounds.refinements == 0 {
+        Err("skipped: rounds.refinements = 0".to_string())
+    } else if emitters.is_empty() && glossy < 1e-3 {
+        Err(format!(
+            "skipped: no emitter was found and no observed surface is glossier than σ = {} (path growing and emitter sampling would change nothing)",
+            cfg.refine.rough_threshold
+        ))
+    } else {
+        Ok(format!(
+            "{} round(s), {}; {} emitter triangles sampled, {:.1} % of the observed surface glossier than σ = {}",
+            cfg.rounds.refinements,
+            if cfg.rounds.warm_start { "each training round warm-started from the previous" } else { "each training round from fresh networks (as the reference)" },
+            emitters.iter().map(|e| e.triangles.len()).sum::<usize>(),
+            glossy * 100.0,
+            cfg.refine.rough_threshold
+        ))
+    }
+}
+
+/// One line per extracted light.
+fn print_lights(emitters: &[Emitter]) {
+    for (i, e) in emitters.iter().enumerate() {
+        eprintln!(
+            "light {i}: {} triangles, area {:.4} m², radiance {:.2?}, power {:.1?} W, {} pixels",
+            e.triangles.len(),
+            e.area,
+            e.mean_radiance,
+            e.power,
+            e.pixels
+        );
+    }
+}
+
+/// What the refinement rounds read.
+struct RoundsContext<'a> {
+    scene: &'a crate::scene::LoadedScene,
+    cfg: &'a RunConfig,
+    out: &'a Path,
+    force: bool,
+    records: &'a [Vec<Option<PixelRecord>>],
+    footprint: f32,
+    emitters: &'a [Emitter],
+    has_gt: bool,
+}
+
+/// What the refinement rounds update: the field and its manifest, the search's last answer, and
+/// the report's lists.
+struct Rounds<'a> {
+    field: fipt_neural::field::NeuralField,
+    train: crate::train::TrainManifest,
+    searched: Option<crate::search::Searched>,
+    searches: &'a mut Vec<serde_json::Value>,
+    closure: &'a mut Vec<serde_json::Value>,
+    reports: &'a mut Vec<serde_json::Value>,
+}
+
+/// FIPT's refine → search → train rounds (method §4.5).
+fn refinement_rounds(
+    ctx: &RoundsContext,
+    st: &mut Rounds,
+    mark: &mut dyn FnMut(&'static str, std::time::Instant),
+) -> Result<()> {
+    let cfg = ctx.cfg;
+    for r in 1..=cfg.rounds.refinements {
+        let t = std::time::Instant::now();
+        let refined = crate::refine::stage(
+            ctx.scene,
+            &st.field,
+            &st.train.fingerprint(),
+            ctx.emitters,
+            &cfg.refine,
+            cfg.model.brdf,
+            &ctx.out.join(format!("refine{r}")),
+            ctx.force,
+        )?;
+        mark("refine", t);
+        if ctx.has_gt {
+            st.closure.push(serde_json::json!({
+                "shadings": format!("refine{r}"),
+                "psnr_db": crate::eval::closure_psnr(ctx.scene, &refined.shadings)?,
+            }));
+        }
+        let t = std::time::Instant::now();
+        st.searched = crate::search::stage(
+            ctx.scene,
+            ctx.records,
+            &refined.shadings,
+            &cfg.search,
+            ctx.footprint,
+            st.searched.as_ref(),
+            false,
+        )?;
+        if st.searched.is_some() {
+            mark("search", t);
+        }
+        let t = std::time::Instant::now();
+        let prev_id = st.train.fingerprint();
+        let mut round_cfg = cfg.train.clone();
+        // With search targets, the regions without a σ target keep the σ pull: the search
+        // found no gloss there, and a free σ drifts towards the targets' values through the
+        // shared network (on `cornell-metal` without segments the walls went to σ ≈ 0.4).
+        if let (Some(p), None) = (cfg.rounds.roughness_prior, &st.searched) {
+            round_cfg.roughness_prior = p;
+        }
+        let (f, m, _) = crate::train::stage(
+            ctx.scene,
+            &refined.key,
+            &refined.shadings,
+            &round_cfg,
+            &ctx.out.join(format!("train{r}")),
+            ctx.force,
+            cfg.rounds
+                .warm_start
+                .then_some((&st.field, prev_id.as_str())),
+            st.searched.as_ref().map(|s| &s.targets[..]),
+        )?;
+        mark("train", t);
+        st.searches
+            .push(serde_json::json!({ "shadings": format!("refine{r}"), "search": &st.searched }));
+        st.reports.push(serde_json::json!({
+            "round": r,
+            "refine": { "seconds": refined.seconds, "stats": refined.stats },
+            "train": m,
+        }));
+        st.field = f;
+        st.train = m;
+    }
     Ok(())
 }
 
