@@ -5,8 +5,9 @@ use crate::scene::LoadedScene;
 use anyhow::Result;
 use fipt_core::image::Image;
 use fipt_core::reflectance::ReflectanceModel;
+use fipt_core::shading::ShadingBaker;
 use fipt_core::shading::ViewShadings;
-use fipt_shading::bake::{BakeConfig, FactorizedBaker};
+use fipt_shading::bake::{BakeConfig, BakeStats, FactorizedBaker};
 use fipt_shading::bake_store::{load_if_current, save, BakeManifest, FORMAT_VERSION};
 use std::path::{Path, PathBuf};
 
@@ -55,7 +56,7 @@ pub fn stage(
     force: bool,
 ) -> Result<(BakeManifest, Vec<ViewShadings>)> {
     let baker = FactorizedBaker::new(cfg.clone()).with_model(model);
-    let name = fipt_core::shading::ShadingBaker::name(&baker).to_string();
+    let name = baker.name().to_string();
     if !force {
         match load_if_current(dir, &scene.inputs_hash, cfg, &name)? {
             Ok((m, sh)) => {
@@ -73,11 +74,18 @@ pub fn stage(
     let split = scene.ds.train();
     let pb = bar(1, "bake");
     let st = Stage::start("bake");
-    let (shadings, stats, _) =
-        baker.bake_detailed(&scene.geometry, &split.views, &scene.images, &|d, t| {
+    let baked = ShadingBaker::bake(
+        &baker,
+        &scene.geometry,
+        &split.views,
+        &scene.images,
+        &|d, t| {
             pb.set_length(t as u64);
             pb.set_position(d as u64);
-        });
+        },
+    )?;
+    let shadings = baked.output;
+    let stats: BakeStats = serde_json::from_value(baked.report)?;
     pb.finish_and_clear();
     let secs = st.done();
     let manifest = BakeManifest {

@@ -76,10 +76,12 @@ pub fn stage(
     };
     let pb = bar(1, "refine");
     let st = Stage::start("refine");
-    let (shadings, stats) = refiner.refine_detailed(&inputs, &|d, t| {
+    let refined = refiner.refine(&inputs, &|d, t| {
         pb.set_length(t as u64);
         pb.set_position(d as u64);
     })?;
+    let shadings = refined.output;
+    let stats: RefineStats = serde_json::from_value(refined.report)?;
     pb.finish_and_clear();
     let secs = st.done();
     eprintln!(

@@ -149,18 +149,25 @@ pub trait RayQuery: Sync {
 /// Progress callback: `(units done so far in this call, total units)`.
 pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
 
+/// A stage's output and what it reports about the work (counts, timings), as JSON for
+/// `report.json` and the stage's manifest.
+pub struct Reported<T> {
+    pub output: T,
+    pub report: serde_json::Value,
+}
+
 /// Computes the shadings of the training views (initial bake, method §4.2).
 pub trait ShadingBaker {
     /// A short name for reports.
     fn name(&self) -> &str;
-    /// Shadings of every view in `views` (HDR `images` in the same order).
+    /// Shadings of every view in `views` (HDR `images` in the same order), and the bake's report.
     fn bake(
         &self,
         geometry: &dyn RayQuery,
         views: &[View],
         images: &[Image],
         progress: Progress,
-    ) -> Result<Vec<ViewShadings>>;
+    ) -> Result<Reported<Vec<ViewShadings>>>;
 }
 
 /// What a [`ShadingRefiner`] works from: the scene, the training views and their images, the
@@ -182,8 +189,12 @@ pub struct RefineInputs<'a> {
 pub trait ShadingRefiner {
     /// A short name for reports.
     fn name(&self) -> &str;
-    /// Shadings of every view of `inputs.views`, in the same order.
-    fn refine(&self, inputs: &RefineInputs, progress: Progress) -> Result<Vec<ViewShadings>>;
+    /// Shadings of every view of `inputs.views`, in the same order, and the refinement's report.
+    fn refine(
+        &self,
+        inputs: &RefineInputs,
+        progress: Progress,
+    ) -> Result<Reported<Vec<ViewShadings>>>;
 }
 
 #[cfg(test)]

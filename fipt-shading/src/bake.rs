@@ -20,7 +20,8 @@ use fipt_core::image::Image;
 use fipt_core::reflectance::{ggx_d, schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    Progress, RayQuery, ShadingBaker, SurfaceHit, ViewShadings, DEFAULT_LEVELS, NUM_LEVELS,
+    Progress, RayQuery, Reported, ShadingBaker, SurfaceHit, ViewShadings, DEFAULT_LEVELS,
+    NUM_LEVELS,
 };
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -715,13 +716,17 @@ impl ShadingBaker for FactorizedBaker {
         views: &[View],
         images: &[Image],
         progress: Progress,
-    ) -> fipt_core::Result<Vec<ViewShadings>> {
+    ) -> fipt_core::Result<Reported<Vec<ViewShadings>>> {
         if views.len() != images.len() {
             return Err(fipt_core::CoreError::invalid(
                 "bake",
                 format!("{} views but {} images", views.len(), images.len()),
             ));
         }
-        Ok(self.bake_detailed(geometry, views, images, progress).0)
+        let (output, stats, _) = self.bake_detailed(geometry, views, images, progress);
+        Ok(Reported {
+            output,
+            report: serde_json::to_value(stats).unwrap_or_default(),
+        })
     }
 }

@@ -30,8 +30,8 @@ use fipt_core::color::Rgb;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    Progress, RayQuery, RefineInputs, ShadingRefiner, SurfaceHit, ViewShadings, DEFAULT_LEVELS,
-    NUM_LEVELS,
+    Progress, RayQuery, RefineInputs, Reported, ShadingRefiner, SurfaceHit, ViewShadings,
+    DEFAULT_LEVELS, NUM_LEVELS,
 };
 use fipt_core::CoreError;
 use fipt_geom::{Mesh, TriangleSampler};
@@ -588,7 +588,11 @@ impl ShadingRefiner for PathGrownRefiner {
         &self,
         inputs: &RefineInputs,
         progress: Progress,
-    ) -> fipt_core::Result<Vec<ViewShadings>> {
-        Ok(self.refine_detailed(inputs, progress)?.0)
+    ) -> fipt_core::Result<Reported<Vec<ViewShadings>>> {
+        let (output, stats) = self.refine_detailed(inputs, progress)?;
+        Ok(Reported {
+            output,
+            report: serde_json::to_value(stats).unwrap_or_default(),
+        })
     }
 }

@@ -17,7 +17,6 @@ use fipt_shading::render::RenderConfig;
 use fipt_shading::slf::{Cube, SlfBuilder};
 use fipt_shading::synth::{build, icosphere_mesh, write_dataset, SynthOptions};
 use glam::Vec3;
-use std::f32::consts::PI;
 
 /// Inside a closed sphere whose every SLF voxel holds L, for both reflectance models: Ld = L
 /// under FIPT's model, and under `principled` Ld0 + σ·Ld1 + σ²·Ld2 is L times Burley's

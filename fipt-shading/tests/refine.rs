@@ -403,13 +403,16 @@ fn refined_shadings_raise_the_closure_psnr() {
     let refiner = PathGrownRefiner::new(RefineConfig::default());
     let (refined, stats) = refiner.refine_detailed(&inputs, &|_, _| {}).unwrap();
     let again = refiner.refine(&inputs, &|_, _| {}).unwrap();
-    assert_eq!(refined, again, "refinement must be deterministic");
+    assert_eq!(refined, again.output, "refinement must be deterministic");
+    // The contract carries the same statistics as the detailed call.
+    assert_eq!(again.report["rays"], serde_json::json!(stats.rays));
     let no_light = PathGrownRefiner::new(RefineConfig {
         light_samples: 0,
         ..Default::default()
     })
     .refine(&inputs, &|_, _| {})
-    .unwrap();
+    .unwrap()
+    .output;
     let (c_bake, c_ref, c_nolight) = (
         closure(&ds, &bake, &images),
         closure(&ds, &refined, &images),
