@@ -2,7 +2,10 @@
 //! FIPT's rounds: (bake, when the fitter asks for it) → fit → emitters (the fitter's, or the
 //! run's extractor on the fitted field) → maps → re-renders → report (→ eval), with the outputs
 //! of every method in the same places.
-use crate::run::{extract_emitters, write_emitters_obj, write_views, Args, RunConfig, StageReport};
+use crate::run::{
+    emitters_summary, extend, extract_emitters, report_header, write_emitters_obj, write_views,
+    Args, RunConfig, StageReport,
+};
 use crate::Components;
 use anyhow::Result;
 use fipt_core::emitter::EmitterExtractor;
@@ -96,41 +99,31 @@ pub fn run(
     } else {
         None
     };
-    let report = serde_json::json!({
-        "fipt_version": env!("CARGO_PKG_VERSION"),
-        "scene": a.scene,
-        "inputs_hash": scene.inputs_hash,
-        "preset": a.preset,
-        "settings": cfg,
-        "inputs": {
-            "train_views": split.views.len(),
-            "width": scene.ds.width,
-            "height": scene.ds.height,
-            "triangles": mesh.triangles.len(),
-        },
-        "stages": stages,
-        "seconds_total": t_all.elapsed().as_secs_f64(),
-        "fit": fitted.report,
-        "emitters": emitters.iter().map(|e| serde_json::json!({
-            "triangles": e.triangles.len(), "area": e.area, "mean_radiance": e.mean_radiance,
-            "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
-        })).collect::<Vec<_>>(),
-        "components": {
-            "reflectance_model": cfg.model.brdf,
-            "method": { "name": cfg.pipeline.method, "implementation": fitter.name() },
-            "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
-            "material_field": field.name(),
-            "registered": components.describe(),
-        },
-        "modeled": {
-            "reflectance_model": cfg.model.brdf,
-            "material_field": format!("fitted by method `{}`", cfg.pipeline.method),
-            "emitters": emitters.len(),
-            "initial_bake": if shadings.is_some() { "baked for the fitter" } else { "skipped (the fitter does not use shadings)" },
-            "search_and_refinement": "skipped (FIPT's rounds; this run's method replaces them)",
-        },
-        "metrics": metrics,
-    });
+    let mut report = report_header(a, &scene, cfg);
+    extend(
+        &mut report,
+        serde_json::json!({
+            "stages": stages,
+            "seconds_total": t_all.elapsed().as_secs_f64(),
+            "fit": fitted.report,
+            "emitters": emitters_summary(&emitters),
+            "components": {
+                "reflectance_model": cfg.model.brdf,
+                "method": { "name": cfg.pipeline.method, "implementation": fitter.name() },
+                "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
+                "material_field": field.name(),
+                "registered": components.describe(),
+            },
+            "modeled": {
+                "reflectance_model": cfg.model.brdf,
+                "material_field": format!("fitted by method `{}`", cfg.pipeline.method),
+                "emitters": emitters.len(),
+                "initial_bake": if shadings.is_some() { "baked for the fitter" } else { "skipped (the fitter does not use shadings)" },
+                "search_and_refinement": "skipped (FIPT's rounds; this run's method replaces them)",
+            },
+            "metrics": metrics,
+        }),
+    );
     write_json_atomic(&a.out.join("report.json"), &report)?;
     println!(
         "\nfipt run ({}) finished in {:.1} s",

@@ -327,7 +327,6 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     mark("emitters", t);
 
     // Refine → train rounds, unless nothing in the scene needs them.
-    let split = scene.ds.train();
     let mut closure = vec![];
     if has_gt {
         closure.push(serde_json::json!({
@@ -388,49 +387,39 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     } else {
         None
     };
-    let report = serde_json::json!({
-        "fipt_version": env!("CARGO_PKG_VERSION"),
-        "scene": a.scene,
-        "inputs_hash": scene.inputs_hash,
-        "preset": a.preset,
-        "settings": cfg,
-        "inputs": {
-            "train_views": split.views.len(),
-            "width": scene.ds.width,
-            "height": scene.ds.height,
-            "triangles": mesh.triangles.len(),
-        },
-        "stages": stages,
-        "seconds_total": t_all.elapsed().as_secs_f64(),
-        "bake": { "stats": bake.stats, "seconds": bake.seconds_total },
-        "train": train,
-        "rounds": rounds,
-        "shading_closure": closure,
-        "search": searches,
-        "emitters": emitters.iter().map(|e| serde_json::json!({
-            "triangles": e.triangles.len(), "area": e.area, "mean_radiance": e.mean_radiance,
-            "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
-        })).collect::<Vec<_>>(),
-        "components": {
-            "reflectance_model": cfg.model.brdf,
-            "baker": bake.baker,
-            "method": cfg.pipeline.method,
-            "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
-            "material_field": fipt_core::field::MaterialField::name(&field),
-            "registered": components.describe(),
-        },
-        "modeled": {
-            "reflectance_model": cfg.model.brdf,
-            "material_field": true,
-            "material_search": if cfg.search.enabled { format!("per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}", cfg.search.regions, if cfg.search.on_bake { "the bake and each refinement" } else { "each refinement (none without one)" }, cfg.search.roughness_steps, cfg.search.metallic, cfg.train.target_weight) } else { "skipped (search.enabled = false)".to_string() },
-            "emission_mask": true,
-            "emitters": emitters.len(),
-            "path_grown_refinement": match &refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
-            "re_render": if cfg.render.spp > 0 { format!("path traced at {} spp (other splits: {}) from the field (voxel cache) and the extracted emitters", cfg.render.spp, if cfg.render.val_spp > 0 { cfg.render.val_spp } else { cfg.render.spp }) } else { "skipped (render.spp = 0)".to_string() },
-            "hash_table_log2": train.config.field.grid.log2_table,
-        },
-        "metrics": metrics,
-    });
+    let mut report = report_header(&a, &scene, &cfg);
+    extend(
+        &mut report,
+        serde_json::json!({
+            "stages": stages,
+            "seconds_total": t_all.elapsed().as_secs_f64(),
+            "bake": { "stats": bake.stats, "seconds": bake.seconds_total },
+            "train": train,
+            "rounds": rounds,
+            "shading_closure": closure,
+            "search": searches,
+            "emitters": emitters_summary(&emitters),
+            "components": {
+                "reflectance_model": cfg.model.brdf,
+                "baker": bake.baker,
+                "method": cfg.pipeline.method,
+                "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
+                "material_field": fipt_core::field::MaterialField::name(&field),
+                "registered": components.describe(),
+            },
+            "modeled": {
+                "reflectance_model": cfg.model.brdf,
+                "material_field": true,
+                "material_search": if cfg.search.enabled { format!("per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}", cfg.search.regions, if cfg.search.on_bake { "the bake and each refinement" } else { "each refinement (none without one)" }, cfg.search.roughness_steps, cfg.search.metallic, cfg.train.target_weight) } else { "skipped (search.enabled = false)".to_string() },
+                "emission_mask": true,
+                "emitters": emitters.len(),
+                "path_grown_refinement": match &refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
+                "re_render": if cfg.render.spp > 0 { format!("path traced at {} spp (other splits: {}) from the field (voxel cache) and the extracted emitters", cfg.render.spp, if cfg.render.val_spp > 0 { cfg.render.val_spp } else { cfg.render.spp }) } else { "skipped (render.spp = 0)".to_string() },
+                "hash_table_log2": train.config.field.grid.log2_table,
+            },
+            "metrics": metrics,
+        }),
+    );
     write_json_atomic(&a.out.join("report.json"), &report)?;
     let final_train_dir = match (&refine_plan, cfg.rounds.refinements) {
         (Ok(_), r) if r > 0 => format!("train{r}"),
@@ -607,6 +596,48 @@ fn refinement_rounds(
         st.train = m;
     }
     Ok(())
+}
+
+/// The part of `report.json` every method writes first: version, scene, preset, settings and
+/// the size of the inputs.
+pub(crate) fn report_header(
+    a: &Args,
+    scene: &crate::scene::LoadedScene,
+    cfg: &RunConfig,
+) -> serde_json::Value {
+    serde_json::json!({
+        "fipt_version": env!("CARGO_PKG_VERSION"),
+        "scene": a.scene,
+        "inputs_hash": scene.inputs_hash,
+        "preset": a.preset,
+        "settings": cfg,
+        "inputs": {
+            "train_views": scene.ds.train().views.len(),
+            "width": scene.ds.width,
+            "height": scene.ds.height,
+            "triangles": scene.geometry.mesh.triangles.len(),
+        },
+    })
+}
+
+/// Adds the keys of the object `more` to the object `report`.
+pub(crate) fn extend(report: &mut serde_json::Value, more: serde_json::Value) {
+    if let (Some(r), serde_json::Value::Object(m)) = (report.as_object_mut(), more) {
+        r.extend(m);
+    }
+}
+
+/// One summary per light, as `report.json` lists them.
+pub(crate) fn emitters_summary(emitters: &[Emitter]) -> Vec<serde_json::Value> {
+    emitters
+        .iter()
+        .map(|e| {
+            serde_json::json!({
+                "triangles": e.triangles.len(), "area": e.area, "mean_radiance": e.mean_radiance,
+                "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
+            })
+        })
+        .collect()
 }
 
 /// The stages every method ends with: per-view maps of every split (`maps`) and path-traced
