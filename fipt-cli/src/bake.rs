@@ -7,7 +7,7 @@ use fipt_core::image::Image;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::ShadingBaker;
 use fipt_core::shading::ViewShadings;
-use fipt_shading::bake::{BakeConfig, BakeStats, FactorizedBaker};
+use fipt_shading::bake::{BakeConfig, BakeStats};
 use fipt_shading::bake_store::{load_if_current, save, BakeManifest, FORMAT_VERSION};
 use std::path::{Path, PathBuf};
 
@@ -36,29 +36,31 @@ pub struct Args {
     brdf: ReflectanceModel,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     let cfg: BakeConfig =
         crate::config::load_preset(&a.preset, BakeConfig::preset, a.config.as_deref())?;
+    let settings = serde_json::to_value(&cfg)?;
+    let baker = components.baker(crate::components::SLF_BAKER, &settings, a.brdf)?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     let dir = a.out.join("bake");
-    stage(&scene, &cfg, a.brdf, &dir, a.force)?;
+    stage(&scene, baker.as_ref(), &settings, &dir, a.force)?;
     println!("wrote {}", dir.display());
     Ok(())
 }
 
-/// The bake stage: reuses a finished bake of the same inputs and settings in `dir` unless
-/// `force`; otherwise bakes, saves (manifest last) and writes previews of Ld.
+/// The bake stage with `baker` (built from `settings`): reuses a finished bake of the same
+/// inputs, baker and settings in `dir` unless `force`; otherwise bakes, saves (manifest last)
+/// and writes previews of Ld.
 pub fn stage(
     scene: &LoadedScene,
-    cfg: &BakeConfig,
-    model: ReflectanceModel,
+    baker: &dyn ShadingBaker,
+    settings: &serde_json::Value,
     dir: &Path,
     force: bool,
 ) -> Result<(BakeManifest, Vec<ViewShadings>)> {
-    let baker = FactorizedBaker::new(cfg.clone()).with_model(model);
     let name = baker.name().to_string();
     if !force {
-        match load_if_current(dir, &scene.inputs_hash, cfg, &name)? {
+        match load_if_current(dir, &scene.inputs_hash, settings, &name)? {
             Ok((m, sh)) => {
                 eprintln!(
                     "reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it",
@@ -74,30 +76,23 @@ pub fn stage(
     let split = scene.ds.train();
     let pb = bar(1, "bake");
     let st = Stage::start("bake");
-    let baked = ShadingBaker::bake(
-        &baker,
-        &scene.geometry,
-        &split.views,
-        &scene.images,
-        &|d, t| {
-            pb.set_length(t as u64);
-            pb.set_position(d as u64);
-        },
-    )?;
+    let baked = baker.bake(&scene.geometry, &split.views, &scene.images, &|d, t| {
+        pb.set_length(t as u64);
+        pb.set_position(d as u64);
+    })?;
     let shadings = baked.output;
-    let stats: BakeStats = serde_json::from_value(baked.report)?;
     pb.finish_and_clear();
     let secs = st.done();
     let manifest = BakeManifest {
         version: FORMAT_VERSION,
         baker: name,
         inputs_hash: scene.inputs_hash.clone(),
-        config: serde_json::to_value(cfg)?,
+        config: settings.clone(),
         split: split.name.clone(),
         views: shadings.len(),
         width: scene.ds.width,
         height: scene.ds.height,
-        stats: stats.clone(),
+        stats: baked.report.clone(),
         seconds_total: secs,
     };
     let st = Stage::start("write bake");
@@ -111,6 +106,11 @@ pub fn stage(
         img.write_png(&dir.join("preview").join(format!("{k:03}_ld.png")), 1.0)?;
     }
     st.done();
+    // The built-in baker's figures in words; any other baker's report as it is.
+    let Ok(stats) = serde_json::from_value::<BakeStats>(baked.report.clone()) else {
+        eprintln!("{}: {}", manifest.baker, baked.report);
+        return Ok((manifest, shadings));
+    };
     let rays = stats.rays_diffuse + stats.rays_specular;
     eprintln!(
         "primary {:.2} s, SLF {:.2} s ({} voxels, {:.1} MiB), diffuse {:.2} s ({} cache entries for {} pixels), specular {:.2} s",

@@ -6,6 +6,8 @@
 //! | kind | chosen by | built in |
 //! |---|---|---|
 //! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | `fipt`: bake → search → train → emitters → (refine → search → train) × rounds |
+//! | shading baker (`fipt_core::shading::ShadingBaker`), in `fipt`'s rounds | `[pipeline] baker` | `slf`: the surface-light-field bake, settings `[bake]` |
+//! | shading refiner (`fipt_core::shading::ShadingRefiner`), in `fipt`'s rounds | `[pipeline] refiner` | `path-grown`: the path-grown refinement, settings `[refine]` |
 //! | emitter extractor (`fipt_core::emitter::EmitterExtractor`) | `[pipeline] extractor` | `mask`: the emission-mask extractor, settings `[emitters]` |
 //! | reflectance model (closed set, `fipt_core::reflectance`) | `[model] brdf` | `principled`, `fipt` |
 //!
@@ -14,7 +16,19 @@
 use anyhow::{bail, Result};
 use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::MaterialFitter;
+use fipt_core::reflectance::ReflectanceModel;
+use fipt_core::shading::{ShadingBaker, ShadingRefiner};
 use std::collections::BTreeMap;
+
+/// Builds a shading baker from its settings, for the run's reflectance model.
+pub type BakerFactory = Box<
+    dyn Fn(&serde_json::Value, ReflectanceModel) -> Result<Box<dyn ShadingBaker>> + Send + Sync,
+>;
+
+/// Builds a shading refiner from its settings, for the run's reflectance model.
+pub type RefinerFactory = Box<
+    dyn Fn(&serde_json::Value, ReflectanceModel) -> Result<Box<dyn ShadingRefiner>> + Send + Sync,
+>;
 
 /// Builds an extractor from its settings.
 pub type ExtractorFactory =
@@ -33,7 +47,15 @@ struct Entry<F> {
 pub struct Components {
     extractors: BTreeMap<String, Entry<ExtractorFactory>>,
     fitters: BTreeMap<String, Entry<FitterFactory>>,
+    bakers: BTreeMap<String, Entry<BakerFactory>>,
+    refiners: BTreeMap<String, Entry<RefinerFactory>>,
 }
+
+/// The built-in shading baker's name.
+pub const SLF_BAKER: &str = "slf";
+
+/// The built-in shading refiner's name.
+pub const PATH_GROWN_REFINER: &str = "path-grown";
 
 /// The built-in emitter extractor's name.
 pub const MASK_EXTRACTOR: &str = "mask";
@@ -47,7 +69,29 @@ impl Components {
         Components {
             extractors: BTreeMap::new(),
             fitters: BTreeMap::new(),
+            bakers: BTreeMap::new(),
+            refiners: BTreeMap::new(),
         }
+        .with_baker(
+            SLF_BAKER,
+            "the surface light field of the views and the factorised shadings (settings: [bake])",
+            Box::new(|v, model| {
+                let config: fipt_shading::bake::BakeConfig = serde_json::from_value(v.clone())?;
+                Ok(Box::new(
+                    fipt_shading::bake::FactorizedBaker::new(config).with_model(model),
+                ))
+            }),
+        )
+        .with_refiner(
+            PATH_GROWN_REFINER,
+            "paths grown through glossy surfaces, the SLF at rough ones, emitter sampling (settings: [refine])",
+            Box::new(|v, model| {
+                let config: fipt_shading::refine::RefineConfig = serde_json::from_value(v.clone())?;
+                Ok(Box::new(
+                    fipt_shading::refine::PathGrownRefiner::new(config).with_model(model),
+                ))
+            }),
+        )
         .with_extractor(
             MASK_EXTRACTOR,
             "the trained emission mask averaged per triangle, radiance medians, connected lights (settings: [emitters])",
@@ -116,6 +160,64 @@ impl Components {
             .map_err(|err| anyhow::anyhow!("settings of method `{name}`: {err:#}"))
     }
 
+    /// Registers (or replaces) the shading baker `name`.
+    pub fn with_baker(mut self, name: &str, description: &str, factory: BakerFactory) -> Self {
+        self.bakers.insert(
+            name.to_string(),
+            Entry {
+                description: description.to_string(),
+                factory,
+            },
+        );
+        self
+    }
+
+    /// Registers (or replaces) the shading refiner `name`.
+    pub fn with_refiner(mut self, name: &str, description: &str, factory: RefinerFactory) -> Self {
+        self.refiners.insert(
+            name.to_string(),
+            Entry {
+                description: description.to_string(),
+                factory,
+            },
+        );
+        self
+    }
+
+    /// The baker `name` built from `settings` for `model`.
+    pub fn baker(
+        &self,
+        name: &str,
+        settings: &serde_json::Value,
+        model: ReflectanceModel,
+    ) -> Result<Box<dyn ShadingBaker>> {
+        let Some(e) = self.bakers.get(name) else {
+            bail!(
+                "[pipeline] baker = \"{name}\" is not registered (this binary has: {})",
+                self.bakers.keys().cloned().collect::<Vec<_>>().join(", ")
+            );
+        };
+        (e.factory)(settings, model)
+            .map_err(|err| anyhow::anyhow!("settings of baker `{name}`: {err:#}"))
+    }
+
+    /// The refiner `name` built from `settings` for `model`.
+    pub fn refiner(
+        &self,
+        name: &str,
+        settings: &serde_json::Value,
+        model: ReflectanceModel,
+    ) -> Result<Box<dyn ShadingRefiner>> {
+        let Some(e) = self.refiners.get(name) else {
+            bail!(
+                "[pipeline] refiner = \"{name}\" is not registered (this binary has: {})",
+                self.refiners.keys().cloned().collect::<Vec<_>>().join(", ")
+            );
+        };
+        (e.factory)(settings, model)
+            .map_err(|err| anyhow::anyhow!("settings of refiner `{name}`: {err:#}"))
+    }
+
     /// The names of the registered extractors.
     pub fn extractor_names(&self) -> Vec<&str> {
         self.extractors.keys().map(|k| k.as_str()).collect()
@@ -131,10 +233,20 @@ impl Components {
             .extractors
             .iter()
             .map(|(k, e)| format!("extractor `{k}`: {}", e.description));
+        let bakers = self
+            .bakers
+            .iter()
+            .map(|(k, e)| format!("baker `{k}`: {}", e.description));
+        let refiners = self
+            .refiners
+            .iter()
+            .map(|(k, e)| format!("refiner `{k}`: {}", e.description));
         std::iter::once(format!(
             "method `{FIPT_METHOD}`: bake, search, train, emitters, refine rounds (built in)"
         ))
         .chain(methods)
+        .chain(bakers)
+        .chain(refiners)
         .chain(extractors)
         .collect()
     }

@@ -11,17 +11,28 @@ use anyhow::Result;
 use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::{FitInputs, MaterialFitter};
 use fipt_core::fsutil::write_json_atomic;
+use fipt_core::shading::ShadingBaker;
 use fipt_shading::bake::primary_records;
 use std::time::Instant;
 
-/// Runs `fitter` on the scene of `a` and writes the output contract into `a.out`.
-pub fn run(
-    a: &Args,
-    cfg: &RunConfig,
-    components: &Components,
-    fitter: &dyn MaterialFitter,
-    extractor: &dyn EmitterExtractor,
-) -> Result<()> {
+/// The components a fitted run uses.
+pub struct Parts<'a> {
+    pub fitter: &'a dyn MaterialFitter,
+    /// The baker (and its settings) for a fitter that needs shadings.
+    pub baker: &'a dyn ShadingBaker,
+    pub bake_settings: &'a serde_json::Value,
+    /// The emitter extractor, for a fitter that returns no emitters.
+    pub extractor: &'a dyn EmitterExtractor,
+}
+
+/// Runs `parts.fitter` on the scene of `a` and writes the output contract into `a.out`.
+pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> Result<()> {
+    let Parts {
+        fitter,
+        baker,
+        bake_settings,
+        extractor,
+    } = parts;
     let t_all = Instant::now();
     let mut stages: Vec<StageReport> = vec![];
     fipt_core::fsutil::remove_stale_temporaries(&a.out);
@@ -32,13 +43,8 @@ pub fn run(
     let mesh = &scene.geometry.mesh;
     let shadings = if fitter.needs_shadings() {
         let t = Instant::now();
-        let (_, sh) = crate::bake::stage(
-            &scene,
-            &cfg.bake,
-            cfg.model.brdf,
-            &a.out.join("bake"),
-            a.force,
-        )?;
+        let (_, sh) =
+            crate::bake::stage(&scene, baker, bake_settings, &a.out.join("bake"), a.force)?;
         stages.push(StageReport::since("bake", t));
         Some(sh)
     } else {

@@ -104,7 +104,7 @@ fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
         Command::Info(a) => info::run(a),
         Command::Synth(a) => synth::run(a),
         Command::Render(a) => render::run(a),
-        Command::Bake(a) => bake::run(a),
+        Command::Bake(a) => bake::run(a, components),
         Command::Train(a) => train::run(a),
         Command::Run(a) => run::run(a, components),
         Command::Eval(a) => eval::run(a),

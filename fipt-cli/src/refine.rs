@@ -7,17 +7,17 @@ use anyhow::Result;
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{hash_bytes, read_json, write_json_atomic};
-use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::{RefineInputs, ShadingRefiner, ViewShadings};
 use fipt_shading::bake_store::{load_keyed, save, BakeManifest, FORMAT_VERSION};
-use fipt_shading::refine::{PathGrownRefiner, RefineConfig, RefineStats};
+use fipt_shading::refine::RefineStats;
 use std::path::Path;
 
 /// A finished refinement: its shadings, their fingerprint and what the rays met.
 pub struct Refined {
     pub shadings: Vec<ViewShadings>,
     pub key: String,
-    pub stats: RefineStats,
+    /// The refiner's report (`ShadingRefiner::refine`).
+    pub stats: serde_json::Value,
     pub seconds: f64,
 }
 
@@ -27,17 +27,16 @@ pub fn stage(
     field: &dyn MaterialField,
     field_id: &str,
     emitters: &[Emitter],
-    cfg: &RefineConfig,
-    model: ReflectanceModel,
+    refiner: &dyn ShadingRefiner,
+    settings: &serde_json::Value,
     dir: &Path,
     force: bool,
 ) -> Result<Refined> {
-    let refiner = PathGrownRefiner::new(cfg.clone()).with_model(model);
     let name = refiner.name().to_string();
     let key = hash_bytes(
         format!(
             "{}|{field_id}|{}",
-            serde_json::to_string(cfg)?,
+            serde_json::to_string(settings)?,
             serde_json::to_string(emitters)?
         )
         .as_bytes(),
@@ -81,9 +80,38 @@ pub fn stage(
         pb.set_position(d as u64);
     })?;
     let shadings = refined.output;
-    let stats: RefineStats = serde_json::from_value(refined.report)?;
+    let stats = refined.report;
     pb.finish_and_clear();
     let secs = st.done();
+    print_stats(&name, &stats, secs);
+    let manifest = BakeManifest {
+        version: FORMAT_VERSION,
+        baker: name,
+        inputs_hash: scene.inputs_hash.clone(),
+        config: serde_json::json!({ "key": key, "settings": settings, "field": field_id }),
+        split: split.name.clone(),
+        views: shadings.len(),
+        width: scene.ds.width,
+        height: scene.ds.height,
+        stats: Default::default(),
+        seconds_total: secs,
+    };
+    write_json_atomic(&stats_path, &stats)?;
+    save(dir, &manifest, &shadings)?;
+    Ok(Refined {
+        shadings,
+        key,
+        stats,
+        seconds: secs,
+    })
+}
+
+/// The built-in refiner's figures in words; any other refiner's report as it is.
+fn print_stats(name: &str, report: &serde_json::Value, secs: f64) {
+    let Ok(stats) = serde_json::from_value::<RefineStats>(report.clone()) else {
+        eprintln!("{name}: {report}");
+        return;
+    };
     eprintln!(
         "refine: {:.0} pixels/s, {:.2} Mrays/s ({} rays)",
         stats.pixels as f64 / secs.max(1e-9),
@@ -102,24 +130,4 @@ pub fn stage(
         stats.secondary_unobserved,
         stats.secondary_miss
     );
-    let manifest = BakeManifest {
-        version: FORMAT_VERSION,
-        baker: name,
-        inputs_hash: scene.inputs_hash.clone(),
-        config: serde_json::json!({ "key": key, "settings": cfg, "field": field_id }),
-        split: split.name.clone(),
-        views: shadings.len(),
-        width: scene.ds.width,
-        height: scene.ds.height,
-        stats: Default::default(),
-        seconds_total: secs,
-    };
-    write_json_atomic(&stats_path, &stats)?;
-    save(dir, &manifest, &shadings)?;
-    Ok(Refined {
-        shadings,
-        key,
-        stats,
-        seconds: secs,
-    })
 }

@@ -9,6 +9,7 @@ use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::{write_bytes_atomic, write_json_atomic};
 use fipt_core::image::ExrPrecision;
 use fipt_core::reflectance::ReflectanceModel;
+use fipt_core::shading::ShadingRefiner;
 use fipt_emitter::MaskExtractorConfig;
 use fipt_neural::TrainConfig;
 use fipt_shading::bake::{primary_records, BakeConfig, PixelRecord};
@@ -81,6 +82,11 @@ pub struct PipelineConfig {
     /// The method: `fipt` (built in: bake, search, train, emitters, refinement rounds) or a
     /// registered fitter's name (settings `[plugins.<name>]`).
     pub method: String,
+    /// The shading baker: `slf` (built in, settings `[bake]`) or a plug-in's name.
+    pub baker: String,
+    /// The shading refiner of `fipt`'s rounds: `path-grown` (built in, settings `[refine]`) or
+    /// a plug-in's name.
+    pub refiner: String,
     /// The emitter extractor: `mask` (built in, settings `[emitters]`) or a plug-in's name
     /// (settings `[plugins.<name>]`).
     pub extractor: String,
@@ -90,6 +96,8 @@ impl Default for PipelineConfig {
     fn default() -> Self {
         PipelineConfig {
             method: crate::components::FIPT_METHOD.to_string(),
+            baker: crate::components::SLF_BAKER.to_string(),
+            refiner: crate::components::PATH_GROWN_REFINER.to_string(),
             extractor: crate::components::MASK_EXTRACTOR.to_string(),
         }
     }
@@ -102,6 +110,28 @@ impl RunConfig {
         let name = &self.pipeline.extractor;
         Ok(if name == crate::components::MASK_EXTRACTOR {
             serde_json::to_value(&self.emitters)?
+        } else {
+            self.plugin_settings(name)
+        })
+    }
+
+    /// The settings of the configured baker: `[bake]` for the built-in one, else
+    /// `[plugins.<name>]`.
+    pub(crate) fn baker_settings(&self) -> Result<serde_json::Value> {
+        let name = &self.pipeline.baker;
+        Ok(if name == crate::components::SLF_BAKER {
+            serde_json::to_value(&self.bake)?
+        } else {
+            self.plugin_settings(name)
+        })
+    }
+
+    /// The settings of the configured refiner: `[refine]` for the built-in one, else
+    /// `[plugins.<name>]`.
+    fn refiner_settings(&self) -> Result<serde_json::Value> {
+        let name = &self.pipeline.refiner;
+        Ok(if name == crate::components::PATH_GROWN_REFINER {
+            serde_json::to_value(&self.refine)?
         } else {
             self.plugin_settings(name)
         })
@@ -237,9 +267,19 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     cfg.train.validate()?;
     // Components first: a misspelt name or bad plug-in settings fail before any work.
     let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
+    let bake_settings = cfg.baker_settings()?;
+    let baker = components.baker(&cfg.pipeline.baker, &bake_settings, cfg.model.brdf)?;
+    let refine_settings = cfg.refiner_settings()?;
+    let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
     let method = &cfg.pipeline.method;
     if let Some(fitter) = components.fitter(method, &cfg.plugin_settings(method))? {
-        return crate::fit::run(&a, &cfg, components, fitter.as_ref(), extractor.as_ref());
+        let parts = crate::fit::Parts {
+            fitter: fitter.as_ref(),
+            baker: baker.as_ref(),
+            bake_settings: &bake_settings,
+            extractor: extractor.as_ref(),
+        };
+        return crate::fit::run(&a, &cfg, components, parts);
     }
     let t_all = std::time::Instant::now();
     let mut stages = vec![];
@@ -252,8 +292,8 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     let t = std::time::Instant::now();
     let (bake, shadings) = crate::bake::stage(
         &scene,
-        &cfg.bake,
-        cfg.model.brdf,
+        baker.as_ref(),
+        &bake_settings,
         &a.out.join("bake"),
         a.force,
     )?;
@@ -357,6 +397,8 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
                 footprint,
                 emitters: &emitters,
                 has_gt,
+                refiner: refiner.as_ref(),
+                refine_settings: &refine_settings,
             };
             refinement_rounds(&ctx, &mut state, &mut mark)?;
             (field, train) = (state.field, state.train);
@@ -401,8 +443,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
             "emitters": emitters_summary(&emitters),
             "components": {
                 "reflectance_model": cfg.model.brdf,
-                "baker": bake.baker,
-                "method": cfg.pipeline.method,
+                    "method": cfg.pipeline.method,
                 "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
                 "material_field": fipt_core::field::MaterialField::name(&field),
                 "registered": components.describe(),
@@ -511,6 +552,8 @@ struct RoundsContext<'a> {
     footprint: f32,
     emitters: &'a [Emitter],
     has_gt: bool,
+    refiner: &'a dyn ShadingRefiner,
+    refine_settings: &'a serde_json::Value,
 }
 
 /// What the refinement rounds update: the field and its manifest, the search's last answer, and
@@ -538,8 +581,8 @@ fn refinement_rounds(
             &st.field,
             &st.train.fingerprint(),
             ctx.emitters,
-            &cfg.refine,
-            cfg.model.brdf,
+            ctx.refiner,
+            ctx.refine_settings,
             &ctx.out.join(format!("refine{r}")),
             ctx.force,
         )?;

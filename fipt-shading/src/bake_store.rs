@@ -11,7 +11,7 @@
 //! [version 2 only: f32 × 3 × 2 × pixels (Ld1, Ld2: the diffuse shading's σ polynomial)],
 //! f32 × 3 × levels × pixels (Ls0), the same for Ls1. Version 1 is written when the shadings
 //! have no σ polynomial (FIPT's model), version 2 when they do (`principled`).
-use crate::bake::{BakeConfig, BakeStats};
+use crate::bake::BakeConfig;
 use fipt_core::fsutil::{read_json, write_bytes_atomic, write_json_atomic};
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_core::{CoreError, Result};
@@ -40,7 +40,9 @@ pub struct BakeManifest {
     pub views: usize,
     pub width: usize,
     pub height: usize,
-    pub stats: BakeStats,
+    /// The baker's report (`ShadingBaker::bake`); null for refinements.
+    #[serde(default)]
+    pub stats: serde_json::Value,
     pub seconds_total: f64,
 }
 
@@ -167,7 +169,7 @@ pub fn save(dir: &Path, manifest: &BakeManifest, shadings: &[ViewShadings]) -> R
 pub fn mismatch(
     m: &BakeManifest,
     inputs_hash: &str,
-    config: &BakeConfig,
+    config: &serde_json::Value,
     baker: &str,
 ) -> Option<String> {
     if m.version != FORMAT_VERSION {
@@ -184,10 +186,15 @@ pub fn mismatch(
     }
     // Same keys (a key added by a later fipt is a change) and equal typed values (JSON numbers
     // of f32 settings do not compare bit for bit after a text round trip).
+    // Settings of another baker (a plug-in's) compare as JSON.
     let keys = |v: &serde_json::Value| v.as_object().map(|o| o.keys().cloned().collect::<Vec<_>>());
-    let same_keys = serde_json::to_value(config).ok().as_ref().and_then(keys) == keys(&m.config);
-    let stored: Option<BakeConfig> = serde_json::from_value(m.config.clone()).ok();
-    if !same_keys || stored.as_ref() != Some(config) {
+    let same_keys = keys(config) == keys(&m.config);
+    let typed = |v: &serde_json::Value| serde_json::from_value::<BakeConfig>(v.clone()).ok();
+    let same = match (typed(&m.config), typed(config)) {
+        (Some(a), Some(b)) => a == b,
+        _ => m.config == *config,
+    };
+    if !same_keys || !same {
         return Some("the bake settings changed".into());
     }
     None
@@ -230,7 +237,7 @@ pub fn load_keyed(
 pub fn load_if_current(
     dir: &Path,
     inputs_hash: &str,
-    config: &BakeConfig,
+    config: &serde_json::Value,
     baker: &str,
 ) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
     load_checked(dir, |m| mismatch(m, inputs_hash, config, baker))
