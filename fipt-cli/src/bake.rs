@@ -41,6 +41,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         crate::config::load_preset(&a.preset, BakeConfig::preset, a.config.as_deref())?;
     let settings = serde_json::to_value(&cfg)?;
     let baker = components.baker(crate::components::SLF_BAKER, &settings, a.brdf)?;
+    let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt bake")?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     let dir = a.out.join("bake");
     stage(&scene, baker.as_ref(), &settings, &dir, a.force)?;

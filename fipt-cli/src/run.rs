@@ -271,6 +271,8 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     let baker = components.baker(&cfg.pipeline.baker, &bake_settings, cfg.model.brdf)?;
     let refine_settings = cfg.refiner_settings()?;
     let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
+    // One run per output folder at a time.
+    let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt run")?;
     let method = &cfg.pipeline.method;
     if let Some(fitter) = components.fitter(method, &cfg.plugin_settings(method))? {
         let parts = crate::fit::Parts {

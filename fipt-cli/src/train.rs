@@ -101,6 +101,11 @@ pub fn run(a: Args) -> Result<()> {
     cfg.validate()?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     let bake_dir = a.out.join("bake");
+    let _lock = if a.out.is_dir() {
+        Some(fipt_core::lock::OutputLock::acquire(&a.out, "fipt train")?)
+    } else {
+        None // no bake there: the error below says what to run first
+    };
     let (bake, shadings) = match load_for_inputs(&bake_dir, &scene.inputs_hash)? {
         Ok(x) => x,
         Err(why) => bail!(

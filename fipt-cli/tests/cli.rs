@@ -126,6 +126,25 @@ fn bake_reuses_finished_work_and_invalidates_on_change() {
     )
     .unwrap();
     let c = cfg.to_str().unwrap();
+    // A folder another live fipt holds is refused, naming the holder (here: this test's pid).
+    std::fs::create_dir_all(&out).unwrap();
+    let lock = out.join(".fipt.lock");
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+    std::fs::write(
+        &lock,
+        format!(
+            "pid {}\nhost {}\nfipt run\n",
+            std::process::id(),
+            host.trim()
+        ),
+    )
+    .unwrap();
+    let (ok, _, err) = fipt(&["bake", d, "--out", o, "--config", c]);
+    assert!(
+        !ok && err.contains("in use by another fipt") && err.contains(".fipt.lock"),
+        "{err}"
+    );
+    std::fs::remove_file(&lock).unwrap();
     let (ok, stdout, err) = fipt(&["bake", d, "--out", o, "--config", c]);
     assert!(ok, "{err}");
     assert!(

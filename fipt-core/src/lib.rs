@@ -17,7 +17,8 @@
 //! * [`fit::MaterialFitter`]: a method that fits a field to the views (FIPT's rounds or a plug-in);
 //! * [`shading`]: the factorised shading model, [`shading::RayQuery`] and the
 //!   [`shading::ShadingBaker`] and [`shading::ShadingRefiner`] contracts;
-//! * [`rng::Pcg32`], [`metrics`], atomic file writing in [`fsutil`].
+//! * [`rng::Pcg32`], [`metrics`], atomic file writing in [`fsutil`], the output folder's lock
+//!   in [`lock`].
 //!
 //! ```
 //! use fipt_core::camera::Camera;
@@ -38,6 +39,7 @@ pub mod field;
 pub mod fit;
 pub mod fsutil;
 pub mod image;
+pub mod lock;
 pub mod materials;
 pub mod metrics;
 pub mod reflectance;
