@@ -77,6 +77,7 @@ impl Components {
             "the surface light field of the views and the factorised shadings (settings: [bake])",
             Box::new(|v, model| {
                 let config: fipt_shading::bake::BakeConfig = serde_json::from_value(v.clone())?;
+                config.validate().map_err(anyhow::Error::msg)?;
                 Ok(Box::new(
                     fipt_shading::bake::FactorizedBaker::new(config).with_model(model),
                 ))
@@ -87,6 +88,7 @@ impl Components {
             "paths grown through glossy surfaces, the SLF at rough ones, emitter sampling (settings: [refine])",
             Box::new(|v, model| {
                 let config: fipt_shading::refine::RefineConfig = serde_json::from_value(v.clone())?;
+                config.validate().map_err(anyhow::Error::msg)?;
                 Ok(Box::new(
                     fipt_shading::refine::PathGrownRefiner::new(config).with_model(model),
                 ))

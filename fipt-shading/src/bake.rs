@@ -128,6 +128,19 @@ impl BakeConfig {
             _ => None,
         }
     }
+
+    /// Refuses settings that would exhaust the machine or mean nothing, naming the key.
+    pub fn validate(&self) -> Result<(), String> {
+        crate::limits::check_shading(
+            "bake",
+            self.slf_resolution,
+            self.slf_fallback_levels,
+            self.diffuse_samples,
+            &self.specular_samples,
+            &self.levels,
+            self.cache_cell_scale,
+        )
+    }
 }
 
 /// Where the time and rays of a bake went.

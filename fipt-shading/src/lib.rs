@@ -29,6 +29,7 @@ pub mod diffuse;
 pub mod error;
 pub mod field_surfaces;
 pub mod incident;
+pub mod limits;
 pub mod refine;
 pub mod render;
 pub mod scene;

@@ -138,6 +138,34 @@ impl RefineConfig {
             _ => None,
         }
     }
+
+    /// Refuses settings that would exhaust the machine or mean nothing, naming the key.
+    pub fn validate(&self) -> Result<(), String> {
+        crate::limits::check_shading(
+            "refine",
+            self.slf_resolution,
+            self.slf_fallback_levels,
+            self.diffuse_samples,
+            &self.specular_samples,
+            &self.levels,
+            self.cache_cell_scale,
+        )?;
+        if self.light_samples > crate::limits::MAX_SAMPLES || self.max_bounces > 64 {
+            return Err(format!(
+                "[refine] light_samples = {}, max_bounces = {}: use at most {} and 64",
+                self.light_samples,
+                self.max_bounces,
+                crate::limits::MAX_SAMPLES
+            ));
+        }
+        if !(self.material_cell_scale > 0.0 && self.material_cell_scale <= 1e3) {
+            return Err(format!(
+                "[refine] material_cell_scale = {}: use (0, 1000]",
+                self.material_cell_scale
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// What the secondary rays of a refinement met, and where the time went.
