@@ -93,8 +93,16 @@ mod tests {
         use fipt_shading::refine::RefineConfig;
         for name in PRESETS.split(", ") {
             assert!(BakeConfig::preset(name).is_some(), "bake: {name}");
-            assert_eq!(BakeConfig::preset(name).unwrap().validate(), Ok(()), "{name}");
-            assert_eq!(RefineConfig::preset(name).unwrap().validate(), Ok(()), "{name}");
+            assert_eq!(
+                BakeConfig::preset(name).unwrap().validate(),
+                Ok(()),
+                "{name}"
+            );
+            assert_eq!(
+                RefineConfig::preset(name).unwrap().validate(),
+                Ok(()),
+                "{name}"
+            );
             assert!(TrainConfig::preset(name).is_some(), "train: {name}");
             assert!(RefineConfig::preset(name).is_some(), "refine: {name}");
             assert!(RunConfig::preset(name).is_some(), "run: {name}");

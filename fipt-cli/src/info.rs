@@ -33,6 +33,17 @@ impl From<Policy> for BadPixelPolicy {
 }
 
 pub fn run(a: Args) -> Result<()> {
+    // With --json, stdout holds the JSON alone; the human summary goes to stderr.
+    let json = a.json;
+    macro_rules! say {
+        ($($t:tt)*) => {
+            if json {
+                eprintln!($($t)*)
+            } else {
+                println!($($t)*)
+            }
+        };
+    }
     let ds =
         Dataset::open(&a.scene).with_context(|| format!("opening scene {}", a.scene.display()))?;
     let mut warnings = ds.warnings.clone();
@@ -46,7 +57,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     let b = mesh.bounds();
     let bvh = Bvh::build(&mesh, BuildQuality::Medium);
-    println!(
+    say!(
         "scene        {} ({} layout)",
         ds.root.display(),
         if ds.layout == Layout::Synthetic {
@@ -55,14 +66,14 @@ pub fn run(a: Args) -> Result<()> {
             "real"
         }
     );
-    println!(
+    say!(
         "mesh         {}: {} triangles, {} vertices, vertex normals: {}",
         ds.mesh.display(),
         mesh.triangles.len(),
         mesh.positions.len(),
         if mesh.normals.is_some() { "yes" } else { "no" }
     );
-    println!(
+    say!(
         "bounds       [{:.3}, {:.3}, {:.3}] – [{:.3}, {:.3}, {:.3}] (extent {:.3})",
         b.min.x,
         b.min.y,
@@ -103,7 +114,7 @@ pub fn run(a: Args) -> Result<()> {
             ));
         }
         let gt: Vec<&str> = s.gt.iter().map(|g| g.folder()).collect();
-        println!(
+        say!(
             "{:<12} {} views at {}x{}, fov_x {:.1}°",
             s.name,
             s.views.len(),
@@ -111,12 +122,14 @@ pub fn run(a: Args) -> Result<()> {
             ds.height,
             s.views[0].camera.fov_x().to_degrees()
         );
-        println!(
+        say!(
             "  HDR        min {:.3e}, max {:.3e}, mean luminance {:.4}",
-            stats.min, stats.max, stats.mean_luminance
+            stats.min,
+            stats.max,
+            stats.mean_luminance
         );
-        println!("  coverage   mean {:.1} % of pixel-centre rays hit the mesh; lowest {:.1} % (view {wv})", 100.0 * mean, 100.0 * worst);
-        println!(
+        say!("  coverage   mean {:.1} % of pixel-centre rays hit the mesh; lowest {:.1} % (view {wv})", 100.0 * mean, 100.0 * worst);
+        say!(
             "  ground truth {}",
             if gt.is_empty() {
                 "none".to_string()
@@ -136,11 +149,11 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     if warnings.is_empty() {
-        println!("warnings     none");
+        say!("warnings     none");
     } else {
-        println!("warnings     {}", warnings.len());
+        say!("warnings     {}", warnings.len());
         for w in &warnings {
-            println!("  - {w}");
+            say!("  - {w}");
         }
     }
     if a.json {

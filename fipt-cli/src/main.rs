@@ -23,6 +23,12 @@ fn keep_freed_memory() {
 
 fn main() {
     keep_freed_memory();
+    // Rust ignores SIGPIPE, so printing into a closed pipe (`fipt info | head -1`) panicked
+    // with exit 101; the default action ends the process quietly, as other tools do.
+    // SAFETY: sets a signal disposition to its default before any thread is started.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     std::process::exit(fipt_cli::main_with(fipt_cli::Components::builtin()));
 }
 

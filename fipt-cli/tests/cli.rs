@@ -60,14 +60,29 @@ fn synth_info_render_round_trip() {
         !ok && err.contains("not empty") && err.contains("--force"),
         "{err}"
     );
+    // With --json, stdout is the JSON alone and the summary goes to stderr.
     let (ok, out, err) = fipt(&["info", d, "--json"]);
     assert!(ok, "{err}");
     assert!(
-        out.contains("3 views at 24x16")
-            && out.contains("DiffCol")
-            && out.contains("warnings     none"),
-        "{out}"
+        err.contains("3 views at 24x16")
+            && err.contains("DiffCol")
+            && err.contains("warnings     none"),
+        "{err}"
     );
+    let v: serde_json::Value = serde_json::from_str(&out).expect("stdout is JSON");
+    assert_eq!(v["width"], 24, "{v}");
+    // A closed pipe (`fipt info | head -1`) ends the process by SIGPIPE, not a panic (101).
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fipt"))
+        .args(["info", d])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = [0u8; 8];
+    std::io::Read::read_exact(child.stdout.as_mut().unwrap(), &mut first).unwrap();
+    drop(child.stdout.take());
+    let status = child.wait().unwrap();
+    assert_ne!(status.code(), Some(101), "{status:?}");
     // Re-render view 1 with the scene's own table and cameras: same GT maps, bit for bit.
     let out_dir = tmp("render");
     let o = out_dir.to_str().unwrap();
