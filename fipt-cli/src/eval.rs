@@ -280,6 +280,18 @@ pub fn run(a: Args) -> Result<()> {
             a.scene.display()
         );
     }
+    // The outputs must be of this scene: `report.json` holds the inputs' fingerprint.
+    let report = a.out.join("report.json");
+    if let Ok(r) = fipt_core::fsutil::read_json::<serde_json::Value>(&report) {
+        let here = crate::scene::inputs_hash(&ds)?;
+        if let Some(there) = r["inputs_hash"].as_str().filter(|h| *h != here) {
+            anyhow::bail!(
+                "{} was made from another scene (inputs fingerprint {there}, {} has {here}): evaluate it against the scene it came from",
+                a.out.display(),
+                a.scene.display()
+            );
+        }
+    }
     evaluate(&ds, &a.out)?;
     println!("wrote {}", a.out.join("metrics.json").display());
     Ok(())

@@ -15,6 +15,19 @@ pub struct LoadedScene {
     pub inputs_hash: String,
 }
 
+/// The fingerprint of a scene's inputs: the mesh, the training cameras and images (what every
+/// stage's cache and `report.json` key on).
+pub fn inputs_hash(ds: &Dataset) -> Result<String> {
+    let split = ds.train();
+    let mut files = vec![ds.mesh.clone(), split.cameras_file.clone()];
+    let k = ds.root.join("K_list.txt");
+    if k.is_file() {
+        files.push(k);
+    }
+    files.extend(split.views.iter().map(|v| v.image.clone()));
+    Ok(fipt_core::fsutil::hash_files(&files)?)
+}
+
 pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
     let st = Stage::start("load scene");
     let ds = Dataset::open(root).with_context(|| format!("opening scene {}", root.display()))?;
@@ -34,17 +47,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
         .map(|v| ds.load_image(v, policy).map(|(img, _)| img))
         .collect::<Result<Vec<_>, _>>()
         .context("reading the training images")?;
-    let mut files = vec![ds.mesh.clone(), split.cameras_file.clone()];
-    if let Some(k) = ds
-        .root
-        .join("K_list.txt")
-        .is_file()
-        .then(|| ds.root.join("K_list.txt"))
-    {
-        files.push(k);
-    }
-    files.extend(split.views.iter().map(|v| v.image.clone()));
-    let inputs_hash = fipt_core::fsutil::hash_files(&files)?;
+    let inputs_hash = inputs_hash(&ds)?;
     st.done();
     Ok(LoadedScene {
         ds,

@@ -433,6 +433,12 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     );
     let (ok, stdout, err) = fipt(&["eval", d, o]);
     assert!(ok && stdout.contains("kd dB"), "{stdout}{err}");
+    // Against another scene, eval refuses (the report's inputs fingerprint differs).
+    let other = tmp("run-other-scene");
+    synth_cornell(other.to_str().unwrap(), [2, 1, 16, 12, 4]);
+    let (ok, _, err) = fipt(&["eval", other.to_str().unwrap(), o]);
+    assert!(!ok && err.contains("another scene"), "{err}");
+    let _ = std::fs::remove_dir_all(&other);
     let m2: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     assert_eq!(m, m2);
