@@ -37,8 +37,12 @@ pub struct Args {
 }
 
 pub fn run(a: Args, components: &crate::Components) -> Result<()> {
-    let cfg: BakeConfig =
-        crate::config::load_preset(&a.preset, BakeConfig::preset, a.config.as_deref())?;
+    let cfg: BakeConfig = crate::config::load_preset_section(
+        &a.preset,
+        BakeConfig::preset,
+        a.config.as_deref(),
+        "bake",
+    )?;
     let settings = serde_json::to_value(&cfg)?;
     let baker = components.baker(crate::components::SLF_BAKER, &settings, a.brdf)?;
     let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt bake")?;

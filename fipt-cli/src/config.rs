@@ -36,9 +36,32 @@ pub fn load_preset<T: Serialize + DeserializeOwned>(
     load(preset, file)
 }
 
+/// [`load_preset`] for one stage's settings from a file that is either that stage's config or a
+/// run config: when the file has a `[section]` table, that table is used (a run config's
+/// `[bake]` for `fipt bake`), the other sections ignored.
+pub fn load_preset_section<T: Serialize + DeserializeOwned>(
+    name: &str,
+    lookup: impl FnOnce(&str) -> Option<T>,
+    file: Option<&Path>,
+    section: &str,
+) -> Result<T> {
+    let Some(preset) = lookup(name) else {
+        bail!("unknown preset `{name}` (use one of {PRESETS})")
+    };
+    load_with(preset, file, Some(section))
+}
+
 /// `preset` with the keys of `file` (TOML, or JSON for `.json`) laid over it. Unknown keys are
 /// an error naming the file.
 pub fn load<T: Serialize + DeserializeOwned>(preset: T, file: Option<&Path>) -> Result<T> {
+    load_with(preset, file, None)
+}
+
+fn load_with<T: Serialize + DeserializeOwned>(
+    preset: T,
+    file: Option<&Path>,
+    section: Option<&str>,
+) -> Result<T> {
     let Some(path) = file else { return Ok(preset) };
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
@@ -46,6 +69,10 @@ pub fn load<T: Serialize + DeserializeOwned>(preset: T, file: Option<&Path>) -> 
         serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))?
     } else {
         toml::from_str(&text).with_context(|| format!("{}: invalid TOML", path.display()))?
+    };
+    let over = match section.and_then(|k| over.get(k)) {
+        Some(table) if table.is_object() => table.clone(),
+        _ => over,
     };
     let mut base = serde_json::to_value(&preset)?;
     merge(&mut base, over);
@@ -76,6 +103,15 @@ mod tests {
             "preset kept for absent keys"
         );
         assert_eq!(c.sampler, fipt_shading::bake::SamplerKind::Independent);
+        // A run config's [bake] section serves `fipt bake` too.
+        std::fs::write(
+            &p,
+            "[model]\nbrdf = \"fipt\"\n[bake]\ndiffuse_samples = 48\n",
+        )
+        .unwrap();
+        let c: BakeConfig =
+            load_preset_section("fast", BakeConfig::preset, Some(&p), "bake").unwrap();
+        assert_eq!(c.diffuse_samples, 48);
         std::fs::write(&p, "difuse_samples = 32\n").unwrap();
         let err = format!("{:#}", load(BakeConfig::default(), Some(&p)).unwrap_err());
         assert!(

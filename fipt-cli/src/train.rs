@@ -93,8 +93,12 @@ pub fn view_points(geometry: &Geometry, views: &[View]) -> (Vec<Vec<Option<Vec3>
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mut cfg: TrainConfig =
-        crate::config::load_preset(&a.preset, TrainConfig::preset, a.config.as_deref())?;
+    let mut cfg: TrainConfig = crate::config::load_preset_section(
+        &a.preset,
+        TrainConfig::preset,
+        a.config.as_deref(),
+        "train",
+    )?;
     if let Some(s) = a.steps {
         cfg.steps = s;
     }
