@@ -47,6 +47,7 @@ impl MicrofacetBrdf {
             roughness: clamp_roughness(roughness),
         }
     }
+
     /// GGX α = σ².
     #[inline]
     pub fn alpha(&self) -> f32 {
