@@ -2,10 +2,11 @@
 //! FIPT's rounds: (bake, when the fitter asks for it) → fit → emitters (the fitter's, or the
 //! run's extractor on the fitted field) → maps → re-renders → report (→ eval), with the outputs
 //! of every method in the same places.
-use crate::run::{
+use crate::outputs::{
     emitters_summary, extend, extract_emitters, report_header, write_emitters_obj, write_views,
-    Args, RunConfig, StageReport,
+    StageReport,
 };
+use crate::run::{Args, RunConfig};
 use crate::Components;
 use anyhow::Result;
 use fipt_core::emitter::EmitterExtractor;

@@ -12,6 +12,7 @@ mod demo;
 mod eval;
 mod fit;
 mod info;
+mod outputs;
 mod progress;
 mod refine;
 mod regions;

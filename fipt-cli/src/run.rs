@@ -3,24 +3,23 @@
 //! its results atomically and a manifest last; re-running skips finished stages and resumes an
 //! interrupted training.
 use crate::info::Policy;
+use crate::outputs::{
+    emitters_summary, extend, extract_emitters, report_header, write_emitters_obj, write_views,
+    StageReport,
+};
 use crate::progress::Stage;
 use anyhow::Result;
-use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
-use fipt_core::fsutil::{write_bytes_atomic, write_json_atomic};
-use fipt_core::image::ExrPrecision;
+use fipt_core::emitter::Emitter;
+use fipt_core::fsutil::write_json_atomic;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::ShadingRefiner;
 use fipt_emitter::MaskExtractorConfig;
 use fipt_neural::TrainConfig;
 use fipt_shading::bake::{primary_records, BakeConfig, PixelRecord};
-use fipt_shading::field_surfaces::FieldSurfaces;
 use fipt_shading::refine::RefineConfig;
-use fipt_shading::render::RenderConfig;
-use fipt_shading::scene::Scene as RenderScene;
 use fipt_shading::search::SearchConfig;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -241,24 +240,6 @@ impl RunConfig {
             plugins: Default::default(),
         })
     }
-}
-
-impl StageReport {
-    /// The stage `stage` that started at `t`, ending now.
-    pub(crate) fn since(stage: &'static str, t: std::time::Instant) -> Self {
-        StageReport {
-            stage,
-            seconds: t.elapsed().as_secs_f64(),
-            peak_rss_mib: crate::bench::peak_rss_mib(),
-        }
-    }
-}
-
-#[derive(Serialize)]
-pub(crate) struct StageReport {
-    stage: &'static str,
-    seconds: f64,
-    peak_rss_mib: Option<f64>,
 }
 
 pub fn run(a: Args, components: &crate::Components) -> Result<()> {
@@ -643,175 +624,6 @@ fn refinement_rounds(
     Ok(())
 }
 
-/// The part of `report.json` every method writes first: version, scene, preset, settings and
-/// the size of the inputs.
-pub(crate) fn report_header(
-    a: &Args,
-    scene: &crate::scene::LoadedScene,
-    cfg: &RunConfig,
-) -> serde_json::Value {
-    serde_json::json!({
-        "fipt_version": env!("CARGO_PKG_VERSION"),
-        "scene": a.scene,
-        "inputs_hash": scene.inputs_hash,
-        "preset": a.preset,
-        "settings": cfg,
-        "inputs": {
-            "train_views": scene.ds.train().views.len(),
-            "width": scene.ds.width,
-            "height": scene.ds.height,
-            "triangles": scene.geometry.mesh.triangles.len(),
-        },
-    })
-}
-
-/// Adds the keys of the object `more` to the object `report`.
-pub(crate) fn extend(report: &mut serde_json::Value, more: serde_json::Value) {
-    if let (Some(r), serde_json::Value::Object(m)) = (report.as_object_mut(), more) {
-        r.extend(m);
-    }
-}
-
-/// One summary per light, as `report.json` lists them.
-pub(crate) fn emitters_summary(emitters: &[Emitter]) -> Vec<serde_json::Value> {
-    emitters
-        .iter()
-        .map(|e| {
-            serde_json::json!({
-                "triangles": e.triangles.len(), "area": e.area, "mean_radiance": e.mean_radiance,
-                "power": e.power, "centroid": e.centroid, "pixels": e.pixels,
-            })
-        })
-        .collect()
-}
-
-/// The stages every method ends with: per-view maps of every split (`maps`) and path-traced
-/// re-renders of every view from the recovered scene (`re-render`).
-pub(crate) fn write_views(
-    scene: &crate::scene::LoadedScene,
-    cfg: &RunConfig,
-    out: &Path,
-    field: &dyn fipt_core::field::MaterialField,
-    emitters: &[Emitter],
-    observed: Option<&fipt_shading::search::CellCounts>,
-    mark: &mut dyn FnMut(&'static str, std::time::Instant),
-) -> Result<()> {
-    let mesh = &scene.geometry.mesh;
-    let t = std::time::Instant::now();
-    let st = Stage::start("maps");
-    let mut emission_of: HashMap<u32, Vec3> = HashMap::new();
-    for e in emitters {
-        for (t, l) in e.triangles.iter().zip(&e.radiance) {
-            emission_of.insert(*t, Vec3::from(*l));
-        }
-    }
-    for s in &scene.ds.splits {
-        crate::train::export_views(
-            field,
-            &scene.geometry,
-            &s.views,
-            None,
-            Some(&emission_of),
-            observed,
-            &out.join("views").join(&s.name),
-        )?;
-    }
-    st.done();
-    mark("maps", t);
-
-    if cfg.render.spp > 0 {
-        let t = std::time::Instant::now();
-        let st = Stage::start("re-render");
-        let (all_pts, footprint) = {
-            let views: Vec<_> = scene
-                .ds
-                .splits
-                .iter()
-                .flat_map(|s| s.views.clone())
-                .collect();
-            let (p, f) = crate::train::view_points(&scene.geometry, &views);
-            (p.into_iter().flatten().flatten().collect::<Vec<_>>(), f)
-        };
-        let surfaces = FieldSurfaces::build(
-            field,
-            mesh,
-            &emitters,
-            all_pts,
-            footprint.unwrap_or(0.01) * 2.0,
-        )?
-        .with_model(cfg.model.brdf);
-        let rscene = RenderScene::new(mesh.clone(), surfaces);
-        let rc = RenderConfig {
-            spp: cfg.render.spp,
-            max_bounces: cfg.render.max_bounces,
-            seed: cfg.render.seed,
-            ..Default::default()
-        };
-        let total: usize = scene.ds.splits.iter().map(|s| s.views.len()).sum();
-        let pb = crate::progress::bar(total as u64, "re-render");
-        for (si, s) in scene.ds.splits.iter().enumerate() {
-            let dir = out.join("views").join(&s.name);
-            let rc = RenderConfig {
-                spp: if s.name == scene.ds.train().name || cfg.render.val_spp == 0 {
-                    cfg.render.spp
-                } else {
-                    cfg.render.val_spp
-                },
-                ..rc.clone()
-            };
-            for v in &s.views {
-                let key = ((si as u64) << 32) + v.index as u64;
-                let (img, _) = fipt_shading::render::render(&rscene, &v.camera, &rc, key, &|_| {});
-                let k = v.index;
-                img.write_exr(&dir.join(format!("{k:03}_render.exr")), ExrPrecision::F32)?;
-                img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
-                pb.inc(1);
-            }
-        }
-        pb.finish_and_clear();
-        st.done();
-        mark("re-render", t);
-    }
-    Ok(())
-}
-
-/// Emitter extraction from the field's mask and the training pixels (with what the initial
-/// shadings say each pixel could at most reflect).
-pub(crate) fn extract_emitters(
-    scene: &crate::scene::LoadedScene,
-    records: &[Vec<Option<PixelRecord>>],
-    field: &dyn fipt_core::field::MaterialField,
-    shadings: Option<&[fipt_core::shading::ViewShadings]>,
-    extractor: &dyn EmitterExtractor,
-) -> Result<Vec<Emitter>> {
-    let mut hits = Vec::new();
-    for (v, (recs, img)) in records.iter().zip(&scene.images).enumerate() {
-        let sh = shadings.and_then(|s| s.get(v));
-        for (i, (r, l)) in recs.iter().zip(&img.data).enumerate() {
-            if let Some(r) = r {
-                let max_reflected = sh.filter(|sh| sh.valid[i]).map(|sh| {
-                    let m = |x: &[Vec3; fipt_core::shading::NUM_LEVELS]| {
-                        x.iter().fold(Vec3::ZERO, |a, b| a.max(*b))
-                    };
-                    sh.ld[i] + m(&sh.ls0[i]) + m(&sh.ls1[i])
-                });
-                hits.push(PixelHit {
-                    triangle: r.hit.tri,
-                    radiance: *l,
-                    max_reflected,
-                });
-            }
-        }
-    }
-    let mesh = &scene.geometry.mesh;
-    Ok(extractor.extract(&EmitterInputs {
-        positions: &mesh.positions,
-        triangles: &mesh.triangles,
-        field,
-        pixel_hits: &hits,
-    })?)
-}
-
 /// Fraction of the observed surface (every 7th primary hit of the training views) whose
 /// trained roughness is at most `threshold`.
 fn glossy_fraction(
@@ -831,30 +643,4 @@ fn glossy_fraction(
     }
     let mats = field.materials(&pts)?;
     Ok(mats.iter().filter(|m| m.roughness <= threshold).count() as f64 / mats.len() as f64)
-}
-
-/// Writes the emitter triangles as OBJ, one group per light.
-pub(crate) fn write_emitters_obj(
-    path: &Path,
-    mesh: &fipt_geom::Mesh,
-    emitters: &[Emitter],
-) -> Result<()> {
-    let mut s = String::from("# fipt emitters: one group per light, world space\n");
-    let mut n = 0;
-    for (i, e) in emitters.iter().enumerate() {
-        s.push_str(&format!(
-            "g light_{i}\n# mean radiance {:?}\n",
-            e.mean_radiance
-        ));
-        for &t in &e.triangles {
-            for v in mesh.triangles[t as usize] {
-                let p = mesh.positions[v as usize];
-                s.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z));
-            }
-            s.push_str(&format!("f {} {} {}\n", n + 1, n + 2, n + 3));
-            n += 3;
-        }
-    }
-    write_bytes_atomic(path, s.as_bytes())?;
-    Ok(())
 }
