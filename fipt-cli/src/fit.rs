@@ -3,8 +3,8 @@
 //! run's extractor on the fitted field) → maps → re-renders → report (→ eval), with the outputs
 //! of every method in the same places.
 use crate::outputs::{
-    emitters_summary, extend, extract_emitters, report_header, write_emitters_obj, write_views,
-    StageReport,
+    emitters_summary, evaluate_if_gt, extend, extract_emitters, report_header, write_emitters_obj,
+    write_views, StageReport,
 };
 use crate::run::{Args, RunConfig};
 use crate::Components;
@@ -93,19 +93,7 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
     stages.push(StageReport::since("emitters", t));
     let mut mark = |stage: &'static str, t: Instant| stages.push(StageReport::since(stage, t));
     write_views(&scene, cfg, &a.out, field, &emitters, None, &mut mark)?;
-    let has_gt = scene
-        .ds
-        .splits
-        .iter()
-        .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol));
-    let metrics = if has_gt {
-        let t = Instant::now();
-        let m = crate::eval::evaluate(&scene.ds, &a.out)?;
-        stages.push(StageReport::since("eval", t));
-        Some(m)
-    } else {
-        None
-    };
+    let metrics = evaluate_if_gt(&scene, &a.out, &mut mark)?;
     let mut report = report_header(a, &scene, cfg);
     extend(
         &mut report,

@@ -33,6 +33,30 @@ pub(crate) struct StageReport {
     pub(crate) peak_rss_mib: Option<f64>,
 }
 
+/// Whether the scene has ground truth to evaluate against (`DiffCol/` in a split).
+pub(crate) fn has_ground_truth(scene: &crate::scene::LoadedScene) -> bool {
+    scene
+        .ds
+        .splits
+        .iter()
+        .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol))
+}
+
+/// `fipt eval` of the outputs in `out` (the `eval` stage) when the scene has ground truth.
+pub(crate) fn evaluate_if_gt(
+    scene: &crate::scene::LoadedScene,
+    out: &Path,
+    mark: &mut dyn FnMut(&'static str, std::time::Instant),
+) -> Result<Option<serde_json::Value>> {
+    if !has_ground_truth(scene) {
+        return Ok(None);
+    }
+    let t = std::time::Instant::now();
+    let m = crate::eval::evaluate(&scene.ds, out)?;
+    mark("eval", t);
+    Ok(Some(m))
+}
+
 /// The part of `report.json` every method writes first: version, scene, preset, settings and
 /// the size of the inputs.
 pub(crate) fn report_header(

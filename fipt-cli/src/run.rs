@@ -4,8 +4,8 @@
 //! interrupted training.
 use crate::info::Policy;
 use crate::outputs::{
-    emitters_summary, extend, extract_emitters, report_header, write_emitters_obj, write_views,
-    StageReport,
+    emitters_summary, evaluate_if_gt, extend, extract_emitters, has_ground_truth, report_header,
+    write_emitters_obj, write_views, StageReport,
 };
 use crate::progress::Stage;
 use anyhow::Result;
@@ -282,11 +282,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     )?;
     mark("bake", t);
     let mesh = &scene.geometry.mesh;
-    let has_gt = scene
-        .ds
-        .splits
-        .iter()
-        .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol));
+    let has_gt = has_ground_truth(&scene);
     // Primary hits of the training views, shared by the search, the emitter extraction and the
     // glossiness check below.
     let records: Vec<_> = scene
@@ -404,14 +400,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         &mut mark,
     )?;
 
-    let metrics = if has_gt {
-        let t = std::time::Instant::now();
-        let m = crate::eval::evaluate(&scene.ds, &a.out)?;
-        mark("eval", t);
-        Some(m)
-    } else {
-        None
-    };
+    let metrics = evaluate_if_gt(&scene, &a.out, &mut mark)?;
     let mut report = report_header(&a, &scene, &cfg);
     extend(
         &mut report,

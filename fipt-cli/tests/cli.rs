@@ -20,6 +20,19 @@ fn tmp(name: &str) -> PathBuf {
     d
 }
 
+/// The cut-down run config of the e2e runs: `model`, `diffuse` samples in the bake and the
+/// refinement, 8 GGX samples a level, 1500 steps of 2048, small networks.
+fn small_run_config(model: &str, diffuse: u32) -> String {
+    format!(
+        "[model]\nbrdf = \"{model}\"\n\
+         [bake]\ndiffuse_samples = {diffuse}\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
+         [refine]\ndiffuse_samples = {diffuse}\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
+         light_samples = 8\n\
+         [train]\nsteps = 1500\nbatch = 2048\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
+         [train.field.grid]\nlevels = 8\n"
+    )
+}
+
 /// `fipt synth cornell --out dir` with [views, val views, width, height, spp].
 fn synth_cornell(dir: &str, sizes: [u32; 5]) {
     synth("cornell", dir, sizes, &[]);
@@ -310,15 +323,7 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     let cfg = dir.join("run.toml");
     // The scene is rendered with FIPT's model, so it is fitted in that model here (the
     // principled model's test is `principled_model_runs_end_to_end`).
-    std::fs::write(
-        &cfg,
-        "[model]\nbrdf = \"fipt\"\n\
-         [bake]\ndiffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
-         [refine]\ndiffuse_samples = 32\nspecular_samples = [8, 8, 8, 8, 8, 8]\nlight_samples = 8\n\
-         [train]\nsteps = 1500\nbatch = 2048\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
-         [train.field.grid]\nlevels = 8\n",
-    )
-    .unwrap();
+    std::fs::write(&cfg, small_run_config("fipt", 32)).unwrap();
     let c = cfg.to_str().unwrap();
     let (ok, stdout, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
     assert!(ok, "{stdout}{err}");
@@ -582,15 +587,7 @@ fn principled_model_runs_end_to_end() {
     let out = tmp("principled-out");
     let o = out.to_str().unwrap();
     let cfg = dir.join("run.toml");
-    std::fs::write(
-        &cfg,
-        "[model]\nbrdf = \"principled\"\n\
-         [bake]\ndiffuse_samples = 128\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
-         [refine]\ndiffuse_samples = 128\nspecular_samples = [8, 8, 8, 8, 8, 8]\nlight_samples = 8\n\
-         [train]\nsteps = 1500\nbatch = 2048\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
-         [train.field.grid]\nlevels = 8\n",
-    )
-    .unwrap();
+    std::fs::write(&cfg, small_run_config("principled", 128)).unwrap();
     let c = cfg.to_str().unwrap();
     let (ok, stdout, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
     assert!(ok, "{stdout}{err}");
