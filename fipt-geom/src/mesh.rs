@@ -144,13 +144,44 @@ impl Mesh {
         b
     }
 
-    /// Appends another mesh (its face ids continue after this mesh's file faces).
+    /// Gives every triangle its own three vertices carrying its face normal, so a mesh without
+    /// vertex normals shades the same once it has some (triangle order and ids unchanged).
+    pub fn unweld_flat(&mut self) {
+        let mut positions = Vec::with_capacity(self.triangles.len() * 3);
+        let mut normals = Vec::with_capacity(self.triangles.len() * 3);
+        for t in 0..self.triangles.len() {
+            let n = self.face_normal(t);
+            positions.extend(self.vertices(t));
+            normals.extend([n; 3]);
+            let b = 3 * t as u32;
+            self.triangles[t] = [b, b + 1, b + 2];
+        }
+        self.positions = positions;
+        self.normals = Some(normals);
+    }
+
+    /// Appends another mesh (its face ids continue after this mesh's file faces). When only
+    /// one of the two has vertex normals, the other is unwelded with its face normals
+    /// ([`Mesh::unweld_flat`]), so neither changes how it shades.
     pub fn append(&mut self, other: &Mesh) {
+        let flat;
+        let other = match (&self.normals, &other.normals) {
+            (Some(_), None) => {
+                let mut m = other.clone();
+                m.unweld_flat();
+                flat = m;
+                &flat
+            }
+            (None, Some(_)) => {
+                self.unweld_flat();
+                other
+            }
+            _ => other,
+        };
         let off = self.positions.len() as u32;
         let foff = self.num_file_faces as u32;
-        match (&mut self.normals, &other.normals) {
-            (Some(a), Some(b)) => a.extend_from_slice(b),
-            _ => self.normals = None,
+        if let (Some(a), Some(b)) = (&mut self.normals, &other.normals) {
+            a.extend_from_slice(b);
         }
         self.positions.extend_from_slice(&other.positions);
         self.triangles

@@ -11,6 +11,8 @@
 //! * [`slf`] and [`bake`]: the surface light field and the initial factorised bake
 //!   (Ld, Ls0, Ls1 per training pixel), behind [`fipt_core::shading::ShadingBaker`];
 //! * [`refine`]: the path-grown refinement behind [`fipt_core::shading::ShadingRefiner`];
+//! * [`lights`] and [`edit`]: lights added for relighting (`lights.json`: spheres, quads,
+//!   meshes, point and spot lights) and edits of a scene's surfaces and emitters;
 //! * [`synth`]: procedural scenes with exact ground truth in the reference layout.
 //!
 //! ```
@@ -26,9 +28,11 @@ pub mod bake;
 pub mod bake_store;
 pub mod brdf;
 pub mod diffuse;
+pub mod edit;
 pub mod error;
 pub mod field_surfaces;
 pub mod incident;
+pub mod lights;
 pub mod limits;
 pub mod refine;
 pub mod render;

@@ -101,7 +101,7 @@ pub fn trace_path<S: SurfaceModel>(
         let le = scene.surfaces.emission(tri);
         let wo_w = -dir;
         let cos_ng = hit.ng.dot(wo_w);
-        if le != Vec3::ZERO {
+        if le != Vec3::ZERO && (cos_ng > 0.0 || !scene.surfaces.one_sided(tri)) {
             if prev_pdf == 0.0 {
                 l += beta * le;
             } else if cos_ng.abs() > 0.0 {
@@ -140,7 +140,8 @@ pub fn trace_path<S: SurfaceModel>(
                 let wi_w = d / dist;
                 let cos_l = ls.n.dot(wi_w).abs();
                 let wi = frame.to_local(wi_w);
-                if cos_l > 0.0 && wi.z > 0.0 && wi_w.dot(ng) > 0.0 {
+                let faces = ls.n.dot(wi_w) < 0.0 || !scene.surfaces.one_sided(ls.tri);
+                if cos_l > 0.0 && faces && wi.z > 0.0 && wi_w.dot(ng) > 0.0 {
                     let f = brdf.eval(wo, wi);
                     if f != Vec3::ZERO {
                         rays += 1;
@@ -149,6 +150,26 @@ pub fn trace_path<S: SurfaceModel>(
                             let w = power_heuristic(light_pdf, brdf.pdf(wo, wi));
                             l += beta * f * scene.surfaces.emission(ls.tri) * (w / light_pdf);
                         }
+                    }
+                }
+            }
+        }
+        for dl in &scene.delta_lights {
+            let d = dl.position - p_out;
+            let dist2 = d.length_squared();
+            if dist2 <= 0.0 {
+                continue;
+            }
+            let dist = dist2.sqrt();
+            let wi_w = d / dist;
+            let wi = frame.to_local(wi_w);
+            let i = dl.intensity_towards(-wi_w);
+            if wi.z > 0.0 && wi_w.dot(ng) > 0.0 && i != Vec3::ZERO {
+                let f = brdf.eval(wo, wi);
+                if f != Vec3::ZERO {
+                    rays += 1;
+                    if !scene.bvh.occluded(p_out, wi_w, dist * (1.0 - 1e-4)) {
+                        l += beta * f * i / dist2;
                     }
                 }
             }

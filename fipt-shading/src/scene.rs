@@ -1,5 +1,6 @@
 //! A renderable scene: mesh, BVH, surfaces and the emitter sampler.
 use crate::brdf::{BrdfModel, Lambert, MicrofacetBrdf};
+use crate::lights::DeltaLight;
 use fipt_core::color::{luminance, Rgb};
 use fipt_core::materials::{SceneMaterials, SurfacePoint};
 use fipt_core::reflectance::ReflectanceModel;
@@ -15,6 +16,10 @@ pub trait SurfaceModel: Sync {
     fn emission(&self, tri: u32) -> Rgb;
     /// Index of the material/part of triangle `tri` (for the `IndexMA` map).
     fn part(&self, tri: u32) -> u32;
+    /// Whether triangle `tri` emits only towards the side its winding faces (both by default).
+    fn one_sided(&self, _tri: u32) -> bool {
+        false
+    }
     /// The reflectance model of the surfaces (FIPT's unless overridden).
     fn model(&self) -> ReflectanceModel {
         ReflectanceModel::Fipt
@@ -141,6 +146,8 @@ pub struct Scene<S: SurfaceModel> {
     /// Area density of light samples on each mesh triangle (0 for non-emitters), for the MIS
     /// weight of BRDF-sampled hits on emitters.
     pub light_pdf_area: Vec<f32>,
+    /// Point and spot lights, sampled at every vertex besides the emitting triangles.
+    pub delta_lights: Vec<DeltaLight>,
 }
 
 impl<S: SurfaceModel> Scene<S> {
@@ -157,7 +164,17 @@ impl<S: SurfaceModel> Scene<S> {
             surfaces,
             lights,
             light_pdf_area,
+            delta_lights: Vec::new(),
         }
+    }
+
+    /// Whether anything in the scene emits.
+    pub fn has_light(&self) -> bool {
+        self.lights.is_some()
+            || self
+                .delta_lights
+                .iter()
+                .any(|d| d.intensity.max_element() > 0.0)
     }
 
     /// Emitter triangles.

@@ -170,3 +170,121 @@ fn extremes_of_radiance_and_scale() {
         );
     }
 }
+
+/// A Lambertian floor (albedo ρ) lit by one added light, seen straight down at the point
+/// under it; one bounce. Returns the radiance of the floor at the origin.
+fn floor_radiance(
+    rho: f32,
+    add: impl FnOnce(&mut fipt_geom::Mesh, &mut fipt_shading::edit::EditedSurfaces<LambertSurfaces>),
+    delta: Vec<fipt_shading::lights::DeltaLight>,
+) -> f32 {
+    use fipt_core::rng::Pcg32;
+    let s = 50.0;
+    let mut mesh = fipt_geom::Mesh::from_triangles(
+        vec![
+            Vec3::new(-s, 0.0, -s),
+            Vec3::new(s, 0.0, -s),
+            Vec3::new(s, 0.0, s),
+            Vec3::new(-s, 0.0, s),
+        ],
+        None,
+        vec![[0, 2, 1], [0, 3, 2]],
+    );
+    let base = LambertSurfaces {
+        albedo: vec![Vec3::splat(rho); 2],
+        emission: vec![Vec3::ZERO; 2],
+    };
+    let mut surfaces = fipt_shading::edit::EditedSurfaces::new(base, &mesh);
+    add(&mut mesh, &mut surfaces);
+    let mut scene = Scene::new(mesh, surfaces);
+    scene.delta_lights = delta;
+    let cfg = RenderConfig {
+        max_bounces: 1,
+        ..Default::default()
+    };
+    let n = 4000;
+    let mut sum = 0.0f64;
+    let mut rng = Pcg32::from_keys(&[7]);
+    for _ in 0..n {
+        let o = Vec3::new(0.0, 0.5, 0.0);
+        let (l, _) = fipt_shading::render::trace_path(&scene, &cfg, o, -Vec3::Y, &mut rng);
+        sum += l.x as f64;
+    }
+    (sum / n as f64) as f32
+}
+
+#[test]
+fn point_and_spot_lights_give_the_inverse_square_law() {
+    use fipt_shading::lights::LightSpec;
+    let (rho, i, h) = (0.6f32, 5.0f32, 2.0f32);
+    let exact = rho / std::f32::consts::PI * i / (h * h);
+    let point = LightSpec::Point {
+        position: [0.0, h, 0.0],
+        intensity: [i; 3],
+    };
+    let l = floor_radiance(rho, |_, _| {}, vec![point.delta().unwrap()]);
+    assert!((l / exact - 1.0).abs() < 1e-4, "point: {l} vs {exact}");
+    // A spot aimed at the point gives the same; aimed away, nothing.
+    for (dir, want) in [([0.0, -1.0, 0.0], exact), ([1.0, 0.0, 0.0], 0.0)] {
+        let spot = LightSpec::Spot {
+            position: [0.0, h, 0.0],
+            direction: dir,
+            intensity: [i; 3],
+            cutoff_angle: 30.0,
+            beam_width: None,
+        };
+        let l = floor_radiance(rho, |_, _| {}, vec![spot.delta().unwrap()]);
+        assert!(
+            (l - want).abs() <= 1e-4 * exact,
+            "spot {dir:?}: {l} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn a_one_sided_quad_light_lights_only_the_side_it_faces() {
+    use fipt_core::materials::SurfacePoint;
+    use fipt_shading::edit::AddedSurface;
+    use fipt_shading::lights::LightSpec;
+    // A small square light at height h: irradiance ≈ Le·A/h² at the point below.
+    let (rho, le, h, a) = (0.5f32, 100.0f32, 1.0f32, 0.05f32);
+    let quad = |down: bool| {
+        let (e1, e2) = if down {
+            ([a, 0.0, 0.0], [0.0, 0.0, a])
+        } else {
+            ([0.0, 0.0, a], [a, 0.0, 0.0])
+        };
+        LightSpec::Quad {
+            corner: [-a / 2.0, h, -a / 2.0],
+            edge1: e1,
+            edge2: e2,
+            radiance: [le; 3],
+            two_sided: false,
+        }
+    };
+    let add = |spec: LightSpec| {
+        move |mesh: &mut fipt_geom::Mesh,
+              s: &mut fipt_shading::edit::EditedSurfaces<LambertSurfaces>| {
+            let (m, le, two) = spec.area(std::path::Path::new(".")).unwrap().unwrap();
+            let what = AddedSurface {
+                surface: SurfacePoint {
+                    emission: le,
+                    roughness: 1.0,
+                    ..Default::default()
+                },
+                one_sided: !two,
+                part: 1,
+            };
+            s.add(mesh, &m, what);
+        }
+    };
+    let exact = rho / std::f32::consts::PI * le * a * a / (h * h);
+    // e1 × e2 of the first quad points down (−y) at the floor; the second's up.
+    let facing = floor_radiance(rho, add(quad(true)), vec![]);
+    let away = floor_radiance(rho, add(quad(false)), vec![]);
+    assert!(
+        (facing / exact - 1.0).abs() < 0.01,
+        "facing: {facing} vs {exact}"
+    );
+    assert_eq!(away, 0.0);
+}
