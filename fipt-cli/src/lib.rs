@@ -14,6 +14,7 @@ mod fit;
 mod info;
 mod outputs;
 mod progress;
+mod recovered;
 mod refine;
 mod regions;
 mod render;
@@ -59,7 +60,8 @@ enum Command {
     Demo(demo::Args),
     /// Fit the material field and emission mask to the baked shadings (the second FIPT stage).
     Train(train::Args),
-    /// Path-trace views of a mesh with given materials and cameras (the forward renderer alone).
+    /// Path-trace a recovered scene (a run's output folder) or a mesh with given materials from
+    /// any cameras, optionally relit (--lights, --emitters).
     Render(render::Args),
     /// The material search's cost curves per region over roughness and metallic (a diagnostic of
     /// the shadings; with ground truth, also at the true base colour).

@@ -7,7 +7,6 @@ use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::write_bytes_atomic;
 use fipt_core::image::ExrPrecision;
 use fipt_shading::bake::PixelRecord;
-use fipt_shading::field_surfaces::FieldSurfaces;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::scene::Scene as RenderScene;
 use glam::Vec3;
@@ -136,24 +135,14 @@ pub(crate) fn write_views(
     if cfg.render.spp > 0 {
         let t = std::time::Instant::now();
         let st = Stage::start("re-render");
-        let (all_pts, footprint) = {
-            let views: Vec<_> = scene
-                .ds
-                .splits
-                .iter()
-                .flat_map(|s| s.views.clone())
-                .collect();
-            let (p, f) = crate::train::view_points(&scene.geometry, &views);
-            (p.into_iter().flatten().flatten().collect::<Vec<_>>(), f)
-        };
-        let surfaces = FieldSurfaces::build(
-            field,
-            mesh,
-            &emitters,
-            all_pts,
-            footprint.unwrap_or(0.01) * 2.0,
-        )?
-        .with_model(cfg.model.brdf);
+        let views: Vec<_> = scene
+            .ds
+            .splits
+            .iter()
+            .flat_map(|s| s.views.clone())
+            .collect();
+        let surfaces =
+            crate::recovered::surfaces(&scene.geometry, &views, field, emitters, cfg.model.brdf)?;
         let rscene = RenderScene::new(mesh.clone(), surfaces);
         let rc = RenderConfig {
             spp: cfg.render.spp,

@@ -1,28 +1,42 @@
-//! `fipt render <scene> --materials M --cameras transforms.json --out DIR`.
+//! `fipt render`: path-traced views of a recovered scene (a `fipt run` output folder) or of a
+//! mesh with given materials, from any cameras, optionally relit by a lights file.
 use crate::progress::{bar, Stage};
+use crate::recovered::RunOutput;
 use anyhow::{bail, Context, Result};
-use fipt_core::dataset::{read_transforms, MESH_NAMES};
+use fipt_core::camera::Camera;
+use fipt_core::dataset::{read_cam_list, read_transforms, MESH_NAMES};
+use fipt_core::image::ExrPrecision;
 use fipt_core::materials::SceneMaterials;
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
+use fipt_shading::edit::EditedSurfaces;
+use fipt_shading::lights::{EmitterPolicy, LightsFile};
+use fipt_shading::relight::apply_lights;
 use fipt_shading::render::{render, render_aovs, RenderConfig};
-use fipt_shading::scene::{Scene, TableSurfaces};
+use fipt_shading::scene::{Scene, SurfaceModel, TableSurfaces};
 use fipt_shading::synth::write_view;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Scene folder holding scene.obj (or .ply/.glb/.gltf), or a mesh file.
-    scene: PathBuf,
-    /// Per-face materials: fipt's scene_gt.json or a scene_parts.json table.
+    /// A `fipt run` output folder (renders the recovered scene), or, with --materials, a scene
+    /// folder holding scene.obj (or .ply/.glb/.gltf) or a mesh file.
+    source: PathBuf,
+    /// Per-face materials (fipt's scene_gt.json or a scene_parts.json table): render a mesh
+    /// with given materials instead of a recovered scene.
     #[arg(long)]
-    materials: PathBuf,
-    /// Cameras (transforms.json, Mitsuba convention).
+    materials: Option<PathBuf>,
+    /// The scene folder of a run output, when the path in its report.json does not resolve
+    /// from here.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Cameras: transforms.json (Mitsuba convention) or cam.txt (with K_list.txt beside it).
     #[arg(long)]
     cameras: PathBuf,
-    /// Output folder: Image/, the ground-truth maps and preview/.
+    /// Output folder.
     #[arg(long)]
     out: PathBuf,
-    /// Image size when transforms.json has no width/height.
+    /// Image size when the cameras file has none (default for a run: its scene's).
     #[arg(long, num_args = 2, value_names = ["W", "H"])]
     size: Option<Vec<usize>>,
     #[arg(long, default_value_t = 64)]
@@ -34,44 +48,142 @@ pub struct Args {
     /// Render only these view indices (default: all).
     #[arg(long, value_delimiter = ',')]
     views: Option<Vec<usize>>,
-    /// The reflectance model the materials are rendered with: fipt or principled.
-    #[arg(long, default_value = "fipt")]
-    brdf: fipt_core::reflectance::ReflectanceModel,
+    /// The reflectance model (default: the run's; `fipt` for --materials).
+    #[arg(long)]
+    brdf: Option<ReflectanceModel>,
+    /// Lights to add (lights.json: spheres, quads, meshes, point and spot lights).
+    #[arg(long)]
+    lights: Option<PathBuf>,
+    /// The scene's own emitters: keep, off (geometry stays, black) or scale=K. Overrides the
+    /// lights file's `emitters`.
+    #[arg(long)]
+    emitters: Option<EmitterPolicy>,
+    /// Reference images to compare with: a folder of `{k:03}_0001.exr` (or one holding
+    /// `Image/`). Writes `metrics.json` (sRGB PSNR per view and mean) into --out.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+}
+
+/// Reads cameras from transforms.json or cam.txt + K_list.txt.
+pub fn read_cameras(path: &Path, size: Option<(usize, usize)>) -> Result<Vec<Camera>> {
+    if path.extension().is_some_and(|e| e == "json") {
+        return Ok(read_transforms(path, size)?);
+    }
+    let k = path.with_file_name("K_list.txt");
+    let Some((w, h)) = size else {
+        bail!(
+            "{}: cam.txt cameras carry no image size; pass --size W H",
+            path.display()
+        );
+    };
+    if !k.is_file() {
+        bail!(
+            "{}: cam.txt cameras need K_list.txt beside them (not found: {})",
+            path.display(),
+            k.display()
+        );
+    }
+    Ok(read_cam_list(path, &k, w, h)?)
+}
+
+fn mesh_of(source: &Path) -> Result<PathBuf> {
+    if !source.is_dir() {
+        return Ok(source.to_path_buf());
+    }
+    MESH_NAMES
+        .iter()
+        .map(|n| source.join(n))
+        .find(|p| p.is_file())
+        .with_context(|| format!("{}: no mesh ({})", source.display(), MESH_NAMES.join(", ")))
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mesh_path = if a.scene.is_dir() {
-        MESH_NAMES
-            .iter()
-            .map(|n| a.scene.join(n))
-            .find(|p| p.is_file())
-            .with_context(|| {
-                format!("{}: no mesh ({})", a.scene.display(), MESH_NAMES.join(", "))
-            })?
-    } else {
-        a.scene.clone()
-    };
-    let st = Stage::start("load");
-    let mesh = Mesh::load(&mesh_path)?;
-    let materials = SceneMaterials::read_any(&a.materials)?;
-    let mut surfaces = TableSurfaces::new(materials, &mesh, &a.materials)?;
-    surfaces.model = a.brdf;
     let size = a.size.as_ref().map(|s| (s[0], s[1]));
-    let cams = read_transforms(&a.cameras, size)?;
-    let scene = Scene::new(mesh, surfaces);
-    st.done();
-    if scene.lights.is_none() {
-        eprintln!(
-            "warning: no emitter in {}: renders will be black",
-            a.materials.display()
+    if let Some(table) = &a.materials {
+        let st = Stage::start("load");
+        let mesh = Mesh::load(&mesh_of(&a.source)?)?;
+        let materials = SceneMaterials::read_any(table)?;
+        let mut surfaces = TableSurfaces::new(materials, &mesh, table)?;
+        surfaces.model = a.brdf.unwrap_or(ReflectanceModel::Fipt);
+        let cams = read_cameras(&a.cameras, size)?;
+        // All emitting triangles form emitter 0.
+        let lit: Vec<u32> = (0..mesh.triangles.len() as u32)
+            .filter(|&t| surfaces.emission(t).max_element() > 0.0)
+            .collect();
+        st.done();
+        return render_all(&a, mesh, surfaces, &[lit], &cams, Layout::Dataset);
+    }
+    if !RunOutput::is_run_output(&a.source) {
+        bail!(
+            "{}: not a `fipt run` output folder (no report.json); render a recovered scene from one, or a mesh with --materials",
+            a.source.display()
         );
     }
+    let st = Stage::start("load");
+    let run = RunOutput::open(&a.source, a.scene.as_deref())?;
+    let (ds, geometry) = run.open_scene()?;
+    let field = run.field()?;
+    let cams = read_cameras(&a.cameras, size.or(Some((ds.width, ds.height))))?;
+    let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
+    let model = a.brdf.unwrap_or(run.model);
+    let surfaces =
+        crate::recovered::surfaces(&geometry, &views, field.as_ref(), &run.emitters, model)?;
+    let groups: Vec<Vec<u32>> = run.emitters.iter().map(|e| e.triangles.clone()).collect();
+    st.done();
+    render_all(&a, geometry.mesh, surfaces, &groups, &cams, Layout::Flat)
+}
+
+/// Where the views go: the dataset layout (`Image/` and ground-truth folders) or
+/// `{k:03}_render.exr` with the material maps beside it.
+#[derive(Clone, Copy, PartialEq)]
+enum Layout {
+    Dataset,
+    Flat,
+}
+
+fn render_all<S: SurfaceModel>(
+    a: &Args,
+    mut mesh: Mesh,
+    surfaces: S,
+    emitters: &[Vec<u32>],
+    cams: &[Camera],
+    layout: Layout,
+) -> Result<()> {
     let views: Vec<usize> = a.views.clone().unwrap_or_else(|| (0..cams.len()).collect());
     if let Some(&bad) = views.iter().find(|&&k| k >= cams.len()) {
         bail!(
-            "view {bad} requested but {} has {} frames",
+            "view {bad} requested but {} has {} cameras",
             a.cameras.display(),
             cams.len()
+        );
+    }
+    let mut edited = EditedSurfaces::new(surfaces, &mesh);
+    let mut deltas = Vec::new();
+    let default = a.emitters.unwrap_or(EmitterPolicy::Keep);
+    let mut file = match &a.lights {
+        Some(p) => LightsFile::read(p)?,
+        None => LightsFile::default(),
+    };
+    if a.emitters.is_some() {
+        file.emitters = a.emitters;
+    }
+    let lights_path = a
+        .lights
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("--emitters"));
+    deltas.extend(apply_lights(
+        &mut mesh,
+        &mut edited,
+        &file,
+        &lights_path,
+        default,
+        emitters,
+    )?);
+    let mut scene = Scene::new(mesh, edited);
+    scene.delta_lights = deltas;
+    if !scene.has_light() {
+        eprintln!(
+            "warning: nothing emits (no emitter kept, no light added): renders will be black"
         );
     }
     let cfg = RenderConfig {
@@ -80,27 +192,119 @@ pub fn run(a: Args) -> Result<()> {
         seed: a.seed,
         ..Default::default()
     };
-    let semantic: Vec<u32> = (0..scene.surfaces.materials.materials.len() as u32).collect();
     let total: u64 = views
         .iter()
         .map(|&k| (cams[k].width * cams[k].height) as u64)
         .sum();
     let pb = bar(total, "render");
     let st = Stage::start("render");
-    let mut rays = 0u64;
+    let (mut rays, mut nonfinite) = (0u64, 0u64);
+    let reference = a.reference.as_deref().map(reference_dir).transpose()?;
+    let mut rows = Vec::new();
     for &k in &views {
         let (img, stats) = render(&scene, &cams[k], &cfg, k as u64, &|n| pb.inc(n as u64));
+        if let Some(dir) = &reference {
+            rows.push((k, compare(dir, k, &img)?));
+        }
         rays += stats.rays;
+        nonfinite += stats.nonfinite;
         let aovs = render_aovs(&scene, &cams[k]);
-        write_view(&a.out, k, &img, &aovs, &semantic)?;
+        match layout {
+            Layout::Dataset => {
+                let semantic: Vec<u32> = (0..=aovs
+                    .part
+                    .iter()
+                    .filter(|&&p| p < u32::MAX - 1)
+                    .max()
+                    .copied()
+                    .unwrap_or(0))
+                    .collect();
+                write_view(&a.out, k, &img, &aovs, &semantic)?
+            }
+            Layout::Flat => write_flat(&a.out, k, &img, &aovs)?,
+        }
     }
     pb.finish_and_clear();
     let secs = st.done();
     eprintln!(
-        "{} views, {:.2} Mrays/s",
+        "{} views, {:.2} Mrays/s{}",
         views.len(),
-        rays as f64 / secs / 1e6
+        rays as f64 / secs / 1e6,
+        if nonfinite > 0 {
+            format!(", {nonfinite} non-finite samples dropped")
+        } else {
+            String::new()
+        }
     );
+    if reference.is_some() {
+        write_metrics(&a.out, &rows)?;
+    }
     println!("wrote {}", a.out.display());
+    Ok(())
+}
+
+fn reference_dir(p: &Path) -> Result<PathBuf> {
+    let dir = if p.join("Image").is_dir() {
+        p.join("Image")
+    } else {
+        p.to_path_buf()
+    };
+    if !dir.is_dir() {
+        bail!("{}: --reference must be a folder of {{k:03}}_0001.exr images", p.display());
+    }
+    Ok(dir)
+}
+
+/// sRGB PSNR of a rendered view against the reference image of the same index.
+fn compare(dir: &Path, k: usize, img: &fipt_core::image::Image) -> Result<f64> {
+    let path = dir.join(fipt_core::dataset::image_file_name(k));
+    let r = fipt_core::image::Image::read_exr(&path)
+        .with_context(|| format!("reading the reference image of view {k}"))?;
+    if (r.width, r.height) != (img.width, img.height) {
+        bail!(
+            "{}: {}x{} but the camera renders {}x{}",
+            path.display(),
+            r.width,
+            r.height,
+            img.width,
+            img.height
+        );
+    }
+    Ok(fipt_core::metrics::srgb_psnr(&img.data, &r.data, None).unwrap_or(f64::NAN))
+}
+
+fn write_metrics(out: &Path, rows: &[(usize, f64)]) -> Result<()> {
+    let mean = rows.iter().map(|r| r.1).sum::<f64>() / rows.len().max(1) as f64;
+    println!("{:>5} {:>12}", "view", "sRGB PSNR dB");
+    for (k, p) in rows {
+        println!("{k:>5} {p:>12.2}");
+    }
+    println!("{:>5} {mean:>12.2}", "mean");
+    let json = serde_json::json!({
+        "render_psnr": { "mean": mean, "views": rows.iter().map(|(k, p)| serde_json::json!({"view": k, "srgb_psnr": p})).collect::<Vec<_>>() },
+    });
+    fipt_core::fsutil::write_json_atomic(&out.join("metrics.json"), &json)?;
+    Ok(())
+}
+
+/// `{k:03}_render.exr` and the maps of the rendered surfaces, with PNG previews.
+fn write_flat(
+    dir: &Path,
+    k: usize,
+    img: &fipt_core::image::Image,
+    aovs: &fipt_shading::render::Aovs,
+) -> Result<()> {
+    let maps = [
+        ("render", img, ExrPrecision::F32),
+        ("kd", &aovs.kd, ExrPrecision::F16),
+        ("ks", &aovs.ks, ExrPrecision::F16),
+        ("roughness", &aovs.roughness, ExrPrecision::F16),
+        ("metallic", &aovs.metallic, ExrPrecision::F16),
+        ("emission", &aovs.emission, ExrPrecision::F32),
+    ];
+    for (name, m, prec) in maps {
+        m.write_exr(&dir.join(format!("{k:03}_{name}.exr")), prec)?;
+        m.write_png(&dir.join("preview").join(format!("{k:03}_{name}.png")), 1.0)?;
+    }
     Ok(())
 }

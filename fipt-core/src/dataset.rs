@@ -480,34 +480,26 @@ fn numbers(path: &Path) -> Result<Vec<f32>> {
         .collect()
 }
 
-fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
-    let cam_path = root.join("cam.txt");
-    let k_path = root.join("K_list.txt");
-    if !k_path.is_file() {
-        return Err(CoreError::invalid(
-            &k_path,
-            "missing: the real layout needs K_list.txt beside cam.txt",
-        ));
-    }
-    let c = numbers(&cam_path)?;
-    let k = numbers(&k_path)?;
+/// Reads cameras of the real layout: `cam.txt` (N, then origin, look-at and up per camera)
+/// and `K_list.txt` (N, then a 3×3 intrinsic matrix per camera), for images of `w`×`h`.
+pub fn read_cam_list(cam_path: &Path, k_path: &Path, w: usize, h: usize) -> Result<Vec<Camera>> {
+    let c = numbers(cam_path)?;
+    let k = numbers(k_path)?;
     let n = c.first().copied().unwrap_or(0.0) as usize;
     if c.len() != 1 + 9 * n {
-        return Err(CoreError::invalid(&cam_path, format!("expected N then 3 lines of 3 numbers per camera (origin, look-at, up): {} numbers for N = {n}", c.len())));
+        return Err(CoreError::invalid(cam_path, format!("expected N then 3 lines of 3 numbers per camera (origin, look-at, up): {} numbers for N = {n}", c.len())));
     }
     let nk = k.first().copied().unwrap_or(0.0) as usize;
     if nk != n || k.len() != 1 + 9 * n {
         return Err(CoreError::invalid(
-            &k_path,
+            k_path,
             format!(
                 "expected {n} 3x3 matrices (N = {n} in cam.txt), found N = {nk} and {} numbers",
                 k.len()
             ),
         ));
     }
-    let img0 = root.join("Image").join(image_file_name(0));
-    let (w, h) = exr_size(&img0)?;
-    let mut views = Vec::with_capacity(n);
+    let mut cams = Vec::with_capacity(n);
     for i in 0..n {
         let v = |j: usize| {
             Vec3::new(
@@ -519,7 +511,7 @@ fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
         let (o, t, up) = (v(0), v(1), v(2));
         if (t - o).length() < 1e-9 {
             return Err(CoreError::invalid(
-                &cam_path,
+                cam_path,
                 format!("camera {i}: look-at point equals the origin"),
             ));
         }
@@ -531,20 +523,40 @@ fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
         ];
         if !(kk[0][0] > 0.0 && kk[1][1] > 0.0) || (kk[2][2] - 1.0).abs() > 1e-4 {
             return Err(CoreError::invalid(
-                &k_path,
+                k_path,
                 format!(
                     "camera {i}: K = {kk:?} is not an intrinsic matrix (fx, fy > 0, K[2][2] = 1)"
                 ),
             ));
         }
         let cam = Camera::from_opencv(o, t, up, kk, w, h);
-        check_pose(&cam_path, i, &cam)?;
-        views.push(View {
-            index: i,
-            camera: cam,
-            image: root.join("Image").join(image_file_name(i)),
-        });
+        check_pose(cam_path, i, &cam)?;
+        cams.push(cam);
     }
+    Ok(cams)
+}
+
+fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
+    let cam_path = root.join("cam.txt");
+    let img0 = root.join("Image").join(image_file_name(0));
+    let k_path = root.join("K_list.txt");
+    if !k_path.is_file() {
+        return Err(CoreError::invalid(
+            &k_path,
+            "missing: the real layout needs K_list.txt beside cam.txt",
+        ));
+    }
+    let (w, h) = exr_size(&img0)?;
+    let views: Vec<View> = read_cam_list(&cam_path, &k_path, w, h)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, camera)| View {
+            index: i,
+            camera,
+            image: root.join("Image").join(image_file_name(i)),
+        })
+        .collect();
+    let n = views.len();
     let gt = present_gt(root, n, warnings, "real");
     Ok(Split {
         name: "train".into(),

@@ -94,6 +94,51 @@ impl FieldSurfaces {
         })
     }
 
+    /// As [`FieldSurfaces::build`], and also caches the field on the voxels of the rest of the
+    /// mesh surface (points spread over every triangle at about one per `cell`², at most
+    /// `max_fill` of them), so views of surfaces no input view saw still vary within a
+    /// triangle. Voxels the given points occupy keep exactly their value of `build`.
+    pub fn build_covering(
+        field: &dyn MaterialField,
+        mesh: &Mesh,
+        emitters: &[Emitter],
+        points: Vec<Vec3>,
+        cell: f32,
+        max_fill: usize,
+    ) -> fipt_core::Result<Self> {
+        let key = |p: Vec3| -> Key {
+            let q = (p / cell).floor();
+            (q.x as i32, q.y as i32, q.z as i32)
+        };
+        let seen: std::collections::HashSet<Key> = points
+            .iter()
+            .filter(|p| p.is_finite())
+            .map(|&p| key(p))
+            .collect();
+        let area: f64 = (0..mesh.triangles.len()).map(|t| mesh.area(t) as f64).sum();
+        let spacing = (cell as f64).max((area / max_fill.max(1) as f64).sqrt());
+        let mut all = points;
+        for t in 0..mesh.triangles.len() {
+            let [a, b, c] = mesh.vertices(t);
+            let n = (mesh.area(t) as f64 / (spacing * spacing)).ceil().max(1.0) as usize;
+            // A rank-1 lattice folded into the triangle: deterministic and even.
+            for i in 0..n {
+                let u = (i as f32 + 0.5) / n as f32;
+                let v = (i as f32 * 0.618_034 + 0.5).fract();
+                let (u, v) = if u + v > 1.0 {
+                    (1.0 - u, 1.0 - v)
+                } else {
+                    (u, v)
+                };
+                let p = a + (b - a) * u + (c - a) * v;
+                if !seen.contains(&key(p)) {
+                    all.push(p);
+                }
+            }
+        }
+        Self::build(field, mesh, emitters, all, cell)
+    }
+
     /// The same surfaces under reflectance model `model` (FIPT's by default).
     pub fn with_model(mut self, model: ReflectanceModel) -> Self {
         self.model = model;
@@ -182,7 +227,7 @@ mod tests {
             centroid: [0.0; 3],
             pixels: 1,
         };
-        let s = FieldSurfaces::build(&Ramp, &mesh, &[em], pts, 0.05).unwrap();
+        let s = FieldSurfaces::build(&Ramp, &mesh, &[em], pts.clone(), 0.05).unwrap();
         assert_eq!(s.voxels(), 20);
         for x in [0.02f32, 0.31, 0.77] {
             let sp = s.surface(0, Vec3::new(x, 0.0, 0.3));
@@ -191,6 +236,16 @@ mod tests {
         }
         // Off the observed points: the triangle's centroid value.
         assert!((s.surface(0, Vec3::new(0.2, 0.0, 0.9)).kd.x - 1.0 / 3.0).abs() < 1e-5);
+        // Covering the mesh: observed voxels keep their value, the rest follow the field.
+        let c =
+            FieldSurfaces::build_covering(&Ramp, &mesh, &[], pts.clone(), 0.05, 10_000).unwrap();
+        let b = FieldSurfaces::build(&Ramp, &mesh, &[], pts.clone(), 0.05).unwrap();
+        assert!(c.voxels() > 200, "{} voxels", c.voxels());
+        for p in &pts {
+            assert_eq!(c.surface(0, *p), b.surface(0, *p));
+        }
+        let off = c.surface(0, Vec3::new(0.2, 0.0, 0.7)).kd.x;
+        assert!((off - 0.2).abs() <= 0.05, "unobserved point: kd {off}");
         let e = s.surface(1, Vec3::new(0.9, 0.0, 0.9));
         assert_eq!(e.kd, Vec3::ZERO);
         assert_eq!(s.emission(1), Vec3::new(2.0, 3.0, 4.0));

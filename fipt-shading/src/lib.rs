@@ -35,6 +35,7 @@ pub mod incident;
 pub mod lights;
 pub mod limits;
 pub mod refine;
+pub mod relight;
 pub mod render;
 pub mod scene;
 pub mod search;

@@ -1,0 +1,148 @@
+//! A `fipt run` output folder opened as a recovered scene: its scene, reflectance model,
+//! material field and emitters, and the surfaces the path tracer renders from them (the
+//! re-render of `fipt run`, `fipt render` and `fipt export` share them).
+use anyhow::{bail, Context, Result};
+use fipt_core::dataset::{Dataset, View};
+use fipt_core::emitter::Emitter;
+use fipt_core::field::MaterialField;
+use fipt_core::fsutil::read_json;
+use fipt_core::reflectance::ReflectanceModel;
+use fipt_geom::{Geometry, Mesh};
+use fipt_shading::field_surfaces::FieldSurfaces;
+use std::path::{Path, PathBuf};
+
+/// At most this many extra points spread over the mesh to cache the field where no view
+/// looked (1.5 M: a few seconds of field queries on 2 cores).
+pub const MAX_FILL_POINTS: usize = 1_500_000;
+
+/// The cache cell of the recovered surfaces: twice the median pixel footprint of the views.
+pub fn cache_cell(footprint: Option<f32>) -> f32 {
+    footprint.unwrap_or(0.01) * 2.0
+}
+
+/// The surfaces of a recovered scene: the field cached on the voxels the `views` see (and
+/// the rest of the mesh), the emitters' radiance per triangle.
+pub fn surfaces(
+    geometry: &Geometry,
+    views: &[View],
+    field: &dyn MaterialField,
+    emitters: &[Emitter],
+    model: ReflectanceModel,
+) -> Result<FieldSurfaces> {
+    let (pts, footprint) = crate::train::view_points(geometry, views);
+    let pts: Vec<_> = pts.into_iter().flatten().flatten().collect();
+    Ok(FieldSurfaces::build_covering(
+        field,
+        &geometry.mesh,
+        emitters,
+        pts,
+        cache_cell(footprint),
+        MAX_FILL_POINTS,
+    )?
+    .with_model(model))
+}
+
+/// A finished `fipt run` output folder.
+pub struct RunOutput {
+    pub dir: PathBuf,
+    pub report: serde_json::Value,
+    /// The scene folder the run read.
+    pub scene: PathBuf,
+    pub model: ReflectanceModel,
+    pub method: String,
+    pub emitters: Vec<Emitter>,
+}
+
+fn not_a_run(dir: &Path, why: &str) -> anyhow::Error {
+    anyhow::anyhow!(
+        "{}: not a finished `fipt run` output folder ({why}); run `fipt run <scene> --out {}` first",
+        dir.display(),
+        dir.display()
+    )
+}
+
+impl RunOutput {
+    /// Whether `dir` looks like a run output (has `report.json`).
+    pub fn is_run_output(dir: &Path) -> bool {
+        dir.join("report.json").is_file()
+    }
+
+    /// Opens a run output folder; `scene` overrides the scene folder the report names.
+    pub fn open(dir: &Path, scene: Option<&Path>) -> Result<RunOutput> {
+        if !dir.is_dir() {
+            bail!("{}: no such folder", dir.display());
+        }
+        let report: serde_json::Value = read_json(&dir.join("report.json"))
+            .map_err(|_| not_a_run(dir, "no readable report.json"))?;
+        let emitters: Vec<Emitter> = read_json(&dir.join("emitters.json"))
+            .map_err(|_| not_a_run(dir, "no readable emitters.json"))?;
+        let named = report["scene"]
+            .as_str()
+            .map(PathBuf::from)
+            .ok_or_else(|| not_a_run(dir, "report.json names no scene"))?;
+        let scene = scene.map(Path::to_path_buf).unwrap_or(named);
+        if !scene.is_dir() {
+            bail!(
+                "{}: the scene of the run ({}) is not a folder from here; pass it with --scene",
+                dir.display(),
+                scene.display()
+            );
+        }
+        let model = serde_json::from_value(report["settings"]["model"]["brdf"].clone())
+            .unwrap_or(ReflectanceModel::Fipt);
+        let method = report["settings"]["pipeline"]["method"]
+            .as_str()
+            .unwrap_or("fipt")
+            .to_string();
+        Ok(RunOutput {
+            dir: dir.to_path_buf(),
+            report,
+            scene,
+            model,
+            method,
+            emitters,
+        })
+    }
+
+    /// The folder of the final material field: `train{r}` after r refinement rounds.
+    pub fn field_dir(&self) -> PathBuf {
+        let rounds = self.report["rounds"].as_array().map_or(0, Vec::len);
+        match rounds {
+            0 => self.dir.join("train"),
+            r => self.dir.join(format!("train{r}")),
+        }
+    }
+
+    /// Loads the recovered material field (runs of the `fipt` method).
+    pub fn field(&self) -> Result<Box<dyn MaterialField>> {
+        if self.method != "fipt" {
+            bail!(
+                "{}: the material field of method `{}` cannot be reloaded; only `fipt` runs' fields (trainN/field.safetensors) can",
+                self.dir.display(),
+                self.method
+            );
+        }
+        let dir = self.field_dir();
+        let (field, _) = fipt_neural::train::load_field(&dir)
+            .with_context(|| format!("loading the material field from {}", dir.display()))?;
+        Ok(Box::new(field))
+    }
+
+    /// The scene's dataset and geometry; warns when its inputs changed since the run.
+    pub fn open_scene(&self) -> Result<(Dataset, Geometry)> {
+        let ds = Dataset::open(&self.scene)
+            .with_context(|| format!("opening scene {}", self.scene.display()))?;
+        let here = crate::scene::inputs_hash(&ds)?;
+        if let Some(there) = self.report["inputs_hash"].as_str() {
+            if there != here {
+                eprintln!(
+                    "warning: {} changed since the run in {} (inputs fingerprint {there} → {here})",
+                    self.scene.display(),
+                    self.dir.display()
+                );
+            }
+        }
+        let mesh = Mesh::load(&ds.mesh).context("loading the scene mesh")?;
+        Ok((ds, Geometry::new(mesh)))
+    }
+}
