@@ -98,6 +98,13 @@ fn mesh_of(source: &Path) -> Result<PathBuf> {
 }
 
 pub fn run(a: Args) -> Result<()> {
+    if RunOutput::is_run_output(&a.out) {
+        bail!(
+            "{}: is the output folder of a `fipt run`; render into a folder of its own (e.g. {})",
+            a.out.display(),
+            a.out.join("renders").display()
+        );
+    }
     let size = a.size.as_ref().map(|s| (s[0], s[1]));
     if let Some(table) = &a.materials {
         let st = Stage::start("load");
@@ -250,7 +257,10 @@ fn reference_dir(p: &Path) -> Result<PathBuf> {
         p.to_path_buf()
     };
     if !dir.is_dir() {
-        bail!("{}: --reference must be a folder of {{k:03}}_0001.exr images", p.display());
+        bail!(
+            "{}: --reference must be a folder of {{k:03}}_0001.exr images",
+            p.display()
+        );
     }
     Ok(dir)
 }

@@ -447,6 +447,7 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     let m2: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     assert_eq!(m, m2);
+    relight_and_novel_views(&dir, &out);
     let leftovers: Vec<_> = walk(&out)
         .into_iter()
         .filter(|p| p.to_string_lossy().ends_with(".tmp"))
@@ -454,6 +455,145 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The recovered scene of a finished run, relit (its emitters off, a sphere light on) and seen
+/// from a camera no view had, against the true scene under the same edit; and what bad input
+/// to `fipt render` gets.
+fn relight_and_novel_views(scene: &std::path::Path, run: &std::path::Path) {
+    let d = scene.to_str().unwrap();
+    let lights = scene.join("lights.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights": [{"type": "sphere", "center": [0.3, 1.4, 0.2], "radius": 0.12,
+                        "radiance": [40, 36, 30], "subdivisions": 2}],
+            "emitters": "off"}"#,
+    )
+    .unwrap();
+    let l = lights.to_str().unwrap();
+    let cams = scene.join("val/transforms.json");
+    let c = cams.to_str().unwrap();
+    let truth = tmp("relight-truth");
+    let gt = scene.join("scene_gt.json");
+    let (ok, _, err) = fipt(&[
+        "render",
+        d,
+        "--materials",
+        gt.to_str().unwrap(),
+        "--cameras",
+        c,
+        "--lights",
+        l,
+        "--out",
+        truth.to_str().unwrap(),
+        "--spp",
+        "256",
+    ]);
+    assert!(ok, "{err}");
+    let rec = tmp("relight-recovered");
+    let (ok, stdout, err) = fipt(&[
+        "render",
+        run.to_str().unwrap(),
+        "--cameras",
+        c,
+        "--lights",
+        l,
+        "--out",
+        rec.to_str().unwrap(),
+        "--spp",
+        "256",
+        "--reference",
+        truth.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stdout}{err}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(rec.join("metrics.json")).unwrap()).unwrap();
+    let p = m["render_psnr"]["mean"].as_f64().unwrap();
+    eprintln!("relit recovered scene vs relit truth: {p:.2} dB");
+    assert!(p >= 20.0, "relit recovered scene vs relit truth: {p:.2} dB");
+    // A camera no view had: the first val camera moved 0.2 m sideways and turned.
+    let mut tf: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&cams).unwrap()).unwrap();
+    let frame = tf["frames"][0].clone();
+    let mut m4 = frame["transform_matrix"].clone();
+    m4[0][3] = serde_json::json!(m4[0][3].as_f64().unwrap() - 0.2);
+    m4[2][3] = serde_json::json!(m4[2][3].as_f64().unwrap() + 0.2);
+    tf["frames"] = serde_json::json!([{"file_path": "Image/000_0001.exr", "transform_matrix": m4}]);
+    let novel = scene.join("novel.json");
+    std::fs::write(&novel, tf.to_string()).unwrap();
+    let nv = tmp("novel");
+    let (ok, _, err) = fipt(&[
+        "render",
+        run.to_str().unwrap(),
+        "--cameras",
+        novel.to_str().unwrap(),
+        "--out",
+        nv.to_str().unwrap(),
+        "--spp",
+        "16",
+    ]);
+    assert!(ok, "{err}");
+    let img = fipt_core::image::Image::read_exr(&nv.join("000_render.exr")).unwrap();
+    assert!(img.data.iter().all(|p| p.is_finite()));
+    let dark = img.data.iter().filter(|p| p.max_element() <= 0.0).count();
+    assert!(
+        dark * 50 <= img.data.len(),
+        "{dark} black pixels of {}",
+        img.data.len()
+    );
+    // Bad input: a clear error naming the thing, and nothing written.
+    let bad = |name: &str, text: &str, want: &str| {
+        let f = scene.join(name);
+        std::fs::write(&f, text).unwrap();
+        let o = tmp("bad-render");
+        let (ok, _, err) = fipt(&[
+            "render",
+            run.to_str().unwrap(),
+            "--cameras",
+            c,
+            "--lights",
+            f.to_str().unwrap(),
+            "--out",
+            o.to_str().unwrap(),
+            "--spp",
+            "1",
+        ]);
+        assert!(
+            !ok && err.contains(want) && err.contains(name),
+            "{name}: {err}"
+        );
+        assert!(!o.exists(), "{name}: output written");
+    };
+    bad(
+        "laser.json",
+        r#"{"type": "laser", "position": [0, 1, 0]}"#,
+        "laser",
+    );
+    bad(
+        "wall.json",
+        r#"{"type": "sphere", "center": [1.0, 1.0, 0.0], "radius": 0.2, "radiance": [1, 1, 1]}"#,
+        "cuts through",
+    );
+    bad(
+        "missing.json",
+        r#"{"type": "mesh", "file": "no-such.obj", "radiance": [1, 1, 1]}"#,
+        "not found",
+    );
+    let (ok, _, err) = fipt(&[
+        "render",
+        run.to_str().unwrap(),
+        "--cameras",
+        c,
+        "--out",
+        run.to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && err.contains("output folder of a `fipt run`"),
+        "{err}"
+    );
+    for p in [truth, rec, nv] {
+        let _ = std::fs::remove_dir_all(p);
+    }
 }
 
 fn walk(dir: &std::path::Path) -> Vec<PathBuf> {

@@ -68,7 +68,10 @@ pub fn apply_lights<S: SurfaceModel>(
             deltas.push(d);
             continue;
         }
-        let Some((light, le, two_sided)) = spec.area(&file.dir)? else {
+        let area = spec
+            .area(&file.dir)
+            .map_err(|e| invalid(path, format!("light {k}: {e}")))?;
+        let Some((light, le, two_sided)) = area else {
             continue;
         };
         if let Some(t) = crossing_triangle(&base, &light) {
