@@ -10,6 +10,7 @@ mod bench_train;
 mod config;
 mod demo;
 mod eval;
+mod export;
 mod fit;
 mod info;
 mod outputs;
@@ -63,6 +64,8 @@ enum Command {
     /// Path-trace a recovered scene (a run's output folder) or a mesh with given materials from
     /// any cameras, optionally relit (--lights, --emitters).
     Render(render::Args),
+    /// Export a run's recovered scene: glTF binary with textures, Mitsuba 3 scene, or OBJ + MTL.
+    Export(export::Args),
     /// The material search's cost curves per region over roughness and metallic (a diagnostic of
     /// the shadings; with ground truth, also at the true base colour).
     Profile(search::Args),
@@ -107,6 +110,7 @@ fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
         Command::Info(a) => info::run(a),
         Command::Synth(a) => synth::run(a),
         Command::Render(a) => render::run(a),
+        Command::Export(a) => export::run(a),
         Command::Bake(a) => bake::run(a, components),
         Command::Train(a) => train::run(a),
         Command::Run(a) => run::run(a, components),

@@ -591,7 +591,42 @@ fn relight_and_novel_views(scene: &std::path::Path, run: &std::path::Path) {
         !ok && err.contains("output folder of a `fipt run`"),
         "{err}"
     );
-    for p in [truth, rec, nv] {
+    // Exports of the recovered scene: the glb reloads with every reflecting triangle and the
+    // light's two as its own primitive.
+    let ex = tmp("export");
+    for (format, file) in [
+        ("glb", "scene.glb"),
+        ("mitsuba", "scene.xml"),
+        ("obj", "scene.obj"),
+    ] {
+        let o = ex.join(format);
+        let (ok, stdout, err) = fipt(&[
+            "export",
+            run.to_str().unwrap(),
+            "--format",
+            format,
+            "--out",
+            o.to_str().unwrap(),
+        ]);
+        assert!(ok && stdout.contains("atlas"), "{format}: {stdout}{err}");
+        assert!(o.join(file).is_file(), "{format}: no {file}");
+    }
+    let glb = fipt_geom::Mesh::load(&ex.join("glb/scene.glb")).unwrap();
+    let obj = fipt_geom::Mesh::load(&scene.join("scene.obj")).unwrap();
+    assert_eq!(glb.triangles.len(), obj.triangles.len());
+    let (ok, _, err) = fipt(&[
+        "export",
+        d,
+        "--format",
+        "glb",
+        "--out",
+        ex.to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && err.contains("not a finished `fipt run` output folder"),
+        "{err}"
+    );
+    for p in [truth, rec, nv, ex] {
         let _ = std::fs::remove_dir_all(p);
     }
 }

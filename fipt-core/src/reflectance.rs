@@ -144,6 +144,18 @@ pub fn metallic_workflow(a: Rgb, m: f32) -> (Rgb, Rgb) {
     )
 }
 
+/// The base colour of the metallic workflow back from (kd, ks, m): kd / (1 − m), or ks for a
+/// metal (m ≈ 1), where kd carries nothing.
+#[inline]
+pub fn base_color(kd: Rgb, ks: Rgb, m: f32) -> Rgb {
+    let m = m.clamp(0.0, 1.0);
+    if m < 1.0 - 1e-4 {
+        kd / (1.0 - m)
+    } else {
+        ks
+    }
+}
+
 /// σ clamped to the model's range [0.02, 1].
 #[inline]
 pub fn clamp_roughness(sigma: f32) -> f32 {

@@ -4,7 +4,7 @@
 use crate::scene::SurfaceModel;
 use fipt_core::color::Rgb;
 use fipt_core::materials::SurfacePoint;
-use fipt_core::reflectance::{clamp_roughness, metallic_workflow, ReflectanceModel};
+use fipt_core::reflectance::{base_color, clamp_roughness, metallic_workflow, ReflectanceModel};
 use fipt_geom::Mesh;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -67,11 +67,7 @@ impl SurfaceEdit {
     /// The surface point after the edit (emission included).
     pub fn apply(&self, sp: SurfacePoint) -> SurfacePoint {
         let m0 = sp.metallic.clamp(0.0, 1.0);
-        let albedo0 = if m0 < 1.0 - 1e-4 {
-            sp.kd / (1.0 - m0)
-        } else {
-            sp.ks
-        };
+        let albedo0 = base_color(sp.kd, sp.ks, m0);
         let op3 = |o: Option<Op<[f32; 3]>>, v: Rgb| match o {
             Some(Op::Set(x)) => Vec3::from(x),
             Some(Op::Scale(k)) => v * k,

@@ -145,6 +145,11 @@ impl FieldSurfaces {
         self
     }
 
+    /// Edge of the cache's voxels.
+    pub fn cell(&self) -> f32 {
+        self.cell
+    }
+
     /// Occupied voxels.
     pub fn voxels(&self) -> usize {
         self.voxels.len()

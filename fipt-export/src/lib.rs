@@ -1,0 +1,325 @@
+//! # fipt-export
+//!
+//! A scene's recovered materials and lights in the formats other tools render:
+//! * `glb`: glTF 2.0 binary, the mesh with a texture atlas (a chart per connected planar
+//!   region) carrying the base colour (sRGB) and metallic-roughness (G = roughness, B =
+//!   metallic) textures, and each emitter as its own primitive with an emissive material
+//!   (`emissiveFactor` × `KHR_materials_emissive_strength` = its mean radiance);
+//! * `mitsuba`: a Mitsuba 3 scene (`scene.xml`, OBJ meshes with texture coordinates, PNG
+//!   textures, a `principled` BSDF, area emitters);
+//! * `obj`: one OBJ with its MTL (`map_Kd`, and the PBR extension's `map_Pr` / `map_Pm`; `Ke`
+//!   for emitters).
+//!
+//! Roughness is written as it is: σ is the perceptual roughness of glTF and of Mitsuba's
+//! `principled` (α = σ²). Emitter triangles are oriented to face the centre of the scene's
+//! bounds (area emitters of Mitsuba emit from the front only; rooms' lights face inwards).
+//!
+//! When a mesh has too many planar regions for an atlas of `max_atlas`² texels, `glb` falls
+//! back to per-vertex materials (`COLOR_0` = base colour, custom attributes `_ROUGHNESS` and
+//! `_METALLIC`; viewers show the colour), and the other formats refuse.
+pub mod atlas;
+mod glb;
+mod mitsuba;
+mod obj;
+pub mod textures;
+
+use atlas::Atlas;
+use fipt_core::color::Rgb;
+use fipt_core::emitter::Emitter;
+use fipt_geom::Mesh;
+use fipt_shading::scene::SurfaceModel;
+use glam::{Vec2, Vec3};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use textures::MaterialTextures;
+
+pub use glb::write_glb;
+
+/// Errors of exporting.
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error(transparent)]
+    Core(#[from] fipt_core::CoreError),
+    #[error("{path}: {message}")]
+    Write { path: PathBuf, message: String },
+    #[error("{0}")]
+    Invalid(String),
+}
+
+pub type Result<T, E = ExportError> = std::result::Result<T, E>;
+
+/// An export format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Format {
+    Glb,
+    Mitsuba,
+    Obj,
+}
+
+impl std::str::FromStr for Format {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "glb" => Ok(Format::Glb),
+            "mitsuba" => Ok(Format::Mitsuba),
+            "obj" => Ok(Format::Obj),
+            _ => Err(format!("unknown format `{s}` (glb, mitsuba, obj)")),
+        }
+    }
+}
+
+/// Export settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExportOptions {
+    /// World size of a texel (grown until the atlas fits).
+    pub texel_size: f32,
+    /// Largest atlas edge in texels.
+    pub max_atlas: u32,
+    /// Per-vertex materials instead of textures (glb only).
+    pub per_vertex: bool,
+}
+
+impl Default for ExportOptions {
+    fn default() -> Self {
+        ExportOptions {
+            texel_size: 0.01,
+            max_atlas: 4096,
+            per_vertex: false,
+        }
+    }
+}
+
+/// Vertex arrays of one primitive (glTF texture coordinates: v down).
+#[derive(Clone, Debug, Default)]
+pub struct Primitive {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
+    /// Per-vertex materials (the fallback): base colour, roughness, metallic.
+    pub colors: Vec<Rgb>,
+    pub roughness: Vec<f32>,
+    pub metallic: Vec<f32>,
+    pub indices: Vec<u32>,
+}
+
+/// A light as exported: its triangles and mean radiance.
+#[derive(Clone, Debug)]
+pub struct EmitterPrimitive {
+    pub id: usize,
+    pub radiance: Rgb,
+    pub primitive: Primitive,
+}
+
+/// Everything a writer needs: the reflecting surface (textured or per-vertex) and the lights.
+pub struct Prepared {
+    pub surface: Primitive,
+    pub textures: Option<MaterialTextures>,
+    pub atlas: Option<(u32, u32, usize, f32)>,
+    pub emitters: Vec<EmitterPrimitive>,
+}
+
+fn vertex_normal(mesh: &Mesh, t: usize, corner: usize) -> Vec3 {
+    match &mesh.normals {
+        Some(n) => n[mesh.triangles[t][corner] as usize],
+        None => mesh.face_normal(t),
+    }
+}
+
+/// The emitters' primitives, wound to face the centre of the mesh's bounds.
+fn emitter_primitives(mesh: &Mesh, emitters: &[Emitter]) -> Vec<EmitterPrimitive> {
+    let b = mesh.bounds();
+    let centre = (b.min + b.max) * 0.5;
+    emitters
+        .iter()
+        .enumerate()
+        .map(|(id, e)| {
+            let mut p = Primitive::default();
+            for &t in &e.triangles {
+                let t = t as usize;
+                if t >= mesh.triangles.len() {
+                    continue;
+                }
+                let mut v = mesh.vertices(t);
+                let mut n = mesh.face_normal(t);
+                if n.dot(centre - (v[0] + v[1] + v[2]) / 3.0) < 0.0 {
+                    v.swap(1, 2);
+                    n = -n;
+                }
+                let base = p.positions.len() as u32;
+                p.positions.extend(v);
+                p.normals.extend([n; 3]);
+                p.indices.extend([base, base + 1, base + 2]);
+            }
+            EmitterPrimitive {
+                id,
+                radiance: Vec3::from(e.mean_radiance),
+                primitive: p,
+            }
+        })
+        .collect()
+}
+
+/// Lays out the reflecting triangles (all but the emitters') and bakes their materials.
+pub fn prepare<S: SurfaceModel>(
+    mesh: &Mesh,
+    surfaces: &S,
+    emitters: &[Emitter],
+    opts: &ExportOptions,
+) -> Result<Prepared> {
+    let mut include = vec![true; mesh.triangles.len()];
+    for e in emitters {
+        for &t in &e.triangles {
+            if let Some(x) = include.get_mut(t as usize) {
+                *x = false;
+            }
+        }
+    }
+    let emitters = emitter_primitives(mesh, emitters);
+    let atlas = if opts.per_vertex {
+        None
+    } else {
+        Atlas::build(mesh, &include, opts.texel_size, opts.max_atlas).ok()
+    };
+    let Some(atlas) = atlas else {
+        return Ok(Prepared {
+            surface: per_vertex(mesh, surfaces, &include),
+            textures: None,
+            atlas: None,
+            emitters,
+        });
+    };
+    let textures = MaterialTextures::bake(mesh, &atlas, surfaces);
+    let mut p = Primitive::default();
+    let mut index: HashMap<(u32, u32), u32> = HashMap::new();
+    for (c, chart) in atlas.charts.iter().enumerate() {
+        for &t in &chart.triangles {
+            let t = t as usize;
+            for corner in 0..3 {
+                let v = mesh.triangles[t][corner];
+                let k = *index.entry((c as u32, v)).or_insert_with(|| {
+                    let pos = mesh.positions[v as usize];
+                    p.positions.push(pos);
+                    p.normals.push(vertex_normal(mesh, t, corner));
+                    p.uvs.push(atlas.uv(c, pos));
+                    p.positions.len() as u32 - 1
+                });
+                p.indices.push(k);
+            }
+        }
+    }
+    Ok(Prepared {
+        surface: p,
+        atlas: Some((
+            atlas.width,
+            atlas.height,
+            atlas.charts.len(),
+            atlas.texel_size,
+        )),
+        textures: Some(textures),
+        emitters,
+    })
+}
+
+/// Per-vertex materials: each corner gets the surface at its vertex, triangles unwelded.
+fn per_vertex<S: SurfaceModel>(mesh: &Mesh, surfaces: &S, include: &[bool]) -> Primitive {
+    let mut p = Primitive::default();
+    for t in (0..mesh.triangles.len()).filter(|&t| include[t]) {
+        for corner in 0..3 {
+            let pos = mesh.positions[mesh.triangles[t][corner] as usize];
+            let sp = surfaces.surface(t as u32, pos);
+            let m = sp.metallic.clamp(0.0, 1.0);
+            p.positions.push(pos);
+            p.normals.push(vertex_normal(mesh, t, corner));
+            p.colors.push(
+                fipt_core::reflectance::base_color(sp.kd, sp.ks, m).clamp(Vec3::ZERO, Vec3::ONE),
+            );
+            p.roughness.push(sp.roughness);
+            p.metallic.push(m);
+            p.indices.push(p.positions.len() as u32 - 1);
+        }
+    }
+    p
+}
+
+/// What an export wrote.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ExportSummary {
+    pub format: Format,
+    /// Files written, with their sizes in bytes.
+    pub files: Vec<(PathBuf, u64)>,
+    /// Atlas width, height, charts and texel size (None: per-vertex).
+    pub atlas: Option<(u32, u32, usize, f32)>,
+    pub triangles: usize,
+    pub emitters: usize,
+}
+
+/// Exports a scene to `dir` in `format`.
+pub fn export<S: SurfaceModel>(
+    mesh: &Mesh,
+    surfaces: &S,
+    emitters: &[Emitter],
+    format: Format,
+    dir: &Path,
+    opts: &ExportOptions,
+) -> Result<ExportSummary> {
+    let prepared = prepare(mesh, surfaces, emitters, opts)?;
+    if format != Format::Glb && prepared.textures.is_none() {
+        return Err(ExportError::Invalid(format!(
+            "{} planar regions do not fit a {}² atlas and per-vertex materials are glb only: raise --max-atlas or export glb",
+            atlas::planar_regions(mesh, &vec![true; mesh.triangles.len()]).len(),
+            opts.max_atlas
+        )));
+    }
+    let files = match format {
+        Format::Glb => vec![write_glb(&prepared, &dir.join("scene.glb"))?],
+        Format::Mitsuba => mitsuba::write(&prepared, dir)?,
+        Format::Obj => obj::write(&prepared, dir)?,
+    };
+    Ok(ExportSummary {
+        format,
+        files: files
+            .into_iter()
+            .map(|p| {
+                let n = std::fs::metadata(&p).map_or(0, |m| m.len());
+                (p, n)
+            })
+            .collect(),
+        atlas: prepared.atlas,
+        triangles: prepared.surface.indices.len() / 3,
+        emitters: prepared.emitters.len(),
+    })
+}
+
+/// Writes `bytes` to `path` through a temporary file and a rename.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<PathBuf> {
+    let err = |e: std::io::Error| ExportError::Write {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    if let Some(d) = path.parent() {
+        std::fs::create_dir_all(d).map_err(err)?;
+    }
+    let tmp = path.with_extension(format!(
+        "{}.tmp",
+        path.extension().and_then(|e| e.to_str()).unwrap_or("")
+    ));
+    std::fs::write(&tmp, bytes).map_err(err)?;
+    std::fs::rename(&tmp, path).map_err(err)?;
+    Ok(path.to_path_buf())
+}
+
+/// PNG bytes of 8-bit pixels (`color`: Rgb8 or L8).
+pub(crate) fn png(
+    pixels: &[u8],
+    width: u32,
+    height: u32,
+    color: image::ExtendedColorType,
+) -> Vec<u8> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(pixels, width, height, color)
+        .expect("PNG encoding to memory");
+    out
+}
