@@ -14,6 +14,7 @@ use fipt_shading::lights::{EmitterPolicy, LightsFile};
 use fipt_shading::relight::apply_lights;
 use fipt_shading::render::{render, render_aovs, RenderConfig};
 use fipt_shading::scene::{Scene, SurfaceModel, TableSurfaces};
+use fipt_shading::scene_edits::{apply_edits, EditsFile};
 use fipt_shading::synth::write_view;
 use std::path::{Path, PathBuf};
 
@@ -58,6 +59,9 @@ pub struct Args {
     /// lights file's `emitters`.
     #[arg(long)]
     emitters: Option<EmitterPolicy>,
+    /// Material edits and inserted objects (edits.json), applied before the lights.
+    #[arg(long)]
+    edits: Option<PathBuf>,
     /// Reference images to compare with: a folder of `{k:03}_0001.exr` (or one holding
     /// `Image/`). Writes `metrics.json` (sRGB PSNR per view and mean) into --out.
     #[arg(long)]
@@ -165,6 +169,17 @@ fn render_all<S: SurfaceModel>(
         );
     }
     let mut edited = EditedSurfaces::new(surfaces, &mesh);
+    if let Some(p) = &a.edits {
+        let file = EditsFile::read(p)?;
+        let done = apply_edits(&mut mesh, &mut edited, &file, p, cams)?;
+        eprintln!(
+            "edits: {} material edits ({} triangles), {} objects ({} triangles)",
+            done.selected.len(),
+            done.selected.iter().sum::<usize>(),
+            done.object_triangles.len(),
+            done.object_triangles.iter().sum::<usize>()
+        );
+    }
     let mut deltas = Vec::new();
     let default = a.emitters.unwrap_or(EmitterPolicy::Keep);
     let mut file = match &a.lights {

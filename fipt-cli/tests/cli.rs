@@ -591,6 +591,36 @@ fn relight_and_novel_views(scene: &std::path::Path, run: &std::path::Path) {
         !ok && err.contains("output folder of a `fipt run`"),
         "{err}"
     );
+    // A material edit on the surface a pixel sees: its kd map reads the set value there.
+    let edits = scene.join("edits.json");
+    std::fs::write(
+        &edits,
+        r#"{"materials": [{"select": {"at": {"view": 0, "x": 24, "y": 18}},
+                           "edit": {"albedo": {"set": [0.9, 0.1, 0.1]}, "metallic": {"set": 0}}}]}"#,
+    )
+    .unwrap();
+    let ed = tmp("edited");
+    let (ok, _, err) = fipt(&[
+        "render",
+        run.to_str().unwrap(),
+        "--cameras",
+        c,
+        "--edits",
+        edits.to_str().unwrap(),
+        "--out",
+        ed.to_str().unwrap(),
+        "--spp",
+        "1",
+        "--views",
+        "0",
+    ]);
+    assert!(ok && err.contains("1 material edits"), "{err}");
+    let kd = fipt_core::image::Image::read_exr(&ed.join("000_kd.exr")).unwrap();
+    let px = kd.data[18 * kd.width + 24];
+    assert!(
+        (px - glam::Vec3::new(0.9, 0.1, 0.1)).length() < 2e-3,
+        "kd {px}"
+    );
     // Exports of the recovered scene: the glb reloads with every reflecting triangle and the
     // light's two as its own primitive.
     let ex = tmp("export");
@@ -626,7 +656,7 @@ fn relight_and_novel_views(scene: &std::path::Path, run: &std::path::Path) {
         !ok && err.contains("not a finished `fipt run` output folder"),
         "{err}"
     );
-    for p in [truth, rec, nv, ex] {
+    for p in [truth, rec, nv, ex, ed] {
         let _ = std::fs::remove_dir_all(p);
     }
 }

@@ -3,7 +3,6 @@
 //! at a uniform texel size and packed on shelves, with a gutter of `PAD` texels.
 use fipt_geom::Mesh;
 use glam::{Vec2, Vec3};
-use std::collections::HashMap;
 
 /// Gutter texels around each chart (filled by dilation, so bilinear lookups at chart edges
 /// never read another chart).
@@ -54,35 +53,7 @@ fn plane_basis(n: Vec3) -> (Vec3, Vec3) {
 
 /// Connected planar regions of the included triangles.
 pub fn planar_regions(mesh: &Mesh, include: &[bool]) -> Vec<Vec<u32>> {
-    // Weld by position so meshes stored without shared vertices still connect.
-    let b = mesh.bounds();
-    let q = (b.max - b.min).max_element().max(1e-6) * 1e-6;
-    let key = |p: Vec3| {
-        let k = (p / q).round();
-        (k.x as i64, k.y as i64, k.z as i64)
-    };
-    let mut ids: HashMap<(i64, i64, i64), u32> = HashMap::new();
-    let welded: Vec<u32> = mesh
-        .positions
-        .iter()
-        .map(|&p| {
-            let n = ids.len() as u32;
-            *ids.entry(key(p)).or_insert(n)
-        })
-        .collect();
-    let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        if !include[t] {
-            continue;
-        }
-        for i in 0..3 {
-            let (a, b) = (welded[tri[i] as usize], welded[tri[(i + 1) % 3] as usize]);
-            edges
-                .entry((a.min(b), a.max(b)))
-                .or_default()
-                .push(t as u32);
-        }
-    }
+    let neighbours = mesh.edge_neighbours();
     let normals: Vec<Vec3> = (0..mesh.triangles.len())
         .map(|t| mesh.face_normal(t))
         .collect();
@@ -100,15 +71,11 @@ pub fn planar_regions(mesh: &Mesh, include: &[bool]) -> Vec<Vec<u32>> {
         while k < members.len() {
             let t = members[k] as usize;
             k += 1;
-            let tri = mesh.triangles[t];
-            for i in 0..3 {
-                let (a, b) = (welded[tri[i] as usize], welded[tri[(i + 1) % 3] as usize]);
-                for &o in &edges[&(a.min(b), a.max(b))] {
-                    let o = o as usize;
-                    if region[o] == u32::MAX && normals[o].dot(n0) > COPLANAR_COS {
-                        region[o] = r;
-                        members.push(o as u32);
-                    }
+            for &o in &neighbours[t] {
+                let o = o as usize;
+                if include[o] && region[o] == u32::MAX && normals[o].dot(n0) > COPLANAR_COS {
+                    region[o] = r;
+                    members.push(o as u32);
                 }
             }
         }

@@ -14,6 +14,7 @@
 //! assert_eq!(hit.tri, 0);
 //! assert!((hit.t - 1.0).abs() < 1e-6);
 //! ```
+mod adjacency;
 pub mod bvh;
 pub mod error;
 pub mod geometry;

@@ -38,6 +38,7 @@ pub mod refine;
 pub mod relight;
 pub mod render;
 pub mod scene;
+pub mod scene_edits;
 pub mod search;
 pub mod slf;
 pub mod synth;
