@@ -132,5 +132,6 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
         emitters.len()
     );
     println!("  report:   {}", a.out.join("report.json").display());
+    crate::report::write_or_warn(&a.out, &scene.ds);
     Ok(())
 }

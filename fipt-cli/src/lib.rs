@@ -19,6 +19,7 @@ mod recovered;
 mod refine;
 mod regions;
 mod render;
+mod report;
 mod run;
 mod scene;
 mod search;
@@ -64,6 +65,8 @@ enum Command {
     /// Path-trace a recovered scene (a run's output folder) or a mesh with given materials from
     /// any cameras, optionally relit (--lights, --emitters).
     Render(render::Args),
+    /// Contact sheets and a static HTML report (report.html) of a finished run.
+    Report(report::Args),
     /// Export a run's recovered scene: glTF binary with textures, Mitsuba 3 scene, or OBJ + MTL.
     Export(export::Args),
     /// The material search's cost curves per region over roughness and metallic (a diagnostic of
@@ -111,6 +114,7 @@ fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
         Command::Synth(a) => synth::run(a),
         Command::Render(a) => render::run(a),
         Command::Export(a) => export::run(a),
+        Command::Report(a) => report::run(a),
         Command::Bake(a) => bake::run(a, components),
         Command::Train(a) => train::run(a),
         Command::Run(a) => run::run(a, components),

@@ -439,6 +439,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         _ => "train".to_string(),
     };
     print_summary(&stages, t_all, &a.out, emitters.len(), &final_train_dir);
+    crate::report::write_or_warn(&a.out, &scene.ds);
     Ok(())
 }
 

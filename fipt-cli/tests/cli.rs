@@ -448,6 +448,7 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     assert_eq!(m, m2);
     relight_and_novel_views(&dir, &out);
+    report_opens_in_a_browser(&out);
     let leftovers: Vec<_> = walk(&out)
         .into_iter()
         .filter(|p| p.to_string_lossy().ends_with(".tmp"))
@@ -455,6 +456,60 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `report.html` of a run: headless Chromium loads it from disk with no script or load error
+/// and every image decoded (the page records both on `<body>` when it loads).
+fn report_opens_in_a_browser(run: &std::path::Path) {
+    let html = run.join("report.html");
+    assert!(html.is_file() && run.join("report/sheet_val.png").is_file());
+    let Some(browser) = ["chromium", "chromium-browser", "google-chrome"]
+        .into_iter()
+        .find(|b| {
+            Command::new(b)
+                .arg("--version")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+    else {
+        eprintln!("skipping the browser check of report.html: no chromium (scripts/install-chromium.sh installs it)");
+        return;
+    };
+    let out = Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+        ])
+        .arg(&html)
+        .output()
+        .expect("run chromium");
+    let dom = String::from_utf8_lossy(&out.stdout);
+    let body = dom
+        .split("<body")
+        .nth(1)
+        .and_then(|b| b.split('>').next())
+        .unwrap_or_default()
+        .to_string();
+    let attr = |name: &str| -> Option<usize> {
+        body.split(&format!("{name}=\""))
+            .nth(1)?
+            .split('"')
+            .next()?
+            .parse()
+            .ok()
+    };
+    let (images, bad, errors) = (
+        attr("data-images"),
+        attr("data-images-bad"),
+        attr("data-errors"),
+    );
+    assert!(
+        images.is_some_and(|n| n >= 8) && bad == Some(0) && errors == Some(0),
+        "report.html in {browser}: body{body}"
+    );
 }
 
 /// The recovered scene of a finished run, relit (its emitters off, a sphere light on) and seen

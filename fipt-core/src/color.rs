@@ -20,6 +20,16 @@ pub fn srgb_oetf(x: f32) -> f32 {
     }
 }
 
+/// The inverse of [`srgb_oetf`] on [0, 1]: linear value of an sRGB-encoded one.
+#[inline]
+pub fn srgb_eotf(v: f32) -> f32 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// True when all three channels are finite.
 #[inline]
 pub fn is_finite(c: Rgb) -> bool {

@@ -1,6 +1,7 @@
 //! Every export format read back: the glb through the `gltf` crate (textures sampled at the
 //! points they were baked from), the Mitsuba XML through an XML parser (every file it names
 //! exists), the OBJ's faces and material library.
+use fipt_core::color::srgb_eotf;
 use fipt_core::emitter::Emitter;
 use fipt_core::materials::SurfacePoint;
 use fipt_core::reflectance::metallic_workflow;
@@ -47,15 +48,6 @@ impl SurfaceModel for Waves {
     }
     fn part(&self, _tri: u32) -> u32 {
         0
-    }
-}
-
-/// The sRGB transfer function's inverse.
-fn srgb_eotf(v: f32) -> f32 {
-    if v <= 0.04045 {
-        v / 12.92
-    } else {
-        ((v + 0.055) / 1.055).powf(2.4)
     }
 }
 

@@ -1,0 +1,217 @@
+//! `report.html`: one static page, relative links only, its CSS and script inline.
+use crate::{ReportError, Result, ViewPictures, MAPS};
+use serde_json::Value;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn read(path: &Path) -> Value {
+    std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or(Value::Null)
+}
+
+fn num(v: &Value, digits: usize) -> String {
+    v.as_f64()
+        .filter(|x| x.is_finite())
+        .map_or("–".into(), |x| format!("{x:.digits$}"))
+}
+
+const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:1.5em;background:#fafafa;color:#222}
+h1{font-size:1.5em}h2{margin-top:1.6em;border-bottom:1px solid #ccc}
+table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.25em .6em;text-align:right}
+th{background:#eee}td:first-child,th:first-child{text-align:left}
+.view{display:flex;flex-wrap:wrap;gap:.8em;align-items:flex-start;margin:1em 0;padding:.6em;background:#fff;border:1px solid #ddd}
+figure{margin:0}figcaption{font-size:.85em;color:#555;text-align:center}
+.cmp{position:relative;line-height:0}.cmp img{display:block;max-width:none}
+.cmp .top{position:absolute;top:0;left:0;width:50%;overflow:hidden;border-right:2px solid #fff}
+.cmp input{display:block;width:100%;margin:4px 0 0 0}.pair{display:flex;flex-direction:column;gap:2px}
+img{image-rendering:pixelated}";
+
+const SCRIPT: &str = "window.__errors=[];
+window.addEventListener('error',function(e){window.__errors.push(String(e.message||(e.target&&e.target.src)||'error'));},true);
+window.addEventListener('load',function(){var im=Array.prototype.slice.call(document.images);
+var bad=im.filter(function(i){return !(i.complete&&i.naturalWidth>0);});
+document.body.setAttribute('data-images',im.length);document.body.setAttribute('data-images-bad',bad.length);
+document.body.setAttribute('data-errors',window.__errors.length);});
+function slide(r){r.parentNode.querySelector('.top').style.width=r.value+'%';}";
+
+fn header(h: &mut String, report: &Value) {
+    let s = |k: &str| report[k].as_str().unwrap_or("–").to_string();
+    let _ = write!(
+        h,
+        "<h1>fipt run: {}</h1>\n<p>preset <b>{}</b>, method <b>{}</b>, reflectance model <b>{}</b>, fipt {} — {} s in all</p>\n",
+        esc(&s("scene")),
+        esc(&s("preset")),
+        esc(report["settings"]["pipeline"]["method"].as_str().unwrap_or("fipt")),
+        esc(report["settings"]["model"]["brdf"].as_str().unwrap_or("–")),
+        esc(&s("fipt_version")),
+        num(&report["seconds_total"], 1)
+    );
+}
+
+fn metrics_table(h: &mut String, metrics: &Value) {
+    let Some(splits) = metrics.as_object() else {
+        h.push_str("<p>No ground truth: no metrics.</p>\n");
+        return;
+    };
+    h.push_str("<h2>Metrics</h2>\n<table><tr><th>split</th><th>kd dB</th><th>σ dB</th><th>emission IoU</th><th>re-render dB</th></tr>\n");
+    for (name, m) in splits {
+        let m = &m["mean"];
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(name),
+            num(&m["kd_psnr"], 2),
+            num(&m["roughness_psnr"], 2),
+            num(&m["emission_iou"], 3),
+            num(&m["render_psnr"], 2)
+        );
+    }
+    h.push_str("</table>\n<p>Means over the views (PSNR as in the method's protocol; the per-view figures are in metrics.json).</p>\n");
+}
+
+fn stages_table(h: &mut String, report: &Value) {
+    let Some(stages) = report["stages"].as_array() else {
+        return;
+    };
+    h.push_str(
+        "<h2>Stages</h2>\n<table><tr><th>stage</th><th>seconds</th><th>peak RSS MiB</th></tr>\n",
+    );
+    for st in stages {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(st["stage"].as_str().unwrap_or("?")),
+            num(&st["seconds"], 1),
+            num(&st["peak_rss_mib"], 0)
+        );
+    }
+    h.push_str("</table>\n");
+}
+
+fn lights_table(h: &mut String, report: &Value) {
+    let lights = report["emitters"].as_array().cloned().unwrap_or_default();
+    let _ = writeln!(h, "<h2>Lights ({})</h2>", lights.len());
+    if lights.is_empty() {
+        h.push_str("<p>No emitter was found.</p>\n");
+        return;
+    }
+    h.push_str("<table><tr><th>id</th><th>triangles</th><th>area m²</th><th>mean radiance (RGB)</th><th>power W (RGB)</th><th>centroid</th></tr>\n");
+    for (k, l) in lights.iter().enumerate() {
+        let v3 = |v: &Value, d: usize| {
+            v.as_array()
+                .map(|a| a.iter().map(|x| num(x, d)).collect::<Vec<_>>().join(", "))
+                .unwrap_or("–".into())
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td>{k}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            num(&l["triangles"], 0),
+            num(&l["area"], 3),
+            v3(&l["mean_radiance"], 2),
+            v3(&l["power"], 1),
+            v3(&l["centroid"], 2)
+        );
+    }
+    h.push_str("</table>\n");
+}
+
+fn figure(h: &mut String, src: &Option<String>, caption: &str) {
+    match src {
+        Some(s) => {
+            let _ = write!(
+                h,
+                "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{}</figcaption></figure>",
+                esc(s),
+                esc(caption),
+                esc(caption)
+            );
+        }
+        None => {
+            let _ = write!(
+                h,
+                "<figure><figcaption>{} (none)</figcaption></figure>",
+                esc(caption)
+            );
+        }
+    }
+}
+
+fn view_block(h: &mut String, v: &ViewPictures) {
+    let _ = write!(
+        h,
+        "<div class=\"view\"><div><b>{} view {}</b><br>re-render {} dB</div>",
+        esc(&v.split),
+        v.index,
+        v.psnr.map_or("–".into(), |p| format!("{p:.2}"))
+    );
+    match &v.render {
+        Some(r) => {
+            let _ = write!(
+                h,
+                "<figure><div class=\"cmp\" style=\"width:{w}px\"><img src=\"{}\" alt=\"input\" width=\"{w}\" height=\"{h}\"><div class=\"top\" style=\"height:{h}px\"><img src=\"{}\" alt=\"re-render\" width=\"{w}\" height=\"{h}\"></div><input type=\"range\" min=\"0\" max=\"100\" value=\"50\" oninput=\"slide(this)\"></div><figcaption>re-render (left of the line) | input</figcaption></figure>",
+                esc(&v.input),
+                esc(r),
+                w = v.width,
+                h = v.height
+            );
+        }
+        None => figure(h, &Some(v.input.clone()), "input"),
+    }
+    figure(h, &v.error, "error ×4");
+    for ((mine, gt), (_, _, label)) in v.maps.iter().zip(MAPS) {
+        h.push_str("<div class=\"pair\">");
+        figure(h, mine, label);
+        if gt.is_some() {
+            figure(h, gt, &format!("{label} (truth)"));
+        }
+        h.push_str("</div>");
+    }
+    h.push_str("</div>\n");
+}
+
+/// Writes `run/report.html` for the pictures `views` (paths relative to `run`).
+pub fn write_html(run: &Path, views: &[ViewPictures]) -> Result<PathBuf> {
+    let report = read(&run.join("report.json"));
+    let metrics = read(&run.join("metrics.json"));
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>fipt report</title>\n<style>{STYLE}</style>\n<script>{SCRIPT}</script></head><body>\n"
+    );
+    header(&mut h, &report);
+    metrics_table(&mut h, &metrics);
+    h.push_str("<h2>Views</h2>\n<p>Drag a slider to compare the re-render with the input; the error map shows |Δ| of the displayed values ×4 (black → red → yellow → white).</p>\n");
+    for v in views {
+        view_block(&mut h, v);
+    }
+    lights_table(&mut h, &report);
+    stages_table(&mut h, &report);
+    if run.join("sweep.png").is_file() {
+        h.push_str("<h2>Speed and accuracy</h2>\n<img src=\"sweep.png\" alt=\"accuracy against wall time\">\n");
+    }
+    for split in ["train", "val"] {
+        let s = format!("report/sheet_{split}.png");
+        if run.join(&s).is_file() {
+            let _ = writeln!(h, "<h2>Contact sheet ({split})</h2>\n<p>Per view: input | re-render | error | kd | σ | metallic | emission; the row under it: the truth of the maps.</p><img src=\"{s}\" alt=\"contact sheet {split}\">");
+        }
+    }
+    h.push_str("</body></html>\n");
+    let path = run.join("report.html");
+    let tmp = run.join("report.html.tmp");
+    std::fs::write(&tmp, h)
+        .and_then(|_| std::fs::rename(&tmp, &path))
+        .map_err(|e| ReportError::Io {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+    Ok(path)
+}

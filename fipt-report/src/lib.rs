@@ -1,0 +1,173 @@
+//! # fipt-report
+//!
+//! What a finished `fipt run` looks like, for people who look before they read:
+//! * `report/sheet_<split>.png`: a contact sheet per split, one row per view (up to
+//!   [`Options::views`]): input | re-render | error | kd | σ | metallic | emission, and under
+//!   it, when the scene has ground truth, a row with the true kd | σ | metallic | emission
+//!   under their columns;
+//! * `report.html`: a static page (opens from disk, no server, no network) with per view a
+//!   slider between the input and the re-render, the error map, the material maps beside the
+//!   ground truth, the lights with their power, the metrics and the per-stage timings, and the
+//!   speed/accuracy plot when the folder has one (`sweep.png`).
+//!
+//! The page checks itself when it loads: it sets `data-images` (images on the page),
+//! `data-images-bad` (images that did not decode) and `data-errors` (script and load errors)
+//! on `<body>`, which a headless browser's DOM dump reads.
+mod html;
+mod sheet;
+
+use fipt_core::dataset::{Dataset, GtKind};
+use fipt_core::image::Image;
+use std::path::{Path, PathBuf};
+
+pub use html::write_html;
+
+/// Errors of report writing.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error(transparent)]
+    Core(#[from] fipt_core::CoreError),
+    #[error("{path}: {message}")]
+    Io { path: PathBuf, message: String },
+}
+
+pub type Result<T, E = ReportError> = std::result::Result<T, E>;
+
+/// Report settings.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Views per split shown (the first ones).
+    pub views: usize,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options { views: 4 }
+    }
+}
+
+/// The material maps of the sheet and the page: name in `views/`, ground-truth kind, label.
+pub const MAPS: [(&str, GtKind, &str); 4] = [
+    ("kd", GtKind::DiffCol, "kd"),
+    ("roughness", GtKind::Roughness, "σ"),
+    ("metallic", GtKind::Metallic, "metallic"),
+    ("emission", GtKind::Emit, "emission"),
+];
+
+/// One view of a split as the report shows it (paths relative to the run folder).
+#[derive(Clone, Debug)]
+pub struct ViewPictures {
+    pub split: String,
+    pub index: usize,
+    /// Picture size in pixels.
+    pub width: usize,
+    pub height: usize,
+    pub input: String,
+    pub render: Option<String>,
+    pub error: Option<String>,
+    /// Per map of [`MAPS`]: the recovered picture and the ground truth's.
+    pub maps: Vec<(Option<String>, Option<String>)>,
+    /// sRGB PSNR of the re-render against the input.
+    pub psnr: Option<f64>,
+}
+
+/// The error heat map of a re-render: |Δ| of the displayed (sRGB) values, mean over channels,
+/// ×4, on a black → red → yellow → white ramp.
+pub fn error_map(render: &Image, input: &Image) -> Image {
+    let disp = |v: f32| fipt_core::color::srgb_oetf(v.clamp(0.0, 1.0));
+    let data = render
+        .data
+        .iter()
+        .zip(&input.data)
+        .map(|(a, b)| {
+            let e = (0..3).map(|c| (disp(a[c]) - disp(b[c])).abs()).sum::<f32>() / 3.0;
+            let t = (4.0 * e).clamp(0.0, 1.0) * 3.0;
+            // Linear values so that the PNG's sRGB encoding shows the ramp.
+            let lin = |v: f32| fipt_core::color::srgb_eotf(v.clamp(0.0, 1.0));
+            glam::Vec3::new(lin(t), lin(t - 1.0), lin(t - 2.0))
+        })
+        .collect();
+    Image {
+        width: render.width,
+        height: render.height,
+        data,
+    }
+}
+
+fn rel(run: &Path, p: &Path) -> String {
+    p.strip_prefix(run)
+        .unwrap_or(p)
+        .to_string_lossy()
+        .replace('\\', "/")
+}
+
+/// Writes the pictures of the report (inputs, error maps, ground truth as PNG under
+/// `report/`) and returns what each view shows.
+pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<ViewPictures>> {
+    let mut out = Vec::new();
+    let pics = run.join("report");
+    for split in &ds.splits {
+        let maps_dir = run.join("views").join(&split.name);
+        for v in split.views.iter().take(opts.views) {
+            let k = v.index;
+            let (input, _) = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?;
+            let input_png = pics.join(format!("inputs/{}_{k:03}.png", split.name));
+            input.write_png(&input_png, 1.0)?;
+            let render_exr = maps_dir.join(format!("{k:03}_render.exr"));
+            let (render, error, psnr) = if render_exr.is_file() {
+                let r = Image::read_exr(&render_exr)?;
+                let e = pics.join(format!("error/{}_{k:03}.png", split.name));
+                error_map(&r, &input).write_png(&e, 1.0)?;
+                let p = fipt_core::metrics::srgb_psnr(&r.data, &input.data, None);
+                let png = maps_dir.join(format!("preview/{k:03}_render.png"));
+                (Some(rel(run, &png)), Some(rel(run, &e)), p)
+            } else {
+                (None, None, None)
+            };
+            let mut maps = Vec::new();
+            for (name, kind, _) in MAPS {
+                let png = maps_dir.join(format!("preview/{k:03}_{name}.png"));
+                let mine = png.is_file().then(|| rel(run, &png));
+                let gt = match ds.load_gt(split, kind, k)? {
+                    Some(img) => {
+                        let p = pics.join(format!("gt/{}_{k:03}_{name}.png", split.name));
+                        img.write_png(&p, 1.0)?;
+                        Some(rel(run, &p))
+                    }
+                    None => None,
+                };
+                maps.push((mine, gt));
+            }
+            out.push(ViewPictures {
+                split: split.name.clone(),
+                index: k,
+                width: input.width,
+                height: input.height,
+                input: rel(run, &input_png),
+                render,
+                error,
+                maps,
+                psnr,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Writes every picture, the contact sheets and `report.html` of the run folder `run` of
+/// scene `ds`; returns the files written.
+pub fn write_report(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<PathBuf>> {
+    let views = write_pictures(run, ds, opts)?;
+    let mut files = Vec::new();
+    for split in &ds.splits {
+        let rows: Vec<&ViewPictures> = views.iter().filter(|v| v.split == split.name).collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let p = run.join(format!("report/sheet_{}.png", split.name));
+        sheet::write_sheet(run, &rows, &p)?;
+        files.push(p);
+    }
+    files.push(write_html(run, &views)?);
+    Ok(files)
+}
