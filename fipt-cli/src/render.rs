@@ -14,7 +14,7 @@ use fipt_shading::lights::{EmitterPolicy, LightsFile};
 use fipt_shading::relight::apply_lights;
 use fipt_shading::render::{render, render_aovs, RenderConfig};
 use fipt_shading::scene::{Scene, SurfaceModel, TableSurfaces};
-use fipt_shading::scene_edits::{apply_edits, EditsFile};
+use fipt_shading::scene_edits::{apply_edits, EditsFile, OBJECT_PART};
 use fipt_shading::synth::write_view;
 use std::path::{Path, PathBuf};
 
@@ -52,9 +52,11 @@ pub struct Args {
     /// The reflectance model (default: the run's; `fipt` for --materials).
     #[arg(long)]
     brdf: Option<ReflectanceModel>,
-    /// Lights to add (lights.json: spheres, quads, meshes, point and spot lights).
-    #[arg(long)]
-    lights: Option<PathBuf>,
+    /// Lights to add (lights.json: spheres, quads, meshes, point and spot lights). Several
+    /// files render each view under each into OUT/<file stem>/ and tile them into
+    /// OUT/strip_{k:03}.png (a relighting strip).
+    #[arg(long, num_args = 1..)]
+    lights: Vec<PathBuf>,
     /// The scene's own emitters: keep, off (geometry stays, black) or scale=K. Overrides the
     /// lights file's `emitters`.
     #[arg(long)]
@@ -122,7 +124,7 @@ pub fn run(a: Args) -> Result<()> {
             .filter(|&t| surfaces.emission(t).max_element() > 0.0)
             .collect();
         st.done();
-        return render_all(&a, mesh, surfaces, &[lit], &cams, Layout::Dataset);
+        return render_all(&a, &mesh, &surfaces, &[lit], &cams, Layout::Dataset);
     }
     if !RunOutput::is_run_output(&a.source) {
         bail!(
@@ -141,7 +143,7 @@ pub fn run(a: Args) -> Result<()> {
         crate::recovered::surfaces(&geometry, &views, field.as_ref(), &run.emitters, model)?;
     let groups: Vec<Vec<u32>> = run.emitters.iter().map(|e| e.triangles.clone()).collect();
     st.done();
-    render_all(&a, geometry.mesh, surfaces, &groups, &cams, Layout::Flat)
+    render_all(&a, &geometry.mesh, &surfaces, &groups, &cams, Layout::Flat)
 }
 
 /// Where the views go: the dataset layout (`Image/` and ground-truth folders) or
@@ -152,10 +154,11 @@ enum Layout {
     Flat,
 }
 
+/// Every lights set of `a` (none: the scene as it is), checked before anything renders.
 fn render_all<S: SurfaceModel>(
     a: &Args,
-    mut mesh: Mesh,
-    surfaces: S,
+    mesh: &Mesh,
+    surfaces: &S,
     emitters: &[Vec<u32>],
     cams: &[Camera],
     layout: Layout,
@@ -168,6 +171,50 @@ fn render_all<S: SurfaceModel>(
             cams.len()
         );
     }
+    let sets: Vec<Option<&Path>> = if a.lights.is_empty() {
+        vec![None]
+    } else {
+        a.lights.iter().map(|p| Some(p.as_path())).collect()
+    };
+    let mut scenes = Vec::new();
+    for l in &sets {
+        scenes.push(build_scene(a, mesh.clone(), surfaces, emitters, cams, *l)?);
+    }
+    let mut outs = Vec::new();
+    for (l, scene) in sets.iter().zip(&scenes) {
+        let out = match l {
+            Some(p) if sets.len() > 1 => a.out.join(p.file_stem().unwrap_or_default()),
+            _ => a.out.clone(),
+        };
+        render_views(a, scene, cams, &views, &out, layout)?;
+        outs.push(out);
+    }
+    if sets.len() > 1 {
+        for &k in &views {
+            let pics: Vec<PathBuf> = outs
+                .iter()
+                .map(|o| match layout {
+                    Layout::Flat => o.join(format!("preview/{k:03}_render.png")),
+                    Layout::Dataset => o.join(format!("preview/{k:03}.png")),
+                })
+                .collect();
+            let strip = a.out.join(format!("strip_{k:03}.png"));
+            fipt_report::write_strip(&pics, &strip)?;
+            println!("relighting strip: {}", strip.display());
+        }
+    }
+    Ok(())
+}
+
+/// The scene of one lights set: edits and inserted objects first, then the lights.
+fn build_scene<'s, S: SurfaceModel>(
+    a: &Args,
+    mut mesh: Mesh,
+    surfaces: &'s S,
+    emitters: &[Vec<u32>],
+    cams: &[Camera],
+    lights: Option<&Path>,
+) -> Result<Scene<EditedSurfaces<&'s S>>> {
     let mut edited = EditedSurfaces::new(surfaces, &mesh);
     if let Some(p) = &a.edits {
         let file = EditsFile::read(p)?;
@@ -180,27 +227,23 @@ fn render_all<S: SurfaceModel>(
             done.object_triangles.iter().sum::<usize>()
         );
     }
-    let mut deltas = Vec::new();
     let default = a.emitters.unwrap_or(EmitterPolicy::Keep);
-    let mut file = match &a.lights {
+    let mut file = match lights {
         Some(p) => LightsFile::read(p)?,
         None => LightsFile::default(),
     };
     if a.emitters.is_some() {
         file.emitters = a.emitters;
     }
-    let lights_path = a
-        .lights
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("--emitters"));
-    deltas.extend(apply_lights(
+    let lights_path = lights.unwrap_or(Path::new("--emitters"));
+    let deltas = apply_lights(
         &mut mesh,
         &mut edited,
         &file,
-        &lights_path,
+        lights_path,
         default,
         emitters,
-    )?);
+    )?;
     let mut scene = Scene::new(mesh, edited);
     scene.delta_lights = deltas;
     if !scene.has_light() {
@@ -208,6 +251,17 @@ fn render_all<S: SurfaceModel>(
             "warning: nothing emits (no emitter kept, no light added): renders will be black"
         );
     }
+    Ok(scene)
+}
+
+fn render_views<S: SurfaceModel>(
+    a: &Args,
+    scene: &Scene<S>,
+    cams: &[Camera],
+    views: &[usize],
+    out: &Path,
+    layout: Layout,
+) -> Result<()> {
     let cfg = RenderConfig {
         spp: a.spp,
         max_bounces: a.max_bounces,
@@ -223,27 +277,21 @@ fn render_all<S: SurfaceModel>(
     let (mut rays, mut nonfinite) = (0u64, 0u64);
     let reference = a.reference.as_deref().map(reference_dir).transpose()?;
     let mut rows = Vec::new();
-    for &k in &views {
-        let (img, stats) = render(&scene, &cams[k], &cfg, k as u64, &|n| pb.inc(n as u64));
+    for &k in views {
+        let (img, stats) = render(scene, &cams[k], &cfg, k as u64, &|n| pb.inc(n as u64));
         if let Some(dir) = &reference {
             rows.push((k, compare(dir, k, &img)?));
         }
         rays += stats.rays;
         nonfinite += stats.nonfinite;
-        let aovs = render_aovs(&scene, &cams[k]);
+        let aovs = render_aovs(scene, &cams[k]);
         match layout {
             Layout::Dataset => {
-                let semantic: Vec<u32> = (0..=aovs
-                    .part
-                    .iter()
-                    .filter(|&&p| p < u32::MAX - 1)
-                    .max()
-                    .copied()
-                    .unwrap_or(0))
-                    .collect();
-                write_view(&a.out, k, &img, &aovs, &semantic)?
+                let parts = aovs.part.iter().filter(|&&p| p < OBJECT_PART).max();
+                let semantic: Vec<u32> = (0..=parts.copied().unwrap_or(0)).collect();
+                write_view(out, k, &img, &aovs, &semantic)?
             }
-            Layout::Flat => write_flat(&a.out, k, &img, &aovs)?,
+            Layout::Flat => write_flat(out, k, &img, &aovs)?,
         }
     }
     pb.finish_and_clear();
@@ -259,9 +307,9 @@ fn render_all<S: SurfaceModel>(
         }
     );
     if reference.is_some() {
-        write_metrics(&a.out, &rows)?;
+        write_metrics(out, &rows)?;
     }
-    println!("wrote {}", a.out.display());
+    println!("wrote {}", out.display());
     Ok(())
 }
 

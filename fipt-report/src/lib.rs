@@ -22,6 +22,23 @@ use std::path::{Path, PathBuf};
 
 pub use html::write_html;
 
+/// A relighting strip: the PNGs `pictures` (one view under several lights) side by side.
+pub fn write_strip(pictures: &[PathBuf], path: &Path) -> Result<()> {
+    let imgs: Vec<Option<image::RgbImage>> = pictures
+        .iter()
+        .map(|p| image::open(p).ok().map(|i| i.to_rgb8()))
+        .collect();
+    let Some(first) = imgs.iter().flatten().next() else {
+        return Err(ReportError::Io {
+            path: path.to_path_buf(),
+            message: "no picture to put in the strip".into(),
+        });
+    };
+    let (w, h) = first.dimensions();
+    let n = imgs.len() as u32;
+    sheet::tile(&[imgs], n, w, h, path)
+}
+
 /// Errors of report writing.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {

@@ -35,6 +35,12 @@ pub fn write_sheet(run: &Path, rows: &[&ViewPictures], path: &Path) -> Result<()
             lines.push(gt);
         }
     }
+    tile(&lines, cols, w, h, path)
+}
+
+/// Tiles `lines` of pictures of `w`×`h` (None: left empty) into `cols` columns and writes the
+/// PNG (through a temporary file).
+pub fn tile(lines: &[Vec<Option<RgbImage>>], cols: u32, w: u32, h: u32, path: &Path) -> Result<()> {
     let width = cols * w + (cols + 1) * GAP;
     let height = lines.len() as u32 * h + (lines.len() as u32 + 1) * GAP;
     let mut sheet = RgbImage::from_pixel(width, height, Rgb([40, 40, 40]));

@@ -35,6 +35,27 @@ pub trait SurfaceModel: Sync {
     }
 }
 
+impl<S: SurfaceModel + ?Sized> SurfaceModel for &S {
+    fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint {
+        (**self).surface(tri, p)
+    }
+    fn emission(&self, tri: u32) -> Rgb {
+        (**self).emission(tri)
+    }
+    fn part(&self, tri: u32) -> u32 {
+        (**self).part(tri)
+    }
+    fn one_sided(&self, tri: u32) -> bool {
+        (**self).one_sided(tri)
+    }
+    fn model(&self) -> ReflectanceModel {
+        (**self).model()
+    }
+    fn brdf(&self, sp: &SurfacePoint) -> BrdfModel {
+        (**self).brdf(sp)
+    }
+}
+
 /// Surfaces from a per-face material table (`scene_gt.json` / `scene_parts.json`).
 pub struct TableSurfaces {
     pub materials: SceneMaterials,
