@@ -20,8 +20,8 @@ use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A `fipt run` output folder (renders the recovered scene), or, with --materials, a scene
-    /// folder holding scene.obj (or .ply/.glb/.gltf) or a mesh file.
+    /// A `fipt run` output folder (renders the recovered scene), a `.glb` of `fipt export`, or,
+    /// with --materials, a scene folder holding scene.obj (or .ply/.glb/.gltf) or a mesh file.
     source: PathBuf,
     /// Per-face materials (fipt's scene_gt.json or a scene_parts.json table): render a mesh
     /// with given materials instead of a recovered scene.
@@ -65,7 +65,7 @@ pub struct Args {
     #[arg(long)]
     edits: Option<PathBuf>,
     /// Reference images to compare with: a folder of `{k:03}_0001.exr` (or one holding
-    /// `Image/`). Writes `metrics.json` (sRGB PSNR per view and mean) into --out.
+    /// `Image/`), or another render's `{k:03}_render.exr`. Writes `metrics.json` (sRGB PSNR per view and mean) into --out.
     #[arg(long)]
     reference: Option<PathBuf>,
 }
@@ -125,6 +125,21 @@ pub fn run(a: Args) -> Result<()> {
             .collect();
         st.done();
         return render_all(&a, &mesh, &surfaces, &[lit], &cams, Layout::Dataset);
+    }
+    if a.source.is_file()
+        && a.source
+            .extension()
+            .is_some_and(|e| e == "glb" || e == "gltf")
+    {
+        // A scene exported by `fipt export --format glb` (or any metallic-roughness glTF).
+        let st = Stage::start("load");
+        let (mesh, surfaces) = fipt_export::load::load_glb(&a.source)?;
+        let cams = read_cameras(&a.cameras, size)?;
+        let lit: Vec<u32> = (0..mesh.triangles.len() as u32)
+            .filter(|&t| surfaces.emission(t).max_element() > 0.0)
+            .collect();
+        st.done();
+        return render_all(&a, &mesh, &surfaces, &[lit], &cams, Layout::Flat);
     }
     if !RunOutput::is_run_output(&a.source) {
         bail!(
@@ -330,7 +345,11 @@ fn reference_dir(p: &Path) -> Result<PathBuf> {
 
 /// sRGB PSNR of a rendered view against the reference image of the same index.
 fn compare(dir: &Path, k: usize, img: &fipt_core::image::Image) -> Result<f64> {
-    let path = dir.join(fipt_core::dataset::image_file_name(k));
+    let mut path = dir.join(fipt_core::dataset::image_file_name(k));
+    if !path.is_file() {
+        // Another `fipt render`'s output.
+        path = dir.join(format!("{k:03}_render.exr"));
+    }
     let r = fipt_core::image::Image::read_exr(&path)
         .with_context(|| format!("reading the reference image of view {k}"))?;
     if (r.width, r.height) != (img.width, img.height) {

@@ -206,6 +206,16 @@ impl Atlas {
         self.texel_coords(c, p) / Vec2::new(self.width as f32, self.height as f32)
     }
 
+    /// The world point at continuous texel coordinates `tc` of chart `c` (the inverse of
+    /// [`Atlas::texel_coords`] on the chart's plane).
+    pub fn point_at(&self, c: usize, tc: Vec2) -> Vec3 {
+        let ch = &self.charts[c];
+        let corner =
+            Vec2::new(ch.texel[0] as f32, ch.texel[1] as f32) + Vec2::splat(PAD as f32 + 0.5);
+        let q = ch.min + (tc - corner) * self.texel_size;
+        ch.origin + ch.u * q.x + ch.v * q.y
+    }
+
     /// The world point at the centre of texel (x, y) of chart `c`.
     pub fn texel_point(&self, c: usize, x: u32, y: u32) -> Vec3 {
         let ch = &self.charts[c];

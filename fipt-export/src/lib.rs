@@ -19,6 +19,7 @@
 //! `_METALLIC`; viewers show the colour), and the other formats refuse.
 pub mod atlas;
 mod glb;
+pub mod load;
 mod mitsuba;
 mod obj;
 pub mod textures;

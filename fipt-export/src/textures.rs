@@ -27,21 +27,71 @@ fn inside(p: Vec2, a: Vec2, b: Vec2, c: Vec2) -> bool {
     (w0 >= eps && w1 >= eps && w2 >= eps) || (w0 <= -eps && w1 <= -eps && w2 <= -eps)
 }
 
-/// The texels chart `c` covers: (texel index, triangle, world point).
+/// The point of triangle (a, b, c) nearest `p` (2-D).
+fn nearest_on_triangle(p: Vec2, a: Vec2, b: Vec2, c: Vec2) -> Vec2 {
+    if inside(p, a, b, c) {
+        return p;
+    }
+    let on_segment = |s: Vec2, e: Vec2| {
+        let d = e - s;
+        let t = if d.length_squared() > 0.0 {
+            ((p - s).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        s + d * t
+    };
+    [on_segment(a, b), on_segment(b, c), on_segment(c, a)]
+        .into_iter()
+        .min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p)))
+        .unwrap_or(a)
+}
+
+/// Every texel of chart `c`'s rectangle: (texel index, triangle, world point). Texels whose
+/// centre lies on a triangle take that point; the others (edges, gutter, triangles smaller
+/// than a texel) the nearest point of the chart's surface, so no texel a lookup can reach is
+/// left empty.
 fn chart_texels(mesh: &Mesh, atlas: &Atlas, c: usize) -> Vec<(usize, u32, Vec3)> {
-    let mut out = Vec::new();
-    for &t in &atlas.charts[c].triangles {
-        let [a, b, d] = mesh.vertices(t as usize).map(|p| atlas.texel_coords(c, p));
-        let lo = a.min(b).min(d).floor().max(Vec2::ZERO);
+    let ch = &atlas.charts[c];
+    let [x0, y0] = ch.texel;
+    let [w, h] = ch.size;
+    let mut slot: Vec<Option<(u32, Vec3)>> = vec![None; (w * h) as usize];
+    let tris: Vec<(u32, [Vec2; 3])> = ch
+        .triangles
+        .iter()
+        .map(|&t| {
+            (
+                t,
+                mesh.vertices(t as usize).map(|p| atlas.texel_coords(c, p)),
+            )
+        })
+        .collect();
+    for &(t, [a, b, d]) in &tris {
+        let lo = a.min(b).min(d).floor().max(Vec2::new(x0 as f32, y0 as f32));
         let hi = a.max(b).max(d).ceil();
-        for y in lo.y as u32..(hi.y as u32).min(atlas.height) {
-            for x in lo.x as u32..(hi.x as u32).min(atlas.width) {
+        for y in lo.y as u32..(hi.y as u32).min(y0 + h) {
+            for x in lo.x as u32..(hi.x as u32).min(x0 + w) {
                 let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
                 if inside(q, a, b, d) {
-                    let i = (y * atlas.width + x) as usize;
-                    out.push((i, t, atlas.texel_point(c, x, y)));
+                    slot[((y - y0) * w + x - x0) as usize] = Some((t, atlas.texel_point(c, x, y)));
                 }
             }
+        }
+    }
+    let mut out = Vec::with_capacity(slot.len());
+    for (i, s) in slot.into_iter().enumerate() {
+        let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
+        let (t, p) = s.unwrap_or_else(|| {
+            let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            let (t, n) = tris
+                .iter()
+                .map(|&(t, [a, b, d])| (t, nearest_on_triangle(q, a, b, d)))
+                .min_by(|u, v| u.1.distance_squared(q).total_cmp(&v.1.distance_squared(q)))
+                .expect("a chart has triangles");
+            (t, atlas.point_at(c, n))
+        });
+        if x < atlas.width && y < atlas.height {
+            out.push(((y * atlas.width + x) as usize, t, p));
         }
     }
     out

@@ -71,7 +71,14 @@ fn scene() -> (Mesh, Vec<Emitter>) {
         .collect();
     let le: Vec<Vec3> = tris.iter().map(|&t| surf.emission(t)).collect();
     let e = Emitter::from_triangles(&s.mesh.positions, &s.mesh.triangles, tris, le, 1).unwrap();
-    (s.mesh, vec![e])
+    let mut mesh = s.mesh;
+    // A sphere of triangles a few texels across: each its own chart.
+    mesh.append(&fipt_shading::synth::icosphere_mesh(
+        Vec3::new(0.4, 1.2, 0.3),
+        0.15,
+        2,
+    ));
+    (mesh, vec![e])
 }
 
 #[test]
@@ -218,5 +225,59 @@ fn obj_export_reloads_with_every_face_and_its_material_library() {
         assert!(dir.join(f).is_file(), "{f}");
     }
     assert!(mtl.contains("Ke 17 12 4"), "{mtl}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_exported_glb_renders_like_the_scene_it_came_from() {
+    use fipt_core::camera::Camera;
+    use fipt_shading::render::{render, render_aovs, RenderConfig};
+    use fipt_shading::scene::{Scene, TableSurfaces};
+    let s = fipt_shading::synth::cornell();
+    let (_, emitters) = scene();
+    let mesh = s.mesh.clone();
+    let truth = TableSurfaces::new(s.materials.clone(), &mesh, std::path::Path::new("gt")).unwrap();
+    let dir = tmp("glb-render");
+    export(
+        &mesh,
+        &truth,
+        &emitters,
+        Format::Glb,
+        &dir,
+        &ExportOptions {
+            texel_size: 0.01,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (m2, back) = fipt_export::load::load_glb(&dir.join("scene.glb")).unwrap();
+    assert_eq!(m2.triangles.len(), mesh.triangles.len());
+    let cam = Camera::look_at(
+        Vec3::new(0.0, 1.0, 0.95),
+        Vec3::new(0.0, 0.7, 0.0),
+        Vec3::Y,
+        1.1,
+        64,
+        48,
+    );
+    let cfg = RenderConfig {
+        spp: 256,
+        ..Default::default()
+    };
+    let a = Scene::new(mesh, truth);
+    let b = Scene::new(m2, back);
+    let (ia, _) = render(&a, &cam, &cfg, 0, &|_| {});
+    let (ib, _) = render(&b, &cam, &cfg, 0, &|_| {});
+    let (ka, kb) = (render_aovs(&a, &cam).kd, render_aovs(&b, &cam).kd);
+    let kd = fipt_core::metrics::psnr(&ka.data, &kb.data, None, 1.0).unwrap();
+    let img = fipt_core::metrics::srgb_psnr(&ia.data, &ib.data, None).unwrap();
+    let mean =
+        |i: &fipt_core::image::Image| i.data.iter().map(|p| p.element_sum() as f64).sum::<f64>();
+    let ratio = mean(&ib) / mean(&ia);
+    eprintln!("glb round trip: kd {kd:.1} dB, render {img:.1} dB, radiance ratio {ratio:.4}");
+    assert!(
+        kd >= 30.0 && img >= 28.0 && (ratio - 1.0).abs() < 0.03,
+        "kd {kd:.1} dB, render {img:.1} dB, ratio {ratio}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
