@@ -65,7 +65,7 @@ pub fn stage(
 ) -> Result<(BakeManifest, Vec<ViewShadings>)> {
     let name = baker.name().to_string();
     if !force {
-        match load_if_current(dir, &scene.inputs_hash, settings, &name)? {
+        match load_if_current(dir, &scene.cache_key, settings, &name)? {
             Ok((m, sh)) => {
                 eprintln!(
                     "reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it",
@@ -91,7 +91,7 @@ pub fn stage(
     let manifest = BakeManifest {
         version: FORMAT_VERSION,
         baker: name,
-        inputs_hash: scene.inputs_hash.clone(),
+        inputs_hash: scene.cache_key.clone(),
         config: settings.clone(),
         split: split.name.clone(),
         views: shadings.len(),

@@ -59,8 +59,21 @@ fn median(v: &[Option<f64>]) -> Option<f64> {
     })
 }
 
-/// Evaluates the maps in `out/views/<split>/` of every split with ground truth.
-pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
+/// Why a view cannot score a re-render: all black, or saturated at the working exposure (a
+/// PSNR there would compare nothing with nothing and read ~100 dB).
+fn degenerate(img: &Image) -> Option<&'static str> {
+    if img.data.iter().all(|p| p.max_element() <= 0.0) {
+        Some("black view")
+    } else if img.data.iter().all(|p| p.min_element() >= 1.0) {
+        Some("saturated view")
+    } else {
+        None
+    }
+}
+
+/// Evaluates the maps in `out/views/<split>/` of every split with ground truth; `exposure` is
+/// the run's exposure scale (re-renders are compared as displayed at the working exposure).
+pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::Value> {
     let mut splits = serde_json::Map::new();
     for s in &ds.splits {
         if !s.has_gt(GtKind::DiffCol) {
@@ -175,8 +188,15 @@ pub fn evaluate(ds: &Dataset, out: &Path) -> Result<serde_json::Value> {
                 .join(format!("{k:03}_render.exr"))
                 .is_file()
                 .then(|| -> Result<Option<f64>> {
-                    let r = pred("render")?;
-                    let img = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0;
+                    let mut r = pred("render")?;
+                    let mut img = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0;
+                    for p in r.data.iter_mut().chain(img.data.iter_mut()) {
+                        *p /= exposure;
+                    }
+                    if let Some(why) = degenerate(&img) {
+                        eprintln!("note: {} view {k}: re-render not scored ({why})", s.name);
+                        return Ok(None);
+                    }
                     Ok(fipt_core::metrics::srgb_psnr(&r.data, &img.data, None))
                 })
                 .transpose()?
@@ -292,7 +312,11 @@ pub fn run(a: Args) -> Result<()> {
             );
         }
     }
-    evaluate(&ds, &a.out)?;
+    let exposure = fipt_core::fsutil::read_json::<serde_json::Value>(&report)
+        .ok()
+        .and_then(|r| r["exposure_scale"].as_f64())
+        .unwrap_or(1.0) as f32;
+    evaluate(&ds, &a.out, exposure)?;
     println!("wrote {}", a.out.join("metrics.json").display());
     Ok(())
 }

@@ -88,7 +88,8 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
             extract_emitters(&scene, &records, field, shadings.as_deref(), extractor)?
         }
     };
-    write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
+    let user_emitters: Vec<_> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();
+    write_json_atomic(&a.out.join("emitters.json"), &user_emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     stages.push(StageReport::since("emitters", t));
     let mut mark = |stage: &'static str, t: Instant| stages.push(StageReport::since(stage, t));
@@ -101,7 +102,8 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
             "stages": stages,
             "seconds_total": t_all.elapsed().as_secs_f64(),
             "fit": fitted.report,
-            "emitters": emitters_summary(&emitters),
+            "emitters": emitters_summary(&user_emitters),
+            "exposure_scale": scene.exposure,
             "components": {
                 "reflectance_model": cfg.model.brdf,
                 "method": { "name": cfg.pipeline.method, "implementation": fitter.name() },

@@ -113,6 +113,18 @@ pub fn run(a: Args) -> Result<()> {
                 s.name, stats.bad, stats.bad_views
             ));
         }
+        if !stats.black_views.is_empty() {
+            warnings.push(format!(
+                "{}: black views {:?} (every pixel 0): they constrain nothing but emitters' absence",
+                s.name, stats.black_views
+            ));
+        }
+        if !stats.saturated_views.is_empty() {
+            warnings.push(format!(
+                "{}: views {:?} have ≥ 99 % of their pixels at their maximum (clipped exposure?)",
+                s.name, stats.saturated_views
+            ));
+        }
         let gt: Vec<&str> = s.gt.iter().map(|g| g.folder()).collect();
         say!(
             "{:<12} {} views at {}x{}, fov_x {:.1}°",
@@ -123,10 +135,12 @@ pub fn run(a: Args) -> Result<()> {
             s.views[0].camera.fov_x().to_degrees()
         );
         say!(
-            "  HDR        min {:.3e}, max {:.3e}, mean luminance {:.4}",
+            "  HDR        min {:.3e}, max {:.3e}, mean luminance {:.4}, median {:.4} (exposure scale {})",
             stats.min,
             stats.max,
-            stats.mean_luminance
+            stats.mean_luminance,
+            stats.median_luminance,
+            fipt_core::image::exposure_scale(stats.median_luminance)
         );
         say!("  coverage   mean {:.1} % of pixel-centre rays hit the mesh; lowest {:.1} % (view {wv})", 100.0 * mean, 100.0 * worst);
         say!(

@@ -51,7 +51,7 @@ pub(crate) fn evaluate_if_gt(
         return Ok(None);
     }
     let t = std::time::Instant::now();
-    let m = crate::eval::evaluate(&scene.ds, out)?;
+    let m = crate::eval::evaluate(&scene.ds, out, scene.exposure)?;
     mark("eval", t);
     Ok(Some(m))
 }
@@ -126,6 +126,7 @@ pub(crate) fn write_views(
             None,
             Some(&emission_of),
             observed,
+            scene.exposure,
             &out.join("views").join(&s.name),
         )?;
     }
@@ -164,10 +165,16 @@ pub(crate) fn write_views(
             };
             for v in &s.views {
                 let key = ((si as u64) << 32) + v.index as u64;
-                let (img, _) = fipt_shading::render::render(&rscene, &v.camera, &rc, key, &|_| {});
+                let (mut img, _) =
+                    fipt_shading::render::render(&rscene, &v.camera, &rc, key, &|_| {});
                 let k = v.index;
-                img.write_exr(&dir.join(format!("{k:03}_render.exr")), ExrPrecision::F32)?;
                 img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
+                if scene.exposure != 1.0 {
+                    for p in &mut img.data {
+                        *p *= scene.exposure;
+                    }
+                }
+                img.write_exr(&dir.join(format!("{k:03}_render.exr")), ExrPrecision::F32)?;
                 pb.inc(1);
             }
         }

@@ -43,7 +43,7 @@ pub fn stage(
     );
     let stats_path = dir.join("refine_stats.json");
     if !force {
-        match load_keyed(dir, &scene.inputs_hash, &name, &key)? {
+        match load_keyed(dir, &scene.cache_key, &name, &key)? {
             Ok((m, shadings)) => {
                 eprintln!(
                     "reusing the refined shadings in {} (computed in {:.1} s); --force to redo them",
@@ -87,7 +87,7 @@ pub fn stage(
     let manifest = BakeManifest {
         version: FORMAT_VERSION,
         baker: name,
-        inputs_hash: scene.inputs_hash.clone(),
+        inputs_hash: scene.cache_key.clone(),
         config: serde_json::json!({ "key": key, "settings": settings, "field": field_id }),
         split: split.name.clone(),
         views: shadings.len(),

@@ -339,10 +339,12 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         Some(&shadings),
         extractor.as_ref(),
     )?;
-    write_json_atomic(&a.out.join("emitters.json"), &emitters)?;
+    // Written at the views' own scale; the stages work at the normalised one.
+    let user_emitters: Vec<Emitter> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();
+    write_json_atomic(&a.out.join("emitters.json"), &user_emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     st.done();
-    print_lights(&emitters);
+    print_lights(&user_emitters);
     mark("emitters", t);
 
     // Refine → train rounds, unless nothing in the scene needs them.
@@ -412,7 +414,8 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
             "rounds": rounds,
             "shading_closure": closure,
             "search": searches,
-            "emitters": emitters_summary(&emitters),
+            "emitters": emitters_summary(&user_emitters),
+            "exposure_scale": scene.exposure,
             "components": {
                 "reflectance_model": cfg.model.brdf,
                     "method": cfg.pipeline.method,

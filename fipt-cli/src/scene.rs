@@ -13,6 +13,13 @@ pub struct LoadedScene {
     pub images: Vec<Image>,
     /// Fingerprint of the mesh, the training cameras and images.
     pub inputs_hash: String,
+    /// The views' exposure scale s (`fipt_core::image::exposure_scale`: their median luminance
+    /// / 0.18): `images` hold the views / s, and radiance results are multiplied by s where
+    /// they are written.
+    pub exposure: f32,
+    /// What the stages' caches key on: the inputs' fingerprint and the exposure scale (the
+    /// stages see images / exposure).
+    pub cache_key: String,
 }
 
 /// The fingerprint of a scene's inputs: the mesh, the training cameras and images (what every
@@ -47,12 +54,36 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
         .map(|v| ds.load_image(v, policy).map(|(img, _)| img))
         .collect::<Result<Vec<_>, _>>()
         .context("reading the training images")?;
+    let mut images = images;
+    let median = fipt_core::image::median_luminance(&images);
+    let exposure = fipt_core::image::exposure_scale(median);
+    if !(0.5..=2.0).contains(&exposure) {
+        eprintln!(
+            "note: the views' median luminance is {median:.3e}: working at 1/{exposure:.3e} of their scale (radiance results are scaled back)"
+        );
+    }
+    if exposure != 1.0 {
+        for img in &mut images {
+            for p in &mut img.data {
+                *p /= exposure;
+            }
+        }
+    } else if median == 0.0 {
+        eprintln!("warning: the median training pixel is black: most views are dark or black");
+    }
     let inputs_hash = inputs_hash(&ds)?;
+    let cache_key = if exposure == 1.0 {
+        inputs_hash.clone()
+    } else {
+        format!("{inputs_hash}@exposure:{exposure:e}")
+    };
     st.done();
     Ok(LoadedScene {
         ds,
         geometry,
         images,
         inputs_hash,
+        exposure,
+        cache_key,
     })
 }

@@ -185,7 +185,7 @@ struct ProfileRow {
 pub fn run(a: Args) -> Result<()> {
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     let dir = a.out.join(&a.shadings);
-    let shadings = match fipt_shading::bake_store::load_for_inputs(&dir, &scene.inputs_hash)? {
+    let shadings = match fipt_shading::bake_store::load_for_inputs(&dir, &scene.cache_key)? {
         Ok((_, s)) => s,
         Err(why) => bail!(
             "{}: {why} (run `fipt run` or `fipt bake` first)",

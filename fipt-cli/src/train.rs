@@ -110,7 +110,7 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         None // no bake there: the error below says what to run first
     };
-    let (bake, shadings) = match load_for_inputs(&bake_dir, &scene.inputs_hash)? {
+    let (bake, shadings) = match load_for_inputs(&bake_dir, &scene.cache_key)? {
         Ok(x) => x,
         Err(why) => bail!(
             "{}: {why}; run `fipt bake {} --out {}` first",
@@ -142,6 +142,7 @@ pub fn run(a: Args) -> Result<()> {
                 train.then_some((&field, &shadings[..], &scene.images[..])),
                 None,
                 None,
+                scene.exposure,
                 &dir.join("views").join(&s.name),
             )?;
         }
@@ -237,7 +238,7 @@ pub fn stage(
     let cfg = cfg.sized_for(data.len(), footprint, &bounds);
     let mut inputs = format!(
         "{}+shadings:{shadings_id}+warm:{}",
-        scene.inputs_hash,
+        scene.cache_key,
         warm.map_or("none", |w| w.1)
     );
     if let Some(id) = segments_id {
@@ -351,6 +352,7 @@ pub fn export_views(
     factorized: Option<(&NeuralField, &[ViewShadings], &[Image])>,
     emission: Option<&HashMap<u32, Vec3>>,
     observed: Option<&fipt_shading::search::CellCounts>,
+    radiance_scale: f32,
     dir: &Path,
 ) -> Result<()> {
     for (vi, v) in views.iter().enumerate() {
@@ -404,11 +406,21 @@ pub fn export_views(
             }
             maps.push(("render", img));
         }
-        for (name, img) in &maps {
+        for (name, img) in &mut maps {
             let k = v.index;
+            let radiance = matches!(*name, "emission" | "render");
+            if radiance && radiance_scale != 1.0 {
+                for p in &mut img.data {
+                    *p *= radiance_scale;
+                }
+            }
             img.write_exr(&dir.join(format!("{k:03}_{name}.exr")), ExrPrecision::F32)?;
-            // Counts: white at 64 training pixels a cell.
-            let exposure = if *name == "observed" { 1.0 / 64.0 } else { 1.0 };
+            // Counts: white at 64 training pixels a cell; radiance at the working exposure.
+            let exposure = match *name {
+                "observed" => 1.0 / 64.0,
+                _ if radiance => 1.0 / radiance_scale,
+                _ => 1.0,
+            };
             img.write_png(
                 &dir.join("preview").join(format!("{k:03}_{name}.png")),
                 exposure,

@@ -601,12 +601,19 @@ pub struct HdrStats {
     pub bad: usize,
     /// Views with bad values: (view index, count).
     pub bad_views: Vec<(usize, usize)>,
+    /// Median luminance (every 7th pixel of every view).
+    pub median_luminance: f32,
+    /// Views whose every pixel is black.
+    pub black_views: Vec<usize>,
+    /// Views with ≥ 99 % of their pixels at the view's maximum (clipped or blown out).
+    pub saturated_views: Vec<usize>,
 }
 
 /// Reads every image of `split` (in parallel) and summarises the HDR range.
 pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<HdrStats> {
     use rayon::prelude::*;
-    let per: Vec<Result<(usize, f32, f32, f64, usize)>> = split
+    type PerView = (usize, f32, f32, f64, usize, Vec<f32>, bool);
+    let per: Vec<Result<PerView>> = split
         .views
         .par_iter()
         .map(|v| {
@@ -618,7 +625,16 @@ pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<
                 .map(|&p| crate::color::luminance(p) as f64)
                 .sum::<f64>()
                 / img.data.len() as f64;
-            Ok((v.index, lo, hi, lum, bad.total()))
+            let samples = img
+                .data
+                .iter()
+                .step_by(7)
+                .map(|&p| crate::color::luminance(p))
+                .filter(|l| l.is_finite())
+                .collect();
+            let at_max = img.data.iter().filter(|p| p.max_element() >= hi).count();
+            let saturated = hi > 0.0 && at_max * 100 >= img.data.len() * 99;
+            Ok((v.index, lo, hi, lum, bad.total(), samples, saturated))
         })
         .collect();
     let mut s = HdrStats {
@@ -627,8 +643,15 @@ pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<
         ..Default::default()
     };
     let n = per.len().max(1) as f64;
+    let mut samples = Vec::new();
     for r in per {
-        let (k, lo, hi, lum, bad) = r?;
+        let (k, lo, hi, lum, bad, l, saturated) = r?;
+        samples.extend(l);
+        if hi <= 0.0 {
+            s.black_views.push(k);
+        } else if saturated {
+            s.saturated_views.push(k);
+        }
         s.min = s.min.min(lo);
         s.max = s.max.max(hi);
         s.mean_luminance += lum / n;
@@ -636,6 +659,10 @@ pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<
             s.bad += bad;
             s.bad_views.push((k, bad));
         }
+    }
+    if !samples.is_empty() {
+        let m = samples.len() / 2;
+        s.median_luminance = *samples.select_nth_unstable_by(m, f32::total_cmp).1;
     }
     Ok(s)
 }

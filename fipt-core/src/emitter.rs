@@ -28,6 +28,17 @@ pub struct Emitter {
 }
 
 impl Emitter {
+    /// The same light with its radiance and power multiplied by `k` (an exposure change).
+    pub fn scaled(&self, k: f32) -> Emitter {
+        let m = |v: [f32; 3]| v.map(|x| x * k);
+        Emitter {
+            radiance: self.radiance.iter().map(|&l| m(l)).collect(),
+            mean_radiance: m(self.mean_radiance),
+            power: m(self.power),
+            ..self.clone()
+        }
+    }
+
     /// The light of triangles `tris` (indices into `triangles`, vertices in `positions`) with
     /// radiance `radiance` each: area, area-weighted mean radiance and centroid, and the
     /// double-sided Lambertian power 2π·Σ A·L. None when the area is zero or a triangle index is

@@ -451,3 +451,56 @@ mod tests {
         std::fs::remove_dir_all(&dir).ok();
     }
 }
+
+/// The median luminance the pipeline works at: views are scaled to it (camera exposure is
+/// arbitrary; the thresholds and the display-space loss are not). The presets were tuned on
+/// scenes whose median luminance is 0.15–0.20.
+pub const CANONICAL_MEDIAN: f32 = 0.18;
+
+/// Median luminance of the finite pixels of `images` (every 7th pixel; 0 for black views).
+pub fn median_luminance(images: &[Image]) -> f32 {
+    let mut l: Vec<f32> = images
+        .iter()
+        .flat_map(|i| i.data.iter().step_by(7))
+        .map(|&p| crate::color::luminance(p))
+        .filter(|v| v.is_finite())
+        .collect();
+    if l.is_empty() {
+        return 0.0;
+    }
+    let n = l.len() / 2;
+    *l.select_nth_unstable_by(n, f32::total_cmp).1
+}
+
+/// The exposure scale s of views with median luminance `median`: the pipeline works on
+/// images / s, whose median is [`CANONICAL_MEDIAN`], and scales radiance results back by s.
+/// 1 for black views (nothing to normalise).
+pub fn exposure_scale(median: f32) -> f32 {
+    if median > 0.0 && median.is_finite() {
+        median / CANONICAL_MEDIAN
+    } else {
+        1.0
+    }
+}
+
+#[cfg(test)]
+mod exposure_tests {
+    use super::*;
+
+    #[test]
+    fn exposure_brings_the_median_to_the_canonical_one() {
+        assert_eq!(exposure_scale(0.18), 1.0);
+        assert_eq!(exposure_scale(0.0), 1.0);
+        assert_eq!(exposure_scale(f32::NAN), 1.0);
+        for k in [1e-6f32, 0.7, 1e5] {
+            let m = 0.31 * k;
+            assert!(((m / exposure_scale(m)) / CANONICAL_MEDIAN - 1.0).abs() < 1e-6);
+        }
+        let img = Image {
+            width: 3,
+            height: 1,
+            data: vec![Vec3::splat(1.0), Vec3::splat(2.0), Vec3::splat(f32::NAN)],
+        };
+        assert_eq!(median_luminance(&[img]), 1.0);
+    }
+}

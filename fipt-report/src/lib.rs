@@ -123,16 +123,31 @@ fn rel(run: &Path, p: &Path) -> String {
 pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<ViewPictures>> {
     let mut out = Vec::new();
     let pics = run.join("report");
+    // Pictures at the run's working exposure (views far from the canonical one are shown as
+    // the pipeline saw them).
+    let exposure = std::fs::read_to_string(run.join("report.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|r| r["exposure_scale"].as_f64())
+        .unwrap_or(1.0) as f32;
+    let normalised = |mut i: Image| {
+        if exposure != 1.0 {
+            for p in &mut i.data {
+                *p /= exposure;
+            }
+        }
+        i
+    };
     for split in &ds.splits {
         let maps_dir = run.join("views").join(&split.name);
         for v in split.views.iter().take(opts.views) {
             let k = v.index;
-            let (input, _) = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?;
+            let input = normalised(ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0);
             let input_png = pics.join(format!("inputs/{}_{k:03}.png", split.name));
             input.write_png(&input_png, 1.0)?;
             let render_exr = maps_dir.join(format!("{k:03}_render.exr"));
             let (render, error, psnr) = if render_exr.is_file() {
-                let r = Image::read_exr(&render_exr)?;
+                let r = normalised(Image::read_exr(&render_exr)?);
                 let e = pics.join(format!("error/{}_{k:03}.png", split.name));
                 error_map(&r, &input).write_png(&e, 1.0)?;
                 let p = fipt_core::metrics::srgb_psnr(&r.data, &input.data, None);

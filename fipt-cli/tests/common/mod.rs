@@ -1,0 +1,79 @@
+//! What the end-to-end tests share: running the binary, scratch folders, generated scenes.
+#![allow(dead_code)]
+pub mod recovered;
+
+use std::path::PathBuf;
+use std::process::Command;
+
+pub fn fipt(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_fipt"))
+        .args(args)
+        .output()
+        .expect("run fipt");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+pub fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fipt-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// The cut-down run config of the e2e runs: `model`, `diffuse` samples in the bake and the
+/// refinement, 8 GGX samples a level, 1500 steps of 2048, small networks.
+pub fn small_run_config(model: &str, diffuse: u32) -> String {
+    format!(
+        "[model]\nbrdf = \"{model}\"\n\
+         [bake]\ndiffuse_samples = {diffuse}\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
+         [refine]\ndiffuse_samples = {diffuse}\nspecular_samples = [8, 8, 8, 8, 8, 8]\n\
+         light_samples = 8\n\
+         [train]\nsteps = 1500\nbatch = 2048\n[train.field]\nmlp_width = 16\nmask_width = 32\n\
+         [train.field.grid]\nlevels = 8\n"
+    )
+}
+
+/// `fipt synth cornell --out dir` with [views, val views, width, height, spp].
+pub fn synth_cornell(dir: &str, sizes: [u32; 5]) {
+    synth("cornell", dir, sizes, &[]);
+}
+
+/// `fipt synth <scene> --out dir` with [views, val views, width, height, spp] and `extra` args.
+pub fn synth(scene: &str, dir: &str, [views, val, w, h, spp]: [u32; 5], extra: &[&str]) {
+    let args = [views, val, w, h, spp].map(|v| v.to_string());
+    let mut all = vec![
+        "synth",
+        scene,
+        "--out",
+        dir,
+        "--views",
+        &args[0],
+        "--val-views",
+        &args[1],
+        "--width",
+        &args[2],
+        "--height",
+        &args[3],
+        "--spp",
+        &args[4],
+    ];
+    all.extend(extra);
+    let (ok, _, err) = fipt(&all);
+    assert!(ok, "{err}");
+}
+
+pub fn walk(dir: &std::path::Path) -> Vec<PathBuf> {
+    let mut out = vec![];
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
