@@ -115,6 +115,7 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
                 "reflectance_model": cfg.model.brdf,
                 "material_field": format!("fitted by method `{}`", cfg.pipeline.method),
                 "emitters": emitters.len(),
+                "emitters_doubtful": crate::outputs::doubtful_emitters(&emitters),
                 "initial_bake": if shadings.is_some() { "baked for the fitter" } else { "skipped (the fitter does not use shadings)" },
                 "search_and_refinement": "skipped (FIPT's rounds; this run's method replaces them)",
             },

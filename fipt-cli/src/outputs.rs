@@ -85,6 +85,28 @@ pub(crate) fn extend(report: &mut serde_json::Value, more: serde_json::Value) {
     }
 }
 
+/// A light no brighter than 4× the views' median (at the working exposure) is as bright as a
+/// lit wall: it may be a surface explaining light from an emitter no view sees.
+pub(crate) const DOUBTFUL_LUMINANCE: f32 = 4.0 * fipt_core::image::CANONICAL_MEDIAN;
+
+/// The ids and radiance of the lights (at the working exposure) that are doubtful.
+pub(crate) fn doubtful_emitters(emitters: &[Emitter]) -> Vec<serde_json::Value> {
+    emitters
+        .iter()
+        .enumerate()
+        .filter_map(|(i, e)| {
+            let l = fipt_core::color::luminance(glam::Vec3::from(e.mean_radiance));
+            (l < DOUBTFUL_LUMINANCE).then(|| {
+                eprintln!(
+                    "warning: light {i} is no brighter than a lit surface ({l:.2} at the working exposure, where the views' median is {}): it may be a surface explaining light from an emitter no view sees",
+                    fipt_core::image::CANONICAL_MEDIAN
+                );
+                serde_json::json!({"id": i, "luminance": l, "why": "no brighter than 4× the views' median luminance: possibly a lit surface explaining an emitter no view sees"})
+            })
+        })
+        .collect()
+}
+
 /// One summary per light, as `report.json` lists them.
 pub(crate) fn emitters_summary(emitters: &[Emitter]) -> Vec<serde_json::Value> {
     emitters

@@ -429,6 +429,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
                 "material_search": if cfg.search.enabled { format!("per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}", cfg.search.regions, if cfg.search.on_bake { "the bake and each refinement" } else { "each refinement (none without one)" }, cfg.search.roughness_steps, cfg.search.metallic, cfg.train.target_weight) } else { "skipped (search.enabled = false)".to_string() },
                 "emission_mask": true,
                 "emitters": emitters.len(),
+                "emitters_doubtful": crate::outputs::doubtful_emitters(&emitters),
                 "path_grown_refinement": match &refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
                 "re_render": if cfg.render.spp > 0 { format!("path traced at {} spp (other splits: {}) from the field (voxel cache) and the extracted emitters", cfg.render.spp, if cfg.render.val_spp > 0 { cfg.render.val_spp } else { cfg.render.spp }) } else { "skipped (render.spp = 0)".to_string() },
                 "hash_table_log2": train.config.field.grid.log2_table,

@@ -85,3 +85,197 @@ fn image_scale_does_not_change_the_answer() {
     }
     let _ = std::fs::remove_dir_all(&base);
 }
+
+/// One generated extreme: a cornell whose materials, mesh and cameras `edit` changes, its
+/// views rendered again from the edited truth (train and val, 10 + 2 views of 40×30).
+fn extreme_scene(
+    name: &str,
+    edit: impl Fn(&mut serde_json::Value, &mut fipt_geom::Mesh, &mut Vec<fipt_core::camera::Camera>),
+) -> std::path::PathBuf {
+    let dir = tmp(&format!("extreme-{name}"));
+    let d = dir.to_str().unwrap();
+    synth_cornell(d, [10, 2, 40, 30, 4]);
+    let gt_path = dir.join("scene_gt.json");
+    let mut gt = json(&gt_path);
+    let mut mesh = fipt_geom::Mesh::load(&dir.join("scene.obj")).unwrap();
+    let tf = dir.join("train/transforms.json");
+    let mut cams = fipt_core::dataset::read_transforms(&tf, None).unwrap();
+    edit(&mut gt, &mut mesh, &mut cams);
+    std::fs::write(&gt_path, gt.to_string()).unwrap();
+    mesh.write_obj(&dir.join("scene.obj"), "edited cornell")
+        .unwrap();
+    fipt_core::dataset::write_transforms(&tf, &cams).unwrap();
+    for split in ["train", "val"] {
+        let (ok, _, err) = fipt(&[
+            "render",
+            d,
+            "--materials",
+            gt_path.to_str().unwrap(),
+            "--cameras",
+            dir.join(split).join("transforms.json").to_str().unwrap(),
+            "--out",
+            dir.join(split).to_str().unwrap(),
+            "--spp",
+            "32",
+            "--brdf",
+            "principled",
+        ]);
+        assert!(ok, "{name}: {err}");
+    }
+    dir
+}
+
+fn material<'a>(gt: &'a mut serde_json::Value, name: &str) -> &'a mut serde_json::Value {
+    gt["materials"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|m| m["name"] == name)
+        .unwrap()
+}
+
+/// Runs `fast` on `scene`; every EXR it wrote is finite, every JSON parses, and report.json
+/// says what was modelled. Returns the report.
+fn run_clean(name: &str, scene: &Path) -> serde_json::Value {
+    let out = tmp(&format!("extreme-{name}-out"));
+    let cfg = scene.join("run.toml");
+    std::fs::write(&cfg, small_run_config("principled", 16)).unwrap();
+    let (ok, stdout, err) = fipt(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+        "--preset",
+        "fast",
+    ]);
+    assert!(ok, "{name}: {stdout}{err}");
+    assert!(!err.contains("panicked"), "{name}: {err}");
+    for f in walk(&out) {
+        let s = f.to_string_lossy();
+        if s.ends_with(".exr") {
+            let img = Image::read_exr(&f).unwrap();
+            assert!(
+                img.data.iter().all(|p| p.is_finite()),
+                "{name}: non-finite values in {s}"
+            );
+        } else if s.ends_with(".json") {
+            let text = std::fs::read_to_string(&f).unwrap();
+            assert!(
+                !text.contains("NaN") && !text.contains("inf"),
+                "{name}: {s}"
+            );
+            serde_json::from_str::<serde_json::Value>(&text).unwrap();
+        }
+    }
+    let report = json(&out.join("report.json"));
+    assert!(
+        report["modeled"].is_object(),
+        "{name}: {}",
+        report["modeled"]
+    );
+    eprintln!("{name}: modeled {}", report["modeled"]);
+    let _ = std::fs::remove_dir_all(&out);
+    report
+}
+
+#[test]
+fn extremes_run_clean_and_say_what_they_modelled() {
+    use fipt_core::camera::Camera;
+    use glam::Vec3;
+    // A near-mirror floor next to a fully rough block.
+    let s = extreme_scene("mirror", |gt, _, _| {
+        material(gt, "floor")["roughness"] = serde_json::json!(0.02);
+        material(gt, "tall_block")["roughness"] = serde_json::json!(1.0);
+    });
+    let r = run_clean("mirror", &s);
+    assert_eq!(
+        r["modeled"]["emitters_doubtful"].as_array().map(Vec::len),
+        Some(0),
+        "mirror: the ceiling light is bright"
+    );
+    let _ = std::fs::remove_dir_all(&s);
+    // A light at 1e5 over 1e-3 shadows, shrunk to a few pixels.
+    let s = extreme_scene("tiny-bright", |gt, mesh, _| {
+        material(gt, "ceiling_light")["radiance"] = serde_json::json!([1e5, 8e4, 5e4]);
+        let light: Vec<usize> = (0..mesh.triangles.len())
+            .filter(|&t| (12..14).contains(&mesh.face_ids[t]))
+            .collect();
+        let mut vs: Vec<u32> = light.iter().flat_map(|&t| mesh.triangles[t]).collect();
+        vs.sort_unstable();
+        vs.dedup();
+        let c = vs.iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>() / vs.len() as f32;
+        for v in vs {
+            let p = &mut mesh.positions[v as usize];
+            *p = c + (*p - c) * 0.08;
+        }
+    });
+    let r = run_clean("tiny-bright", &s);
+    assert!(r["emitters"].as_array().is_some());
+    let _ = std::fs::remove_dir_all(&s);
+    // Grazing views along the floor, and a black view among the others.
+    let s = extreme_scene("grazing-black", |_, _, cams| {
+        for (k, cam) in cams.iter_mut().enumerate().take(3) {
+            let x = 0.8 - 0.5 * k as f32;
+            *cam = Camera::look_at(
+                Vec3::new(x, 0.03, 0.9),
+                Vec3::new(-x, 0.0, -0.9),
+                Vec3::Y,
+                1.0,
+                40,
+                30,
+            );
+        }
+    });
+    let black = Image::new(40, 30);
+    black
+        .write_exr(&s.join("train/Image/005_0001.exr"), ExrPrecision::F32)
+        .unwrap();
+    let r = run_clean("grazing-black", &s);
+    assert_eq!(
+        r["modeled"]["emitters_doubtful"].as_array().map(Vec::len),
+        Some(0),
+        "grazing-black: the ceiling light is bright"
+    );
+    let _ = std::fs::remove_dir_all(&s);
+    // No emitter in any view: every camera looks down at the floor.
+    let s = extreme_scene("no-emitter-in-view", |_, _, cams| {
+        for (k, cam) in cams.iter_mut().enumerate() {
+            let a = k as f32 * 0.6;
+            let o = Vec3::new(0.6 * a.cos(), 1.0, 0.6 * a.sin());
+            *cam = Camera::look_at(
+                o,
+                Vec3::new(-0.2 * a.cos(), 0.0, -0.2 * a.sin()),
+                Vec3::Y,
+                0.7,
+                40,
+                30,
+            );
+        }
+    });
+    // What explains the light is a lit surface, and the report says so.
+    let r = run_clean("no-emitter-in-view", &s);
+    let n = r["emitters"].as_array().map_or(0, Vec::len);
+    let doubtful = r["modeled"]["emitters_doubtful"]
+        .as_array()
+        .map_or(0, Vec::len);
+    assert_eq!(doubtful, n, "{}", r["modeled"]);
+    let _ = std::fs::remove_dir_all(&s);
+    // Everything rough and dielectric.
+    let s = extreme_scene("all-diffuse", |gt, _, _| {
+        for m in gt["materials"].as_array_mut().unwrap() {
+            if m["type"] == "principled" {
+                m["roughness"] = serde_json::json!(1.0);
+                m["metallic"] = serde_json::json!(0.0);
+            }
+        }
+    });
+    let r = run_clean("all-diffuse", &s);
+    assert_eq!(
+        r["modeled"]["emitters_doubtful"].as_array().map(Vec::len),
+        Some(0),
+        "all-diffuse: the ceiling light is bright"
+    );
+    let _ = std::fs::remove_dir_all(&s);
+}
