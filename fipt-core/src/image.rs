@@ -167,6 +167,18 @@ impl Image {
     /// broadcast to grey. Half, float and uint samples are accepted.
     pub fn read_exr(path: &Path) -> Result<Image> {
         use exr::prelude::*;
+        let size = std::fs::metadata(path)
+            .map_err(|e| CoreError::io(path, e))?
+            .len();
+        let broken = |what: String| CoreError::Exr {
+            path: path.to_path_buf(),
+            message: what,
+        };
+        if size == 0 {
+            return Err(broken(
+                "the file is empty (0 bytes): an interrupted copy or render? write it again".into(),
+            ));
+        }
         let img = read()
             .no_deep_data()
             .largest_resolution_level()
@@ -175,11 +187,20 @@ impl Image {
             .all_attributes()
             .from_file(path)
             .map_err(|e| match e {
+                exr::error::Error::Io(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+                    broken(format!(
+                        "the file ends early ({size} bytes): truncated? write it again"
+                    ))
+                }
                 exr::error::Error::Io(io) => CoreError::io(path, io),
-                other => CoreError::Exr {
-                    path: path.to_path_buf(),
-                    message: other.to_string(),
-                },
+                exr::error::Error::Invalid(m)
+                    if m.contains("missing bytes") || m.contains("end of file") =>
+                {
+                    broken(format!(
+                        "the file ends early ({size} bytes; {m}): truncated? write it again"
+                    ))
+                }
+                other => broken(format!("not a readable EXR ({size} bytes): {other}")),
             })?;
         let layer = &img.layer_data;
         let (w, h) = (layer.size.width(), layer.size.height());
@@ -372,6 +393,32 @@ mod tests {
         let back = Image::read_exr(&p).unwrap();
         assert_eq!(img, back);
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn empty_and_truncated_exrs_say_so() {
+        let dir = std::env::temp_dir().join(format!("fipt-img-trunc-{}", std::process::id()));
+        let p = dir.join("a.exr");
+        let mut img = Image::new(32, 16);
+        for (i, v) in img.data.iter_mut().enumerate() {
+            *v = Vec3::splat(i as f32);
+        }
+        img.write_exr(&p, ExrPrecision::F32).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        for (cut, want) in [
+            (0, "empty"),
+            (bytes.len() / 2, "ends early"),
+            (40, "truncated"),
+        ] {
+            std::fs::write(&p, &bytes[..cut]).unwrap();
+            let err = Image::read_exr(&p).unwrap_err().to_string();
+            assert!(
+                err.contains(want) || err.contains("truncated"),
+                "{cut} bytes: {err}"
+            );
+            assert!(err.contains("a.exr"), "{err}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -95,6 +95,13 @@ fn same_seed_same_field_and_resume_is_exact() {
     );
     // The finished checkpoint loads for queries alone.
     let (field, meta) = fipt_neural::train::load_field(&dir).unwrap();
+    // The checkpoint is readable like every other output (safetensors alone writes 0600).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = |f: &str| std::fs::metadata(dir.join(f)).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode("field.safetensors"), mode("checkpoint.json"));
+    }
     assert_eq!(meta.step, 40);
     let pts: Vec<Vec3> = (0..50).map(|i| Vec3::splat(i as f32 * 0.06)).collect();
     assert_eq!(
