@@ -76,10 +76,17 @@ fn load_with<T: Serialize + DeserializeOwned>(
     };
     let mut base = serde_json::to_value(&preset)?;
     merge(&mut base, over);
-    serde_json::from_value(base).with_context(|| {
-        format!(
-            "{}: invalid settings (keys are listed in the README)",
-            path.display()
+    serde_path_to_error::deserialize(base).map_err(|e| {
+        let key = e.path().to_string();
+        anyhow::anyhow!(
+            "{}: {}{} (keys are listed in the README)",
+            path.display(),
+            if key == "." {
+                String::new()
+            } else {
+                format!("`{key}`: ")
+            },
+            e.inner()
         )
     })
 }
@@ -112,6 +119,16 @@ mod tests {
         let c: BakeConfig =
             load_preset_section("fast", BakeConfig::preset, Some(&p), "bake").unwrap();
         assert_eq!(c.diffuse_samples, 48);
+        // A value of the wrong type names its key.
+        std::fs::write(&p, "[bake]\ndiffuse_samples = \"many\"\n").unwrap();
+        let err = format!(
+            "{:#}",
+            load_preset_section("fast", BakeConfig::preset, Some(&p), "bake").unwrap_err()
+        );
+        assert!(
+            err.contains("`diffuse_samples`") && err.contains("many"),
+            "{err}"
+        );
         std::fs::write(&p, "difuse_samples = 32\n").unwrap();
         let err = format!("{:#}", load(BakeConfig::default(), Some(&p)).unwrap_err());
         assert!(

@@ -94,10 +94,27 @@ pub fn main_with(components: Components) -> i32 {
     match dispatch(cli, &components) {
         Ok(()) => 0,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", describe(&e));
             1
         }
     }
+}
+
+/// An error and its causes on one line, each cause said once (an I/O error's message is often
+/// part of its context's already).
+pub fn describe(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let s = cause.to_string();
+        if out.contains(&s) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&s);
+    }
+    out
 }
 
 fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
@@ -123,5 +140,19 @@ fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Profile(a) => search::run(a),
         Command::Table(a) => table::run(a),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn an_error_chain_says_each_cause_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file or directory");
+        let e = anyhow::Error::new(fipt_core::CoreError::io(std::path::Path::new("/x/out"), io))
+            .context("creating the output folder");
+        assert_eq!(
+            super::describe(&e),
+            "creating the output folder: /x/out: No such file or directory"
+        );
     }
 }

@@ -439,6 +439,13 @@ fn read_synthetic_split(root: &Path, name: &str, warnings: &mut Vec<String>) -> 
         })
         .collect();
     let gt = present_gt(&dir, views.len(), warnings, name);
+    warn_unused_images(
+        &dir.join("Image"),
+        views.len(),
+        name,
+        "frames in transforms.json",
+        warnings,
+    );
     Ok(Split {
         name: name.to_string(),
         dir,
@@ -446,6 +453,33 @@ fn read_synthetic_split(root: &Path, name: &str, warnings: &mut Vec<String>) -> 
         gt,
         cameras_file: tf_path,
     })
+}
+
+/// Warns when `images` holds EXRs no camera refers to (more images than frames).
+fn warn_unused_images(
+    images: &Path,
+    n: usize,
+    split: &str,
+    what: &str,
+    warnings: &mut Vec<String>,
+) {
+    let Ok(entries) = std::fs::read_dir(images) else {
+        return;
+    };
+    let named: std::collections::HashSet<String> = (0..n).map(image_file_name).collect();
+    let extra: Vec<String> = entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|f| f.ends_with(".exr") && !named.contains(f))
+        .collect();
+    if !extra.is_empty() {
+        warnings.push(format!(
+            "{split}: {} images in {} have no camera ({n} {what}; e.g. {}): they are not used",
+            extra.len(),
+            images.display(),
+            extra.iter().min().map_or("", String::as_str)
+        ));
+    }
 }
 
 fn present_gt(dir: &Path, n: usize, warnings: &mut Vec<String>, split: &str) -> Vec<GtKind> {
@@ -558,6 +592,13 @@ fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
         .collect();
     let n = views.len();
     let gt = present_gt(root, n, warnings, "real");
+    warn_unused_images(
+        &root.join("Image"),
+        n,
+        "real",
+        "cameras in cam.txt",
+        warnings,
+    );
     Ok(Split {
         name: "train".into(),
         dir: root.to_path_buf(),

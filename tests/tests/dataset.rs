@@ -182,7 +182,24 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
         err.contains("scene_gt.json") && err.contains("colour_space"),
         "{err}"
     );
-    for name in ["missing", "size", "nan", "shear", "flip", "nomesh", "keys"] {
+    // More images than frames: opened, with a warning naming the unused images.
+    let d = fresh("extra");
+    std::fs::copy(
+        d.join("train/Image/000_0001.exr"),
+        d.join("train/Image/099_0001.exr"),
+    )
+    .unwrap();
+    let ds = fipt_core::dataset::Dataset::open(&d).unwrap();
+    assert!(
+        ds.warnings
+            .iter()
+            .any(|w| w.contains("1 images") && w.contains("099_0001.exr")),
+        "{:?}",
+        ds.warnings
+    );
+    for name in [
+        "missing", "size", "nan", "shear", "flip", "nomesh", "keys", "extra",
+    ] {
         std::fs::remove_dir_all(base.with_file_name(format!(
             "{}-{name}",
             base.file_name().unwrap().to_string_lossy()
