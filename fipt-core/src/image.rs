@@ -179,6 +179,20 @@ impl Image {
                 "the file is empty (0 bytes): an interrupted copy or render? write it again".into(),
             ));
         }
+        // The reader allocates what the header declares: a corrupt size would ask for
+        // gigabytes. Real files carry at least a byte per ~2000 pixels (even a constant image).
+        if let Ok(meta) = exr::meta::MetaData::read_from_file(path, false) {
+            let limit = (16u64 << 20) + size * 2048;
+            for h in meta.headers.iter() {
+                let px = h.layer_size.0 as u64 * h.layer_size.1 as u64;
+                if px > limit {
+                    return Err(broken(format!(
+                        "the header declares {}x{} pixels in a {size}-byte file: corrupt",
+                        h.layer_size.0, h.layer_size.1
+                    )));
+                }
+            }
+        }
         let img = read()
             .no_deep_data()
             .largest_resolution_level()

@@ -139,7 +139,10 @@ impl SurfaceModel for GlbSurfaces {
 /// metallic-roughness material per primitive) as a mesh and its surfaces.
 pub fn load_glb(path: &Path) -> Result<(Mesh, GlbSurfaces)> {
     let bad = |m: String| ExportError::Invalid(format!("{}: {m}", path.display()));
-    let (doc, buffers, images) = gltf::import(path).map_err(|e| bad(e.to_string()))?;
+    fipt_geom::glb::check_glb(path).map_err(|e| ExportError::Invalid(e.to_string()))?;
+    let (doc, buffers, images) =
+        fipt_geom::glb::guarded(path, || gltf::import(path).map_err(|e| e.to_string()))
+            .map_err(|e| ExportError::Invalid(e.to_string()))?;
     let (mut positions, mut normals, mut tris) = (Vec::new(), Vec::new(), Vec::new());
     let mut source = Vec::new();
     let (mut base_color, mut metallic_roughness) = (None, None);

@@ -18,6 +18,7 @@ mod adjacency;
 pub mod bvh;
 pub mod error;
 pub mod geometry;
+pub mod glb;
 pub mod mesh;
 pub mod patches;
 pub mod sampling;

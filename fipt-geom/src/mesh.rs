@@ -340,7 +340,15 @@ fn load_obj(path: &Path) -> Result<Mesh> {
 }
 
 fn load_gltf(path: &Path) -> Result<Mesh> {
-    let (doc, buffers, _) = gltf::import(path).map_err(|e| parse_err(path, e.to_string()))?;
+    crate::glb::check_glb(path)?;
+    // Geometry only: the images are not decoded.
+    let (doc, buffers) = crate::glb::guarded(path, || {
+        let g = gltf::Gltf::open(path).map_err(|e| e.to_string())?;
+        let base = path.parent();
+        let buffers =
+            gltf::import_buffers(&g.document, base, g.blob.clone()).map_err(|e| e.to_string())?;
+        Ok((g.document, buffers))
+    })?;
     let mut positions = Vec::new();
     let mut normals = Vec::new();
     let mut all_normals = true;

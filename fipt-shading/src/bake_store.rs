@@ -104,8 +104,14 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
         return Err(bad(&format!("version {ver} with {nl} levels")));
     }
     let poly = ver == FORMAT_VERSION_POLY;
-    let n = w * h;
-    let expected = 24 + 4 * nl + n + 12 * n * (1 + 2 * poly as usize + 2 * nl);
+    // Checked: a corrupt size must not wrap around to a plausible length.
+    let sizes = w.checked_mul(h).and_then(|n| {
+        let per = 12usize.checked_mul(1 + 2 * poly as usize + 2 * nl)?;
+        Some((n, (24 + 4 * nl).checked_add(n)?.checked_add(n.checked_mul(per)?)?))
+    });
+    let Some((n, expected)) = sizes else {
+        return Err(bad(&format!("a {w}x{h} header")));
+    };
     if bytes.len() != expected {
         return Err(bad(&format!(
             "{} bytes, expected {expected} (truncated?)",

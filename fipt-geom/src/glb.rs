@@ -1,0 +1,93 @@
+//! A binary glTF's framing checked before the `gltf` crate reads it: that crate allocates
+//! what the header's lengths say, so a corrupt length would ask for gigabytes.
+use crate::error::{GeomError, Result};
+use std::io::Read;
+use std::path::Path;
+
+fn bad(path: &Path, m: String) -> GeomError {
+    GeomError::Parse {
+        path: path.to_path_buf(),
+        message: m,
+    }
+}
+
+/// Checks that a `.glb`'s declared total length and chunk lengths fit the file (files that do
+/// not start with the `glTF` magic are left to the JSON reader).
+pub fn check_glb(path: &Path) -> Result<()> {
+    let io = |e| GeomError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    };
+    let size = std::fs::metadata(path).map_err(io)?.len();
+    let mut f = std::fs::File::open(path).map_err(io)?;
+    let mut head = [0u8; 12];
+    if size < 12 || f.read_exact(&mut head).is_err() || &head[..4] != b"glTF" {
+        return Ok(());
+    }
+    let u = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as u64;
+    let total = u(&head[8..12]);
+    if total != size {
+        return Err(bad(
+            path,
+            format!(
+                "the header declares {total} bytes but the file has {size} (truncated or corrupt)"
+            ),
+        ));
+    }
+    let mut at = 12u64;
+    while at + 8 <= size {
+        let mut ch = [0u8; 8];
+        f.read_exact(&mut ch).map_err(io)?;
+        let len = u(&ch[..4]);
+        if at + 8 + len > size {
+            return Err(bad(
+                path,
+                format!("a chunk at byte {at} declares {len} bytes past the end of the file"),
+            ));
+        }
+        std::io::copy(&mut (&mut f).take(len), &mut std::io::sink()).map_err(io)?;
+        at += 8 + len;
+    }
+    Ok(())
+}
+
+/// Runs a `gltf` crate reader, turning its panics on malformed files (it indexes and unwraps
+/// unchecked in places) into an error naming the file.
+pub fn guarded<T>(path: &Path, read: impl FnOnce() -> std::result::Result<T, String>) -> Result<T> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(read)) {
+        Ok(Ok(v)) => Ok(v),
+        Ok(Err(m)) => Err(bad(path, m)),
+        Err(_) => Err(bad(
+            path,
+            "the glTF reader failed on this file (malformed)".into(),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_length_past_the_end_is_refused_before_reading() {
+        let d = std::env::temp_dir().join(format!("fipt-glb-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let p = d.join("a.glb");
+        let mut b = b"glTF".to_vec();
+        b.extend(2u32.to_le_bytes());
+        b.extend(28u32.to_le_bytes());
+        b.extend(400_000_000u32.to_le_bytes());
+        b.extend(b"JSON");
+        b.extend(b"{}  {}  ");
+        std::fs::write(&p, &b).unwrap();
+        let e = check_glb(&p).unwrap_err().to_string();
+        assert!(e.contains("past the end"), "{e}");
+        b[8..12].copy_from_slice(&99u32.to_le_bytes());
+        std::fs::write(&p, &b).unwrap();
+        assert!(check_glb(&p)
+            .unwrap_err()
+            .to_string()
+            .contains("declares 99 bytes"));
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}
