@@ -56,6 +56,26 @@ pub(crate) fn evaluate_if_gt(
     Ok(Some(m))
 }
 
+/// Writes `report.json` as a run's status while it has none to give (`running`, or `failed`
+/// with the error): a finished run's report replaces it (`status: complete`).
+pub(crate) fn mark_status(
+    out: &Path,
+    scene: &Path,
+    status: &str,
+    error: Option<String>,
+) -> Result<()> {
+    let mut r = serde_json::json!({
+        "fipt_version": env!("CARGO_PKG_VERSION"),
+        "status": status,
+        "scene": scene,
+    });
+    if let Some(e) = error {
+        r["error"] = serde_json::json!(e);
+    }
+    fipt_core::fsutil::write_json_atomic(&out.join("report.json"), &r)?;
+    Ok(())
+}
+
 /// The part of `report.json` every method writes first: version, scene, preset, settings and
 /// the size of the inputs.
 pub(crate) fn report_header(
@@ -65,6 +85,7 @@ pub(crate) fn report_header(
 ) -> serde_json::Value {
     serde_json::json!({
         "fipt_version": env!("CARGO_PKG_VERSION"),
+        "status": "complete",
         "scene": a.scene,
         "inputs_hash": scene.inputs_hash,
         "preset": a.preset,

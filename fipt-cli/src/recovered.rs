@@ -74,6 +74,16 @@ impl RunOutput {
         }
         let report: serde_json::Value = read_json(&dir.join("report.json"))
             .map_err(|_| not_a_run(dir, "no readable report.json"))?;
+        match report["status"].as_str() {
+            None | Some("complete") => {}
+            Some(status) => bail!(
+                "{}: the run in this folder did not finish (status `{status}`{}); run it again",
+                dir.display(),
+                report["error"]
+                    .as_str()
+                    .map_or(String::new(), |e| format!(": {e}"))
+            ),
+        }
         let emitters: Vec<Emitter> = read_json(&dir.join("emitters.json"))
             .map_err(|_| not_a_run(dir, "no readable emitters.json"))?;
         let named = report["scene"]

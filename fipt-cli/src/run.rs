@@ -254,15 +254,35 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
     // One run per output folder at a time.
     let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt run")?;
+    // Until it finishes, the folder says so (an older report must not pass for this run's).
+    crate::outputs::mark_status(&a.out, &a.scene, "running", None)?;
+    let settings = [&bake_settings, &refine_settings];
+    let res = run_locked(&a, &cfg, components, extractor, baker, refiner, settings);
+    if let Err(e) = &res {
+        crate::outputs::mark_status(&a.out, &a.scene, "failed", Some(crate::describe(e)))?;
+    }
+    res
+}
+
+/// The run once its settings and components are checked and the folder is held.
+fn run_locked(
+    a: &Args,
+    cfg: &RunConfig,
+    components: &crate::Components,
+    extractor: Box<dyn fipt_core::emitter::EmitterExtractor>,
+    baker: Box<dyn fipt_core::shading::ShadingBaker>,
+    refiner: Box<dyn fipt_core::shading::ShadingRefiner>,
+    [bake_settings, refine_settings]: [&serde_json::Value; 2],
+) -> Result<()> {
     let method = &cfg.pipeline.method;
     if let Some(fitter) = components.fitter(method, &cfg.plugin_settings(method))? {
         let parts = crate::fit::Parts {
             fitter: fitter.as_ref(),
             baker: baker.as_ref(),
-            bake_settings: &bake_settings,
+            bake_settings,
             extractor: extractor.as_ref(),
         };
-        return crate::fit::run(&a, &cfg, components, parts);
+        return crate::fit::run(a, cfg, components, parts);
     }
     let t_all = std::time::Instant::now();
     let mut stages = vec![];
@@ -271,12 +291,13 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     fipt_core::fsutil::remove_stale_temporaries(&a.out);
     let t = std::time::Instant::now();
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
+    crate::scene::check_coverage(&scene)?;
     mark("load", t);
     let t = std::time::Instant::now();
     let (bake, shadings) = crate::bake::stage(
         &scene,
         baker.as_ref(),
-        &bake_settings,
+        bake_settings,
         &a.out.join("bake"),
         a.force,
     )?;
@@ -379,7 +400,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
                 emitters: &emitters,
                 has_gt,
                 refiner: refiner.as_ref(),
-                refine_settings: &refine_settings,
+                refine_settings,
             };
             refinement_rounds(&ctx, &mut state, &mut mark)?;
             (field, train) = (state.field, state.train);

@@ -87,3 +87,25 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
         cache_key,
     })
 }
+
+/// Refuses, before any work, training views none of whose rays hits the mesh (poses in another
+/// convention, or another scene's mesh), and warns of single views that see nothing.
+pub fn check_coverage(scene: &LoadedScene) -> Result<()> {
+    let views = &scene.ds.train().views;
+    let cover: Vec<f32> = views
+        .par_iter()
+        .map(|v| fipt_geom::view_coverage(&scene.geometry.bvh, &v.camera, 8))
+        .collect();
+    if cover.iter().all(|&c| c == 0.0) {
+        anyhow::bail!(
+            "no camera ray of any training view hits the mesh {}: the poses are probably in another convention \
+             (transforms.json expects camera-to-world with +X left, +Y up, +Z forward) or the mesh is not the scene's (`fipt info` shows the coverage per view)",
+            scene.ds.mesh.display()
+        );
+    }
+    let blind: Vec<usize> = (0..cover.len()).filter(|&k| cover[k] == 0.0).collect();
+    if !blind.is_empty() {
+        eprintln!("warning: training views {blind:?} see none of the mesh: they are ignored");
+    }
+    Ok(())
+}

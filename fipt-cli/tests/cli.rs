@@ -574,3 +574,30 @@ fn principled_model_runs_end_to_end() {
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn a_run_that_cannot_work_fails_before_any_work_and_marks_its_folder() {
+    let dir = tmp("blind-scene");
+    let d = dir.to_str().unwrap();
+    synth_cornell(d, [2, 1, 16, 12, 4]);
+    // A mesh no camera sees.
+    std::fs::write(
+        dir.join("scene.obj"),
+        "v 100 100 100\nv 101 100 100\nv 100 101 100\nf 1 2 3\n",
+    )
+    .unwrap();
+    let out = tmp("blind-out");
+    let o = out.to_str().unwrap();
+    let (ok, _, err) = fipt(&["run", d, "--out", o, "--preset", "fast"]);
+    assert!(!ok && err.contains("hits the mesh"), "{err}");
+    assert!(!out.join("bake").exists(), "work was done before the check");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["status"], "failed");
+    assert!(report["error"].as_str().unwrap().contains("hits the mesh"));
+    // What reads a run refuses this one.
+    let (ok, _, err) = fipt(&["export", o, "--format", "glb", "--out", o]);
+    assert!(!ok && err.contains("did not finish"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -107,7 +107,12 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
     // Checked: a corrupt size must not wrap around to a plausible length.
     let sizes = w.checked_mul(h).and_then(|n| {
         let per = 12usize.checked_mul(1 + 2 * poly as usize + 2 * nl)?;
-        Some((n, (24 + 4 * nl).checked_add(n)?.checked_add(n.checked_mul(per)?)?))
+        Some((
+            n,
+            (24 + 4 * nl)
+                .checked_add(n)?
+                .checked_add(n.checked_mul(per)?)?,
+        ))
     });
     let Some((n, expected)) = sizes else {
         return Err(bad(&format!("a {w}x{h} header")));
