@@ -71,9 +71,21 @@ fn degenerate(img: &Image) -> Option<&'static str> {
     }
 }
 
+/// The scale re-renders and views are divided by before the sRGB PSNR: 1 (the protocol: the
+/// values as given) unless the run's exposure scale is more than 16× from 1, where the views
+/// as given would clamp to white or black: then the working exposure.
+pub fn display_scale(exposure: f32) -> f32 {
+    if (1.0 / 16.0..=16.0).contains(&exposure) {
+        1.0
+    } else {
+        exposure
+    }
+}
+
 /// Evaluates the maps in `out/views/<split>/` of every split with ground truth; `exposure` is
-/// the run's exposure scale (re-renders are compared as displayed at the working exposure).
+/// the run's exposure scale (see [`display_scale`]).
 pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::Value> {
+    let display = display_scale(exposure);
     let mut splits = serde_json::Map::new();
     for s in &ds.splits {
         if !s.has_gt(GtKind::DiffCol) {
@@ -191,7 +203,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                     let mut r = pred("render")?;
                     let mut img = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0;
                     for p in r.data.iter_mut().chain(img.data.iter_mut()) {
-                        *p /= exposure;
+                        *p /= display;
                     }
                     if let Some(why) = degenerate(&img) {
                         eprintln!("note: {} view {k}: re-render not scored ({why})", s.name);
@@ -242,6 +254,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                 "median": {"kd_psnr": median(&kd_all), "albedo_psnr": median(&alb_all), "roughness_psnr": median(&r_all),
                            "emission_iou": median(&iou_all), "emission_log_l2": median(&log_all), "render_psnr": median(&render_all)},
                 "views": rows,
+                "render_display_scale": display,
             }),
         );
     }
