@@ -13,6 +13,7 @@ mod eval;
 mod export;
 mod fit;
 mod info;
+mod memory;
 mod outputs;
 mod progress;
 mod recovered;

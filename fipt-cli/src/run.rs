@@ -292,6 +292,8 @@ fn run_locked(
     let t = std::time::Instant::now();
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     crate::scene::check_coverage(&scene)?;
+    let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
+    let memory = crate::memory::check(pixels, cfg)?;
     mark("load", t);
     let t = std::time::Instant::now();
     let (bake, shadings) = crate::bake::stage(
@@ -437,6 +439,7 @@ fn run_locked(
             "search": searches,
             "emitters": emitters_summary(&user_emitters),
             "exposure_scale": scene.exposure,
+            "memory_estimate_gib": fipt_core::memory::gib(memory),
             "components": {
                 "reflectance_model": cfg.model.brdf,
                     "method": cfg.pipeline.method,

@@ -279,3 +279,36 @@ fn extremes_run_clean_and_say_what_they_modelled() {
     );
     let _ = std::fs::remove_dir_all(&s);
 }
+
+/// A configuration that cannot fit is refused before any work, with the figures.
+#[test]
+fn a_run_too_large_for_the_machine_is_refused_up_front() {
+    let dir = tmp("huge-scene");
+    let d = dir.to_str().unwrap();
+    synth_cornell(d, [2, 1, 16, 12, 4]);
+    // 64 levels × 2^24 entries × 8 features × 4 bytes × 3: 96 GiB of hash tables.
+    let cfg = dir.join("huge.toml");
+    std::fs::write(
+        &cfg,
+        "[train.field.grid]\nlevels = 64\nlog2_table = 24\nfeatures = 8\n",
+    )
+    .unwrap();
+    let out = tmp("huge-out");
+    let (ok, _, err) = fipt(&[
+        "run",
+        d,
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+        "--preset",
+        "fast",
+    ]);
+    assert!(
+        !ok && err.contains("needs at least") && err.contains("hash tables 96.00 GiB"),
+        "{err}"
+    );
+    assert!(!out.join("bake").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&out);
+}

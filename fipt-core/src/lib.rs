@@ -41,6 +41,7 @@ pub mod fsutil;
 pub mod image;
 pub mod lock;
 pub mod materials;
+pub mod memory;
 pub mod metrics;
 pub mod reflectance;
 pub mod rng;

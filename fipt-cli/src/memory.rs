@@ -1,0 +1,51 @@
+//! The memory a run will need, estimated before any work from what dominates it: the
+//! shadings of every training pixel (held by the bake, the refinement and the training set)
+//! and the hash tables with their optimiser state. A run that would not fit is refused with
+//! the figures; one that would take most of the memory is warned about.
+use crate::run::RunConfig;
+use anyhow::{bail, Result};
+use fipt_core::memory::{available_bytes, gib};
+use fipt_core::shading::NUM_LEVELS;
+
+/// Estimated bytes of a run on `pixels` training pixels, by part.
+pub fn estimate(pixels: u64, cfg: &RunConfig) -> Vec<(&'static str, u64)> {
+    let poly = cfg.model.brdf.diffuse_depends_on_roughness() as u64;
+    // Ld, Ld1/Ld2 for principled, Ls0 and Ls1 at every level, the valid flag.
+    let per_pixel = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64) + 1;
+    // The bake's shadings, a refinement's, and the training set's copy.
+    let shadings = 3 * pixels * per_pixel;
+    let g = &cfg.train.field.grid;
+    // Parameters and two Adam moments, f32.
+    let tables = g.levels as u64 * (1u64 << g.log2_table) * g.features as u64 * 4 * 3;
+    vec![("shadings", shadings), ("hash tables", tables)]
+}
+
+/// Refuses a run whose estimate exceeds the memory available.
+pub fn check(pixels: u64, cfg: &RunConfig) -> Result<u64> {
+    let parts = estimate(pixels, cfg);
+    let total: u64 = parts.iter().map(|p| p.1).sum();
+    let Some(avail) = available_bytes() else {
+        return Ok(total);
+    };
+    let list = parts
+        .iter()
+        .map(|(n, b)| format!("{n} {:.2} GiB", gib(*b)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if total > avail {
+        bail!(
+            "this run needs at least {:.1} GiB ({list}; {pixels} training pixels) but {:.1} GiB are available: \
+             use fewer or smaller views, a smaller `train.field.grid.log2_table` or `levels`, or a machine with more memory",
+            gib(total),
+            gib(avail)
+        );
+    }
+    if total > avail / 2 {
+        eprintln!(
+            "warning: this run needs at least {:.1} GiB of the {:.1} GiB available ({list})",
+            gib(total),
+            gib(avail)
+        );
+    }
+    Ok(total)
+}

@@ -1,0 +1,44 @@
+//! How much memory the machine (or the container) still has, for the stages' up-front checks.
+
+/// Bytes available to this process: the smaller of `MemAvailable` (/proc/meminfo) and the
+/// room left under a cgroup v2 limit. None where neither can be read (not Linux).
+pub fn available_bytes() -> Option<u64> {
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+        t.lines()
+            .find(|l| l.starts_with("MemAvailable:"))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|kb| kb.parse::<u64>().ok())
+            .map(|kb| kb * 1024)
+    });
+    let read = |p: &str| std::fs::read_to_string(p).ok();
+    let cgroup = match (
+        read("/sys/fs/cgroup/memory.max"),
+        read("/sys/fs/cgroup/memory.current"),
+    ) {
+        (Some(max), Some(cur)) => match (max.trim().parse::<u64>(), cur.trim().parse::<u64>()) {
+            (Ok(m), Ok(c)) => Some(m.saturating_sub(c)),
+            _ => None,
+        },
+        _ => None,
+    };
+    match (meminfo, cgroup) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// Bytes in GiB, for messages.
+pub fn gib(bytes: u64) -> f64 {
+    bytes as f64 / (1u64 << 30) as f64
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn available_memory_is_known_on_linux() {
+        if cfg!(target_os = "linux") {
+            let a = super::available_bytes().expect("readable on Linux");
+            assert!(a > 1 << 20, "{a} bytes");
+        }
+    }
+}
