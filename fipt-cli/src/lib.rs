@@ -24,6 +24,8 @@ mod report;
 mod run;
 mod scene;
 mod search;
+mod sweep;
+mod sweep_plot;
 mod synth;
 mod table;
 mod train;
@@ -73,6 +75,9 @@ enum Command {
     /// The material search's cost curves per region over roughness and metallic (a diagnostic of
     /// the shadings; with ground truth, also at the true base colour).
     Profile(search::Args),
+    /// The speed/accuracy trade: a grid of runs (presets × settings), sweep.csv and sweep.svg
+    /// with the Pareto front; resumable.
+    Sweep(sweep::Args),
     /// The accuracy table (Markdown) of finished runs: kd, σ, metallic, IoU, re-render, wall time.
     Table(table::Args),
     /// Measure BVH build, ray throughput and path-tracing speed; writes JSON.
@@ -133,6 +138,7 @@ fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
         Command::Render(a) => render::run(a),
         Command::Export(a) => export::run(a),
         Command::Report(a) => report::run(a),
+        Command::Sweep(a) => sweep::run(a),
         Command::Bake(a) => bake::run(a, components),
         Command::Train(a) => train::run(a),
         Command::Run(a) => run::run(a, components),

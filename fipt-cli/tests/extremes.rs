@@ -312,3 +312,33 @@ fn a_run_too_large_for_the_machine_is_refused_up_front() {
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// `fipt sweep --quick`: every point run, the CSV and the plot written; a second sweep keeps
+/// the finished points.
+#[test]
+fn a_quick_sweep_measures_its_points_and_resumes() {
+    let dir = tmp("sweep-scene");
+    let d = dir.to_str().unwrap();
+    synth_cornell(d, [4, 1, 24, 18, 16]);
+    let out = tmp("sweep-out");
+    let o = out.to_str().unwrap();
+    let (ok, stdout, err) = fipt(&["sweep", d, "--out", o, "--quick"]);
+    assert!(ok, "{stdout}{err}");
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    assert!(lines[0].starts_with("point,preset,settings,seconds,peak_mib,kd_db"));
+    for l in &lines[1..] {
+        let kd: f64 = l.split(',').nth(6).unwrap().parse().unwrap();
+        assert!(kd.is_finite() && kd > 5.0, "{l}");
+    }
+    let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("fast_steps=300"));
+    let (ok, _, err) = fipt(&["sweep", d, "--out", o, "--quick"]);
+    assert!(
+        ok && err.matches("finished before, kept").count() == 2,
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&out);
+}
