@@ -256,15 +256,30 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt run")?;
     // Until it finishes, the folder says so (an older report must not pass for this run's).
     crate::outputs::mark_status(&a.out, &a.scene, "running", None)?;
-    let settings = [&bake_settings, &refine_settings];
-    let res = run_locked(&a, &cfg, components, extractor, baker, refiner, settings);
+    let method = &cfg.pipeline.method;
+    let res = match components.fitter(method, &cfg.plugin_settings(method)) {
+        Err(e) => Err(e),
+        Ok(Some(fitter)) => {
+            let parts = crate::fit::Parts {
+                fitter: fitter.as_ref(),
+                baker: baker.as_ref(),
+                bake_settings: &bake_settings,
+                extractor: extractor.as_ref(),
+            };
+            crate::fit::run(&a, &cfg, components, parts)
+        }
+        Ok(None) => {
+            let settings = [&bake_settings, &refine_settings];
+            run_locked(&a, &cfg, components, extractor, baker, refiner, settings)
+        }
+    };
     if let Err(e) = &res {
         crate::outputs::mark_status(&a.out, &a.scene, "failed", Some(crate::describe(e)))?;
     }
     res
 }
 
-/// The run once its settings and components are checked and the folder is held.
+/// FIPT's rounds once the settings and components are checked and the folder is held.
 fn run_locked(
     a: &Args,
     cfg: &RunConfig,
@@ -274,16 +289,6 @@ fn run_locked(
     refiner: Box<dyn fipt_core::shading::ShadingRefiner>,
     [bake_settings, refine_settings]: [&serde_json::Value; 2],
 ) -> Result<()> {
-    let method = &cfg.pipeline.method;
-    if let Some(fitter) = components.fitter(method, &cfg.plugin_settings(method))? {
-        let parts = crate::fit::Parts {
-            fitter: fitter.as_ref(),
-            baker: baker.as_ref(),
-            bake_settings,
-            extractor: extractor.as_ref(),
-        };
-        return crate::fit::run(a, cfg, components, parts);
-    }
     let t_all = std::time::Instant::now();
     let mut stages = vec![];
     let mut mark =
@@ -304,35 +309,11 @@ fn run_locked(
         a.force,
     )?;
     mark("bake", t);
-    let mesh = &scene.geometry.mesh;
     let has_gt = has_ground_truth(&scene);
-    // Primary hits of the training views, shared by the search, the emitter extraction and the
-    // glossiness check below.
-    let records: Vec<_> = scene
-        .ds
-        .train()
-        .views
-        .iter()
-        .map(|v| primary_records(&scene.geometry, v))
-        .collect();
-    let footprint = crate::train::view_points(&scene.geometry, &scene.ds.train().views)
-        .1
-        .unwrap_or(0.01);
+    let (records, footprint) = train_hits(&scene);
     let mut searches = vec![];
     let t = std::time::Instant::now();
-    let searched = if cfg.search.on_bake {
-        crate::search::stage(
-            &scene,
-            &records,
-            &shadings,
-            &cfg.search,
-            footprint,
-            None,
-            true,
-        )?
-    } else {
-        None
-    };
+    let searched = crate::search::on_bake(&scene, &records, &shadings, &cfg.search, footprint)?;
     if searched.is_some() {
         mark("search", t);
     }
@@ -354,7 +335,6 @@ fn run_locked(
     }
 
     let t = std::time::Instant::now();
-    let st = Stage::start("emitters");
     let emitters = extract_emitters(
         &scene,
         &records,
@@ -362,22 +342,11 @@ fn run_locked(
         Some(&shadings),
         extractor.as_ref(),
     )?;
-    // Written at the views' own scale; the stages work at the normalised one.
-    let user_emitters: Vec<Emitter> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();
-    write_json_atomic(&a.out.join("emitters.json"), &user_emitters)?;
-    write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
-    st.done();
-    print_lights(&user_emitters);
+    let user_emitters = write_emitters(&a.out, &scene, &emitters)?;
     mark("emitters", t);
 
     // Refine → train rounds, unless nothing in the scene needs them.
-    let mut closure = vec![];
-    if has_gt {
-        closure.push(serde_json::json!({
-            "shadings": "bake",
-            "psnr_db": crate::eval::closure_psnr(&scene, &shadings)?,
-        }));
-    }
+    let mut closure = bake_closure(&scene, &shadings, has_gt)?;
     let glossy = glossy_fraction(&records, &field, cfg.refine.rough_threshold)?;
     let refine_plan = refine_plan(&cfg, &emitters, glossy);
     let mut rounds = vec![];
@@ -411,10 +380,9 @@ fn run_locked(
     }
 
     // Observation counts per surface cell (the search's cells: 4 footprints).
-    let observed = fipt_shading::search::CellCounts::new(
-        records.iter().flatten().flatten().map(|r| r.hit.p),
-        cfg.search.cell_footprints * footprint,
-    );
+    let points = records.iter().flatten().flatten().map(|r| r.hit.p);
+    let observed =
+        fipt_shading::search::CellCounts::new(points, cfg.search.cell_footprints * footprint);
     write_views(
         &scene,
         &cfg,
@@ -442,22 +410,12 @@ fn run_locked(
             "memory_estimate_gib": fipt_core::memory::gib(memory),
             "components": {
                 "reflectance_model": cfg.model.brdf,
-                    "method": cfg.pipeline.method,
+                "method": cfg.pipeline.method,
                 "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
                 "material_field": fipt_core::field::MaterialField::name(&field),
                 "registered": components.describe(),
             },
-            "modeled": {
-                "reflectance_model": cfg.model.brdf,
-                "material_field": true,
-                "material_search": if cfg.search.enabled { format!("per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}", cfg.search.regions, if cfg.search.on_bake { "the bake and each refinement" } else { "each refinement (none without one)" }, cfg.search.roughness_steps, cfg.search.metallic, cfg.train.target_weight) } else { "skipped (search.enabled = false)".to_string() },
-                "emission_mask": true,
-                "emitters": emitters.len(),
-                "emitters_doubtful": crate::outputs::doubtful_emitters(&emitters),
-                "path_grown_refinement": match &refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
-                "re_render": if cfg.render.spp > 0 { format!("path traced at {} spp (other splits: {}) from the field (voxel cache) and the extracted emitters", cfg.render.spp, if cfg.render.val_spp > 0 { cfg.render.val_spp } else { cfg.render.spp }) } else { "skipped (render.spp = 0)".to_string() },
-                "hash_table_log2": train.config.field.grid.log2_table,
-            },
+            "modeled": modeled(cfg, &emitters, &refine_plan, train.config.field.grid.log2_table),
             "metrics": metrics,
         }),
     );
@@ -469,6 +427,96 @@ fn run_locked(
     print_summary(&stages, t_all, &a.out, emitters.len(), &final_train_dir);
     crate::report::write_or_warn(&a.out, &scene.ds);
     Ok(())
+}
+
+/// The closure of the bake's shadings with the true materials (empty without ground truth).
+fn bake_closure(
+    scene: &crate::scene::LoadedScene,
+    shadings: &[fipt_core::shading::ViewShadings],
+    has_gt: bool,
+) -> Result<Vec<serde_json::Value>> {
+    Ok(if has_gt {
+        vec![serde_json::json!({
+            "shadings": "bake",
+            "psnr_db": crate::eval::closure_psnr(scene, shadings)?,
+        })]
+    } else {
+        vec![]
+    })
+}
+
+/// Primary hits of the training views (shared by the search, the emitter extraction and the
+/// glossiness check) and their median pixel footprint.
+fn train_hits(
+    scene: &crate::scene::LoadedScene,
+) -> (Vec<Vec<Option<fipt_shading::bake::PixelRecord>>>, f32) {
+    let views = &scene.ds.train().views;
+    let records = views
+        .iter()
+        .map(|v| primary_records(&scene.geometry, v))
+        .collect();
+    let footprint = crate::train::view_points(&scene.geometry, views)
+        .1
+        .unwrap_or(0.01);
+    (records, footprint)
+}
+
+/// Writes `emitters.json` (at the views' own scale; the stages work at the normalised one) and
+/// `emitters.obj`, prints the lights; returns them at the views' scale.
+fn write_emitters(
+    out: &Path,
+    scene: &crate::scene::LoadedScene,
+    emitters: &[Emitter],
+) -> Result<Vec<Emitter>> {
+    let st = Stage::start("emitters");
+    let user: Vec<Emitter> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();
+    write_json_atomic(&out.join("emitters.json"), &user)?;
+    write_emitters_obj(&out.join("emitters.obj"), &scene.geometry.mesh, emitters)?;
+    st.done();
+    print_lights(&user);
+    Ok(user)
+}
+
+/// What `report.json` says was modelled and skipped, and why.
+fn modeled(
+    cfg: &RunConfig,
+    emitters: &[Emitter],
+    refine_plan: &Result<String, String>,
+    log2_table: u32,
+) -> serde_json::Value {
+    let search = if cfg.search.enabled {
+        format!(
+            "per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}",
+            cfg.search.regions,
+            if cfg.search.on_bake { "the bake and each refinement" } else { "each refinement (none without one)" },
+            cfg.search.roughness_steps,
+            cfg.search.metallic,
+            cfg.train.target_weight
+        )
+    } else {
+        "skipped (search.enabled = false)".to_string()
+    };
+    let re_render = if cfg.render.spp > 0 {
+        let other = if cfg.render.val_spp > 0 {
+            cfg.render.val_spp
+        } else {
+            cfg.render.spp
+        };
+        format!("path traced at {} spp (other splits: {other}) from the field (voxel cache) and the extracted emitters", cfg.render.spp)
+    } else {
+        "skipped (render.spp = 0)".to_string()
+    };
+    serde_json::json!({
+        "reflectance_model": cfg.model.brdf,
+        "material_field": true,
+        "material_search": search,
+        "emission_mask": true,
+        "emitters": emitters.len(),
+        "emitters_doubtful": crate::outputs::doubtful_emitters(emitters),
+        "path_grown_refinement": match refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
+        "re_render": re_render,
+        "hash_table_log2": log2_table,
+    })
 }
 
 /// The stage table and where the outputs are.

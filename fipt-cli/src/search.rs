@@ -64,6 +64,20 @@ fn prepare(
 }
 
 /// Runs the search (None when it is off or has no regions; the reason is printed).
+/// The search on the initial bake, when `cfg.on_bake` asks for it.
+pub fn on_bake(
+    scene: &LoadedScene,
+    records: &[Vec<Option<PixelRecord>>],
+    shadings: &[ViewShadings],
+    cfg: &SearchConfig,
+    footprint: f32,
+) -> Result<Option<Searched>> {
+    if !cfg.on_bake {
+        return Ok(None);
+    }
+    stage(scene, records, shadings, cfg, footprint, None, true)
+}
+
 pub fn stage(
     scene: &LoadedScene,
     records: &[Vec<Option<PixelRecord>>],

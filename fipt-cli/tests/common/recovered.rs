@@ -141,7 +141,18 @@ pub fn relight_and_novel_views(scene: &std::path::Path, run: &std::path::Path) {
         "{dark} black pixels of {}",
         img.data.len()
     );
-    // Bad input: a clear error naming the thing, and nothing written.
+    for p in [truth, rec, nv] {
+        let _ = std::fs::remove_dir_all(p);
+    }
+    bad_render_input(scene, run);
+    edit_at_a_pixel(scene, run);
+    exports(scene, run);
+}
+
+/// Bad input to `fipt render`: a clear error naming the thing, and nothing written.
+fn bad_render_input(scene: &std::path::Path, run: &std::path::Path) {
+    let cams = scene.join("val/transforms.json");
+    let c = cams.to_str().unwrap();
     let bad = |name: &str, text: &str, want: &str| {
         let f = scene.join(name);
         std::fs::write(&f, text).unwrap();
@@ -191,7 +202,12 @@ pub fn relight_and_novel_views(scene: &std::path::Path, run: &std::path::Path) {
         !ok && err.contains("output folder of a `fipt run`"),
         "{err}"
     );
-    // A material edit on the surface a pixel sees: its kd map reads the set value there.
+}
+
+/// A material edit on the surface a pixel sees: its kd map reads the set value there.
+fn edit_at_a_pixel(scene: &std::path::Path, run: &std::path::Path) {
+    let cams = scene.join("val/transforms.json");
+    let c = cams.to_str().unwrap();
     let edits = scene.join("edits.json");
     std::fs::write(
         &edits,
@@ -221,8 +237,12 @@ pub fn relight_and_novel_views(scene: &std::path::Path, run: &std::path::Path) {
         (px - glam::Vec3::new(0.9, 0.1, 0.1)).length() < 2e-3,
         "kd {px}"
     );
-    // Exports of the recovered scene: the glb reloads with every reflecting triangle and the
-    // light's two as its own primitive.
+    let _ = std::fs::remove_dir_all(ed);
+}
+
+/// Exports of the recovered scene: the glb reloads with every triangle.
+fn exports(scene: &std::path::Path, run: &std::path::Path) {
+    let d = scene.to_str().unwrap();
     let ex = tmp("export");
     for (format, file) in [
         ("glb", "scene.glb"),
@@ -256,7 +276,5 @@ pub fn relight_and_novel_views(scene: &std::path::Path, run: &std::path::Path) {
         !ok && err.contains("not a finished `fipt run` output folder"),
         "{err}"
     );
-    for p in [truth, rec, nv, ex, ed] {
-        let _ = std::fs::remove_dir_all(p);
-    }
+    let _ = std::fs::remove_dir_all(ex);
 }
