@@ -82,6 +82,49 @@ pub fn display_scale(exposure: f32) -> f32 {
     }
 }
 
+/// Emitter IoU (None when neither map emits anywhere) and the summed squared log difference
+/// of the emission maps.
+fn emission_scores(emis: &Image, emit_gt: Option<&Image>) -> (Option<f64>, f64) {
+    let (mut inter, mut uni, mut log2) = (0usize, 0usize, 0f64);
+    for (i, &p) in emis.data.iter().enumerate() {
+        let g = emit_gt.map_or(Vec3::ZERO, |e| e.data[i]);
+        let (a, b) = (p.element_sum() > 0.0, g.element_sum() > 0.0);
+        inter += (a && b) as usize;
+        uni += (a || b) as usize;
+        for c in 0..3 {
+            let d = (1.0 + p[c].max(0.0) as f64).ln() - (1.0 + g[c].max(0.0) as f64).ln();
+            log2 += d * d;
+        }
+    }
+    ((uni > 0).then(|| inter as f64 / uni as f64), log2)
+}
+
+/// The sRGB PSNR of view `v`'s re-render in `dir` against its input, both divided by
+/// `display` (None without a re-render, or for a black or saturated view).
+fn render_score(
+    ds: &Dataset,
+    v: &fipt_core::dataset::View,
+    dir: &Path,
+    display: f32,
+    split: &str,
+) -> Result<Option<f64>> {
+    let k = v.index;
+    let path = dir.join(format!("{k:03}_render.exr"));
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let mut r = Image::read_exr(&path).with_context(|| format!("reading {}", path.display()))?;
+    let mut img = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0;
+    for p in r.data.iter_mut().chain(img.data.iter_mut()) {
+        *p /= display;
+    }
+    if let Some(why) = degenerate(&img) {
+        eprintln!("note: {split} view {k}: re-render not scored ({why})");
+        return Ok(None);
+    }
+    Ok(fipt_core::metrics::srgb_psnr(&r.data, &img.data, None))
+}
+
 /// Evaluates the maps in `out/views/<split>/` of every split with ground truth; `exposure` is
 /// the run's exposure scale (see [`display_scale`]).
 pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::Value> {
@@ -183,36 +226,8 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                 obs_share
                     .push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
             }
-            let (mut inter, mut uni, mut log2) = (0usize, 0usize, 0f64);
-            for i in 0..n {
-                let g = emit_gt.as_ref().map_or(Vec3::ZERO, |e| e.data[i]);
-                let p = emis.data[i];
-                let (a, b) = (p.element_sum() > 0.0, g.element_sum() > 0.0);
-                inter += (a && b) as usize;
-                uni += (a || b) as usize;
-                for c in 0..3 {
-                    let d = (1.0 + p[c].max(0.0) as f64).ln() - (1.0 + g[c].max(0.0) as f64).ln();
-                    log2 += d * d;
-                }
-            }
-            let iou = (uni > 0).then(|| inter as f64 / uni as f64);
-            let render_p = dir
-                .join(format!("{k:03}_render.exr"))
-                .is_file()
-                .then(|| -> Result<Option<f64>> {
-                    let mut r = pred("render")?;
-                    let mut img = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0;
-                    for p in r.data.iter_mut().chain(img.data.iter_mut()) {
-                        *p /= display;
-                    }
-                    if let Some(why) = degenerate(&img) {
-                        eprintln!("note: {} view {k}: re-render not scored ({why})", s.name);
-                        return Ok(None);
-                    }
-                    Ok(fipt_core::metrics::srgb_psnr(&r.data, &img.data, None))
-                })
-                .transpose()?
-                .flatten();
+            let (iou, log2) = emission_scores(&emis, emit_gt.as_ref());
+            let render_p = render_score(ds, v, &dir, display, &s.name)?;
             render_all.push(render_p);
             let log_l2 = log2 / (3 * n) as f64;
             let err = Image {
