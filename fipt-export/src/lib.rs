@@ -41,8 +41,6 @@ pub use glb::write_glb;
 pub enum ExportError {
     #[error(transparent)]
     Core(#[from] fipt_core::CoreError),
-    #[error("{path}: {message}")]
-    Write { path: PathBuf, message: String },
     #[error("{0}")]
     Invalid(String),
 }
@@ -292,21 +290,10 @@ pub fn export<S: SurfaceModel>(
     })
 }
 
-/// Writes `bytes` to `path` through a temporary file and a rename.
+/// Writes `bytes` to `path` atomically (`fipt_core::fsutil::write_bytes_atomic`); returns the
+/// path for the export's file list.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<PathBuf> {
-    let err = |e: std::io::Error| ExportError::Write {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    };
-    if let Some(d) = path.parent() {
-        std::fs::create_dir_all(d).map_err(err)?;
-    }
-    let tmp = path.with_extension(format!(
-        "{}.tmp",
-        path.extension().and_then(|e| e.to_str()).unwrap_or("")
-    ));
-    std::fs::write(&tmp, bytes).map_err(err)?;
-    std::fs::rename(&tmp, path).map_err(err)?;
+    fipt_core::fsutil::write_bytes_atomic(path, bytes)?;
     Ok(path.to_path_buf())
 }
 

@@ -1,10 +1,11 @@
 //! `report.html`: one static page, relative links only, its CSS and script inline.
-use crate::{ReportError, Result, ViewPictures, MAPS};
+use crate::{Result, ViewPictures, MAPS};
 use serde_json::Value;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-fn esc(s: &str) -> String {
+/// `s` escaped for HTML and SVG text and attributes.
+pub fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -206,12 +207,6 @@ pub fn write_html(run: &Path, views: &[ViewPictures]) -> Result<PathBuf> {
     }
     h.push_str("</body></html>\n");
     let path = run.join("report.html");
-    let tmp = run.join("report.html.tmp");
-    std::fs::write(&tmp, h)
-        .and_then(|_| std::fs::rename(&tmp, &path))
-        .map_err(|e| ReportError::Io {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
+    fipt_core::fsutil::write_bytes_atomic(&path, h.as_bytes())?;
     Ok(path)
 }

@@ -20,7 +20,7 @@ use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::image::Image;
 use std::path::{Path, PathBuf};
 
-pub use html::write_html;
+pub use html::{esc, write_html};
 
 /// A relighting strip: the PNGs `pictures` (one view under several lights) side by side.
 pub fn write_strip(pictures: &[PathBuf], path: &Path) -> Result<()> {

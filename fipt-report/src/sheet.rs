@@ -56,18 +56,13 @@ pub fn tile(lines: &[Vec<Option<RgbImage>>], cols: u32, w: u32, h: u32, path: &P
             }
         }
     }
-    if let Some(d) = path.parent() {
-        std::fs::create_dir_all(d).map_err(|e| ReportError::Io {
-            path: d.to_path_buf(),
-            message: e.to_string(),
-        })?;
-    }
-    let tmp = path.with_extension("png.tmp");
+    let mut png = std::io::Cursor::new(Vec::new());
     sheet
-        .save_with_format(&tmp, image::ImageFormat::Png)
-        .and_then(|_| std::fs::rename(&tmp, path).map_err(image::ImageError::IoError))
+        .write_to(&mut png, image::ImageFormat::Png)
         .map_err(|e| ReportError::Io {
             path: path.to_path_buf(),
             message: e.to_string(),
-        })
+        })?;
+    fipt_core::fsutil::write_bytes_atomic(path, png.get_ref())?;
+    Ok(())
 }
