@@ -6,6 +6,7 @@
 //! pooled over the split: the share of metal pixels predicted ≥ 0.8 and of dielectric ones
 //! predicted > 0.1; emitter IoU (Emit summed over channels > 0) and log-L2 =
 //! MSE(log(1 + E_pred), log(1 + E_gt)) over all pixels.
+use crate::eval_parts::{PartScores, ViewMaps};
 use anyhow::{Context, Result};
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::fsutil::write_json_atomic;
@@ -129,6 +130,7 @@ fn render_score(
 /// the run's exposure scale (see [`display_scale`]).
 pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::Value> {
     let display = display_scale(exposure);
+    let names = crate::eval_parts::part_names(&ds.root);
     let mut splits = serde_json::Map::new();
     for s in &ds.splits {
         if !s.has_gt(GtKind::DiffCol) {
@@ -142,6 +144,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
         // dielectric pixels, of them predicted > 0.1].
         let mut metal = [0usize; 4];
         let (mut kd_obs, mut r_obs, mut obs_share) = (vec![], vec![], vec![]);
+        let mut parts = PartScores::default();
 
         for v in &s.views {
             let k = v.index;
@@ -194,8 +197,8 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                     1.0,
                 )
             });
-            if let Some(m_gt) = &m_gt {
-                let m = pred("metallic")?;
+            let m = m_gt.as_ref().map(|_| pred("metallic")).transpose()?;
+            if let (Some(m_gt), Some(m)) = (&m_gt, &m) {
                 for i in (0..n).filter(|&i| valid[i]) {
                     let (g, p) = (m_gt.data[i].x, m.data[i].x);
                     if g >= 0.5 {
@@ -211,6 +214,21 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
             let r_pred: Vec<Vec3> = rough.data.iter().map(|&v| cl(v)).collect();
             let r_true: Vec<Vec3> = r_gt.data.iter().map(|&v| cl(q8(v))).collect();
             let r_p = psnr(&r_pred, &r_true, Some(&valid), 1.0);
+            if let Some(ids) = ds.load_ids(s, GtKind::IndexMA, k)? {
+                parts.add(&ViewMaps {
+                    ids: &ids,
+                    valid: &valid,
+                    diffuse: &diffuse,
+                    kd: &kd_clamped,
+                    kd_gt: &kd_q8,
+                    sigma: &r_pred,
+                    sigma_gt: &r_true,
+                    metallic: m_gt
+                        .as_ref()
+                        .zip(m.as_ref())
+                        .map(|(g, p)| (&p.data[..], &g.data[..])),
+                });
+            }
             // The same on observed pixels: surface cells that at least OBSERVED_MIN training
             // pixels saw (`_observed.exr` of `fipt run`).
             let obs_path = dir.join(format!("{k:03}_observed.exr"));
@@ -230,25 +248,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
             let render_p = render_score(ds, v, &dir, display, &s.name)?;
             render_all.push(render_p);
             let log_l2 = log2 / (3 * n) as f64;
-            let err = Image {
-                width: kd.width,
-                height: kd.height,
-                data: (0..n)
-                    .map(|i| {
-                        if valid[i] {
-                            (kd.data[i] - kd_gt.data[i]).abs() * 4.0
-                        } else {
-                            Vec3::ZERO
-                        }
-                    })
-                    .collect(),
-            };
-            err.write_png(
-                &out.join("eval")
-                    .join(&s.name)
-                    .join(format!("{k:03}_kd_error_x4.png")),
-                1.0,
-            )?;
+            write_kd_error(out, &s.name, k, &kd, &kd_gt, &valid)?;
             kd_all.push(kd_p);
             alb_all.push(alb_p);
             r_all.push(r_p);
@@ -257,6 +257,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
             rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p}));
         }
         let share = |a: usize, b: usize| (b > 0).then(|| a as f64 / b as f64);
+        let parts_json = (!parts.is_empty()).then(|| parts.to_json(&names));
         splits.insert(
             s.name.clone(),
             serde_json::json!({
@@ -269,6 +270,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                 "median": {"kd_psnr": median(&kd_all), "albedo_psnr": median(&alb_all), "roughness_psnr": median(&r_all),
                            "emission_iou": median(&iou_all), "emission_log_l2": median(&log_all), "render_psnr": median(&render_all)},
                 "views": rows,
+                "parts": parts_json,
                 "render_display_scale": display,
             }),
         );
@@ -276,7 +278,42 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
     let m = serde_json::Value::Object(splits);
     write_json_atomic(&out.join("metrics.json"), &m)?;
     print_table(&m);
+    for (name, v) in m.as_object().into_iter().flatten() {
+        crate::eval_parts::print(name, &v["parts"]);
+    }
     Ok(m)
+}
+
+/// Writes `OUT/eval/<split>/{k:03}_kd_error_x4.png`: |kd − kd_gt|·4 on the scored pixels.
+fn write_kd_error(
+    out: &Path,
+    split: &str,
+    k: usize,
+    kd: &Image,
+    kd_gt: &Image,
+    valid: &[bool],
+) -> Result<()> {
+    let data = (0..kd.data.len())
+        .map(|i| {
+            if valid[i] {
+                (kd.data[i] - kd_gt.data[i]).abs() * 4.0
+            } else {
+                Vec3::ZERO
+            }
+        })
+        .collect();
+    let err = Image {
+        width: kd.width,
+        height: kd.height,
+        data,
+    };
+    err.write_png(
+        &out.join("eval")
+            .join(split)
+            .join(format!("{k:03}_kd_error_x4.png")),
+        1.0,
+    )?;
+    Ok(())
 }
 
 fn print_table(m: &serde_json::Value) {

@@ -10,6 +10,7 @@ mod bench_train;
 mod config;
 mod demo;
 mod eval;
+mod eval_parts;
 mod export;
 mod fit;
 mod info;
