@@ -47,6 +47,12 @@ pub struct FieldConfig {
     /// walls) and drops only where highlights ask for it.
     #[serde(default = "default_roughness_init")]
     pub roughness_init: f32,
+    /// A floor on σ's sigmoid slope in the backward (the forward is unchanged): the gradient
+    /// of σ's logit is `gain·(s(1 − s) + leak)`. Where the first round's pull saturated σ at 1
+    /// (s(1 − s) ≈ 1e-4), a later pull towards the search's target (the glossy box of
+    /// `studio-mitsuba`: 0.48) could not move it, at any `target_weight`. 0: the plain sigmoid.
+    #[serde(default)]
+    pub roughness_leak: f32,
     /// `relu`: α = 1 − exp(−relu(m)) (the reference); `softplus`: α = 1 − exp(−softplus(m)).
     /// With relu, a point whose m falls below 0 has no gradient left: on `room` the 5 cm bulb
     /// (a few pixels per view) was switched off by the sparsity term early in training and
@@ -76,6 +82,7 @@ impl Default for FieldConfig {
             mask_activation: MaskActivation::Softplus,
             roughness_gain: 10.0,
             roughness_init: 0.98,
+            roughness_leak: 0.0,
         }
     }
 }
@@ -354,12 +361,22 @@ impl NeuralField {
         let s = candle_nn::ops::sigmoid(&h).ctx("sigmoid")?;
         let albedo = s.narrow(1, 0, 3).ctx("albedo")?;
         let gain = self.config.roughness_gain as f64;
-        let roughness = if gain == 1.0 {
+        let leak = self.config.roughness_leak as f64;
+        let roughness = if gain == 1.0 && !(record && leak > 0.0) {
             s.narrow(1, 3, 1)
         } else {
-            h.narrow(1, 3, 1)
+            let x = h
+                .narrow(1, 3, 1)
                 .and_then(|r| r.affine(gain, 0.0))
-                .and_then(|r| candle_nn::ops::sigmoid(&r))
+                .ctx("roughness")?;
+            let r = candle_nn::ops::sigmoid(&x);
+            if record && leak > 0.0 {
+                // + leak·x − detach(leak·x): exactly 0 in the forward, slope `leak` backward.
+                let l = x.affine(leak, 0.0).ctx("roughness leak")?;
+                r.and_then(|r| r + (&l - l.detach())?)
+            } else {
+                r
+            }
         }
         .and_then(|r| r.affine(1.0 - MIN_ROUGHNESS as f64, MIN_ROUGHNESS as f64))
         .ctx("roughness")?;
