@@ -2,13 +2,17 @@
 use crate::info::Policy;
 use crate::progress::{bar, Stage};
 use crate::scene::LoadedScene;
+use crate::shard::Stopped;
 use anyhow::Result;
 use fipt_core::image::Image;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::ShadingBaker;
+use fipt_core::shading::Shard;
 use fipt_core::shading::ViewShadings;
 use fipt_shading::bake::{BakeConfig, BakeStats};
-use fipt_shading::bake_store::{load_if_current, save, BakeManifest, FORMAT_VERSION};
+use fipt_shading::bake_store::{
+    load_if_current, mismatch, save, save_shard, shard_done, BakeManifest, FORMAT_VERSION,
+};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -34,6 +38,10 @@ pub struct Args {
     /// fipt (as `--preset reference`).
     #[arg(long, default_value = "principled")]
     brdf: ReflectanceModel,
+    /// Bake only the views k with k mod N = K (a task of a job array); the shard that finds
+    /// all others done merges them.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<Shard>,
 }
 
 pub fn run(a: Args, components: &crate::Components) -> Result<()> {
@@ -45,26 +53,34 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     )?;
     let settings = serde_json::to_value(&cfg)?;
     let baker = components.baker(crate::components::SLF_BAKER, &settings, a.brdf)?;
-    let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt bake")?;
+    let shard = a.shard.unwrap_or(Shard::ALL);
+    let _lock = crate::run::lock(&a.out, shard, "fipt bake")?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
     let dir = a.out.join("bake");
-    stage(&scene, baker.as_ref(), &settings, &dir, a.force)?;
-    println!("wrote {}", dir.display());
+    match stage(&scene, baker.as_ref(), &settings, &dir, a.force, shard) {
+        Err(e) if e.is::<Stopped>() => println!("{e}"),
+        Err(e) => return Err(e),
+        Ok(_) => println!("wrote {}", dir.display()),
+    }
     Ok(())
 }
 
 /// The bake stage with `baker` (built from `settings`): reuses a finished bake of the same
-/// inputs, baker and settings in `dir` unless `force`; otherwise bakes, saves (manifest last)
-/// and writes previews of Ld.
+/// inputs, baker and settings in `dir` unless `force` (merging finished shards first);
+/// otherwise bakes, saves (manifest last) and writes previews of Ld. With a `shard` other
+/// than all, bakes and saves that shard's views and returns [`Stopped`].
 pub fn stage(
     scene: &LoadedScene,
     baker: &dyn ShadingBaker,
     settings: &serde_json::Value,
     dir: &Path,
     force: bool,
+    shard: Shard,
 ) -> Result<(BakeManifest, Vec<ViewShadings>)> {
     let name = baker.name().to_string();
+    let check = |m: &BakeManifest| mismatch(m, &scene.cache_key, settings, &name);
     if !force {
+        crate::shard::merge(dir, "bake", shard, check)?;
         match load_if_current(dir, &scene.cache_key, settings, &name)? {
             Ok((m, sh)) => {
                 eprintln!(
@@ -78,19 +94,28 @@ pub fn stage(
             Err(why) => eprintln!("baking: {why}"),
         }
     }
+    if !shard.is_all() && !force && shard_done(dir, shard, &check) {
+        return Err(crate::shard::done(dir, "bake", shard, check).into());
+    }
     let split = scene.ds.train();
     let pb = bar(1, "bake");
     let st = Stage::start("bake");
-    let baked = baker.bake(&scene.geometry, &split.views, &scene.images, &|d, t| {
-        pb.set_length(t as u64);
-        pb.set_position(d as u64);
-    })?;
+    let baked = baker.bake_shard(
+        &scene.geometry,
+        &split.views,
+        &scene.images,
+        shard,
+        &|d, t| {
+            pb.set_length(t as u64);
+            pb.set_position(d as u64);
+        },
+    )?;
     let shadings = baked.output;
     pb.finish_and_clear();
     let secs = st.done();
     let manifest = BakeManifest {
         version: FORMAT_VERSION,
-        baker: name,
+        baker: name.clone(),
         inputs_hash: scene.cache_key.clone(),
         config: settings.clone(),
         split: split.name.clone(),
@@ -101,6 +126,11 @@ pub fn stage(
         seconds_total: secs,
     };
     let st = Stage::start("write bake");
+    if !shard.is_all() {
+        save_shard(dir, &manifest, &shadings, shard)?;
+        st.done();
+        return Err(crate::shard::done(dir, "bake", shard, check).into());
+    }
     save(dir, &manifest, &shadings)?;
     for (k, s) in shadings.iter().enumerate() {
         let img = Image {

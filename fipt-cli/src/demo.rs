@@ -40,6 +40,8 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
             config: None,
             bad_pixels: crate::info::Policy::Reject,
             force: false,
+            shard: None,
+            stop_before: None,
         },
         components,
     )?;

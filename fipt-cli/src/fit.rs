@@ -13,6 +13,7 @@ use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::{FitInputs, MaterialFitter};
 use fipt_core::fsutil::write_json_atomic;
 use fipt_core::shading::ShadingBaker;
+use fipt_core::shading::Shard;
 use fipt_shading::bake::primary_records;
 use std::time::Instant;
 
@@ -44,8 +45,14 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
     let mesh = &scene.geometry.mesh;
     let shadings = if fitter.needs_shadings() {
         let t = Instant::now();
-        let (_, sh) =
-            crate::bake::stage(&scene, baker, bake_settings, &a.out.join("bake"), a.force)?;
+        let (_, sh) = crate::bake::stage(
+            &scene,
+            baker,
+            bake_settings,
+            &a.out.join("bake"),
+            a.force,
+            a.shard.unwrap_or(Shard::ALL),
+        )?;
         stages.push(StageReport::since("bake", t));
         Some(sh)
     } else {

@@ -25,6 +25,7 @@ mod report;
 mod run;
 mod scene;
 mod search;
+mod shard;
 mod sweep;
 mod sweep_plot;
 mod synth;

@@ -3,12 +3,15 @@
 //! `OUT/refine<k>/` (manifest last), keyed by the settings and the upstream fingerprints.
 use crate::progress::{bar, Stage};
 use crate::scene::LoadedScene;
+use crate::shard::{Sharding, Stopped};
 use anyhow::Result;
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{hash_bytes, read_json, write_json_atomic};
 use fipt_core::shading::{RefineInputs, ShadingRefiner, ViewShadings};
-use fipt_shading::bake_store::{load_keyed, save, BakeManifest, FORMAT_VERSION};
+use fipt_shading::bake_store::{
+    keyed_mismatch, load_keyed, save, save_shard, shard_done, BakeManifest, FORMAT_VERSION,
+};
 use fipt_shading::refine::RefineStats;
 use std::path::Path;
 
@@ -31,8 +34,10 @@ pub fn stage(
     settings: &serde_json::Value,
     dir: &Path,
     force: bool,
+    sharding: Sharding,
 ) -> Result<Refined> {
     let name = refiner.name().to_string();
+    let shard = sharding.shard;
     let key = hash_bytes(
         format!(
             "{}|{field_id}|{}",
@@ -42,7 +47,17 @@ pub fn stage(
         .as_bytes(),
     );
     let stats_path = dir.join("refine_stats.json");
+    let check = |m: &BakeManifest| keyed_mismatch(m, &scene.cache_key, &name, &key);
     if !force {
+        crate::shard::merge(dir, "refinement", shard, check)?;
+        if !stats_path.is_file() {
+            // Merged shards: the reports of the shards, as the merged manifest holds them.
+            if let Ok(m) = read_json::<BakeManifest>(&dir.join("manifest.json")) {
+                if check(&m).is_none() {
+                    write_json_atomic(&stats_path, &m.stats)?;
+                }
+            }
+        }
         match load_keyed(dir, &scene.cache_key, &name, &key)? {
             Ok((m, shadings)) => {
                 eprintln!(
@@ -62,6 +77,16 @@ pub fn stage(
             Err(_) => {}
         }
     }
+    if sharding.stop_before_refine && shard.is_all() {
+        return Err(Stopped(format!(
+            "stopped before the refinement in {} (--stop-before refine): run `fipt run … --shard K/N` for every K, then `fipt run` again",
+            dir.display()
+        ))
+        .into());
+    }
+    if !shard.is_all() && !force && shard_done(dir, shard, &check) {
+        return Err(crate::shard::done(dir, "refinement", shard, check).into());
+    }
     let split = scene.ds.train();
     let mesh = &scene.geometry.mesh;
     let inputs = RefineInputs {
@@ -75,7 +100,7 @@ pub fn stage(
     };
     let pb = bar(1, "refine");
     let st = Stage::start("refine");
-    let refined = refiner.refine(&inputs, &|d, t| {
+    let refined = refiner.refine_shard(&inputs, shard, &|d, t| {
         pb.set_length(t as u64);
         pb.set_position(d as u64);
     })?;
@@ -86,7 +111,7 @@ pub fn stage(
     print_stats(&name, &stats, secs);
     let manifest = BakeManifest {
         version: FORMAT_VERSION,
-        baker: name,
+        baker: name.clone(),
         inputs_hash: scene.cache_key.clone(),
         config: serde_json::json!({ "key": key, "settings": settings, "field": field_id }),
         split: split.name.clone(),
@@ -96,6 +121,17 @@ pub fn stage(
         stats: Default::default(),
         seconds_total: secs,
     };
+    if !shard.is_all() {
+        let manifest = BakeManifest {
+            stats: stats.clone(),
+            ..manifest
+        };
+        if stats_path.exists() {
+            std::fs::remove_file(&stats_path)?;
+        }
+        save_shard(dir, &manifest, &shadings, shard)?;
+        return Err(crate::shard::done(dir, "refinement", shard, check).into());
+    }
     write_json_atomic(&stats_path, &stats)?;
     save(dir, &manifest, &shadings)?;
     Ok(Refined {

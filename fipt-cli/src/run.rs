@@ -8,11 +8,12 @@ use crate::outputs::{
     write_emitters_obj, write_views, StageReport,
 };
 use crate::progress::Stage;
+use crate::shard::{Sharding, Stopped};
 use anyhow::Result;
 use fipt_core::emitter::Emitter;
 use fipt_core::fsutil::write_json_atomic;
 use fipt_core::reflectance::ReflectanceModel;
-use fipt_core::shading::ShadingRefiner;
+use fipt_core::shading::{ShadingRefiner, Shard};
 use fipt_emitter::MaskExtractorConfig;
 use fipt_neural::TrainConfig;
 use fipt_shading::bake::{primary_records, BakeConfig, PixelRecord};
@@ -47,6 +48,43 @@ pub struct Args {
     /// Redo every stage.
     #[arg(long)]
     pub force: bool,
+    /// Compute only the views k with k mod N = K of the next sharded stage that is not done
+    /// (the bake, then each refinement), into OUT, and stop: one task of a job array. The
+    /// stages before it must be done (training runs without --shard); the next `fipt run`
+    /// merges the shards. `scripts/slurm/fipt-sharded.sh` drives it.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<Shard>,
+    /// Stop before the named stage when it is not done (`refine`: so that a job array computes
+    /// the refinement's shards).
+    #[arg(long, value_enum)]
+    pub stop_before: Option<StopBefore>,
+}
+
+/// Where `--stop-before` stops.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum StopBefore {
+    Refine,
+}
+
+impl Args {
+    /// The sharding of this run's stages.
+    pub fn sharding(&self) -> Sharding {
+        Sharding {
+            shard: self.shard.unwrap_or(Shard::ALL),
+            stop_before_refine: self.stop_before == Some(StopBefore::Refine),
+        }
+    }
+}
+
+/// The output folder's lock: the whole folder for an unsharded run; a shard's own lock for a
+/// shard, so that the tasks of a job array write their views side by side.
+pub fn lock(out: &Path, shard: Shard, what: &str) -> Result<fipt_core::lock::OutputLock> {
+    Ok(if shard.is_all() {
+        fipt_core::lock::OutputLock::acquire(out, what)?
+    } else {
+        let name = format!(".fipt.shard-{}-of-{}.lock", shard.index, shard.count);
+        fipt_core::lock::OutputLock::acquire_named(out, &name, &format!("{what} --shard {shard}"))?
+    })
 }
 
 /// All settings of a run.
@@ -252,8 +290,8 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     let baker = components.baker(&cfg.pipeline.baker, &bake_settings, cfg.model.brdf)?;
     let refine_settings = cfg.refiner_settings()?;
     let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
-    // One run per output folder at a time.
-    let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt run")?;
+    // One run per output folder at a time (one per shard for shard runs).
+    let _lock = lock(&a.out, a.sharding().shard, "fipt run")?;
     // Until it finishes, the folder says so (an older report must not pass for this run's).
     crate::outputs::mark_status(&a.out, &a.scene, "running", None)?;
     let method = &cfg.pipeline.method;
@@ -273,8 +311,16 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
             run_locked(&a, &cfg, components, extractor, baker, refiner, settings)
         }
     };
-    if let Err(e) = &res {
-        crate::outputs::mark_status(&a.out, &a.scene, "failed", Some(crate::describe(e)))?;
+    match &res {
+        Err(e) if e.is::<Stopped>() => {
+            crate::outputs::mark_status(&a.out, &a.scene, "stopped", Some(e.to_string()))?;
+            println!("{e}");
+            return Ok(());
+        }
+        Err(e) => {
+            crate::outputs::mark_status(&a.out, &a.scene, "failed", Some(crate::describe(e)))?
+        }
+        Ok(()) => {}
     }
     res
 }
@@ -307,6 +353,7 @@ fn run_locked(
         bake_settings,
         &a.out.join("bake"),
         a.force,
+        a.sharding().shard,
     )?;
     mark("bake", t);
     let has_gt = has_ground_truth(&scene);
@@ -328,6 +375,7 @@ fn run_locked(
         a.force,
         None,
         searched.as_ref().map(|s| &s.targets[..]),
+        !a.sharding().shard.is_all(),
     )?;
     mark("train", t);
     if cfg.search.on_bake {
@@ -372,6 +420,7 @@ fn run_locked(
                 has_gt,
                 refiner: refiner.as_ref(),
                 refine_settings,
+                sharding: a.sharding(),
             };
             refinement_rounds(&ctx, &mut state, &mut mark)?;
             (field, train) = (state.field, state.train);
@@ -603,6 +652,7 @@ struct RoundsContext<'a> {
     has_gt: bool,
     refiner: &'a dyn ShadingRefiner,
     refine_settings: &'a serde_json::Value,
+    sharding: Sharding,
 }
 
 /// What the refinement rounds update: the field and its manifest, the search's last answer, and
@@ -634,6 +684,7 @@ fn refinement_rounds(
             ctx.refine_settings,
             &ctx.out.join(format!("refine{r}")),
             ctx.force,
+            ctx.sharding,
         )?;
         mark("refine", t);
         if ctx.has_gt {
@@ -675,6 +726,7 @@ fn refinement_rounds(
                 .warm_start
                 .then_some((&st.field, prev_id.as_str())),
             st.searched.as_ref().map(|s| &s.targets[..]),
+            !ctx.sharding.shard.is_all(),
         )?;
         mark("train", t);
         st.searches

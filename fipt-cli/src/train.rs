@@ -129,6 +129,7 @@ pub fn run(a: Args) -> Result<()> {
         a.force,
         None,
         None,
+        false,
     )?;
     if fresh || !dir.join("views").is_dir() {
         let st = Stage::start("export maps");
@@ -215,6 +216,7 @@ pub fn stage(
     force: bool,
     warm: Option<(&NeuralField, &str)>,
     targets: Option<&[Vec<Option<[f32; 2]>>]>,
+    must_reuse: bool,
 ) -> Result<(NeuralField, TrainManifest, bool)> {
     let split = scene.ds.train();
     let st = Stage::start("training set");
@@ -262,6 +264,12 @@ pub fn stage(
                 }
             }
         }
+    }
+    if must_reuse {
+        bail!(
+            "{}: this training round is not done, and a shard run (--shard) does not train (training runs on one machine): run `fipt run` without --shard (with --stop-before refine) once the shards before it are done",
+            dir.display()
+        );
     }
     let mut trainer = None;
     if !force {

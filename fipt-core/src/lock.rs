@@ -42,8 +42,14 @@ impl OutputLock {
     /// Takes the lock on `dir` (created if absent) for this process, `what` naming the work in
     /// the file (e.g. "fipt run").
     pub fn acquire(dir: &Path, what: &str) -> Result<OutputLock> {
+        Self::acquire_named(dir, LOCK_FILE, what)
+    }
+
+    /// The same with the lock file `name` in `dir`: work that may share a folder with other
+    /// work (a shard of a stage: one lock per shard) takes its own.
+    pub fn acquire_named(dir: &Path, name: &str, what: &str) -> Result<OutputLock> {
         std::fs::create_dir_all(dir).map_err(|e| CoreError::io(dir, e))?;
-        let path = dir.join(LOCK_FILE);
+        let path = dir.join(name);
         let me = format!("pid {}\nhost {}\n{what}\n", std::process::id(), host_name());
         for _ in 0..2 {
             match std::fs::OpenOptions::new()

@@ -156,6 +156,62 @@ pub struct Reported<T> {
     pub report: serde_json::Value,
 }
 
+/// Which views of a per-view stage one process computes, for spreading a stage over the tasks
+/// of a job array: view `k` is in shard `index` of `count` when `k % count == index` (every
+/// shard gets a spread of the views). [`Shard::ALL`] is the whole stage.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+impl Shard {
+    /// Every view: the unsharded stage.
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    /// Shard `index` (0-based) of `count`; `None` unless `index < count`.
+    pub fn new(index: usize, count: usize) -> Option<Shard> {
+        (index < count).then_some(Shard { index, count })
+    }
+
+    /// Whether view `k` is this shard's.
+    pub fn contains(&self, k: usize) -> bool {
+        k % self.count == self.index
+    }
+
+    /// Whether this is the whole stage.
+    pub fn is_all(&self) -> bool {
+        self.count == 1
+    }
+
+    /// Per view of `n`: whether it is this shard's.
+    pub fn mask(&self, n: usize) -> Vec<bool> {
+        (0..n).map(|k| self.contains(k)).collect()
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+    /// `K/N`: shard K (0-based) of N.
+    fn from_str(s: &str) -> std::result::Result<Shard, String> {
+        let bad = || {
+            format!("shard `{s}`: use K/N with 0 ≤ K < N (e.g. 0/4; a Slurm array gives K as $SLURM_ARRAY_TASK_ID)")
+        };
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let (k, n) = (
+            k.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        Shard::new(k, n).ok_or_else(bad)
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
 /// Computes the shadings of the training views (initial bake, method §4.2).
 pub trait ShadingBaker {
     /// A short name for reports.
@@ -168,6 +224,22 @@ pub trait ShadingBaker {
         images: &[Image],
         progress: Progress,
     ) -> Result<Reported<Vec<ViewShadings>>>;
+
+    /// The shadings of `shard`'s views, bit-identical to those [`ShadingBaker::bake`] gives
+    /// them; the other views' entries may be left empty. What is shared by all views (an
+    /// incident-light cache) is built from all of them in every shard. The default bakes every
+    /// view (correct, not faster); a baker that can skip views overrides it.
+    fn bake_shard(
+        &self,
+        geometry: &dyn RayQuery,
+        views: &[View],
+        images: &[Image],
+        shard: Shard,
+        progress: Progress,
+    ) -> Result<Reported<Vec<ViewShadings>>> {
+        let _ = shard;
+        self.bake(geometry, views, images, progress)
+    }
 }
 
 /// What a [`ShadingRefiner`] works from: the scene, the training views and their images, the
@@ -195,6 +267,18 @@ pub trait ShadingRefiner {
         inputs: &RefineInputs,
         progress: Progress,
     ) -> Result<Reported<Vec<ViewShadings>>>;
+
+    /// The shadings of `shard`'s views, bit-identical to those of [`ShadingRefiner::refine`];
+    /// the other views' entries may be left empty. The default refines every view.
+    fn refine_shard(
+        &self,
+        inputs: &RefineInputs,
+        shard: Shard,
+        progress: Progress,
+    ) -> Result<Reported<Vec<ViewShadings>>> {
+        let _ = shard;
+        self.refine(inputs, progress)
+    }
 }
 
 #[cfg(test)]
@@ -203,6 +287,24 @@ mod tests {
 
     fn values() -> [Rgb; NUM_LEVELS] {
         std::array::from_fn(|i| Vec3::new(i as f32, (i * i) as f32, -(i as f32)))
+    }
+
+    #[test]
+    fn shards_parse_and_partition_the_views() {
+        let s: Shard = "1/3".parse().unwrap();
+        assert_eq!(s, Shard { index: 1, count: 3 });
+        assert_eq!(s.to_string(), "1/3");
+        for bad in ["3/3", "1", "a/2", "0/0", "-1/2"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+        // Every view in exactly one shard.
+        for k in 0..10 {
+            let owners = (0..3)
+                .filter(|&i| Shard::new(i, 3).unwrap().contains(k))
+                .count();
+            assert_eq!(owners, 1);
+        }
+        assert!(Shard::ALL.is_all() && Shard::ALL.mask(4).iter().all(|&b| b));
     }
 
     #[test]

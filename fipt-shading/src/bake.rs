@@ -20,7 +20,7 @@ use fipt_core::image::Image;
 use fipt_core::reflectance::{ggx_d, schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    Progress, RayQuery, Reported, ShadingBaker, SurfaceHit, ViewShadings, DEFAULT_LEVELS,
+    Progress, RayQuery, Reported, ShadingBaker, Shard, SurfaceHit, ViewShadings, DEFAULT_LEVELS,
     NUM_LEVELS,
 };
 use glam::{Vec2, Vec3};
@@ -539,14 +539,38 @@ impl FactorizedBaker {
         images: &[Image],
         progress: Progress,
     ) -> (Vec<ViewShadings>, BakeStats, Option<SurfaceLightField>) {
+        self.bake_views(geometry, views, images, Shard::ALL, progress)
+    }
+
+    /// [`FactorizedBaker::bake_detailed`] of `shard`'s views only: the SLF and the diffuse
+    /// cache's cells come from every view's primary hits (cheap), only the cells that the
+    /// shard's pixels fall in are integrated, and every sample stream is keyed by the global
+    /// view and cell indices, so the shard's shadings are bit-identical to an unsharded bake's.
+    /// The other views' shadings stay zero; the counts in the stats are the shard's work.
+    pub fn bake_views(
+        &self,
+        geometry: &dyn RayQuery,
+        views: &[View],
+        images: &[Image],
+        shard: Shard,
+        progress: Progress,
+    ) -> (Vec<ViewShadings>, BakeStats, Option<SurfaceLightField>) {
         let cfg = &self.config;
         let mut stats = BakeStats::default();
         let t = Instant::now();
         let records: Vec<Vec<Option<PixelRecord>>> =
             views.iter().map(|v| primary_records(geometry, v)).collect();
+        let selected = shard.mask(views.len());
         stats.seconds_primary = t.elapsed().as_secs_f64();
-        stats.pixels = records.iter().map(|r| r.len()).sum();
-        stats.valid_pixels = records.iter().flatten().flatten().count();
+        let mine = || {
+            records
+                .iter()
+                .zip(&selected)
+                .filter(|(_, &s)| s)
+                .map(|(r, _)| r)
+        };
+        stats.pixels = mine().map(|r| r.len()).sum();
+        stats.valid_pixels = mine().flatten().flatten().count();
         let t = Instant::now();
         let Some(slf) = build_slf(
             &records,
@@ -593,8 +617,12 @@ impl FactorizedBaker {
                 * cfg.cache_cell_scale.max(1e-3);
             stats.cache_cell = cell;
             let cells = DiffuseCells::build(&records, slf.cube.min, cell);
-            stats.cache_entries = cells.entries.len();
+            let needed = cells.used_by(&selected);
+            stats.cache_entries = needed.iter().filter(|&&n| n).count();
             cells.integrate_and_scatter(model, &records, &mut out, |k, c| {
+                if !needed[k] {
+                    return DiffuseMoments::default();
+                }
                 let mut st =
                     SampleStream::new(cfg.sampler, &[seed, 0xD1FF, c.tri as u64, k as u64]);
                 let mut rng = Pcg32::new(0, 0);
@@ -611,10 +639,13 @@ impl FactorizedBaker {
                     full,
                 )
             });
-            stats.rays_diffuse = cells.entries.len() as u64 * cfg.diffuse_samples as u64;
+            stats.rays_diffuse = stats.cache_entries as u64 * cfg.diffuse_samples as u64;
             tick(stats.valid_pixels);
         } else {
             for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
+                if !selected[vi] {
+                    continue;
+                }
                 let n = s.ld.len();
                 let computed: Vec<(Rgb, [Rgb; 2])> = (0..n)
                     .into_par_iter()
@@ -653,7 +684,28 @@ impl FactorizedBaker {
 
         // Specular shadings.
         let t = Instant::now();
-        for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
+        self.specular_views(&light, geometry, &records, &selected, &mut out, &tick);
+        stats.rays_specular = stats.valid_pixels as u64 * spec_per_pixel as u64;
+        stats.seconds_specular = t.elapsed().as_secs_f64();
+        (out, stats, Some(slf))
+    }
+
+    /// Ls0 and Ls1 of the `selected` views' pixels, each pixel's sample streams keyed by its
+    /// view and pixel index.
+    fn specular_views(
+        &self,
+        light: &SlfLight,
+        geometry: &dyn RayQuery,
+        records: &[Vec<Option<PixelRecord>>],
+        selected: &[bool],
+        out: &mut [ViewShadings],
+        tick: &(dyn Fn(usize) + Sync),
+    ) {
+        let cfg = &self.config;
+        for (vi, (s, r)) in out.iter_mut().zip(records).enumerate() {
+            if !selected[vi] {
+                continue;
+            }
             let seed = cfg.seed;
             let ViewShadings { ls0, ls1, .. } = s;
             let mixture = cfg.specular_estimator == SpecularEstimator::Mixture;
@@ -672,7 +724,7 @@ impl FactorizedBaker {
                                 )
                             });
                             (*l0, *l1) = specular_shading_mixture(
-                                &light,
+                                light,
                                 geometry,
                                 rec.hit.p,
                                 rec.ng,
@@ -693,7 +745,7 @@ impl FactorizedBaker {
                                 &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
                             );
                             let (a, b) = specular_shading(
-                                &light,
+                                light,
                                 rec.hit.p,
                                 rec.ng,
                                 rec.ns,
@@ -710,9 +762,6 @@ impl FactorizedBaker {
                 });
             tick(r.iter().flatten().count());
         }
-        stats.rays_specular = stats.valid_pixels as u64 * spec_per_pixel as u64;
-        stats.seconds_specular = t.elapsed().as_secs_f64();
-        (out, stats, Some(slf))
     }
 }
 
@@ -737,6 +786,27 @@ impl ShadingBaker for FactorizedBaker {
             ));
         }
         let (output, stats, _) = self.bake_detailed(geometry, views, images, progress);
+        Ok(Reported {
+            output,
+            report: serde_json::to_value(stats).unwrap_or_default(),
+        })
+    }
+
+    fn bake_shard(
+        &self,
+        geometry: &dyn RayQuery,
+        views: &[View],
+        images: &[Image],
+        shard: Shard,
+        progress: Progress,
+    ) -> fipt_core::Result<Reported<Vec<ViewShadings>>> {
+        if views.len() != images.len() {
+            return Err(fipt_core::CoreError::invalid(
+                "bake",
+                format!("{} views but {} images", views.len(), images.len()),
+            ));
+        }
+        let (output, stats, _) = self.bake_views(geometry, views, images, shard, progress);
         Ok(Reported {
             output,
             report: serde_json::to_value(stats).unwrap_or_default(),

@@ -13,7 +13,7 @@
 //! have no σ polynomial (FIPT's model), version 2 when they do (`principled`).
 use crate::bake::BakeConfig;
 use fipt_core::fsutil::{read_json, write_bytes_atomic, write_json_atomic};
-use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+use fipt_core::shading::{Shard, ViewShadings, NUM_LEVELS};
 use fipt_core::{CoreError, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -220,6 +220,26 @@ pub fn fingerprint(m: &BakeManifest) -> String {
     )
 }
 
+/// Why a stored result keyed by `key` (see [`load_keyed`]) cannot be reused (None when it can).
+pub fn keyed_mismatch(
+    m: &BakeManifest,
+    inputs_hash: &str,
+    baker: &str,
+    key: &str,
+) -> Option<String> {
+    if m.version != FORMAT_VERSION {
+        Some(format!("format version {}", m.version))
+    } else if m.inputs_hash != inputs_hash {
+        Some("the scene's mesh, cameras or images changed".into())
+    } else if m.baker != baker {
+        Some(format!("made by {} (now {baker})", m.baker))
+    } else if m.config.get("key").and_then(|k| k.as_str()) != Some(key) {
+        Some("the settings or the upstream results changed".into())
+    } else {
+        None
+    }
+}
+
 /// Loads a stored bake made by `baker` from these inputs whose settings JSON has `key` at
 /// `config.key` (for stages keyed by a fingerprint of their settings and upstream results).
 /// `Ok(Err(reason))` says why not.
@@ -229,19 +249,7 @@ pub fn load_keyed(
     baker: &str,
     key: &str,
 ) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
-    load_checked(dir, |m| {
-        if m.version != FORMAT_VERSION {
-            Some(format!("format version {}", m.version))
-        } else if m.inputs_hash != inputs_hash {
-            Some("the scene's mesh, cameras or images changed".into())
-        } else if m.baker != baker {
-            Some(format!("made by {} (now {baker})", m.baker))
-        } else if m.config.get("key").and_then(|k| k.as_str()) != Some(key) {
-            Some("the settings or the upstream results changed".into())
-        } else {
-            None
-        }
-    })
+    load_checked(dir, |m| keyed_mismatch(m, inputs_hash, baker, key))
 }
 
 /// Loads a stored bake if it matches the inputs and settings. `Ok(Err(reason))` says why not.
@@ -334,4 +342,123 @@ mod tests {
             "{err}"
         );
     }
+}
+
+/// The manifest of one shard of a stage (`manifest.shard-K-of-N.json`).
+pub fn shard_manifest_path(dir: &Path, shard: Shard) -> PathBuf {
+    dir.join(format!(
+        "manifest.shard-{}-of-{}.json",
+        shard.index, shard.count
+    ))
+}
+
+/// Writes `shard`'s view files, then its shard manifest (`manifest.views` is the stage's
+/// view count). A finished manifest of the whole stage is removed first: shards are written
+/// only when it did not match.
+pub fn save_shard(
+    dir: &Path,
+    manifest: &BakeManifest,
+    shadings: &[ViewShadings],
+    shard: Shard,
+) -> Result<()> {
+    for p in [dir.join("manifest.json"), shard_manifest_path(dir, shard)] {
+        if p.exists() {
+            std::fs::remove_file(&p).map_err(|e| CoreError::io(&p, e))?;
+        }
+    }
+    for (k, s) in shadings
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| shard.contains(*k))
+    {
+        write_bytes_atomic(&view_path(dir, &manifest.split, k), &encode(s))?;
+    }
+    write_json_atomic(&shard_manifest_path(dir, shard), manifest)
+}
+
+/// What [`merge_shards`] found.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ShardState {
+    /// No shard manifest of the current settings.
+    None,
+    /// Shards of `count` (this one's included when it is done) are present, `missing` are not.
+    Partial { count: usize, missing: Vec<usize> },
+    /// Every shard was present and they were merged into `manifest.json`.
+    Merged { count: usize },
+}
+
+/// The shard manifests in `dir` that pass `check` (the stage's reuse test), by shard.
+fn current_shards(
+    dir: &Path,
+    check: &impl Fn(&BakeManifest) -> Option<String>,
+) -> Vec<(Shard, BakeManifest)> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return vec![];
+    };
+    let mut out: Vec<(Shard, BakeManifest)> = entries
+        .flatten()
+        .filter_map(|e| {
+            let name = e.file_name().into_string().ok()?;
+            let (k, n) = name
+                .strip_prefix("manifest.shard-")?
+                .strip_suffix(".json")?
+                .split_once("-of-")?;
+            let shard = Shard::new(k.parse().ok()?, n.parse().ok()?)?;
+            // A manifest another process is removing or replacing counts as absent.
+            let m: BakeManifest = read_json(&e.path()).ok()?;
+            check(&m).is_none().then_some((shard, m))
+        })
+        .collect();
+    out.sort_by_key(|(s, _)| (s.count, s.index));
+    out
+}
+
+/// Whether `shard`'s part of the stage is stored (its manifest passes `check`).
+pub fn shard_done(
+    dir: &Path,
+    shard: Shard,
+    check: &impl Fn(&BakeManifest) -> Option<String>,
+) -> bool {
+    current_shards(dir, check).iter().any(|(s, _)| *s == shard)
+}
+
+/// Merges the shards of a stage once all are present: writes `manifest.json` (the seconds
+/// summed, each shard's report under `stats.shards`) and removes the shard manifests. Shards of
+/// other settings (failing `check`) are ignored; when shards of several counts are present
+/// the largest count is taken. The view files are already in place, so nothing is copied.
+pub fn merge_shards(
+    dir: &Path,
+    check: impl Fn(&BakeManifest) -> Option<String>,
+) -> Result<ShardState> {
+    let shards = current_shards(dir, &check);
+    let Some(count) = shards.iter().map(|(s, _)| s.count).max() else {
+        return Ok(ShardState::None);
+    };
+    let mine: Vec<&(Shard, BakeManifest)> =
+        shards.iter().filter(|(s, _)| s.count == count).collect();
+    let missing: Vec<usize> = (0..count)
+        .filter(|&k| !mine.iter().any(|(s, _)| s.index == k))
+        .collect();
+    if !missing.is_empty() {
+        return Ok(ShardState::Partial { count, missing });
+    }
+    let mut merged = mine[0].1.clone();
+    merged.seconds_total = mine.iter().map(|(_, m)| m.seconds_total).sum();
+    merged.stats = serde_json::json!({
+        "shards": mine.iter().map(|(_, m)| m.stats.clone()).collect::<Vec<_>>(),
+    });
+    for k in 0..merged.views {
+        let p = view_path(dir, &merged.split, k);
+        if !p.is_file() {
+            return Err(CoreError::invalid(
+                &p,
+                format!("the shards of {count} are all done but view {k}'s file is missing: run its shard again"),
+            ));
+        }
+    }
+    write_json_atomic(&dir.join("manifest.json"), &merged)?;
+    for (s, _) in &mine {
+        let _ = std::fs::remove_file(shard_manifest_path(dir, *s));
+    }
+    Ok(ShardState::Merged { count })
 }

@@ -299,6 +299,18 @@ impl DiffuseCells {
         DiffuseCells { entries, assign }
     }
 
+    /// Per cell: whether a pixel of a view with `views[k]` true falls in it (the cells a shard
+    /// of the views needs).
+    pub fn used_by(&self, views: &[bool]) -> Vec<bool> {
+        let mut used = vec![false; self.entries.len()];
+        for (a, _) in self.assign.iter().zip(views).filter(|(_, &v)| v) {
+            for &id in a.iter().filter(|&&id| id != u32::MAX) {
+                used[id as usize] = true;
+            }
+        }
+        used
+    }
+
     /// Integrates every cell with `moments(cell index, cell)` and writes the diffuse shadings
     /// of `model` into the pixels of `out` (each pixel with its own ωo).
     pub fn integrate_and_scatter(

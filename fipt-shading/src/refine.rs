@@ -30,7 +30,7 @@ use fipt_core::color::Rgb;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    Progress, RayQuery, RefineInputs, Reported, ShadingRefiner, SurfaceHit, ViewShadings,
+    Progress, RayQuery, RefineInputs, Reported, ShadingRefiner, Shard, SurfaceHit, ViewShadings,
     DEFAULT_LEVELS, NUM_LEVELS,
 };
 use fipt_core::CoreError;
@@ -437,6 +437,20 @@ impl PathGrownRefiner {
         inputs: &RefineInputs,
         progress: Progress,
     ) -> fipt_core::Result<(Vec<ViewShadings>, RefineStats)> {
+        self.refine_views(inputs, Shard::ALL, progress)
+    }
+
+    /// [`PathGrownRefiner::refine_detailed`] of `shard`'s views only, bit-identical to the
+    /// unsharded refinement there (the SLF, the material cache and the diffuse cache's cells
+    /// come from every view; only the cells of the shard's pixels are integrated; sample
+    /// streams are keyed by global indices). The other views' shadings stay zero; the stats
+    /// count the shard's work.
+    pub fn refine_views(
+        &self,
+        inputs: &RefineInputs,
+        shard: Shard,
+        progress: Progress,
+    ) -> fipt_core::Result<(Vec<ViewShadings>, RefineStats)> {
         let cfg = &self.config;
         let RefineInputs {
             geometry,
@@ -461,7 +475,11 @@ impl PathGrownRefiner {
         }
         let records: Vec<Vec<Option<PixelRecord>>> =
             views.iter().map(|v| primary_records(geometry, v)).collect();
-        stats.pixels = records.iter().flatten().flatten().count();
+        let selected = shard.mask(views.len());
+        stats.pixels = (records.iter().zip(&selected))
+            .filter(|(_, &s)| s)
+            .map(|(r, _)| r.iter().flatten().count())
+            .sum();
         let model = self.model;
         let mut out = empty_shadings(views, &records, cfg.levels, model);
         let Some(slf) = build_slf(
@@ -523,9 +541,10 @@ impl PathGrownRefiner {
                 slf.cube.min,
                 footprint * cfg.cache_cell_scale.max(1e-3),
             );
-            stats.cache_entries = cells.entries.len();
+            let needed = cells.used_by(&selected);
+            stats.cache_entries = needed.iter().filter(|&&n| n).count();
             cells.integrate_and_scatter(model, &records, &mut out, |k, c| {
-                if surfaces.emission(c.tri) != Vec3::ZERO {
+                if !needed[k] || surfaces.emission(c.tri) != Vec3::ZERO {
                     return DiffuseMoments::default();
                 }
                 moments_at(&[seed, 0xD1FF, c.tri as u64, k as u64], c.p, c.ng, c.ns)
@@ -533,6 +552,9 @@ impl PathGrownRefiner {
             tick(stats.pixels);
         } else {
             for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
+                if !selected[vi] {
+                    continue;
+                }
                 let computed: Vec<(Rgb, [Rgb; 2])> = (0..s.ld.len())
                     .into_par_iter()
                     .map(|i| match r[i].filter(|r| !is_emitter(r)) {
@@ -558,6 +580,9 @@ impl PathGrownRefiner {
         // Ls0/Ls1 per pixel (emitter pixels keep 0: the mask explains them).
         let t = Instant::now();
         for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
+            if !selected[vi] {
+                continue;
+            }
             let ViewShadings { ls0, ls1, .. } = s;
             ls0.par_iter_mut()
                 .zip(ls1.par_iter_mut())
@@ -617,7 +642,15 @@ impl ShadingRefiner for PathGrownRefiner {
         inputs: &RefineInputs,
         progress: Progress,
     ) -> fipt_core::Result<Reported<Vec<ViewShadings>>> {
-        let (output, stats) = self.refine_detailed(inputs, progress)?;
+        self.refine_shard(inputs, Shard::ALL, progress)
+    }
+    fn refine_shard(
+        &self,
+        inputs: &RefineInputs,
+        shard: Shard,
+        progress: Progress,
+    ) -> fipt_core::Result<Reported<Vec<ViewShadings>>> {
+        let (output, stats) = self.refine_views(inputs, shard, progress)?;
         Ok(Reported {
             output,
             report: serde_json::to_value(stats).unwrap_or_default(),

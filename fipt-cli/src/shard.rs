@@ -1,0 +1,85 @@
+//! Sharded stages (`fipt run --shard K/N`, `fipt bake --shard K/N`): the bake and each
+//! refinement are independent per view, so the tasks of a job array each compute their views
+//! into the shared output folder; the last shard (or the next `fipt run`) merges the
+//! manifests. A shard run stops once its part is written; the stages in between (training)
+//! run on one machine. `scripts/slurm/fipt-sharded.sh` drives it.
+use anyhow::{bail, Result};
+use fipt_core::shading::Shard;
+use fipt_shading::bake_store::{merge_shards, BakeManifest, ShardState};
+use std::path::Path;
+
+/// Not a failure: the run stopped where it was asked to (a shard's part written, or
+/// `--stop-before`); the message says what is done and what comes next.
+#[derive(Debug)]
+pub struct Stopped(pub String);
+
+impl std::fmt::Display for Stopped {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Stopped {}
+
+/// Merges the finished shards of the stage in `dir` (named `what`) when all are present.
+/// An unsharded run (`shard` = all) refuses a partial set, which it would otherwise silently
+/// recompute on one machine; a shard run goes on to compute its part.
+pub fn merge(
+    dir: &Path,
+    what: &str,
+    shard: Shard,
+    check: impl Fn(&BakeManifest) -> Option<String>,
+) -> Result<()> {
+    match merge_shards(dir, check)? {
+        ShardState::Merged { count } => {
+            eprintln!("{what}: merged the {count} shards in {}", dir.display())
+        }
+        ShardState::Partial { count, missing } if shard.is_all() => {
+            let list: Vec<String> = missing.iter().map(|k| format!("{k}/{count}")).collect();
+            bail!(
+                "{}: the {what} is sharded in {count} and shards {} are not done: run `fipt run … --shard K/{count}` for each (or delete the folder to compute the {what} on this machine)",
+                dir.display(),
+                list.join(", ")
+            );
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
+/// The message of a shard run that wrote (or found) its part of `what`.
+pub fn done(
+    dir: &Path,
+    what: &str,
+    shard: Shard,
+    check: impl Fn(&BakeManifest) -> Option<String>,
+) -> Stopped {
+    let state = merge_shards(dir, check);
+    let next = match state {
+        Ok(ShardState::Merged { count }) => format!("all {count} shards are done and merged"),
+        Ok(ShardState::Partial { missing, count }) => format!(
+            "waiting for shards {}",
+            missing
+                .iter()
+                .map(|k| format!("{k}/{count}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        Ok(ShardState::None) => "its manifest is not in place".into(),
+        Err(e) => format!("merging failed: {e}"),
+    };
+    Stopped(format!(
+        "shard {shard} of the {what} is in {} ({next}); a `fipt run` without --shard goes on from there",
+        dir.display()
+    ))
+}
+
+/// How a `fipt run` treats its sharded stages.
+#[derive(Clone, Copy, Debug)]
+pub struct Sharding {
+    /// The views this run computes of the bake and the refinements (all: unsharded).
+    pub shard: Shard,
+    /// Stop before a refinement that is not done (`--stop-before refine`), so that a job array
+    /// computes it.
+    pub stop_before_refine: bool,
+}

@@ -1,0 +1,140 @@
+//! Sharded stages: the shards of the bake and of the refinement, run one after another on one
+//! machine in any order, give the unsharded run's shadings bit for bit, and the run's maps.
+mod common;
+use common::{fipt, small_run_config, synth_cornell, tmp};
+use std::path::Path;
+
+fn fsh_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .flatten()
+        .map(|e| {
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+fn status(out: &Path) -> String {
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    r["status"].as_str().unwrap_or("").to_string()
+}
+
+#[test]
+fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
+    let root = tmp("shard");
+    let scene = root.join("scene");
+    let scene_s = scene.to_str().unwrap();
+    synth_cornell(scene_s, [6, 1, 32, 24, 8]);
+    let cfg = root.join("run.toml");
+    std::fs::write(
+        &cfg,
+        small_run_config("principled", 16).replace("steps = 1500", "steps = 150"),
+    )
+    .unwrap();
+    let cfg_s = cfg.to_str().unwrap();
+    let run = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "run",
+            scene_s,
+            "--out",
+            out.to_str().unwrap(),
+            "--preset",
+            "fast",
+        ];
+        args.extend(["--config", cfg_s]);
+        args.extend(extra);
+        fipt(&args)
+    };
+
+    let whole = root.join("whole");
+    let (ok, _, err) = run(&whole, &[]);
+    assert!(ok, "{err}");
+
+    let sharded = root.join("sharded");
+    // The bake's shards, out of order. A plain run refuses a partial set.
+    for k in ["2/3", "0/3"] {
+        let (ok, out, err) = run(&sharded, &["--shard", k]);
+        assert!(ok, "{err}");
+        assert!(out.contains(&format!("shard {k} of the bake")), "{out}");
+        assert_eq!(status(&sharded), "stopped");
+    }
+    let (ok, _, err) = run(&sharded, &[]);
+    assert!(!ok && err.contains("shards 1/3 are not done"), "{err}");
+    // A finished shard is not computed again.
+    let (ok, out, err) = run(&sharded, &["--shard", "2/3"]);
+    assert!(
+        ok && out.contains("waiting for shards 1/3"),
+        "{out}
+{err}"
+    );
+    assert!(
+        !err.lines().any(|l| l.starts_with("bake ")),
+        "baked again: {err}"
+    );
+    let (ok, out, err) = run(&sharded, &["--shard", "1/3"]);
+    assert!(
+        ok && out.contains("all 3 shards are done and merged"),
+        "{out}\n{err}"
+    );
+    assert!(sharded.join("bake/manifest.json").is_file());
+
+    // A shard run does not train: round 1 is not done yet.
+    let (ok, _, err) = run(&sharded, &["--shard", "0/3"]);
+    assert!(!ok && err.contains("does not train"), "{err}");
+    // One machine trains round 1 and stops before the refinement.
+    let (ok, out, err) = run(&sharded, &["--stop-before", "refine"]);
+    assert!(
+        ok && out.contains("stopped before the refinement"),
+        "{out}\n{err}"
+    );
+    // The refinement's shards; the last one merges.
+    for k in ["1/3", "2/3", "0/3"] {
+        let (ok, out, err) = run(&sharded, &["--shard", k]);
+        assert!(
+            ok && out.contains(&format!("shard {k} of the refinement")),
+            "{out}\n{err}"
+        );
+    }
+    // Past the sharded stages, a shard run has nothing to compute: it says so and fails.
+    let (ok, _, err) = run(&sharded, &["--shard", "0/3"]);
+    assert!(!ok && err.contains("does not train"), "{err}");
+    let (ok, _, err) = run(&sharded, &[]);
+    assert!(ok, "{err}");
+    assert_eq!(status(&sharded), "complete");
+
+    for stage in ["bake/train", "refine1/train"] {
+        let (a, b) = (
+            fsh_files(&whole.join(stage)),
+            fsh_files(&sharded.join(stage)),
+        );
+        assert_eq!(a.len(), 6, "{stage}");
+        assert!(
+            a == b,
+            "{stage}: the sharded shadings differ from the unsharded ones"
+        );
+    }
+    // Same shadings, same training: the same maps.
+    for f in [
+        "views/val/000_kd.exr",
+        "views/val/000_roughness.exr",
+        "emitters.json",
+    ] {
+        assert!(
+            std::fs::read(whole.join(f)).unwrap() == std::fs::read(sharded.join(f)).unwrap(),
+            "{f} differs"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn a_bad_shard_is_refused_with_the_form_it_takes() {
+    let (ok, _, err) = fipt(&["run", "nowhere", "--out", "x", "--shard", "3/3"]);
+    assert!(!ok && err.contains("use K/N with 0 ≤ K < N"), "{err}");
+}
