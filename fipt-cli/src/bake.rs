@@ -126,13 +126,16 @@ pub fn stage(
         seconds_total: secs,
     };
     let st = Stage::start("write bake");
-    if !shard.is_all() {
+    if shard.is_all() {
+        save(dir, &manifest, &shadings)?;
+    } else {
         save_shard(dir, &manifest, &shadings, shard)?;
-        st.done();
-        return Err(crate::shard::done(dir, "bake", shard, check).into());
     }
-    save(dir, &manifest, &shadings)?;
-    for (k, s) in shadings.iter().enumerate() {
+    for (k, s) in shadings
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| shard.contains(*k))
+    {
         let img = Image {
             width: s.width,
             height: s.height,
@@ -141,6 +144,9 @@ pub fn stage(
         img.write_png(&dir.join("preview").join(format!("{k:03}_ld.png")), 1.0)?;
     }
     st.done();
+    if !shard.is_all() {
+        return Err(crate::shard::done(dir, "bake", shard, check).into());
+    }
     // The built-in baker's figures in words; any other baker's report as it is.
     let Ok(stats) = serde_json::from_value::<BakeStats>(baked.report.clone()) else {
         eprintln!("{}: {}", manifest.baker, baked.report);

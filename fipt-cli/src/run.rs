@@ -325,6 +325,28 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     res
 }
 
+/// The scene, checked for coverage and for the run's memory (the estimate in bytes).
+fn load_checked(a: &Args, cfg: &RunConfig) -> Result<(crate::scene::LoadedScene, u64)> {
+    let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
+    crate::scene::check_coverage(&scene)?;
+    let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
+    let memory = crate::memory::check(pixels, cfg)?;
+    Ok((scene, memory))
+}
+
+/// A shard run stops once the sharded stages are behind it.
+fn past_sharded_stages(a: &Args) -> Result<()> {
+    let shard = a.sharding().shard;
+    if shard.is_all() {
+        return Ok(());
+    }
+    Err(Stopped(format!(
+        "shard {shard}: every sharded stage in {} is done; the rest (maps, re-renders) runs without --shard",
+        a.out.display()
+    ))
+    .into())
+}
+
 /// FIPT's rounds once the settings and components are checked and the folder is held.
 fn run_locked(
     a: &Args,
@@ -341,10 +363,7 @@ fn run_locked(
         |stage: &'static str, t: std::time::Instant| stages.push(StageReport::since(stage, t));
     fipt_core::fsutil::remove_stale_temporaries(&a.out);
     let t = std::time::Instant::now();
-    let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
-    crate::scene::check_coverage(&scene)?;
-    let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
-    let memory = crate::memory::check(pixels, cfg)?;
+    let (scene, memory) = load_checked(a, cfg)?;
     mark("load", t);
     let t = std::time::Instant::now();
     let (bake, shadings) = crate::bake::stage(
@@ -427,6 +446,7 @@ fn run_locked(
         }
         Err(why) => eprintln!("refinement {why}"),
     }
+    past_sharded_stages(a)?;
 
     // Observation counts per surface cell (the search's cells: 4 footprints).
     let points = records.iter().flatten().flatten().map(|r| r.hit.p);

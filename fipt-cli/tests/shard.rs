@@ -133,6 +133,83 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
+/// A stand-in for `sbatch` that runs each job at once (an array's tasks last first), logs
+/// the job names and dependencies, and fails when the job fails.
+const FAKE_SBATCH: &str = r#"#!/usr/bin/env bash
+set -u
+name= array= wrap= dep=
+for a in "$@"; do
+  case $a in
+    --job-name=*) name=${a#--job-name=} ;;
+    --array=*) array=${a#--array=} ;;
+    --wrap=*) wrap=${a#--wrap=} ;;
+    --dependency=*) dep=${a#--dependency=} ;;
+  esac
+done
+id=$(( $(cat "$FAKE_LOG.n" 2>/dev/null || echo 100) + 1 ))
+echo $id > "$FAKE_LOG.n"
+echo "$id $name ${array:-single} ${dep:-none}" >> "$FAKE_LOG"
+if [[ -n $array ]]; then
+  for ((k = ${array#*-}; k >= ${array%-*}; k--)); do
+    SLURM_ARRAY_TASK_ID=$k bash -c "$wrap" > /dev/null 2>&1 || exit 1
+  done
+else
+  bash -c "$wrap" > /dev/null 2>&1 || exit 1
+fi
+echo "$id;cluster"
+"#;
+
+#[test]
+fn the_slurm_script_chains_the_arrays_and_the_run_completes() {
+    let root = tmp("slurm");
+    let scene = root.join("scene");
+    synth_cornell(scene.to_str().unwrap(), [6, 1, 32, 24, 8]);
+    let cfg = root.join("run.toml");
+    std::fs::write(
+        &cfg,
+        small_run_config("principled", 16).replace("steps = 1500", "steps = 150"),
+    )
+    .unwrap();
+    let sbatch = root.join("sbatch");
+    std::fs::write(&sbatch, FAKE_SBATCH).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&sbatch, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let log = root.join("jobs.log");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/slurm/fipt-sharded.sh");
+    let out_dir = root.join("out");
+    let res = std::process::Command::new("bash")
+        .arg(&script)
+        .args([scene.as_os_str(), out_dir.as_os_str()])
+        .args(["3", "1", "--", "--preset", "fast", "--config"])
+        .arg(&cfg)
+        .env("FIPT", env!("CARGO_BIN_EXE_fipt"))
+        .env("SBATCH", &sbatch)
+        .env("FAKE_LOG", &log)
+        .output()
+        .expect("bash");
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&res.stdout),
+        String::from_utf8_lossy(&res.stderr),
+    );
+    assert!(res.status.success(), "{stdout}\n{stderr}");
+    let jobs = std::fs::read_to_string(&log).unwrap();
+    let lines: Vec<&str> = jobs.lines().collect();
+    assert_eq!(
+        lines,
+        [
+            "101 fipt-bake 0-2 none",
+            "102 fipt-train single afterok:101",
+            "103 fipt-refine1 0-2 afterok:102",
+            "104 fipt-train1 single afterok:103",
+        ],
+        "{jobs}"
+    );
+    assert_eq!(stdout.trim(), "104");
+    assert_eq!(status(&out_dir), "complete");
+    assert!(out_dir.join("views/val/000_kd.exr").is_file());
+    let _ = std::fs::remove_dir_all(&root);
+}
+
 #[test]
 fn a_bad_shard_is_refused_with_the_form_it_takes() {
     let (ok, _, err) = fipt(&["run", "nowhere", "--out", "x", "--shard", "3/3"]);
