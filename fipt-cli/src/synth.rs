@@ -33,6 +33,10 @@ pub struct Args {
     /// The reflectance model the views are rendered with: fipt or principled.
     #[arg(long, default_value = "fipt")]
     brdf: fipt_core::reflectance::ReflectanceModel,
+    /// Split every triangle into four this many times (the same scene with 4^K times the
+    /// triangles; for scaling measurements).
+    #[arg(long, default_value_t = 0)]
+    subdivide: u32,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -65,7 +69,14 @@ pub fn run(a: Args) -> Result<()> {
     if opts.train_views == 0 || opts.width == 0 || opts.height == 0 || opts.render.spp == 0 {
         bail!("--views, --width, --height and --spp must be positive");
     }
-    let scene = build(&a.name)?;
+    if a.subdivide > 6 {
+        bail!(
+            "--subdivide {} would make 4^{} times the triangles: use 0 to 6",
+            a.subdivide,
+            a.subdivide
+        );
+    }
+    let scene = build(&a.name)?.subdivided(a.subdivide);
     eprintln!(
         "synth {} ({} model): {} triangles, {} train + {} val views at {}x{}, {} spp → {}",
         a.name,

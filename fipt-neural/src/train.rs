@@ -451,7 +451,13 @@ impl Trainer {
             lr: lr * cfg.grid_lr_factor,
             ..cfg.adam
         };
-        let out = self.field.forward_step(&unit, grid_adam)?;
+        // σ's leak where the search set a σ target (see `FieldConfig::roughness_leak`).
+        let leak: Vec<bool> = batch.target.iter().map(|t| t[0].is_finite()).collect();
+        let out = if leak.is_empty() {
+            self.field.forward_step(&unit, grid_adam)?
+        } else {
+            self.field.forward_step_leaky(&unit, grid_adam, &leak)?
+        };
         let loss = FactorizedLoss {
             batch,
             levels: self.level_weights.0,

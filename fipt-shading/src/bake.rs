@@ -204,11 +204,27 @@ pub fn empty_shadings(
     levels: [f32; NUM_LEVELS],
     model: ReflectanceModel,
 ) -> Vec<ViewShadings> {
+    empty_shadings_of(views, records, levels, model, Shard::ALL)
+}
+
+/// [`empty_shadings`] for `shard`'s views; the others get 0 × 0 shadings (a shard's memory
+/// grows with its own views only).
+pub fn empty_shadings_of(
+    views: &[View],
+    records: &[Vec<Option<PixelRecord>>],
+    levels: [f32; NUM_LEVELS],
+    model: ReflectanceModel,
+    shard: Shard,
+) -> Vec<ViewShadings> {
     let poly = model.diffuse_depends_on_roughness();
     views
         .iter()
         .zip(records)
-        .map(|(v, r)| {
+        .enumerate()
+        .map(|(k, (v, r))| {
+            if !shard.contains(k) {
+                return ViewShadings::zeros_for(0, 0, levels, poly);
+            }
             let mut s = ViewShadings::zeros_for(v.camera.width, v.camera.height, levels, poly);
             for (i, rec) in r.iter().enumerate() {
                 s.valid[i] = rec.is_some();
@@ -605,7 +621,7 @@ impl FactorizedBaker {
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             progress(d, total_work);
         };
-        let mut out = empty_shadings(views, &records, cfg.levels, self.model);
+        let mut out = empty_shadings_of(views, &records, cfg.levels, self.model, shard);
 
         // Diffuse shading.
         let t = Instant::now();

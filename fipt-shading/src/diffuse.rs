@@ -328,10 +328,11 @@ impl DiffuseCells {
                 .enumerate()
                 .map(|(k, c)| moments(k, c).m0)
                 .collect();
+            // Views left empty (not a shard's) have no pixels to fill.
             for (s, a) in out.iter_mut().zip(&self.assign) {
-                for (i, &id) in a.iter().enumerate() {
+                for (l, &id) in s.ld.iter_mut().zip(a) {
                     if id != u32::MAX {
-                        s.ld[i] = ld[id as usize];
+                        *l = ld[id as usize];
                     }
                 }
             }

@@ -17,7 +17,7 @@
 //! * The field is not evaluated per path vertex: [`FieldSurfaces`] caches it on a voxel grid of
 //!   the observed surface.
 use crate::bake::{
-    build_slf, diffuse_moments, empty_shadings, median_footprint, primary_records,
+    build_slf, diffuse_moments, empty_shadings_of, median_footprint, primary_records,
     specular_shading_mixture, DiffuseCells, DiffuseMoments, PixelRecord, SampleStream, SamplerKind,
 };
 use crate::brdf::MicrofacetBrdf;
@@ -481,7 +481,7 @@ impl PathGrownRefiner {
             .map(|(r, _)| r.iter().flatten().count())
             .sum();
         let model = self.model;
-        let mut out = empty_shadings(views, &records, cfg.levels, model);
+        let mut out = empty_shadings_of(views, &records, cfg.levels, model, shard);
         let Some(slf) = build_slf(
             &records,
             images,

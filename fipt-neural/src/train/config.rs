@@ -142,6 +142,7 @@ impl TrainConfig {
                 mask_activation: crate::field::MaskActivation::Relu,
                 roughness_gain: 1.0,
                 roughness_init: 0.51,
+                roughness_leak: 0.0,
                 ..FieldConfig::default()
             },
             steps: 10_000,
