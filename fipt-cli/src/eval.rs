@@ -198,17 +198,12 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                 )
             });
             let m = m_gt.as_ref().map(|_| pred("metallic")).transpose()?;
-            if let (Some(m_gt), Some(m)) = (&m_gt, &m) {
-                for i in (0..n).filter(|&i| valid[i]) {
-                    let (g, p) = (m_gt.data[i].x, m.data[i].x);
-                    if g >= 0.5 {
-                        metal[0] += 1;
-                        metal[1] += usize::from(p >= 0.8);
-                    } else {
-                        metal[2] += 1;
-                        metal[3] += usize::from(p > 0.1);
-                    }
-                }
+            let metallic = m_gt
+                .as_ref()
+                .zip(m.as_ref())
+                .map(|(g, p)| (&p.data[..], &g.data[..]));
+            if let Some((p, g)) = metallic {
+                count_metal(&mut metal, &valid, p, g);
             }
             let cl = |v: Vec3| Vec3::splat(v.x.clamp(0.2, 1.0));
             let r_pred: Vec<Vec3> = rough.data.iter().map(|&v| cl(v)).collect();
@@ -223,10 +218,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                     kd_gt: &kd_q8,
                     sigma: &r_pred,
                     sigma_gt: &r_true,
-                    metallic: m_gt
-                        .as_ref()
-                        .zip(m.as_ref())
-                        .map(|(g, p)| (&p.data[..], &g.data[..])),
+                    metallic,
                 });
             }
             // The same on observed pixels: surface cells that at least OBSERVED_MIN training
@@ -282,6 +274,21 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
         crate::eval_parts::print(name, &v["parts"]);
     }
     Ok(m)
+}
+
+/// Adds a view's metal pixels (true metallic ≥ 0.5) and those predicted ≥ 0.8, and its
+/// dielectric pixels and those predicted > 0.1, to `metal`, over the `valid` pixels.
+fn count_metal(metal: &mut [usize; 4], valid: &[bool], pred: &[Vec3], truth: &[Vec3]) {
+    for i in (0..valid.len()).filter(|&i| valid[i]) {
+        let (g, p) = (truth[i].x, pred[i].x);
+        if g >= 0.5 {
+            metal[0] += 1;
+            metal[1] += usize::from(p >= 0.8);
+        } else {
+            metal[2] += 1;
+            metal[3] += usize::from(p > 0.1);
+        }
+    }
 }
 
 /// Writes `OUT/eval/<split>/{k:03}_kd_error_x4.png`: |kd − kd_gt|·4 on the scored pixels.

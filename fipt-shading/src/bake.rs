@@ -12,6 +12,9 @@ pub use crate::diffuse::{
     diffuse_moments, diffuse_shading, DiffuseCell, DiffuseCells, DiffuseMoments,
 };
 use crate::incident::{power_heuristic, IncidentLight, Incoming};
+pub use crate::records::{
+    empty_shadings, empty_shadings_of, median_footprint, primary_records, PixelRecord,
+};
 use crate::slf::{Cube, SlfBuilder, SurfaceLightField};
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
@@ -20,8 +23,7 @@ use fipt_core::image::Image;
 use fipt_core::reflectance::{ggx_d, schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    Progress, RayQuery, Reported, ShadingBaker, Shard, SurfaceHit, ViewShadings, DEFAULT_LEVELS,
-    NUM_LEVELS,
+    Progress, RayQuery, Reported, ShadingBaker, Shard, ViewShadings, DEFAULT_LEVELS, NUM_LEVELS,
 };
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -158,80 +160,6 @@ pub struct BakeStats {
     pub seconds_slf: f64,
     pub seconds_diffuse: f64,
     pub seconds_specular: f64,
-}
-
-/// A training pixel's primary hit, normal facing the viewer.
-#[derive(Clone, Copy, Debug)]
-pub struct PixelRecord {
-    pub hit: SurfaceHit,
-    /// Facing geometric normal.
-    pub ng: Vec3,
-    /// Facing shading normal.
-    pub ns: Vec3,
-    /// Direction to the viewer.
-    pub wo: Vec3,
-}
-
-/// Primary hits of every pixel centre of a view.
-pub fn primary_records(geometry: &dyn RayQuery, view: &View) -> Vec<Option<PixelRecord>> {
-    let cam = &view.camera;
-    (0..cam.width * cam.height)
-        .into_par_iter()
-        .map(|i| {
-            let (o, d) = cam.pixel_center_ray(i % cam.width, i / cam.width);
-            geometry.intersect(o, d).map(|hit| {
-                let flip = if hit.ng.dot(d) > 0.0 { -1.0 } else { 1.0 };
-                let ng = hit.ng * flip;
-                let mut ns = hit.ns * flip;
-                if ns.dot(ng) < 0.0 {
-                    ns = ng;
-                }
-                PixelRecord {
-                    hit,
-                    ng,
-                    ns,
-                    wo: -d,
-                }
-            })
-        })
-        .collect()
-}
-
-/// All-zero shadings of `model` for `views`, valid where the pixel-centre ray hit the mesh.
-pub fn empty_shadings(
-    views: &[View],
-    records: &[Vec<Option<PixelRecord>>],
-    levels: [f32; NUM_LEVELS],
-    model: ReflectanceModel,
-) -> Vec<ViewShadings> {
-    empty_shadings_of(views, records, levels, model, Shard::ALL)
-}
-
-/// [`empty_shadings`] for `shard`'s views; the others get 0 × 0 shadings (a shard's memory
-/// grows with its own views only).
-pub fn empty_shadings_of(
-    views: &[View],
-    records: &[Vec<Option<PixelRecord>>],
-    levels: [f32; NUM_LEVELS],
-    model: ReflectanceModel,
-    shard: Shard,
-) -> Vec<ViewShadings> {
-    let poly = model.diffuse_depends_on_roughness();
-    views
-        .iter()
-        .zip(records)
-        .enumerate()
-        .map(|(k, (v, r))| {
-            if !shard.contains(k) {
-                return ViewShadings::zeros_for(0, 0, levels, poly);
-            }
-            let mut s = ViewShadings::zeros_for(v.camera.width, v.camera.height, levels, poly);
-            for (i, rec) in r.iter().enumerate() {
-                s.valid[i] = rec.is_some();
-            }
-            s
-        })
-        .collect()
 }
 
 /// Builds the SLF from primary records and the matching HDR images.
@@ -502,19 +430,6 @@ pub fn specular_shading_mixture<L: IncidentLight>(
     (s0, s1)
 }
 
-/// The median pixel footprint (hit distance / focal length in pixels) over a sample of the
-/// pixels of `views`.
-pub fn median_footprint(views: &[View], records: &[Vec<Option<PixelRecord>>]) -> Option<f32> {
-    let mut foot = Vec::new();
-    for (v, r) in views.iter().zip(records) {
-        let step = (r.len() / 512).max(1);
-        for rec in r.iter().step_by(step).flatten() {
-            foot.push(rec.hit.t / v.camera.fx);
-        }
-    }
-    median(foot)
-}
-
 /// The FIPT initial baker (SLF incident light), with the switches of [`BakeConfig`], for the
 /// shadings of a [`ReflectanceModel`].
 #[derive(Clone, Debug, Default)]
@@ -523,7 +438,7 @@ pub struct FactorizedBaker {
     pub model: ReflectanceModel,
 }
 
-fn median(mut v: Vec<f32>) -> Option<f32> {
+pub(crate) fn median(mut v: Vec<f32>) -> Option<f32> {
     if v.is_empty() {
         return None;
     }
@@ -795,17 +710,7 @@ impl ShadingBaker for FactorizedBaker {
         images: &[Image],
         progress: Progress,
     ) -> fipt_core::Result<Reported<Vec<ViewShadings>>> {
-        if views.len() != images.len() {
-            return Err(fipt_core::CoreError::invalid(
-                "bake",
-                format!("{} views but {} images", views.len(), images.len()),
-            ));
-        }
-        let (output, stats, _) = self.bake_detailed(geometry, views, images, progress);
-        Ok(Reported {
-            output,
-            report: serde_json::to_value(stats).unwrap_or_default(),
-        })
+        self.bake_shard(geometry, views, images, Shard::ALL, progress)
     }
 
     fn bake_shard(

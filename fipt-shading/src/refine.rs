@@ -579,7 +579,43 @@ impl PathGrownRefiner {
 
         // Ls0/Ls1 per pixel (emitter pixels keep 0: the mask explains them).
         let t = Instant::now();
-        for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
+        self.specular_views(
+            &light,
+            geometry,
+            &records,
+            &selected,
+            &mut out,
+            &is_emitter,
+            &tick,
+        );
+        stats.seconds_specular = t.elapsed().as_secs_f64();
+        let c = &light.counters;
+        stats.secondary_miss = c.total(|c| &c.miss);
+        stats.secondary_emitter = c.total(|c| &c.emitter);
+        stats.secondary_slf = c.total(|c| &c.slf);
+        stats.secondary_grown = c.total(|c| &c.grown);
+        stats.secondary_unobserved = c.total(|c| &c.unobserved);
+        stats.paths_truncated = c.total(|c| &c.truncated);
+        stats.rays = c.total(|c| &c.rays);
+        Ok((out, stats))
+    }
+
+    /// Ls0 and Ls1 of the `selected` views' pixels (emitter pixels keep 0), each pixel's
+    /// sample streams keyed by its view and pixel index.
+    #[allow(clippy::too_many_arguments)]
+    fn specular_views(
+        &self,
+        light: &GrownLight,
+        geometry: &dyn RayQuery,
+        records: &[Vec<Option<PixelRecord>>],
+        selected: &[bool],
+        out: &mut [ViewShadings],
+        is_emitter: &(dyn Fn(&PixelRecord) -> bool + Sync),
+        tick: &(dyn Fn(usize) + Sync),
+    ) {
+        let (cfg, model) = (&self.config, self.model);
+        let seed = cfg.seed;
+        for (vi, (s, r)) in out.iter_mut().zip(records).enumerate() {
             if !selected[vi] {
                 continue;
             }
@@ -601,7 +637,7 @@ impl PathGrownRefiner {
                     });
                     let mut rng = Pcg32::from_keys(&[seed, 0x5BED, vi as u64, i as u64]);
                     (*l0, *l1) = specular_shading_mixture(
-                        &light,
+                        light,
                         geometry,
                         rec.hit.p,
                         rec.ng,
@@ -617,16 +653,6 @@ impl PathGrownRefiner {
                 });
             tick(r.iter().flatten().count());
         }
-        stats.seconds_specular = t.elapsed().as_secs_f64();
-        let c = &light.counters;
-        stats.secondary_miss = c.total(|c| &c.miss);
-        stats.secondary_emitter = c.total(|c| &c.emitter);
-        stats.secondary_slf = c.total(|c| &c.slf);
-        stats.secondary_grown = c.total(|c| &c.grown);
-        stats.secondary_unobserved = c.total(|c| &c.unobserved);
-        stats.paths_truncated = c.total(|c| &c.truncated);
-        stats.rays = c.total(|c| &c.rays);
-        Ok((out, stats))
     }
 }
 

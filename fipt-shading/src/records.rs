@@ -1,0 +1,95 @@
+//! The training pixels' primary hits and what is sized from them: every stage that computes
+//! shadings per pixel (the bake, the refinement, the search) starts from these.
+use crate::bake::median;
+use fipt_core::dataset::View;
+use fipt_core::reflectance::ReflectanceModel;
+use fipt_core::shading::{RayQuery, Shard, SurfaceHit, ViewShadings, NUM_LEVELS};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// A training pixel's primary hit, normal facing the viewer.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelRecord {
+    pub hit: SurfaceHit,
+    /// Facing geometric normal.
+    pub ng: Vec3,
+    /// Facing shading normal.
+    pub ns: Vec3,
+    /// Direction to the viewer.
+    pub wo: Vec3,
+}
+
+/// Primary hits of every pixel centre of a view.
+pub fn primary_records(geometry: &dyn RayQuery, view: &View) -> Vec<Option<PixelRecord>> {
+    let cam = &view.camera;
+    (0..cam.width * cam.height)
+        .into_par_iter()
+        .map(|i| {
+            let (o, d) = cam.pixel_center_ray(i % cam.width, i / cam.width);
+            geometry.intersect(o, d).map(|hit| {
+                let flip = if hit.ng.dot(d) > 0.0 { -1.0 } else { 1.0 };
+                let ng = hit.ng * flip;
+                let mut ns = hit.ns * flip;
+                if ns.dot(ng) < 0.0 {
+                    ns = ng;
+                }
+                PixelRecord {
+                    hit,
+                    ng,
+                    ns,
+                    wo: -d,
+                }
+            })
+        })
+        .collect()
+}
+
+/// All-zero shadings of `model` for `views`, valid where the pixel-centre ray hit the mesh.
+pub fn empty_shadings(
+    views: &[View],
+    records: &[Vec<Option<PixelRecord>>],
+    levels: [f32; NUM_LEVELS],
+    model: ReflectanceModel,
+) -> Vec<ViewShadings> {
+    empty_shadings_of(views, records, levels, model, Shard::ALL)
+}
+
+/// [`empty_shadings`] for `shard`'s views; the others get 0 × 0 shadings (a shard's memory
+/// grows with its own views only).
+pub fn empty_shadings_of(
+    views: &[View],
+    records: &[Vec<Option<PixelRecord>>],
+    levels: [f32; NUM_LEVELS],
+    model: ReflectanceModel,
+    shard: Shard,
+) -> Vec<ViewShadings> {
+    let poly = model.diffuse_depends_on_roughness();
+    views
+        .iter()
+        .zip(records)
+        .enumerate()
+        .map(|(k, (v, r))| {
+            if !shard.contains(k) {
+                return ViewShadings::zeros_for(0, 0, levels, poly);
+            }
+            let mut s = ViewShadings::zeros_for(v.camera.width, v.camera.height, levels, poly);
+            for (i, rec) in r.iter().enumerate() {
+                s.valid[i] = rec.is_some();
+            }
+            s
+        })
+        .collect()
+}
+
+/// The median pixel footprint (hit distance / focal length in pixels) over a sample of the
+/// pixels of `views`.
+pub fn median_footprint(views: &[View], records: &[Vec<Option<PixelRecord>>]) -> Option<f32> {
+    let mut foot = Vec::new();
+    for (v, r) in views.iter().zip(records) {
+        let step = (r.len() / 512).max(1);
+        for rec in r.iter().step_by(step).flatten() {
+            foot.push(rec.hit.t / v.camera.fx);
+        }
+    }
+    median(foot)
+}
