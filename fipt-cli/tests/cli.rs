@@ -402,18 +402,8 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
 
 #[test]
 fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
-    let dir = tmp("kill-scene");
+    let (dir, cfg) = tiny_resumable_scene("kill-scene", 1200);
     let d = dir.to_str().unwrap();
-    synth_cornell(d, [3, 1, 24, 16, 8]);
-    let cfg = dir.join("run.toml");
-    std::fs::write(
-        &cfg,
-        "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
-         [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
-         [train]\nsteps = 1200\nbatch = 512\ncheckpoint_every = 50\n[train.field]\nmlp_width = 16\n\
-         mask_width = 16\n[train.field.grid]\nlevels = 4\n",
-    )
-    .unwrap();
     let c = cfg.to_str().unwrap();
     // Uninterrupted.
     let full = tmp("kill-full");

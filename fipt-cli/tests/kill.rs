@@ -3,7 +3,7 @@
 //! run's measured length (one per eighth, at a seeded random point inside it), so every stage
 //! is hit: load, bake, search, training, emitters, refinement, maps, re-render, report.
 mod common;
-use common::{fipt, synth_cornell, tmp, walk};
+use common::{fipt, tiny_resumable_scene, tmp, walk};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -33,18 +33,8 @@ const COMPARED: [&str; 8] = [
 
 #[test]
 fn a_run_killed_at_random_moments_of_every_stage_resumes_to_the_same_outputs() {
-    let dir = tmp("killr-scene");
+    let (dir, cfg) = tiny_resumable_scene("killr-scene", 600);
     let d = dir.to_str().unwrap();
-    synth_cornell(d, [3, 1, 24, 16, 8]);
-    let cfg = dir.join("run.toml");
-    std::fs::write(
-        &cfg,
-        "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
-         [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
-         [train]\nsteps = 600\nbatch = 512\ncheckpoint_every = 50\n[train.field]\nmlp_width = 16\n\
-         mask_width = 16\n[train.field.grid]\nlevels = 4\n",
-    )
-    .unwrap();
     let c = cfg.to_str().unwrap();
     let full = tmp("killr-full");
     let t0 = Instant::now();

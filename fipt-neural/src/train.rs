@@ -260,6 +260,10 @@ impl TrainTimings {
     }
 }
 
+/// The name of the tensor (u8, JSON) that carries a checkpoint's [`CheckpointMeta`] inside
+/// `field.safetensors`.
+pub const META_TENSOR: &str = "checkpoint.meta";
+
 /// Checkpoint metadata, written after the tensors.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -551,8 +555,11 @@ impl Trainer {
         Ok(())
     }
 
-    /// Writes `dir/field.safetensors` (parameters and optimiser state) then
-    /// `dir/checkpoint.json`, each atomically.
+    /// Writes `dir/field.safetensors` (parameters, optimiser state and, as the tensor
+    /// [`META_TENSOR`], this checkpoint's metadata) then `dir/checkpoint.json` (the same
+    /// metadata, readable), each atomically. A process killed between the two leaves a newer
+    /// tensor file than `checkpoint.json`; [`Trainer::resume`] trusts the metadata inside the
+    /// tensor file, so the pair can never be mixed.
     pub fn save(&self, dir: &Path) -> Result<()> {
         let dev = self.field.device();
         let mut map: HashMap<String, Tensor> = HashMap::new();
@@ -567,12 +574,25 @@ impl Trainer {
         for (name, x) in [("grid.params", p), ("grid.adam.m", m), ("grid.adam.v", v)] {
             map.insert(name.into(), Tensor::from_vec(x, n, dev).ctx("checkpoint")?);
         }
+        let meta = self.meta(grid_steps);
+        let bytes =
+            serde_json::to_vec(&meta).map_err(|e| NeuralError::invalid(dir, e.to_string()))?;
+        let nb = bytes.len();
+        map.insert(
+            META_TENSOR.into(),
+            Tensor::from_vec(bytes, nb, dev).ctx("checkpoint")?,
+        );
         let path = dir.join("field.safetensors");
         write_atomic(&path, |tmp| {
             candle_core::safetensors::save(&map, tmp)
                 .map_err(|e| fipt_core::CoreError::invalid(tmp, e.to_string()))
         })?;
-        let meta = CheckpointMeta {
+        write_json_atomic(&dir.join("checkpoint.json"), &meta)?;
+        Ok(())
+    }
+
+    fn meta(&self, grid_steps: u64) -> CheckpointMeta {
+        CheckpointMeta {
             version: CHECKPOINT_VERSION,
             step: self.step,
             grid_steps,
@@ -582,9 +602,7 @@ impl Trainer {
             levels: self.level_weights.0,
             last: self.last,
             inputs: self.inputs.clone(),
-        };
-        write_json_atomic(&dir.join("checkpoint.json"), &meta)?;
-        Ok(())
+        }
     }
 
     /// Restores a checkpoint written by [`Trainer::save`] in `dir`, if it was made with the same
@@ -603,6 +621,20 @@ impl Trainer {
         let meta: CheckpointMeta = match read_json(&meta_path) {
             Ok(m) => m,
             Err(e) => return Ok(Err(format!("unreadable checkpoint ({e})"))),
+        };
+        // The tensors' own metadata wins: `checkpoint.json` may be one checkpoint behind.
+        let tensors = dir.join("field.safetensors");
+        let map = match candle_core::safetensors::load(&tensors, &candle_core::Device::Cpu) {
+            Ok(m) => m,
+            Err(e) => return Ok(Err(format!("unreadable checkpoint tensors ({e})"))),
+        };
+        let meta = match map.get(META_TENSOR).map(|t| t.to_vec1::<u8>()) {
+            None => meta,
+            Some(Ok(b)) => match serde_json::from_slice::<CheckpointMeta>(&b) {
+                Ok(m) => m,
+                Err(e) => return Ok(Err(format!("unreadable checkpoint metadata ({e})"))),
+            },
+            Some(Err(e)) => return Ok(Err(format!("unreadable checkpoint metadata ({e})"))),
         };
         if meta.version != CHECKPOINT_VERSION {
             return Ok(Err(format!("checkpoint version {}", meta.version)));
@@ -626,19 +658,12 @@ impl Trainer {
             )));
         }
         let mut t = Trainer::new(config.clone(), bounds, levels)?;
-        t.load_tensors(&dir.join("field.safetensors"), &meta)?;
+        load_field_tensors(&t.field, &map, &tensors, Some(meta.grid_steps))?;
+        t.adam.load_state(&map, meta.adam_steps, &tensors)?;
         t.step = meta.step;
         t.last = meta.last;
         t.inputs = meta.inputs.clone();
         Ok(Ok(t))
-    }
-
-    fn load_tensors(&mut self, path: &Path, meta: &CheckpointMeta) -> Result<()> {
-        let map = candle_core::safetensors::load(path, self.field.device())
-            .map_err(|e| NeuralError::invalid(path, format!("cannot read checkpoint: {e}")))?;
-        load_field_tensors(&self.field, &map, path, Some(meta.grid_steps))?;
-        self.adam.load_state(&map, meta.adam_steps, path)?;
-        Ok(())
     }
 }
 

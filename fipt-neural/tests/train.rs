@@ -128,6 +128,40 @@ fn same_seed_same_field_and_resume_is_exact() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A process killed after writing a checkpoint's tensors but before its `checkpoint.json`
+/// leaves the tensors one checkpoint ahead of the JSON. Resuming must follow the tensors'
+/// own metadata: mixing step 15's JSON with step 20's tensors gave another field (found by
+/// `fipt-cli/tests/kill.rs` with FIPT_KILL_SEED=5).
+#[test]
+fn a_kill_between_the_checkpoint_files_still_resumes_exactly() {
+    let (set, bounds) = data();
+    let cfg = config();
+    let mut a = Trainer::new(cfg.clone(), bounds, set.levels).unwrap();
+    a.run(&set, None, &mut |_| {}).unwrap();
+    let qa = query(&a);
+
+    let dir = std::env::temp_dir().join(format!("fipt-neural-kill-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut c = Trainer::new(cfg.clone(), bounds, set.levels).unwrap();
+    c.run_until(&set, 15, Some(&dir), &mut |_| {}).unwrap();
+    let old_json = std::fs::read(dir.join("checkpoint.json")).unwrap();
+    c.run_until(&set, 20, Some(&dir), &mut |_| {}).unwrap();
+    drop(c);
+    // The kill: step 20's tensors, step 15's JSON.
+    std::fs::write(dir.join("checkpoint.json"), old_json).unwrap();
+    let mut d = Trainer::resume(&cfg, bounds, set.levels, "", &dir)
+        .unwrap()
+        .expect("checkpoint accepted");
+    assert_eq!(d.step_count(), 20, "resumed at the tensors' step");
+    d.run(&set, Some(&dir), &mut |_| {}).unwrap();
+    assert_eq!(
+        qa,
+        query(&d),
+        "resumed run differs from the uninterrupted one"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bad_settings_are_rejected_with_the_key() {
     let mut cfg = config();

@@ -36,6 +36,26 @@ pub fn small_run_config(model: &str, diffuse: u32) -> String {
     )
 }
 
+/// A 3-view cornell at 24×16 and a run config small enough to run in seconds, with a
+/// checkpoint every 50 of `steps` training steps: for kill-and-resume tests. Returns the scene
+/// folder and the config file.
+pub fn tiny_resumable_scene(name: &str, steps: u32) -> (PathBuf, PathBuf) {
+    let dir = tmp(name);
+    synth_cornell(dir.to_str().unwrap(), [3, 1, 24, 16, 8]);
+    let cfg = dir.join("run.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
+             [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
+             [train]\nsteps = {steps}\nbatch = 512\ncheckpoint_every = 50\n[train.field]\nmlp_width = 16\n\
+             mask_width = 16\n[train.field.grid]\nlevels = 4\n"
+        ),
+    )
+    .unwrap();
+    (dir, cfg)
+}
+
 /// `fipt synth cornell --out dir` with [views, val views, width, height, spp].
 pub fn synth_cornell(dir: &str, sizes: [u32; 5]) {
     synth("cornell", dir, sizes, &[]);
