@@ -293,7 +293,14 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     // One run per output folder at a time (one per shard for shard runs).
     let _lock = lock(&a.out, a.sharding().shard, "fipt run")?;
     // Until it finishes, the folder says so (an older report must not pass for this run's).
-    crate::outputs::mark_status(&a.out, &a.scene, "running", None)?;
+    // Shard runs share the folder with other tasks and leave `report.json` to the plain runs.
+    let status = |s: &str, e: Option<String>| -> Result<()> {
+        if a.sharding().shard.is_all() {
+            crate::outputs::mark_status(&a.out, &a.scene, s, e)?;
+        }
+        Ok(())
+    };
+    status("running", None)?;
     let method = &cfg.pipeline.method;
     let res = match components.fitter(method, &cfg.plugin_settings(method)) {
         Err(e) => Err(e),
@@ -313,13 +320,11 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     };
     match &res {
         Err(e) if e.is::<Stopped>() => {
-            crate::outputs::mark_status(&a.out, &a.scene, "stopped", Some(e.to_string()))?;
+            status("stopped", Some(e.to_string()))?;
             println!("{e}");
             return Ok(());
         }
-        Err(e) => {
-            crate::outputs::mark_status(&a.out, &a.scene, "failed", Some(crate::describe(e)))?
-        }
+        Err(e) => status("failed", Some(crate::describe(e)))?,
         Ok(()) => {}
     }
     res
