@@ -8,6 +8,7 @@
 //! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | `fipt`: bake → search → train → emitters → (refine → search → train) × rounds |
 //! | shading baker (`fipt_core::shading::ShadingBaker`), in `fipt`'s rounds | `[pipeline] baker` | `slf`: the surface-light-field bake, settings `[bake]` |
 //! | shading refiner (`fipt_core::shading::ShadingRefiner`), in `fipt`'s rounds | `[pipeline] refiner` | `path-grown`: the path-grown refinement, settings `[refine]` |
+//! | | | `ipt` (crate `fipt-ipt`): inverse path tracing, settings `[plugins.ipt]` |
 //! | emitter extractor (`fipt_core::emitter::EmitterExtractor`) | `[pipeline] extractor` | `mask`: the emission-mask extractor, settings `[emitters]` |
 //! | reflectance model (closed set, `fipt_core::reflectance`) | `[model] brdf` | `principled`, `fipt` |
 //!
@@ -34,9 +35,10 @@ pub type RefinerFactory = Box<
 pub type ExtractorFactory =
     Box<dyn Fn(&serde_json::Value) -> Result<Box<dyn EmitterExtractor>> + Send + Sync>;
 
-/// Builds a fitter (a method) from its settings.
+/// Builds a fitter (a method) from its settings and the run's preset name (`fast`, `balanced`,
+/// `paper`, `reference`), which a method may use to choose its own defaults.
 pub type FitterFactory =
-    Box<dyn Fn(&serde_json::Value) -> Result<Box<dyn MaterialFitter>> + Send + Sync>;
+    Box<dyn Fn(&serde_json::Value, &str) -> Result<Box<dyn MaterialFitter>> + Send + Sync>;
 
 struct Entry<F> {
     description: String,
@@ -59,6 +61,9 @@ pub const PATH_GROWN_REFINER: &str = "path-grown";
 
 /// The built-in emitter extractor's name.
 pub const MASK_EXTRACTOR: &str = "mask";
+
+/// The inverse-path-tracing baseline's name (crate `fipt-ipt`).
+pub const IPT_METHOD: &str = "ipt";
 
 /// The built-in method's name (FIPT's rounds, not a registered fitter).
 pub const FIPT_METHOD: &str = "fipt";
@@ -92,6 +97,18 @@ impl Components {
                 Ok(Box::new(
                     fipt_shading::refine::PathGrownRefiner::new(config).with_model(model),
                 ))
+            }),
+        )
+        .with_fitter(
+            IPT_METHOD,
+            "inverse path tracing: materials per part (or triangle) and emission per triangle optimised jointly through a differentiable path tracer (settings: [plugins.ipt], defaults per preset)",
+            Box::new(|v, preset| {
+                let base = fipt_ipt::IptConfig::preset(preset).ok_or_else(|| {
+                    anyhow::anyhow!("unknown preset `{preset}` (use one of {})", crate::config::PRESETS)
+                })?;
+                let config: fipt_ipt::IptConfig = crate::config::lay_over(base, v.clone())?;
+                config.validate().map_err(anyhow::Error::msg)?;
+                Ok(Box::new(fipt_ipt::Ipt { config }))
             }),
         )
         .with_extractor(
@@ -141,12 +158,13 @@ impl Components {
             .collect()
     }
 
-    /// The fitter of method `name` built from `settings`; None for `fipt`, the built-in
-    /// method; an unknown name lists the registered ones.
+    /// The fitter of method `name` built from `settings` for `preset`; None for `fipt`, the
+    /// built-in method; an unknown name lists the registered ones.
     pub fn fitter(
         &self,
         name: &str,
         settings: &serde_json::Value,
+        preset: &str,
     ) -> Result<Option<Box<dyn MaterialFitter>>> {
         if name == FIPT_METHOD {
             return Ok(None);
@@ -157,7 +175,7 @@ impl Components {
                 self.method_names().join(", ")
             );
         };
-        (e.factory)(settings)
+        (e.factory)(settings, preset)
             .map(Some)
             .map_err(|err| anyhow::anyhow!("settings of method `{name}`: {err:#}"))
     }

@@ -57,6 +57,15 @@ pub fn load<T: Serialize + DeserializeOwned>(preset: T, file: Option<&Path>) -> 
     load_with(preset, file, None)
 }
 
+/// `preset` with the keys of `over` laid over it (a plug-in's `[plugins.<name>]` table);
+/// an unknown or mistyped key is an error naming it.
+pub fn lay_over<T: Serialize + DeserializeOwned>(preset: T, over: serde_json::Value) -> Result<T> {
+    let mut base = serde_json::to_value(&preset)?;
+    merge(&mut base, over);
+    serde_path_to_error::deserialize(base)
+        .map_err(|e| anyhow::anyhow!("`{}`: {}", e.path(), e.inner()))
+}
+
 fn load_with<T: Serialize + DeserializeOwned>(
     preset: T,
     file: Option<&Path>,

@@ -38,6 +38,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
             out: a.dir.join("out"),
             preset: a.preset,
             config: None,
+            method: None,
             bad_pixels: crate::info::Policy::Reject,
             force: false,
             shard: None,

@@ -9,6 +9,7 @@ use crate::outputs::{
 use crate::run::{Args, RunConfig};
 use crate::Components;
 use anyhow::Result;
+use fipt_core::dataset::GtKind;
 use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::{FitInputs, MaterialFitter};
 use fipt_core::fsutil::write_json_atomic;
@@ -58,6 +59,16 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
     } else {
         None
     };
+    let segments = if fitter.wants_segments() {
+        let split = scene.ds.train();
+        [GtKind::IndexMA, GtKind::Segmentation]
+            .into_iter()
+            .find(|&k| split.has_gt(k))
+            .map(|k| crate::regions::split_ids(&scene, k))
+            .transpose()?
+    } else {
+        None
+    };
     let t = Instant::now();
     let dir = a.out.join("fit");
     std::fs::create_dir_all(&dir)?;
@@ -71,6 +82,7 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
             views: &split.views,
             images: &scene.images,
             shadings: shadings.as_deref(),
+            segments: segments.as_deref(),
             model: cfg.model.brdf,
             dir: &dir,
         },

@@ -42,6 +42,10 @@ pub struct Args {
     /// every preset but reference) or fipt (Lambert + GGX, the method's; reference).
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// The method, over `[pipeline] method`: fipt (built in), ipt (inverse path tracing, the
+    /// baseline; settings `[plugins.ipt]`), or one the binary registers.
+    #[arg(long)]
+    pub method: Option<String>,
     /// What to do with NaN/Inf/negative pixels.
     #[arg(long, value_enum, default_value = "reject")]
     pub bad_pixels: Policy,
@@ -281,8 +285,11 @@ impl RunConfig {
 }
 
 pub fn run(a: Args, components: &crate::Components) -> Result<()> {
-    let cfg: RunConfig =
+    let mut cfg: RunConfig =
         crate::config::load_preset(&a.preset, RunConfig::preset, a.config.as_deref())?;
+    if let Some(m) = &a.method {
+        cfg.pipeline.method = m.clone();
+    }
     cfg.train.validate()?;
     // Components first: a misspelt name or bad plug-in settings fail before any work.
     let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
@@ -302,7 +309,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     };
     status("running", None)?;
     let method = &cfg.pipeline.method;
-    let res = match components.fitter(method, &cfg.plugin_settings(method)) {
+    let res = match components.fitter(method, &cfg.plugin_settings(method), &a.preset) {
         Err(e) => Err(e),
         Ok(Some(fitter)) => {
             let parts = crate::fit::Parts {

@@ -23,6 +23,10 @@ pub struct FitInputs<'a> {
     pub images: &'a [Image],
     /// The initial bake's shadings of `views`, when [`MaterialFitter::needs_shadings`].
     pub shadings: Option<&'a [ViewShadings]>,
+    /// Per training view and pixel, the scene's part id (`IndexMA/`, else the semantic class of
+    /// `segmentation/`; negative: none), when the scene has them and
+    /// [`MaterialFitter::wants_segments`]; an empty vector for a view without a map.
+    pub segments: Option<&'a [Vec<i64>]>,
     /// The run's reflectance model (`[model] brdf`).
     pub model: ReflectanceModel,
     /// A folder of the fitter's own (checkpoints, resume); it exists.
@@ -45,6 +49,10 @@ pub trait MaterialFitter {
     fn name(&self) -> &str;
     /// Whether the run should bake the initial shadings for it ([`FitInputs::shadings`]).
     fn needs_shadings(&self) -> bool;
+    /// Whether the run should load the scene's part or class ids ([`FitInputs::segments`]).
+    fn wants_segments(&self) -> bool {
+        false
+    }
     /// Fits the field; `progress(done, total)` as the work goes.
     fn fit(&self, inputs: &FitInputs, progress: Progress) -> Result<Fitted>;
 }

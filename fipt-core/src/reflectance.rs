@@ -144,6 +144,13 @@ pub fn metallic_workflow(a: Rgb, m: f32) -> (Rgb, Rgb) {
     )
 }
 
+/// The derivatives of [`metallic_workflow`]: (∂kd/∂a, ∂ks/∂a) per channel of `a` (each
+/// channel depends only on its own), and (∂kd/∂m, ∂ks/∂m).
+#[inline]
+pub fn metallic_workflow_derivatives(a: Rgb, m: f32) -> ((f32, f32), (Rgb, Rgb)) {
+    ((1.0 - m, m), (-a, a - Vec3::splat(DIELECTRIC_F0)))
+}
+
 /// The base colour of the metallic workflow back from (kd, ks, m): kd / (1 − m), or ks for a
 /// metal (m ≈ 1), where kd carries nothing.
 #[inline]
@@ -278,6 +285,25 @@ mod tests {
         let a = Vec3::new(0.9, 0.5, 0.1);
         assert_eq!(metallic_workflow(a, 0.0), (a, Vec3::splat(0.04)));
         assert_eq!(metallic_workflow(a, 1.0), (Vec3::ZERO, a));
+        // The derivatives against central differences of the workflow.
+        let (a, m, h) = (Vec3::new(0.7, 0.2, 0.5), 0.3f32, 1e-3f32);
+        let ((kd_a, ks_a), (kd_m, ks_m)) = metallic_workflow_derivatives(a, m);
+        let (p, q) = (metallic_workflow(a, m + h), metallic_workflow(a, m - h));
+        assert!(((p.0 - q.0) / (2.0 * h) - kd_m).abs().max_element() < 1e-3);
+        assert!(((p.1 - q.1) / (2.0 * h) - ks_m).abs().max_element() < 1e-3);
+        let (p, q) = (metallic_workflow(a + h, m), metallic_workflow(a - h, m));
+        assert!(
+            ((p.0 - q.0) / (2.0 * h) - Vec3::splat(kd_a))
+                .abs()
+                .max_element()
+                < 1e-3
+        );
+        assert!(
+            ((p.1 - q.1) / (2.0 * h) - Vec3::splat(ks_a))
+                .abs()
+                .max_element()
+                < 1e-3
+        );
         let (d, d1) = diffuse_at(Vec3::ONE, Some(&[Vec3::splat(2.0), Vec3::splat(3.0)]), 0.5);
         assert_eq!((d, d1), (Vec3::splat(2.75), Vec3::splat(5.0)));
     }

@@ -176,7 +176,7 @@ pub fn register(components: Components) -> Components {
     components.with_fitter(
         "voxel-lambert",
         "Lambertian albedo per voxel by least squares on the bake (a baseline; settings: [plugins.voxel-lambert])",
-        Box::new(|v| {
+        Box::new(|v, _preset| {
             let config: VoxelLambertConfig = serde_json::from_value(v.clone())?;
             Ok(Box::new(VoxelLambert { config }))
         }),

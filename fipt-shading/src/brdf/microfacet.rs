@@ -72,21 +72,29 @@ impl MicrofacetBrdf {
         let g = self.model.g1(wi.z, self.roughness) * self.model.g1(wo.z, self.roughness);
         Some((d * g / (4.0 * wo.z), schlick_weight(voh)))
     }
+
+    /// The three scalar lobes [d, s0, s1] of f·cos θi = kd·d + ks·s0 + s1 at (ωo, ωi): the
+    /// BRDF is linear in kd and ks for a fixed σ (what a differentiable tracer needs); zero
+    /// below the horizon.
+    #[inline]
+    pub fn lobes(&self, wo: Vec3, wi: Vec3) -> [f32; 3] {
+        match self.spec_terms(wo, wi) {
+            None => [0.0; 3],
+            Some((dg, m)) => {
+                let [b0, b1, b2] = self.model.diffuse_basis(wo.z, wi.z, wo.dot(wi));
+                let s = self.roughness;
+                let b = b0 + s * (b1 + s * b2);
+                [FRAC_1_PI * wi.z * b, dg * (1.0 - m), dg * m]
+            }
+        }
+    }
 }
 
 impl Brdf for MicrofacetBrdf {
     #[inline]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        match self.spec_terms(wo, wi) {
-            None => Vec3::ZERO,
-            Some((dg, m)) => {
-                let f = self.ks * (1.0 - m) + Vec3::splat(m);
-                let [b0, b1, b2] = self.model.diffuse_basis(wo.z, wi.z, wo.dot(wi));
-                let s = self.roughness;
-                let b = b0 + s * (b1 + s * b2);
-                self.kd * (FRAC_1_PI * wi.z * b) + f * dg
-            }
-        }
+        let [d, s0, s1] = self.lobes(wo, wi);
+        self.kd * d + self.ks * s0 + Vec3::splat(s1)
     }
 
     #[inline]

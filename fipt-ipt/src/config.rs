@@ -1,0 +1,149 @@
+//! `[plugins.ipt]`: the settings of the joint optimisation, laid over a named preset.
+use serde::{Deserialize, Serialize};
+
+/// What the material unknowns are attached to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Segments {
+    /// One material per scene part (`IndexMA/`, else per class of `segmentation/`) when the
+    /// scene has them, else one per triangle.
+    Auto,
+    /// One material per triangle.
+    None,
+}
+
+/// The settings of `--method ipt`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IptConfig {
+    /// Gradient steps.
+    pub iterations: u32,
+    /// Training pixels per step (each traced twice: one path for the residual, an independent
+    /// one for the gradient, so the squared loss's gradient is unbiased).
+    pub batch: u32,
+    /// Reflections along a path (1: direct light only).
+    pub max_bounces: u32,
+    /// Adam's rate at the first step; it decays exponentially to `learning_rate ·
+    /// final_rate_ratio` at the last (a constant rate keeps joint optimisation wandering).
+    pub learning_rate: f32,
+    pub final_rate_ratio: f32,
+    /// The rate of the log-radiances relative to `learning_rate` (a step of the log is a
+    /// relative change of the radiance; emitters start decades below their value).
+    pub emission_rate_scale: f32,
+    /// The material unknowns: per part (`auto`) or per triangle (`none`).
+    pub segments: Segments,
+    /// Weight of the L1 prior on emitted radiance (area-weighted, relative to the mean observed
+    /// radiance): it decides between a surface that reflects and one that emits.
+    pub emission_prior: f32,
+    /// Rebuild the emitter sampler from the current emission every this many steps.
+    pub light_update_every: u32,
+    /// Save the state every this many steps (and at the end); a rerun resumes from it.
+    pub checkpoint_every: u32,
+    /// A seen triangle is an emitter when its fitted radiance is at least this share of the
+    /// radiance observed on it.
+    pub emitter_share: f32,
+    /// Initial base colour, roughness and emitted radiance (relative to the mean observed
+    /// radiance).
+    pub init_albedo: f32,
+    pub init_roughness: f32,
+    pub init_emission: f32,
+    pub seed: u64,
+}
+
+impl Default for IptConfig {
+    fn default() -> Self {
+        IptConfig::balanced()
+    }
+}
+
+impl IptConfig {
+    pub fn balanced() -> Self {
+        IptConfig {
+            iterations: 600,
+            batch: 8192,
+            max_bounces: 3,
+            learning_rate: 0.03,
+            final_rate_ratio: 0.05,
+            emission_rate_scale: 4.0,
+            segments: Segments::Auto,
+            emission_prior: 0.01,
+            light_update_every: 10,
+            checkpoint_every: 50,
+            emitter_share: 0.5,
+            init_albedo: 0.5,
+            init_roughness: 0.5,
+            init_emission: 1e-3,
+            seed: 0,
+        }
+    }
+
+    pub fn fast() -> Self {
+        IptConfig {
+            iterations: 300,
+            batch: 4096,
+            max_bounces: 2,
+            ..Self::balanced()
+        }
+    }
+
+    pub fn paper() -> Self {
+        IptConfig {
+            iterations: 1500,
+            batch: 16384,
+            max_bounces: 4,
+            ..Self::balanced()
+        }
+    }
+
+    /// The preset `name` (`reference` is `paper`: the reference never had an IPT).
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "fast" => Some(Self::fast()),
+            "balanced" => Some(Self::balanced()),
+            "paper" | "reference" => Some(Self::paper()),
+            _ => None,
+        }
+    }
+
+    /// Range checks, naming the key.
+    pub fn validate(&self) -> Result<(), String> {
+        let bad = |k: &str, why: &str| Err(format!("[plugins.ipt] {k}: {why}"));
+        if self.iterations == 0 || self.iterations > 10_000_000 {
+            return bad("iterations", "must be in 1..=10000000");
+        }
+        if self.batch == 0 || self.batch > 1 << 22 {
+            return bad("batch", "must be in 1..=4194304");
+        }
+        if self.max_bounces == 0 || self.max_bounces > 32 {
+            return bad("max_bounces", "must be in 1..=32");
+        }
+        if !(self.learning_rate > 0.0 && self.learning_rate <= 1.0) {
+            return bad("learning_rate", "must be in (0, 1]");
+        }
+        if !(self.final_rate_ratio > 0.0 && self.final_rate_ratio <= 1.0) {
+            return bad("final_rate_ratio", "must be in (0, 1]");
+        }
+        if !(self.emission_rate_scale > 0.0 && self.emission_rate_scale <= 100.0) {
+            return bad("emission_rate_scale", "must be in (0, 100]");
+        }
+        if !(self.emission_prior >= 0.0 && self.emission_prior.is_finite()) {
+            return bad("emission_prior", "must be ≥ 0");
+        }
+        if self.light_update_every == 0 || self.checkpoint_every == 0 {
+            return bad("light_update_every / checkpoint_every", "must be ≥ 1");
+        }
+        if !(self.emitter_share > 0.0 && self.emitter_share <= 1.0) {
+            return bad("emitter_share", "must be in (0, 1]");
+        }
+        if !(0.0..=1.0).contains(&self.init_albedo)
+            || !(0.02..=1.0).contains(&self.init_roughness)
+            || !(self.init_emission > 0.0 && self.init_emission.is_finite())
+        {
+            return bad(
+                "init_*",
+                "init_albedo in [0, 1], init_roughness in [0.02, 1], init_emission > 0",
+            );
+        }
+        Ok(())
+    }
+}

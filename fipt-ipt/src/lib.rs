@@ -1,0 +1,280 @@
+//! `fipt-ipt`: inverse path tracing (IPT, Azinović et al. 2019) as a method of `fipt run`, the
+//! baseline FIPT replaces: the materials and the emission of a scene optimised jointly by
+//! gradient descent through a differentiable Monte Carlo path tracer.
+//!
+//! * **Unknowns** ([`params`]): base colour, roughness and metallic per material group — a
+//!   scene part (`IndexMA/`, else a class of `segmentation/`) when the scene has them and
+//!   `segments = "auto"`, else a triangle — and emitted radiance per triangle, every triangle
+//!   starting dim (nothing says which surfaces emit).
+//! * **Gradients** ([`tracer`]): path replay — each path is traced with next-event estimation
+//!   to the current emitters and MIS, and differentiated with its sampled directions held
+//!   fixed. A residual path and an independent gradient path per pixel keep the squared
+//!   loss's gradient unbiased.
+//! * **Optimiser** ([`optimise`]): Adam on the relative squared error, an exponentially decaying
+//!   rate, an L1 prior on emission, the emitter sampler rebuilt from the current power,
+//!   checkpoints to resume from.
+//! * **Output** ([`Ipt`] implements `fipt_core::fit::MaterialFitter`): the fitted table as a
+//!   `MaterialField` and the emitters (seen triangles whose fitted emission makes up at least
+//!   `emitter_share` of the radiance observed on them, grouped by shared edges), so the run's
+//!   maps, re-renders, report and evaluation are those of every method.
+pub mod config;
+pub mod field;
+pub mod lights;
+pub mod optimise;
+pub mod params;
+pub mod tracer;
+
+pub use config::{IptConfig, Segments};
+use fipt_core::color::{luminance, Rgb};
+use fipt_core::emitter::Emitter;
+use fipt_core::field::Material;
+use fipt_core::fit::{FitInputs, Fitted, MaterialFitter};
+use fipt_core::shading::Progress;
+use fipt_core::CoreError;
+use fipt_geom::Mesh;
+use glam::Vec3;
+use optimise::{Problem, State};
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+
+/// The IPT method.
+pub struct Ipt {
+    pub config: IptConfig,
+}
+
+/// What the fit prepares from its inputs before optimising.
+pub struct Prepared {
+    pub mesh: Mesh,
+    pub tri_group: Vec<u32>,
+    pub groups: usize,
+    /// Where the groups came from.
+    pub segments: &'static str,
+    /// Per triangle: training pixels whose centre ray hits it, and their summed radiance.
+    pub seen: Vec<(u32, Rgb)>,
+    pub mean_radiance: f32,
+}
+
+impl Ipt {
+    /// Groups, observations per triangle and the radiance scale.
+    pub fn prepare(&self, inp: &FitInputs) -> fipt_core::Result<Prepared> {
+        let mesh = Mesh::from_triangles(inp.positions.to_vec(), None, inp.triangles.to_vec());
+        if mesh.triangles.len() != inp.triangles.len() {
+            return Err(CoreError::invalid(
+                "ipt",
+                "the mesh has degenerate triangles (load it through fipt, which drops them)",
+            ));
+        }
+        let nt = mesh.triangles.len();
+        // Primary hit of every training pixel's centre.
+        let hits: Vec<Vec<Option<u32>>> = inp
+            .views
+            .par_iter()
+            .map(|v| {
+                let c = &v.camera;
+                (0..c.width * c.height)
+                    .map(|i| {
+                        let (o, d) = c.pixel_center_ray(i % c.width, i / c.width);
+                        inp.geometry.intersect(o, d).map(|h| h.tri)
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut seen = vec![(0u32, Vec3::ZERO); nt];
+        let (mut sum, mut count) = (0f64, 0usize);
+        let mut votes: Vec<BTreeMap<i64, u32>> = vec![BTreeMap::new(); nt];
+        let ids = inp
+            .segments
+            .filter(|_| self.config.segments == Segments::Auto);
+        for (v, view_hits) in hits.iter().enumerate() {
+            let img = &inp.images[v].data;
+            let view_ids = ids.and_then(|s| s.get(v)).filter(|s| s.len() == img.len());
+            for (i, h) in view_hits.iter().enumerate() {
+                sum += luminance(img[i]) as f64;
+                count += 1;
+                let Some(t) = *h else { continue };
+                let s = &mut seen[t as usize];
+                s.0 += 1;
+                s.1 += img[i];
+                if let Some(&id) = view_ids.and_then(|s| s.get(i)).filter(|&&id| id >= 0) {
+                    *votes[t as usize].entry(id).or_default() += 1;
+                }
+            }
+        }
+        let (tri_group, groups, segments) = if ids.is_some() {
+            // The majority id of each triangle's pixels; unseen triangles share one group.
+            let labels: Vec<Option<i64>> = votes
+                .iter()
+                .map(|m| {
+                    m.iter()
+                        .max_by_key(|(id, n)| (**n, -**id))
+                        .map(|(id, _)| *id)
+                })
+                .collect();
+            let mut index: BTreeMap<i64, u32> = BTreeMap::new();
+            for l in labels.iter().flatten() {
+                let n = index.len() as u32;
+                index.entry(*l).or_insert(n);
+            }
+            let unseen = index.len() as u32;
+            let g = labels
+                .iter()
+                .map(|l| l.map_or(unseen, |l| index[&l]))
+                .collect();
+            (g, unseen as usize + 1, "parts of the scene's id maps")
+        } else {
+            ((0..nt as u32).collect(), nt, "triangles")
+        };
+        Ok(Prepared {
+            mesh,
+            tri_group,
+            groups,
+            segments,
+            seen,
+            mean_radiance: (sum / count.max(1) as f64) as f32,
+        })
+    }
+
+    /// The settings key a checkpoint must match.
+    fn key(&self, prep: &Prepared, inp: &FitInputs) -> String {
+        let v = serde_json::json!({
+            "config": self.config, "model": inp.model, "views": inp.views.len(),
+            "groups": prep.groups, "triangles": prep.mesh.triangles.len(),
+        });
+        fipt_core::fsutil::hash_json(&v)
+    }
+
+    /// Optimises up to step `until` (resuming from the checkpoint in `inp.dir` when it is
+    /// this fit's); returns the state and the step it resumed at.
+    pub fn optimise(
+        &self,
+        inp: &FitInputs,
+        prep: &Prepared,
+        until: u32,
+        progress: Progress,
+    ) -> fipt_core::Result<(State, u32)> {
+        self.config
+            .validate()
+            .map_err(|e| CoreError::invalid("ipt", e))?;
+        let problem = Problem {
+            geometry: inp.geometry,
+            mesh: &prep.mesh,
+            views: inp.views,
+            images: inp.images,
+            tri_group: &prep.tri_group,
+            groups: prep.groups,
+            model: inp.model,
+            mean_radiance: prep.mean_radiance,
+        };
+        let key = self.key(prep, inp);
+        let fresh = State::initial(&problem, &self.config);
+        let mut state = State::load(inp.dir, &key, &fresh)?.unwrap_or(fresh);
+        let start = state.iteration;
+        optimise::run(
+            &problem,
+            &self.config,
+            &mut state,
+            until,
+            inp.dir,
+            &key,
+            progress,
+        )?;
+        Ok((state, start))
+    }
+
+    /// The emitters of a fitted state: seen triangles whose emission is at least
+    /// `emitter_share` of their observed radiance, grouped by shared edges.
+    pub fn emitters(&self, prep: &Prepared, state: &State) -> (Vec<bool>, Vec<Emitter>) {
+        let nt = prep.mesh.triangles.len();
+        let emitting: Vec<bool> = (0..nt)
+            .map(|t| {
+                let (n, sum) = prep.seen[t];
+                let le = luminance(state.params.emission(t as u32));
+                n > 0 && le >= self.config.emitter_share * luminance(sum / n as f32) && le > 0.0
+            })
+            .collect();
+        let neighbours = prep.mesh.edge_neighbours();
+        let mut done = vec![false; nt];
+        let mut lights = vec![];
+        for start in 0..nt {
+            if !emitting[start] || done[start] {
+                continue;
+            }
+            let (mut stack, mut tris) = (vec![start as u32], vec![]);
+            done[start] = true;
+            while let Some(t) = stack.pop() {
+                tris.push(t);
+                for &u in &neighbours[t as usize] {
+                    if emitting[u as usize] && !done[u as usize] {
+                        done[u as usize] = true;
+                        stack.push(u);
+                    }
+                }
+            }
+            tris.sort_unstable();
+            let radiance = tris.iter().map(|&t| state.params.emission(t)).collect();
+            let pixels = tris.iter().map(|&t| prep.seen[t as usize].0 as usize).sum();
+            let m = &prep.mesh;
+            if let Some(e) =
+                Emitter::from_triangles(&m.positions, &m.triangles, tris, radiance, pixels)
+            {
+                lights.push(e);
+            }
+        }
+        (emitting, lights)
+    }
+}
+
+impl MaterialFitter for Ipt {
+    fn name(&self) -> &str {
+        "ipt"
+    }
+    fn needs_shadings(&self) -> bool {
+        false
+    }
+    fn wants_segments(&self) -> bool {
+        self.config.segments == Segments::Auto
+    }
+    fn fit(&self, inp: &FitInputs, progress: Progress) -> fipt_core::Result<Fitted> {
+        let t0 = std::time::Instant::now();
+        let prep = self.prepare(inp)?;
+        let t_prep = t0.elapsed().as_secs_f64();
+        let t1 = std::time::Instant::now();
+        let (state, start) = self.optimise(inp, &prep, self.config.iterations, progress)?;
+        let secs = t1.elapsed().as_secs_f64();
+        let (emitting, emitters) = self.emitters(&prep, &state);
+        let p = &state.params;
+        let group_materials = (0..prep.groups as u32)
+            .map(|g| Material {
+                albedo: p.albedo(g),
+                roughness: p.roughness(g),
+                metallic: p.metallic(g),
+            })
+            .collect();
+        let steps = state.iteration.saturating_sub(start);
+        let report = serde_json::json!({
+            "method": "ipt",
+            "config": self.config,
+            "unknowns": { "material_groups": prep.groups, "groups_are": prep.segments,
+                          "emitting_triangles": prep.mesh.triangles.len(), "parameters": p.len() },
+            "resumed_at_step": start,
+            "steps": state.iteration,
+            "seconds_prepare": t_prep,
+            "seconds_optimise": secs,
+            "steps_per_second": if secs > 0.0 { steps as f64 / secs } else { 0.0 },
+            "paths_per_second": if secs > 0.0 { 2.0 * steps as f64 * self.config.batch as f64 / secs } else { 0.0 },
+            "loss": state.losses,
+            "emitter_triangles": emitting.iter().filter(|&&e| e).count(),
+        });
+        let field = field::IptField {
+            locator: field::TriangleLocator::new(&prep.mesh),
+            tri_group: prep.tri_group,
+            group_materials,
+            emitting,
+        };
+        Ok(Fitted {
+            field: Box::new(field),
+            emitters: Some(emitters),
+            report,
+        })
+    }
+}

@@ -1,0 +1,254 @@
+//! The optimisation loop: batches of training pixels, a residual path and a gradient path per
+//! pixel, the relative squared loss, Adam at a decaying rate, the emitter sampler refreshed
+//! from the current emission, and a checkpoint to resume from.
+use crate::config::IptConfig;
+use crate::lights::LightSampler;
+use crate::params::{Adam, Params};
+use crate::tracer::{accumulate_gradient, trace, TraceScene, Vertex};
+use fipt_core::color::{luminance, Rgb};
+use fipt_core::dataset::View;
+use fipt_core::image::Image;
+use fipt_core::reflectance::ReflectanceModel;
+use fipt_core::rng::Pcg32;
+use fipt_core::shading::{Progress, RayQuery};
+use fipt_core::CoreError;
+use fipt_geom::Mesh;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::path::Path;
+
+/// What the loop works on (prepared once per fit).
+pub struct Problem<'a> {
+    pub geometry: &'a dyn RayQuery,
+    pub mesh: &'a Mesh,
+    pub views: &'a [View],
+    pub images: &'a [Image],
+    pub tri_group: &'a [u32],
+    pub groups: usize,
+    pub model: ReflectanceModel,
+    /// Mean observed luminance of the training pixels (the loss's and the prior's scale).
+    pub mean_radiance: f32,
+}
+
+/// The optimiser's state: what a checkpoint holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State {
+    pub params: Params,
+    pub adam: Adam,
+    /// Steps done.
+    pub iteration: u32,
+    /// (step, mean relative squared residual of the batch) every 10 steps.
+    pub losses: Vec<(u32, f32)>,
+}
+
+const CHECKPOINT: &str = "ipt-state.bin";
+const MAGIC: &str = "fipt-ipt-state-1";
+
+impl State {
+    pub fn initial(p: &Problem, cfg: &IptConfig) -> State {
+        let params = Params::new(
+            p.groups,
+            p.mesh.triangles.len(),
+            cfg.init_albedo,
+            cfg.init_roughness,
+            cfg.init_emission * p.mean_radiance,
+        );
+        let adam = Adam::new(params.len());
+        State {
+            params,
+            adam,
+            iteration: 0,
+            losses: vec![],
+        }
+    }
+
+    /// Writes the state into `dir` (one file, written whole then renamed: a kill leaves the
+    /// previous checkpoint).
+    pub fn save(&self, dir: &Path, key: &str) -> fipt_core::Result<()> {
+        let header = serde_json::json!({
+            "magic": MAGIC, "key": key, "iteration": self.iteration, "adam_steps": self.adam.t,
+            "groups": self.params.groups, "triangles": self.params.triangles,
+            "losses": self.losses,
+        });
+        let mut bytes = serde_json::to_vec(&header).expect("a JSON value serialises");
+        bytes.push(b'\n');
+        for v in [&self.params.x, &self.adam.m, &self.adam.v] {
+            for x in v.iter() {
+                bytes.extend(x.to_le_bytes());
+            }
+        }
+        fipt_core::fsutil::write_bytes_atomic(&dir.join(CHECKPOINT), &bytes)
+    }
+
+    /// The checkpoint in `dir` when it was written for `key` and `fresh`'s sizes; None when
+    /// there is none or it belongs to other settings (then the fit starts afresh).
+    pub fn load(dir: &Path, key: &str, fresh: &State) -> fipt_core::Result<Option<State>> {
+        let path = dir.join(CHECKPOINT);
+        let Ok(bytes) = std::fs::read(&path) else {
+            return Ok(None);
+        };
+        let corrupt = |why: &str| {
+            CoreError::invalid(&path, format!("{why}; delete it to start the fit afresh"))
+        };
+        let nl = bytes
+            .iter()
+            .position(|&b| b == b'\n')
+            .ok_or_else(|| corrupt("no header"))?;
+        let h: serde_json::Value =
+            serde_json::from_slice(&bytes[..nl]).map_err(|_| corrupt("unreadable header"))?;
+        let n = fresh.params.len();
+        let same = h["magic"] == MAGIC
+            && h["key"] == key
+            && h["groups"] == fresh.params.groups
+            && h["triangles"] == fresh.params.triangles;
+        if !same {
+            return Ok(None);
+        }
+        let body = &bytes[nl + 1..];
+        if body.len() != 3 * n * 4 {
+            return Err(corrupt("truncated"));
+        }
+        let floats: Vec<f32> = body
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        let mut s = fresh.clone();
+        s.params.x.copy_from_slice(&floats[..n]);
+        s.adam.m.copy_from_slice(&floats[n..2 * n]);
+        s.adam.v.copy_from_slice(&floats[2 * n..]);
+        s.adam.t = h["adam_steps"]
+            .as_u64()
+            .ok_or_else(|| corrupt("no adam_steps"))? as u32;
+        s.iteration = h["iteration"]
+            .as_u64()
+            .ok_or_else(|| corrupt("no iteration"))? as u32;
+        s.losses = serde_json::from_value(h["losses"].clone()).unwrap_or_default();
+        Ok(Some(s))
+    }
+}
+
+/// The pixel of a flat index over all training views.
+struct Pixels {
+    /// Start of each view's pixels.
+    offsets: Vec<usize>,
+}
+
+impl Pixels {
+    fn new(views: &[View]) -> Self {
+        let mut offsets = vec![0];
+        for v in views {
+            offsets.push(offsets.last().unwrap() + v.camera.width * v.camera.height);
+        }
+        Pixels { offsets }
+    }
+    fn total(&self) -> usize {
+        *self.offsets.last().unwrap()
+    }
+    fn locate(&self, k: usize) -> (usize, usize) {
+        let v = self.offsets.partition_point(|&o| o <= k) - 1;
+        (v, k - self.offsets[v])
+    }
+}
+
+/// Runs steps `state.iteration..until` (saving a checkpoint every `checkpoint_every` steps
+/// and at `until`); `progress(step, cfg.iterations)`.
+pub fn run(
+    p: &Problem,
+    cfg: &IptConfig,
+    state: &mut State,
+    until: u32,
+    dir: &Path,
+    key: &str,
+    progress: Progress,
+) -> fipt_core::Result<()> {
+    let pixels = Pixels::new(p.views);
+    if pixels.total() == 0 {
+        return Err(CoreError::invalid("ipt", "no training pixels"));
+    }
+    let eps = 0.05 * p.mean_radiance.max(1e-12);
+    let batch = cfg.batch as usize;
+    let until = until.min(cfg.iterations);
+    let total_area: f32 = (0..p.mesh.triangles.len()).map(|t| p.mesh.area(t)).sum();
+    let lum_w = [Vec3::X, Vec3::Y, Vec3::Z].map(luminance);
+    let mut lights = LightSampler::new(p.mesh, &state.params);
+    while state.iteration < until {
+        let it = state.iteration;
+        if it % cfg.light_update_every == 0 {
+            lights = LightSampler::new(p.mesh, &state.params);
+        }
+        let scene = TraceScene {
+            geometry: p.geometry,
+            tri_group: p.tri_group,
+            model: p.model,
+            lights: &lights,
+            max_bounces: cfg.max_bounces,
+        };
+        let params = &state.params;
+        let chunks: Vec<(Vec<(u32, f32)>, f64)> = (0..batch)
+            .collect::<Vec<_>>()
+            .par_chunks(256)
+            .map(|js| {
+                let mut grad = Vec::with_capacity(js.len() * 24);
+                let mut path: Vec<Vertex> = Vec::with_capacity(8);
+                let mut loss = 0f64;
+                for &j in js {
+                    let keys = |pass: u64| [cfg.seed, it as u64, j as u64, pass];
+                    let mut rng = Pcg32::from_keys(&keys(0));
+                    let k = ((rng.next_u32() as u64 * pixels.total() as u64) >> 32) as usize;
+                    let (v, i) = pixels.locate(k);
+                    let cam = &p.views[v].camera;
+                    let (x, y) = ((i % cam.width) as f32, (i / cam.width) as f32);
+                    let jitter = rng.next_2d();
+                    let (o, d) = cam.ray(x + jitter.x, y + jitter.y);
+                    let observed = p.images[v].data[i];
+                    let l = trace(&scene, params, o, d, &mut rng, &mut path);
+                    let mut rng_g = Pcg32::from_keys(&keys(1));
+                    trace(&scene, params, o, d, &mut rng_g, &mut path);
+                    let w = 1.0 / (luminance(observed) + eps).powi(2);
+                    let r: Rgb = l - observed;
+                    if !r.is_finite() {
+                        continue;
+                    }
+                    loss += (r.length_squared() * w) as f64;
+                    let delta = r * (2.0 * w / batch as f32);
+                    accumulate_gradient(&scene, params, &path, delta, &mut grad);
+                }
+                (grad, loss)
+            })
+            .collect();
+        let mut g = vec![0f32; state.params.len()];
+        let mut loss = 0f64;
+        for (pairs, l) in chunks {
+            loss += l;
+            for (i, v) in pairs {
+                g[i as usize] += v;
+            }
+        }
+        // The L1 prior on emission: λ Σ_t (A_t/A) lum(Le_t) / mean radiance.
+        if cfg.emission_prior > 0.0 {
+            let s = cfg.emission_prior / (total_area.max(1e-20) * p.mean_radiance.max(1e-12));
+            for t in 0..p.mesh.triangles.len() as u32 {
+                let le = state.params.emission(t);
+                let i = state.params.emission_index(t);
+                let a = p.mesh.area(t as usize) * s;
+                for c in 0..3 {
+                    g[i + c] += a * lum_w[c] * le[c];
+                }
+            }
+        }
+        let frac = it as f32 / cfg.iterations.max(1) as f32;
+        let lr = cfg.learning_rate * cfg.final_rate_ratio.powf(frac);
+        state
+            .adam
+            .step(&mut state.params, &g, lr, lr * cfg.emission_rate_scale);
+        state.iteration += 1;
+        if it % 10 == 0 {
+            state.losses.push((it, (loss / batch as f64) as f32));
+        }
+        if state.iteration % cfg.checkpoint_every == 0 || state.iteration == until {
+            state.save(dir, key)?;
+        }
+        progress(state.iteration as usize, cfg.iterations as usize);
+    }
+    Ok(())
+}
