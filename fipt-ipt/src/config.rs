@@ -21,8 +21,10 @@ pub struct IptConfig {
     /// Training pixels per step (each traced twice: one path for the residual, an independent
     /// one for the gradient, so the squared loss's gradient is unbiased).
     pub batch: u32,
-    /// Reflections along a path (1: direct light only).
+    /// Reflections along a path at most (1: direct light only).
     pub max_bounces: u32,
+    /// Reflections before Russian roulette ends paths by their throughput.
+    pub rr_start: u32,
     /// Adam's rate at the first step; it decays exponentially to `learning_rate ·
     /// final_rate_ratio` at the last (a constant rate keeps joint optimisation wandering).
     pub learning_rate: f32,
@@ -30,10 +32,15 @@ pub struct IptConfig {
     /// The rate of the log-radiances relative to `learning_rate` (a step of the log is a
     /// relative change of the radiance; emitters start decades below their value).
     pub emission_rate_scale: f32,
+    /// The largest relative residual |L − I| / (I + ε) a pixel contributes, per channel: one
+    /// firefly of the residual path must not steer a step (at the price of a bias where the
+    /// residual path is that noisy).
+    pub max_relative_residual: f32,
     /// The material unknowns: per part (`auto`) or per triangle (`none`).
     pub segments: Segments,
-    /// Weight of the L1 prior on emitted radiance (area-weighted, relative to the mean observed
-    /// radiance): it decides between a surface that reflects and one that emits.
+    /// Weight of the L1 prior on emitted radiance (area-weighted, relative to the radiance
+    /// observed on each triangle): it decides between a surface that reflects and one that
+    /// emits.
     pub emission_prior: f32,
     /// Rebuild the emitter sampler from the current emission every this many steps.
     pub light_update_every: u32,
@@ -42,8 +49,8 @@ pub struct IptConfig {
     /// A seen triangle is an emitter when its fitted radiance is at least this share of the
     /// radiance observed on it.
     pub emitter_share: f32,
-    /// Initial base colour, roughness and emitted radiance (relative to the mean observed
-    /// radiance).
+    /// Initial base colour, roughness, and emitted radiance of each seen triangle relative to
+    /// the radiance observed on it.
     pub init_albedo: f32,
     pub init_roughness: f32,
     pub init_emission: f32,
@@ -61,18 +68,20 @@ impl IptConfig {
         IptConfig {
             iterations: 600,
             batch: 8192,
-            max_bounces: 3,
+            max_bounces: 6,
+            rr_start: 2,
             learning_rate: 0.03,
             final_rate_ratio: 0.05,
             emission_rate_scale: 4.0,
+            max_relative_residual: 50.0,
             segments: Segments::Auto,
-            emission_prior: 0.01,
+            emission_prior: 0.1,
             light_update_every: 10,
             checkpoint_every: 50,
             emitter_share: 0.5,
             init_albedo: 0.5,
             init_roughness: 0.5,
-            init_emission: 1e-3,
+            init_emission: 0.01,
             seed: 0,
         }
     }
@@ -81,7 +90,7 @@ impl IptConfig {
         IptConfig {
             iterations: 300,
             batch: 4096,
-            max_bounces: 2,
+            max_bounces: 4,
             ..Self::balanced()
         }
     }
@@ -90,7 +99,7 @@ impl IptConfig {
         IptConfig {
             iterations: 1500,
             batch: 16384,
-            max_bounces: 4,
+            max_bounces: 8,
             ..Self::balanced()
         }
     }
@@ -123,14 +132,20 @@ impl IptConfig {
         if !(self.final_rate_ratio > 0.0 && self.final_rate_ratio <= 1.0) {
             return bad("final_rate_ratio", "must be in (0, 1]");
         }
+        if !(self.max_relative_residual > 0.0) {
+            return bad("max_relative_residual", "must be > 0");
+        }
         if !(self.emission_rate_scale > 0.0 && self.emission_rate_scale <= 100.0) {
             return bad("emission_rate_scale", "must be in (0, 100]");
         }
         if !(self.emission_prior >= 0.0 && self.emission_prior.is_finite()) {
             return bad("emission_prior", "must be ≥ 0");
         }
-        if self.light_update_every == 0 || self.checkpoint_every == 0 {
-            return bad("light_update_every / checkpoint_every", "must be ≥ 1");
+        if self.light_update_every == 0 || self.checkpoint_every % self.light_update_every != 0 {
+            return bad(
+                "light_update_every / checkpoint_every",
+                "must be ≥ 1, checkpoint_every a multiple of light_update_every",
+            );
         }
         if !(self.emitter_share > 0.0 && self.emitter_share <= 1.0) {
             return bad("emitter_share", "must be in (0, 1]");

@@ -51,6 +51,8 @@ pub struct Prepared {
     pub segments: &'static str,
     /// Per triangle: training pixels whose centre ray hits it, and their summed radiance.
     pub seen: Vec<(u32, Rgb)>,
+    /// Per view and pixel: the triangle its centre ray hits (u32::MAX: none).
+    pub pixel_triangles: Vec<Vec<u32>>,
     pub mean_radiance: f32,
 }
 
@@ -124,7 +126,12 @@ impl Ipt {
         } else {
             ((0..nt as u32).collect(), nt, "triangles")
         };
+        let pixel_triangles = hits
+            .iter()
+            .map(|h| h.iter().map(|t| t.unwrap_or(u32::MAX)).collect())
+            .collect();
         Ok(Prepared {
+            pixel_triangles,
             mesh,
             tri_group,
             groups,
@@ -155,12 +162,21 @@ impl Ipt {
         self.config
             .validate()
             .map_err(|e| CoreError::invalid("ipt", e))?;
+        let may_emit: Vec<bool> = prep.seen.iter().map(|s| s.0 > 0).collect();
+        let observed: Vec<Rgb> = prep
+            .seen
+            .iter()
+            .map(|&(n, sum)| if n > 0 { sum / n as f32 } else { Vec3::ZERO })
+            .collect();
         let problem = Problem {
             geometry: inp.geometry,
             mesh: &prep.mesh,
             views: inp.views,
             images: inp.images,
             tri_group: &prep.tri_group,
+            may_emit: &may_emit,
+            observed: &observed,
+            pixel_triangles: &prep.pixel_triangles,
             groups: prep.groups,
             model: inp.model,
             mean_radiance: prep.mean_radiance,

@@ -24,6 +24,13 @@ pub struct Problem<'a> {
     pub views: &'a [View],
     pub images: &'a [Image],
     pub tri_group: &'a [u32],
+    /// Whether each triangle may emit (a training pixel sees it; a light no view sees cannot
+    /// be told from the surfaces it lights, so the others stay black).
+    pub may_emit: &'a [bool],
+    /// Mean observed radiance of each triangle's pixels (0 unseen).
+    pub observed: &'a [Rgb],
+    /// The triangle each training pixel's centre ray hits (u32::MAX: none), per view.
+    pub pixel_triangles: &'a [Vec<u32>],
     pub groups: usize,
     pub model: ReflectanceModel,
     /// Mean observed luminance of the training pixels (the loss's and the prior's scale).
@@ -46,13 +53,26 @@ const MAGIC: &str = "fipt-ipt-state-1";
 
 impl State {
     pub fn initial(p: &Problem, cfg: &IptConfig) -> State {
-        let params = Params::new(
+        // Every seen triangle starts emitting `init_emission` times the radiance observed on
+        // it (nothing says which surfaces emit); the others stay black.
+        let mut params = Params::new(
             p.groups,
             p.mesh.triangles.len(),
             cfg.init_albedo,
             cfg.init_roughness,
-            cfg.init_emission * p.mean_radiance,
+            1.0,
         );
+        for (t, &o) in p.observed.iter().enumerate() {
+            let i = params.emission_index(t as u32);
+            for c in 0..3 {
+                params.x[i + c] = if p.may_emit[t] {
+                    (cfg.init_emission * o[c]).ln()
+                } else {
+                    f32::NEG_INFINITY
+                };
+            }
+        }
+        params.project();
         let adam = Adam::new(params.len());
         State {
             params,
@@ -151,7 +171,7 @@ impl Pixels {
 }
 
 /// Runs steps `state.iteration..until` (saving a checkpoint every `checkpoint_every` steps
-/// and at `until`); `progress(step, cfg.iterations)`.
+/// and at the last); `progress(step, cfg.iterations)`.
 pub fn run(
     p: &Problem,
     cfg: &IptConfig,
@@ -166,6 +186,7 @@ pub fn run(
         return Err(CoreError::invalid("ipt", "no training pixels"));
     }
     let eps = 0.05 * p.mean_radiance.max(1e-12);
+    let max_rel = cfg.max_relative_residual;
     let batch = cfg.batch as usize;
     let until = until.min(cfg.iterations);
     let total_area: f32 = (0..p.mesh.triangles.len()).map(|t| p.mesh.area(t)).sum();
@@ -182,6 +203,7 @@ pub fn run(
             model: p.model,
             lights: &lights,
             max_bounces: cfg.max_bounces,
+            rr_start: cfg.rr_start,
         };
         let params = &state.params;
         let chunks: Vec<(Vec<(u32, f32)>, f64)> = (0..batch)
@@ -202,15 +224,28 @@ pub fn run(
                     let (o, d) = cam.ray(x + jitter.x, y + jitter.y);
                     let observed = p.images[v].data[i];
                     let l = trace(&scene, params, o, d, &mut rng, &mut path);
+                    // The gradient path is independent of the residual's, its point in the
+                    // pixel included: a shared point correlates the two at every edge (a
+                    // light's edge pixels would pull its radiance down).
                     let mut rng_g = Pcg32::from_keys(&keys(1));
+                    let jitter = rng_g.next_2d();
+                    let (o, d) = cam.ray(x + jitter.x, y + jitter.y);
                     trace(&scene, params, o, d, &mut rng_g, &mut path);
-                    let w = 1.0 / (luminance(observed) + eps).powi(2);
-                    let r: Rgb = l - observed;
+                    // The relative residual, clamped: one firefly of the residual path must not
+                    // steer a step.
+                    // The scale of the relative error: the mean radiance observed on the
+                    // pixel's triangle, not the pixel's own (noisy) value, whose noise would
+                    // otherwise weigh the darker realisations more and bias the fit.
+                    let tri = p.pixel_triangles[v][i];
+                    let typical = p.observed.get(tri as usize).map_or(0.0, |&o| luminance(o));
+                    let scale = 1.0 / (typical + eps);
+                    let r: Rgb =
+                        ((l - observed) * scale).clamp(Vec3::splat(-max_rel), Vec3::splat(max_rel));
                     if !r.is_finite() {
                         continue;
                     }
-                    loss += (r.length_squared() * w) as f64;
-                    let delta = r * (2.0 * w / batch as f32);
+                    loss += r.length_squared() as f64;
+                    let delta = r * (2.0 * scale / batch as f32);
                     accumulate_gradient(&scene, params, &path, delta, &mut grad);
                 }
                 (grad, loss)
@@ -224,13 +259,21 @@ pub fn run(
                 g[i as usize] += v;
             }
         }
-        // The L1 prior on emission: λ Σ_t (A_t/A) lum(Le_t) / mean radiance.
+        for (t, _) in p.may_emit.iter().enumerate().filter(|(_, &e)| !e) {
+            let i = state.params.emission_index(t as u32);
+            g[i..i + 3].fill(0.0);
+        }
+        // The L1 prior on emission, relative to what each triangle shows:
+        // λ Σ_t (A_t/A) lum(Le_t) / (observed_t + ε).
         if cfg.emission_prior > 0.0 {
-            let s = cfg.emission_prior / (total_area.max(1e-20) * p.mean_radiance.max(1e-12));
+            let s = cfg.emission_prior / total_area.max(1e-20);
             for t in 0..p.mesh.triangles.len() as u32 {
+                if !p.may_emit[t as usize] {
+                    continue;
+                }
                 let le = state.params.emission(t);
                 let i = state.params.emission_index(t);
-                let a = p.mesh.area(t as usize) * s;
+                let a = p.mesh.area(t as usize) * s / (luminance(p.observed[t as usize]) + eps);
                 for c in 0..3 {
                     g[i + c] += a * lum_w[c] * le[c];
                 }
@@ -245,7 +288,9 @@ pub fn run(
         if it % 10 == 0 {
             state.losses.push((it, (loss / batch as f64) as f32));
         }
-        if state.iteration % cfg.checkpoint_every == 0 || state.iteration == until {
+        // Checkpoints fall on steps that rebuild the emitter sampler, so a resumed fit rebuilds
+        // the same one.
+        if state.iteration % cfg.checkpoint_every == 0 || state.iteration == cfg.iterations {
             state.save(dir, key)?;
         }
         progress(state.iteration as usize, cfg.iterations as usize);

@@ -36,6 +36,8 @@ pub struct TraceScene<'a> {
     pub lights: &'a LightSampler<'a>,
     /// Reflections along a path (1: direct light only).
     pub max_bounces: u32,
+    /// Reflections before Russian roulette.
+    pub rr_start: u32,
 }
 
 /// A BRDF factor g = kd·d + ks·s0 + s1 at one direction pair, with ∂/∂σ of its lobes.
@@ -202,9 +204,21 @@ pub fn trace(
             path.push(v);
             break;
         }
-        v.next = Some((s.wi, 1.0 / s.pdf));
+        let mut inv_pdf = 1.0 / s.pdf;
+        let w = factor(&b, &b.lobes(wo, s.wi)) * inv_pdf;
+        // Russian roulette after `rr_start` reflections; the survival probability joins the
+        // (fixed) pdf of the path.
+        if bounce + 1 > scene.rr_start {
+            let q = (beta * w).max_element().min(0.95);
+            if !(rng.next_f32() < q) {
+                path.push(v);
+                break;
+            }
+            inv_pdf /= q;
+        }
+        v.next = Some((s.wi, inv_pdf));
         path.push(v);
-        beta *= factor(&b, &b.lobes(wo, s.wi)) / s.pdf;
+        beta *= factor(&b, &b.lobes(wo, s.wi)) * inv_pdf;
         prev_pdf = s.pdf;
         origin = p_out;
         dir = wi_w;

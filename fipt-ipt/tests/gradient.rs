@@ -43,7 +43,8 @@ fn check(model: ReflectanceModel) {
         tri_group: &tri_group,
         model,
         lights: &lights,
-        max_bounces: 3,
+        max_bounces: 4,
+        rr_start: 1,
     };
     // Paths through the pixels of both views, their gradient for δ = (0.3, 1, 0.6).
     let delta = Vec3::new(0.3, 1.0, 0.6);
