@@ -49,10 +49,13 @@ pub struct Prepared {
     pub groups: usize,
     /// Where the groups came from.
     pub segments: &'static str,
-    /// Per triangle: training pixels whose centre ray hits it, and their summed radiance.
+    /// Per emission slot (a side of a triangle, [`params::slot`]): training pixels whose
+    /// centre ray sees it, and their summed radiance.
     pub seen: Vec<(u32, Rgb)>,
-    /// Per view and pixel: the triangle its centre ray hits (u32::MAX: none).
-    pub pixel_triangles: Vec<Vec<u32>>,
+    /// Per slot: the brightest radiance observed on its pixels, per channel.
+    pub observed_max: Vec<Rgb>,
+    /// Per view and pixel: the slot its centre ray sees (u32::MAX: none).
+    pub pixel_slots: Vec<Vec<u32>>,
     pub mean_radiance: f32,
 }
 
@@ -67,8 +70,9 @@ impl Ipt {
             ));
         }
         let nt = mesh.triangles.len();
-        // Primary hit of every training pixel's centre.
-        let hits: Vec<Vec<Option<u32>>> = inp
+        // Primary hit of every training pixel's centre: triangle and emission slot.
+        let two_sided = self.config.two_sided_emission;
+        let hits: Vec<Vec<Option<(u32, u32)>>> = inp
             .views
             .par_iter()
             .map(|v| {
@@ -76,12 +80,15 @@ impl Ipt {
                 (0..c.width * c.height)
                     .map(|i| {
                         let (o, d) = c.pixel_center_ray(i % c.width, i / c.width);
-                        inp.geometry.intersect(o, d).map(|h| h.tri)
+                        inp.geometry
+                            .intersect(o, d)
+                            .map(|h| (h.tri, params::slot(h.tri, h.ng.dot(d) < 0.0, two_sided)))
                     })
                     .collect()
             })
             .collect();
-        let mut seen = vec![(0u32, Vec3::ZERO); nt];
+        let mut seen = vec![(0u32, Vec3::ZERO); 2 * nt];
+        let mut observed_max = vec![Vec3::ZERO; 2 * nt];
         let (mut sum, mut count) = (0f64, 0usize);
         let mut votes: Vec<BTreeMap<i64, u32>> = vec![BTreeMap::new(); nt];
         let ids = inp
@@ -93,10 +100,11 @@ impl Ipt {
             for (i, h) in view_hits.iter().enumerate() {
                 sum += luminance(img[i]) as f64;
                 count += 1;
-                let Some(t) = *h else { continue };
-                let s = &mut seen[t as usize];
+                let Some((t, slot)) = *h else { continue };
+                let s = &mut seen[slot as usize];
                 s.0 += 1;
                 s.1 += img[i];
+                observed_max[slot as usize] = observed_max[slot as usize].max(img[i]);
                 if let Some(&id) = view_ids.and_then(|s| s.get(i)).filter(|&&id| id >= 0) {
                     *votes[t as usize].entry(id).or_default() += 1;
                 }
@@ -126,12 +134,13 @@ impl Ipt {
         } else {
             ((0..nt as u32).collect(), nt, "triangles")
         };
-        let pixel_triangles = hits
+        let pixel_slots = hits
             .iter()
-            .map(|h| h.iter().map(|t| t.unwrap_or(u32::MAX)).collect())
+            .map(|h| h.iter().map(|t| t.map_or(u32::MAX, |t| t.1)).collect())
             .collect();
         Ok(Prepared {
-            pixel_triangles,
+            pixel_slots,
+            observed_max,
             mesh,
             tri_group,
             groups,
@@ -176,7 +185,8 @@ impl Ipt {
             tri_group: &prep.tri_group,
             may_emit: &may_emit,
             observed: &observed,
-            pixel_triangles: &prep.pixel_triangles,
+            pixel_slots: &prep.pixel_slots,
+            observed_max: &prep.observed_max,
             groups: prep.groups,
             model: inp.model,
             mean_radiance: prep.mean_radiance,
@@ -197,16 +207,31 @@ impl Ipt {
         Ok((state, start))
     }
 
-    /// The emitters of a fitted state: seen triangles whose emission is at least
-    /// `emitter_share` of their observed radiance, grouped by shared edges.
+    /// The emitted radiance of triangle `t`: its brighter side's.
+    pub fn triangle_emission(state: &State, t: u32) -> Rgb {
+        let (a, b) = (
+            state.params.emission(2 * t),
+            state.params.emission(2 * t + 1),
+        );
+        if luminance(a) >= luminance(b) {
+            a
+        } else {
+            b
+        }
+    }
+
+    /// The emitters of a fitted state: triangles with a seen side whose emission is at least
+    /// `emitter_share` of the radiance observed on it, grouped by shared edges; the radiance
+    /// of each is its brighter side's.
     pub fn emitters(&self, prep: &Prepared, state: &State) -> (Vec<bool>, Vec<Emitter>) {
         let nt = prep.mesh.triangles.len();
+        let slot_emits = |s: usize| {
+            let (n, sum) = prep.seen[s];
+            let le = luminance(state.params.emission(s as u32));
+            n > 0 && le >= self.config.emitter_share * luminance(sum / n as f32) && le > 0.0
+        };
         let emitting: Vec<bool> = (0..nt)
-            .map(|t| {
-                let (n, sum) = prep.seen[t];
-                let le = luminance(state.params.emission(t as u32));
-                n > 0 && le >= self.config.emitter_share * luminance(sum / n as f32) && le > 0.0
-            })
+            .map(|t| slot_emits(2 * t) || slot_emits(2 * t + 1))
             .collect();
         let neighbours = prep.mesh.edge_neighbours();
         let mut done = vec![false; nt];
@@ -227,8 +252,14 @@ impl Ipt {
                 }
             }
             tris.sort_unstable();
-            let radiance = tris.iter().map(|&t| state.params.emission(t)).collect();
-            let pixels = tris.iter().map(|&t| prep.seen[t as usize].0 as usize).sum();
+            let radiance = tris
+                .iter()
+                .map(|&t| Self::triangle_emission(state, t))
+                .collect();
+            let pixels = tris
+                .iter()
+                .map(|&t| (prep.seen[2 * t as usize].0 + prep.seen[2 * t as usize + 1].0) as usize)
+                .sum();
             let m = &prep.mesh;
             if let Some(e) =
                 Emitter::from_triangles(&m.positions, &m.triangles, tris, radiance, pixels)

@@ -24,13 +24,17 @@ pub struct Problem<'a> {
     pub views: &'a [View],
     pub images: &'a [Image],
     pub tri_group: &'a [u32],
-    /// Whether each triangle may emit (a training pixel sees it; a light no view sees cannot
-    /// be told from the surfaces it lights, so the others stay black).
+    /// Per emission slot ([`crate::params::slot`]): whether it may emit (a training pixel
+    /// sees it; a light no view sees cannot be told from the surfaces it lights, so the
+    /// others stay black).
     pub may_emit: &'a [bool],
-    /// Mean observed radiance of each triangle's pixels (0 unseen).
+    /// Per slot, the mean observed radiance of its pixels (0 unseen).
     pub observed: &'a [Rgb],
-    /// The triangle each training pixel's centre ray hits (u32::MAX: none), per view.
-    pub pixel_triangles: &'a [Vec<u32>],
+    /// Per slot, the brightest radiance observed on its pixels, per channel: no surface
+    /// emits more than leaves it.
+    pub observed_max: &'a [Rgb],
+    /// The slot each training pixel's centre ray sees (u32::MAX: none), per view.
+    pub pixel_slots: &'a [Vec<u32>],
     pub groups: usize,
     pub model: ReflectanceModel,
     /// Mean observed luminance of the training pixels (the loss's and the prior's scale).
@@ -48,19 +52,23 @@ pub struct State {
     pub losses: Vec<(u32, f32)>,
 }
 
+/// Slack of the emission bound over the brightest observed pixel (image noise).
+const EMISSION_BOUND_SLACK: f32 = 1.25;
+
 const CHECKPOINT: &str = "ipt-state.bin";
 const MAGIC: &str = "fipt-ipt-state-1";
 
 impl State {
     pub fn initial(p: &Problem, cfg: &IptConfig) -> State {
-        // Every seen triangle starts emitting `init_emission` times the radiance observed on
-        // it (nothing says which surfaces emit); the others stay black.
+        // Every seen side of a triangle starts emitting `init_emission` times the radiance
+        // observed on it (nothing says which surfaces emit); the others stay black.
         let mut params = Params::new(
             p.groups,
             p.mesh.triangles.len(),
             cfg.init_albedo,
             cfg.init_roughness,
             1.0,
+            cfg.two_sided_emission,
         );
         for (t, &o) in p.observed.iter().enumerate() {
             let i = params.emission_index(t as u32);
@@ -72,6 +80,16 @@ impl State {
                 };
             }
         }
+        params.log_emission_bound = p
+            .observed_max
+            .iter()
+            .flat_map(|m| {
+                (*m * EMISSION_BOUND_SLACK)
+                    .max(Vec3::splat(1e-30))
+                    .to_array()
+                    .map(f32::ln)
+            })
+            .collect();
         params.project();
         let adam = Adam::new(params.len());
         State {
@@ -87,7 +105,7 @@ impl State {
     pub fn save(&self, dir: &Path, key: &str) -> fipt_core::Result<()> {
         let header = serde_json::json!({
             "magic": MAGIC, "key": key, "iteration": self.iteration, "adam_steps": self.adam.t,
-            "groups": self.params.groups, "triangles": self.params.triangles,
+            "groups": self.params.groups, "slots": self.params.slots,
             "losses": self.losses,
         });
         let mut bytes = serde_json::to_vec(&header).expect("a JSON value serialises");
@@ -120,7 +138,7 @@ impl State {
         let same = h["magic"] == MAGIC
             && h["key"] == key
             && h["groups"] == fresh.params.groups
-            && h["triangles"] == fresh.params.triangles;
+            && h["slots"] == fresh.params.slots;
         if !same {
             return Ok(None);
         }
@@ -236,8 +254,8 @@ pub fn run(
                     // The scale of the relative error: the mean radiance observed on the
                     // pixel's triangle, not the pixel's own (noisy) value, whose noise would
                     // otherwise weigh the darker realisations more and bias the fit.
-                    let tri = p.pixel_triangles[v][i];
-                    let typical = p.observed.get(tri as usize).map_or(0.0, |&o| luminance(o));
+                    let slot = p.pixel_slots[v][i];
+                    let typical = p.observed.get(slot as usize).map_or(0.0, |&o| luminance(o));
                     let scale = 1.0 / (typical + eps);
                     let r: Rgb =
                         ((l - observed) * scale).clamp(Vec3::splat(-max_rel), Vec3::splat(max_rel));
@@ -263,17 +281,18 @@ pub fn run(
             let i = state.params.emission_index(t as u32);
             g[i..i + 3].fill(0.0);
         }
-        // The L1 prior on emission, relative to what each triangle shows:
-        // λ Σ_t (A_t/A) lum(Le_t) / (observed_t + ε).
+        // The L1 prior on emission, relative to what each slot shows:
+        // λ Σ_s (A_s/A) lum(Le_s) / (observed_s + ε).
         if cfg.emission_prior > 0.0 {
             let s = cfg.emission_prior / total_area.max(1e-20);
-            for t in 0..p.mesh.triangles.len() as u32 {
-                if !p.may_emit[t as usize] {
+            for slot in 0..state.params.slots as u32 {
+                if !p.may_emit[slot as usize] {
                     continue;
                 }
-                let le = state.params.emission(t);
-                let i = state.params.emission_index(t);
-                let a = p.mesh.area(t as usize) * s / (luminance(p.observed[t as usize]) + eps);
+                let le = state.params.emission(slot);
+                let i = state.params.emission_index(slot);
+                let area = p.mesh.area(slot as usize / 2);
+                let a = area * s / (luminance(p.observed[slot as usize]) + eps);
                 for c in 0..3 {
                     g[i + c] += a * lum_w[c] * le[c];
                 }

@@ -1,8 +1,9 @@
 //! The unknowns of the joint optimisation and the optimiser that moves them.
 //!
 //! Per material group g (a scene part, or a triangle): base colour a ∈ [0, 1]³, roughness
-//! σ ∈ [0.02, 1] and metallic m ∈ [0, 1]; per triangle t: emitted radiance Le = exp(u) per
-//! channel (log-parametrised: radiance spans decades, and Adam's steps are relative to it).
+//! σ ∈ [0.02, 1] and metallic m ∈ [0, 1]; per emission slot (each side of a triangle, or
+//! one for both sides): emitted radiance Le = exp(u) per channel (log-parametrised: radiance
+//! spans decades, and Adam's steps are relative to it).
 //! Adam with projection onto the ranges after each step, at a rate that decays exponentially.
 use fipt_core::color::Rgb;
 use fipt_core::reflectance::MIN_ROUGHNESS;
@@ -15,27 +16,44 @@ pub const PER_GROUP: usize = 5;
 /// of a normalised scene.
 pub const LOG_LE_RANGE: (f32, f32) = (-20.0, 16.0);
 
-/// All unknowns, flat: groups first, then per-triangle log-radiance.
+/// All unknowns, flat: groups first, then the log-radiance of every emission slot.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Params {
     pub groups: usize,
-    pub triangles: usize,
+    /// Emission slots: two per triangle ([`slot`]).
+    pub slots: usize,
     pub x: Vec<f32>,
+    /// Both sides of a triangle share slot 2t (the odd slots stay black).
+    pub two_sided: bool,
+    /// Per slot and channel, the largest log-radiance it may emit (empty: no bound beyond
+    /// [`LOG_LE_RANGE`]).
+    pub log_emission_bound: Vec<f32>,
 }
 
 impl Params {
-    /// Every group at `albedo`, `roughness`, metallic 0; every triangle at radiance `le`.
-    pub fn new(groups: usize, triangles: usize, albedo: f32, roughness: f32, le: f32) -> Self {
-        let mut x = Vec::with_capacity(groups * PER_GROUP + triangles * 3);
+    /// Every group at `albedo`, `roughness`, metallic 0; both sides of every triangle at
+    /// radiance `le`, each its own unknown unless `two_sided`.
+    pub fn new(
+        groups: usize,
+        triangles: usize,
+        albedo: f32,
+        roughness: f32,
+        le: f32,
+        two_sided: bool,
+    ) -> Self {
+        let slots = 2 * triangles;
+        let mut x = Vec::with_capacity(groups * PER_GROUP + slots * 3);
         for _ in 0..groups {
             x.extend([albedo, albedo, albedo, roughness, 0.0]);
         }
         let u = le.max(1e-30).ln().clamp(LOG_LE_RANGE.0, LOG_LE_RANGE.1);
-        x.extend(std::iter::repeat_n(u, triangles * 3));
+        x.extend(std::iter::repeat_n(u, slots * 3));
         Params {
             groups,
-            triangles,
+            slots,
             x,
+            two_sided,
+            log_emission_bound: vec![],
         }
     }
 
@@ -60,8 +78,15 @@ impl Params {
         g as usize * PER_GROUP + 4
     }
     #[inline]
-    pub fn emission_index(&self, t: u32) -> usize {
-        self.groups * PER_GROUP + t as usize * 3
+    pub fn emission_index(&self, slot: u32) -> usize {
+        self.groups * PER_GROUP + slot as usize * 3
+    }
+
+    /// The emission slot of triangle `t` seen from its `front` (the side its winding normal
+    /// faces) or its back.
+    #[inline]
+    pub fn slot(&self, t: u32, front: bool) -> u32 {
+        slot(t, front, self.two_sided)
     }
 
     #[inline]
@@ -77,17 +102,22 @@ impl Params {
     pub fn metallic(&self, g: u32) -> f32 {
         self.x[Self::metallic_index(g)]
     }
-    /// Emitted radiance of triangle `t`.
+    /// Emitted radiance of emission slot `slot`.
     #[inline]
-    pub fn emission(&self, t: u32) -> Rgb {
-        let i = self.emission_index(t);
+    pub fn emission(&self, slot: u32) -> Rgb {
+        let i = self.emission_index(slot);
         Vec3::new(self.x[i].exp(), self.x[i + 1].exp(), self.x[i + 2].exp())
     }
 
     /// The range of parameter `i`.
     fn range(&self, i: usize) -> (f32, f32) {
-        if i >= self.groups * PER_GROUP {
-            LOG_LE_RANGE
+        let first = self.groups * PER_GROUP;
+        if i >= first {
+            let hi = self.log_emission_bound.get(i - first).copied();
+            (
+                LOG_LE_RANGE.0,
+                hi.map_or(LOG_LE_RANGE.1, |b| b.clamp(LOG_LE_RANGE.0, LOG_LE_RANGE.1)),
+            )
         } else {
             match i % PER_GROUP {
                 3 => (MIN_ROUGHNESS, 1.0),
@@ -103,6 +133,13 @@ impl Params {
             self.x[i] = self.x[i].clamp(lo, hi);
         }
     }
+}
+
+/// The emission slot of triangle `t` seen from its `front` or back: 2t + (back), or 2t for
+/// both when `two_sided`.
+#[inline]
+pub fn slot(t: u32, front: bool, two_sided: bool) -> u32 {
+    2 * t + u32::from(!front && !two_sided)
 }
 
 /// Adam (Kingma & Ba 2015) with β = (0.9, 0.999).
@@ -153,8 +190,10 @@ mod tests {
 
     #[test]
     fn layout_ranges_and_a_step() {
-        let mut p = Params::new(2, 3, 0.5, 0.5, 1.0);
-        assert_eq!(p.len(), 2 * PER_GROUP + 9);
+        let mut p = Params::new(2, 3, 0.5, 0.5, 1.0, false);
+        assert_eq!(p.len(), 2 * PER_GROUP + 18);
+        assert_eq!((p.slot(2, true), p.slot(2, false)), (4, 5));
+        assert_eq!((slot(2, true, true), slot(2, false, true)), (4, 4));
         assert_eq!(p.albedo(1), Vec3::splat(0.5));
         assert_eq!(p.emission(2), Vec3::ONE);
         let mut adam = Adam::new(p.len());

@@ -47,7 +47,8 @@ pub struct Lobes {
     pub dl: [f32; 3],
 }
 
-/// The next-event term of a vertex: light triangle, direction to it (local), mis / p_light.
+/// The next-event term of a vertex: the light's emission slot, direction to it (local),
+/// mis / p_light.
 #[derive(Clone, Copy, Debug)]
 pub struct Nee {
     pub light: u32,
@@ -59,6 +60,8 @@ pub struct Nee {
 #[derive(Clone, Copy, Debug)]
 pub struct Vertex {
     pub tri: u32,
+    /// The emission slot of the side of `tri` the path sees.
+    pub slot: u32,
     /// Weight of the triangle's own emission at this vertex (1 for the camera's hit, the MIS
     /// weight after a BRDF sample).
     pub emission_weight: f32,
@@ -136,16 +139,17 @@ pub fn trace(
         };
         let wo_w = -dir;
         let cos_ng = hit.ng.dot(wo_w);
+        let slot = params.slot(hit.tri, cos_ng > 0.0);
         let emission_weight = if prev_pdf == 0.0 {
             1.0
         } else {
-            let light_pdf =
-                scene.lights.pdf_area(hit.tri) * hit.t * hit.t / cos_ng.abs().max(1e-12);
+            let light_pdf = scene.lights.pdf_area(slot) * hit.t * hit.t / cos_ng.abs().max(1e-12);
             power_heuristic(prev_pdf, light_pdf)
         };
-        l += beta * params.emission(hit.tri) * emission_weight;
+        l += beta * params.emission(slot) * emission_weight;
         let mut v = Vertex {
             tri: hit.tri,
+            slot,
             emission_weight,
             wo: Vec3::Z,
             nee: None,
@@ -178,16 +182,24 @@ pub fn trace(
             let wi_w = d / dist.max(1e-20);
             let cos_l = ls.n.dot(wi_w).abs();
             let wi = frame.to_local(wi_w);
-            if dist > 0.0 && cos_l > 0.0 && wi.z > 0.0 && wi_w.dot(ng) > 0.0 && ls.tri != hit.tri {
+            // The sampled side must face the point.
+            let facing = params.slot(ls.tri, ls.n.dot(wi_w) < 0.0) == ls.slot;
+            if dist > 0.0
+                && cos_l > 0.0
+                && facing
+                && wi.z > 0.0
+                && wi_w.dot(ng) > 0.0
+                && ls.tri != hit.tri
+            {
                 let lb = b.lobes(wo, wi);
                 if lb.iter().any(|&x| x != 0.0)
                     && !scene.geometry.occluded(p_out, wi_w, dist * (1.0 - 1e-4))
                 {
                     let light_pdf = ls.pdf_area * dist2 / cos_l;
                     let scale = power_heuristic(light_pdf, b.pdf(wo, wi)) / light_pdf;
-                    l += beta * factor(&b, &lb) * params.emission(ls.tri) * scale;
+                    l += beta * factor(&b, &lb) * params.emission(ls.slot) * scale;
                     v.nee = Some(Nee {
-                        light: ls.tri,
+                        light: ls.slot,
                         wi,
                         scale,
                     });
@@ -230,7 +242,7 @@ pub fn trace(
 /// weight towards the next vertex, with parameters `params`.
 #[inline]
 fn vertex_terms(params: &Params, b: &MicrofacetBrdf, v: &Vertex) -> (Rgb, Rgb) {
-    let mut e = params.emission(v.tri) * v.emission_weight;
+    let mut e = params.emission(v.slot) * v.emission_weight;
     if let Some(n) = v.nee {
         e += factor(b, &b.lobes(v.wo, n.wi)) * params.emission(n.light) * n.scale;
     }
@@ -280,8 +292,8 @@ pub fn accumulate_gradient(
     for k in 0..n {
         let (v, b) = (&path[k], &brdfs[k]);
         let dt = delta * t;
-        let le = params.emission(v.tri);
-        push_emission(params, v.tri, dt * le * v.emission_weight, grad);
+        let le = params.emission(v.slot);
+        push_emission(params, v.slot, dt * le * v.emission_weight, grad);
         // The material of vertex k, through its next-event term and its BRDF weight.
         let mut terms: [(Lobes, Rgb); 2] = [(Lobes::default(), Vec3::ZERO); 2];
         if let Some(nee) = v.nee {
@@ -304,11 +316,11 @@ pub fn accumulate_gradient(
 }
 
 #[inline]
-fn push_emission(params: &Params, tri: u32, q: Rgb, grad: &mut Vec<(u32, f32)>) {
+fn push_emission(params: &Params, slot: u32, q: Rgb, grad: &mut Vec<(u32, f32)>) {
     if q == Vec3::ZERO {
         return;
     }
-    let i = params.emission_index(tri) as u32;
+    let i = params.emission_index(slot) as u32;
     grad.extend([(i, q.x), (i + 1, q.y), (i + 2, q.z)]);
 }
 

@@ -16,7 +16,7 @@ fn check(model: ReflectanceModel) {
     let mesh = &fx.synth.mesh;
     let nt = mesh.triangles.len();
     // One group per triangle, at the truth.
-    let mut params = Params::new(nt, nt, 0.5, 0.5, 1.0);
+    let mut params = Params::new(nt, nt, 0.5, 0.5, 1.0, false);
     for t in 0..nt as u32 {
         let sp = fx.table.surface(t, Vec3::ZERO);
         let a = fipt_core::reflectance::base_color(sp.kd, sp.ks, sp.metallic);
@@ -24,9 +24,14 @@ fn check(model: ReflectanceModel) {
         params.x[i..i + 3].copy_from_slice(&a.to_array());
         params.x[Params::roughness_index(t)] = sp.roughness;
         params.x[Params::metallic_index(t)] = sp.metallic;
-        let e = params.emission_index(t);
-        for c in 0..3 {
-            params.x[e + c] = fx.emission(t)[c].max(1e-30).ln();
+        // The forward tracer's emitters are two-sided: both slots.
+        for e in [
+            params.emission_index(2 * t),
+            params.emission_index(2 * t + 1),
+        ] {
+            for c in 0..3 {
+                params.x[e + c] = fx.emission(t)[c].max(1e-30).ln();
+            }
         }
     }
     params.project();

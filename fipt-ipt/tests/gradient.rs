@@ -15,7 +15,7 @@ fn check(model: ReflectanceModel) {
     let tri_group = fx.table.tri_material.clone();
     let groups = *tri_group.iter().max().unwrap() as usize + 1;
     let nt = mesh.triangles.len();
-    let mut params = Params::new(groups, nt, 0.5, 0.5, 0.05);
+    let mut params = Params::new(groups, nt, 0.5, 0.5, 0.05, false);
     let mut rng = Pcg32::new(11, 0);
     for g in 0..groups as u32 {
         let i = Params::albedo_index(g);
@@ -25,9 +25,9 @@ fn check(model: ReflectanceModel) {
         params.x[Params::roughness_index(g)] = 0.15 + 0.7 * rng.next_f32();
         params.x[Params::metallic_index(g)] = 0.2 + 0.5 * rng.next_f32();
     }
-    for t in 0..nt as u32 {
-        let i = params.emission_index(t);
-        let bright = fx.emission(t) != Vec3::ZERO;
+    for slot in 0..2 * nt as u32 {
+        let i = params.emission_index(slot);
+        let bright = fx.emission(slot / 2) != Vec3::ZERO;
         for c in 0..3 {
             let le = if bright {
                 5.0 + 5.0 * rng.next_f32()
@@ -85,8 +85,12 @@ fn check(model: ReflectanceModel) {
         idx.push((Params::roughness_index(g), "roughness"));
         idx.push((Params::metallic_index(g), "metallic"));
     }
-    for t in (0..nt as u32).step_by(5).chain(fx.synth_lights()) {
-        idx.push((params.emission_index(t) + 1, "emission g"));
+    for slot in (0..2 * nt as u32).step_by(5).chain(
+        fx.synth_lights()
+            .into_iter()
+            .flat_map(|t| [2 * t, 2 * t + 1]),
+    ) {
+        idx.push((params.emission_index(slot) + 1, "emission g"));
     }
     let (mut checked, mut worst) = (std::collections::BTreeMap::new(), 0f64);
     for (i, what) in idx {
