@@ -71,6 +71,10 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
     };
     let t = Instant::now();
     let dir = a.out.join("fit");
+    if a.force && dir.exists() {
+        // The fitter's checkpoints: `--force` starts it afresh.
+        std::fs::remove_dir_all(&dir)?;
+    }
     std::fs::create_dir_all(&dir)?;
     let st = crate::progress::Stage::start("fit");
     let pb = crate::progress::bar(1, fitter.name());
