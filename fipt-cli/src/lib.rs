@@ -140,7 +140,7 @@ fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
         Command::Render(a) => render::run(a),
         Command::Export(a) => export::run(a),
         Command::Report(a) => report::run(a),
-        Command::Sweep(a) => sweep::run(a),
+        Command::Sweep(a) => sweep::run(a, components),
         Command::Bake(a) => bake::run(a, components),
         Command::Train(a) => train::run(a),
         Command::Run(a) => run::run(a, components),

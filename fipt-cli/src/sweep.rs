@@ -16,13 +16,17 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// The grid (TOML): `presets = [...]` and `[axes]` of dotted run-config keys → values;
-    /// default: the presets fast, balanced and paper.
+    /// default: the presets fast, balanced and paper, for every method the binary has
+    /// (`pipeline.method`: fipt, ipt, and those it registers).
     #[arg(long)]
     grid: Option<PathBuf>,
     /// A tiny grid for smoke tests: `fast` at two training lengths.
     #[arg(long)]
     quick: bool,
 }
+
+/// The run-config key of the method.
+const METHOD_KEY: &str = "pipeline.method";
 
 /// A sweep's grid: each preset, crossed with every combination of the axes' values.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -35,11 +39,31 @@ pub struct Grid {
 }
 
 impl Grid {
-    fn default_grid() -> Grid {
+    /// The presets, crossed with `methods` when there is more than one.
+    fn default_grid(methods: &[&str]) -> Grid {
+        let mut axes = BTreeMap::new();
+        if methods.len() > 1 {
+            axes.insert(
+                METHOD_KEY.to_string(),
+                methods
+                    .iter()
+                    .map(|m| toml::Value::String(m.to_string()))
+                    .collect(),
+            );
+        }
         Grid {
             presets: vec!["fast".into(), "balanced".into(), "paper".into()],
-            axes: BTreeMap::new(),
+            axes,
         }
+    }
+
+    /// The names of the points that are a preset as it is (of any method): the plot marks them.
+    fn preset_points(&self) -> Vec<String> {
+        self.points()
+            .into_iter()
+            .filter(|(_, _, o)| o.iter().all(|(k, _)| k == METHOD_KEY))
+            .map(|(n, _, _)| n)
+            .collect()
     }
 
     fn quick() -> Grid {
@@ -211,7 +235,7 @@ fn csv(rows: &[Row]) -> String {
     out
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     let grid = match (&a.grid, a.quick) {
         (Some(p), _) => {
             let text =
@@ -219,7 +243,7 @@ pub fn run(a: Args) -> Result<()> {
             toml::from_str(&text).with_context(|| format!("{}: invalid grid", p.display()))?
         }
         (None, true) => Grid::quick(),
-        (None, false) => Grid::default_grid(),
+        (None, false) => Grid::default_grid(&components.method_names()),
     };
     let points = grid.points();
     if points.is_empty() {
@@ -269,7 +293,7 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     fipt_core::fsutil::write_bytes_atomic(&a.out.join("sweep.csv"), csv(&rows).as_bytes())?;
-    let svg = crate::sweep_plot::svg(&rows, &grid.presets);
+    let svg = crate::sweep_plot::svg(&rows, &grid.preset_points());
     fipt_core::fsutil::write_bytes_atomic(&a.out.join("sweep.svg"), svg.as_bytes())?;
     println!(
         "{:<28} {:>8} {:>8} {:>8} {:>8} {:>9}",
@@ -299,6 +323,10 @@ pub fn run(a: Args) -> Result<()> {
 mod tests {
     use super::*;
 
+    fn g_with_steps() -> Grid {
+        toml::from_str("presets = [\"fast\"]\n[axes]\n\"train.steps\" = [100]\n").unwrap()
+    }
+
     #[test]
     fn a_grid_crosses_presets_with_every_combination_of_its_axes() {
         let g: Grid = toml::from_str(
@@ -314,5 +342,21 @@ mod tests {
             "{t}"
         );
         assert!(toml::from_str::<Grid>("presets = []\nsteps = 3\n").is_err());
+        // The default grid runs every method the binary has, and marks each preset of each.
+        let g = Grid::default_grid(&["fipt", "ipt"]);
+        let names: Vec<String> = g.points().into_iter().map(|p| p.0).collect();
+        assert_eq!(names.len(), 6);
+        assert!(
+            names.contains(&"balanced_method=ipt".to_string()),
+            "{names:?}"
+        );
+        assert_eq!(g.preset_points(), names);
+        let t = overrides_toml(&g.points()[1].2);
+        assert!(
+            t.contains("[pipeline]") && t.contains("method = \"ipt\""),
+            "{t}"
+        );
+        assert!(Grid::default_grid(&["fipt"]).axes.is_empty());
+        assert!(g_with_steps().preset_points().is_empty());
     }
 }

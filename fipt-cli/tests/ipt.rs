@@ -35,7 +35,7 @@ fn ipt_runs_through_fipt_run_and_is_evaluated() {
     let cfg = dir.join("run.toml");
     std::fs::write(
         &cfg,
-        "[model]\nbrdf = \"fipt\"\n[plugins.ipt]\niterations = 60\nbatch = 1024\n\
+        "[model]\nbrdf = \"fipt\"\n[plugins.ipt]\niterations = 300\nbatch = 2048\n\
          checkpoint_every = 20\n[render]\nspp = 4\nval_spp = 4\n",
     )
     .unwrap();
@@ -73,7 +73,7 @@ fn ipt_runs_through_fipt_run_and_is_evaluated() {
     let report = read_json(&out.join("report.json"));
     assert_eq!(report["components"]["method"]["name"], "ipt");
     assert_eq!(report["components"]["material_field"], "ipt-table");
-    assert_eq!(report["fit"]["steps"], 60);
+    assert_eq!(report["fit"]["steps"], 300);
     assert_eq!(report["fit"]["resumed_at_step"], 0);
     assert_eq!(
         report["fit"]["unknowns"]["groups_are"],
@@ -91,7 +91,7 @@ fn ipt_runs_through_fipt_run_and_is_evaluated() {
     run(&[]).unwrap();
     assert_eq!(
         read_json(&out.join("report.json"))["fit"]["resumed_at_step"],
-        60
+        300
     );
     run(&["--force"]).unwrap();
     assert_eq!(
@@ -99,7 +99,17 @@ fn ipt_runs_through_fipt_run_and_is_evaluated() {
         0
     );
     // A misspelt method names the registered ones.
-    let err = format!("{:#}", run(&["--method", "ipr"]).unwrap_err());
+    let other = dir.join("other");
+    let misspelt = [
+        "fipt",
+        "run",
+        &s(&scene),
+        "--out",
+        &s(&other),
+        "--method",
+        "ipr",
+    ];
+    let err = format!("{:#}", run_args(misspelt, &c).unwrap_err());
     assert!(err.contains("ipr") && err.contains("ipt"), "{err}");
     // A bad setting names its key.
     std::fs::write(&cfg, "[plugins.ipt]\niterations = 0\n").unwrap();

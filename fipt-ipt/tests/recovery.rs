@@ -4,7 +4,7 @@
 //! parameters bit for bit.
 mod common;
 use fipt_core::color::luminance;
-use fipt_core::fit::{FitInputs, MaterialFitter};
+use fipt_core::fit::FitInputs;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_ipt::{Ipt, IptConfig};
 use glam::Vec3;

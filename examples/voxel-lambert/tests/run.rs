@@ -115,7 +115,7 @@ fn the_plugged_method_runs_through_fipt_run_and_is_evaluated() {
     // Measured: kd 14.35 dB (FIPT on this scene: ~20), IoU 0.44 (the false ceiling triangle).
     assert!(kd >= 12.0 && iou >= 0.3, "kd {kd:.2} dB, IoU {iou:.2}");
     // An unknown method names the registered ones.
-    std::fs::write(&cfg, "[pipeline]\nmethod = \"ipt\"\n").unwrap();
+    std::fs::write(&cfg, "[pipeline]\nmethod = \"nerf\"\n").unwrap();
     let err = run_args(
         [
             "fipt",
