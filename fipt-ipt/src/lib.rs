@@ -54,9 +54,32 @@ pub struct Prepared {
     pub seen: Vec<(u32, Rgb)>,
     /// Per slot: the brightest radiance observed on its pixels, per channel.
     pub observed_max: Vec<Rgb>,
+    /// Per slot: whether a training pixel sees it, and the mean radiance seen.
+    pub may_emit: Vec<bool>,
+    pub observed: Vec<Rgb>,
     /// Per view and pixel: the slot its centre ray sees (u32::MAX: none).
     pub pixel_slots: Vec<Vec<u32>>,
     pub mean_radiance: f32,
+}
+
+impl Prepared {
+    /// What the optimisation loop works on.
+    pub fn problem<'a>(&'a self, inp: &'a FitInputs) -> Problem<'a> {
+        Problem {
+            geometry: inp.geometry,
+            mesh: &self.mesh,
+            views: inp.views,
+            images: inp.images,
+            tri_group: &self.tri_group,
+            may_emit: &self.may_emit,
+            observed: &self.observed,
+            pixel_slots: &self.pixel_slots,
+            observed_max: &self.observed_max,
+            groups: self.groups,
+            model: inp.model,
+            mean_radiance: self.mean_radiance,
+        }
+    }
 }
 
 impl Ipt {
@@ -138,7 +161,14 @@ impl Ipt {
             .iter()
             .map(|h| h.iter().map(|t| t.map_or(u32::MAX, |t| t.1)).collect())
             .collect();
+        let may_emit = seen.iter().map(|s| s.0 > 0).collect();
+        let observed = seen
+            .iter()
+            .map(|&(n, sum)| if n > 0 { sum / n as f32 } else { Vec3::ZERO })
+            .collect();
         Ok(Prepared {
+            may_emit,
+            observed,
             pixel_slots,
             observed_max,
             mesh,
@@ -171,26 +201,7 @@ impl Ipt {
         self.config
             .validate()
             .map_err(|e| CoreError::invalid("ipt", e))?;
-        let may_emit: Vec<bool> = prep.seen.iter().map(|s| s.0 > 0).collect();
-        let observed: Vec<Rgb> = prep
-            .seen
-            .iter()
-            .map(|&(n, sum)| if n > 0 { sum / n as f32 } else { Vec3::ZERO })
-            .collect();
-        let problem = Problem {
-            geometry: inp.geometry,
-            mesh: &prep.mesh,
-            views: inp.views,
-            images: inp.images,
-            tri_group: &prep.tri_group,
-            may_emit: &may_emit,
-            observed: &observed,
-            pixel_slots: &prep.pixel_slots,
-            observed_max: &prep.observed_max,
-            groups: prep.groups,
-            model: inp.model,
-            mean_radiance: prep.mean_radiance,
-        };
+        let problem = prep.problem(inp);
         let key = self.key(prep, inp);
         let fresh = State::initial(&problem, &self.config);
         let mut state = State::load(inp.dir, &key, &fresh)?.unwrap_or(fresh);

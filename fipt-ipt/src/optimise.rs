@@ -249,11 +249,9 @@ pub fn run(
                     let jitter = rng_g.next_2d();
                     let (o, d) = cam.ray(x + jitter.x, y + jitter.y);
                     trace(&scene, params, o, d, &mut rng_g, &mut path);
-                    // The relative residual, clamped: one firefly of the residual path must not
-                    // steer a step.
-                    // The scale of the relative error: the mean radiance observed on the
-                    // pixel's triangle, not the pixel's own (noisy) value, whose noise would
-                    // otherwise weigh the darker realisations more and bias the fit.
+                    // The relative residual, clamped (one firefly of the residual path must
+                    // not steer a step), scaled by the mean radiance observed on the pixel's
+                    // triangle side rather than by the pixel's own noisy value.
                     let slot = p.pixel_slots[v][i];
                     let typical = p.observed.get(slot as usize).map_or(0.0, |&o| luminance(o));
                     let scale = 1.0 / (typical + eps);

@@ -25,6 +25,7 @@ use fipt_core::reflectance::{
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::RayQuery;
 use fipt_shading::brdf::MicrofacetBrdf;
+use fipt_shading::incident::power_heuristic;
 use glam::Vec3;
 
 /// What the tracer traces.
@@ -70,16 +71,6 @@ pub struct Vertex {
     pub nee: Option<Nee>,
     /// The sampled direction to the next vertex (local) and 1 / its pdf.
     pub next: Option<(Vec3, f32)>,
-}
-
-#[inline]
-fn power_heuristic(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 {
-        a2 / (a2 + b2)
-    } else {
-        0.0
-    }
 }
 
 /// The material of group `g`: its BRDF (kd, ks of the metallic workflow).

@@ -170,7 +170,7 @@ fn a_killed_fit_resumes_to_the_same_parameters() {
 /// 60 %.)
 #[test]
 fn the_truth_is_a_fixed_point() {
-    use fipt_ipt::optimise::{run, Problem, State};
+    use fipt_ipt::optimise::{run, State};
     use fipt_ipt::params::Params;
     use fipt_shading::scene::SurfaceModel;
     let fx = common::cornell(8, 48, 36, 64, ReflectanceModel::Fipt);
@@ -184,26 +184,7 @@ fn the_truth_is_a_fixed_point() {
     let inp = inputs(&fx, &dir);
     let prep = ipt.prepare(&inp).unwrap();
     let nt = prep.mesh.triangles.len();
-    let may_emit: Vec<bool> = prep.seen.iter().map(|s| s.0 > 0).collect();
-    let observed: Vec<Vec3> = prep
-        .seen
-        .iter()
-        .map(|&(n, s)| if n > 0 { s / n as f32 } else { Vec3::ZERO })
-        .collect();
-    let problem = Problem {
-        geometry: inp.geometry,
-        mesh: &prep.mesh,
-        views: inp.views,
-        images: inp.images,
-        tri_group: &prep.tri_group,
-        may_emit: &may_emit,
-        observed: &observed,
-        pixel_slots: &prep.pixel_slots,
-        observed_max: &prep.observed_max,
-        groups: prep.groups,
-        model: inp.model,
-        mean_radiance: prep.mean_radiance,
-    };
+    let problem = prep.problem(&inp);
     let mut state = State::initial(&problem, &ipt.config);
     let p = &mut state.params;
     for t in 0..nt as u32 {

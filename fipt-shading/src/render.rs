@@ -1,5 +1,6 @@
 //! The forward path tracer: next-event estimation with MIS (power heuristic), Russian
 //! roulette, reproducible per-pixel random streams, rayon over tiles, and ground-truth AOVs.
+use crate::incident::power_heuristic;
 use crate::scene::{Scene, SurfaceModel};
 use fipt_core::brdf::{Brdf, Frame};
 use fipt_core::camera::Camera;
@@ -67,16 +68,6 @@ pub struct RenderStats {
     pub rays: u64,
     /// Samples dropped because they were not finite (should be 0).
     pub nonfinite: u64,
-}
-
-#[inline]
-fn power_heuristic(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 {
-        a2 / (a2 + b2)
-    } else {
-        0.0
-    }
 }
 
 /// Radiance along one camera ray; returns (radiance, rays cast).
