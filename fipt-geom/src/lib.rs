@@ -20,6 +20,7 @@ pub mod error;
 pub mod geometry;
 pub mod glb;
 pub mod mesh;
+pub mod nearest;
 pub mod patches;
 pub mod sampling;
 

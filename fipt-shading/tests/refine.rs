@@ -232,39 +232,6 @@ struct TableField {
     materials: fipt_core::materials::SceneMaterials,
 }
 
-fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    // Ericson, Real-Time Collision Detection §5.1.5.
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    a + ab * (vb * denom) + ac * (vc * denom)
-}
-
 impl MaterialField for TableField {
     fn name(&self) -> &str {
         "ground truth"
@@ -276,8 +243,8 @@ impl MaterialField for TableField {
                 let best = (0..self.mesh.triangles.len())
                     .min_by(|&i, &j| {
                         let d = |t: usize| {
-                            let [a, b, c] = self.mesh.vertices(t);
-                            closest_on_triangle(p, a, b, c).distance_squared(p)
+                            fipt_geom::nearest::closest_point(p, &self.mesh.vertices(t))
+                                .distance_squared(p)
                         };
                         d(i).total_cmp(&d(j))
                     })
