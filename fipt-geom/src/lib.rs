@@ -22,6 +22,7 @@ pub mod glb;
 pub mod mesh;
 pub mod nearest;
 pub mod patches;
+mod ply;
 pub mod sampling;
 
 pub use bvh::{hit_point, offset_ray_origin, shading_normal, BuildQuality, Bvh, Hit};

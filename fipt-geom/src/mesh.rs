@@ -5,7 +5,7 @@
 //! and `scene_parts.json` apply after degenerate triangles have been dropped.
 use crate::error::{GeomError, Result};
 use glam::{Mat3, Mat4, Vec3};
-use std::io::{BufRead, Read, Write};
+use std::io::Write;
 use std::path::Path;
 
 /// An indexed triangle mesh in world space.
@@ -92,7 +92,7 @@ impl Mesh {
         }
         let mesh = match ext.as_str() {
             "obj" => load_obj(path)?,
-            "ply" => load_ply(path)?,
+            "ply" => crate::ply::load(path)?,
             "gltf" | "glb" => load_gltf(path)?,
             _ => {
                 return Err(GeomError::Format {
@@ -284,14 +284,14 @@ where
     result.map_err(io)
 }
 
-fn parse_err(path: &Path, message: impl Into<String>) -> GeomError {
+pub(crate) fn parse_err(path: &Path, message: impl Into<String>) -> GeomError {
     GeomError::Parse {
         path: path.to_path_buf(),
         message: message.into(),
     }
 }
 
-fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
+pub(crate) fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
     for k in 1..poly.len().saturating_sub(1) {
         out.push([poly[0], poly[k], poly[k + 1]]);
     }
@@ -397,220 +397,6 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
     }
     let normals = (all_normals && normals.len() == positions.len()).then_some(normals);
     Ok(Mesh::from_triangles(positions, normals, tris))
-}
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum PlyFormat {
-    Ascii,
-    Le,
-    Be,
-}
-
-#[derive(Clone, Debug)]
-enum PlyProp {
-    Scalar(String, String),
-    List(String, String, String),
-}
-
-struct PlyElement {
-    name: String,
-    count: usize,
-    props: Vec<PlyProp>,
-}
-
-fn ply_size(ty: &str) -> Option<usize> {
-    Some(match ty {
-        "char" | "uchar" | "int8" | "uint8" => 1,
-        "short" | "ushort" | "int16" | "uint16" => 2,
-        "int" | "uint" | "int32" | "uint32" | "float" | "float32" => 4,
-        "double" | "float64" => 8,
-        _ => return None,
-    })
-}
-
-fn read_bin(r: &mut impl Read, ty: &str, fmt: PlyFormat) -> std::io::Result<f64> {
-    let n = ply_size(ty).unwrap_or(4);
-    let mut b = [0u8; 8];
-    r.read_exact(&mut b[..n])?;
-    if fmt == PlyFormat::Be {
-        b[..n].reverse();
-    }
-    Ok(match ty {
-        "char" | "int8" => b[0] as i8 as f64,
-        "uchar" | "uint8" => b[0] as f64,
-        "short" | "int16" => i16::from_le_bytes([b[0], b[1]]) as f64,
-        "ushort" | "uint16" => u16::from_le_bytes([b[0], b[1]]) as f64,
-        "int" | "int32" => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-        "uint" | "uint32" => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-        "float" | "float32" => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-        _ => f64::from_le_bytes(b),
-    })
-}
-
-/// Loads a PLY file (ASCII, binary little- or big-endian): `vertex` x y z [nx ny nz] and
-/// `face` vertex_indices (or vertex_index) lists; other elements are skipped.
-fn load_ply(path: &Path) -> Result<Mesh> {
-    let file = std::fs::File::open(path).map_err(|e| GeomError::Io {
-        path: path.to_path_buf(),
-        source: e,
-    })?;
-    let mut r = std::io::BufReader::new(file);
-    let mut line = String::new();
-    let mut fmt = None;
-    let mut elements: Vec<PlyElement> = Vec::new();
-    let mut first = true;
-    loop {
-        line.clear();
-        if r.read_line(&mut line).map_err(|e| GeomError::Io {
-            path: path.to_path_buf(),
-            source: e,
-        })? == 0
-        {
-            return Err(parse_err(path, "header ended without end_header"));
-        }
-        let toks: Vec<&str> = line.split_whitespace().collect();
-        if first {
-            if toks.first() != Some(&"ply") {
-                return Err(parse_err(path, "not a PLY file (no `ply` magic)"));
-            }
-            first = false;
-            continue;
-        }
-        match toks.as_slice() {
-            ["format", f, ..] => {
-                fmt = Some(match *f {
-                    "ascii" => PlyFormat::Ascii,
-                    "binary_little_endian" => PlyFormat::Le,
-                    "binary_big_endian" => PlyFormat::Be,
-                    other => return Err(parse_err(path, format!("unknown format {other}"))),
-                })
-            }
-            ["element", name, count] => elements.push(PlyElement {
-                name: name.to_string(),
-                count: count
-                    .parse()
-                    .map_err(|_| parse_err(path, format!("bad element count {count}")))?,
-                props: Vec::new(),
-            }),
-            ["property", "list", ct, it, name] => {
-                let e = elements
-                    .last_mut()
-                    .ok_or_else(|| parse_err(path, "property before element"))?;
-                e.props.push(PlyProp::List(
-                    ct.to_string(),
-                    it.to_string(),
-                    name.to_string(),
-                ));
-            }
-            ["property", ty, name] => {
-                if ply_size(ty).is_none() {
-                    return Err(parse_err(path, format!("unknown property type {ty}")));
-                }
-                let e = elements
-                    .last_mut()
-                    .ok_or_else(|| parse_err(path, "property before element"))?;
-                e.props
-                    .push(PlyProp::Scalar(ty.to_string(), name.to_string()));
-            }
-            ["end_header"] => break,
-            _ => {}
-        }
-    }
-    let fmt = fmt.ok_or_else(|| parse_err(path, "no format line"))?;
-    let mut positions = Vec::new();
-    let mut normals = Vec::new();
-    let mut tris = Vec::new();
-    let mut has_normals = false;
-    let mut ascii_tokens: Vec<f64> = Vec::new();
-    let mut ascii_pos = 0usize;
-    if fmt == PlyFormat::Ascii {
-        let mut rest = String::new();
-        r.read_to_string(&mut rest).map_err(|e| GeomError::Io {
-            path: path.to_path_buf(),
-            source: e,
-        })?;
-        ascii_tokens = rest
-            .split_whitespace()
-            .map(|t| {
-                t.parse::<f64>()
-                    .map_err(|_| parse_err(path, format!("`{t}` is not a number")))
-            })
-            .collect::<Result<_>>()?;
-    }
-    let short = |p: &Path| parse_err(p, "file ends before all elements were read");
-    for e in &elements {
-        let mut poly = Vec::new();
-        for _ in 0..e.count {
-            let mut v = [0.0f64; 6];
-            for p in &e.props {
-                match p {
-                    PlyProp::Scalar(ty, name) => {
-                        let x = if fmt == PlyFormat::Ascii {
-                            let x = *ascii_tokens.get(ascii_pos).ok_or_else(|| short(path))?;
-                            ascii_pos += 1;
-                            x
-                        } else {
-                            read_bin(&mut r, ty, fmt).map_err(|_| short(path))?
-                        };
-                        if e.name == "vertex" {
-                            let slot = ["x", "y", "z", "nx", "ny", "nz"]
-                                .iter()
-                                .position(|n| n == name);
-                            if let Some(s) = slot {
-                                v[s] = x;
-                            }
-                        }
-                    }
-                    PlyProp::List(ct, it, name) => {
-                        let n = if fmt == PlyFormat::Ascii {
-                            let x = *ascii_tokens.get(ascii_pos).ok_or_else(|| short(path))?;
-                            ascii_pos += 1;
-                            x
-                        } else {
-                            read_bin(&mut r, ct, fmt).map_err(|_| short(path))?
-                        } as usize;
-                        poly.clear();
-                        for _ in 0..n {
-                            let x = if fmt == PlyFormat::Ascii {
-                                let x = *ascii_tokens.get(ascii_pos).ok_or_else(|| short(path))?;
-                                ascii_pos += 1;
-                                x
-                            } else {
-                                read_bin(&mut r, it, fmt).map_err(|_| short(path))?
-                            };
-                            poly.push(x as u32);
-                        }
-                        if e.name == "face" && (name == "vertex_indices" || name == "vertex_index")
-                        {
-                            fan(&poly, &mut tris);
-                        }
-                    }
-                }
-            }
-            if e.name == "vertex" {
-                positions.push(Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32));
-                normals.push(Vec3::new(v[3] as f32, v[4] as f32, v[5] as f32));
-            }
-        }
-        if e.name == "vertex" {
-            has_normals = e
-                .props
-                .iter()
-                .any(|p| matches!(p, PlyProp::Scalar(_, n) if n == "nx"));
-        }
-    }
-    let np = positions.len() as u32;
-    if let Some(t) = tris.iter().find(|t| t.iter().any(|&i| i >= np)) {
-        return Err(parse_err(
-            path,
-            format!("face {t:?} indexes past the {np} vertices"),
-        ));
-    }
-    Ok(Mesh::from_triangles(
-        positions,
-        has_normals.then_some(normals),
-        tris,
-    ))
 }
 
 #[cfg(test)]
