@@ -394,6 +394,14 @@ pub fn room() -> SynthScene {
             ),
         ],
     );
+    room_lights(&mut b);
+    room_objects(&mut b);
+    b.finish("room", lo, hi, 65f32.to_radians())
+}
+
+/// The room's two lights: a ceiling panel and a floor lamp (its metal stand and a small, very
+/// bright bulb).
+fn room_lights(b: &mut Builder) {
     // Ceiling panel (1 cm below the ceiling).
     b.part(
         MaterialDesc::Emitter {
@@ -415,7 +423,7 @@ pub fn room() -> SynthScene {
     // Floor lamp: a thin stand and a small, very bright bulb.
     let lamp = Vec3::new(-1.9, 0.0, 1.4);
     add_box(
-        &mut b,
+        b,
         principled("lamp_stand", rgb(0.1, 0.1, 0.1), Texture::Scalar(0.5), 1.0),
         FURNITURE,
         lamp + Vec3::new(0.0, 0.7, 0.0),
@@ -435,9 +443,13 @@ pub fn room() -> SynthScene {
         max: lamp + Vec3::new(0.1, 1.58, 0.1),
     });
     b.emitters.push(lamp + Vec3::new(0.0, 1.48, 0.0));
+}
+
+/// The room's furniture and decor: a sofa, a table, a glossy box, a metal sphere and a mirror.
+fn room_objects(b: &mut Builder) {
     // Furniture.
     add_box(
-        &mut b,
+        b,
         principled("sofa", rgb(0.55, 0.2, 0.15), Texture::Scalar(1.0), 0.0),
         FURNITURE,
         Vec3::new(0.4, 0.3, 1.5),
@@ -445,7 +457,7 @@ pub fn room() -> SynthScene {
         0.0,
     );
     add_box(
-        &mut b,
+        b,
         principled("table", rgb(0.75, 0.72, 0.68), Texture::Scalar(0.6), 0.0),
         FURNITURE,
         Vec3::new(0.6, 0.35, 0.0),
@@ -453,7 +465,7 @@ pub fn room() -> SynthScene {
         0.15,
     );
     add_box(
-        &mut b,
+        b,
         principled(
             "glossy_box",
             rgb(0.1, 0.28, 0.62),
@@ -496,7 +508,6 @@ pub fn room() -> SynthScene {
         },
     );
     b.targets.push(Vec3::new(-0.3, 1.5, -1.99));
-    b.finish("room", lo, hi, 65f32.to_radians())
 }
 
 /// Builds a scene by name.
