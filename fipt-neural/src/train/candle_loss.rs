@@ -140,79 +140,103 @@ pub fn candle_ops_loss(
         let segment = if batch.segment.is_empty() {
             Tensor::zeros((), candle_core::DType::F32, dev)?
         } else if let Some(sem) = &batch.semantic {
-            // Constants of the step: the normalised bilateral weights (albedo not
-            // differentiated) and 1/n_class; σ and m of the partners are gathered with autograd.
-            let k = sem.k;
-            let albedo = out.albedo.to_vec2::<f32>()?;
-            let mut count = vec![0f32; batch.segments];
-            for &s in &batch.segment {
-                if s != NO_SEGMENT {
-                    count[s as usize] += 1.0;
-                }
-            }
-            let mut w = vec![0f32; b * k];
-            let mut inv = vec![0f32; b];
-            let mut own = vec![0f32; b];
-            for i in 0..b {
-                if batch.segment[i] == NO_SEGMENT {
-                    continue;
-                }
-                inv[i] = 1.0 / count[batch.segment[i] as usize];
-                let mut total = SEGMENT_WEIGHT_FLOOR as f64;
-                for q in 0..k {
-                    let j = sem.index[i * k + q] as usize;
-                    let d2: f32 = (0..3).map(|c| (albedo[i][c] - albedo[j][c]).powi(2)).sum();
-                    let v = sem.pos_w[i * k + q]
-                        * (-d2 / (2.0 * sem.sigma_albedo * sem.sigma_albedo)).exp();
-                    w[i * k + q] = v;
-                    total += v as f64;
-                }
-                for q in 0..k {
-                    w[i * k + q] = (w[i * k + q] as f64 / total) as f32;
-                }
-                own[i] = (SEGMENT_WEIGHT_FLOOR as f64 / total) as f32;
-            }
-            let idx = Tensor::from_vec(sem.index.clone(), b * k, dev)?;
-            let w = Tensor::from_vec(w, (b, k), dev)?;
-            let inv = Tensor::from_vec(inv, (b, 1), dev)?;
-            let own = Tensor::from_vec(own, (b, 1), dev)?;
-            let mean = |v: &Tensor| -> candle_core::Result<Tensor> {
-                let partners = v.squeeze(1)?.index_select(&idx, 0)?.reshape((b, k))?;
-                (partners * &w)?.sum_keepdim(1)? + (v * &own)?
-            };
-            let ds = (mean(&out.roughness)? - &out.roughness)?.abs()?;
-            let dm = (mean(&out.metallic)? - &out.metallic)?.abs()?;
-            ((ds + dm)? * inv)?.sum_all()?
+            semantic_segment_term(out, batch, sem)?
         } else {
-            // Pixels of no segment gather from, and scatter to, one extra slot that is dropped.
-            let k = batch.segments;
-            let ids: Vec<u32> = batch
-                .segment
-                .iter()
-                .map(|&s| if s == NO_SEGMENT { k as u32 } else { s })
-                .collect();
-            let keep: Vec<f32> = ids
-                .iter()
-                .map(|&s| u8::from(s as usize != k) as f32)
-                .collect();
-            let ids = Tensor::from_vec(ids, b, dev)?;
-            let keep = Tensor::from_vec(keep, (b, 1), dev)?;
-            let spec = ((out.ks()? * reflected_specular(out, &ls0, levels)?)?
-                + reflected_specular(out, &ls1, levels)?)?;
-            let w = (spec.mean_keepdim(1)?.relu()? + SEGMENT_WEIGHT_FLOOR as f64)?.detach();
-            let zeros = Tensor::zeros((k + 1, 1), candle_core::DType::F32, dev)?;
-            let total_w = zeros.index_add(&ids, &w, 0)?;
-            let seg_mean = |v: &Tensor| -> candle_core::Result<Tensor> {
-                let sums = zeros.index_add(&ids, &(v * &w)?, 0)?;
-                (sums / &total_w)?.index_select(&ids, 0)
-            };
-            let ds = (&out.roughness - seg_mean(&out.roughness)?)?.abs()?;
-            let dm = (&out.metallic - seg_mean(&out.metallic)?)?.abs()?;
-            ((ds + dm)? * keep)?.mean_all()?
+            region_segment_term(out, batch, (&ls0, &ls1), levels)?
         };
         let total = (((image.clone() + mask.affine(mask_weight as f64, 0.0)?)? + &prior)?
             + segment.affine(segment_weight as f64, 0.0)?)?;
         Tensor::stack(&[total, image, mask, prior, segment], 0)
     })();
     r.ctx("candle-ops loss")
+}
+
+/// The semantic smoothness term: |σ − bilateral mean of σ over its partners| (and of m),
+/// averaged per segment. The weights are constants of the step: the normalised bilateral
+/// weights (albedo not differentiated) and 1/n_class; σ and m of the partners are gathered
+/// with autograd.
+fn semantic_segment_term(
+    out: &crate::field::FieldOutput,
+    batch: &LossBatch,
+    sem: &SemanticPartners,
+) -> candle_core::Result<Tensor> {
+    let dev = out.albedo.device();
+    let b = batch.gt.len();
+    let k = sem.k;
+    let albedo = out.albedo.to_vec2::<f32>()?;
+    let mut count = vec![0f32; batch.segments];
+    for &s in &batch.segment {
+        if s != NO_SEGMENT {
+            count[s as usize] += 1.0;
+        }
+    }
+    let mut w = vec![0f32; b * k];
+    let mut inv = vec![0f32; b];
+    let mut own = vec![0f32; b];
+    for i in 0..b {
+        if batch.segment[i] == NO_SEGMENT {
+            continue;
+        }
+        inv[i] = 1.0 / count[batch.segment[i] as usize];
+        let mut total = SEGMENT_WEIGHT_FLOOR as f64;
+        for q in 0..k {
+            let j = sem.index[i * k + q] as usize;
+            let d2: f32 = (0..3).map(|c| (albedo[i][c] - albedo[j][c]).powi(2)).sum();
+            let v =
+                sem.pos_w[i * k + q] * (-d2 / (2.0 * sem.sigma_albedo * sem.sigma_albedo)).exp();
+            w[i * k + q] = v;
+            total += v as f64;
+        }
+        for q in 0..k {
+            w[i * k + q] = (w[i * k + q] as f64 / total) as f32;
+        }
+        own[i] = (SEGMENT_WEIGHT_FLOOR as f64 / total) as f32;
+    }
+    let idx = Tensor::from_vec(sem.index.clone(), b * k, dev)?;
+    let w = Tensor::from_vec(w, (b, k), dev)?;
+    let inv = Tensor::from_vec(inv, (b, 1), dev)?;
+    let own = Tensor::from_vec(own, (b, 1), dev)?;
+    let mean = |v: &Tensor| -> candle_core::Result<Tensor> {
+        let partners = v.squeeze(1)?.index_select(&idx, 0)?.reshape((b, k))?;
+        (partners * &w)?.sum_keepdim(1)? + (v * &own)?
+    };
+    let ds = (mean(&out.roughness)? - &out.roughness)?.abs()?;
+    let dm = (mean(&out.metallic)? - &out.metallic)?.abs()?;
+    ((ds + dm)? * inv)?.sum_all()
+}
+
+/// The region term: |σ − the segment's specular-weighted mean σ| (and of m). Pixels of no
+/// segment gather from, and scatter to, one extra slot that is dropped.
+fn region_segment_term(
+    out: &crate::field::FieldOutput,
+    batch: &LossBatch,
+    (ls0, ls1): (&Tensor, &Tensor),
+    levels: [f32; NUM_LEVELS],
+) -> candle_core::Result<Tensor> {
+    let dev = out.albedo.device();
+    let b = batch.gt.len();
+    let k = batch.segments;
+    let ids: Vec<u32> = batch
+        .segment
+        .iter()
+        .map(|&s| if s == NO_SEGMENT { k as u32 } else { s })
+        .collect();
+    let keep: Vec<f32> = ids
+        .iter()
+        .map(|&s| u8::from(s as usize != k) as f32)
+        .collect();
+    let ids = Tensor::from_vec(ids, b, dev)?;
+    let keep = Tensor::from_vec(keep, (b, 1), dev)?;
+    let spec = ((out.ks()? * reflected_specular(out, ls0, levels)?)?
+        + reflected_specular(out, ls1, levels)?)?;
+    let w = (spec.mean_keepdim(1)?.relu()? + SEGMENT_WEIGHT_FLOOR as f64)?.detach();
+    let zeros = Tensor::zeros((k + 1, 1), candle_core::DType::F32, dev)?;
+    let total_w = zeros.index_add(&ids, &w, 0)?;
+    let seg_mean = |v: &Tensor| -> candle_core::Result<Tensor> {
+        let sums = zeros.index_add(&ids, &(v * &w)?, 0)?;
+        (sums / &total_w)?.index_select(&ids, 0)
+    };
+    let ds = (&out.roughness - seg_mean(&out.roughness)?)?.abs()?;
+    let dm = (&out.metallic - seg_mean(&out.metallic)?)?.abs()?;
+    ((ds + dm)? * keep)?.mean_all()
 }
