@@ -228,6 +228,19 @@ impl ThreadCounters {
     }
 }
 
+impl RefineStats {
+    /// Copies the secondary rays' outcomes counted by the threads.
+    fn take_counters(&mut self, c: &ThreadCounters) {
+        self.secondary_miss = c.total(|c| &c.miss);
+        self.secondary_emitter = c.total(|c| &c.emitter);
+        self.secondary_slf = c.total(|c| &c.slf);
+        self.secondary_grown = c.total(|c| &c.grown);
+        self.secondary_unobserved = c.total(|c| &c.unobserved);
+        self.paths_truncated = c.total(|c| &c.truncated);
+        self.rays = c.total(|c| &c.rays);
+    }
+}
+
 /// The light of the refinement: emitters, the SLF at rough surfaces, paths through glossy ones.
 pub struct GrownLight<'a> {
     pub geometry: &'a dyn RayQuery,
@@ -551,29 +564,18 @@ impl PathGrownRefiner {
             });
             tick(stats.pixels);
         } else {
-            for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
-                if !selected[vi] {
-                    continue;
-                }
-                let computed: Vec<(Rgb, [Rgb; 2])> = (0..s.ld.len())
-                    .into_par_iter()
-                    .map(|i| match r[i].filter(|r| !is_emitter(r)) {
-                        None => (Vec3::ZERO, [Vec3::ZERO; 2]),
-                        Some(rec) => {
-                            let key = [seed, 0xD1FF, vi as u64, i as u64];
-                            moments_at(&key, rec.hit.p, rec.ng, rec.ns)
-                                .shading(model, rec.wo, rec.ns)
-                        }
-                    })
-                    .collect();
-                for (i, (l0, lp)) in computed.into_iter().enumerate() {
-                    s.ld[i] = l0;
-                    if let Some(slot) = s.ld_poly.get_mut(i) {
-                        *slot = lp;
-                    }
-                }
-                tick(r.iter().flatten().count());
-            }
+            diffuse_per_pixel(
+                model,
+                &records,
+                &selected,
+                &mut out,
+                is_emitter,
+                |vi, i, rec| {
+                    let key = [seed, 0xD1FF, vi as u64, i as u64];
+                    moments_at(&key, rec.hit.p, rec.ng, rec.ns)
+                },
+                &tick,
+            );
         }
         stats.seconds_diffuse = t.elapsed().as_secs_f64();
 
@@ -589,14 +591,7 @@ impl PathGrownRefiner {
             &tick,
         );
         stats.seconds_specular = t.elapsed().as_secs_f64();
-        let c = &light.counters;
-        stats.secondary_miss = c.total(|c| &c.miss);
-        stats.secondary_emitter = c.total(|c| &c.emitter);
-        stats.secondary_slf = c.total(|c| &c.slf);
-        stats.secondary_grown = c.total(|c| &c.grown);
-        stats.secondary_unobserved = c.total(|c| &c.unobserved);
-        stats.paths_truncated = c.total(|c| &c.truncated);
-        stats.rays = c.total(|c| &c.rays);
+        stats.take_counters(&light.counters);
         Ok((out, stats))
     }
 
@@ -681,5 +676,37 @@ impl ShadingRefiner for PathGrownRefiner {
             output,
             report: serde_json::to_value(stats).unwrap_or_default(),
         })
+    }
+}
+
+/// Ld per pixel of the `selected` views (no cache): `moments_at(view, pixel, record)`
+/// integrates one pixel; emitter pixels keep 0.
+fn diffuse_per_pixel(
+    model: ReflectanceModel,
+    records: &[Vec<Option<PixelRecord>>],
+    selected: &[bool],
+    out: &mut [ViewShadings],
+    is_emitter: impl Fn(&PixelRecord) -> bool + Sync,
+    moments_at: impl Fn(usize, usize, &PixelRecord) -> DiffuseMoments + Sync,
+    tick: impl Fn(usize),
+) {
+    for (vi, (s, r)) in out.iter_mut().zip(records).enumerate() {
+        if !selected[vi] {
+            continue;
+        }
+        let computed: Vec<(Rgb, [Rgb; 2])> = (0..s.ld.len())
+            .into_par_iter()
+            .map(|i| match r[i].filter(|r| !is_emitter(r)) {
+                None => (Vec3::ZERO, [Vec3::ZERO; 2]),
+                Some(rec) => moments_at(vi, i, &rec).shading(model, rec.wo, rec.ns),
+            })
+            .collect();
+        for (i, (l0, lp)) in computed.into_iter().enumerate() {
+            s.ld[i] = l0;
+            if let Some(slot) = s.ld_poly.get_mut(i) {
+                *slot = lp;
+            }
+        }
+        tick(r.iter().flatten().count());
     }
 }

@@ -380,13 +380,26 @@ fn refined_shadings_raise_the_closure_psnr() {
     .refine(&inputs, &|_, _| {})
     .unwrap()
     .output;
-    let (c_bake, c_ref, c_nolight) = (
+    // The reference's refinement: Ld per pixel (128 samples, no emitter samples) instead of
+    // per cache cell with emitter samples.
+    let per_pixel = PathGrownRefiner::new(RefineConfig::reference())
+        .refine(&inputs, &|_, _| {})
+        .unwrap()
+        .output;
+    let (c_bake, c_ref, c_nolight, c_pixel) = (
         closure(&ds, &bake, &images),
         closure(&ds, &refined, &images),
         closure(&ds, &no_light, &images),
+        closure(&ds, &per_pixel, &images),
     );
     eprintln!(
-        "closure: initial bake {c_bake:.2} dB, refined {c_ref:.2} dB, refined without emitter samples {c_nolight:.2} dB; {stats:?}"
+        "closure: initial bake {c_bake:.2} dB, refined {c_ref:.2} dB, refined without emitter samples {c_nolight:.2} dB, per-pixel Ld (reference) {c_pixel:.2} dB; {stats:?}"
+    );
+    // Measured: 22.7 dB against 31.3 with the cache and emitter samples (the reference's
+    // estimator is noisy where small lights are found only by BRDF samples).
+    assert!(
+        c_pixel.is_finite() && c_ref >= c_pixel + 3.0,
+        "the cached refinement should beat the per-pixel reference's: {c_pixel:.2} vs {c_ref:.2} dB"
     );
     assert!(stats.secondary_emitter > 0 && stats.secondary_slf > 0 && stats.secondary_grown > 0);
     assert!(
