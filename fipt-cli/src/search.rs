@@ -9,8 +9,8 @@ use fipt_core::dataset::GtKind;
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_shading::bake::PixelRecord;
 use fipt_shading::search::{
-    choose, gather_pixels, profile, sigma_grid, Albedo, RegionChoice, RegionProfile, RegionSource,
-    SearchConfig, SearchPixel,
+    choose, gather_pixels, on_region_edge, profile, sigma_grid, Albedo, RegionChoice,
+    RegionProfile, RegionSource, SearchConfig, SearchPixel,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -50,7 +50,11 @@ fn prepare(
         records,
         shadings,
         cfg.cell_footprints * footprint,
-        &|v, i, _| regions.ids[v][i],
+        &|v, i, _| {
+            let ids = &regions.ids[v];
+            let edge = cfg.drop_edges && on_region_edge(ids, shadings[v].width, i);
+            ids[i].filter(|_| !edge)
+        },
     );
     let levels = shadings
         .first()
@@ -185,6 +189,9 @@ pub struct Args {
     json: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "reject")]
     bad_pixels: Policy,
+    /// Keep the pixels on regions' outlines (`[search] drop_edges = false`).
+    #[arg(long)]
+    keep_edges: bool,
 }
 
 /// One region's lines of `fipt profile`.
@@ -212,6 +219,7 @@ pub fn run(a: Args) -> Result<()> {
         })?;
     let cfg = SearchConfig {
         regions,
+        drop_edges: !a.keep_edges,
         ..SearchConfig::default()
     };
     let split = scene.ds.train();
