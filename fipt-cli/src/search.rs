@@ -5,6 +5,7 @@ use crate::info::Policy;
 use crate::regions::Regions;
 use crate::scene::LoadedScene;
 use anyhow::{bail, Result};
+use fipt_core::color::luminance;
 use fipt_core::dataset::GtKind;
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_shading::bake::PixelRecord;
@@ -51,8 +52,10 @@ fn prepare(
         shadings,
         cfg.cell_footprints * footprint,
         &|v, i, _| {
-            let ids = &regions.ids[v];
-            let edge = cfg.drop_edges && on_region_edge(ids, shadings[v].width, i);
+            let (ids, img) = (&regions.ids[v], &scene.images[v].data);
+            let floor = cfg.edge_contrast * luminance(img[i]);
+            let brighter = |j: usize| luminance(img[j]) >= floor;
+            let edge = cfg.drop_edges && on_region_edge(ids, shadings[v].width, i, &brighter);
             ids[i].filter(|_| !edge)
         },
     );
@@ -65,6 +68,44 @@ fn prepare(
         pixels,
         grid,
     }))
+}
+
+/// Every region's profile on each half of the views (even, odd), for `held_out`.
+type Halves = Option<[Vec<RegionProfile>; 2]>;
+
+/// The fitted profiles of every region, and with `halves` the same on each half of the views
+/// (not wanted on the bake, where dielectric σ waits for the refined shadings).
+fn fitted_profiles(
+    images: &[fipt_core::image::Image],
+    shadings: &[ViewShadings],
+    regions: &Regions,
+    pixels: &[SearchPixel],
+    grid: &[f32],
+    cfg: &SearchConfig,
+    halves: bool,
+) -> (Vec<RegionProfile>, Halves) {
+    let fitted = |pixels: &[SearchPixel]| {
+        profile(
+            pixels,
+            shadings,
+            images,
+            regions.len(),
+            grid,
+            &cfg.metallic,
+            Albedo::Fitted,
+        )
+    };
+    let halves = halves.then(|| {
+        [0, 1].map(|parity| {
+            let half: Vec<SearchPixel> = pixels
+                .iter()
+                .filter(|p| p.view % 2 == parity)
+                .copied()
+                .collect();
+            fitted(&half)
+        })
+    });
+    (fitted(pixels), halves)
 }
 
 /// Runs the search (None when it is off or has no regions; the reason is printed).
@@ -109,14 +150,14 @@ pub fn stage(
         eprintln!("search: skipped (search.regions = \"none\")");
         return Ok(None);
     };
-    let profiles = profile(
-        &pixels,
-        shadings,
+    let (profiles, halves) = fitted_profiles(
         &scene.images,
-        regions.len(),
+        shadings,
+        &regions,
+        &pixels,
         &grid,
-        &cfg.metallic,
-        Albedo::Fitted,
+        cfg,
+        cfg.held_out && !on_bake,
     );
     let was_metal = |label: i64| {
         previous.is_some_and(|s| {
@@ -128,7 +169,9 @@ pub fn stage(
     let choices: Vec<RegionChoice> = profiles
         .iter()
         .map(|p| {
-            let mut c = choose(p, cfg, was_metal(regions.labels[p.region as usize]));
+            let r = p.region as usize;
+            let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
+            let mut c = choose(p, cfg, was_metal(regions.labels[r]), held);
             // On the bake, dielectric σ waits for the refined shadings.
             if on_bake && c.metallic < Some(0.5) {
                 c.roughness = None;
@@ -189,9 +232,12 @@ pub struct Args {
     json: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "reject")]
     bad_pixels: Policy,
-    /// Keep the pixels on regions' outlines (`[search] drop_edges = false`).
+    /// Leave out the pixels on regions' outlines (`[search] drop_edges = true`).
     #[arg(long)]
-    keep_edges: bool,
+    drop_edges: bool,
+    /// With --drop-edges: only neighbours this many times brighter count (`[search] edge_contrast`).
+    #[arg(long, default_value_t = 0.0)]
+    edge_contrast: f32,
 }
 
 /// One region's lines of `fipt profile`.
@@ -219,7 +265,8 @@ pub fn run(a: Args) -> Result<()> {
         })?;
     let cfg = SearchConfig {
         regions,
-        drop_edges: !a.keep_edges,
+        drop_edges: a.drop_edges,
+        edge_contrast: a.edge_contrast,
         ..SearchConfig::default()
     };
     let split = scene.ds.train();
@@ -237,14 +284,14 @@ pub fn run(a: Args) -> Result<()> {
     else {
         bail!("no regions");
     };
-    let fitted = profile(
-        &pixels,
-        &shadings,
+    let (fitted, halves) = fitted_profiles(
         &scene.images,
-        regions.len(),
+        &shadings,
+        &regions,
+        &pixels,
         &grid,
-        &cfg.metallic,
-        Albedo::Fitted,
+        &cfg,
+        cfg.held_out,
     );
     // The ground truth's base colour: kd for dielectrics, ks for metals.
     let gt_kinds = [GtKind::DiffCol, GtKind::Specular, GtKind::Metallic];
@@ -299,7 +346,8 @@ pub fn run(a: Args) -> Result<()> {
     );
     let mut rows = vec![];
     for (r, f) in fitted.into_iter().enumerate() {
-        let c = choose(&f, &cfg, false);
+        let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
+        let c = choose(&f, &cfg, false, held);
         let g = given.as_ref().map(|g| g[r].clone());
         let gt = g.as_ref().map_or("–".to_string(), |g| {
             // argmin over σ at each metallic of the given base colour; print m = 0 and m = 1.
