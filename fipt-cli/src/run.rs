@@ -291,6 +291,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
         cfg.pipeline.method = m.clone();
     }
     cfg.train.validate()?;
+    cfg.search.validate().map_err(anyhow::Error::msg)?;
     // Components first: a misspelt name or bad plug-in settings fail before any work.
     let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
     let bake_settings = cfg.baker_settings()?;

@@ -147,6 +147,57 @@ impl Default for SearchConfig {
 }
 
 impl SearchConfig {
+    /// Range checks of every setting, naming the key and the range (`search.<key> = v (use
+    /// …)`).
+    pub fn validate(&self) -> Result<(), String> {
+        let bad = |key: &str, v: &dyn std::fmt::Display, range: &str| {
+            Err(format!("search.{key} = {v} (use {range})"))
+        };
+        let unit = |v: f32| (0.0..=1.0).contains(&v);
+        let fractions = [
+            ("bake_metal_margin", self.bake_metal_margin),
+            ("metal_margin", self.metal_margin),
+            ("interior_sigma", self.interior_sigma),
+            ("interior_tolerance", self.interior_tolerance),
+        ];
+        for (key, v) in fractions {
+            if !unit(v) {
+                return bad(key, &v, "[0, 1]");
+            }
+        }
+        let non_negative = [
+            ("dielectric_tolerance", self.dielectric_tolerance),
+            ("metal_tolerance", self.metal_tolerance),
+            ("interior_gain", self.interior_gain),
+            ("edge_contrast", self.edge_contrast),
+        ];
+        for (key, v) in non_negative {
+            if !(v >= 0.0 && v <= 1e6) {
+                return bad(key, &v, "[0, 1e6]");
+            }
+        }
+        if !(2..=10_000).contains(&self.roughness_steps) {
+            return bad("roughness_steps", &self.roughness_steps, "2..=10000");
+        }
+        if self.metallic.is_empty()
+            || self.metallic.len() > 100
+            || !self.metallic.iter().all(|&m| unit(m))
+        {
+            return bad(
+                "metallic",
+                &format!("{:?}", self.metallic),
+                "1 to 100 values in [0, 1]",
+            );
+        }
+        if !(self.cell_footprints > 0.0 && self.cell_footprints <= 1e4) {
+            return bad("cell_footprints", &self.cell_footprints, "(0, 1e4]");
+        }
+        if !(0.0..=180.0).contains(&self.mesh_angle_deg) {
+            return bad("mesh_angle_deg", &self.mesh_angle_deg, "[0, 180]");
+        }
+        Ok(())
+    }
+
     /// The search off (the reference's behaviour).
     pub fn off() -> Self {
         SearchConfig {
@@ -573,188 +624,4 @@ pub fn choose(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use fipt_core::rng::Pcg32;
-    use fipt_core::shading::{DEFAULT_LEVELS, NUM_LEVELS};
-
-    /// Views rendered by the factorised model itself at (σ, m) with a base colour per cell:
-    /// random shadings per pixel, 8 views × 64 pixels, 16 cells of 32 pixels each.
-    fn scene(sigma: f32, m: f32) -> (Vec<SearchPixel>, Vec<ViewShadings>, Vec<Image>) {
-        let mut rng = Pcg32::new(3, 7);
-        let mut u = || rng.next_f32();
-        let base: Vec<Rgb> = (0..16)
-            .map(|_| Vec3::new(0.2 + 0.7 * u(), 0.2 + 0.7 * u(), 0.2 + 0.7 * u()))
-            .collect();
-        let (mut pixels, mut shadings, mut images) = (vec![], vec![], vec![]);
-        for v in 0..8u32 {
-            let mut sh = ViewShadings::zeros(8, 8, DEFAULT_LEVELS);
-            let mut img = Image::new(8, 8);
-            for i in 0..64 {
-                sh.valid[i] = true;
-                sh.ld[i] = Vec3::splat(0.5 + u());
-                for l in 0..NUM_LEVELS {
-                    // View-dependent specular shadings that differ between levels.
-                    sh.ls0[i][l] = Vec3::splat(0.2 + 3.0 * u() * (1.0 - l as f32 / 6.0));
-                    sh.ls1[i][l] = Vec3::splat(0.05 * u());
-                }
-                let cell = ((v as usize * 64 + i) % 16) as u32;
-                let (b, c) = linear_terms(&sh, i, sigma, m);
-                img.data[i] = base[cell as usize] * b + c;
-                pixels.push(SearchPixel {
-                    view: v,
-                    pixel: i as u32,
-                    region: 0,
-                    cell,
-                });
-            }
-            shadings.push(sh);
-            images.push(img);
-        }
-        (pixels, shadings, images)
-    }
-
-    #[test]
-    fn the_fitted_profile_is_zero_at_the_truth_and_the_choice_finds_it() {
-        let grid: Vec<f32> = DEFAULT_LEVELS.to_vec();
-        for (sigma, m) in [(0.412, 1.0), (0.216, 0.0), (1.0, 0.0)] {
-            let (px, sh, img) = scene(sigma, m);
-            let p = &profile(&px, &sh, &img, 1, &grid, &[0.0, 1.0], Albedo::Fitted)[0];
-            let mi = usize::from(m == 1.0);
-            let si = grid.iter().position(|&s| s == sigma).unwrap();
-            assert!(
-                p.cost[mi][si] < 1e-10,
-                "({sigma}, {m}): cost at the truth {}",
-                p.cost[mi][si]
-            );
-            for (k, row) in p.cost.iter().enumerate() {
-                for (j, &c) in row.iter().enumerate() {
-                    if (k, j) != (mi, si) {
-                        assert!(
-                            c > 1e-6,
-                            "({sigma}, {m}): candidate ({k}, {j}) also fits: {c}"
-                        );
-                    }
-                }
-            }
-            let cfg = SearchConfig {
-                min_pixels: 1,
-                ..Default::default()
-            };
-            let c = choose(p, &cfg, false, None);
-            assert_eq!(c.metallic, Some(m));
-            // A dielectric at σ = 1 gets no σ target (the training decides); the others theirs.
-            assert_eq!(
-                c.roughness,
-                (sigma < 1.0).then_some(sigma),
-                "({sigma}, {m})"
-            );
-        }
-    }
-
-    fn curve(metal: Vec<f64>, dielectric: Vec<f64>) -> RegionProfile {
-        RegionProfile {
-            region: 0,
-            pixels: 1000,
-            cells: 10,
-            sigma: vec![0.02, 0.25, 0.5, 0.75, 1.0],
-            metallic: vec![0.0, 1.0],
-            cost: vec![dielectric, metal],
-        }
-    }
-
-    #[test]
-    fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
-        let cfg = SearchConfig::default();
-        // A mirror-end dielectric minimum 13 % below σ = 1 (the studio's diffuse box): no σ.
-        let p = curve(vec![1.0; 5], vec![0.100, 0.110, 0.120, 0.118, 0.113]);
-        assert_eq!(choose(&p, &cfg, false, None).roughness, None);
-        // An interior minimum 14 % below σ = 1: σ at the minimum.
-        let p = curve(vec![1.0; 5], vec![0.110, 0.100, 0.105, 0.110, 0.114]);
-        assert_eq!(
-            choose(&p, &cfg, false, Some([&p, &p])).roughness,
-            Some(0.25)
-        );
-        // A shallow interior minimum (a wall, 1 % below σ = 1): the roughest within a quarter
-        // of that 1 %, when both halves of the views agree; below 0.1 % (the diffuse box)
-        // none.
-        let wall = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1001, 0.1004, 0.1010]);
-        let other = curve(vec![1.0; 5], vec![0.2, 0.1003, 0.1000, 0.1004, 0.1010]);
-        assert_eq!(
-            choose(&wall, &cfg, false, Some([&wall, &other])).roughness,
-            Some(0.5)
-        );
-        // Noise: one half's minimum (σ 0.25) costs more than σ = 1 on the other half.
-        let noise = curve(vec![1.0; 5], vec![0.2, 0.1020, 0.1000, 0.1004, 0.1010]);
-        assert_eq!(
-            choose(&wall, &cfg, false, Some([&wall, &noise])).roughness,
-            None
-        );
-        // Without halves the held-out check cannot pass; without the check the curve decides.
-        assert_eq!(choose(&wall, &cfg, false, None).roughness, None);
-        let trusting = SearchConfig {
-            held_out: false,
-            ..SearchConfig::default()
-        };
-        assert_eq!(choose(&wall, &trusting, false, None).roughness, Some(0.5));
-        let p = curve(vec![1.0; 5], vec![0.2, 0.1, 0.1, 0.1, 0.10003]);
-        assert_eq!(choose(&p, &trusting, false, None).roughness, None);
-        // The old rule (5 %, the metal tolerance) keeps the wall at σ = 1.
-        let old = SearchConfig {
-            interior_gain: 0.05,
-            interior_tolerance: 1.0,
-            ..trusting
-        };
-        assert_eq!(choose(&wall, &old, false, None).roughness, None);
-        // A strong minimum: the roughest within 25 %.
-        let p = curve(vec![1.0; 5], vec![0.100, 0.120, 0.200, 0.300, 0.300]);
-        assert_eq!(choose(&p, &cfg, false, None).roughness, Some(0.25));
-        // Metal by 15 %: not metal, unless it was (then only a 20 % better dielectric turns it).
-        let p = curve(vec![0.3, 0.085, 0.3, 0.3, 0.3], vec![0.1; 5]);
-        assert_eq!(choose(&p, &cfg, false, None).metallic, Some(0.0));
-        let c = choose(&p, &cfg, true, None);
-        assert_eq!((c.metallic, c.roughness), (Some(1.0), Some(0.25)));
-        let p = curve(vec![0.3, 0.13, 0.3, 0.3, 0.3], vec![0.1; 5]);
-        assert_eq!(choose(&p, &cfg, true, None).metallic, Some(0.0));
-        // Too few pixels: no target at all.
-        let mut p = curve(vec![0.01; 5], vec![0.1; 5]);
-        p.pixels = 10;
-        let c = choose(&p, &cfg, false, None);
-        assert_eq!((c.roughness, c.metallic), (None, None));
-    }
-
-    #[test]
-    fn region_edges_are_the_pixels_beside_another_region_or_none() {
-        // 4×3: region 0 on the left half, 1 on the right, the top-right pixel unlabelled.
-        let ids = [
-            Some(0),
-            Some(0),
-            Some(1),
-            None, //
-            Some(0),
-            Some(0),
-            Some(1),
-            Some(1), //
-            Some(0),
-            Some(0),
-            Some(1),
-            Some(1),
-        ];
-        let edge: Vec<bool> = (0..12)
-            .map(|i| on_region_edge(&ids, 4, i, &|_| true))
-            .collect();
-        #[rustfmt::skip]
-        let want = [
-            false, true, true, true,
-            false, true, true, true,
-            false, true, true, false,
-        ];
-        assert_eq!(edge, want);
-        assert!(!on_region_edge(&ids, 0, 0, &|_| true));
-        // Only neighbours that count: here the unlabelled pixel alone.
-        let by_none: Vec<usize> = (0..12)
-            .filter(|&i| on_region_edge(&ids, 4, i, &|j| ids[j].is_none()))
-            .collect();
-        assert_eq!(by_none, [2, 6, 7]);
-    }
-}
+mod tests;
