@@ -269,6 +269,7 @@ pub fn run(a: Args) -> Result<()> {
         edge_contrast: a.edge_contrast,
         ..SearchConfig::default()
     };
+    cfg.validate().map_err(anyhow::Error::msg)?;
     let split = scene.ds.train();
     let records: Vec<_> = split
         .views
