@@ -232,7 +232,8 @@ pub struct Args {
     json: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "reject")]
     bad_pixels: Policy,
-    /// Leave out the pixels on regions' outlines (`[search] drop_edges = true`).
+    /// Leave out the pixels on regions' outlines (`[search] drop_edges = true`, as `fipt run`
+    /// does with `--edge-contrast 4`; by default every pixel counts).
     #[arg(long)]
     drop_edges: bool,
     /// With --drop-edges: only neighbours this many times brighter count (`[search] edge_contrast`).
