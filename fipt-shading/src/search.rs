@@ -154,26 +154,19 @@ impl SearchConfig {
             Err(format!("search.{key} = {v} (use {range})"))
         };
         let unit = |v: f32| (0.0..=1.0).contains(&v);
-        let fractions = [
-            ("bake_metal_margin", self.bake_metal_margin),
-            ("metal_margin", self.metal_margin),
-            ("interior_sigma", self.interior_sigma),
-            ("interior_tolerance", self.interior_tolerance),
+        let ranges = [
+            ("bake_metal_margin", self.bake_metal_margin, 1.0),
+            ("metal_margin", self.metal_margin, 1.0),
+            ("interior_sigma", self.interior_sigma, 1.0),
+            ("interior_tolerance", self.interior_tolerance, 1.0),
+            ("dielectric_tolerance", self.dielectric_tolerance, 1e6),
+            ("metal_tolerance", self.metal_tolerance, 1e6),
+            ("interior_gain", self.interior_gain, 1e6),
+            ("edge_contrast", self.edge_contrast, 1e6),
         ];
-        for (key, v) in fractions {
-            if !unit(v) {
-                return bad(key, &v, "[0, 1]");
-            }
-        }
-        let non_negative = [
-            ("dielectric_tolerance", self.dielectric_tolerance),
-            ("metal_tolerance", self.metal_tolerance),
-            ("interior_gain", self.interior_gain),
-            ("edge_contrast", self.edge_contrast),
-        ];
-        for (key, v) in non_negative {
-            if !(v >= 0.0 && v <= 1e6) {
-                return bad(key, &v, "[0, 1e6]");
+        for (key, v, hi) in ranges {
+            if !(v >= 0.0 && v <= hi) {
+                return bad(key, &v, &format!("[0, {hi}]"));
             }
         }
         if !(2..=10_000).contains(&self.roughness_steps) {
