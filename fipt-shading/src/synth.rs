@@ -106,6 +106,19 @@ impl Builder {
         self.semantic.push(class);
     }
 
+    /// An emitting quad (corner `o`, edges `a`, `b`) with its centre as a camera target.
+    fn quad_light(&mut self, name: &str, radiance: [f32; 3], o: Vec3, a: Vec3, b: Vec3) {
+        self.part(
+            MaterialDesc::Emitter {
+                name: name.into(),
+                radiance,
+            },
+            LIGHT,
+            |p, t| quad(p, t, o, a, b),
+        );
+        self.emitters.push(o + 0.5 * (a + b));
+    }
+
     fn finish(self, name: &str, room_min: Vec3, room_max: Vec3, fov_x: f32) -> SynthScene {
         let mesh = Mesh::from_triangles(self.pos, None, self.tris);
         debug_assert_eq!(mesh.dropped_degenerate, 0);

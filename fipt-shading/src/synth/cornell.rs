@@ -47,23 +47,13 @@ fn cornell_box(name: &str, floor_roughness: f32, third_block: MaterialDesc) -> S
             principled("front", rgb(0.5, 0.5, 0.55), Texture::Scalar(0.9), 0.0),
         ],
     );
-    b.part(
-        MaterialDesc::Emitter {
-            name: "ceiling_light".into(),
-            radiance: [17.0, 12.0, 4.0],
-        },
-        LIGHT,
-        |p, t| {
-            quad(
-                p,
-                t,
-                Vec3::new(-0.25, 1.99, -0.25),
-                Vec3::new(0.5, 0., 0.),
-                Vec3::new(0., 0., 0.5),
-            )
-        },
+    b.quad_light(
+        "ceiling_light",
+        [17.0, 12.0, 4.0],
+        Vec3::new(-0.25, 1.99, -0.25),
+        Vec3::new(0.5, 0., 0.),
+        Vec3::new(0., 0., 0.5),
     );
-    b.emitters.push(Vec3::new(0.0, 1.99, 0.0));
     add_box(
         &mut b,
         principled(

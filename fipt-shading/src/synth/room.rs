@@ -64,23 +64,13 @@ pub fn room() -> SynthScene {
 /// bright bulb).
 fn room_lights(b: &mut Builder) {
     // Ceiling panel (1 cm below the ceiling).
-    b.part(
-        MaterialDesc::Emitter {
-            name: "ceiling_panel".into(),
-            radiance: [9.0, 8.6, 7.8],
-        },
-        LIGHT,
-        |p, t| {
-            quad(
-                p,
-                t,
-                Vec3::new(-0.6, 2.79, -0.3),
-                Vec3::new(1.2, 0., 0.),
-                Vec3::new(0., 0., 0.6),
-            )
-        },
+    b.quad_light(
+        "ceiling_panel",
+        [9.0, 8.6, 7.8],
+        Vec3::new(-0.6, 2.79, -0.3),
+        Vec3::new(1.2, 0., 0.),
+        Vec3::new(0., 0., 0.6),
     );
-    b.emitters.push(Vec3::new(0.0, 2.79, 0.0));
     // Floor lamp: a thin stand and a small, very bright bulb.
     let lamp = Vec3::new(-1.9, 0.0, 1.4);
     add_box(
