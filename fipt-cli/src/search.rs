@@ -53,10 +53,15 @@ fn prepare(
         cfg.cell_footprints * footprint,
         &|v, i, _| {
             let (ids, img) = (&regions.ids[v], &scene.images[v].data);
-            let floor = cfg.edge_contrast * luminance(img[i]);
-            let brighter = |j: usize| luminance(img[j]) >= floor;
-            let edge = cfg.drop_edges && on_region_edge(ids, shadings[v].width, i, &brighter);
-            ids[i].filter(|_| !edge)
+            let region = ids[i]?;
+            if cfg.drop_edges {
+                let floor = cfg.edge_contrast * luminance(img[i]);
+                let brighter = |j: usize| luminance(img[j]) >= floor;
+                if on_region_edge(ids, shadings[v].width, i, &brighter) {
+                    return None;
+                }
+            }
+            Some(region)
         },
     );
     let levels = shadings
