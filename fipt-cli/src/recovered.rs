@@ -29,13 +29,22 @@ pub fn surfaces(
     emitters: &[Emitter],
     model: ReflectanceModel,
 ) -> Result<FieldSurfaces> {
-    let (pts, footprint) = crate::train::view_points(geometry, views);
-    let pts: Vec<_> = pts.into_iter().flatten().flatten().collect();
+    let records: Vec<_> = views
+        .iter()
+        .map(|v| fipt_shading::records::primary_records(geometry, v))
+        .collect();
+    let footprint = fipt_shading::records::median_footprint(views, &records);
+    let pts: Vec<_> = records
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|r| (r.hit.p, r.hit.tri))
+        .collect();
     Ok(FieldSurfaces::build_covering(
         field,
         &geometry.mesh,
         emitters,
-        pts,
+        &pts,
         cache_cell(footprint),
         MAX_FILL_POINTS,
     )?

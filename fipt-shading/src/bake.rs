@@ -162,18 +162,20 @@ pub struct BakeStats {
     pub seconds_specular: f64,
 }
 
-/// Builds the SLF from primary records and the matching HDR images.
+/// Builds the SLF from primary records and the matching HDR images, from the pixels whose
+/// record `keep` accepts (the cube spans every record either way).
 pub fn build_slf(
     records: &[Vec<Option<PixelRecord>>],
     images: &[Image],
     resolution: u32,
     fallback_levels: u32,
+    keep: impl Fn(&PixelRecord) -> bool,
 ) -> Option<SurfaceLightField> {
     let cube = Cube::around(records.iter().flatten().flatten().map(|r| r.hit.p), 1.1)?;
     let mut b = SlfBuilder::with_fallback(cube, resolution, fallback_levels);
     for (recs, img) in records.iter().zip(images) {
         for (r, l) in recs.iter().zip(&img.data) {
-            if let Some(r) = r {
+            if let Some(r) = r.as_ref().filter(|r| keep(r)) {
                 b.add(r.hit.p, *l);
             }
         }
@@ -508,6 +510,7 @@ impl FactorizedBaker {
             images,
             cfg.slf_resolution,
             cfg.slf_fallback_levels,
+            |_| true,
         ) else {
             let out = views
                 .iter()

@@ -4,8 +4,12 @@
 //!
 //! The field is a network: querying it per path vertex would cost a batch call per sample.
 //! Instead it is evaluated once at the mean point of every occupied voxel (voxels of edge
-//! `cell`, occupied by the given surface points), and per triangle at its centroid as the
-//! fallback for voxels no point occupied.
+//! `cell`, occupied by the given surface points). A point in no such voxel takes its
+//! triangle's fallback: the mean material of the observed points on that triangle, or, for a
+//! triangle no view saw, of the nearest observed triangles across shared vertices. The field
+//! itself is not asked there: a network extrapolates far from its training points (on the
+//! tiny `cornell`, albedo 1.0 on the hidden faces of the blocks and the ceiling above the
+//! light), and paths that bounce off such surfaces brightened the refined Ld by 6 %.
 use crate::scene::SurfaceModel;
 use fipt_core::color::Rgb;
 use fipt_core::emitter::Emitter;
@@ -14,13 +18,18 @@ use fipt_core::materials::SurfacePoint;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
 use glam::Vec3;
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 
-type Key = (i32, i32, i32);
+/// A voxel and the side its surface faces ([`facing`]).
+type Key = (i32, i32, i32, u8);
+
+/// No triangle: a point whose triangle is unknown (it still gets a voxel).
+pub const NO_TRIANGLE: u32 = u32::MAX;
 
 pub struct FieldSurfaces {
     cell: f32,
     voxels: HashMap<Key, SurfacePoint>,
+    tri_facing: Vec<u8>,
     per_triangle: Vec<SurfacePoint>,
     emission: Vec<Rgb>,
     model: ReflectanceModel,
@@ -36,13 +45,155 @@ fn to_surface(m: &Material) -> SurfacePoint {
     }
 }
 
+/// A running sum of surface points (kd, ks, σ and metallic averaged linearly).
+#[derive(Clone, Copy, Default)]
+struct MeanSurface {
+    kd: Vec3,
+    ks: Vec3,
+    roughness: f64,
+    metallic: f64,
+    weight: f64,
+}
+
+impl MeanSurface {
+    fn add(&mut self, sp: &SurfacePoint, w: f64) {
+        self.kd += sp.kd * w as f32;
+        self.ks += sp.ks * w as f32;
+        self.roughness += sp.roughness as f64 * w;
+        self.metallic += sp.metallic as f64 * w;
+        self.weight += w;
+    }
+    fn mean(&self) -> Option<SurfacePoint> {
+        (self.weight > 0.0).then(|| {
+            let w = self.weight;
+            SurfacePoint {
+                kd: self.kd / w as f32,
+                ks: self.ks / w as f32,
+                roughness: (self.roughness / w) as f32,
+                metallic: (self.metallic / w) as f32,
+                emission: Vec3::ZERO,
+            }
+        })
+    }
+}
+
+/// Triangles sharing a vertex position (positions welded at 1e-6 of the mesh's extent, so
+/// meshes written with a vertex per face corner connect too).
+fn vertex_neighbours(mesh: &Mesh) -> Vec<Vec<u32>> {
+    let extent = mesh
+        .positions
+        .iter()
+        .fold(0.0f32, |m, p| m.max(p.abs().max_element()));
+    let q = 1e6 / extent.max(1e-12);
+    let weld = |p: Vec3| -> (i64, i64, i64) {
+        let r = (p * q).round();
+        (r.x as i64, r.y as i64, r.z as i64)
+    };
+    let mut at: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::new();
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for &v in tri {
+            at.entry(weld(mesh.positions[v as usize]))
+                .or_default()
+                .push(t as u32);
+        }
+    }
+    let mut out = vec![Vec::new(); mesh.triangles.len()];
+    for tris in at.values() {
+        for &a in tris {
+            out[a as usize].extend(tris.iter().copied().filter(|&b| b != a));
+        }
+    }
+    for n in &mut out {
+        n.sort_unstable();
+        n.dedup();
+    }
+    out
+}
+
+/// Each triangle's fallback: its observed mean, else (breadth first across shared vertices
+/// from the observed triangles) the mean of its neighbours' fallbacks when it is reached;
+/// triangles no observed one connects to take the mean of every observed point, and with no
+/// observed point at all, `centroid_value`.
+fn triangle_fallbacks(
+    mesh: &Mesh,
+    observed: Vec<MeanSurface>,
+    centroid_value: impl Fn() -> fipt_core::Result<Vec<SurfacePoint>>,
+) -> fipt_core::Result<Vec<SurfacePoint>> {
+    let mut all = MeanSurface::default();
+    for m in &observed {
+        if let Some(sp) = m.mean() {
+            all.add(&sp, m.weight);
+        }
+    }
+    let Some(global) = all.mean() else {
+        return centroid_value();
+    };
+    let mut value: Vec<Option<SurfacePoint>> = observed.iter().map(|m| m.mean()).collect();
+    let neighbours = vertex_neighbours(mesh);
+    let mut queue: VecDeque<u32> = (0..value.len() as u32)
+        .filter(|&t| value[t as usize].is_some())
+        .collect();
+    while let Some(t) = queue.pop_front() {
+        for &n in &neighbours[t as usize] {
+            if value[n as usize].is_some() {
+                continue;
+            }
+            let mut m = MeanSurface::default();
+            for &k in &neighbours[n as usize] {
+                if let Some(sp) = &value[k as usize] {
+                    m.add(sp, 1.0);
+                }
+            }
+            value[n as usize] = m.mean();
+            queue.push_back(n);
+        }
+    }
+    Ok(value.into_iter().map(|v| v.unwrap_or(global)).collect())
+}
+
+/// The side a triangle faces: its normal's dominant axis and sign (0..6), 6 for no triangle.
+fn facing(mesh: &Mesh, tri: u32) -> u8 {
+    if (tri as usize) >= mesh.triangles.len() {
+        return 6;
+    }
+    let n = mesh.face_normal(tri as usize);
+    let a = n.abs();
+    let (axis, v) = if a.x >= a.y && a.x >= a.z {
+        (0, n.x)
+    } else if a.y >= a.z {
+        (1, n.y)
+    } else {
+        (2, n.z)
+    };
+    2 * axis + u8::from(v < 0.0)
+}
+
 impl FieldSurfaces {
-    /// Caches `field` at voxels of edge `cell` occupied by `points`, and at triangle centroids.
+    /// Caches `field` at voxels of edge `cell` occupied by the `observed` points (each with
+    /// its mesh triangle, or [`NO_TRIANGLE`]); see the module's notes for the fallback.
     pub fn build(
         field: &dyn MaterialField,
         mesh: &Mesh,
         emitters: &[Emitter],
-        points: impl IntoIterator<Item = Vec3>,
+        observed: &[(Vec3, u32)],
+        cell: f32,
+    ) -> fipt_core::Result<Self> {
+        Self::build_with(field, mesh, emitters, observed, &[], cell)
+    }
+
+    /// [`FieldSurfaces::build`] with voxels also at the `extra` points (which do not count
+    /// as observed for the triangles' fallbacks).
+    ///
+    /// A voxel is split by the side its points' triangles face (so a floor and the wall
+    /// beside it keep their own materials in a shared voxel), and the field is asked at the
+    /// point nearest the mean of the voxel's points: a surface point, where the mean itself
+    /// of a corner's points lies off the surface, where the field was never trained.
+    fn build_with(
+        field: &dyn MaterialField,
+        mesh: &Mesh,
+        emitters: &[Emitter],
+        observed: &[(Vec3, u32)],
+        extra: &[(Vec3, u32)],
         cell: f32,
     ) -> fipt_core::Result<Self> {
         let cell = if cell > 0.0 && cell.is_finite() {
@@ -50,33 +201,37 @@ impl FieldSurfaces {
         } else {
             0.01
         };
-        let key = |p: Vec3| -> Key {
+        let tri_facing: Vec<u8> = (0..mesh.triangles.len() as u32)
+            .map(|t| facing(mesh, t))
+            .collect();
+        let side = |t: u32| tri_facing.get(t as usize).copied().unwrap_or(6);
+        let key = |p: Vec3, t: u32| -> Key {
             let q = (p / cell).floor();
-            (q.x as i32, q.y as i32, q.z as i32)
+            (q.x as i32, q.y as i32, q.z as i32, side(t))
         };
+        let points = || observed.iter().chain(extra).filter(|(p, _)| p.is_finite());
         let mut acc: HashMap<Key, (Vec3, u32)> = HashMap::new();
-        for p in points {
-            if p.is_finite() {
-                let e = acc.entry(key(p)).or_insert((Vec3::ZERO, 0));
-                e.0 += p;
-                e.1 += 1;
+        for &(p, t) in points() {
+            let e = acc.entry(key(p, t)).or_insert((Vec3::ZERO, 0));
+            e.0 += p;
+            e.1 += 1;
+        }
+        // Each voxel's point nearest its mean.
+        let mut nearest: HashMap<Key, (f32, Vec3)> = HashMap::with_capacity(acc.len());
+        for &(p, t) in points() {
+            let k = key(p, t);
+            let d = p.distance_squared(acc[&k].0 / acc[&k].1 as f32);
+            let e = nearest.entry(k).or_insert((f32::INFINITY, p));
+            if d < e.0 {
+                *e = (d, p);
             }
         }
         let mut keys: Vec<Key> = acc.keys().copied().collect();
         keys.sort_unstable();
-        let centers: Vec<Vec3> = keys.iter().map(|k| acc[k].0 / acc[k].1 as f32).collect();
+        let centers: Vec<Vec3> = keys.iter().map(|k| nearest[k].1).collect();
         let mats = field.materials(&centers)?;
-        let voxels = keys.into_iter().zip(mats.iter().map(to_surface)).collect();
-        let centroids: Vec<Vec3> = mesh
-            .triangles
-            .iter()
-            .map(|t| t.iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>() / 3.0)
-            .collect();
-        let per_triangle = field
-            .materials(&centroids)?
-            .iter()
-            .map(to_surface)
-            .collect();
+        let voxels: HashMap<Key, SurfacePoint> =
+            keys.into_iter().zip(mats.iter().map(to_surface)).collect();
         let mut emission = vec![Vec3::ZERO; mesh.triangles.len()];
         for e in emitters {
             for (t, l) in e.triangles.iter().zip(&e.radiance) {
@@ -85,9 +240,34 @@ impl FieldSurfaces {
                 }
             }
         }
+        // Observed points per (voxel, triangle); emitters' points say nothing of the
+        // surfaces around them.
+        let mut on_triangle: HashMap<(Key, u32), u32> = HashMap::new();
+        for &(p, t) in observed.iter().filter(|(p, _)| p.is_finite()) {
+            if emission.get(t as usize) == Some(&Vec3::ZERO) {
+                *on_triangle.entry((key(p, t), t)).or_insert(0) += 1;
+            }
+        }
+        let mut per_tri = vec![MeanSurface::default(); mesh.triangles.len()];
+        let mut votes: Vec<_> = on_triangle.into_iter().collect();
+        votes.sort_unstable();
+        for ((k, t), n) in votes {
+            per_tri[t as usize].add(&voxels[&k], n as f64);
+        }
+        let per_triangle = triangle_fallbacks(mesh, per_tri, || {
+            let centroids: Vec<Vec3> = (0..mesh.triangles.len())
+                .map(|t| mesh.vertices(t).iter().sum::<Vec3>() / 3.0)
+                .collect();
+            Ok(field
+                .materials(&centroids)?
+                .iter()
+                .map(to_surface)
+                .collect())
+        })?;
         Ok(FieldSurfaces {
             cell,
             voxels,
+            tri_facing,
             per_triangle,
             emission,
             model: ReflectanceModel::Fipt,
@@ -97,27 +277,27 @@ impl FieldSurfaces {
     /// As [`FieldSurfaces::build`], and also caches the field on the voxels of the rest of the
     /// mesh surface (points spread over every triangle at about one per `cell`², at most
     /// `max_fill` of them), so views of surfaces no input view saw still vary within a
-    /// triangle. Voxels the given points occupy keep exactly their value of `build`.
+    /// triangle. Voxels the observed points occupy keep exactly their value of `build`.
     pub fn build_covering(
         field: &dyn MaterialField,
         mesh: &Mesh,
         emitters: &[Emitter],
-        points: Vec<Vec3>,
+        observed: &[(Vec3, u32)],
         cell: f32,
         max_fill: usize,
     ) -> fipt_core::Result<Self> {
-        let key = |p: Vec3| -> Key {
+        let key = |p: Vec3, t: u32| -> Key {
             let q = (p / cell).floor();
-            (q.x as i32, q.y as i32, q.z as i32)
+            (q.x as i32, q.y as i32, q.z as i32, facing(mesh, t))
         };
-        let seen: std::collections::HashSet<Key> = points
+        let seen: std::collections::HashSet<Key> = observed
             .iter()
-            .filter(|p| p.is_finite())
-            .map(|&p| key(p))
+            .filter(|(p, _)| p.is_finite())
+            .map(|&(p, t)| key(p, t))
             .collect();
         let area: f64 = (0..mesh.triangles.len()).map(|t| mesh.area(t) as f64).sum();
         let spacing = (cell as f64).max((area / max_fill.max(1) as f64).sqrt());
-        let mut all = points;
+        let mut fill = Vec::new();
         for t in 0..mesh.triangles.len() {
             let [a, b, c] = mesh.vertices(t);
             let n = (mesh.area(t) as f64 / (spacing * spacing)).ceil().max(1.0) as usize;
@@ -131,12 +311,12 @@ impl FieldSurfaces {
                     (u, v)
                 };
                 let p = a + (b - a) * u + (c - a) * v;
-                if !seen.contains(&key(p)) {
-                    all.push(p);
+                if !seen.contains(&key(p, t as u32)) {
+                    fill.push((p, t as u32));
                 }
             }
         }
-        Self::build(field, mesh, emitters, all, cell)
+        Self::build_with(field, mesh, emitters, observed, &fill, cell)
     }
 
     /// The same surfaces under reflectance model `model` (FIPT's by default).
@@ -171,8 +351,9 @@ impl SurfaceModel for FieldSurfaces {
             };
         }
         let q = (p / self.cell).floor();
+        let side = self.tri_facing[tri as usize];
         self.voxels
-            .get(&(q.x as i32, q.y as i32, q.z as i32))
+            .get(&(q.x as i32, q.y as i32, q.z as i32, side))
             .copied()
             .unwrap_or(self.per_triangle[tri as usize])
     }
@@ -220,8 +401,10 @@ mod tests {
             None,
             vec![[0, 1, 2], [1, 3, 2]],
         );
-        let pts: Vec<Vec3> = (0..100)
+        // Points on triangle 0 while x + z < 1, then on triangle 1 (the emitter).
+        let pts: Vec<(Vec3, u32)> = (0..100)
             .map(|i| Vec3::new(i as f32 / 100.0 + 0.005, 0.0, 0.3))
+            .map(|p| (p, u32::from(p.x + p.z >= 1.0)))
             .collect();
         let em = Emitter {
             triangles: vec![1],
@@ -232,21 +415,22 @@ mod tests {
             centroid: [0.0; 3],
             pixels: 1,
         };
-        let s = FieldSurfaces::build(&Ramp, &mesh, &[em], pts.clone(), 0.05).unwrap();
+        let s = FieldSurfaces::build(&Ramp, &mesh, &[em], &pts, 0.05).unwrap();
         assert_eq!(s.voxels(), 20);
         for x in [0.02f32, 0.31, 0.77] {
             let sp = s.surface(0, Vec3::new(x, 0.0, 0.3));
             assert!((sp.kd.x - x).abs() <= 0.05, "x={x}: kd {}", sp.kd.x);
             assert_eq!(sp.ks, Vec3::splat(0.04));
         }
-        // Off the observed points: the triangle's centroid value.
-        assert!((s.surface(0, Vec3::new(0.2, 0.0, 0.9)).kd.x - 1.0 / 3.0).abs() < 1e-5);
+        // Off the observed points: the mean of the triangle's observed points (x 0.005 to
+        // 0.695), not the field at its centroid (1/3).
+        let off = s.surface(0, Vec3::new(0.2, 0.0, 0.9)).kd.x;
+        assert!((off - 0.35).abs() < 1e-4, "fallback kd {off}");
         // Covering the mesh: observed voxels keep their value, the rest follow the field.
-        let c =
-            FieldSurfaces::build_covering(&Ramp, &mesh, &[], pts.clone(), 0.05, 10_000).unwrap();
-        let b = FieldSurfaces::build(&Ramp, &mesh, &[], pts.clone(), 0.05).unwrap();
+        let c = FieldSurfaces::build_covering(&Ramp, &mesh, &[], &pts, 0.05, 10_000).unwrap();
+        let b = FieldSurfaces::build(&Ramp, &mesh, &[], &pts, 0.05).unwrap();
         assert!(c.voxels() > 200, "{} voxels", c.voxels());
-        for p in &pts {
+        for (p, _) in &pts {
             assert_eq!(c.surface(0, *p), b.surface(0, *p));
         }
         let off = c.surface(0, Vec3::new(0.2, 0.0, 0.7)).kd.x;
@@ -255,5 +439,107 @@ mod tests {
         assert_eq!(e.kd, Vec3::ZERO);
         assert_eq!(s.emission(1), Vec3::new(2.0, 3.0, 4.0));
         assert_eq!(s.emission(0), Vec3::ZERO);
+    }
+
+    /// A triangle no view saw takes the value of the observed triangles it shares a vertex
+    /// with (even when the file repeats vertices per face); one connected to none of them
+    /// takes the mean of every observed point; points on an emitter count for nothing.
+    #[test]
+    fn unseen_triangles_take_their_observed_neighbours_value() {
+        let tri_at = |x0: f32| {
+            [
+                Vec3::new(x0, 0.0, 0.0),
+                Vec3::new(x0 + 1.0, 0.0, 0.0),
+                Vec3::new(x0 + 1.0, 0.0, 1.0),
+            ]
+        };
+        // Triangles 0 and 1 touch at x = 1 (separate vertex copies); 2 is far away; 3 is an
+        // emitter beside 0.
+        let positions: Vec<Vec3> = [0.0, 1.0, 5.0, -1.0].into_iter().flat_map(tri_at).collect();
+        let tris: Vec<[u32; 3]> = (0..4u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+        let mesh = Mesh::from_triangles(positions, None, tris);
+        let em = Emitter {
+            triangles: vec![3],
+            radiance: vec![[1.0; 3]],
+            area: 0.5,
+            mean_radiance: [1.0; 3],
+            power: [0.0; 3],
+            centroid: [0.0; 3],
+            pixels: 1,
+        };
+        let seen = [
+            (Vec3::new(0.8, 0.0, 0.1), 0),
+            (Vec3::new(-0.1, 0.0, 0.1), 3),
+        ];
+        let s = FieldSurfaces::build(&Ramp, &mesh, &[em], &seen, 0.05).unwrap();
+        let far = |t: u32| s.surface(t, Vec3::new(9.0, 9.0, 9.0)).kd.x;
+        let want = 0.8; // the field at the observed point
+        assert!(
+            (far(0) - want).abs() < 1e-5,
+            "observed triangle: {}",
+            far(0)
+        );
+        assert!((far(1) - want).abs() < 1e-5, "its neighbour: {}", far(1));
+        assert!((far(2) - want).abs() < 1e-5, "disconnected: {}", far(2));
+        // Nothing observed at all: the field at each centroid.
+        let none = FieldSurfaces::build(&Ramp, &mesh, &[], &[], 0.05).unwrap();
+        let c = none.surface(2, Vec3::splat(9.0)).kd.x;
+        assert!((c - 1.0).abs() < 1e-6, "centroid x 5.67 clamps to 1: {c}");
+    }
+
+    /// 0.2 on the floor y = 0, 0.6 on the wall x = 0, 1 off both (where a network was never
+    /// trained).
+    struct Corner;
+    impl MaterialField for Corner {
+        fn name(&self) -> &str {
+            "corner"
+        }
+        fn materials(&self, p: &[Vec3]) -> fipt_core::Result<Vec<Material>> {
+            let kd = |q: &Vec3| match (q.y.abs() < 1e-6, q.x.abs() < 1e-6) {
+                (true, _) => 0.2,
+                (_, true) => 0.6,
+                _ => 1.0,
+            };
+            Ok(p.iter()
+                .map(|q| Material {
+                    albedo: Vec3::splat(kd(q)),
+                    roughness: 1.0,
+                    metallic: 0.0,
+                })
+                .collect())
+        }
+        fn emission_mask(&self, p: &[Vec3]) -> fipt_core::Result<Vec<f32>> {
+            Ok(vec![0.0; p.len()])
+        }
+    }
+
+    /// A floor and a wall meeting in one voxel keep their own materials, asked at surface
+    /// points (the mean of the voxel's points lies off both).
+    #[test]
+    fn a_corner_voxel_keeps_each_side_on_its_surface() {
+        let mesh = Mesh::from_triangles(
+            vec![
+                Vec3::ZERO,
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(0.0, 1.0, 0.0),
+            ],
+            None,
+            vec![[0, 2, 1], [0, 3, 2]],
+        );
+        let mut pts = Vec::new();
+        for i in 0..5 {
+            let a = 0.01 + 0.015 * i as f32;
+            pts.push((Vec3::new(a, 0.0, 0.05), 0)); // floor
+            pts.push((Vec3::new(0.0, a, 0.05), 1)); // wall
+        }
+        let s = FieldSurfaces::build(&Corner, &mesh, &[], &pts, 0.1).unwrap();
+        assert_eq!(s.voxels(), 2, "one voxel, two sides");
+        let p = Vec3::new(0.05, 0.0, 0.05);
+        assert_eq!(s.surface(0, p).kd, Vec3::splat(0.2));
+        assert_eq!(
+            s.surface(1, Vec3::new(0.0, 0.05, 0.05)).kd,
+            Vec3::splat(0.6)
+        );
     }
 }

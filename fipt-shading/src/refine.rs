@@ -495,11 +495,21 @@ impl PathGrownRefiner {
             .sum();
         let model = self.model;
         let mut out = empty_shadings_of(views, &records, cfg.levels, model, shard);
+        // The SLF from the pixels off the emitters: a voxel straddling a light's outline
+        // would otherwise lend the light's radiance to the surface beside it, which the
+        // emitters' own sampling already counts.
+        let mut emitting = vec![false; mesh.triangles.len()];
+        for &t in inputs.emitters.iter().flat_map(|e| &e.triangles) {
+            if let Some(e) = emitting.get_mut(t as usize) {
+                *e = true;
+            }
+        }
         let Some(slf) = build_slf(
             &records,
             images,
             cfg.slf_resolution,
             cfg.slf_fallback_levels,
+            |r| !emitting[r.hit.tri as usize],
         ) else {
             return Ok((out, stats));
         };
@@ -508,7 +518,12 @@ impl PathGrownRefiner {
             inputs.field,
             &mesh,
             inputs.emitters,
-            records.iter().flatten().flatten().map(|r| r.hit.p),
+            &records
+                .iter()
+                .flatten()
+                .flatten()
+                .map(|r| (r.hit.p, r.hit.tri))
+                .collect::<Vec<_>>(),
             footprint * cfg.material_cell_scale,
         )?
         .with_model(model);

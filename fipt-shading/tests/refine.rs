@@ -85,7 +85,7 @@ impl LampScene {
             roughness: 0.9,
             metallic: 0.0,
         });
-        let surfaces = FieldSurfaces::build(&field, &mesh, &[e], [], 0.1).unwrap();
+        let surfaces = FieldSurfaces::build(&field, &mesh, &[e], &[], 0.1).unwrap();
         let slf = SlfBuilder::new(
             Cube {
                 min: Vec3::splat(-60.0),
