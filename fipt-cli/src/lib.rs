@@ -22,6 +22,7 @@ mod refine;
 mod regions;
 mod render;
 mod report;
+mod rounds;
 mod run;
 mod scene;
 mod search;

@@ -8,18 +8,19 @@ use crate::outputs::{
     write_emitters_obj, write_views, StageReport,
 };
 use crate::progress::Stage;
+pub use crate::rounds::RoundsConfig;
+use crate::rounds::{glossy_fraction, refine_plan, refinement_rounds, Rounds, RoundsContext};
 use crate::shard::{Sharding, Stopped};
 use anyhow::Result;
 use fipt_core::emitter::Emitter;
 use fipt_core::fsutil::write_json_atomic;
 use fipt_core::reflectance::ReflectanceModel;
-use fipt_core::shading::{ShadingRefiner, Shard};
+use fipt_core::shading::Shard;
 use fipt_emitter::MaskExtractorConfig;
 use fipt_neural::TrainConfig;
-use fipt_shading::bake::{primary_records, BakeConfig, PixelRecord};
+use fipt_shading::bake::{primary_records, BakeConfig};
 use fipt_shading::refine::RefineConfig;
 use fipt_shading::search::SearchConfig;
-use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -195,24 +196,6 @@ pub struct ModelConfig {
     /// metallic-roughness model; every preset but `reference`) or `fipt` (Lambert + GGX, the
     /// method's; `reference`).
     pub brdf: ReflectanceModel,
-}
-
-/// The refine → train rounds after the first training round.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RoundsConfig {
-    /// Number of refine → train rounds (the reference: 2; 0 = the initial bake only).
-    pub refinements: u32,
-    /// Start each later training round from the previous round's field (the reference
-    /// starts afresh).
-    pub warm_start: bool,
-    /// `train.roughness_prior` (the σ pull) in the training rounds after a refinement; absent:
-    /// as in `[train]`. 0 in `balanced` and `fast`: the first round needs the pull (σ would
-    /// absorb the one-bounce bake's noise and make most of the room "glossy", so that path
-    /// growing costs 8×), the refined shadings are clean enough for σ to follow the
-    /// highlights, from a warm start at σ ≈ 1.
-    #[serde(default)]
-    pub roughness_prior: Option<f32>,
 }
 
 /// Path-traced re-renders of every view from the recovered scene (`_render.exr`).
@@ -638,27 +621,6 @@ fn print_summary(
     println!("  report:   {}", out.join("report.json").display());
 }
 
-/// Whether the refinement rounds run (Ok: what they do) or why not (Err).
-fn refine_plan(cfg: &RunConfig, emitters: &[Emitter], glossy: f64) -> Result<String, String> {
-    if cfg.rounds.refinements == 0 {
-        Err("skipped: rounds.refinements = 0".to_string())
-    } else if emitters.is_empty() && glossy < 1e-3 {
-        Err(format!(
-            "skipped: no emitter was found and no observed surface is glossier than σ = {} (path growing and emitter sampling would change nothing)",
-            cfg.refine.rough_threshold
-        ))
-    } else {
-        Ok(format!(
-            "{} round(s), {}; {} emitter triangles sampled, {:.1} % of the observed surface glossier than σ = {}",
-            cfg.rounds.refinements,
-            if cfg.rounds.warm_start { "each training round warm-started from the previous" } else { "each training round from fresh networks (as the reference)" },
-            emitters.iter().map(|e| e.triangles.len()).sum::<usize>(),
-            glossy * 100.0,
-            cfg.refine.rough_threshold
-        ))
-    }
-}
-
 /// One line per extracted light.
 fn print_lights(emitters: &[Emitter]) {
     for (i, e) in emitters.iter().enumerate() {
@@ -671,127 +633,4 @@ fn print_lights(emitters: &[Emitter]) {
             e.pixels
         );
     }
-}
-
-/// What the refinement rounds read.
-struct RoundsContext<'a> {
-    scene: &'a crate::scene::LoadedScene,
-    cfg: &'a RunConfig,
-    out: &'a Path,
-    force: bool,
-    records: &'a [Vec<Option<PixelRecord>>],
-    footprint: f32,
-    emitters: &'a [Emitter],
-    has_gt: bool,
-    refiner: &'a dyn ShadingRefiner,
-    refine_settings: &'a serde_json::Value,
-    sharding: Sharding,
-}
-
-/// What the refinement rounds update: the field and its manifest, the search's last answer, and
-/// the report's lists.
-struct Rounds<'a> {
-    field: fipt_neural::field::NeuralField,
-    train: crate::train::TrainManifest,
-    searched: Option<crate::search::Searched>,
-    searches: &'a mut Vec<serde_json::Value>,
-    closure: &'a mut Vec<serde_json::Value>,
-    reports: &'a mut Vec<serde_json::Value>,
-}
-
-/// FIPT's refine → search → train rounds (method §4.5).
-fn refinement_rounds(
-    ctx: &RoundsContext,
-    st: &mut Rounds,
-    mark: &mut dyn FnMut(&'static str, std::time::Instant),
-) -> Result<()> {
-    let cfg = ctx.cfg;
-    for r in 1..=cfg.rounds.refinements {
-        let t = std::time::Instant::now();
-        let refined = crate::refine::stage(
-            ctx.scene,
-            &st.field,
-            &st.train.fingerprint(),
-            ctx.emitters,
-            ctx.refiner,
-            ctx.refine_settings,
-            &ctx.out.join(format!("refine{r}")),
-            ctx.force,
-            ctx.sharding,
-        )?;
-        mark("refine", t);
-        if ctx.has_gt {
-            st.closure.push(serde_json::json!({
-                "shadings": format!("refine{r}"),
-                "psnr_db": crate::eval::closure_psnr(ctx.scene, &refined.shadings)?,
-            }));
-        }
-        let t = std::time::Instant::now();
-        st.searched = crate::search::stage(
-            ctx.scene,
-            ctx.records,
-            &refined.shadings,
-            &cfg.search,
-            ctx.footprint,
-            st.searched.as_ref(),
-            false,
-        )?;
-        if st.searched.is_some() {
-            mark("search", t);
-        }
-        let t = std::time::Instant::now();
-        let prev_id = st.train.fingerprint();
-        let mut round_cfg = cfg.train.clone();
-        // With search targets, the regions without a σ target keep the σ pull: the search
-        // found no gloss there, and a free σ drifts towards the targets' values through the
-        // shared network (on `cornell-metal` without segments the walls went to σ ≈ 0.4).
-        if let (Some(p), None) = (cfg.rounds.roughness_prior, &st.searched) {
-            round_cfg.roughness_prior = p;
-        }
-        let (f, m, _) = crate::train::stage(
-            ctx.scene,
-            &refined.key,
-            &refined.shadings,
-            &round_cfg,
-            &ctx.out.join(format!("train{r}")),
-            ctx.force,
-            cfg.rounds
-                .warm_start
-                .then_some((&st.field, prev_id.as_str())),
-            st.searched.as_ref().map(|s| &s.targets[..]),
-            !ctx.sharding.shard.is_all(),
-        )?;
-        mark("train", t);
-        st.searches
-            .push(serde_json::json!({ "shadings": format!("refine{r}"), "search": &st.searched }));
-        st.reports.push(serde_json::json!({
-            "round": r,
-            "refine": { "seconds": refined.seconds, "stats": refined.stats },
-            "train": m,
-        }));
-        st.field = f;
-        st.train = m;
-    }
-    Ok(())
-}
-
-/// Fraction of the observed surface (every 7th primary hit of the training views) whose
-/// trained roughness is at most `threshold`.
-fn glossy_fraction(
-    records: &[Vec<Option<PixelRecord>>],
-    field: &dyn fipt_core::field::MaterialField,
-    threshold: f32,
-) -> Result<f64> {
-    let pts: Vec<Vec3> = records
-        .iter()
-        .flatten()
-        .flatten()
-        .step_by(7)
-        .map(|r| r.hit.p)
-        .collect();
-    if pts.is_empty() {
-        return Ok(0.0);
-    }
-    let mats = field.materials(&pts)?;
-    Ok(mats.iter().filter(|m| m.roughness <= threshold).count() as f64 / mats.len() as f64)
 }
