@@ -144,6 +144,8 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
         // dielectric pixels, of them predicted > 0.1].
         let mut metal = [0usize; 4];
         let (mut kd_obs, mut r_obs, mut obs_share) = (vec![], vec![], vec![]);
+        // σ ≡ 1 (no gloss anywhere) scored the same way: the floor a σ map must beat.
+        let mut r_const = vec![];
         let mut parts = PartScores::default();
 
         for v in &s.views {
@@ -209,6 +211,12 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
             let r_pred: Vec<Vec3> = rough.data.iter().map(|&v| cl(v)).collect();
             let r_true: Vec<Vec3> = r_gt.data.iter().map(|&v| cl(q8(v))).collect();
             let r_p = psnr(&r_pred, &r_true, Some(&valid), 1.0);
+            r_const.push(psnr(
+                &vec![Vec3::ONE; r_true.len()],
+                &r_true,
+                Some(&valid),
+                1.0,
+            ));
             if let Some(ids) = ds.load_ids(s, GtKind::IndexMA, k)? {
                 parts.add(&ViewMaps {
                     ids: &ids,
@@ -257,6 +265,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                              "roughness_psnr": mean(&r_obs), "roughness_psnr_median": median(&r_obs), "share": mean(&obs_share)},
                 "metallic": {"metal_recall": share(metal[1], metal[0]), "false_metal": share(metal[3], metal[2]),
                              "metal_pixels": metal[0], "dielectric_pixels": metal[2]},
+                "roughness_constant": {"value": 1.0, "roughness_psnr": mean(&r_const), "roughness_psnr_median": median(&r_const)},
                 "mean": {"kd_psnr": mean(&kd_all), "albedo_psnr": mean(&alb_all), "roughness_psnr": mean(&r_all),
                          "emission_iou": mean(&iou_all), "emission_log_l2": mean(&log_all), "render_psnr": mean(&render_all)},
                 "median": {"kd_psnr": median(&kd_all), "albedo_psnr": median(&alb_all), "roughness_psnr": median(&r_all),
@@ -357,6 +366,16 @@ fn print_table(m: &serde_json::Value) {
                     f(x, "emission_log_l2", 5),
                     f(x, "render_psnr", 2),
                     metal
+                );
+            }
+        }
+        for (name, v) in o {
+            let c = &v["roughness_constant"];
+            if c["roughness_psnr"].is_number() {
+                println!(
+                    "{name}: σ ≡ 1 everywhere would score {} / {} dB σ (mean / median view)",
+                    f(c, "roughness_psnr", 2),
+                    f(c, "roughness_psnr_median", 2)
                 );
             }
         }

@@ -230,6 +230,8 @@ impl RunConfig {
                 // (30,000 steps on one field) scored val kd 25.1 dB, afresh 27.7 dB.
                 warm_start: !matches!(name, "paper" | "reference"),
                 roughness_prior: (name != "reference").then_some(0.0),
+                settle_share: 0.15,
+                settle_rounds: u32::from(matches!(name, "balanced" | "fast")),
             },
             render: ReRenderConfig {
                 spp: match name {
@@ -275,6 +277,7 @@ pub fn run(a: Args, components: &crate::Components) -> Result<()> {
     }
     cfg.train.validate()?;
     cfg.search.validate().map_err(anyhow::Error::msg)?;
+    cfg.rounds.validate().map_err(anyhow::Error::msg)?;
     // Components first: a misspelt name or bad plug-in settings fail before any work.
     let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
     let bake_settings = cfg.baker_settings()?;
@@ -413,6 +416,7 @@ fn run_locked(
     let glossy = glossy_fraction(&records, &field, cfg.refine.rough_threshold)?;
     let refine_plan = refine_plan(&cfg, &emitters, glossy);
     let mut rounds = vec![];
+    let mut done_rounds = 0;
     match &refine_plan {
         Ok(plan) => {
             eprintln!("refinement: {plan}");
@@ -437,7 +441,7 @@ fn run_locked(
                 refine_settings,
                 sharding: a.sharding(),
             };
-            refinement_rounds(&ctx, &mut state, &mut mark)?;
+            done_rounds = refinement_rounds(&ctx, &mut state, &mut mark)?;
             (field, train) = (state.field, state.train);
         }
         Err(why) => eprintln!("refinement {why}"),
@@ -485,9 +489,9 @@ fn run_locked(
         }),
     );
     write_json_atomic(&a.out.join("report.json"), &report)?;
-    let final_train_dir = match (&refine_plan, cfg.rounds.refinements) {
-        (Ok(_), r) if r > 0 => format!("train{r}"),
-        _ => "train".to_string(),
+    let final_train_dir = match done_rounds {
+        0 => "train".to_string(),
+        r => format!("train{r}"),
     };
     print_summary(&stages, t_all, &a.out, emitters.len(), &final_train_dir);
     crate::report::write_or_warn(&a.out, &scene.ds);

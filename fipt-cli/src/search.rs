@@ -125,7 +125,21 @@ pub fn on_bake(
     if !cfg.on_bake {
         return Ok(None);
     }
-    stage(scene, records, shadings, cfg, footprint, None, true)
+    stage(scene, records, shadings, cfg, footprint, None, When::Bake)
+}
+
+/// Which shadings the search reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum When {
+    /// The initial bake: dielectric σ waits for the refined shadings.
+    Bake,
+    /// A refinement.
+    Refined,
+    /// The refinement of a settling round (`rounds.settle_rounds`): a dielectric keeps a σ
+    /// target only where the previous search set one too. The round corrects the light that
+    /// the last albedo fed back; gloss seen only now has no round to confirm it (on the tiny
+    /// `cornell` a second search made the ceiling's light-rim residual σ 0.54).
+    Settling,
 }
 
 pub fn stage(
@@ -135,8 +149,9 @@ pub fn stage(
     cfg: &SearchConfig,
     footprint: f32,
     previous: Option<&Searched>,
-    on_bake: bool,
+    when: When,
 ) -> Result<Option<Searched>> {
+    let on_bake = when == When::Bake;
     if !cfg.enabled {
         return Ok(None);
     }
@@ -177,8 +192,14 @@ pub fn stage(
             let r = p.region as usize;
             let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
             let mut c = choose(p, cfg, was_metal(regions.labels[r]), held);
-            // On the bake, dielectric σ waits for the refined shadings.
-            if on_bake && c.metallic < Some(0.5) {
+            let dielectric = c.metallic < Some(0.5);
+            let label = regions.labels[r];
+            let had_target = previous.is_some_and(|s| {
+                s.regions
+                    .iter()
+                    .any(|(l, c)| *l == label && c.roughness.is_some())
+            });
+            if dielectric && (on_bake || (when == When::Settling && !had_target)) {
                 c.roughness = None;
             }
             c

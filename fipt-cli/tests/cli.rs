@@ -313,17 +313,24 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     let iou = m["train"]["mean"]["emission_iou"].as_f64().unwrap();
     assert!(iou >= 0.9, "emission IoU {iou}");
     // Accuracy floors of this small, noisy setting (12 views of 48×36 at 64 spp, a few dozen
-    // shading samples). Measured: kd 18.3 / 17.7 dB, σ 16.6 / 21.0 dB (train / val; σ 13.0 /
-    // 10.6 when the search took every shallow minimum without the held-out check).
-    for (split, kd_floor, sigma_floor) in [("train", 17.5, 14.5), ("val", 16.0, 17.0)] {
+    // shading samples). kd: measured 23.3 / 18.4 dB (train / val; 18.3 / 17.7 before the
+    // settling round and the on-surface material cache). σ has no evidence to speak of
+    // here: its floor is σ ≡ 1 everywhere (as `fipt eval` scores it) less 1.5 dB, so that a
+    // σ map worse than no gloss at all fails (the held-out check of the search keeps it
+    // there; without it σ fell to 13.0 / 10.6 dB).
+    for (split, kd_floor) in [("train", 21.0), ("val", 17.0)] {
         let mean = &m[split]["mean"];
         let (kd, sigma) = (
             mean["kd_psnr"].as_f64().unwrap(),
             mean["roughness_psnr"].as_f64().unwrap(),
         );
+        let constant = m[split]["roughness_constant"]["roughness_psnr"]
+            .as_f64()
+            .unwrap();
+        eprintln!("{split}: kd {kd:.2} dB, σ {sigma:.2} dB (σ ≡ 1: {constant:.2} dB)");
         assert!(
-            kd >= kd_floor && sigma >= sigma_floor,
-            "{split}: kd {kd:.2} dB (floor {kd_floor}), σ {sigma:.2} dB (floor {sigma_floor})"
+            kd >= kd_floor && sigma >= constant - 1.5,
+            "{split}: kd {kd:.2} dB (floor {kd_floor}), σ {sigma:.2} dB (σ ≡ 1 scores {constant:.2})"
         );
     }
     let report: serde_json::Value =
@@ -345,11 +352,24 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
             "refine",
             "search",
             "train",
+            "refine",
+            "search",
+            "train",
             "maps",
             "re-render",
             "eval"
         ]
     );
+    // The second round is the settling one: a third of the refinement's secondary rays met
+    // surfaces no view saw here.
+    let settle = &report["rounds"][0]["settle"];
+    assert_eq!(settle["another_round"], true, "{settle}");
+    assert!(
+        settle["field_lit_share"].as_f64().unwrap() > 0.15,
+        "{settle}"
+    );
+    assert_eq!(report["rounds"][1]["settle"]["another_round"], false);
+    assert!(out.join("train2/field.safetensors").is_file());
     // The refinement explains the views better than the initial bake (closure with the
     // ground-truth materials), and the report says what was modeled.
     let closure = report["shading_closure"].as_array().unwrap();
@@ -536,11 +556,15 @@ fn principled_model_runs_end_to_end() {
     assert!(iou >= 0.9, "emission IoU {iou}");
     let kd = m["train"]["mean"]["kd_psnr"].as_f64().unwrap();
     let sigma = m["train"]["mean"]["roughness_psnr"].as_f64().unwrap();
-    eprintln!("principled on principled cornell: train kd {kd:.2} dB, σ {sigma:.2} dB");
-    // The floors of the FIPT-model test on the FIPT-rendered cornell.
+    let constant = m["train"]["roughness_constant"]["roughness_psnr"]
+        .as_f64()
+        .unwrap();
+    eprintln!("principled on principled cornell: train kd {kd:.2} dB, σ {sigma:.2} dB (σ ≡ 1: {constant:.2} dB)");
+    // The floors of the FIPT-model test on the FIPT-rendered cornell (measured: kd 23.6 dB,
+    // σ 16.1 dB against 16.8 for σ ≡ 1).
     assert!(
-        kd >= 17.5 && sigma >= 14.5,
-        "kd {kd:.2} dB, σ {sigma:.2} dB"
+        kd >= 21.0 && sigma >= constant - 1.5,
+        "kd {kd:.2} dB, σ {sigma:.2} dB (σ ≡ 1 scores {constant:.2})"
     );
     // `fipt bake` reads a run config's [bake] section: the run's bake, reused.
     let (ok, _, err) = fipt(&["bake", d, "--out", o, "--preset", "fast", "--config", c]);
