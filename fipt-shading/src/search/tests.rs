@@ -86,6 +86,7 @@ fn curve(metal: Vec<f64>, dielectric: Vec<f64>) -> RegionProfile {
         sigma: vec![0.02, 0.25, 0.5, 0.75, 1.0],
         metallic: vec![0.0, 1.0],
         cost: vec![dielectric, metal],
+        gain: vec![],
     }
 }
 
