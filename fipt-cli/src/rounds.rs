@@ -59,10 +59,16 @@ impl RoundsConfig {
 }
 
 /// The share of a refinement's secondary rays that met surfaces whose light the field's
-/// materials decide (grown through glossy or unobserved rough surfaces), from its report;
-/// None when the refiner does not report these counts.
+/// materials decide (grown through glossy or unobserved rough surfaces), from its report
+/// (summed over `shards` for a merged sharded refinement); None when the refiner does not
+/// report these counts.
 pub(crate) fn field_lit_share(stats: &serde_json::Value) -> Option<f64> {
-    let n = |k: &str| stats.get(k).and_then(|v| v.as_f64());
+    let n = |k: &str| -> Option<f64> {
+        match stats.get("shards").and_then(|s| s.as_array()) {
+            Some(shards) => shards.iter().map(|s| s.get(k)?.as_f64()).sum(),
+            None => stats.get(k)?.as_f64(),
+        }
+    };
     let lit = n("secondary_grown")? + n("secondary_unobserved")?;
     let all = lit + n("secondary_slf")? + n("secondary_emitter")? + n("secondary_miss")?;
     (all > 0.0).then(|| lit / all)
@@ -246,4 +252,20 @@ pub(crate) fn glossy_fraction(
     }
     let mats = field.materials(&pts)?;
     Ok(mats.iter().filter(|m| m.roughness <= threshold).count() as f64 / mats.len() as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The share from a refiner's report, from a merged sharded one, and none without counts.
+    #[test]
+    fn field_lit_share_reads_plain_and_sharded_reports() {
+        let one = serde_json::json!({"secondary_grown": 10, "secondary_unobserved": 30,
+            "secondary_slf": 50, "secondary_emitter": 10, "secondary_miss": 0});
+        assert_eq!(field_lit_share(&one), Some(0.4));
+        let merged = serde_json::json!({"shards": [one, one]});
+        assert_eq!(field_lit_share(&merged), Some(0.4));
+        assert_eq!(field_lit_share(&serde_json::json!({"rays": 3})), None);
+    }
 }

@@ -4,7 +4,8 @@
 #   train: one job, `fipt run --stop-before refine` (merges the shards, trains, stops before
 #          the next refinement);
 #   then ROUNDS times: the refinement as an array of N tasks, and one job that trains the
-#          next round (the last one also writes the maps, re-renders and evaluates).
+#          next round (the last one also runs any settling round, `rounds.settle_rounds`,
+#          unsharded, then writes the maps, re-renders and evaluates).
 # Each job starts when the one before it succeeded (afterok). Re-submitting the chain is safe:
 # finished shards and stages are reused.
 #
@@ -51,10 +52,12 @@ array() { # dependency, job name
         --wrap="$base --shard \$SLURM_ARRAY_TASK_ID/$n"
 }
 
+# Every training job but the last stops before the next refinement, which is sharded.
+stop() { [[ $1 -lt $rounds ]] && printf ' %s' --stop-before refine || true; }
 job=$(array "" fipt-bake)
-job=$(submit "$job" --job-name=fipt-train --wrap="$base --stop-before refine")
+job=$(submit "$job" --job-name=fipt-train --wrap="$base$(stop 0)")
 for ((r = 1; r <= rounds; r++)); do
     job=$(array "$job" "fipt-refine$r")
-    job=$(submit "$job" --job-name="fipt-train$r" --wrap="$base --stop-before refine")
+    job=$(submit "$job" --job-name="fipt-train$r" --wrap="$base$(stop "$r")")
 done
 echo "$job"
