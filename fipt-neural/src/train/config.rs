@@ -79,6 +79,18 @@ pub struct TrainConfig {
     pub finest_cell_footprints: f32,
     /// Steps between checkpoints (0: only at the end).
     pub checkpoint_every: usize,
+    /// Leave out of the training set the pixels within this many pixels of one at least
+    /// `bleed_contrast` times brighter (0: keep every pixel). A camera's pixel filter spreads
+    /// a light over its neighbours (Mitsuba's default Gaussian over about two pixels), while
+    /// the model sees the surface at the pixel's centre: kd came out bright in a ring around
+    /// `studio-mitsuba`'s ceiling panel. The ring's surface is still fitted from the pixels
+    /// beyond it.
+    #[serde(default)]
+    pub bleed_radius: u32,
+    /// See `bleed_radius`. Darker pixels than 1 % of the view's median luminance count as
+    /// that floor (a noisy shadow is not a bright edge).
+    #[serde(default = "default_bleed_contrast")]
+    pub bleed_contrast: f32,
 }
 
 impl Default for TrainConfig {
@@ -112,6 +124,8 @@ impl Default for TrainConfig {
             finest_cell_footprints: 4.0,
             seed: 9,
             checkpoint_every: 500,
+            bleed_radius: 2,
+            bleed_contrast: default_bleed_contrast(),
         }
     }
 }
@@ -153,6 +167,7 @@ impl TrainConfig {
             table_from_data: false,
             finest_from_data: false,
             lr_decay: LrDecay::default(),
+            bleed_radius: 0,
             ..Self::default()
         }
     }
@@ -245,6 +260,15 @@ impl TrainConfig {
                 ),
             ));
         }
+        if self.bleed_radius > 16 || !(self.bleed_contrast >= 1.0 && self.bleed_contrast <= 1e6) {
+            return Err(NeuralError::config(
+                "train",
+                format!(
+                    "bleed_radius = {}, bleed_contrast = {} (use a radius of at most 16 pixels and a contrast in [1, 1000000])",
+                    self.bleed_radius, self.bleed_contrast
+                ),
+            ));
+        }
         let sp = &self.semantic;
         if sp.partners == 0 || sp.partners > 4096 {
             return Err(NeuralError::config(
@@ -294,6 +318,10 @@ fn unit_scale() -> f32 {
 
 fn default_target_weight() -> f32 {
     0.02
+}
+
+fn default_bleed_contrast() -> f32 {
+    10.0
 }
 
 fn default_segment_weight() -> f32 {
