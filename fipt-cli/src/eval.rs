@@ -143,9 +143,8 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
         // Metallic, pooled over the split's pixels: [metal pixels, of them predicted ≥ 0.8,
         // dielectric pixels, of them predicted > 0.1].
         let mut metal = [0usize; 4];
-        let (mut kd_obs, mut r_obs, mut obs_share) = (vec![], vec![], vec![]);
-        // σ ≡ 1 (no gloss anywhere) scored the same way: the floor a σ map must beat.
-        let mut r_const = vec![];
+        // r_const: σ ≡ 1 (no gloss anywhere) scored the same way, the floor a σ map must beat.
+        let (mut kd_obs, mut r_obs, mut obs_share, mut r_const) = (vec![], vec![], vec![], vec![]);
         let mut parts = PartScores::default();
 
         for v in &s.views {
@@ -211,12 +210,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
             let r_pred: Vec<Vec3> = rough.data.iter().map(|&v| cl(v)).collect();
             let r_true: Vec<Vec3> = r_gt.data.iter().map(|&v| cl(q8(v))).collect();
             let r_p = psnr(&r_pred, &r_true, Some(&valid), 1.0);
-            r_const.push(psnr(
-                &vec![Vec3::ONE; r_true.len()],
-                &r_true,
-                Some(&valid),
-                1.0,
-            ));
+            r_const.push(psnr(&[Vec3::ONE].repeat(n), &r_true, Some(&valid), 1.0));
             if let Some(ids) = ds.load_ids(s, GtKind::IndexMA, k)? {
                 parts.add(&ViewMaps {
                     ids: &ids,

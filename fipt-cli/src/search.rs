@@ -241,6 +241,31 @@ pub fn stage(
     }))
 }
 
+/// The true base colour's σ argmins at m = 0 and m = 1, printed, and the views' scale
+/// against the model at the better of the two (`GT gain`).
+fn given_summary(g: &RegionProfile) -> (String, f64) {
+    let am = |row: &[f64]| -> Option<(usize, f64)> {
+        row.iter()
+            .copied()
+            .enumerate()
+            .filter(|x| x.1.is_finite())
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    let at = |row: &[f64]| am(row).map_or(f32::NAN, |x| g.sigma[x.0]);
+    let m = [0, 4]
+        .into_iter()
+        .min_by(|&a, &b| {
+            let c = |k: usize| am(&g.cost[k]).map_or(f64::INFINITY, |x| x.1);
+            c(a).total_cmp(&c(b))
+        })
+        .unwrap_or(0);
+    let gain = am(&g.cost[m]).map_or(f64::NAN, |x| g.gain[m][x.0]);
+    (
+        format!("{:.2}@0 {:.2}@1", at(&g.cost[0]), at(&g.cost[4])),
+        gain,
+    )
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Scene folder.
@@ -378,30 +403,9 @@ pub fn run(a: Args) -> Result<()> {
         let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
         let c = choose(&f, &cfg, false, held);
         let g = given.as_ref().map(|g| g[r].clone());
-        // argmin over σ at each metallic of the given base colour (m = 0 and m = 1 printed),
-        // and the views' scale against the model at the better of the two.
-        let (gt, gain) = g.as_ref().map_or(("–".to_string(), f64::NAN), |g| {
-            let am = |row: &[f64]| -> Option<(usize, f64)> {
-                row.iter()
-                    .copied()
-                    .enumerate()
-                    .filter(|x| x.1.is_finite())
-                    .min_by(|a, b| a.1.total_cmp(&b.1))
-            };
-            let at = |row: &[f64]| am(row).map_or(f32::NAN, |x| g.sigma[x.0]);
-            let m = [0, 4]
-                .into_iter()
-                .min_by(|&a, &b| {
-                    let c = |k: usize| am(&g.cost[k]).map_or(f64::INFINITY, |x| x.1);
-                    c(a).total_cmp(&c(b))
-                })
-                .unwrap_or(0);
-            let gain = am(&g.cost[m]).map_or(f64::NAN, |x| g.gain[m][x.0]);
-            (
-                format!("{:.2}@0 {:.2}@1", at(&g.cost[0]), at(&g.cost[4])),
-                gain,
-            )
-        });
+        let (gt, gain) = g
+            .as_ref()
+            .map_or(("–".to_string(), f64::NAN), given_summary);
         println!(
             "{:>6} {:>7} {:>6} | {:>18} {:>7.3} | {:>8.2} {:>8.2} | {:>9.6} {:>9.6} {:>9.6} | {}, {}",
             regions.labels[r],

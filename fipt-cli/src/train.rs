@@ -92,6 +92,41 @@ pub fn view_points(geometry: &Geometry, views: &[View]) -> (Vec<Vec<Option<Vec3>
     (pts, median)
 }
 
+/// Leaves out of `points` the pixels [`bleed_mask`] marks (`train.bleed_radius`,
+/// `bleed_contrast`), and says how many.
+fn leave_out_bleed(points: &mut [Vec<Option<Vec3>>], images: &[Image], radius: u32, contrast: f32) {
+    // The floor: 1 % of the median luminance over every training view (a view into a
+    // dark corner has a dark median of its own, and its noise is no edge).
+    let mut lums: Vec<f32> = (images.iter())
+        .flat_map(|img| img.data.iter().step_by(7))
+        .map(|&c| fipt_core::color::luminance(c))
+        .filter(|v| v.is_finite())
+        .collect();
+    let mid = lums.len() / 2;
+    let median = if lums.is_empty() {
+        0.0
+    } else {
+        *lums.select_nth_unstable_by(mid, f32::total_cmp).1
+    };
+    let (mut dropped, mut all) = (0usize, 0usize);
+    for (pts, img) in points.iter_mut().zip(images) {
+        let (r, c) = (radius as usize, contrast);
+        let bleed = bleed_mask(img, r, c, 0.01 * median);
+        for (p, b) in pts.iter_mut().zip(bleed) {
+            all += usize::from(p.is_some());
+            if b && p.take().is_some() {
+                dropped += 1;
+            }
+        }
+    }
+    eprintln!(
+        "training set: {dropped} of {all} pixels ({:.2} %) left out within {} px of one {}× brighter (train.bleed_radius, bleed_contrast)",
+        100.0 * dropped as f64 / all.max(1) as f64,
+        radius,
+        contrast
+    );
+}
+
 /// Pixels within `radius` pixels (a square) of one at least `contrast` times brighter, by
 /// luminance; a pixel darker than `floor` counts as `floor`.
 pub fn bleed_mask(img: &Image, radius: usize, contrast: f32, floor: f32) -> Vec<bool> {
@@ -253,35 +288,11 @@ pub fn stage(
     let st = Stage::start("training set");
     let (mut points, footprint) = view_points(&scene.geometry, &split.views);
     if cfg.bleed_radius > 0 {
-        // The floor: 1 % of the median luminance over every training view (a view into a
-        // dark corner has a dark median of its own, and its noise is no edge).
-        let mut lums: Vec<f32> = (scene.images.iter())
-            .flat_map(|img| img.data.iter().step_by(7))
-            .map(|&c| fipt_core::color::luminance(c))
-            .filter(|v| v.is_finite())
-            .collect();
-        let mid = lums.len() / 2;
-        let median = if lums.is_empty() {
-            0.0
-        } else {
-            *lums.select_nth_unstable_by(mid, f32::total_cmp).1
-        };
-        let (mut dropped, mut all) = (0usize, 0usize);
-        for (pts, img) in points.iter_mut().zip(&scene.images) {
-            let (r, c) = (cfg.bleed_radius as usize, cfg.bleed_contrast);
-            let bleed = bleed_mask(img, r, c, 0.01 * median);
-            for (p, b) in pts.iter_mut().zip(bleed) {
-                all += usize::from(p.is_some());
-                if b && p.take().is_some() {
-                    dropped += 1;
-                }
-            }
-        }
-        eprintln!(
-            "training set: {dropped} of {all} pixels ({:.2} %) left out within {} px of one {}× brighter (train.bleed_radius, bleed_contrast)",
-            100.0 * dropped as f64 / all.max(1) as f64,
+        leave_out_bleed(
+            &mut points,
+            &scene.images,
             cfg.bleed_radius,
-            cfg.bleed_contrast
+            cfg.bleed_contrast,
         );
     }
     let Some(bounds) = Bounds::around(points.iter().flatten().flatten().copied(), 1.1) else {

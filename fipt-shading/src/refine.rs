@@ -421,6 +421,17 @@ impl IncidentLight for GrownLight<'_> {
     }
 }
 
+/// Whether each of `n` mesh triangles belongs to one of the `emitters`.
+fn emitting_triangles(n: usize, emitters: &[fipt_core::emitter::Emitter]) -> Vec<bool> {
+    let mut emitting = vec![false; n];
+    for &t in emitters.iter().flat_map(|e| &e.triangles) {
+        if let Some(e) = emitting.get_mut(t as usize) {
+            *e = true;
+        }
+    }
+    emitting
+}
+
 /// The FIPT path-grown refiner, with the switches of [`RefineConfig`], for the shadings (and
 /// the paths) of a [`ReflectanceModel`].
 #[derive(Clone, Debug, Default)]
@@ -498,12 +509,7 @@ impl PathGrownRefiner {
         // The SLF from the pixels off the emitters: a voxel straddling a light's outline
         // would otherwise lend the light's radiance to the surface beside it, which the
         // emitters' own sampling already counts.
-        let mut emitting = vec![false; mesh.triangles.len()];
-        for &t in inputs.emitters.iter().flat_map(|e| &e.triangles) {
-            if let Some(e) = emitting.get_mut(t as usize) {
-                *e = true;
-            }
-        }
+        let emitting = emitting_triangles(mesh.triangles.len(), inputs.emitters);
         let Some(slf) = build_slf(
             &records,
             images,
