@@ -97,17 +97,7 @@ pub fn view_points(geometry: &Geometry, views: &[View]) -> (Vec<Vec<Option<Vec3>
 fn leave_out_bleed(points: &mut [Vec<Option<Vec3>>], images: &[Image], radius: u32, contrast: f32) {
     // The floor: 1 % of the median luminance over every training view (a view into a
     // dark corner has a dark median of its own, and its noise is no edge).
-    let mut lums: Vec<f32> = (images.iter())
-        .flat_map(|img| img.data.iter().step_by(7))
-        .map(|&c| fipt_core::color::luminance(c))
-        .filter(|v| v.is_finite())
-        .collect();
-    let mid = lums.len() / 2;
-    let median = if lums.is_empty() {
-        0.0
-    } else {
-        *lums.select_nth_unstable_by(mid, f32::total_cmp).1
-    };
+    let median = fipt_core::image::median_luminance(images);
     let (mut dropped, mut all) = (0usize, 0usize);
     for (pts, img) in points.iter_mut().zip(images) {
         let (r, c) = (radius as usize, contrast);

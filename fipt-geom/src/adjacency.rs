@@ -38,14 +38,30 @@ impl Mesh {
                 }
             }
         }
+        self.neighbours_from_groups(edges.values())
+    }
+
+    /// For every triangle, the triangles sharing one of its vertices (welded by position).
+    pub fn vertex_neighbours(&self) -> Vec<Vec<u32>> {
+        let welded = self.welded_vertices();
+        let mut at: HashMap<u32, Vec<u32>> = HashMap::new();
+        for (t, tri) in self.triangles.iter().enumerate() {
+            for &v in tri {
+                at.entry(welded[v as usize]).or_default().push(t as u32);
+            }
+        }
+        self.neighbours_from_groups(at.values())
+    }
+
+    /// Each triangle's neighbours: the others of every group it is in, sorted, once each.
+    fn neighbours_from_groups<'a>(
+        &self,
+        groups: impl Iterator<Item = &'a Vec<u32>>,
+    ) -> Vec<Vec<u32>> {
         let mut out = vec![Vec::new(); self.triangles.len()];
-        for tris in edges.values() {
+        for tris in groups {
             for &a in tris {
-                for &b in tris {
-                    if a != b {
-                        out[a as usize].push(b);
-                    }
-                }
+                out[a as usize].extend(tris.iter().copied().filter(|&b| b != a));
             }
         }
         for n in &mut out {
@@ -76,5 +92,21 @@ mod tests {
         ];
         let m = Mesh::from_triangles(p, None, vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]]);
         assert_eq!(m.edge_neighbours(), vec![vec![1], vec![0], vec![]]);
+        assert_eq!(m.vertex_neighbours(), vec![vec![1], vec![0], vec![]]);
+        // Touching at one corner only: vertex neighbours, not edge neighbours.
+        let c = Mesh::from_triangles(
+            vec![
+                Vec3::ZERO,
+                Vec3::X,
+                Vec3::Y,
+                Vec3::X,
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(1.0, -1.0, 0.0),
+            ],
+            None,
+            vec![[0, 1, 2], [3, 4, 5]],
+        );
+        assert_eq!(c.vertex_neighbours(), vec![vec![1], vec![0]]);
+        assert_eq!(c.edge_neighbours(), vec![Vec::<u32>::new(), vec![]]);
     }
 }

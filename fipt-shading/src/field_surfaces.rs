@@ -77,39 +77,6 @@ impl MeanSurface {
     }
 }
 
-/// Triangles sharing a vertex position (positions welded at 1e-6 of the mesh's extent, so
-/// meshes written with a vertex per face corner connect too).
-fn vertex_neighbours(mesh: &Mesh) -> Vec<Vec<u32>> {
-    let extent = mesh
-        .positions
-        .iter()
-        .fold(0.0f32, |m, p| m.max(p.abs().max_element()));
-    let q = 1e6 / extent.max(1e-12);
-    let weld = |p: Vec3| -> (i64, i64, i64) {
-        let r = (p * q).round();
-        (r.x as i64, r.y as i64, r.z as i64)
-    };
-    let mut at: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::new();
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        for &v in tri {
-            at.entry(weld(mesh.positions[v as usize]))
-                .or_default()
-                .push(t as u32);
-        }
-    }
-    let mut out = vec![Vec::new(); mesh.triangles.len()];
-    for tris in at.values() {
-        for &a in tris {
-            out[a as usize].extend(tris.iter().copied().filter(|&b| b != a));
-        }
-    }
-    for n in &mut out {
-        n.sort_unstable();
-        n.dedup();
-    }
-    out
-}
-
 /// Each triangle's fallback: its observed mean, else (breadth first across shared vertices
 /// from the observed triangles) the mean of its neighbours' fallbacks when it is reached;
 /// triangles no observed one connects to take the mean of every observed point, and with no
@@ -129,7 +96,7 @@ fn triangle_fallbacks(
         return centroid_value();
     };
     let mut value: Vec<Option<SurfacePoint>> = observed.iter().map(|m| m.mean()).collect();
-    let neighbours = vertex_neighbours(mesh);
+    let neighbours = mesh.vertex_neighbours();
     let mut queue: VecDeque<u32> = (0..value.len() as u32)
         .filter(|&t| value[t as usize].is_some())
         .collect();
@@ -168,6 +135,20 @@ fn facing(mesh: &Mesh, tri: u32) -> u8 {
     2 * axis + u8::from(v < 0.0)
 }
 
+/// [`facing`] of every triangle.
+fn facings(mesh: &Mesh) -> Vec<u8> {
+    (0..mesh.triangles.len() as u32)
+        .map(|t| facing(mesh, t))
+        .collect()
+}
+
+/// The voxel of edge `cell` holding `p`, on the side triangle `t` faces (6 for none).
+fn voxel_key(p: Vec3, cell: f32, tri_facing: &[u8], t: u32) -> Key {
+    let q = (p / cell).floor();
+    let side = tri_facing.get(t as usize).copied().unwrap_or(6);
+    (q.x as i32, q.y as i32, q.z as i32, side)
+}
+
 impl FieldSurfaces {
     /// Caches `field` at voxels of edge `cell` occupied by the `observed` points (each with
     /// its mesh triangle, or [`NO_TRIANGLE`]); see the module's notes for the fallback.
@@ -201,14 +182,8 @@ impl FieldSurfaces {
         } else {
             0.01
         };
-        let tri_facing: Vec<u8> = (0..mesh.triangles.len() as u32)
-            .map(|t| facing(mesh, t))
-            .collect();
-        let side = |t: u32| tri_facing.get(t as usize).copied().unwrap_or(6);
-        let key = |p: Vec3, t: u32| -> Key {
-            let q = (p / cell).floor();
-            (q.x as i32, q.y as i32, q.z as i32, side(t))
-        };
+        let tri_facing = facings(mesh);
+        let key = |p: Vec3, t: u32| voxel_key(p, cell, &tri_facing, t);
         let points = || observed.iter().chain(extra).filter(|(p, _)| p.is_finite());
         let mut acc: HashMap<Key, (Vec3, u32)> = HashMap::new();
         for &(p, t) in points() {
@@ -286,10 +261,8 @@ impl FieldSurfaces {
         cell: f32,
         max_fill: usize,
     ) -> fipt_core::Result<Self> {
-        let key = |p: Vec3, t: u32| -> Key {
-            let q = (p / cell).floor();
-            (q.x as i32, q.y as i32, q.z as i32, facing(mesh, t))
-        };
+        let tri_facing = facings(mesh);
+        let key = |p: Vec3, t: u32| voxel_key(p, cell, &tri_facing, t);
         let seen: std::collections::HashSet<Key> = observed
             .iter()
             .filter(|(p, _)| p.is_finite())
@@ -350,10 +323,8 @@ impl SurfaceModel for FieldSurfaces {
                 ..Default::default()
             };
         }
-        let q = (p / self.cell).floor();
-        let side = self.tri_facing[tri as usize];
         self.voxels
-            .get(&(q.x as i32, q.y as i32, q.z as i32, side))
+            .get(&voxel_key(p, self.cell, &self.tri_facing, tri))
             .copied()
             .unwrap_or(self.per_triangle[tri as usize])
     }
