@@ -158,12 +158,7 @@ fn rays_section(
     })
 }
 
-pub fn peak_rss_mib() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb / 1024.0)
-}
+pub use fipt_core::memory::peak_rss_mib;
 
 pub fn run(a: Args) -> Result<()> {
     match a.suite {

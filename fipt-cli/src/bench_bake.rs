@@ -32,7 +32,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
     let Some(dir) = scene_dir else {
         bail!("--suite bake needs --scene DIR (e.g. the output of `fipt synth room`)")
     };
-    let mut scene = crate::scene::load(dir, BadPixelPolicy::Reject)?;
+    let mut scene = fipt_pipeline::scene::load(dir, BadPixelPolicy::Reject)?;
     let n = views.unwrap_or(scene.images.len()).min(scene.images.len());
     scene.images.truncate(n);
     scene.ds.splits[0].views.truncate(n);
@@ -100,7 +100,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
         );
         let secs = t.elapsed().as_secs_f64();
         let rays = (stats.rays_diffuse + stats.rays_specular) as f64;
-        let closure = crate::eval::closure_psnr(&scene, &sh).context("closure PSNR")?;
+        let closure = fipt_pipeline::eval::closure_psnr(&scene, &sh).context("closure PSNR")?;
         eprintln!(
             "{name:<20} {secs:>7.1} s  diffuse {:>6.1} s  specular {:>6.1} s  {:>8.0} px/s  {:>5.2} Mrays/s ({:.0} % of raw)  closure {}",
             stats.seconds_diffuse,

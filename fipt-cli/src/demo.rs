@@ -15,7 +15,7 @@ pub struct Args {
     preset: String,
 }
 
-pub fn run(a: Args, components: &crate::Components) -> Result<()> {
+pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
     let scene = a.dir.join("room");
     if !scene.join("val").join("transforms.json").is_file() {
         eprintln!(

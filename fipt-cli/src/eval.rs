@@ -1,19 +1,7 @@
-//! `fipt eval <scene> OUT`: the evaluation protocol of method §6 against the ground-truth
-//! folders, per view and averaged per split; `OUT/metrics.json`, error maps in `OUT/eval/`.
-//!
-//! kd PSNR over GT-diffuse (metallic < 0.5) non-emitter pixels, a′ and σ PSNR over non-emitter
-//! surface pixels, ground truth quantised to 8 bits, σ of both clamped to [0.2, 1]; metallic
-//! pooled over the split: the share of metal pixels predicted ≥ 0.8 and of dielectric ones
-//! predicted > 0.1; emitter IoU (Emit summed over channels > 0) and log-L2 =
-//! MSE(log(1 + E_pred), log(1 + E_gt)) over all pixels.
-use crate::eval_parts::{PartScores, ViewMaps};
-use anyhow::{Context, Result};
-use fipt_core::dataset::{Dataset, GtKind};
-use fipt_core::fsutil::write_json_atomic;
-use fipt_core::image::Image;
-use fipt_core::metrics::psnr;
-use glam::Vec3;
-use std::path::{Path, PathBuf};
+//! `fipt eval <scene> OUT`: the evaluation protocol of method §6 (fipt-pipeline's `eval`),
+//! printed: the table per split, σ ≡ 1's score, and the per-part tables.
+use anyhow::Result;
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -23,307 +11,19 @@ pub struct Args {
     out: PathBuf,
 }
 
-/// A pixel is *observed* when at least this many training pixels fall in its surface cell.
-const OBSERVED_MIN: f32 = 8.0;
-
-fn q8(v: Vec3) -> Vec3 {
-    (v.clamp(Vec3::ZERO, Vec3::ONE) * 255.0).round() / 255.0
-}
-
-/// The views' finite values (a view without the quantity, or with an undefined PSNR, counts
-/// for neither the mean nor the median).
-fn finite(v: &[Option<f64>]) -> Vec<f64> {
-    v.iter()
-        .flatten()
-        .copied()
-        .filter(|x| x.is_finite())
-        .collect()
-}
-
-fn mean(v: &[Option<f64>]) -> Option<f64> {
-    let x = finite(v);
-    (!x.is_empty()).then(|| x.iter().sum::<f64>() / x.len() as f64)
-}
-
-/// Median of the finite values: next to the protocol's mean, which one near-exact view (a
-/// PSNR of 60–100 dB, e.g. a view of walls whose σ = 1 is met exactly) can carry.
-fn median(v: &[Option<f64>]) -> Option<f64> {
-    let mut x = finite(v);
-    x.sort_by(f64::total_cmp);
-    let n = x.len();
-    (n > 0).then(|| {
-        if n % 2 == 1 {
-            x[n / 2]
-        } else {
-            0.5 * (x[n / 2 - 1] + x[n / 2])
-        }
-    })
-}
-
-/// Why a view cannot score a re-render: all black, or saturated at the working exposure (a
-/// PSNR there would compare nothing with nothing and read ~100 dB).
-fn degenerate(img: &Image) -> Option<&'static str> {
-    if img.data.iter().all(|p| p.max_element() <= 0.0) {
-        Some("black view")
-    } else if img.data.iter().all(|p| p.min_element() >= 1.0) {
-        Some("saturated view")
-    } else {
-        None
-    }
-}
-
-/// The scale re-renders and views are divided by before the sRGB PSNR: 1 (the protocol: the
-/// values as given) unless the run's exposure scale is more than 16× from 1, where the views
-/// as given would clamp to white or black: then the working exposure.
-pub fn display_scale(exposure: f32) -> f32 {
-    if (1.0 / 16.0..=16.0).contains(&exposure) {
-        1.0
-    } else {
-        exposure
-    }
-}
-
-/// Emitter IoU (None when neither map emits anywhere) and the summed squared log difference
-/// of the emission maps.
-fn emission_scores(emis: &Image, emit_gt: Option<&Image>) -> (Option<f64>, f64) {
-    let (mut inter, mut uni, mut log2) = (0usize, 0usize, 0f64);
-    for (i, &p) in emis.data.iter().enumerate() {
-        let g = emit_gt.map_or(Vec3::ZERO, |e| e.data[i]);
-        let (a, b) = (p.element_sum() > 0.0, g.element_sum() > 0.0);
-        inter += (a && b) as usize;
-        uni += (a || b) as usize;
-        for c in 0..3 {
-            let d = (1.0 + p[c].max(0.0) as f64).ln() - (1.0 + g[c].max(0.0) as f64).ln();
-            log2 += d * d;
-        }
-    }
-    ((uni > 0).then(|| inter as f64 / uni as f64), log2)
-}
-
-/// The sRGB PSNR of view `v`'s re-render in `dir` against its input, both divided by
-/// `display` (None without a re-render, or for a black or saturated view).
-fn render_score(
-    ds: &Dataset,
-    v: &fipt_core::dataset::View,
-    dir: &Path,
-    display: f32,
-    split: &str,
-) -> Result<Option<f64>> {
-    let k = v.index;
-    let path = dir.join(format!("{k:03}_render.exr"));
-    if !path.is_file() {
-        return Ok(None);
-    }
-    let mut r = Image::read_exr(&path).with_context(|| format!("reading {}", path.display()))?;
-    let mut img = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0;
-    for p in r.data.iter_mut().chain(img.data.iter_mut()) {
-        *p /= display;
-    }
-    if let Some(why) = degenerate(&img) {
-        eprintln!("note: {split} view {k}: re-render not scored ({why})");
-        return Ok(None);
-    }
-    Ok(fipt_core::metrics::srgb_psnr(&r.data, &img.data, None))
-}
-
-/// Evaluates the maps in `out/views/<split>/` of every split with ground truth; `exposure` is
-/// the run's exposure scale (see [`display_scale`]).
-pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::Value> {
-    let display = display_scale(exposure);
-    let names = crate::eval_parts::part_names(&ds.root);
-    let mut splits = serde_json::Map::new();
-    for s in &ds.splits {
-        if !s.has_gt(GtKind::DiffCol) {
-            continue;
-        }
-        let dir = out.join("views").join(&s.name);
-        let mut rows = vec![];
-        let (mut kd_all, mut alb_all, mut r_all, mut iou_all, mut log_all, mut render_all) =
-            (vec![], vec![], vec![], vec![], vec![], vec![]);
-        // Metallic, pooled over the split's pixels: [metal pixels, of them predicted ≥ 0.8,
-        // dielectric pixels, of them predicted > 0.1].
-        let mut metal = [0usize; 4];
-        // r_const: σ ≡ 1 (no gloss anywhere) scored the same way, the floor a σ map must beat.
-        let (mut kd_obs, mut r_obs, mut obs_share, mut r_const) = (vec![], vec![], vec![], vec![]);
-        let mut parts = PartScores::default();
-
-        for v in &s.views {
-            let k = v.index;
-            let pred = |name: &str| -> Result<Image> {
-                let p = dir.join(format!("{k:03}_{name}.exr"));
-                Image::read_exr(&p)
-                    .with_context(|| format!("reading {} (run `fipt run` first)", p.display()))
-            };
-            let gt = |kind: GtKind| ds.load_gt(s, kind, k).ok().flatten();
-            let (Some(kd_gt), Some(r_gt)) = (gt(GtKind::DiffCol), gt(GtKind::Roughness)) else {
-                continue;
-            };
-            let emit_gt = gt(GtKind::Emit);
-            let kd = pred("kd")?;
-            let ks = pred("ks")?;
-            let rough = pred("roughness")?;
-            let emis = pred("emission")?;
-            let n = kd.data.len();
-            let is_emit = |i: usize| {
-                emit_gt
-                    .as_ref()
-                    .is_some_and(|e| e.data[i].element_sum() > 0.0)
-            };
-            let valid: Vec<bool> = (0..n)
-                .map(|i| !is_emit(i) && r_gt.data[i].x > 0.0)
-                .collect();
-            // kd over GT-diffuse pixels (method §6): metals' kd is 0 by definition.
-            let m_gt = gt(GtKind::Metallic);
-            let diffuse: Vec<bool> = (0..n)
-                .map(|i| valid[i] && m_gt.as_ref().is_none_or(|m| m.data[i].x < 0.5))
-                .collect();
-            let kd_clamped: Vec<Vec3> = kd
-                .data
-                .iter()
-                .map(|v| v.clamp(Vec3::ZERO, Vec3::ONE))
-                .collect();
-            let kd_q8: Vec<Vec3> = kd_gt.data.iter().map(|&v| q8(v)).collect();
-            let kd_p = psnr(&kd_clamped, &kd_q8, Some(&diffuse), 1.0);
-            let alb_p = gt(GtKind::Albedo).and_then(|a| {
-                let pa: Vec<Vec3> = kd
-                    .data
-                    .iter()
-                    .zip(&ks.data)
-                    .map(|(a, b)| (*a + *b).clamp(Vec3::ZERO, Vec3::ONE))
-                    .collect();
-                psnr(
-                    &pa,
-                    &a.data.iter().map(|&v| q8(v)).collect::<Vec<_>>(),
-                    Some(&valid),
-                    1.0,
-                )
-            });
-            let m = m_gt.as_ref().map(|_| pred("metallic")).transpose()?;
-            let metallic = m_gt
-                .as_ref()
-                .zip(m.as_ref())
-                .map(|(g, p)| (&p.data[..], &g.data[..]));
-            if let Some((p, g)) = metallic {
-                count_metal(&mut metal, &valid, p, g);
-            }
-            let cl = |v: Vec3| Vec3::splat(v.x.clamp(0.2, 1.0));
-            let r_pred: Vec<Vec3> = rough.data.iter().map(|&v| cl(v)).collect();
-            let r_true: Vec<Vec3> = r_gt.data.iter().map(|&v| cl(q8(v))).collect();
-            let r_p = psnr(&r_pred, &r_true, Some(&valid), 1.0);
-            r_const.push(psnr(&[Vec3::ONE].repeat(n), &r_true, Some(&valid), 1.0));
-            if let Some(ids) = ds.load_ids(s, GtKind::IndexMA, k)? {
-                parts.add(&ViewMaps {
-                    ids: &ids,
-                    valid: &valid,
-                    diffuse: &diffuse,
-                    kd: &kd_clamped,
-                    kd_gt: &kd_q8,
-                    sigma: &r_pred,
-                    sigma_gt: &r_true,
-                    metallic,
-                });
-            }
-            // The same on observed pixels: surface cells that at least OBSERVED_MIN training
-            // pixels saw (`_observed.exr` of `fipt run`).
-            let obs_path = dir.join(format!("{k:03}_observed.exr"));
-            if obs_path.is_file() {
-                let o = Image::read_exr(&obs_path)
-                    .with_context(|| format!("reading {}", obs_path.display()))?;
-                let seen = |i: usize| o.data[i].x >= OBSERVED_MIN;
-                let od: Vec<bool> = (0..n).map(|i| diffuse[i] && seen(i)).collect();
-                let ov: Vec<bool> = (0..n).map(|i| valid[i] && seen(i)).collect();
-                kd_obs.push(psnr(&kd_clamped, &kd_q8, Some(&od), 1.0));
-                r_obs.push(psnr(&r_pred, &r_true, Some(&ov), 1.0));
-                let nv = valid.iter().filter(|&&v| v).count();
-                obs_share
-                    .push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
-            }
-            let (iou, log2) = emission_scores(&emis, emit_gt.as_ref());
-            let render_p = render_score(ds, v, &dir, display, &s.name)?;
-            render_all.push(render_p);
-            let log_l2 = log2 / (3 * n) as f64;
-            write_kd_error(out, &s.name, k, &kd, &kd_gt, &valid)?;
-            kd_all.push(kd_p);
-            alb_all.push(alb_p);
-            r_all.push(r_p);
-            iou_all.push(iou);
-            log_all.push(Some(log_l2));
-            rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p}));
-        }
-        let share = |a: usize, b: usize| (b > 0).then(|| a as f64 / b as f64);
-        let parts_json = (!parts.is_empty()).then(|| parts.to_json(&names));
-        splits.insert(
-            s.name.clone(),
-            serde_json::json!({
-                "observed": {"min_count": OBSERVED_MIN, "kd_psnr": mean(&kd_obs), "kd_psnr_median": median(&kd_obs),
-                             "roughness_psnr": mean(&r_obs), "roughness_psnr_median": median(&r_obs), "share": mean(&obs_share)},
-                "metallic": {"metal_recall": share(metal[1], metal[0]), "false_metal": share(metal[3], metal[2]),
-                             "metal_pixels": metal[0], "dielectric_pixels": metal[2]},
-                "roughness_constant": {"value": 1.0, "roughness_psnr": mean(&r_const), "roughness_psnr_median": median(&r_const)},
-                "mean": {"kd_psnr": mean(&kd_all), "albedo_psnr": mean(&alb_all), "roughness_psnr": mean(&r_all),
-                         "emission_iou": mean(&iou_all), "emission_log_l2": mean(&log_all), "render_psnr": mean(&render_all)},
-                "median": {"kd_psnr": median(&kd_all), "albedo_psnr": median(&alb_all), "roughness_psnr": median(&r_all),
-                           "emission_iou": median(&iou_all), "emission_log_l2": median(&log_all), "render_psnr": median(&render_all)},
-                "views": rows,
-                "parts": parts_json,
-                "render_display_scale": display,
-            }),
-        );
-    }
-    let m = serde_json::Value::Object(splits);
-    write_json_atomic(&out.join("metrics.json"), &m)?;
-    print_table(&m);
-    for (name, v) in m.as_object().into_iter().flatten() {
-        crate::eval_parts::print(name, &v["parts"]);
-    }
-    Ok(m)
-}
-
-/// Adds a view's metal pixels (true metallic ≥ 0.5) and those predicted ≥ 0.8, and its
-/// dielectric pixels and those predicted > 0.1, to `metal`, over the `valid` pixels.
-fn count_metal(metal: &mut [usize; 4], valid: &[bool], pred: &[Vec3], truth: &[Vec3]) {
-    for i in (0..valid.len()).filter(|&i| valid[i]) {
-        let (g, p) = (truth[i].x, pred[i].x);
-        if g >= 0.5 {
-            metal[0] += 1;
-            metal[1] += usize::from(p >= 0.8);
-        } else {
-            metal[2] += 1;
-            metal[3] += usize::from(p > 0.1);
-        }
-    }
-}
-
-/// Writes `OUT/eval/<split>/{k:03}_kd_error_x4.png`: |kd − kd_gt|·4 on the scored pixels.
-fn write_kd_error(
-    out: &Path,
-    split: &str,
-    k: usize,
-    kd: &Image,
-    kd_gt: &Image,
-    valid: &[bool],
-) -> Result<()> {
-    let data = (0..kd.data.len())
-        .map(|i| {
-            if valid[i] {
-                (kd.data[i] - kd_gt.data[i]).abs() * 4.0
-            } else {
-                Vec3::ZERO
-            }
-        })
-        .collect();
-    let err = Image {
-        width: kd.width,
-        height: kd.height,
-        data,
-    };
-    err.write_png(
-        &out.join("eval")
-            .join(split)
-            .join(format!("{k:03}_kd_error_x4.png")),
-        1.0,
-    )?;
+pub fn run(a: Args) -> Result<()> {
+    let m = fipt_pipeline::eval::evaluate_run(&a.scene, &a.out)?;
+    print_metrics(&m);
+    println!("wrote {}", a.out.join("metrics.json").display());
     Ok(())
+}
+
+/// The tables of `metrics.json`: per split, then per part.
+pub fn print_metrics(m: &serde_json::Value) {
+    print_table(m);
+    for (name, v) in m.as_object().into_iter().flatten() {
+        print_parts(name, &v["parts"]);
+    }
 }
 
 fn print_table(m: &serde_json::Value) {
@@ -376,92 +76,40 @@ fn print_table(m: &serde_json::Value) {
     }
 }
 
-pub fn run(a: Args) -> Result<()> {
-    let ds =
-        Dataset::open(&a.scene).with_context(|| format!("opening scene {}", a.scene.display()))?;
-    if !ds.splits.iter().any(|s| s.has_gt(GtKind::DiffCol)) {
-        anyhow::bail!(
-            "{}: no ground truth (DiffCol/) to evaluate against",
-            a.scene.display()
+/// Prints a split's per-part table (from [`PartScores::to_json`]).
+fn print_parts(split: &str, rows: &serde_json::Value) {
+    let Some(rows) = rows.as_array().filter(|r| !r.is_empty()) else {
+        return;
+    };
+    let f =
+        |v: &serde_json::Value, p: usize| v.as_f64().map_or("–".into(), |x| format!("{x:.p$}"));
+    println!("\n{split}, per part (mean predicted / true):");
+    println!(
+        "{:<16} {:>6} {:>7} {:>13} {:>7} {:>11} {:>11}",
+        "part", "share", "kd dB", "kd pred/true", "σ dB", "σ", "metallic"
+    );
+    for r in rows {
+        let name = r["name"]
+            .as_str()
+            .map_or_else(|| format!("#{}", r["id"]), str::to_string);
+        let pair = |a: &str, b: &str| format!("{}/{}", f(&r[a], 2), f(&r[b], 2));
+        println!(
+            "{:<16} {:>6} {:>7} {:>13} {:>7} {:>11} {:>11}",
+            name,
+            f(&r["share"], 3),
+            f(&r["kd_psnr"], 2),
+            pair("kd_mean", "kd_true"),
+            f(&r["roughness_psnr"], 2),
+            format!(
+                "{}/{}",
+                f(&r["roughness_mean"], 2),
+                f(&r["roughness_true"], 2)
+            ),
+            format!(
+                "{}/{}",
+                f(&r["metallic_mean"], 2),
+                f(&r["metallic_true"], 2)
+            ),
         );
-    }
-    // The outputs must be of this scene: `report.json` holds the inputs' fingerprint.
-    let report = a.out.join("report.json");
-    if let Ok(r) = fipt_core::fsutil::read_json::<serde_json::Value>(&report) {
-        let here = crate::scene::inputs_hash(&ds)?;
-        if let Some(there) = r["inputs_hash"].as_str().filter(|h| *h != here) {
-            anyhow::bail!(
-                "{} was made from another scene (inputs fingerprint {there}, {} has {here}): evaluate it against the scene it came from",
-                a.out.display(),
-                a.scene.display()
-            );
-        }
-    }
-    let exposure = fipt_core::fsutil::read_json::<serde_json::Value>(&report)
-        .ok()
-        .and_then(|r| r["exposure_scale"].as_f64())
-        .unwrap_or(1.0) as f32;
-    evaluate(&ds, &a.out, exposure)?;
-    println!("wrote {}", a.out.join("metrics.json").display());
-    Ok(())
-}
-
-/// The closure of shadings against the training views: mean over views of the sRGB PSNR of
-/// kd·Ld + ks·Ls0(σ) + Ls1(σ) with the ground-truth materials, off the emitters (None without
-/// ground truth). It measures the shadings alone: exact shadings reproduce the views but for
-/// the renderer's noise.
-pub fn closure_psnr(
-    scene: &crate::scene::LoadedScene,
-    sh: &[fipt_core::shading::ViewShadings],
-) -> Result<Option<f64>> {
-    let ds = &scene.ds;
-    let split = ds.train();
-    if ![
-        GtKind::DiffCol,
-        GtKind::Specular,
-        GtKind::Roughness,
-        GtKind::Emit,
-    ]
-    .iter()
-    .all(|&k| split.has_gt(k))
-    {
-        return Ok(None);
-    }
-    let mut sum = 0.0;
-    for (k, s) in sh.iter().enumerate() {
-        let v = &split.views[k];
-        let g = |kind| {
-            ds.load_gt(split, kind, v.index)
-                .map(|x| x.expect("present"))
-        };
-        let (kd, ks, ro, le) = (
-            g(GtKind::DiffCol)?,
-            g(GtKind::Specular)?,
-            g(GtKind::Roughness)?,
-            g(GtKind::Emit)?,
-        );
-        let pred: Vec<Vec3> = (0..kd.data.len())
-            .map(|i| s.reflected(i, kd.data[i], ks.data[i], ro.data[i].x))
-            .collect();
-        let mask: Vec<bool> = (0..kd.data.len())
-            .map(|i| s.valid[i] && le.data[i].max_element() <= 0.0)
-            .collect();
-        sum +=
-            fipt_core::metrics::srgb_psnr(&pred, &scene.images[k].data, Some(&mask)).unwrap_or(0.0);
-    }
-    Ok(Some(sum / sh.len() as f64))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{mean, median};
-
-    #[test]
-    fn median_ignores_missing_and_non_finite_views_and_resists_an_outlier() {
-        let v = [Some(10.0), None, Some(12.0), Some(f64::NAN), Some(98.0)];
-        assert_eq!(median(&v), Some(12.0));
-        assert_eq!(mean(&v), Some(40.0));
-        assert_eq!(median(&[Some(10.0), Some(11.0)]), Some(10.5));
-        assert_eq!(median(&[None, Some(f64::INFINITY)]), None);
     }
 }

@@ -1,8 +1,8 @@
 //! `fipt export OUT --format glb|mitsuba|obj --out DIR`: a run's recovered scene for other tools.
 use crate::progress::Stage;
-use crate::recovered::RunOutput;
 use anyhow::Result;
 use fipt_export::{export, ExportOptions, Format};
+use fipt_pipeline::recovered::RunOutput;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -35,8 +35,13 @@ pub fn run(a: Args) -> Result<()> {
     let (ds, geometry) = run.open_scene()?;
     let field = run.field()?;
     let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
-    let surfaces =
-        crate::recovered::surfaces(&geometry, &views, field.as_ref(), &run.emitters, run.model)?;
+    let surfaces = fipt_pipeline::recovered::surfaces(
+        &geometry,
+        &views,
+        field.as_ref(),
+        &run.emitters,
+        run.model,
+    )?;
     st.done();
     let opts = ExportOptions {
         texel_size: a.texel.unwrap_or(surfaces.cell()),

@@ -1,5 +1,6 @@
-//! The `fipt` command-line tool as a library: argument parsing, printing, and the registry of
-//! components (`Components`) that `fipt run` composes by name. The `fipt` binary is
+//! The `fipt` command-line tool as a library: argument parsing and printing over fipt-pipeline
+//! (the stages, their order, caching and the registry of components, `Components`, that
+//! `fipt run` composes by name). The `fipt` binary is
 //! `main_with(Components::builtin())`; a crate that brings its own component (an emitter
 //! extractor, …) builds its own binary the same way with the component registered, and every
 //! subcommand, preset and file layout stays as it is (see `examples/brightest-emitters`).
@@ -7,36 +8,23 @@ mod bake;
 mod bench;
 mod bench_bake;
 mod bench_train;
-mod config;
 mod demo;
 mod eval;
-mod eval_parts;
 mod export;
-mod fit;
 mod info;
-mod memory;
-mod outputs;
 mod progress;
-mod recovered;
-mod refine;
-mod regions;
 mod render;
 mod report;
-mod rounds;
 mod run;
-mod scene;
 mod search;
-mod shard;
 mod sweep;
 mod sweep_plot;
 mod synth;
 mod table;
 mod train;
 
-pub mod components;
-
-use clap::{Parser, Subcommand};
-pub use components::Components;
+pub use clap::{Parser, Subcommand};
+pub use fipt_pipeline::{describe, Components};
 
 #[derive(Parser)]
 #[command(
@@ -109,24 +97,9 @@ pub fn main_with(components: Components) -> i32 {
     }
 }
 
-/// An error and its causes on one line, each cause said once (an I/O error's message is often
-/// part of its context's already).
-pub fn describe(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let s = cause.to_string();
-        if out.contains(&s) {
-            continue;
-        }
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&s);
-    }
-    out
-}
-
 fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
+    // What the pipeline says goes to the terminal (a second call keeps the first observer).
+    fipt_pipeline::observe::set_observer(Box::new(progress::Terminal));
     if let Some(n) = cli.threads {
         if let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
@@ -150,19 +123,5 @@ fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Profile(a) => search::run(a),
         Command::Table(a) => table::run(a),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn an_error_chain_says_each_cause_once() {
-        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file or directory");
-        let e = anyhow::Error::new(fipt_core::CoreError::io(std::path::Path::new("/x/out"), io))
-            .context("creating the output folder");
-        assert_eq!(
-            super::describe(&e),
-            "creating the output folder: /x/out: No such file or directory"
-        );
     }
 }

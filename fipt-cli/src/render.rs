@@ -1,7 +1,6 @@
 //! `fipt render`: path-traced views of a recovered scene (a `fipt run` output folder) or of a
 //! mesh with given materials, from any cameras, optionally relit by a lights file.
 use crate::progress::{bar, Stage};
-use crate::recovered::RunOutput;
 use anyhow::{bail, Context, Result};
 use fipt_core::camera::Camera;
 use fipt_core::dataset::{read_cam_list, read_transforms, MESH_NAMES};
@@ -9,6 +8,7 @@ use fipt_core::image::ExrPrecision;
 use fipt_core::materials::SceneMaterials;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
+use fipt_pipeline::recovered::RunOutput;
 use fipt_shading::edit::EditedSurfaces;
 use fipt_shading::lights::{EmitterPolicy, LightsFile};
 use fipt_shading::relight::apply_lights;
@@ -154,8 +154,13 @@ pub fn run(a: Args) -> Result<()> {
     let cams = read_cameras(&a.cameras, size.or(Some((ds.width, ds.height))))?;
     let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
     let model = a.brdf.unwrap_or(run.model);
-    let surfaces =
-        crate::recovered::surfaces(&geometry, &views, field.as_ref(), &run.emitters, model)?;
+    let surfaces = fipt_pipeline::recovered::surfaces(
+        &geometry,
+        &views,
+        field.as_ref(),
+        &run.emitters,
+        model,
+    )?;
     let groups: Vec<Vec<u32>> = run.emitters.iter().map(|e| e.triangles.clone()).collect();
     st.done();
     render_all(&a, &geometry.mesh, &surfaces, &groups, &cams, Layout::Flat)

@@ -235,7 +235,7 @@ fn csv(rows: &[Row]) -> String {
     out
 }
 
-pub fn run(a: Args, components: &crate::Components) -> Result<()> {
+pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
     let grid = match (&a.grid, a.quick) {
         (Some(p), _) => {
             let text =

@@ -15,9 +15,9 @@
 //! ```
 //!
 //! Nothing in the fipt crates was edited to add it.
-use fipt_cli::Components;
 use fipt_core::color::luminance;
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs};
+use fipt_pipeline::Components;
 use glam::Vec3;
 use serde::Deserialize;
 use std::collections::HashMap;

@@ -16,11 +16,11 @@
 //! [plugins.voxel-lambert]
 //! cell_footprints = 4.0
 //! ```
-use fipt_cli::Components;
 use fipt_core::color::{luminance, Rgb};
 use fipt_core::field::{Material, MaterialField};
 use fipt_core::fit::{FitInputs, Fitted, MaterialFitter};
 use fipt_core::shading::{Progress, NUM_LEVELS};
+use fipt_pipeline::Components;
 use glam::Vec3;
 use serde::Deserialize;
 use std::collections::HashMap;

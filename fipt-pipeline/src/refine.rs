@@ -1,7 +1,7 @@
 //! The path-grown refinement stage of `fipt run`: re-computes the shadings of the training
 //! views from the last round's field and the extracted emitters, stored like a bake in
 //! `OUT/refine<k>/` (manifest last), keyed by the settings and the upstream fingerprints.
-use crate::progress::{bar, Stage};
+use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
 use crate::shard::{Sharding, Stopped};
 use anyhow::Result;
@@ -60,7 +60,7 @@ pub fn stage(
         }
         match load_keyed(dir, &scene.cache_key, &name, &key)? {
             Ok((m, shadings)) => {
-                eprintln!(
+                crate::note!(
                     "reusing the refined shadings in {} (computed in {:.1} s); --force to redo them",
                     dir.display(),
                     m.seconds_total
@@ -73,7 +73,7 @@ pub fn stage(
                     seconds: m.seconds_total,
                 });
             }
-            Err(why) if why != "no finished bake found" => eprintln!("refining: {why}"),
+            Err(why) if why != "no finished bake found" => crate::note!("refining: {why}"),
             Err(_) => {}
         }
     }
@@ -145,16 +145,16 @@ pub fn stage(
 /// The built-in refiner's figures in words; any other refiner's report as it is.
 fn print_stats(name: &str, report: &serde_json::Value, secs: f64) {
     let Ok(stats) = serde_json::from_value::<RefineStats>(report.clone()) else {
-        eprintln!("{name}: {report}");
+        crate::note!("{name}: {report}");
         return;
     };
-    eprintln!(
+    crate::note!(
         "refine: {:.0} pixels/s, {:.2} Mrays/s ({} rays)",
         stats.pixels as f64 / secs.max(1e-9),
         stats.rays as f64 / secs.max(1e-9) / 1e6,
         stats.rays
     );
-    eprintln!(
+    crate::note!(
         "refine: setup {:.1} s, diffuse {:.1} s ({} cells), specular {:.1} s; secondary rays: {} to emitters, {} SLF at rough surfaces, {} grown through glossy ones, {} through unobserved rough ones, {} left the scene",
         stats.seconds_setup,
         stats.seconds_diffuse,

@@ -9,7 +9,15 @@ use fipt_core::shading::ShadingRefiner;
 use fipt_shading::bake::PixelRecord;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The folder of the training after `round` refinements: `train`, then `train1`, `train2`, …
+pub fn train_dir(out: &Path, round: u32) -> PathBuf {
+    match round {
+        0 => out.join("train"),
+        r => out.join(format!("train{r}")),
+    }
+}
 
 /// The refine → train rounds after the first training round.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -187,7 +195,7 @@ pub(crate) fn refinement_rounds(
             &refined.key,
             &refined.shadings,
             &round_cfg,
-            &ctx.out.join(format!("train{r}")),
+            &train_dir(ctx.out, r),
             ctx.force,
             cfg.rounds
                 .warm_start
@@ -224,7 +232,7 @@ fn settle(
         && share.is_some_and(|s| s > cfg.settle_share as f64);
     if more {
         *last += 1;
-        eprintln!(
+        crate::note!(
             "settle: {:.1} % of the refinement's secondary rays met surfaces lit through the field's materials (over rounds.settle_share = {:.0} %): one more round",
             share.unwrap_or(0.0) * 100.0,
             cfg.settle_share * 100.0

@@ -126,44 +126,6 @@ pub fn part_names(scene: &Path) -> Vec<String> {
         .unwrap_or_default()
 }
 
-/// Prints a split's per-part table (from [`PartScores::to_json`]).
-pub fn print(split: &str, rows: &serde_json::Value) {
-    let Some(rows) = rows.as_array().filter(|r| !r.is_empty()) else {
-        return;
-    };
-    let f =
-        |v: &serde_json::Value, p: usize| v.as_f64().map_or("–".into(), |x| format!("{x:.p$}"));
-    println!("\n{split}, per part (mean predicted / true):");
-    println!(
-        "{:<16} {:>6} {:>7} {:>13} {:>7} {:>11} {:>11}",
-        "part", "share", "kd dB", "kd pred/true", "σ dB", "σ", "metallic"
-    );
-    for r in rows {
-        let name = r["name"]
-            .as_str()
-            .map_or_else(|| format!("#{}", r["id"]), str::to_string);
-        let pair = |a: &str, b: &str| format!("{}/{}", f(&r[a], 2), f(&r[b], 2));
-        println!(
-            "{:<16} {:>6} {:>7} {:>13} {:>7} {:>11} {:>11}",
-            name,
-            f(&r["share"], 3),
-            f(&r["kd_psnr"], 2),
-            pair("kd_mean", "kd_true"),
-            f(&r["roughness_psnr"], 2),
-            format!(
-                "{}/{}",
-                f(&r["roughness_mean"], 2),
-                f(&r["roughness_true"], 2)
-            ),
-            format!(
-                "{}/{}",
-                f(&r["metallic_mean"], 2),
-                f(&r["metallic_true"], 2)
-            ),
-        );
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

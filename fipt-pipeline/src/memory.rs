@@ -41,7 +41,7 @@ pub fn check(pixels: u64, cfg: &RunConfig) -> Result<u64> {
         );
     }
     if total > avail / 2 {
-        eprintln!(
+        crate::note!(
             "warning: this run needs at least {:.1} GiB of the {:.1} GiB available ({list})",
             gib(total),
             gib(avail)

@@ -6,7 +6,7 @@ use crate::outputs::{
     emitters_summary, evaluate_if_gt, extend, extract_emitters, report_header, write_emitters_obj,
     write_views, StageReport,
 };
-use crate::run::{Args, RunConfig};
+use crate::run::{RunConfig, RunRequest, RunSummary};
 use crate::Components;
 use anyhow::Result;
 use fipt_core::dataset::GtKind;
@@ -14,7 +14,6 @@ use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::{FitInputs, MaterialFitter};
 use fipt_core::fsutil::write_json_atomic;
 use fipt_core::shading::ShadingBaker;
-use fipt_core::shading::Shard;
 use fipt_shading::bake::primary_records;
 use std::time::Instant;
 
@@ -29,7 +28,12 @@ pub struct Parts<'a> {
 }
 
 /// Runs `parts.fitter` on the scene of `a` and writes the output contract into `a.out`.
-pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> Result<()> {
+pub fn run(
+    a: &RunRequest,
+    cfg: &RunConfig,
+    components: &Components,
+    parts: Parts,
+) -> Result<RunSummary> {
     let Parts {
         fitter,
         baker,
@@ -40,7 +44,7 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
     let mut stages: Vec<StageReport> = vec![];
     fipt_core::fsutil::remove_stale_temporaries(&a.out);
     let t = Instant::now();
-    let scene = crate::scene::load(&a.scene, a.bad_pixels.into())?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
     stages.push(StageReport::since("load", t));
     let split = scene.ds.train();
     let mesh = &scene.geometry.mesh;
@@ -52,7 +56,7 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
             bake_settings,
             &a.out.join("bake"),
             a.force,
-            a.shard.unwrap_or(Shard::ALL),
+            a.shard,
         )?;
         stages.push(StageReport::since("bake", t));
         Some(sh)
@@ -76,8 +80,8 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
         std::fs::remove_dir_all(&dir)?;
     }
     std::fs::create_dir_all(&dir)?;
-    let st = crate::progress::Stage::start("fit");
-    let pb = crate::progress::bar(1, fitter.name());
+    let st = crate::observe::Stage::start("fit");
+    let pb = crate::observe::bar(1, fitter.name());
     let fitted = fitter.fit(
         &FitInputs {
             geometry: &scene.geometry,
@@ -146,18 +150,14 @@ pub fn run(a: &Args, cfg: &RunConfig, components: &Components, parts: Parts) -> 
         }),
     );
     write_json_atomic(&a.out.join("report.json"), &report)?;
-    println!(
-        "\nfipt run ({}) finished in {:.1} s",
-        cfg.pipeline.method,
-        t_all.elapsed().as_secs_f64()
-    );
-    println!("  maps:     {}", a.out.join("views").display());
-    println!(
-        "  emitters: {} ({} lights)",
-        a.out.join("emitters.json").display(),
-        emitters.len()
-    );
-    println!("  report:   {}", a.out.join("report.json").display());
-    crate::report::write_or_warn(&a.out, &scene.ds);
-    Ok(())
+    Ok(RunSummary {
+        method: cfg.pipeline.method.clone(),
+        seconds: t_all.elapsed().as_secs_f64(),
+        stages,
+        out: a.out.clone(),
+        lights: emitters.len(),
+        field: None,
+        pictures: crate::report::write_or_warn(&a.out, &scene.ds),
+        metrics,
+    })
 }

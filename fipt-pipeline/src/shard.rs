@@ -32,7 +32,7 @@ pub fn merge(
 ) -> Result<()> {
     match merge_shards(dir, check)? {
         ShardState::Merged { count } => {
-            eprintln!("{what}: merged the {count} shards in {}", dir.display())
+            crate::note!("{what}: merged the {count} shards in {}", dir.display())
         }
         ShardState::Partial { count, missing } if shard.is_all() => {
             let list: Vec<String> = missing.iter().map(|k| format!("{k}/{count}")).collect();

@@ -1,5 +1,5 @@
 //! Loading a scene folder for the stages: dataset, geometry, training images, fingerprint.
-use crate::progress::Stage;
+use crate::observe::Stage;
 use anyhow::{Context, Result};
 use fipt_core::dataset::Dataset;
 use fipt_core::image::{BadPixelPolicy, Image};
@@ -40,7 +40,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
     let ds = Dataset::open(root).with_context(|| format!("opening scene {}", root.display()))?;
     let mesh = Mesh::load(&ds.mesh).context("loading the scene mesh")?;
     if mesh.dropped_degenerate > 0 {
-        eprintln!(
+        crate::note!(
             "note: {} degenerate triangles dropped from {}",
             mesh.dropped_degenerate,
             ds.mesh.display()
@@ -58,7 +58,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
     let median = fipt_core::image::median_luminance(&images);
     let exposure = fipt_core::image::exposure_scale(median);
     if !(0.5..=2.0).contains(&exposure) {
-        eprintln!(
+        crate::note!(
             "note: the views' median luminance is {median:.3e}: working at 1/{exposure:.3e} of their scale (radiance results are scaled back)"
         );
     }
@@ -69,7 +69,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
             }
         }
     } else if median == 0.0 {
-        eprintln!("warning: the median training pixel is black: most views are dark or black");
+        crate::note!("warning: the median training pixel is black: most views are dark or black");
     }
     let inputs_hash = inputs_hash(&ds)?;
     let cache_key = if exposure == 1.0 {
@@ -105,7 +105,7 @@ pub fn check_coverage(scene: &LoadedScene) -> Result<()> {
     }
     let blind: Vec<usize> = (0..cover.len()).filter(|&k| cover[k] == 0.0).collect();
     if !blind.is_empty() {
-        eprintln!("warning: training views {blind:?} see none of the mesh: they are ignored");
+        crate::note!("warning: training views {blind:?} see none of the mesh: they are ignored");
     }
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! What every method's run writes: the stage records, the report's shared parts, the emitters
 //! (JSON, OBJ), per-view maps and path-traced re-renders.
-use crate::progress::Stage;
-use crate::run::{Args, RunConfig};
+use crate::observe::Stage;
+use crate::run::{RunConfig, RunRequest};
 use anyhow::Result;
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::write_bytes_atomic;
@@ -16,20 +16,21 @@ use std::path::Path;
 
 impl StageReport {
     /// The stage `stage` that started at `t`, ending now.
-    pub(crate) fn since(stage: &'static str, t: std::time::Instant) -> Self {
+    pub fn since(stage: &'static str, t: std::time::Instant) -> Self {
         StageReport {
             stage,
             seconds: t.elapsed().as_secs_f64(),
-            peak_rss_mib: crate::bench::peak_rss_mib(),
+            peak_rss_mib: fipt_core::memory::peak_rss_mib(),
         }
     }
 }
 
-#[derive(Serialize)]
-pub(crate) struct StageReport {
-    pub(crate) stage: &'static str,
-    pub(crate) seconds: f64,
-    pub(crate) peak_rss_mib: Option<f64>,
+/// A stage's wall time and the process's peak memory when it ended.
+#[derive(Clone, Debug, Serialize)]
+pub struct StageReport {
+    pub stage: &'static str,
+    pub seconds: f64,
+    pub peak_rss_mib: Option<f64>,
 }
 
 /// Whether the scene has ground truth to evaluate against (`DiffCol/` in a split).
@@ -79,7 +80,7 @@ pub(crate) fn mark_status(
 /// The part of `report.json` every method writes first: version, scene, preset, settings and
 /// the size of the inputs.
 pub(crate) fn report_header(
-    a: &Args,
+    a: &RunRequest,
     scene: &crate::scene::LoadedScene,
     cfg: &RunConfig,
 ) -> serde_json::Value {
@@ -118,7 +119,7 @@ pub(crate) fn doubtful_emitters(emitters: &[Emitter]) -> Vec<serde_json::Value> 
         .filter_map(|(i, e)| {
             let l = fipt_core::color::luminance(glam::Vec3::from(e.mean_radiance));
             (l < DOUBTFUL_LUMINANCE).then(|| {
-                eprintln!(
+                crate::note!(
                     "warning: light {i} is no brighter than a lit surface ({l:.2} at the working exposure, where the views' median is {}): it may be a surface explaining light from an emitter no view sees",
                     fipt_core::image::CANONICAL_MEDIAN
                 );
@@ -195,7 +196,7 @@ pub(crate) fn write_views(
             ..Default::default()
         };
         let total: usize = scene.ds.splits.iter().map(|s| s.views.len()).sum();
-        let pb = crate::progress::bar(total as u64, "re-render");
+        let pb = crate::observe::bar(total as u64, "re-render");
         for (si, s) in scene.ds.splits.iter().enumerate() {
             let dir = out.join("views").join(&s.name);
             let rc = RenderConfig {

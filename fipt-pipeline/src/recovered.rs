@@ -126,10 +126,7 @@ impl RunOutput {
     /// The folder of the final material field: `train{r}` after r refinement rounds.
     pub fn field_dir(&self) -> PathBuf {
         let rounds = self.report["rounds"].as_array().map_or(0, Vec::len);
-        match rounds {
-            0 => self.dir.join("train"),
-            r => self.dir.join(format!("train{r}")),
-        }
+        crate::rounds::train_dir(&self.dir, rounds as u32)
     }
 
     /// Loads the recovered material field (runs of the `fipt` method).
@@ -154,7 +151,7 @@ impl RunOutput {
         let here = crate::scene::inputs_hash(&ds)?;
         if let Some(there) = self.report["inputs_hash"].as_str() {
             if there != here {
-                eprintln!(
+                crate::note!(
                     "warning: {} changed since the run in {} (inputs fingerprint {there} → {here})",
                     self.scene.display(),
                     self.dir.display()

@@ -1,0 +1,170 @@
+//! The bake stage: cached by inputs, baker and settings; sharded by views; `fipt bake` alone.
+use crate::observe::{bar, Stage};
+use crate::scene::LoadedScene;
+use crate::shard::Stopped;
+use anyhow::Result;
+use fipt_core::image::BadPixelPolicy;
+use fipt_core::image::Image;
+use fipt_core::reflectance::ReflectanceModel;
+use fipt_core::shading::ShadingBaker;
+use fipt_core::shading::Shard;
+use fipt_core::shading::ViewShadings;
+use fipt_shading::bake::{BakeConfig, BakeStats};
+use fipt_shading::bake_store::{
+    load_if_current, mismatch, save, save_shard, shard_done, BakeManifest, FORMAT_VERSION,
+};
+use std::path::{Path, PathBuf};
+
+/// `fipt bake`: the bake alone, into `out/bake/`.
+pub struct BakeRequest {
+    /// Scene folder.
+    pub scene: PathBuf,
+    /// Output folder; the shadings go to OUT/bake/.
+    pub out: PathBuf,
+    /// Settings preset.
+    pub preset: String,
+    /// A TOML or JSON file of bake settings laid over the preset.
+    pub config: Option<PathBuf>,
+    pub bad_pixels: BadPixelPolicy,
+    /// Bake again even if a finished bake with the same inputs and settings exists.
+    pub force: bool,
+    /// The reflectance model whose shadings are baked.
+    pub brdf: ReflectanceModel,
+    /// Bake only these views (a task of a job array).
+    pub shard: Shard,
+}
+
+/// What `fipt bake` did.
+pub enum BakeOutcome {
+    /// The bake is in this folder.
+    Wrote(PathBuf),
+    /// A shard's views are written; the message says what remains.
+    Stopped(String),
+}
+
+/// The bake alone (`fipt bake`), with the built-in baker.
+pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeOutcome> {
+    let cfg: BakeConfig = crate::config::load_preset_section(
+        &a.preset,
+        BakeConfig::preset,
+        a.config.as_deref(),
+        "bake",
+    )?;
+    let settings = serde_json::to_value(&cfg)?;
+    let baker = components.baker(crate::components::SLF_BAKER, &settings, a.brdf)?;
+    let _lock = crate::run::lock(&a.out, a.shard, "fipt bake")?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
+    let dir = a.out.join("bake");
+    match stage(&scene, baker.as_ref(), &settings, &dir, a.force, a.shard) {
+        Err(e) if e.is::<Stopped>() => Ok(BakeOutcome::Stopped(e.to_string())),
+        Err(e) => Err(e),
+        Ok(_) => Ok(BakeOutcome::Wrote(dir)),
+    }
+}
+
+/// The bake stage with `baker` (built from `settings`): reuses a finished bake of the same
+/// inputs, baker and settings in `dir` unless `force` (merging finished shards first);
+/// otherwise bakes, saves (manifest last) and writes previews of Ld. With a `shard` other
+/// than all, bakes and saves that shard's views and returns [`Stopped`].
+pub fn stage(
+    scene: &LoadedScene,
+    baker: &dyn ShadingBaker,
+    settings: &serde_json::Value,
+    dir: &Path,
+    force: bool,
+    shard: Shard,
+) -> Result<(BakeManifest, Vec<ViewShadings>)> {
+    let name = baker.name().to_string();
+    let check = |m: &BakeManifest| mismatch(m, &scene.cache_key, settings, &name);
+    if !force {
+        crate::shard::merge(dir, "bake", shard, check)?;
+        match load_if_current(dir, &scene.cache_key, settings, &name)? {
+            Ok((m, sh)) => {
+                crate::note!(
+                    "reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it",
+                    dir.display(),
+                    m.views,
+                    m.seconds_total
+                );
+                return Ok((m, sh));
+            }
+            Err(why) => crate::note!("baking: {why}"),
+        }
+    }
+    if !shard.is_all() && !force && shard_done(dir, shard, &check) {
+        return Err(crate::shard::done(dir, "bake", shard, check).into());
+    }
+    let split = scene.ds.train();
+    let pb = bar(1, "bake");
+    let st = Stage::start("bake");
+    let baked = baker.bake_shard(
+        &scene.geometry,
+        &split.views,
+        &scene.images,
+        shard,
+        &|d, t| {
+            pb.set_length(t as u64);
+            pb.set_position(d as u64);
+        },
+    )?;
+    let shadings = baked.output;
+    pb.finish_and_clear();
+    let secs = st.done();
+    let manifest = BakeManifest {
+        version: FORMAT_VERSION,
+        baker: name.clone(),
+        inputs_hash: scene.cache_key.clone(),
+        config: settings.clone(),
+        split: split.name.clone(),
+        views: shadings.len(),
+        width: scene.ds.width,
+        height: scene.ds.height,
+        stats: baked.report.clone(),
+        seconds_total: secs,
+    };
+    let st = Stage::start("write bake");
+    if shard.is_all() {
+        save(dir, &manifest, &shadings)?;
+    } else {
+        save_shard(dir, &manifest, &shadings, shard)?;
+    }
+    for (k, s) in shadings
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| shard.contains(*k))
+    {
+        let img = Image {
+            width: s.width,
+            height: s.height,
+            data: s.ld.clone(),
+        };
+        img.write_png(&dir.join("preview").join(format!("{k:03}_ld.png")), 1.0)?;
+    }
+    st.done();
+    if !shard.is_all() {
+        return Err(crate::shard::done(dir, "bake", shard, check).into());
+    }
+    // The built-in baker's figures in words; any other baker's report as it is.
+    let Ok(stats) = serde_json::from_value::<BakeStats>(baked.report.clone()) else {
+        crate::note!("{}: {}", manifest.baker, baked.report);
+        return Ok((manifest, shadings));
+    };
+    let rays = stats.rays_diffuse + stats.rays_specular;
+    crate::note!(
+        "primary {:.2} s, SLF {:.2} s ({} voxels, {:.1} MiB), diffuse {:.2} s ({} cache entries for {} pixels), specular {:.2} s",
+        stats.seconds_primary,
+        stats.seconds_slf,
+        stats.slf_occupied_voxels,
+        stats.slf_memory_bytes as f64 / (1 << 20) as f64,
+        stats.seconds_diffuse,
+        stats.cache_entries,
+        stats.valid_pixels,
+        stats.seconds_specular
+    );
+    crate::note!(
+        "{:.0} pixels/s, {:.2} Mrays/s",
+        stats.valid_pixels as f64 / secs,
+        rays as f64 / secs / 1e6
+    );
+    Ok((manifest, shadings))
+}

@@ -1,0 +1,23 @@
+//! The pictures of a finished run: contact sheets and `report.html` (fipt-report).
+use anyhow::{Context, Result};
+use std::path::{Path, PathBuf};
+
+/// Writes the report of run folder `out` of scene `ds`; returns the HTML page.
+pub fn write(
+    out: &Path,
+    ds: &fipt_core::dataset::Dataset,
+    views: usize,
+) -> Result<Option<PathBuf>> {
+    let opts = fipt_report::Options { views };
+    let files = fipt_report::write_report(out, ds, &opts).context("writing the report")?;
+    Ok(files.last().cloned())
+}
+
+/// The report at the end of `fipt run`: its failure does not fail the run (every result is
+/// already written), it is noted.
+pub fn write_or_warn(out: &Path, ds: &fipt_core::dataset::Dataset) -> Option<PathBuf> {
+    write(out, ds, 4).unwrap_or_else(|e| {
+        crate::note!("warning: the pictures of the report were not written: {e:#}");
+        None
+    })
+}

@@ -1,0 +1,634 @@
+//! `fipt run <scene> --out OUT`: bake → train → extract emitters → (refine → train) × rounds →
+//! per-view maps → re-render → report (→ eval when ground truth exists). Every stage writes
+//! its results atomically and a manifest last; re-running skips finished stages and resumes an
+//! interrupted training.
+use crate::observe::Stage;
+use crate::outputs::{
+    emitters_summary, evaluate_if_gt, extend, extract_emitters, has_ground_truth, report_header,
+    write_emitters_obj, write_views, StageReport,
+};
+pub use crate::rounds::RoundsConfig;
+use crate::rounds::{glossy_fraction, refine_plan, refinement_rounds, Rounds, RoundsContext};
+use crate::shard::{Sharding, Stopped};
+use anyhow::Result;
+use fipt_core::emitter::Emitter;
+use fipt_core::fsutil::write_json_atomic;
+use fipt_core::image::BadPixelPolicy;
+use fipt_core::reflectance::ReflectanceModel;
+use fipt_core::shading::Shard;
+use fipt_emitter::MaskExtractorConfig;
+use fipt_neural::TrainConfig;
+use fipt_shading::bake::{primary_records, BakeConfig};
+use fipt_shading::refine::RefineConfig;
+use fipt_shading::search::SearchConfig;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// What `fipt run` is asked to do.
+#[derive(Clone, Debug)]
+pub struct RunRequest {
+    /// Scene folder (either layout).
+    pub scene: PathBuf,
+    /// Output folder (created; finished stages inside are reused).
+    pub out: PathBuf,
+    /// Settings preset: paper, balanced, fast, reference.
+    pub preset: String,
+    /// A TOML or JSON file laid over the preset ([`RunConfig`]'s sections).
+    pub config: Option<PathBuf>,
+    /// The method, over `[pipeline] method`.
+    pub method: Option<String>,
+    /// What to do with NaN/Inf/negative pixels.
+    pub bad_pixels: BadPixelPolicy,
+    /// Redo every stage.
+    pub force: bool,
+    /// The views of the next sharded stage that is not done to compute (then stop); all: an
+    /// ordinary run.
+    pub shard: Shard,
+    /// Stop before the refinement when it is not done (a job array computes its shards).
+    pub stop_before_refine: bool,
+}
+
+impl RunRequest {
+    /// An ordinary run of `scene` into `out` with `preset`.
+    pub fn new(scene: impl Into<PathBuf>, out: impl Into<PathBuf>, preset: &str) -> Self {
+        RunRequest {
+            scene: scene.into(),
+            out: out.into(),
+            preset: preset.to_string(),
+            config: None,
+            method: None,
+            bad_pixels: BadPixelPolicy::Reject,
+            force: false,
+            shard: Shard::ALL,
+            stop_before_refine: false,
+        }
+    }
+
+    /// The sharding of this run's stages.
+    pub fn sharding(&self) -> Sharding {
+        Sharding {
+            shard: self.shard,
+            stop_before_refine: self.stop_before_refine,
+        }
+    }
+}
+
+/// How a run ended without an error.
+pub enum RunOutcome {
+    /// Every stage is done.
+    Finished(RunSummary),
+    /// A shard run (or `stop_before_refine`) stopped where asked; the message says what is left.
+    Stopped(String),
+}
+
+/// What a finished run wrote and how long each stage took.
+pub struct RunSummary {
+    pub method: String,
+    pub stages: Vec<StageReport>,
+    pub seconds: f64,
+    pub out: PathBuf,
+    /// The lights extracted.
+    pub lights: usize,
+    /// The final material field's checkpoint (FIPT's rounds).
+    pub field: Option<PathBuf>,
+    /// `metrics.json` when the scene has ground truth.
+    pub metrics: Option<serde_json::Value>,
+    /// `report.html`, when it was written.
+    pub pictures: Option<PathBuf>,
+}
+
+/// The output folder's lock: the whole folder for an unsharded run; a shard's own lock for a
+/// shard, so that the tasks of a job array write their views side by side.
+pub fn lock(out: &Path, shard: Shard, what: &str) -> Result<fipt_core::lock::OutputLock> {
+    Ok(if shard.is_all() {
+        fipt_core::lock::OutputLock::acquire(out, what)?
+    } else {
+        let name = format!(".fipt.shard-{}-of-{}.lock", shard.index, shard.count);
+        fipt_core::lock::OutputLock::acquire_named(out, &name, &format!("{what} --shard {shard}"))?
+    })
+}
+
+/// All settings of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    pub bake: BakeConfig,
+    pub train: TrainConfig,
+    pub emitters: MaskExtractorConfig,
+    pub refine: RefineConfig,
+    pub rounds: RoundsConfig,
+    pub render: ReRenderConfig,
+    /// The material search before each training round (absent: as the preset).
+    #[serde(default)]
+    pub search: SearchConfig,
+    /// The reflectance model fitted (absent: as the preset).
+    #[serde(default)]
+    pub model: ModelConfig,
+    /// Which registered components run (absent: the built-in ones).
+    #[serde(default)]
+    pub pipeline: PipelineConfig,
+    /// Settings of registered plug-in components, by name (`[plugins.<name>]`).
+    #[serde(default)]
+    pub plugins: std::collections::BTreeMap<String, serde_json::Value>,
+}
+
+/// `[pipeline]`: the components `fipt run` composes, by registered name
+/// ([`crate::Components`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// The method: `fipt` (built in: bake, search, train, emitters, refinement rounds) or a
+    /// registered fitter's name (settings `[plugins.<name>]`).
+    pub method: String,
+    /// The shading baker: `slf` (built in, settings `[bake]`) or a plug-in's name.
+    pub baker: String,
+    /// The shading refiner of `fipt`'s rounds: `path-grown` (built in, settings `[refine]`) or
+    /// a plug-in's name.
+    pub refiner: String,
+    /// The emitter extractor: `mask` (built in, settings `[emitters]`) or a plug-in's name
+    /// (settings `[plugins.<name>]`).
+    pub extractor: String,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        PipelineConfig {
+            method: crate::components::FIPT_METHOD.to_string(),
+            baker: crate::components::SLF_BAKER.to_string(),
+            refiner: crate::components::PATH_GROWN_REFINER.to_string(),
+            extractor: crate::components::MASK_EXTRACTOR.to_string(),
+        }
+    }
+}
+
+impl RunConfig {
+    /// The settings of the configured extractor: `[emitters]` for the built-in one, else
+    /// `[plugins.<name>]`.
+    fn extractor_settings(&self) -> Result<serde_json::Value> {
+        let name = &self.pipeline.extractor;
+        Ok(if name == crate::components::MASK_EXTRACTOR {
+            serde_json::to_value(&self.emitters)?
+        } else {
+            self.plugin_settings(name)
+        })
+    }
+
+    /// The settings of the configured baker: `[bake]` for the built-in one, else
+    /// `[plugins.<name>]`.
+    pub(crate) fn baker_settings(&self) -> Result<serde_json::Value> {
+        let name = &self.pipeline.baker;
+        Ok(if name == crate::components::SLF_BAKER {
+            serde_json::to_value(&self.bake)?
+        } else {
+            self.plugin_settings(name)
+        })
+    }
+
+    /// The settings of the configured refiner: `[refine]` for the built-in one, else
+    /// `[plugins.<name>]`.
+    fn refiner_settings(&self) -> Result<serde_json::Value> {
+        let name = &self.pipeline.refiner;
+        Ok(if name == crate::components::PATH_GROWN_REFINER {
+            serde_json::to_value(&self.refine)?
+        } else {
+            self.plugin_settings(name)
+        })
+    }
+
+    /// `[plugins.<name>]` (an empty table when absent).
+    fn plugin_settings(&self, name: &str) -> serde_json::Value {
+        self.plugins
+            .get(name)
+            .cloned()
+            .unwrap_or_else(|| serde_json::json!({}))
+    }
+}
+
+/// `[model]`: the reflectance model the shadings are baked for and the field is fitted in.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ModelConfig {
+    /// `principled` (Burley + GGX: Mitsuba 3's `principled`, Blender's and glTF's
+    /// metallic-roughness model; every preset but `reference`) or `fipt` (Lambert + GGX, the
+    /// method's; `reference`).
+    pub brdf: ReflectanceModel,
+}
+
+/// Path-traced re-renders of every view from the recovered scene (`_render.exr`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReRenderConfig {
+    /// Samples per pixel of the training views' re-renders; 0 disables the stage.
+    pub spp: u32,
+    /// Samples per pixel of the other splits' views (val: the novel views that are scored);
+    /// 0: as `spp`. The re-render metric is bound by Monte Carlo noise at 32 spp (caustics
+    /// through metals): on `studio-mitsuba` val 24.4 dB at 32 spp, 27.7 at 128, 29.3 at 256.
+    #[serde(default)]
+    pub val_spp: u32,
+    pub max_bounces: u32,
+    pub seed: u64,
+}
+
+impl RunConfig {
+    pub fn preset(name: &str) -> Option<Self> {
+        Some(RunConfig {
+            bake: BakeConfig::preset(name)?,
+            train: TrainConfig::preset(name)?,
+            emitters: MaskExtractorConfig::default(),
+            refine: RefineConfig::preset(name)?,
+            rounds: RoundsConfig {
+                refinements: if matches!(name, "paper" | "reference") {
+                    2
+                } else {
+                    1
+                },
+                // Fresh networks after 10,000-step rounds: on `room`, `paper` warm-started
+                // (30,000 steps on one field) scored val kd 25.1 dB, afresh 27.7 dB.
+                warm_start: !matches!(name, "paper" | "reference"),
+                roughness_prior: (name != "reference").then_some(0.0),
+                settle_share: 0.15,
+                settle_rounds: u32::from(matches!(name, "balanced" | "fast")),
+            },
+            render: ReRenderConfig {
+                spp: match name {
+                    "paper" | "reference" => 64,
+                    "fast" => 8,
+                    _ => 32,
+                },
+                // On `studio-mitsuba` (val): 24.4 dB at 32 spp, 27.7 at 128, 29.3 at 256.
+                val_spp: match name {
+                    "fast" => 32,
+                    "reference" => 0,
+                    _ => 256,
+                },
+                max_bounces: 7,
+                seed: 0,
+            },
+            search: if name == "reference" {
+                SearchConfig::off()
+            } else {
+                SearchConfig::default()
+            },
+            // The renderer's model of the data we did not make: on `studio-mitsuba` (Mitsuba's
+            // `principled`) val kd 29.6 dB against 26.8 under FIPT's model (`room`, rendered with
+            // FIPT's model: 27.4 against 29.8). `reference` keeps the method's model.
+            model: ModelConfig {
+                brdf: if name == "reference" {
+                    ReflectanceModel::Fipt
+                } else {
+                    ReflectanceModel::Principled
+                },
+            },
+            pipeline: PipelineConfig::default(),
+            plugins: Default::default(),
+        })
+    }
+}
+
+/// `fipt run`: the configured method's stages, each reused when done, into `a.out`.
+pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome> {
+    let mut cfg: RunConfig =
+        crate::config::load_preset(&a.preset, RunConfig::preset, a.config.as_deref())?;
+    if let Some(m) = &a.method {
+        cfg.pipeline.method = m.clone();
+    }
+    cfg.train.validate()?;
+    cfg.search.validate().map_err(anyhow::Error::msg)?;
+    cfg.rounds.validate().map_err(anyhow::Error::msg)?;
+    // Components first: a misspelt name or bad plug-in settings fail before any work.
+    let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
+    let bake_settings = cfg.baker_settings()?;
+    let baker = components.baker(&cfg.pipeline.baker, &bake_settings, cfg.model.brdf)?;
+    let refine_settings = cfg.refiner_settings()?;
+    let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
+    // One run per output folder at a time (one per shard for shard runs).
+    let _lock = lock(&a.out, a.sharding().shard, "fipt run")?;
+    // Until it finishes, the folder says so (an older report must not pass for this run's).
+    // Shard runs share the folder with other tasks and leave `report.json` to the plain runs.
+    let status = |s: &str, e: Option<String>| -> Result<()> {
+        if a.sharding().shard.is_all() {
+            crate::outputs::mark_status(&a.out, &a.scene, s, e)?;
+        }
+        Ok(())
+    };
+    status("running", None)?;
+    let method = &cfg.pipeline.method;
+    let res = match components.fitter(method, &cfg.plugin_settings(method), &a.preset) {
+        Err(e) => Err(e),
+        Ok(Some(fitter)) => {
+            let parts = crate::fit::Parts {
+                fitter: fitter.as_ref(),
+                baker: baker.as_ref(),
+                bake_settings: &bake_settings,
+                extractor: extractor.as_ref(),
+            };
+            crate::fit::run(a, &cfg, components, parts)
+        }
+        Ok(None) => {
+            let settings = [&bake_settings, &refine_settings];
+            run_locked(a, &cfg, components, extractor, baker, refiner, settings)
+        }
+    };
+    match res {
+        Err(e) if e.is::<Stopped>() => {
+            status("stopped", Some(e.to_string()))?;
+            Ok(RunOutcome::Stopped(e.to_string()))
+        }
+        Err(e) => {
+            status("failed", Some(crate::describe(&e)))?;
+            Err(e)
+        }
+        Ok(summary) => Ok(RunOutcome::Finished(summary)),
+    }
+}
+
+/// The scene, checked for coverage and for the run's memory (the estimate in bytes).
+fn load_checked(a: &RunRequest, cfg: &RunConfig) -> Result<(crate::scene::LoadedScene, u64)> {
+    let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
+    crate::scene::check_coverage(&scene)?;
+    let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
+    let memory = crate::memory::check(pixels, cfg)?;
+    Ok((scene, memory))
+}
+
+/// A shard run stops once the sharded stages are behind it.
+fn past_sharded_stages(a: &RunRequest) -> Result<()> {
+    let shard = a.sharding().shard;
+    if shard.is_all() {
+        return Ok(());
+    }
+    Err(Stopped(format!(
+        "shard {shard}: every sharded stage in {} is done; the rest (maps, re-renders) runs without --shard",
+        a.out.display()
+    ))
+    .into())
+}
+
+/// FIPT's rounds once the settings and components are checked and the folder is held.
+fn run_locked(
+    a: &RunRequest,
+    cfg: &RunConfig,
+    components: &crate::Components,
+    extractor: Box<dyn fipt_core::emitter::EmitterExtractor>,
+    baker: Box<dyn fipt_core::shading::ShadingBaker>,
+    refiner: Box<dyn fipt_core::shading::ShadingRefiner>,
+    [bake_settings, refine_settings]: [&serde_json::Value; 2],
+) -> Result<RunSummary> {
+    let t_all = std::time::Instant::now();
+    let mut stages = vec![];
+    let mut mark =
+        |stage: &'static str, t: std::time::Instant| stages.push(StageReport::since(stage, t));
+    fipt_core::fsutil::remove_stale_temporaries(&a.out);
+    let t = std::time::Instant::now();
+    let (scene, memory) = load_checked(a, cfg)?;
+    mark("load", t);
+    let t = std::time::Instant::now();
+    let (bake, shadings) = crate::bake::stage(
+        &scene,
+        baker.as_ref(),
+        bake_settings,
+        &a.out.join("bake"),
+        a.force,
+        a.sharding().shard,
+    )?;
+    mark("bake", t);
+    let has_gt = has_ground_truth(&scene);
+    let (records, footprint) = train_hits(&scene);
+    let mut searches = vec![];
+    let t = std::time::Instant::now();
+    let searched = crate::search::on_bake(&scene, &records, &shadings, &cfg.search, footprint)?;
+    if searched.is_some() {
+        mark("search", t);
+    }
+    let t = std::time::Instant::now();
+    let bake_id = fipt_shading::bake_store::fingerprint(&bake);
+    let (mut field, mut train, _) = crate::train::stage(
+        &scene,
+        &bake_id,
+        &shadings,
+        &cfg.train,
+        &a.out.join("train"),
+        a.force,
+        None,
+        searched.as_ref().map(|s| &s.targets[..]),
+        !a.sharding().shard.is_all(),
+    )?;
+    mark("train", t);
+    if cfg.search.on_bake {
+        searches.push(serde_json::json!({ "shadings": "bake", "search": &searched }));
+    }
+
+    let t = std::time::Instant::now();
+    let emitters = extract_emitters(
+        &scene,
+        &records,
+        &field,
+        Some(&shadings),
+        extractor.as_ref(),
+    )?;
+    let user_emitters = write_emitters(&a.out, &scene, &emitters)?;
+    mark("emitters", t);
+
+    // Refine → train rounds, unless nothing in the scene needs them.
+    let mut closure = bake_closure(&scene, &shadings, has_gt)?;
+    let glossy = glossy_fraction(&records, &field, cfg.refine.rough_threshold)?;
+    let refine_plan = refine_plan(cfg, &emitters, glossy);
+    let mut rounds = vec![];
+    let mut done_rounds = 0;
+    match &refine_plan {
+        Ok(plan) => {
+            crate::note!("refinement: {plan}");
+            let mut state = Rounds {
+                field,
+                train,
+                searched,
+                searches: &mut searches,
+                closure: &mut closure,
+                reports: &mut rounds,
+            };
+            let ctx = RoundsContext {
+                scene: &scene,
+                cfg,
+                out: &a.out,
+                force: a.force,
+                records: &records,
+                footprint,
+                emitters: &emitters,
+                has_gt,
+                refiner: refiner.as_ref(),
+                refine_settings,
+                sharding: a.sharding(),
+            };
+            done_rounds = refinement_rounds(&ctx, &mut state, &mut mark)?;
+            (field, train) = (state.field, state.train);
+        }
+        Err(why) => crate::note!("refinement {why}"),
+    }
+    past_sharded_stages(a)?;
+
+    // Observation counts per surface cell (the search's cells: 4 footprints).
+    let points = records.iter().flatten().flatten().map(|r| r.hit.p);
+    let observed =
+        fipt_shading::search::CellCounts::new(points, cfg.search.cell_footprints * footprint);
+    write_views(
+        &scene,
+        cfg,
+        &a.out,
+        &field,
+        &emitters,
+        Some(&observed),
+        &mut mark,
+    )?;
+
+    let metrics = evaluate_if_gt(&scene, &a.out, &mut mark)?;
+    let mut report = report_header(a, &scene, cfg);
+    extend(
+        &mut report,
+        serde_json::json!({
+            "stages": stages,
+            "seconds_total": t_all.elapsed().as_secs_f64(),
+            "bake": { "stats": bake.stats, "seconds": bake.seconds_total },
+            "train": train,
+            "rounds": rounds,
+            "shading_closure": closure,
+            "search": searches,
+            "emitters": emitters_summary(&user_emitters),
+            "exposure_scale": scene.exposure,
+            "memory_estimate_gib": fipt_core::memory::gib(memory),
+            "components": components_report(cfg, components, extractor.name(), &field),
+            "modeled": modeled(cfg, &emitters, &refine_plan, train.config.field.grid.log2_table),
+            "metrics": metrics,
+        }),
+    );
+    write_json_atomic(&a.out.join("report.json"), &report)?;
+    Ok(RunSummary {
+        method: cfg.pipeline.method.clone(),
+        seconds: t_all.elapsed().as_secs_f64(),
+        stages,
+        out: a.out.clone(),
+        lights: emitters.len(),
+        field: Some(crate::rounds::train_dir(&a.out, done_rounds).join("field.safetensors")),
+        pictures: crate::report::write_or_warn(&a.out, &scene.ds),
+        metrics,
+    })
+}
+
+/// `report.json`'s `components`: what ran, by name and implementation, and what was registered.
+fn components_report(
+    cfg: &RunConfig,
+    components: &crate::Components,
+    extractor: &str,
+    field: &dyn fipt_core::field::MaterialField,
+) -> serde_json::Value {
+    serde_json::json!({
+        "reflectance_model": cfg.model.brdf,
+        "method": cfg.pipeline.method,
+        "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor },
+        "material_field": field.name(),
+        "registered": components.describe(),
+    })
+}
+
+/// The closure of the bake's shadings with the true materials (empty without ground truth).
+fn bake_closure(
+    scene: &crate::scene::LoadedScene,
+    shadings: &[fipt_core::shading::ViewShadings],
+    has_gt: bool,
+) -> Result<Vec<serde_json::Value>> {
+    Ok(if has_gt {
+        vec![serde_json::json!({
+            "shadings": "bake",
+            "psnr_db": crate::eval::closure_psnr(scene, shadings)?,
+        })]
+    } else {
+        vec![]
+    })
+}
+
+/// Primary hits of the training views (shared by the search, the emitter extraction and the
+/// glossiness check) and their median pixel footprint.
+fn train_hits(
+    scene: &crate::scene::LoadedScene,
+) -> (Vec<Vec<Option<fipt_shading::bake::PixelRecord>>>, f32) {
+    let views = &scene.ds.train().views;
+    let records = views
+        .iter()
+        .map(|v| primary_records(&scene.geometry, v))
+        .collect();
+    let footprint = crate::train::view_points(&scene.geometry, views)
+        .1
+        .unwrap_or(0.01);
+    (records, footprint)
+}
+
+/// Writes `emitters.json` (at the views' own scale; the stages work at the normalised one) and
+/// `emitters.obj`, prints the lights; returns them at the views' scale.
+fn write_emitters(
+    out: &Path,
+    scene: &crate::scene::LoadedScene,
+    emitters: &[Emitter],
+) -> Result<Vec<Emitter>> {
+    let st = Stage::start("emitters");
+    let user: Vec<Emitter> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();
+    write_json_atomic(&out.join("emitters.json"), &user)?;
+    write_emitters_obj(&out.join("emitters.obj"), &scene.geometry.mesh, emitters)?;
+    st.done();
+    note_lights(&user);
+    Ok(user)
+}
+
+/// What `report.json` says was modelled and skipped, and why.
+fn modeled(
+    cfg: &RunConfig,
+    emitters: &[Emitter],
+    refine_plan: &Result<String, String>,
+    log2_table: u32,
+) -> serde_json::Value {
+    let search = if cfg.search.enabled {
+        format!(
+            "per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}",
+            cfg.search.regions,
+            if cfg.search.on_bake { "the bake and each refinement" } else { "each refinement (none without one)" },
+            cfg.search.roughness_steps,
+            cfg.search.metallic,
+            cfg.train.target_weight
+        )
+    } else {
+        "skipped (search.enabled = false)".to_string()
+    };
+    let re_render = if cfg.render.spp > 0 {
+        let other = if cfg.render.val_spp > 0 {
+            cfg.render.val_spp
+        } else {
+            cfg.render.spp
+        };
+        format!("path traced at {} spp (other splits: {other}) from the field (voxel cache) and the extracted emitters", cfg.render.spp)
+    } else {
+        "skipped (render.spp = 0)".to_string()
+    };
+    serde_json::json!({
+        "reflectance_model": cfg.model.brdf,
+        "material_field": true,
+        "material_search": search,
+        "emission_mask": true,
+        "emitters": emitters.len(),
+        "emitters_doubtful": crate::outputs::doubtful_emitters(emitters),
+        "path_grown_refinement": match refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
+        "re_render": re_render,
+        "hash_table_log2": log2_table,
+    })
+}
+
+/// One line per extracted light.
+fn note_lights(emitters: &[Emitter]) {
+    for (i, e) in emitters.iter().enumerate() {
+        crate::note!(
+            "light {i}: {} triangles, area {:.4} m², radiance {:.2?}, power {:.1?} W, {} pixels",
+            e.triangles.len(),
+            e.area,
+            e.mean_radiance,
+            e.power,
+            e.pixels
+        );
+    }
+}

@@ -1,0 +1,391 @@
+//! The material search between the bake (or a refinement) and a training round, and its cost
+//! curves per region for `fipt profile` (with the ground truth's base colour beside the fitted
+//! one when the scene has it).
+use crate::regions::Regions;
+use crate::scene::LoadedScene;
+use anyhow::{bail, Result};
+use fipt_core::color::luminance;
+use fipt_core::dataset::GtKind;
+use fipt_core::image::BadPixelPolicy;
+use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+use fipt_shading::bake::PixelRecord;
+use fipt_shading::search::{
+    choose, gather_pixels, on_region_edge, profile, sigma_grid, Albedo, RegionChoice,
+    RegionProfile, RegionSource, SearchConfig, SearchPixel,
+};
+use glam::Vec3;
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// What the search found: per region the decision, and per training pixel its targets
+/// (σ*, m*), None off the regions.
+#[derive(Serialize)]
+pub struct Searched {
+    pub source: &'static str,
+    pub regions: Vec<(i64, RegionChoice)>,
+    #[serde(skip)]
+    pub targets: Vec<Vec<Option<[f32; 2]>>>,
+    pub seconds: f64,
+}
+
+/// The search's regions, pixels and σ candidates for one set of shadings.
+struct Prepared {
+    regions: Regions,
+    pixels: Vec<SearchPixel>,
+    grid: Vec<f32>,
+}
+
+/// The search's pixels, regions and σ grid for `shadings`.
+fn prepare(
+    scene: &LoadedScene,
+    records: &[Vec<Option<PixelRecord>>],
+    shadings: &[ViewShadings],
+    cfg: &SearchConfig,
+    footprint: f32,
+) -> Result<Option<Prepared>> {
+    let Some(regions) = crate::regions::load(scene, records, cfg.regions, cfg.mesh_angle_deg)?
+    else {
+        return Ok(None);
+    };
+    let pixels = gather_pixels(
+        records,
+        shadings,
+        cfg.cell_footprints * footprint,
+        &|v, i, _| {
+            let (ids, img) = (&regions.ids[v], &scene.images[v].data);
+            let region = ids[i]?;
+            if cfg.drop_edges {
+                let floor = cfg.edge_contrast * luminance(img[i]);
+                let brighter = |j: usize| luminance(img[j]) >= floor;
+                if on_region_edge(ids, shadings[v].width, i, &brighter) {
+                    return None;
+                }
+            }
+            Some(region)
+        },
+    );
+    let levels = shadings
+        .first()
+        .map_or(fipt_core::shading::DEFAULT_LEVELS, |s| s.levels);
+    let grid = sigma_grid(levels[0], levels[NUM_LEVELS - 1], cfg.roughness_steps);
+    Ok(Some(Prepared {
+        regions,
+        pixels,
+        grid,
+    }))
+}
+
+/// Every region's profile on each half of the views (even, odd), for `held_out`.
+type Halves = Option<[Vec<RegionProfile>; 2]>;
+
+/// The fitted profiles of every region, and with `halves` the same on each half of the views
+/// (not wanted on the bake, where dielectric σ waits for the refined shadings).
+fn fitted_profiles(
+    images: &[fipt_core::image::Image],
+    shadings: &[ViewShadings],
+    regions: &Regions,
+    pixels: &[SearchPixel],
+    grid: &[f32],
+    cfg: &SearchConfig,
+    halves: bool,
+) -> (Vec<RegionProfile>, Halves) {
+    let fitted = |pixels: &[SearchPixel]| {
+        profile(
+            pixels,
+            shadings,
+            images,
+            regions.len(),
+            grid,
+            &cfg.metallic,
+            Albedo::Fitted,
+        )
+    };
+    let halves = halves.then(|| {
+        [0, 1].map(|parity| {
+            let half: Vec<SearchPixel> = pixels
+                .iter()
+                .filter(|p| p.view % 2 == parity)
+                .copied()
+                .collect();
+            fitted(&half)
+        })
+    });
+    (fitted(pixels), halves)
+}
+
+/// Runs the search (None when it is off or has no regions; the reason is printed).
+/// The search on the initial bake, when `cfg.on_bake` asks for it.
+pub fn on_bake(
+    scene: &LoadedScene,
+    records: &[Vec<Option<PixelRecord>>],
+    shadings: &[ViewShadings],
+    cfg: &SearchConfig,
+    footprint: f32,
+) -> Result<Option<Searched>> {
+    if !cfg.on_bake {
+        return Ok(None);
+    }
+    stage(scene, records, shadings, cfg, footprint, None, When::Bake)
+}
+
+/// Which shadings the search reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum When {
+    /// The initial bake: dielectric σ waits for the refined shadings.
+    Bake,
+    /// A refinement.
+    Refined,
+    /// The refinement of a settling round (`rounds.settle_rounds`): a dielectric keeps a σ
+    /// target only where the previous search set one too. The round corrects the light that
+    /// the last albedo fed back; gloss seen only now has no round to confirm it (on the tiny
+    /// `cornell` a second search made the ceiling's light-rim residual σ 0.54).
+    Settling,
+}
+
+pub fn stage(
+    scene: &LoadedScene,
+    records: &[Vec<Option<PixelRecord>>],
+    shadings: &[ViewShadings],
+    cfg: &SearchConfig,
+    footprint: f32,
+    previous: Option<&Searched>,
+    when: When,
+) -> Result<Option<Searched>> {
+    let on_bake = when == When::Bake;
+    if !cfg.enabled {
+        return Ok(None);
+    }
+    let bake_cfg = SearchConfig {
+        metal_margin: cfg.bake_metal_margin,
+        ..cfg.clone()
+    };
+    let cfg = if on_bake { &bake_cfg } else { cfg };
+    let t = std::time::Instant::now();
+    let Some(Prepared {
+        regions,
+        pixels,
+        grid,
+    }) = prepare(scene, records, shadings, cfg, footprint)?
+    else {
+        crate::note!("search: skipped (search.regions = \"none\")");
+        return Ok(None);
+    };
+    let (profiles, halves) = fitted_profiles(
+        &scene.images,
+        shadings,
+        &regions,
+        &pixels,
+        &grid,
+        cfg,
+        cfg.held_out && !on_bake,
+    );
+    let was_metal = |label: i64| {
+        previous.is_some_and(|s| {
+            s.regions
+                .iter()
+                .any(|(l, c)| *l == label && c.metallic > Some(0.5))
+        })
+    };
+    let choices: Vec<RegionChoice> = profiles
+        .iter()
+        .map(|p| {
+            let r = p.region as usize;
+            let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
+            let mut c = choose(p, cfg, was_metal(regions.labels[r]), held);
+            let dielectric = c.metallic < Some(0.5);
+            let label = regions.labels[r];
+            let had_target = previous.is_some_and(|s| {
+                s.regions
+                    .iter()
+                    .any(|(l, c)| *l == label && c.roughness.is_some())
+            });
+            if dielectric && (on_bake || (when == When::Settling && !had_target)) {
+                c.roughness = None;
+            }
+            c
+        })
+        .collect();
+    let targets = regions
+        .ids
+        .iter()
+        .map(|v| {
+            v.iter()
+                .map(|r| {
+                    r.map(|r| {
+                        let c = &choices[r as usize];
+                        [
+                            c.roughness.unwrap_or(f32::NAN),
+                            c.metallic.unwrap_or(f32::NAN),
+                        ]
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let seconds = t.elapsed().as_secs_f64();
+    let glossy = choices.iter().filter(|c| c.roughness.is_some()).count();
+    let metal = choices.iter().filter(|c| c.metallic > Some(0.5)).count();
+    crate::note!(
+        "search: {} regions ({}): {} with a σ target, {} metal, in {:.1} s",
+        regions.len(),
+        regions.source,
+        glossy,
+        metal,
+        seconds
+    );
+    Ok(Some(Searched {
+        source: regions.source,
+        regions: regions.labels.iter().copied().zip(choices).collect(),
+        targets,
+        seconds,
+    }))
+}
+
+/// The true base colour's σ argmins at m = 0 and m = 1, and the views' scale against the
+/// model at the better of the two (`GT gain`).
+pub fn given_summary(g: &RegionProfile) -> ([f32; 2], f64) {
+    let am = |row: &[f64]| -> Option<(usize, f64)> {
+        row.iter()
+            .copied()
+            .enumerate()
+            .filter(|x| x.1.is_finite())
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    let at = |row: &[f64]| am(row).map_or(f32::NAN, |x| g.sigma[x.0]);
+    let m = [0, 4]
+        .into_iter()
+        .min_by(|&a, &b| {
+            let c = |k: usize| am(&g.cost[k]).map_or(f64::INFINITY, |x| x.1);
+            c(a).total_cmp(&c(b))
+        })
+        .unwrap_or(0);
+    let gain = am(&g.cost[m]).map_or(f64::NAN, |x| g.gain[m][x.0]);
+    ([at(&g.cost[0]), at(&g.cost[4])], gain)
+}
+
+/// `fipt profile`: the search's cost curves on a run's shadings.
+pub struct ProfileRequest {
+    /// Scene folder.
+    pub scene: PathBuf,
+    /// Output folder of `fipt run` / `fipt bake`.
+    pub out: PathBuf,
+    /// Which shadings in OUT: `bake`, `refine1`, ...
+    pub shadings: String,
+    /// Regions: auto, parts, semantic, mesh.
+    pub regions: String,
+    pub bad_pixels: BadPixelPolicy,
+    /// Leave out the pixels on regions' outlines (`[search] drop_edges`).
+    pub drop_edges: bool,
+    /// With `drop_edges`: only neighbours this many times brighter count.
+    pub edge_contrast: f32,
+}
+
+/// One region of `fipt profile`: its cost curves with the fitted albedo, with the true one
+/// (when the scene has it) and the search's decision.
+#[derive(Serialize)]
+pub struct ProfileRow {
+    pub label: i64,
+    pub fitted: RegionProfile,
+    pub given: Option<RegionProfile>,
+    pub choice: RegionChoice,
+}
+
+/// The search's cost curves per region on the shadings `a` names.
+pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
+    let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
+    let dir = a.out.join(&a.shadings);
+    let shadings = match fipt_shading::bake_store::load_for_inputs(&dir, &scene.cache_key)? {
+        Ok((_, s)) => s,
+        Err(why) => bail!(
+            "{}: {why} (run `fipt run` or `fipt bake` first)",
+            dir.display()
+        ),
+    };
+    let regions: RegionSource =
+        serde_json::from_value(serde_json::json!(a.regions)).map_err(|_| {
+            anyhow::anyhow!("--regions {}: use auto, parts, semantic or mesh", a.regions)
+        })?;
+    let cfg = SearchConfig {
+        regions,
+        drop_edges: a.drop_edges,
+        edge_contrast: a.edge_contrast,
+        ..SearchConfig::default()
+    };
+    cfg.validate().map_err(anyhow::Error::msg)?;
+    let split = scene.ds.train();
+    let records: Vec<_> = split
+        .views
+        .iter()
+        .map(|v| fipt_shading::bake::primary_records(&scene.geometry, v))
+        .collect();
+    let (_, footprint) = crate::train::view_points(&scene.geometry, &split.views);
+    let Some(Prepared {
+        regions,
+        pixels,
+        grid,
+    }) = prepare(&scene, &records, &shadings, &cfg, footprint.unwrap_or(0.01))?
+    else {
+        bail!("no regions");
+    };
+    let (fitted, halves) = fitted_profiles(
+        &scene.images,
+        &shadings,
+        &regions,
+        &pixels,
+        &grid,
+        &cfg,
+        cfg.held_out,
+    );
+    // The ground truth's base colour: kd for dielectrics, ks for metals.
+    let gt_kinds = [GtKind::DiffCol, GtKind::Specular, GtKind::Metallic];
+    let given = if gt_kinds.iter().all(|&k| split.has_gt(k)) {
+        let mut maps = vec![];
+        for k in 0..split.views.len() {
+            let g = |kind| -> Result<Vec<Vec3>> {
+                Ok(scene
+                    .ds
+                    .load_gt(split, kind, split.views[k].index)?
+                    .map(|i| i.data)
+                    .unwrap_or_default())
+            };
+            maps.push((
+                g(GtKind::DiffCol)?,
+                g(GtKind::Specular)?,
+                g(GtKind::Metallic)?,
+            ));
+        }
+        let base: Vec<Vec3> = pixels
+            .iter()
+            .map(|p| {
+                let (kd, ks, m) = &maps[p.view as usize];
+                let i = p.pixel as usize;
+                fipt_shading::search::base_colour(kd[i], ks[i], m[i].x)
+            })
+            .collect();
+        let metal_grid = [0.0, 0.25, 0.5, 0.75, 1.0];
+        Some(profile(
+            &pixels,
+            &shadings,
+            &scene.images,
+            regions.len(),
+            &grid,
+            &metal_grid,
+            Albedo::Given(&base),
+        ))
+    } else {
+        None
+    };
+    let mut rows = vec![];
+    for (r, f) in fitted.into_iter().enumerate() {
+        let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
+        let c = choose(&f, &cfg, false, held);
+        let g = given.as_ref().map(|g| g[r].clone());
+        rows.push(ProfileRow {
+            label: regions.labels[r],
+            fitted: f,
+            given: g,
+            choice: c,
+        });
+    }
+    Ok(rows)
+}

@@ -1,0 +1,532 @@
+//! `fipt train <scene> --out OUT`: fit the material field to the bake in OUT/bake, write the
+//! checkpoint to OUT/train/ and per-view maps to OUT/train/views/<split>/.
+use crate::observe::{bar, Stage};
+use crate::scene::LoadedScene;
+use anyhow::{bail, Context, Result};
+use fipt_core::dataset::{GtKind, View};
+use fipt_core::fsutil::{read_json, write_json_atomic};
+use fipt_core::image::{BadPixelPolicy, ExrPrecision, Image};
+use fipt_core::shading::ViewShadings;
+use fipt_geom::Geometry;
+use fipt_neural::train::{render_factorized, SegmentSource, StepLosses, TrainTimings};
+use fipt_neural::{Bounds, NeuralField, TrainConfig, Trainer, TrainingSet};
+use fipt_shading::bake::primary_records;
+use fipt_shading::bake_store::{fingerprint, load_for_inputs};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// `fipt train`: the training alone, on the bake in `out/bake/`.
+pub struct TrainRequest {
+    /// Scene folder.
+    pub scene: PathBuf,
+    /// Output folder holding OUT/bake/; results go to OUT/train/.
+    pub out: PathBuf,
+    /// Settings preset.
+    pub preset: String,
+    /// A TOML or JSON file of training settings laid over the preset.
+    pub config: Option<PathBuf>,
+    /// Override the number of steps.
+    pub steps: Option<usize>,
+    pub bad_pixels: BadPixelPolicy,
+    /// Train afresh even if a finished or resumable run exists.
+    pub force: bool,
+}
+
+/// What a finished training stage wrote, read back by later runs (written last).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainManifest {
+    pub inputs: String,
+    pub config: TrainConfig,
+    pub pixels: usize,
+    pub params_grid: usize,
+    pub params_mlp: usize,
+    pub seconds: f64,
+    pub steps_per_second: f64,
+    pub timings: TrainTimings,
+    pub last: StepLosses,
+}
+
+impl TrainManifest {
+    /// What the trained field is a function of: its inputs and settings (training is
+    /// deterministic). Later stages key on it.
+    pub fn fingerprint(&self) -> String {
+        let cfg = serde_json::to_string(&self.config).unwrap_or_default();
+        fipt_core::fsutil::hash_bytes(format!("{}|{cfg}", self.inputs).as_bytes())
+    }
+}
+
+/// Primary hit points of every pixel of `views`, and the median pixel footprint (hit
+/// distance / focal length in pixels).
+pub fn view_points(geometry: &Geometry, views: &[View]) -> (Vec<Vec<Option<Vec3>>>, Option<f32>) {
+    let mut foot = vec![];
+    let pts = views
+        .iter()
+        .map(|v| {
+            let f = v.camera.fx.max(v.camera.fy);
+            primary_records(geometry, v)
+                .iter()
+                .map(|r| {
+                    r.map(|r| {
+                        foot.push(r.hit.t / f);
+                        r.hit.p
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let median = (!foot.is_empty()).then(|| {
+        let n = foot.len() / 2;
+        *foot.select_nth_unstable_by(n, f32::total_cmp).1
+    });
+    (pts, median)
+}
+
+/// Leaves out of `points` the pixels [`bleed_mask`] marks (`train.bleed_radius`,
+/// `bleed_contrast`), and says how many.
+fn leave_out_bleed(points: &mut [Vec<Option<Vec3>>], images: &[Image], radius: u32, contrast: f32) {
+    // The floor: 1 % of the median luminance over every training view (a view into a
+    // dark corner has a dark median of its own, and its noise is no edge).
+    let median = fipt_core::image::median_luminance(images);
+    let (mut dropped, mut all) = (0usize, 0usize);
+    for (pts, img) in points.iter_mut().zip(images) {
+        let (r, c) = (radius as usize, contrast);
+        let bleed = bleed_mask(img, r, c, 0.01 * median);
+        for (p, b) in pts.iter_mut().zip(bleed) {
+            all += usize::from(p.is_some());
+            if b && p.take().is_some() {
+                dropped += 1;
+            }
+        }
+    }
+    crate::note!(
+        "training set: {dropped} of {all} pixels ({:.2} %) left out within {} px of one {}× brighter (train.bleed_radius, bleed_contrast)",
+        100.0 * dropped as f64 / all.max(1) as f64,
+        radius,
+        contrast
+    );
+}
+
+/// Pixels within `radius` pixels (a square) of one at least `contrast` times brighter, by
+/// luminance; a pixel darker than `floor` counts as `floor`.
+pub fn bleed_mask(img: &Image, radius: usize, contrast: f32, floor: f32) -> Vec<bool> {
+    let (w, h) = (img.width, img.height);
+    let lum: Vec<f32> = img
+        .data
+        .iter()
+        .map(|&c| fipt_core::color::luminance(c).max(0.0))
+        .collect();
+    let floor = floor.max(f32::MIN_POSITIVE);
+    // The brightest neighbour: a separable max filter, rows then columns.
+    let mut rows = vec![0.0f32; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (a, b) = (x.saturating_sub(radius), (x + radius).min(w - 1));
+            rows[y * w + x] = lum[y * w + a..=y * w + b]
+                .iter()
+                .copied()
+                .fold(0.0, f32::max);
+        }
+    }
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let (a, b) = (y.saturating_sub(radius), (y + radius).min(h - 1));
+            let brightest = (a..=b).map(|yy| rows[yy * w + x]).fold(0.0, f32::max);
+            brightest >= contrast * lum[i].max(floor)
+        })
+        .collect()
+}
+
+/// The training alone (`fipt train`); returns the folder written.
+pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
+    let mut cfg: TrainConfig = crate::config::load_preset_section(
+        &a.preset,
+        TrainConfig::preset,
+        a.config.as_deref(),
+        "train",
+    )?;
+    if let Some(s) = a.steps {
+        cfg.steps = s;
+    }
+    cfg.validate()?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
+    let bake_dir = a.out.join("bake");
+    let _lock = if a.out.is_dir() {
+        Some(fipt_core::lock::OutputLock::acquire(&a.out, "fipt train")?)
+    } else {
+        None // no bake there: the error below says what to run first
+    };
+    let (bake, shadings) = match load_for_inputs(&bake_dir, &scene.cache_key)? {
+        Ok(x) => x,
+        Err(why) => bail!(
+            "{}: {why}; run `fipt bake {} --out {}` first",
+            bake_dir.display(),
+            a.scene.display(),
+            a.out.display()
+        ),
+    };
+    let dir = a.out.join("train");
+    let (field, m, fresh) = stage(
+        &scene,
+        &fingerprint(&bake),
+        &shadings,
+        &cfg,
+        &dir,
+        a.force,
+        None,
+        None,
+        false,
+    )?;
+    if fresh || !dir.join("views").is_dir() {
+        let st = Stage::start("export maps");
+        let split = scene.ds.train();
+        for s in &scene.ds.splits {
+            let train = s.name == split.name;
+            export_views(
+                &field,
+                &scene.geometry,
+                &s.views,
+                train.then_some((&field, &shadings[..], &scene.images[..])),
+                None,
+                None,
+                scene.exposure,
+                &dir.join("views").join(&s.name),
+            )?;
+        }
+        st.done();
+    }
+    let _ = m;
+    Ok(dir)
+}
+
+/// Attaches the scene's part ids (`IndexMA/`) or semantic classes (`segmentation/`) to the
+/// training set as `source` asks; with them, a fingerprint of the id files.
+fn with_segments(
+    scene: &LoadedScene,
+    data: TrainingSet,
+    source: SegmentSource,
+) -> Result<(TrainingSet, Option<String>)> {
+    let split = scene.ds.train();
+    let has_parts = split.has_gt(GtKind::IndexMA);
+    let has_classes = split.has_gt(GtKind::Segmentation);
+    let kind = match source {
+        SegmentSource::None => return Ok((data, None)),
+        SegmentSource::Auto if has_parts => GtKind::IndexMA,
+        SegmentSource::Auto if has_classes => GtKind::Segmentation,
+        SegmentSource::Auto => {
+            crate::note!(
+                "no part ids (IndexMA/) or classes (segmentation/) in the scene: training without the segment prior"
+            );
+            return Ok((data, None));
+        }
+        SegmentSource::Parts if has_parts => GtKind::IndexMA,
+        SegmentSource::Semantic if has_classes => GtKind::Segmentation,
+        SegmentSource::Parts => bail!(
+            "train.segments = \"parts\" but {} has no IndexMA/ folder (use \"auto\" or \"none\")",
+            split.dir.display()
+        ),
+        SegmentSource::Semantic => bail!(
+            "train.segments = \"semantic\" but {} has no segmentation/ folder (use \"auto\" or \"none\")",
+            split.dir.display()
+        ),
+    };
+    let folder = kind.folder();
+    let ids = crate::regions::split_ids(scene, kind)?;
+    let files: Vec<PathBuf> = (0..split.views.len())
+        .map(|k| split.gt_path(kind, k))
+        .collect();
+    let hash = fipt_core::fsutil::hash_files(&files)?;
+    let data = if kind == GtKind::IndexMA {
+        let d = data.with_segments(&ids)?;
+        crate::note!("segment prior on {} parts ({folder}/)", d.segments);
+        d
+    } else {
+        let d = data.with_classes(&ids)?;
+        crate::note!("semantic prior on {} classes ({folder}/)", d.segments);
+        d
+    };
+    Ok((data, Some(format!("{folder}:{hash}"))))
+}
+
+/// A fingerprint of the training set's search targets (part of the training's cache key).
+fn targets_fingerprint(data: &TrainingSet) -> String {
+    let bytes: Vec<u8> = data
+        .target
+        .iter()
+        .flat_map(|t| [t[0].to_le_bytes(), t[1].to_le_bytes()])
+        .flatten()
+        .collect();
+    fipt_core::fsutil::hash_bytes(&bytes)
+}
+
+/// The training stage: reuses a finished run in `dir` (same inputs and settings) unless
+/// `force`, resumes an interrupted one, or trains afresh (from `warm`'s field, identified by
+/// its fingerprint, when given). `shadings_id` fingerprints the shadings. Returns the field,
+/// the manifest and whether training ran now.
+pub fn stage(
+    scene: &LoadedScene,
+    shadings_id: &str,
+    shadings: &[ViewShadings],
+    cfg: &TrainConfig,
+    dir: &Path,
+    force: bool,
+    warm: Option<(&NeuralField, &str)>,
+    targets: Option<&[Vec<Option<[f32; 2]>>]>,
+    must_reuse: bool,
+) -> Result<(NeuralField, TrainManifest, bool)> {
+    let split = scene.ds.train();
+    let st = Stage::start("training set");
+    let (mut points, footprint) = view_points(&scene.geometry, &split.views);
+    if cfg.bleed_radius > 0 {
+        leave_out_bleed(
+            &mut points,
+            &scene.images,
+            cfg.bleed_radius,
+            cfg.bleed_contrast,
+        );
+    }
+    let Some(bounds) = Bounds::around(points.iter().flatten().flatten().copied(), 1.1) else {
+        bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
+    };
+    let data = TrainingSet::new(&points, shadings, &scene.images, &bounds)?;
+    let (mut data, segments_id) = with_segments(scene, data, cfg.segments)?;
+    let mut targets_id = None;
+    if let Some(t) = targets {
+        data = data.with_targets(t)?;
+        targets_id = Some(targets_fingerprint(&data));
+    }
+    let cfg = cfg.sized_for(data.len(), footprint, &bounds);
+    let mut inputs = format!(
+        "{}+shadings:{shadings_id}+warm:{}",
+        scene.cache_key,
+        warm.map_or("none", |w| w.1)
+    );
+    if let Some(id) = segments_id {
+        inputs += &format!("+segments:{id}");
+    }
+    if let Some(id) = targets_id {
+        inputs += &format!("+targets:{id}");
+    }
+    st.done();
+    if !force {
+        if let Ok(m) = read_json::<TrainManifest>(&dir.join("manifest.json")) {
+            if m.inputs == inputs && m.config == cfg {
+                if let Ok((field, _)) = fipt_neural::train::load_field(dir) {
+                    crate::note!(
+                        "reusing the trained field in {} ({} steps in {:.1} s); --force to redo it",
+                        dir.display(),
+                        m.config.steps,
+                        m.seconds
+                    );
+                    return Ok((field, m, false));
+                }
+            }
+        }
+    }
+    if must_reuse {
+        bail!(
+            "{}: this training round is not done, and a shard run (--shard) does not train (training runs on one machine): run `fipt run` without --shard (with --stop-before refine) once the shards before it are done",
+            dir.display()
+        );
+    }
+    let mut trainer = None;
+    if !force {
+        match Trainer::resume(&cfg, bounds, data.levels, &inputs, dir)? {
+            Ok(t) => {
+                crate::note!("resuming from step {} in {}", t.step_count(), dir.display());
+                trainer = Some(t);
+            }
+            Err(why) if why != "no checkpoint" => crate::note!("training afresh: {why}"),
+            Err(_) => {}
+        }
+    }
+    let mut trainer = match trainer {
+        Some(t) => t,
+        None => {
+            let mut t = Trainer::new(cfg.clone(), bounds, data.levels)?;
+            t.inputs = inputs.clone();
+            if let Some((field, _)) = warm {
+                t.warm_start(field)?;
+                crate::note!("warm start from the previous round's field");
+            }
+            t
+        }
+    };
+    let (pg, pm) = trainer.field.num_params();
+    crate::note!(
+        "training on {} pixels of {} views: {} hash-table + {} MLP parameters, {} steps of {}",
+        data.len(),
+        split.views.len(),
+        pg,
+        pm,
+        cfg.steps,
+        cfg.batch
+    );
+    let pb = bar(cfg.steps as u64, "train");
+    pb.set_position(trainer.step_count() as u64);
+    let st = Stage::start("train");
+    let first = trainer.step_count();
+    trainer.run(&data, Some(dir), &mut |l| {
+        pb.set_position(l.step as u64);
+        if l.step % 10 == 0 {
+            pb.set_message(&format!("loss {:.4}", l.total));
+        }
+    })?;
+    pb.finish_and_clear();
+    let secs = st.done();
+    let t = trainer.timings;
+    let done = (trainer.step_count() - first).max(1);
+    let sps = done as f64 / secs.max(1e-9);
+    crate::note!(
+        "{sps:.1} steps/s; per step: batch {:.1} ms, forward {:.1} ms (hash grid {:.1}), backward {:.1} ms (hash grid {:.1}, with its Adam update {:.1}), MLP optimiser {:.1} ms",
+        t.batch / done as f64 * 1e3,
+        t.forward / done as f64 * 1e3,
+        t.grid_forward / done as f64 * 1e3,
+        t.backward / done as f64 * 1e3,
+        (t.grid_backward + t.grid_optimizer) / done as f64 * 1e3,
+        t.grid_optimizer / done as f64 * 1e3,
+        t.optimizer / done as f64 * 1e3,
+    );
+    let l = trainer.last;
+    crate::note!(
+        "final losses: total {:.5}, image {:.5}, mask {:.5}, prior {:.5}",
+        l.total,
+        l.image,
+        l.mask,
+        l.prior
+    );
+    let manifest = TrainManifest {
+        inputs,
+        config: cfg,
+        pixels: data.len(),
+        params_grid: pg,
+        params_mlp: pm,
+        seconds: secs,
+        steps_per_second: sps,
+        timings: t,
+        last: l,
+    };
+    write_json_atomic(&dir.join("manifest.json"), &manifest)?;
+    Ok((trainer.field, manifest, true))
+}
+
+/// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view,
+/// `_emission.exr` (emitted radiance of the given emitter triangles) when `emission` is given, and
+/// `_render.exr` where shadings exist: the trained model's prediction
+/// (1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT.
+pub fn export_views(
+    field: &dyn fipt_core::field::MaterialField,
+    geometry: &Geometry,
+    views: &[View],
+    factorized: Option<(&NeuralField, &[ViewShadings], &[Image])>,
+    emission: Option<&HashMap<u32, Vec3>>,
+    observed: Option<&fipt_shading::search::CellCounts>,
+    radiance_scale: f32,
+    dir: &Path,
+) -> Result<()> {
+    for (vi, v) in views.iter().enumerate() {
+        let (w, h) = (v.camera.width, v.camera.height);
+        let recs = primary_records(geometry, v);
+        let hit: Vec<usize> = (0..w * h).filter(|&i| recs[i].is_some()).collect();
+        let pts: Vec<Vec3> = hit.iter().map(|&i| recs[i].unwrap().hit.p).collect();
+        let mats = field.materials(&pts).context("querying the field")?;
+        let alpha = field.emission_mask(&pts).context("querying the field")?;
+        let mut maps: Vec<(&str, Image)> = ["kd", "ks", "roughness", "metallic", "emission_mask"]
+            .iter()
+            .map(|n| (*n, Image::new(w, h)))
+            .collect();
+        for (j, &i) in hit.iter().enumerate() {
+            let m = &mats[j];
+            maps[0].1.data[i] = m.kd();
+            maps[1].1.data[i] = m.ks();
+            maps[2].1.data[i] = Vec3::splat(m.roughness);
+            maps[3].1.data[i] = Vec3::splat(m.metallic);
+            maps[4].1.data[i] = Vec3::splat(alpha[j]);
+        }
+        if let Some(em) = emission {
+            let mut img = Image::new(w, h);
+            for &i in &hit {
+                if let Some(l) = em.get(&recs[i].unwrap().hit.tri) {
+                    img.data[i] = *l;
+                }
+            }
+            maps.push(("emission", img));
+        }
+        if let Some(counts) = observed {
+            let mut img = Image::new(w, h);
+            for &i in &hit {
+                img.data[i] = Vec3::splat(counts.count(recs[i].unwrap().hit.p) as f32);
+            }
+            maps.push(("observed", img));
+        }
+        if let Some((field, sh, imgs)) = factorized {
+            let s = &sh[vi];
+            let idx: Vec<usize> = hit.iter().copied().filter(|&i| s.valid[i]).collect();
+            let unit = field.to_unit(
+                &idx.iter()
+                    .map(|&i| recs[i].unwrap().hit.p)
+                    .collect::<Vec<_>>(),
+            );
+            let (render, al) = render_factorized(field, &unit, s, &idx)?;
+            let mut img = Image::new(w, h);
+            for (j, &i) in idx.iter().enumerate() {
+                let r = Vec3::from(render[j]);
+                img.data[i] = r * (1.0 - al[j]) + imgs[vi].data[i] * al[j];
+            }
+            maps.push(("render", img));
+        }
+        for (name, img) in &mut maps {
+            let k = v.index;
+            let radiance = matches!(*name, "emission" | "render");
+            if radiance && radiance_scale != 1.0 {
+                for p in &mut img.data {
+                    *p *= radiance_scale;
+                }
+            }
+            img.write_exr(&dir.join(format!("{k:03}_{name}.exr")), ExrPrecision::F32)?;
+            // Counts: white at 64 training pixels a cell; radiance at the working exposure.
+            let exposure = match *name {
+                "observed" => 1.0 / 64.0,
+                _ if radiance => 1.0 / radiance_scale,
+                _ => 1.0,
+            };
+            img.write_png(
+                &dir.join("preview").join(format!("{k:03}_{name}.png")),
+                exposure,
+            )?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// A lamp pixel marks its neighbours within the radius, not itself, not beyond, and not
+    /// for a contrast it does not reach; noise below the floor marks nothing.
+    #[test]
+    fn bleed_mask_marks_the_ring_around_a_bright_pixel() {
+        let (w, h) = (9, 9);
+        let mut img = Image::new(w, h);
+        img.data.fill(Vec3::ONE);
+        img.data[4 * w + 4] = Vec3::splat(20.0);
+        let m = bleed_mask(&img, 2, 10.0, 0.01);
+        for y in 0..h {
+            for x in 0..w {
+                let near = x.abs_diff(4) <= 2 && y.abs_diff(4) <= 2 && (x, y) != (4, 4);
+                assert_eq!(m[y * w + x], near, "pixel ({x}, {y})");
+            }
+        }
+        assert!(bleed_mask(&img, 2, 25.0, 0.01).iter().all(|&b| !b));
+        // A dark view with noise, 1e-4 next to 5e-3: below the floor, no edge.
+        for (i, c) in img.data.iter_mut().enumerate() {
+            *c = Vec3::splat(if i % 2 == 0 { 1e-4 } else { 5e-3 });
+        }
+        assert!(bleed_mask(&img, 2, 10.0, 0.01).iter().all(|&b| !b));
+    }
+}
