@@ -1,8 +1,7 @@
 //! `fipt export OUT --format glb|mitsuba|obj --out DIR`: a run's recovered scene for other tools.
-use crate::progress::Stage;
 use anyhow::Result;
-use fipt_export::{export, ExportOptions, Format};
-use fipt_pipeline::recovered::RunOutput;
+use fipt_export::Format;
+use fipt_pipeline::recovered::{export_run, ExportRequest};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -30,34 +29,15 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let st = Stage::start("load");
-    let run = RunOutput::open(&a.run, a.scene.as_deref())?;
-    let (ds, geometry) = run.open_scene()?;
-    let field = run.field()?;
-    let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
-    let surfaces = fipt_pipeline::recovered::surfaces(
-        &geometry,
-        &views,
-        field.as_ref(),
-        &run.emitters,
-        run.model,
-    )?;
-    st.done();
-    let opts = ExportOptions {
-        texel_size: a.texel.unwrap_or(surfaces.cell()),
+    let sum = export_run(&ExportRequest {
+        run: a.run,
+        scene: a.scene,
+        format: a.format,
+        out: a.out.clone(),
+        texel: a.texel,
         max_atlas: a.max_atlas,
         per_vertex: a.per_vertex,
-    };
-    let st = Stage::start("export");
-    let sum = export(
-        &geometry.mesh,
-        &surfaces,
-        &run.emitters,
-        a.format,
-        &a.out,
-        &opts,
-    )?;
-    st.done();
+    })?;
     match sum.atlas {
         Some((w, h, charts, s)) => println!(
             "atlas {w}×{h} texels, {charts} charts, texel {:.1} mm",

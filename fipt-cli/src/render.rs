@@ -1,22 +1,11 @@
 //! `fipt render`: path-traced views of a recovered scene (a `fipt run` output folder) or of a
-//! mesh with given materials, from any cameras, optionally relit by a lights file.
-use crate::progress::{bar, Stage};
-use anyhow::{bail, Context, Result};
-use fipt_core::camera::Camera;
-use fipt_core::dataset::{read_cam_list, read_transforms, MESH_NAMES};
-use fipt_core::image::ExrPrecision;
-use fipt_core::materials::SceneMaterials;
+//! mesh with given materials, from any cameras, optionally relit by a lights file
+//! (fipt-pipeline's `render`), and what it wrote, printed.
+use anyhow::Result;
 use fipt_core::reflectance::ReflectanceModel;
-use fipt_geom::Mesh;
-use fipt_pipeline::recovered::RunOutput;
-use fipt_shading::edit::EditedSurfaces;
-use fipt_shading::lights::{EmitterPolicy, LightsFile};
-use fipt_shading::relight::apply_lights;
-use fipt_shading::render::{render, render_aovs, RenderConfig};
-use fipt_shading::scene::{Scene, SurfaceModel, TableSurfaces};
-use fipt_shading::scene_edits::{apply_edits, EditsFile, OBJECT_PART};
-use fipt_shading::synth::write_view;
-use std::path::{Path, PathBuf};
+use fipt_pipeline::render::{mean_psnr, render_request, RenderRequest};
+use fipt_shading::lights::EmitterPolicy;
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -70,338 +59,36 @@ pub struct Args {
     reference: Option<PathBuf>,
 }
 
-/// Reads cameras from transforms.json or cam.txt + K_list.txt.
-pub fn read_cameras(path: &Path, size: Option<(usize, usize)>) -> Result<Vec<Camera>> {
-    if path.extension().is_some_and(|e| e == "json") {
-        return Ok(read_transforms(path, size)?);
-    }
-    let k = path.with_file_name("K_list.txt");
-    let Some((w, h)) = size else {
-        bail!(
-            "{}: cam.txt cameras carry no image size; pass --size W H",
-            path.display()
-        );
-    };
-    if !k.is_file() {
-        bail!(
-            "{}: cam.txt cameras need K_list.txt beside them (not found: {})",
-            path.display(),
-            k.display()
-        );
-    }
-    Ok(read_cam_list(path, &k, w, h)?)
-}
-
-fn mesh_of(source: &Path) -> Result<PathBuf> {
-    if !source.is_dir() {
-        return Ok(source.to_path_buf());
-    }
-    MESH_NAMES
-        .iter()
-        .map(|n| source.join(n))
-        .find(|p| p.is_file())
-        .with_context(|| format!("{}: no mesh ({})", source.display(), MESH_NAMES.join(", ")))
-}
-
 pub fn run(a: Args) -> Result<()> {
-    if RunOutput::is_run_output(&a.out) {
-        bail!(
-            "{}: is the output folder of a `fipt run`; render into a folder of its own (e.g. {})",
-            a.out.display(),
-            a.out.join("renders").display()
-        );
-    }
-    let size = a.size.as_ref().map(|s| (s[0], s[1]));
-    if let Some(table) = &a.materials {
-        let st = Stage::start("load");
-        let mesh = Mesh::load(&mesh_of(&a.source)?)?;
-        let materials = SceneMaterials::read_any(table)?;
-        let mut surfaces = TableSurfaces::new(materials, &mesh, table)?;
-        surfaces.model = a.brdf.unwrap_or(ReflectanceModel::Fipt);
-        let cams = read_cameras(&a.cameras, size)?;
-        // All emitting triangles form emitter 0.
-        let lit: Vec<u32> = (0..mesh.triangles.len() as u32)
-            .filter(|&t| surfaces.emission(t).max_element() > 0.0)
-            .collect();
-        st.done();
-        return render_all(&a, &mesh, &surfaces, &[lit], &cams, Layout::Dataset);
-    }
-    if a.source.is_file()
-        && a.source
-            .extension()
-            .is_some_and(|e| e == "glb" || e == "gltf")
-    {
-        // A scene exported by `fipt export --format glb` (or any metallic-roughness glTF).
-        let st = Stage::start("load");
-        let (mesh, surfaces) = fipt_export::load::load_glb(&a.source)?;
-        let cams = read_cameras(&a.cameras, size)?;
-        let lit: Vec<u32> = (0..mesh.triangles.len() as u32)
-            .filter(|&t| surfaces.emission(t).max_element() > 0.0)
-            .collect();
-        st.done();
-        return render_all(&a, &mesh, &surfaces, &[lit], &cams, Layout::Flat);
-    }
-    if !RunOutput::is_run_output(&a.source) {
-        bail!(
-            "{}: not a `fipt run` output folder (no report.json); render a recovered scene from one, or a mesh with --materials",
-            a.source.display()
-        );
-    }
-    let st = Stage::start("load");
-    let run = RunOutput::open(&a.source, a.scene.as_deref())?;
-    let (ds, geometry) = run.open_scene()?;
-    let field = run.field()?;
-    let cams = read_cameras(&a.cameras, size.or(Some((ds.width, ds.height))))?;
-    let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
-    let model = a.brdf.unwrap_or(run.model);
-    let surfaces = fipt_pipeline::recovered::surfaces(
-        &geometry,
-        &views,
-        field.as_ref(),
-        &run.emitters,
-        model,
-    )?;
-    let groups: Vec<Vec<u32>> = run.emitters.iter().map(|e| e.triangles.clone()).collect();
-    st.done();
-    render_all(&a, &geometry.mesh, &surfaces, &groups, &cams, Layout::Flat)
-}
-
-/// Where the views go: the dataset layout (`Image/` and ground-truth folders) or
-/// `{k:03}_render.exr` with the material maps beside it.
-#[derive(Clone, Copy, PartialEq)]
-enum Layout {
-    Dataset,
-    Flat,
-}
-
-/// Every lights set of `a` (none: the scene as it is), checked before anything renders.
-fn render_all<S: SurfaceModel>(
-    a: &Args,
-    mesh: &Mesh,
-    surfaces: &S,
-    emitters: &[Vec<u32>],
-    cams: &[Camera],
-    layout: Layout,
-) -> Result<()> {
-    let views: Vec<usize> = a.views.clone().unwrap_or_else(|| (0..cams.len()).collect());
-    if let Some(&bad) = views.iter().find(|&&k| k >= cams.len()) {
-        bail!(
-            "view {bad} requested but {} has {} cameras",
-            a.cameras.display(),
-            cams.len()
-        );
-    }
-    let sets: Vec<Option<&Path>> = if a.lights.is_empty() {
-        vec![None]
-    } else {
-        a.lights.iter().map(|p| Some(p.as_path())).collect()
-    };
-    let mut scenes = Vec::new();
-    for l in &sets {
-        scenes.push(build_scene(a, mesh.clone(), surfaces, emitters, cams, *l)?);
-    }
-    let mut outs = Vec::new();
-    for (l, scene) in sets.iter().zip(&scenes) {
-        let out = match l {
-            Some(p) if sets.len() > 1 => a.out.join(p.file_stem().unwrap_or_default()),
-            _ => a.out.clone(),
-        };
-        render_views(a, scene, cams, &views, &out, layout)?;
-        outs.push(out);
-    }
-    if sets.len() > 1 {
-        for &k in &views {
-            let pics: Vec<PathBuf> = outs
-                .iter()
-                .map(|o| match layout {
-                    Layout::Flat => o.join(format!("preview/{k:03}_render.png")),
-                    Layout::Dataset => o.join(format!("preview/{k:03}.png")),
-                })
-                .collect();
-            let strip = a.out.join(format!("strip_{k:03}.png"));
-            fipt_report::write_strip(&pics, &strip)?;
-            println!("relighting strip: {}", strip.display());
-        }
-    }
-    Ok(())
-}
-
-/// The scene of one lights set: edits and inserted objects first, then the lights.
-fn build_scene<'s, S: SurfaceModel>(
-    a: &Args,
-    mut mesh: Mesh,
-    surfaces: &'s S,
-    emitters: &[Vec<u32>],
-    cams: &[Camera],
-    lights: Option<&Path>,
-) -> Result<Scene<EditedSurfaces<&'s S>>> {
-    let mut edited = EditedSurfaces::new(surfaces, &mesh);
-    if let Some(p) = &a.edits {
-        let file = EditsFile::read(p)?;
-        let done = apply_edits(&mut mesh, &mut edited, &file, p, cams)?;
-        eprintln!(
-            "edits: {} material edits ({} triangles), {} objects ({} triangles)",
-            done.selected.len(),
-            done.selected.iter().sum::<usize>(),
-            done.object_triangles.len(),
-            done.object_triangles.iter().sum::<usize>()
-        );
-    }
-    let default = a.emitters.unwrap_or(EmitterPolicy::Keep);
-    let mut file = match lights {
-        Some(p) => LightsFile::read(p)?,
-        None => LightsFile::default(),
-    };
-    if a.emitters.is_some() {
-        file.emitters = a.emitters;
-    }
-    let lights_path = lights.unwrap_or(Path::new("--emitters"));
-    let deltas = apply_lights(
-        &mut mesh,
-        &mut edited,
-        &file,
-        lights_path,
-        default,
-        emitters,
-    )?;
-    let mut scene = Scene::new(mesh, edited);
-    scene.delta_lights = deltas;
-    if !scene.has_light() {
-        eprintln!(
-            "warning: nothing emits (no emitter kept, no light added): renders will be black"
-        );
-    }
-    Ok(scene)
-}
-
-fn render_views<S: SurfaceModel>(
-    a: &Args,
-    scene: &Scene<S>,
-    cams: &[Camera],
-    views: &[usize],
-    out: &Path,
-    layout: Layout,
-) -> Result<()> {
-    let cfg = RenderConfig {
+    let summary = render_request(&RenderRequest {
+        source: a.source,
+        materials: a.materials,
+        scene: a.scene,
+        cameras: a.cameras,
+        out: a.out,
+        size: a.size.map(|s| (s[0], s[1])),
         spp: a.spp,
         max_bounces: a.max_bounces,
         seed: a.seed,
-        ..Default::default()
-    };
-    let total: u64 = views
-        .iter()
-        .map(|&k| (cams[k].width * cams[k].height) as u64)
-        .sum();
-    let pb = bar(total, "render");
-    let st = Stage::start("render");
-    let (mut rays, mut nonfinite) = (0u64, 0u64);
-    let reference = a.reference.as_deref().map(reference_dir).transpose()?;
-    let mut rows = Vec::new();
-    for &k in views {
-        let (img, stats) = render(scene, &cams[k], &cfg, k as u64, &|n| pb.inc(n as u64));
-        if let Some(dir) = &reference {
-            rows.push((k, compare(dir, k, &img)?));
-        }
-        rays += stats.rays;
-        nonfinite += stats.nonfinite;
-        let aovs = render_aovs(scene, &cams[k]);
-        match layout {
-            Layout::Dataset => {
-                let parts = aovs.part.iter().filter(|&&p| p < OBJECT_PART).max();
-                let semantic: Vec<u32> = (0..=parts.copied().unwrap_or(0)).collect();
-                write_view(out, k, &img, &aovs, &semantic)?
+        views: a.views,
+        brdf: a.brdf,
+        lights: a.lights,
+        emitters: a.emitters,
+        edits: a.edits,
+        reference: a.reference,
+    })?;
+    for (out, psnr) in &summary.outputs {
+        if !psnr.is_empty() {
+            println!("{:>5} {:>12}", "view", "sRGB PSNR dB");
+            for (k, p) in psnr {
+                println!("{k:>5} {p:>12.2}");
             }
-            Layout::Flat => write_flat(out, k, &img, &aovs)?,
+            println!("{:>5} {:>12.2}", "mean", mean_psnr(psnr));
         }
+        println!("wrote {}", out.display());
     }
-    pb.finish_and_clear();
-    let secs = st.done();
-    eprintln!(
-        "{} views, {:.2} Mrays/s{}",
-        views.len(),
-        rays as f64 / secs / 1e6,
-        if nonfinite > 0 {
-            format!(", {nonfinite} non-finite samples dropped")
-        } else {
-            String::new()
-        }
-    );
-    if reference.is_some() {
-        write_metrics(out, &rows)?;
-    }
-    println!("wrote {}", out.display());
-    Ok(())
-}
-
-fn reference_dir(p: &Path) -> Result<PathBuf> {
-    let dir = if p.join("Image").is_dir() {
-        p.join("Image")
-    } else {
-        p.to_path_buf()
-    };
-    if !dir.is_dir() {
-        bail!(
-            "{}: --reference must be a folder of {{k:03}}_0001.exr images",
-            p.display()
-        );
-    }
-    Ok(dir)
-}
-
-/// sRGB PSNR of a rendered view against the reference image of the same index.
-fn compare(dir: &Path, k: usize, img: &fipt_core::image::Image) -> Result<f64> {
-    let mut path = dir.join(fipt_core::dataset::image_file_name(k));
-    if !path.is_file() {
-        // Another `fipt render`'s output.
-        path = dir.join(format!("{k:03}_render.exr"));
-    }
-    let r = fipt_core::image::Image::read_exr(&path)
-        .with_context(|| format!("reading the reference image of view {k}"))?;
-    if (r.width, r.height) != (img.width, img.height) {
-        bail!(
-            "{}: {}x{} but the camera renders {}x{}",
-            path.display(),
-            r.width,
-            r.height,
-            img.width,
-            img.height
-        );
-    }
-    Ok(fipt_core::metrics::srgb_psnr(&img.data, &r.data, None).unwrap_or(f64::NAN))
-}
-
-fn write_metrics(out: &Path, rows: &[(usize, f64)]) -> Result<()> {
-    let mean = rows.iter().map(|r| r.1).sum::<f64>() / rows.len().max(1) as f64;
-    println!("{:>5} {:>12}", "view", "sRGB PSNR dB");
-    for (k, p) in rows {
-        println!("{k:>5} {p:>12.2}");
-    }
-    println!("{:>5} {mean:>12.2}", "mean");
-    let json = serde_json::json!({
-        "render_psnr": { "mean": mean, "views": rows.iter().map(|(k, p)| serde_json::json!({"view": k, "srgb_psnr": p})).collect::<Vec<_>>() },
-    });
-    fipt_core::fsutil::write_json_atomic(&out.join("metrics.json"), &json)?;
-    Ok(())
-}
-
-/// `{k:03}_render.exr` and the maps of the rendered surfaces, with PNG previews.
-fn write_flat(
-    dir: &Path,
-    k: usize,
-    img: &fipt_core::image::Image,
-    aovs: &fipt_shading::render::Aovs,
-) -> Result<()> {
-    let maps = [
-        ("render", img, ExrPrecision::F32),
-        ("kd", &aovs.kd, ExrPrecision::F16),
-        ("ks", &aovs.ks, ExrPrecision::F16),
-        ("roughness", &aovs.roughness, ExrPrecision::F16),
-        ("metallic", &aovs.metallic, ExrPrecision::F16),
-        ("emission", &aovs.emission, ExrPrecision::F32),
-    ];
-    for (name, m, prec) in maps {
-        m.write_exr(&dir.join(format!("{k:03}_{name}.exr")), prec)?;
-        m.write_png(&dir.join("preview").join(format!("{k:03}_{name}.png")), 1.0)?;
+    for strip in &summary.strips {
+        println!("relighting strip: {}", strip.display());
     }
     Ok(())
 }

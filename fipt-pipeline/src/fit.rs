@@ -149,15 +149,5 @@ pub fn run(
             "metrics": metrics,
         }),
     );
-    write_json_atomic(&a.out.join("report.json"), &report)?;
-    Ok(RunSummary {
-        method: cfg.pipeline.method.clone(),
-        seconds: t_all.elapsed().as_secs_f64(),
-        stages,
-        out: a.out.clone(),
-        lights: emitters.len(),
-        field: None,
-        pictures: crate::report::write_or_warn(&a.out, &scene.ds),
-        metrics,
-    })
+    RunSummary::write(a, cfg, &scene, &report, stages, emitters.len(), None)
 }

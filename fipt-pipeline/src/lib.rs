@@ -29,6 +29,7 @@ pub mod outputs;
 pub mod recovered;
 pub mod refine;
 pub mod regions;
+pub mod render;
 pub mod report;
 pub mod rounds;
 pub mod run;

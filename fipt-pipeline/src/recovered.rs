@@ -162,3 +162,48 @@ impl RunOutput {
         Ok((ds, Geometry::new(mesh)))
     }
 }
+
+/// `fipt export`: which run, in which format, where.
+#[derive(Clone, Debug)]
+pub struct ExportRequest {
+    /// A `fipt run` output folder.
+    pub run: PathBuf,
+    /// The scene folder, when the path in the run's report.json does not resolve.
+    pub scene: Option<PathBuf>,
+    pub format: fipt_export::Format,
+    /// Output folder.
+    pub out: PathBuf,
+    /// World size of a texel (default: the re-render's material cache cell).
+    pub texel: Option<f32>,
+    /// Largest atlas edge in texels.
+    pub max_atlas: u32,
+    /// Per-vertex materials instead of a texture atlas (glb only).
+    pub per_vertex: bool,
+}
+
+/// Writes the recovered scene of a run for other tools (glTF, Mitsuba 3, OBJ + MTL).
+pub fn export_run(a: &ExportRequest) -> Result<fipt_export::ExportSummary> {
+    let st = crate::observe::Stage::start("load");
+    let run = RunOutput::open(&a.run, a.scene.as_deref())?;
+    let (ds, geometry) = run.open_scene()?;
+    let field = run.field()?;
+    let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
+    let surfaces = surfaces(&geometry, &views, field.as_ref(), &run.emitters, run.model)?;
+    st.done();
+    let opts = fipt_export::ExportOptions {
+        texel_size: a.texel.unwrap_or(surfaces.cell()),
+        max_atlas: a.max_atlas,
+        per_vertex: a.per_vertex,
+    };
+    let st = crate::observe::Stage::start("export");
+    let sum = fipt_export::export(
+        &geometry.mesh,
+        &surfaces,
+        &run.emitters,
+        a.format,
+        &a.out,
+        &opts,
+    )?;
+    st.done();
+    Ok(sum)
+}

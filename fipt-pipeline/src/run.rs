@@ -97,6 +97,31 @@ pub struct RunSummary {
     pub pictures: Option<PathBuf>,
 }
 
+impl RunSummary {
+    /// Writes `report` as `report.json`, then the pictures, and sums the run up.
+    pub(crate) fn write(
+        a: &RunRequest,
+        cfg: &RunConfig,
+        scene: &crate::scene::LoadedScene,
+        report: &serde_json::Value,
+        stages: Vec<StageReport>,
+        lights: usize,
+        field: Option<PathBuf>,
+    ) -> Result<Self> {
+        write_json_atomic(&a.out.join("report.json"), report)?;
+        Ok(RunSummary {
+            method: cfg.pipeline.method.clone(),
+            seconds: report["seconds_total"].as_f64().unwrap_or(0.0),
+            stages,
+            out: a.out.clone(),
+            lights,
+            field,
+            pictures: crate::report::write_or_warn(&a.out, &scene.ds),
+            metrics: Some(report["metrics"].clone()).filter(|m| !m.is_null()),
+        })
+    }
+}
+
 /// The output folder's lock: the whole folder for an unsharded run; a shard's own lock for a
 /// shard, so that the tasks of a job array write their views side by side.
 pub fn lock(out: &Path, shard: Shard, what: &str) -> Result<fipt_core::lock::OutputLock> {
@@ -500,17 +525,8 @@ fn run_locked(
             "metrics": metrics,
         }),
     );
-    write_json_atomic(&a.out.join("report.json"), &report)?;
-    Ok(RunSummary {
-        method: cfg.pipeline.method.clone(),
-        seconds: t_all.elapsed().as_secs_f64(),
-        stages,
-        out: a.out.clone(),
-        lights: emitters.len(),
-        field: Some(crate::rounds::train_dir(&a.out, done_rounds).join("field.safetensors")),
-        pictures: crate::report::write_or_warn(&a.out, &scene.ds),
-        metrics,
-    })
+    let field = crate::rounds::train_dir(&a.out, done_rounds).join("field.safetensors");
+    RunSummary::write(a, cfg, &scene, &report, stages, emitters.len(), Some(field))
 }
 
 /// `report.json`'s `components`: what ran, by name and implementation, and what was registered.
