@@ -2,6 +2,7 @@
 //! pipeline on it with the `balanced` preset, evaluate, and say where everything is.
 use crate::progress::bar;
 use anyhow::Result;
+use fipt_pipeline::run::{RunOutcome, RunRequest};
 use fipt_shading::synth::{build, write_dataset, SynthOptions};
 use std::path::PathBuf;
 
@@ -32,20 +33,11 @@ pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
     } else {
         eprintln!("using the scene already in {}", scene.display());
     }
-    crate::run::run(
-        crate::run::Args {
-            scene: scene.clone(),
-            out: a.dir.join("out"),
-            preset: a.preset,
-            config: None,
-            method: None,
-            bad_pixels: crate::info::Policy::Reject,
-            force: false,
-            shard: None,
-            stop_before: None,
-        },
-        components,
-    )?;
+    let request = RunRequest::new(&scene, a.dir.join("out"), &a.preset);
+    match fipt_pipeline::run::run(&request, components)? {
+        RunOutcome::Finished(summary) => crate::run::print_summary(&summary),
+        RunOutcome::Stopped(why) => println!("{why}"),
+    }
     println!(
         "  previews: {}/views/*/preview/",
         a.dir.join("out").display()

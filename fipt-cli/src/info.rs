@@ -1,8 +1,7 @@
-//! `fipt info <scene>`.
-use anyhow::{bail, Context, Result};
-use fipt_core::dataset::{hdr_stats, Dataset, Layout};
+//! `fipt info <scene>`: fipt-pipeline's `inspect` of a scene folder, printed (or as JSON).
+use anyhow::Result;
+use fipt_core::dataset::Layout;
 use fipt_core::image::BadPixelPolicy;
-use fipt_geom::{view_coverage, BuildQuality, Bvh, Mesh};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -33,6 +32,7 @@ impl From<Policy> for BadPixelPolicy {
 }
 
 pub fn run(a: Args) -> Result<()> {
+    let sum = fipt_pipeline::inspect::inspect(&a.scene, a.bad_pixels.into())?;
     // With --json, stdout holds the JSON alone; the human summary goes to stderr.
     let json = a.json;
     macro_rules! say {
@@ -44,139 +44,71 @@ pub fn run(a: Args) -> Result<()> {
             }
         };
     }
-    let ds =
-        Dataset::open(&a.scene).with_context(|| format!("opening scene {}", a.scene.display()))?;
-    let mut warnings = ds.warnings.clone();
-    let mesh = Mesh::load(&ds.mesh).with_context(|| "loading the scene mesh")?;
-    if mesh.dropped_degenerate > 0 {
-        warnings.push(format!(
-            "{}: {} degenerate triangles dropped (zero area, repeated or invalid vertices)",
-            ds.mesh.display(),
-            mesh.dropped_degenerate
-        ));
-    }
-    let b = mesh.bounds();
-    let bvh = Bvh::build(&mesh, BuildQuality::Medium);
-    say!(
-        "scene        {} ({} layout)",
-        ds.root.display(),
-        if ds.layout == Layout::Synthetic {
-            "synthetic"
-        } else {
-            "real"
-        }
-    );
+    let layout = match sum.layout {
+        Layout::Synthetic => "synthetic",
+        _ => "real",
+    };
+    say!("scene        {} ({layout} layout)", sum.scene.display());
     say!(
         "mesh         {}: {} triangles, {} vertices, vertex normals: {}",
-        ds.mesh.display(),
-        mesh.triangles.len(),
-        mesh.positions.len(),
-        if mesh.normals.is_some() { "yes" } else { "no" }
+        sum.mesh.display(),
+        sum.triangles,
+        sum.vertices,
+        if sum.vertex_normals { "yes" } else { "no" }
     );
+    let [lo, hi] = sum.bounds;
     say!(
         "bounds       [{:.3}, {:.3}, {:.3}] – [{:.3}, {:.3}, {:.3}] (extent {:.3})",
-        b.min.x,
-        b.min.y,
-        b.min.z,
-        b.max.x,
-        b.max.y,
-        b.max.z,
-        (b.max - b.min).length()
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2],
+        sum.extent()
     );
-    let mut json_splits = Vec::new();
-    let mut any_hit = false;
-    for s in &ds.splits {
-        let stats = hdr_stats(&ds, s, a.bad_pixels.into())
-            .with_context(|| format!("reading the {} images", s.name))?;
-        let cover: Vec<f32> = s
-            .views
-            .iter()
-            .map(|v| view_coverage(&bvh, &v.camera, 4))
-            .collect();
-        let (worst, wv) =
-            cover.iter().enumerate().fold(
-                (1.0f32, 0usize),
-                |acc, (k, &c)| if c < acc.0 { (c, k) } else { acc },
-            );
-        let mean = cover.iter().sum::<f32>() / cover.len().max(1) as f32;
-        any_hit |= cover.iter().any(|&c| c > 0.0);
-        for (k, &c) in cover.iter().enumerate() {
-            if c == 0.0 {
-                warnings.push(format!("{} view {k}: no pixel-centre ray hits the mesh (wrong pose convention, or a camera outside the scene?)", s.name));
-            } else if c < 0.5 {
-                warnings.push(format!("{} view {k}: only {:.0} % of pixel-centre rays hit the mesh (open scene? rays that escape see no light)", s.name, 100.0 * c));
-            }
-        }
-        if stats.bad > 0 {
-            warnings.push(format!(
-                "{}: {} bad pixel values clamped in views {:?}",
-                s.name, stats.bad, stats.bad_views
-            ));
-        }
-        if !stats.black_views.is_empty() {
-            warnings.push(format!(
-                "{}: black views {:?} (every pixel 0): they constrain nothing but emitters' absence",
-                s.name, stats.black_views
-            ));
-        }
-        if !stats.saturated_views.is_empty() {
-            warnings.push(format!(
-                "{}: views {:?} have ≥ 99 % of their pixels at their maximum (clipped exposure?)",
-                s.name, stats.saturated_views
-            ));
-        }
-        let gt: Vec<&str> = s.gt.iter().map(|g| g.folder()).collect();
+    for s in &sum.splits {
         say!(
             "{:<12} {} views at {}x{}, fov_x {:.1}°",
             s.name,
-            s.views.len(),
-            ds.width,
-            ds.height,
-            s.views[0].camera.fov_x().to_degrees()
+            s.views,
+            sum.width,
+            sum.height,
+            s.fov_x_deg
         );
         say!(
             "  HDR        min {:.3e}, max {:.3e}, mean luminance {:.4}, median {:.4} (exposure scale {})",
-            stats.min,
-            stats.max,
-            stats.mean_luminance,
-            stats.median_luminance,
-            fipt_core::image::exposure_scale(stats.median_luminance)
+            s.hdr.min,
+            s.hdr.max,
+            s.hdr.mean_luminance,
+            s.hdr.median_luminance,
+            fipt_core::image::exposure_scale(s.hdr.median_luminance)
         );
-        say!("  coverage   mean {:.1} % of pixel-centre rays hit the mesh; lowest {:.1} % (view {wv})", 100.0 * mean, 100.0 * worst);
+        say!(
+            "  coverage   mean {:.1} % of pixel-centre rays hit the mesh; lowest {:.1} % (view {})",
+            100.0 * s.coverage_mean,
+            100.0 * s.coverage_min,
+            s.coverage_min_view
+        );
         say!(
             "  ground truth {}",
-            if gt.is_empty() {
+            if s.ground_truth.is_empty() {
                 "none".to_string()
             } else {
-                gt.join(", ")
+                s.ground_truth.join(", ")
             }
         );
-        json_splits.push(serde_json::json!({
-            "name": s.name, "views": s.views.len(), "hdr": stats, "coverage_mean": mean, "coverage_min": worst, "ground_truth": gt,
-        }));
     }
-    if !any_hit {
-        bail!(
-            "no camera ray of any view hits the mesh {}: the poses are probably in another convention \
-             (transforms.json expects camera-to-world with +X left, +Y up, +Z forward) or the mesh is not the scene's",
-            ds.mesh.display()
-        );
-    }
-    if warnings.is_empty() {
+    if sum.warnings.is_empty() {
         say!("warnings     none");
     } else {
-        say!("warnings     {}", warnings.len());
-        for w in &warnings {
+        say!("warnings     {}", sum.warnings.len());
+        for w in &sum.warnings {
             say!("  - {w}");
         }
     }
     if a.json {
-        let v = serde_json::json!({
-            "scene": ds.root, "layout": ds.layout, "mesh": ds.mesh, "triangles": mesh.triangles.len(),
-            "degenerate_dropped": mesh.dropped_degenerate, "bounds": [b.min.to_array(), b.max.to_array()],
-            "width": ds.width, "height": ds.height, "splits": json_splits, "warnings": warnings,
-        });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        println!("{}", serde_json::to_string_pretty(&sum)?);
     }
     Ok(())
 }

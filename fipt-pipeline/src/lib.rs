@@ -23,6 +23,7 @@ pub mod config;
 pub mod eval;
 mod eval_parts;
 mod fit;
+pub mod inspect;
 pub mod memory;
 pub mod observe;
 pub mod outputs;

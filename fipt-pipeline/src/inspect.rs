@@ -1,0 +1,146 @@
+//! A scene folder summarised and checked before any work (`fipt info`): the layout, the mesh,
+//! per split the views' HDR range and how much of each view the mesh covers, the ground truth
+//! present, and warnings (degenerate triangles, views that see nothing, bad pixels, black or
+//! saturated views). A scene no camera ray hits is an error.
+use anyhow::{bail, Context, Result};
+use fipt_core::dataset::{hdr_stats, Dataset, HdrStats, Layout};
+use fipt_core::image::BadPixelPolicy;
+use fipt_geom::{view_coverage, BuildQuality, Bvh, Mesh};
+use glam::Vec3;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// One split of a scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct SplitSummary {
+    pub name: String,
+    pub views: usize,
+    /// Horizontal field of view of the first view, degrees.
+    pub fov_x_deg: f32,
+    pub hdr: HdrStats,
+    /// Share of pixel-centre rays that hit the mesh: mean over views, lowest and its view.
+    pub coverage_mean: f32,
+    pub coverage_min: f32,
+    pub coverage_min_view: usize,
+    /// The ground-truth folders present.
+    pub ground_truth: Vec<&'static str>,
+}
+
+/// A scene folder, summarised.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneSummary {
+    pub scene: PathBuf,
+    pub layout: Layout,
+    pub mesh: PathBuf,
+    pub triangles: usize,
+    pub vertices: usize,
+    pub vertex_normals: bool,
+    pub degenerate_dropped: usize,
+    pub bounds: [[f32; 3]; 2],
+    pub width: usize,
+    pub height: usize,
+    pub splits: Vec<SplitSummary>,
+    pub warnings: Vec<String>,
+}
+
+impl SceneSummary {
+    /// The bounds' diagonal.
+    pub fn extent(&self) -> f32 {
+        (Vec3::from(self.bounds[1]) - Vec3::from(self.bounds[0])).length()
+    }
+}
+
+/// Opens `scene`, reads every image (bad pixels as `policy` says) and checks the views
+/// against the mesh.
+pub fn inspect(scene: &Path, policy: BadPixelPolicy) -> Result<SceneSummary> {
+    let ds = Dataset::open(scene).with_context(|| format!("opening scene {}", scene.display()))?;
+    let mut warnings = ds.warnings.clone();
+    let mesh = Mesh::load(&ds.mesh).with_context(|| "loading the scene mesh")?;
+    if mesh.dropped_degenerate > 0 {
+        warnings.push(format!(
+            "{}: {} degenerate triangles dropped (zero area, repeated or invalid vertices)",
+            ds.mesh.display(),
+            mesh.dropped_degenerate
+        ));
+    }
+    let bvh = Bvh::build(&mesh, BuildQuality::Medium);
+    let mut splits = Vec::new();
+    for s in &ds.splits {
+        let hdr =
+            hdr_stats(&ds, s, policy).with_context(|| format!("reading the {} images", s.name))?;
+        let cover: Vec<f32> = s
+            .views
+            .iter()
+            .map(|v| view_coverage(&bvh, &v.camera, 4))
+            .collect();
+        let (coverage_min, coverage_min_view) = cover.iter().enumerate().fold(
+            (1.0f32, 0usize),
+            |acc, (k, &c)| if c < acc.0 { (c, k) } else { acc },
+        );
+        for (k, &c) in cover.iter().enumerate() {
+            if c == 0.0 {
+                warnings.push(format!("{} view {k}: no pixel-centre ray hits the mesh (wrong pose convention, or a camera outside the scene?)", s.name));
+            } else if c < 0.5 {
+                warnings.push(format!("{} view {k}: only {:.0} % of pixel-centre rays hit the mesh (open scene? rays that escape see no light)", s.name, 100.0 * c));
+            }
+        }
+        warnings.extend(image_warnings(&s.name, &hdr));
+        splits.push(SplitSummary {
+            name: s.name.clone(),
+            views: s.views.len(),
+            fov_x_deg: s.views[0].camera.fov_x().to_degrees(),
+            hdr,
+            coverage_mean: cover.iter().sum::<f32>() / cover.len().max(1) as f32,
+            coverage_min,
+            coverage_min_view,
+            ground_truth: s.gt.iter().map(|g| g.folder()).collect(),
+        });
+    }
+    if !splits.iter().any(|s| s.coverage_mean > 0.0) {
+        bail!(
+            "no camera ray of any view hits the mesh {}: the poses are probably in another convention \
+             (transforms.json expects camera-to-world with +X left, +Y up, +Z forward) or the mesh is not the scene's",
+            ds.mesh.display()
+        );
+    }
+    let b = mesh.bounds();
+    Ok(SceneSummary {
+        scene: ds.root.clone(),
+        layout: ds.layout,
+        mesh: ds.mesh.clone(),
+        triangles: mesh.triangles.len(),
+        vertices: mesh.positions.len(),
+        vertex_normals: mesh.normals.is_some(),
+        degenerate_dropped: mesh.dropped_degenerate,
+        bounds: [b.min.to_array(), b.max.to_array()],
+        width: ds.width,
+        height: ds.height,
+        splits,
+        warnings,
+    })
+}
+
+/// What a split's images say that a user should know: clamped values, black and saturated
+/// views.
+fn image_warnings(split: &str, stats: &HdrStats) -> Vec<String> {
+    let mut w = vec![];
+    if stats.bad > 0 {
+        w.push(format!(
+            "{split}: {} bad pixel values clamped in views {:?}",
+            stats.bad, stats.bad_views
+        ));
+    }
+    if !stats.black_views.is_empty() {
+        w.push(format!(
+            "{split}: black views {:?} (every pixel 0): they constrain nothing but emitters' absence",
+            stats.black_views
+        ));
+    }
+    if !stats.saturated_views.is_empty() {
+        w.push(format!(
+            "{split}: views {:?} have ≥ 99 % of their pixels at their maximum (clipped exposure?)",
+            stats.saturated_views
+        ));
+    }
+    w
+}
