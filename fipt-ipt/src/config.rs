@@ -53,6 +53,10 @@ pub struct IptConfig {
     /// A seen triangle is an emitter when its fitted radiance is at least this share of the
     /// radiance observed on it.
     pub emitter_share: f32,
+    /// A group of emitting triangles is a light only when the radiance observed on it is at
+    /// least this many times the training views' median luminance (0: every group). Lights
+    /// outshine what they light; a bright wall beside one that the fit made emit does not.
+    pub emitter_contrast: f32,
     /// Initial base colour, roughness, and emitted radiance of each seen triangle relative to
     /// the radiance observed on it.
     pub init_albedo: f32,
@@ -85,6 +89,7 @@ impl IptConfig {
             light_update_every: 10,
             checkpoint_every: 50,
             emitter_share: 0.5,
+            emitter_contrast: 10.0,
             init_albedo: 0.5,
             init_roughness: 0.5,
             init_emission: 0.01,
@@ -157,6 +162,9 @@ impl IptConfig {
         }
         if !(self.emitter_share > 0.0 && self.emitter_share <= 1.0) {
             return bad("emitter_share", "must be in (0, 1]");
+        }
+        if !(self.emitter_contrast >= 0.0 && self.emitter_contrast <= 1e6) {
+            return bad("emitter_contrast", "must be in [0, 1000000]");
         }
         if !(0.0..=1.0).contains(&self.init_albedo)
             || !(0.02..=1.0).contains(&self.init_roughness)

@@ -15,8 +15,9 @@
 //!   checkpoints to resume from.
 //! * **Output** ([`Ipt`] implements `fipt_core::fit::MaterialFitter`): the fitted table as a
 //!   `MaterialField` and the emitters (seen triangles whose fitted emission makes up at least
-//!   `emitter_share` of the radiance observed on them, grouped by shared edges), so the run's
-//!   maps, re-renders, report and evaluation are those of every method.
+//!   `emitter_share` of the radiance observed on them, grouped by shared edges, in groups that
+//!   outshine the views' median `emitter_contrast` times), so the run's maps, re-renders,
+//!   report and evaluation are those of every method.
 pub mod config;
 pub mod field;
 pub mod lights;
@@ -60,6 +61,8 @@ pub struct Prepared {
     /// Per view and pixel: the slot its centre ray sees (u32::MAX: none).
     pub pixel_slots: Vec<Vec<u32>>,
     pub mean_radiance: f32,
+    /// Median luminance of the training pixels.
+    pub median_luminance: f32,
 }
 
 impl Prepared {
@@ -177,13 +180,21 @@ impl Ipt {
             segments,
             seen,
             mean_radiance: (sum / count.max(1) as f64) as f32,
+            median_luminance: fipt_core::image::median_luminance(inp.images),
         })
     }
 
     /// The settings key a checkpoint must match.
     fn key(&self, prep: &Prepared, inp: &FitInputs) -> String {
+        // What only the emitter extraction reads does not change the fit: a rerun with another
+        // `emitter_share` or `emitter_contrast` reuses it.
+        let mut config = serde_json::to_value(&self.config).unwrap_or_default();
+        if let Some(c) = config.as_object_mut() {
+            c.remove("emitter_share");
+            c.remove("emitter_contrast");
+        }
         let v = serde_json::json!({
-            "config": self.config, "model": inp.model, "views": inp.views.len(),
+            "config": config, "model": inp.model, "views": inp.views.len(),
             "groups": prep.groups, "triangles": prep.mesh.triangles.len(),
         });
         fipt_core::fsutil::hash_json(&v)
@@ -232,8 +243,9 @@ impl Ipt {
     }
 
     /// The emitters of a fitted state: triangles with a seen side whose emission is at least
-    /// `emitter_share` of the radiance observed on it, grouped by shared edges; the radiance
-    /// of each is its brighter side's.
+    /// `emitter_share` of the radiance observed on it, grouped by shared edges; a group is a
+    /// light when the radiance observed on it is `emitter_contrast` times the views' median
+    /// luminance. The radiance of each triangle is its brighter side's.
     pub fn emitters(&self, prep: &Prepared, state: &State) -> (Vec<bool>, Vec<Emitter>) {
         let nt = prep.mesh.triangles.len();
         let slot_emits = |s: usize| {
@@ -241,7 +253,7 @@ impl Ipt {
             let le = luminance(state.params.emission(s as u32));
             n > 0 && le >= self.config.emitter_share * luminance(sum / n as f32) && le > 0.0
         };
-        let emitting: Vec<bool> = (0..nt)
+        let mut emitting: Vec<bool> = (0..nt)
             .map(|t| slot_emits(2 * t) || slot_emits(2 * t + 1))
             .collect();
         let neighbours = prep.mesh.edge_neighbours();
@@ -263,6 +275,10 @@ impl Ipt {
                 }
             }
             tris.sort_unstable();
+            if !self.bright_enough(prep, &tris) {
+                tris.iter().for_each(|&t| emitting[t as usize] = false);
+                continue;
+            }
             let radiance = tris
                 .iter()
                 .map(|&t| Self::triangle_emission(state, t))
@@ -279,6 +295,18 @@ impl Ipt {
             }
         }
         (emitting, lights)
+    }
+}
+
+impl Ipt {
+    /// Whether the mean radiance observed on `tris` (both sides, per pixel) is at least
+    /// `emitter_contrast` times the training views' median luminance.
+    fn bright_enough(&self, prep: &Prepared, tris: &[u32]) -> bool {
+        let (n, sum) = tris
+            .iter()
+            .flat_map(|&t| [prep.seen[2 * t as usize], prep.seen[2 * t as usize + 1]])
+            .fold((0u64, Vec3::ZERO), |(n, s), (k, x)| (n + k as u64, s + x));
+        n > 0 && luminance(sum / n as f32) >= self.config.emitter_contrast * prep.median_luminance
     }
 }
 

@@ -123,6 +123,16 @@ fn recovers_albedo_and_emission_of_a_tiny_scene() {
     assert_eq!(found, light_tris.len(), "every light triangle found");
     assert_eq!(false_pos, 0, "no surface taken for a light");
     assert!(le_err < 0.25, "light radiance within 25 %: {le_err}");
+    // A light must outshine the views: at 10× their median it passes (cornell's is ~100×);
+    // asked for 1000×, no group of triangles is a light and none is marked emitting.
+    let strict = Ipt {
+        config: IptConfig {
+            emitter_contrast: 1000.0,
+            ..ipt.config.clone()
+        },
+    };
+    let (emitting, lights) = strict.emitters(&prep, &state);
+    assert!(lights.is_empty() && !emitting.contains(&true));
     std::fs::remove_dir_all(&dir).ok();
 }
 
