@@ -122,12 +122,10 @@ pub fn run(
     let mut mark = |stage: &'static str, t: Instant| stages.push(StageReport::since(stage, t));
     write_views(&scene, cfg, &a.out, field, &emitters, None, &mut mark)?;
     let metrics = evaluate_if_gt(&scene, &a.out, &mut mark)?;
-    let mut report = report_header(a, &scene, cfg);
+    let mut report = report_header(a, &scene, cfg, &stages, t_all);
     extend(
         &mut report,
         serde_json::json!({
-            "stages": stages,
-            "seconds_total": t_all.elapsed().as_secs_f64(),
             "fit": fitted.report,
             "emitters": emitters_summary(&user_emitters),
             "exposure_scale": scene.exposure,

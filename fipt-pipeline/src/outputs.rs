@@ -77,14 +77,18 @@ pub(crate) fn mark_status(
     Ok(())
 }
 
-/// The part of `report.json` every method writes first: version, scene, preset, settings and
-/// the size of the inputs.
+/// The part of `report.json` every method writes: version, scene, preset, settings, the size of
+/// the inputs, the stages' times and the whole run's.
 pub(crate) fn report_header(
     a: &RunRequest,
     scene: &crate::scene::LoadedScene,
     cfg: &RunConfig,
+    stages: &[StageReport],
+    t_all: std::time::Instant,
 ) -> serde_json::Value {
     serde_json::json!({
+        "stages": stages,
+        "seconds_total": t_all.elapsed().as_secs_f64(),
         "fipt_version": env!("CARGO_PKG_VERSION"),
         "status": "complete",
         "scene": a.scene,

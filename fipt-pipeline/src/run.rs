@@ -506,12 +506,10 @@ fn run_locked(
     )?;
 
     let metrics = evaluate_if_gt(&scene, &a.out, &mut mark)?;
-    let mut report = report_header(a, &scene, cfg);
+    let mut report = report_header(a, &scene, cfg, &stages, t_all);
     extend(
         &mut report,
         serde_json::json!({
-            "stages": stages,
-            "seconds_total": t_all.elapsed().as_secs_f64(),
             "bake": { "stats": bake.stats, "seconds": bake.seconds_total },
             "train": train,
             "rounds": rounds,

@@ -5,15 +5,13 @@ use crate::regions::Regions;
 use crate::scene::LoadedScene;
 use anyhow::{bail, Result};
 use fipt_core::color::luminance;
-use fipt_core::dataset::GtKind;
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_shading::bake::PixelRecord;
 use fipt_shading::search::{
-    choose, gather_pixels, on_region_edge, profile, sigma_grid, Albedo, RegionChoice,
-    RegionProfile, RegionSource, SearchConfig, SearchPixel,
+    choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, Albedo,
+    RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
 };
-use glam::Vec3;
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -337,31 +335,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
         cfg.held_out,
     );
     // The ground truth's base colour: kd for dielectrics, ks for metals.
-    let gt_kinds = [GtKind::DiffCol, GtKind::Specular, GtKind::Metallic];
-    let given = if gt_kinds.iter().all(|&k| split.has_gt(k)) {
-        let mut maps = vec![];
-        for k in 0..split.views.len() {
-            let g = |kind| -> Result<Vec<Vec3>> {
-                Ok(scene
-                    .ds
-                    .load_gt(split, kind, split.views[k].index)?
-                    .map(|i| i.data)
-                    .unwrap_or_default())
-            };
-            maps.push((
-                g(GtKind::DiffCol)?,
-                g(GtKind::Specular)?,
-                g(GtKind::Metallic)?,
-            ));
-        }
-        let base: Vec<Vec3> = pixels
-            .iter()
-            .map(|p| {
-                let (kd, ks, m) = &maps[p.view as usize];
-                let i = p.pixel as usize;
-                fipt_shading::search::base_colour(kd[i], ks[i], m[i].x)
-            })
-            .collect();
+    let given = if let Some(base) = true_base_colours(&scene.ds, split, &pixels)? {
         let metal_grid = [0.0, 0.25, 0.5, 0.75, 1.0];
         Some(profile(
             &pixels,

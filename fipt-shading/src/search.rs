@@ -18,6 +18,7 @@
 //! clamp), averaged over pixels and channels.
 use crate::bake::PixelRecord;
 use fipt_core::color::{srgb_oetf, Rgb};
+use fipt_core::dataset::{Dataset, GtKind, Split};
 use fipt_core::image::Image;
 use fipt_core::shading::{level_segment, ViewShadings};
 use glam::Vec3;
@@ -258,6 +259,40 @@ pub fn base_colour(kd: Rgb, ks: Rgb, metallic: f32) -> Rgb {
     } else {
         kd
     }
+}
+
+/// The true base colour ([`base_colour`]) at each of `pixels`, from `split`'s ground-truth
+/// DiffCol, Specular and Metallic maps; None when the split lacks one of them.
+pub fn true_base_colours(
+    ds: &Dataset,
+    split: &Split,
+    pixels: &[SearchPixel],
+) -> fipt_core::Result<Option<Vec<Rgb>>> {
+    let kinds = [GtKind::DiffCol, GtKind::Specular, GtKind::Metallic];
+    if !kinds.iter().all(|&k| split.has_gt(k)) {
+        return Ok(None);
+    }
+    let mut maps = Vec::with_capacity(split.views.len());
+    for v in &split.views {
+        let mut m = [vec![], vec![], vec![]];
+        for (slot, &kind) in m.iter_mut().zip(&kinds) {
+            *slot = ds
+                .load_gt(split, kind, v.index)?
+                .map(|i| i.data)
+                .unwrap_or_default();
+        }
+        maps.push(m);
+    }
+    Ok(Some(
+        pixels
+            .iter()
+            .map(|p| {
+                let [kd, ks, m] = &maps[p.view as usize];
+                let i = p.pixel as usize;
+                base_colour(kd[i], ks[i], m[i].x)
+            })
+            .collect(),
+    ))
 }
 
 /// The σ candidates: `steps` values evenly spaced over `[lo, hi]`.

@@ -18,7 +18,6 @@ use fipt_geom::{Geometry, Mesh};
 use fipt_shading::bake::{primary_records, BakeConfig, FactorizedBaker};
 use fipt_shading::search::{gather_pixels, profile, sigma_grid, Albedo, RegionProfile};
 use fipt_tests::studio_scene;
-use glam::Vec3;
 
 /// One level spacing of the bake's roughness levels.
 const SPACING: f32 = 0.196;
@@ -60,12 +59,6 @@ fn studio_profiles(model: ReflectanceModel) -> Option<Vec<RegionProfile>> {
         .iter()
         .map(|v| primary_records(&geometry, v))
         .collect();
-    let gt = |kind, k: usize| {
-        ds.load_gt(split, kind, split.views[k].index)
-            .unwrap()
-            .unwrap()
-            .data
-    };
     let ids: Vec<Vec<i64>> = (0..split.views.len())
         .map(|k| ds.load_ids(split, GtKind::IndexMA, k).unwrap().unwrap())
         .collect();
@@ -74,23 +67,9 @@ fn studio_profiles(model: ReflectanceModel) -> Option<Vec<RegionProfile>> {
         let id = ids[v][i];
         (0..regions as i64).contains(&id).then_some(id as u32)
     });
-    let maps: Vec<_> = (0..split.views.len())
-        .map(|k| {
-            (
-                gt(GtKind::DiffCol, k),
-                gt(GtKind::Specular, k),
-                gt(GtKind::Metallic, k),
-            )
-        })
-        .collect();
-    let base: Vec<Vec3> = pixels
-        .iter()
-        .map(|p| {
-            let (kd, ks, m) = &maps[p.view as usize];
-            let i = p.pixel as usize;
-            fipt_shading::search::base_colour(kd[i], ks[i], m[i].x)
-        })
-        .collect();
+    let base = fipt_shading::search::true_base_colours(&ds, split, &pixels)
+        .unwrap()
+        .expect("studio-mitsuba has DiffCol, Specular and Metallic");
     let grid = sigma_grid(0.02, 1.0, 50);
     let metals = [0.0, 0.25, 0.5, 0.75, 1.0];
     let prof: Vec<RegionProfile> = profile(
