@@ -91,7 +91,7 @@ pub fn main_with(components: Components) -> i32 {
     match dispatch(cli, &components) {
         Ok(()) => 0,
         Err(e) => {
-            eprintln!("error: {}", describe(&e));
+            eprintln!("error: {}", describe(&*e));
             1
         }
     }

@@ -1,8 +1,7 @@
 //! The bake stage: cached by inputs, baker and settings; sharded by views; `fipt bake` alone.
+use crate::error::Result;
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
-use crate::shard::Stopped;
-use anyhow::Result;
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::image::Image;
 use fipt_core::reflectance::ReflectanceModel;
@@ -56,7 +55,7 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
     let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
     let dir = a.out.join("bake");
     match stage(&scene, baker.as_ref(), &settings, &dir, a.force, a.shard) {
-        Err(e) if e.is::<Stopped>() => Ok(BakeOutcome::Stopped(e.to_string())),
+        Err(e) if e.is_stopped() => Ok(BakeOutcome::Stopped(e.to_string())),
         Err(e) => Err(e),
         Ok(_) => Ok(BakeOutcome::Wrote(dir)),
     }
@@ -65,7 +64,7 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
 /// The bake stage with `baker` (built from `settings`): reuses a finished bake of the same
 /// inputs, baker and settings in `dir` unless `force` (merging finished shards first);
 /// otherwise bakes, saves (manifest last) and writes previews of Ld. With a `shard` other
-/// than all, bakes and saves that shard's views and returns [`Stopped`].
+/// than all, bakes and saves that shard's views and returns [`PipelineError::Stopped`].
 pub fn stage(
     scene: &LoadedScene,
     baker: &dyn ShadingBaker,

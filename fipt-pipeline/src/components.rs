@@ -14,7 +14,8 @@
 //!
 //! A registered component's settings are the run config's `[plugins.<name>]` table, passed to
 //! its factory as JSON (the factory validates them and names the bad key).
-use anyhow::{bail, Result};
+use crate::bail;
+use crate::error::Result;
 use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::MaterialFitter;
 use fipt_core::reflectance::ReflectanceModel;
@@ -82,7 +83,7 @@ impl Components {
             "the surface light field of the views and the factorised shadings (settings: [bake])",
             Box::new(|v, model| {
                 let config: fipt_shading::bake::BakeConfig = serde_json::from_value(v.clone())?;
-                config.validate().map_err(anyhow::Error::msg)?;
+                config.validate().map_err(crate::error::PipelineError::invalid)?;
                 Ok(Box::new(
                     fipt_shading::bake::FactorizedBaker::new(config).with_model(model),
                 ))
@@ -93,7 +94,7 @@ impl Components {
             "paths grown through glossy surfaces, the SLF at rough ones, emitter sampling (settings: [refine])",
             Box::new(|v, model| {
                 let config: fipt_shading::refine::RefineConfig = serde_json::from_value(v.clone())?;
-                config.validate().map_err(anyhow::Error::msg)?;
+                config.validate().map_err(crate::error::PipelineError::invalid)?;
                 Ok(Box::new(
                     fipt_shading::refine::PathGrownRefiner::new(config).with_model(model),
                 ))
@@ -104,10 +105,10 @@ impl Components {
             "inverse path tracing: materials per part (or triangle) and emission per triangle optimised jointly through a differentiable path tracer (settings: [plugins.ipt], defaults per preset)",
             Box::new(|v, preset| {
                 let base = fipt_ipt::IptConfig::preset(preset).ok_or_else(|| {
-                    anyhow::anyhow!("unknown preset `{preset}` (use one of {})", crate::config::PRESETS)
+                    crate::err!("unknown preset `{preset}` (use one of {})", crate::config::PRESETS)
                 })?;
                 let config: fipt_ipt::IptConfig = crate::config::lay_over(base, v.clone())?;
-                config.validate().map_err(anyhow::Error::msg)?;
+                config.validate().map_err(crate::error::PipelineError::invalid)?;
                 Ok(Box::new(fipt_ipt::Ipt { config }))
             }),
         )
@@ -177,7 +178,7 @@ impl Components {
         };
         (e.factory)(settings, preset)
             .map(Some)
-            .map_err(|err| anyhow::anyhow!("settings of method `{name}`: {err:#}"))
+            .map_err(|err| crate::err!("settings of method `{name}`: {err:#}"))
     }
 
     /// Registers (or replaces) the shading baker `name`.
@@ -218,7 +219,7 @@ impl Components {
             );
         };
         (e.factory)(settings, model)
-            .map_err(|err| anyhow::anyhow!("settings of baker `{name}`: {err:#}"))
+            .map_err(|err| crate::err!("settings of baker `{name}`: {err:#}"))
     }
 
     /// The refiner `name` built from `settings` for `model`.
@@ -235,7 +236,7 @@ impl Components {
             );
         };
         (e.factory)(settings, model)
-            .map_err(|err| anyhow::anyhow!("settings of refiner `{name}`: {err:#}"))
+            .map_err(|err| crate::err!("settings of refiner `{name}`: {err:#}"))
     }
 
     /// The names of the registered extractors.
@@ -283,8 +284,7 @@ impl Components {
                 self.extractor_names().join(", ")
             );
         };
-        (e.factory)(settings)
-            .map_err(|err| anyhow::anyhow!("settings of extractor `{name}`: {err:#}"))
+        (e.factory)(settings).map_err(|err| crate::err!("settings of extractor `{name}`: {err:#}"))
     }
 }
 

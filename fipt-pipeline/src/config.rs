@@ -1,5 +1,7 @@
 //! Typed configuration files (TOML or JSON) applied on top of a named preset.
-use anyhow::{bail, Context, Result};
+use crate::bail;
+use crate::error::Context;
+use crate::error::Result;
 use serde::{de::DeserializeOwned, Serialize};
 use std::path::Path;
 
@@ -62,8 +64,7 @@ pub fn load<T: Serialize + DeserializeOwned>(preset: T, file: Option<&Path>) -> 
 pub fn lay_over<T: Serialize + DeserializeOwned>(preset: T, over: serde_json::Value) -> Result<T> {
     let mut base = serde_json::to_value(&preset)?;
     merge(&mut base, over);
-    serde_path_to_error::deserialize(base)
-        .map_err(|e| anyhow::anyhow!("`{}`: {}", e.path(), e.inner()))
+    serde_path_to_error::deserialize(base).map_err(|e| crate::err!("`{}`: {}", e.path(), e.inner()))
 }
 
 fn load_with<T: Serialize + DeserializeOwned>(
@@ -87,7 +88,7 @@ fn load_with<T: Serialize + DeserializeOwned>(
     merge(&mut base, over);
     serde_path_to_error::deserialize(base).map_err(|e| {
         let key = e.path().to_string();
-        anyhow::anyhow!(
+        crate::err!(
             "{}: {}{} (keys are listed in the README)",
             path.display(),
             if key == "." {

@@ -6,8 +6,9 @@
 //! pooled over the split: the share of metal pixels predicted ≥ 0.8 and of dielectric ones
 //! predicted > 0.1; emitter IoU (Emit summed over channels > 0) and log-L2 =
 //! MSE(log(1 + E_pred), log(1 + E_gt)) over all pixels.
+use crate::error::Context;
+use crate::error::Result;
 use crate::eval_parts::{PartScores, ViewMaps};
-use anyhow::{Context, Result};
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::fsutil::write_json_atomic;
 use fipt_core::image::Image;
@@ -319,7 +320,7 @@ fn write_kd_error(
 pub fn evaluate_run(scene: &Path, out: &Path) -> Result<serde_json::Value> {
     let ds = Dataset::open(scene).with_context(|| format!("opening scene {}", scene.display()))?;
     if !ds.splits.iter().any(|s| s.has_gt(GtKind::DiffCol)) {
-        anyhow::bail!(
+        crate::bail!(
             "{}: no ground truth (DiffCol/) to evaluate against",
             scene.display()
         );
@@ -329,7 +330,7 @@ pub fn evaluate_run(scene: &Path, out: &Path) -> Result<serde_json::Value> {
     if let Ok(r) = fipt_core::fsutil::read_json::<serde_json::Value>(&report) {
         let here = crate::scene::inputs_hash(&ds)?;
         if let Some(there) = r["inputs_hash"].as_str().filter(|h| *h != here) {
-            anyhow::bail!(
+            crate::bail!(
                 "{} was made from another scene (inputs fingerprint {there}, {} has {here}): evaluate it against the scene it came from",
                 out.display(),
                 scene.display()

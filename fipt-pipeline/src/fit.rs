@@ -2,13 +2,13 @@
 //! FIPT's rounds: (bake, when the fitter asks for it) → fit → emitters (the fitter's, or the
 //! run's extractor on the fitted field) → maps → re-renders → report (→ eval), with the outputs
 //! of every method in the same places.
+use crate::error::Result;
 use crate::outputs::{
     emitters_summary, evaluate_if_gt, extend, extract_emitters, report_header, write_emitters_obj,
     write_views, StageReport,
 };
 use crate::run::{RunConfig, RunRequest, RunSummary};
 use crate::Components;
-use anyhow::Result;
 use fipt_core::dataset::GtKind;
 use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::{FitInputs, MaterialFitter};

@@ -2,7 +2,9 @@
 //! per split the views' HDR range and how much of each view the mesh covers, the ground truth
 //! present, and warnings (degenerate triangles, views that see nothing, bad pixels, black or
 //! saturated views). A scene no camera ray hits is an error.
-use anyhow::{bail, Context, Result};
+use crate::bail;
+use crate::error::Context;
+use crate::error::Result;
 use fipt_core::dataset::{hdr_stats, Dataset, HdrStats, Layout};
 use fipt_core::image::BadPixelPolicy;
 use fipt_geom::{view_coverage, BuildQuality, Bvh, Mesh};

@@ -15,11 +15,12 @@
 //! if let RunOutcome::Finished(s) = run(&request, &fipt_pipeline::Components::builtin())? {
 //!     println!("{} lights in {:.0} s", s.lights, s.seconds);
 //! }
-//! # Ok::<(), anyhow::Error>(())
+//! # Ok::<(), fipt_pipeline::PipelineError>(())
 //! ```
 pub mod bake;
 pub mod components;
 pub mod config;
+pub mod error;
 pub mod eval;
 mod eval_parts;
 mod fit;
@@ -40,34 +41,4 @@ pub mod shard;
 pub mod train;
 
 pub use components::Components;
-
-/// An error and its causes on one line, each cause said once (an I/O error's message is often
-/// part of its context's already).
-pub fn describe(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let s = cause.to_string();
-        if out.contains(&s) {
-            continue;
-        }
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&s);
-    }
-    out
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn an_error_chain_says_each_cause_once() {
-        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file or directory");
-        let e = anyhow::Error::new(fipt_core::CoreError::io(std::path::Path::new("/x/out"), io))
-            .context("creating the output folder");
-        assert_eq!(
-            super::describe(&e),
-            "creating the output folder: /x/out: No such file or directory"
-        );
-    }
-}
+pub use error::{describe, Context, PipelineError, Result};

@@ -2,8 +2,9 @@
 //! shadings of every training pixel (held by the bake, the refinement and the training set)
 //! and the hash tables with their optimiser state. A run that would not fit is refused with
 //! the figures; one that would take most of the memory is warned about.
+use crate::bail;
+use crate::error::Result;
 use crate::run::RunConfig;
-use anyhow::{bail, Result};
 use fipt_core::memory::{available_bytes, gib};
 use fipt_core::shading::NUM_LEVELS;
 

@@ -1,8 +1,8 @@
 //! What every method's run writes: the stage records, the report's shared parts, the emitters
 //! (JSON, OBJ), per-view maps and path-traced re-renders.
+use crate::error::Result;
 use crate::observe::Stage;
 use crate::run::{RunConfig, RunRequest};
-use anyhow::Result;
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::write_bytes_atomic;
 use fipt_core::image::ExrPrecision;

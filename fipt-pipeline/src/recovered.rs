@@ -1,7 +1,9 @@
 //! A `fipt run` output folder opened as a recovered scene: its scene, reflectance model,
 //! material field and emitters, and the surfaces the path tracer renders from them (the
 //! re-render of `fipt run`, `fipt render` and `fipt export` share them).
-use anyhow::{bail, Context, Result};
+use crate::bail;
+use crate::error::Context;
+use crate::error::Result;
 use fipt_core::dataset::{Dataset, View};
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;
@@ -62,8 +64,8 @@ pub struct RunOutput {
     pub emitters: Vec<Emitter>,
 }
 
-fn not_a_run(dir: &Path, why: &str) -> anyhow::Error {
-    anyhow::anyhow!(
+fn not_a_run(dir: &Path, why: &str) -> crate::error::PipelineError {
+    crate::err!(
         "{}: not a finished `fipt run` output folder ({why}); run `fipt run <scene> --out {}` first",
         dir.display(),
         dir.display()

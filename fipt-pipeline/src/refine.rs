@@ -1,10 +1,11 @@
 //! The path-grown refinement stage of `fipt run`: re-computes the shadings of the training
 //! views from the last round's field and the extracted emitters, stored like a bake in
 //! `OUT/refine<k>/` (manifest last), keyed by the settings and the upstream fingerprints.
+use crate::error::PipelineError;
+use crate::error::Result;
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
-use crate::shard::{Sharding, Stopped};
-use anyhow::Result;
+use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{hash_bytes, read_json, write_json_atomic};
@@ -78,7 +79,7 @@ pub fn stage(
         }
     }
     if sharding.stop_before_refine && shard.is_all() {
-        return Err(Stopped(format!(
+        return Err(PipelineError::Stopped(format!(
             "stopped before the refinement in {} (--stop-before refine): run `fipt run … --shard K/N` for every K, then `fipt run` again",
             dir.display()
         ))

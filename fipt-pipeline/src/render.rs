@@ -1,8 +1,10 @@
 //! Path-traced views (`fipt render`) of a recovered scene (a `fipt run` output folder) or of a
 //! mesh with given materials, from any cameras, optionally relit by a lights file.
+use crate::bail;
+use crate::error::Context;
+use crate::error::Result;
 use crate::observe::{bar, Stage};
 use crate::recovered::RunOutput;
-use anyhow::{bail, Context, Result};
 use fipt_core::camera::Camera;
 use fipt_core::dataset::{read_cam_list, read_transforms, MESH_NAMES};
 use fipt_core::image::ExrPrecision;

@@ -1,9 +1,9 @@
 //! FIPT's refine → search → train rounds after the first training round (method §4.5): the
 //! plan (whether they run and why), the loop, and the extra round that lets small scenes
 //! settle.
+use crate::error::Result;
 use crate::run::RunConfig;
 use crate::shard::Sharding;
-use anyhow::Result;
 use fipt_core::emitter::Emitter;
 use fipt_core::shading::ShadingRefiner;
 use fipt_shading::bake::PixelRecord;

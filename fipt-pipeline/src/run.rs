@@ -2,6 +2,8 @@
 //! per-view maps → re-render → report (→ eval when ground truth exists). Every stage writes
 //! its results atomically and a manifest last; re-running skips finished stages and resumes an
 //! interrupted training.
+use crate::error::PipelineError;
+use crate::error::Result;
 use crate::observe::Stage;
 use crate::outputs::{
     emitters_summary, evaluate_if_gt, extend, extract_emitters, has_ground_truth, report_header,
@@ -9,8 +11,7 @@ use crate::outputs::{
 };
 pub use crate::rounds::RoundsConfig;
 use crate::rounds::{glossy_fraction, refine_plan, refinement_rounds, Rounds, RoundsContext};
-use crate::shard::{Sharding, Stopped};
-use anyhow::Result;
+use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;
 use fipt_core::fsutil::write_json_atomic;
 use fipt_core::image::BadPixelPolicy;
@@ -318,8 +319,12 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
         cfg.pipeline.method = m.clone();
     }
     cfg.train.validate()?;
-    cfg.search.validate().map_err(anyhow::Error::msg)?;
-    cfg.rounds.validate().map_err(anyhow::Error::msg)?;
+    cfg.search
+        .validate()
+        .map_err(crate::error::PipelineError::invalid)?;
+    cfg.rounds
+        .validate()
+        .map_err(crate::error::PipelineError::invalid)?;
     // Components first: a misspelt name or bad plug-in settings fail before any work.
     let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
     let bake_settings = cfg.baker_settings()?;
@@ -355,7 +360,7 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
         }
     };
     match res {
-        Err(e) if e.is::<Stopped>() => {
+        Err(e) if e.is_stopped() => {
             status("stopped", Some(e.to_string()))?;
             Ok(RunOutcome::Stopped(e.to_string()))
         }
@@ -382,7 +387,7 @@ fn past_sharded_stages(a: &RunRequest) -> Result<()> {
     if shard.is_all() {
         return Ok(());
     }
-    Err(Stopped(format!(
+    Err(PipelineError::Stopped(format!(
         "shard {shard}: every sharded stage in {} is done; the rest (maps, re-renders) runs without --shard",
         a.out.display()
     ))

@@ -1,6 +1,7 @@
 //! Loading a scene folder for the stages: dataset, geometry, training images, fingerprint.
+use crate::error::Context;
+use crate::error::Result;
 use crate::observe::Stage;
-use anyhow::{Context, Result};
 use fipt_core::dataset::Dataset;
 use fipt_core::image::{BadPixelPolicy, Image};
 use fipt_geom::{Geometry, Mesh};
@@ -97,7 +98,7 @@ pub fn check_coverage(scene: &LoadedScene) -> Result<()> {
         .map(|v| fipt_geom::view_coverage(&scene.geometry.bvh, &v.camera, 8))
         .collect();
     if cover.iter().all(|&c| c == 0.0) {
-        anyhow::bail!(
+        crate::bail!(
             "no camera ray of any training view hits the mesh {}: the poses are probably in another convention \
              (transforms.json expects camera-to-world with +X left, +Y up, +Z forward) or the mesh is not the scene's (`fipt info` shows the coverage per view)",
             scene.ds.mesh.display()

@@ -1,9 +1,10 @@
 //! The material search between the bake (or a refinement) and a training round, and its cost
 //! curves per region for `fipt profile` (with the ground truth's base colour beside the fitted
 //! one when the scene has it).
+use crate::bail;
+use crate::error::Result;
 use crate::regions::Regions;
 use crate::scene::LoadedScene;
-use anyhow::{bail, Result};
 use fipt_core::color::luminance;
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
@@ -299,17 +300,16 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
             dir.display()
         ),
     };
-    let regions: RegionSource =
-        serde_json::from_value(serde_json::json!(a.regions)).map_err(|_| {
-            anyhow::anyhow!("--regions {}: use auto, parts, semantic or mesh", a.regions)
-        })?;
+    let regions: RegionSource = serde_json::from_value(serde_json::json!(a.regions))
+        .map_err(|_| crate::err!("--regions {}: use auto, parts, semantic or mesh", a.regions))?;
     let cfg = SearchConfig {
         regions,
         drop_edges: a.drop_edges,
         edge_contrast: a.edge_contrast,
         ..SearchConfig::default()
     };
-    cfg.validate().map_err(anyhow::Error::msg)?;
+    cfg.validate()
+        .map_err(crate::error::PipelineError::invalid)?;
     let split = scene.ds.train();
     let records: Vec<_> = split
         .views

@@ -3,23 +3,11 @@
 //! into the shared output folder; the last shard (or the next `fipt run`) merges the
 //! manifests. A shard run stops once its part is written; the stages in between (training)
 //! run on one machine. `scripts/slurm/fipt-sharded.sh` drives it.
-use anyhow::{bail, Result};
+use crate::bail;
+use crate::error::{PipelineError, Result};
 use fipt_core::shading::Shard;
 use fipt_shading::bake_store::{merge_shards, BakeManifest, ShardState};
 use std::path::Path;
-
-/// Not a failure: the run stopped where it was asked to (a shard's part written, or
-/// `--stop-before`); the message says what is done and what comes next.
-#[derive(Debug)]
-pub struct Stopped(pub String);
-
-impl std::fmt::Display for Stopped {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for Stopped {}
 
 /// Merges the finished shards of the stage in `dir` (named `what`) when all are present.
 /// An unsharded run (`shard` = all) refuses a partial set, which it would otherwise silently
@@ -47,13 +35,14 @@ pub fn merge(
     Ok(())
 }
 
-/// The message of a shard run that wrote (or found) its part of `what`.
+/// The [`PipelineError::Stopped`] of a shard run that wrote (or found) its part of `what`:
+/// not a failure; it says what is done and what comes next.
 pub fn done(
     dir: &Path,
     what: &str,
     shard: Shard,
     check: impl Fn(&BakeManifest) -> Option<String>,
-) -> Stopped {
+) -> PipelineError {
     let state = merge_shards(dir, check);
     let next = match state {
         Ok(ShardState::Merged { count }) => format!("all {count} shards are done and merged"),
@@ -68,7 +57,7 @@ pub fn done(
         Ok(ShardState::None) => "its manifest is not in place".into(),
         Err(e) => format!("merging failed: {e}"),
     };
-    Stopped(format!(
+    PipelineError::Stopped(format!(
         "shard {shard} of the {what} is in {} ({next}); a `fipt run` without --shard goes on from there",
         dir.display()
     ))

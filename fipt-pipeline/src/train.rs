@@ -1,8 +1,10 @@
 //! `fipt train <scene> --out OUT`: fit the material field to the bake in OUT/bake, write the
 //! checkpoint to OUT/train/ and per-view maps to OUT/train/views/<split>/.
+use crate::bail;
+use crate::error::Context;
+use crate::error::Result;
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
-use anyhow::{bail, Context, Result};
 use fipt_core::dataset::{GtKind, View};
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, ExrPrecision, Image};
