@@ -6,8 +6,6 @@
 //! subcommand, preset and file layout stays as it is (see `examples/brightest-emitters`).
 mod bake;
 mod bench;
-mod bench_bake;
-mod bench_train;
 mod demo;
 mod eval;
 mod export;
@@ -18,7 +16,6 @@ mod report;
 mod run;
 mod search;
 mod sweep;
-mod sweep_plot;
 mod synth;
 mod table;
 mod train;

@@ -38,6 +38,8 @@ pub mod run;
 pub mod scene;
 pub mod search;
 pub mod shard;
+pub mod sweep;
+mod sweep_plot;
 pub mod train;
 
 pub use components::Components;

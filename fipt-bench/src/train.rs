@@ -1,7 +1,7 @@
 //! `fipt bench --suite train`: training steps/s per preset on synthetic surface samples, split
 //! into hash grid / MLP and loss / optimiser, and the same encoding+MLP+Adam step with the hash
 //! grid written in plain candle ops (index_select + a dense AdamW over the tables).
-use anyhow::Result;
+use crate::{BenchError, Result};
 use candle_core::{DType, Device, Module, Tensor, Var};
 use candle_nn::{Optimizer, VarBuilder, VarMap};
 use fipt_core::fsutil::write_json_atomic;
@@ -165,10 +165,9 @@ fn mlp_step_ms(
             mlp.forward(x.as_tensor())?
         };
         let grads = y.sqr()?.mean_all()?.backward()?;
-        anyhow::ensure!(
-            grads.get(mlp.params().as_tensor()).is_some(),
-            "no MLP gradient"
-        );
+        if grads.get(mlp.params().as_tensor()).is_none() {
+            return Err(BenchError::Invalid("no MLP gradient".into()));
+        }
         if k >= 3 {
             times.push(t0.elapsed().as_secs_f64());
         }
@@ -179,7 +178,7 @@ fn mlp_step_ms(
 pub fn run(quick: bool, out: &Path) -> Result<()> {
     let steps = if quick { 6 } else { 50 };
     let (data, bounds) = samples(if quick { 300_000 } else { 1_000_000 });
-    eprintln!(
+    fipt_pipeline::note!(
         "{} synthetic surface samples; batch 8192; {steps} timed steps per preset",
         data.len()
     );
@@ -240,7 +239,7 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
             "ms_mlp_optimizer": ms(opt, steps),
             "ms_batch_gather": ms(tm.batch - warm.batch, steps),
         });
-        eprintln!(
+        fipt_pipeline::note!(
             "{name:>8} sized {sizing:<12} finest {:>5} cells, 2^{} tables: {:.1} steps/s (median step {:.1}); ms per step: hash grid {:.1}, MLPs and loss {:.1}, batch {:.1}",
             t.field.grid().levels().last().map_or(0, |l| l.resolution),
             cfg.field.grid.log2_table,
@@ -264,7 +263,7 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         .collect();
     let custom = encoding_step_ms(&cfg, &batches, false)?;
     let plain = encoding_step_ms(&cfg, &batches, true)?;
-    eprintln!("encoding + MLP + Adam step, balanced sizes: custom ops {custom:.1} ms, plain candle {plain:.1} ms (×{:.2})", plain / custom);
+    fipt_pipeline::note!("encoding + MLP + Adam step, balanced sizes: custom ops {custom:.1} ms, plain candle {plain:.1} ms (×{:.2})", plain / custom);
     let mut mlps = vec![];
     let f = &cfg.field;
     for (name, input, width, hidden, output) in [
@@ -285,7 +284,7 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
     ] {
         let fused = mlp_step_ms(input, width, hidden, output, false)?;
         let plain = mlp_step_ms(input, width, hidden, output, true)?;
-        eprintln!("{name} MLP forward + backward, 8192 rows: fused op {fused:.2} ms, plain candle {plain:.2} ms (×{:.2})", plain / fused);
+        fipt_pipeline::note!("{name} MLP forward + backward, 8192 rows: fused op {fused:.2} ms, plain candle {plain:.2} ms (×{:.2})", plain / fused);
         mlps.push(serde_json::json!({
             "mlp": name, "input": input, "width": width, "hidden": hidden, "output": output,
             "fused_ms": fused, "plain_candle_ms": plain, "speedup": plain / fused,
@@ -299,9 +298,8 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         "presets": presets,
         "encoding_step_ms": {"custom_op": custom, "plain_candle": plain, "speedup": plain / custom},
         "mlp_step_ms": mlps,
-        "peak_rss_mib": crate::bench::peak_rss_mib(),
+        "peak_rss_mib": crate::rays::peak_rss_mib(),
     });
     write_json_atomic(out, &report)?;
-    println!("wrote {}", out.display());
     Ok(())
 }

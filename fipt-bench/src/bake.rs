@@ -1,8 +1,8 @@
 //! `fipt bench --suite bake --scene DIR`: bake throughput against the BVH's raw incoherent
 //! throughput on the same scene, wall time per term, and the ablations (diffuse cache,
 //! sampler, specular estimator, SLF fallback) with their accuracy.
-use crate::bench::{make_rays, peak_rss_mib, throughput};
-use anyhow::{bail, Context, Result};
+use crate::rays::{make_rays, peak_rss_mib, throughput};
+use crate::{BenchError, Result};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::metrics::{psnr, srgb_psnr};
 use fipt_core::shading::ViewShadings;
@@ -30,7 +30,9 @@ fn agreement(a: &[ViewShadings], b: &[ViewShadings]) -> (f64, f64) {
 
 pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result<()> {
     let Some(dir) = scene_dir else {
-        bail!("--suite bake needs --scene DIR (e.g. the output of `fipt synth room`)")
+        return Err(BenchError::Invalid(
+            "--suite bake needs --scene DIR (e.g. the output of `fipt synth room`)".into(),
+        ));
     };
     let mut scene = fipt_pipeline::scene::load(dir, BadPixelPolicy::Reject)?;
     let n = views.unwrap_or(scene.images.len()).min(scene.images.len());
@@ -42,7 +44,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
     let (_, inc) = make_rays(&scene.geometry.mesh, &scene.geometry.bvh, &cams);
     let bvh = &scene.geometry.bvh;
     let (raw, _) = throughput(&inc, 2, |o, d| bvh.bare_traverse(o, d));
-    eprintln!(
+    fipt_pipeline::note!(
         "raw incoherent closest-hit on this scene: {raw:.2} Mrays/s ({} rays)",
         inc.len()
     );
@@ -100,8 +102,8 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
         );
         let secs = t.elapsed().as_secs_f64();
         let rays = (stats.rays_diffuse + stats.rays_specular) as f64;
-        let closure = fipt_pipeline::eval::closure_psnr(&scene, &sh).context("closure PSNR")?;
-        eprintln!(
+        let closure = fipt_pipeline::eval::closure_psnr(&scene, &sh)?;
+        fipt_pipeline::note!(
             "{name:<20} {secs:>7.1} s  diffuse {:>6.1} s  specular {:>6.1} s  {:>8.0} px/s  {:>5.2} Mrays/s ({:.0} % of raw)  closure {}",
             stats.seconds_diffuse,
             stats.seconds_specular,
@@ -121,7 +123,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
     let (ld_cache_vs_pp, _) = agreement(&find("default").1, &find("per_pixel_ld").1);
     let (ld_noise, _) = agreement(&find("per_pixel_ld").1, &find("per_pixel_ld_seed1").1);
     let speedup = find("per_pixel_ld").2.seconds_diffuse / find("default").2.seconds_diffuse;
-    eprintln!(
+    fipt_pipeline::note!(
         "diffuse cache: Ld {speedup:.2}× faster; cached vs per-pixel Ld {ld_cache_vs_pp:.2} dB, per-pixel vs per-pixel (another seed) {ld_noise:.2} dB (the Monte Carlo noise floor)"
     );
     let report = json!({
@@ -132,6 +134,5 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
         "peak_rss_mib": peak_rss_mib(),
     });
     fipt_core::fsutil::write_json_atomic(out, &report)?;
-    println!("wrote {}", out.display());
     Ok(())
 }
