@@ -112,7 +112,8 @@ pub fn run(
                 .iter()
                 .map(|v| primary_records(&scene.geometry, v))
                 .collect();
-            extract_emitters(&scene, &records, field, shadings.as_deref(), extractor)?
+            let reflected = shadings.as_deref().map(crate::outputs::max_reflected);
+            extract_emitters(&scene, &records, field, reflected.as_deref(), extractor)?
         }
     };
     let user_emitters: Vec<_> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();

@@ -233,30 +233,42 @@ pub(crate) fn write_views(
     Ok(())
 }
 
+/// What the shadings say each pixel could at most reflect (Ld plus the largest Ls0 and Ls1
+/// over the levels; None where the pixel has no shading): all the emitter extraction needs of
+/// them, 16 bytes a pixel, so that the shadings themselves can go before the training.
+pub(crate) fn max_reflected(
+    shadings: &[fipt_core::shading::ViewShadings],
+) -> Vec<Vec<Option<Vec3>>> {
+    let m =
+        |x: &[Vec3; fipt_core::shading::NUM_LEVELS]| x.iter().fold(Vec3::ZERO, |a, b| a.max(*b));
+    shadings
+        .iter()
+        .map(|sh| {
+            (0..sh.ld.len())
+                .map(|i| sh.valid[i].then(|| sh.ld[i] + m(&sh.ls0[i]) + m(&sh.ls1[i])))
+                .collect()
+        })
+        .collect()
+}
+
 /// Emitter extraction from the field's mask and the training pixels (with what the initial
-/// shadings say each pixel could at most reflect).
+/// shadings say each pixel could at most reflect, [`max_reflected`]).
 pub(crate) fn extract_emitters(
     scene: &crate::scene::LoadedScene,
     records: &[Vec<Option<PixelRecord>>],
     field: &dyn fipt_core::field::MaterialField,
-    shadings: Option<&[fipt_core::shading::ViewShadings]>,
+    reflected: Option<&[Vec<Option<Vec3>>]>,
     extractor: &dyn EmitterExtractor,
 ) -> Result<Vec<Emitter>> {
     let mut hits = Vec::new();
     for (v, (recs, img)) in records.iter().zip(&scene.images).enumerate() {
-        let sh = shadings.and_then(|s| s.get(v));
+        let most = reflected.and_then(|s| s.get(v));
         for (i, (r, l)) in recs.iter().zip(&img.data).enumerate() {
             if let Some(r) = r {
-                let max_reflected = sh.filter(|sh| sh.valid[i]).map(|sh| {
-                    let m = |x: &[Vec3; fipt_core::shading::NUM_LEVELS]| {
-                        x.iter().fold(Vec3::ZERO, |a, b| a.max(*b))
-                    };
-                    sh.ld[i] + m(&sh.ls0[i]) + m(&sh.ls1[i])
-                });
                 hits.push(PixelHit {
                     triangle: r.hit.tri,
                     radiance: *l,
-                    max_reflected,
+                    max_reflected: most.and_then(|m| m.get(i).copied().flatten()),
                 });
             }
         }

@@ -430,12 +430,15 @@ fn run_locked(
     if searched.is_some() {
         mark("search", t);
     }
+    // What the closure and the extraction need of the shadings, before the training takes them.
+    let mut closure = bake_closure(&scene, &shadings, has_gt)?;
+    let reflected = crate::outputs::max_reflected(&shadings);
     let t = std::time::Instant::now();
     let bake_id = fipt_shading::bake_store::fingerprint(&bake);
     let (mut field, mut train, _) = crate::train::stage(
         &scene,
         &bake_id,
-        &shadings,
+        shadings,
         &cfg.train,
         &a.out.join("train"),
         a.force,
@@ -453,14 +456,14 @@ fn run_locked(
         &scene,
         &records,
         &field,
-        Some(&shadings),
+        Some(&reflected),
         extractor.as_ref(),
     )?;
+    drop(reflected);
     let user_emitters = write_emitters(&a.out, &scene, &emitters)?;
     mark("emitters", t);
 
     // Refine → train rounds, unless nothing in the scene needs them.
-    let mut closure = bake_closure(&scene, &shadings, has_gt)?;
     let glossy = glossy_fraction(&records, &field, cfg.refine.rough_threshold)?;
     let refine_plan = refine_plan(cfg, &emitters, glossy);
     let mut rounds = vec![];

@@ -174,7 +174,7 @@ pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
     let (field, m, fresh) = stage(
         &scene,
         &fingerprint(&bake),
-        &shadings,
+        shadings,
         &cfg,
         &dir,
         a.force,
@@ -183,6 +183,11 @@ pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
         false,
     )?;
     if fresh || !dir.join("views").is_dir() {
+        // The training took the shadings; the maps' predicted renders read them again.
+        let shadings = match load_for_inputs(&bake_dir, &scene.cache_key)? {
+            Ok((_, sh)) => sh,
+            Err(why) => bail!("{}: {why}", bake_dir.display()),
+        };
         let st = Stage::start("export maps");
         let split = scene.ds.train();
         for s in &scene.ds.splits {
@@ -266,12 +271,13 @@ fn targets_fingerprint(data: &TrainingSet) -> String {
 
 /// The training stage: reuses a finished run in `dir` (same inputs and settings) unless
 /// `force`, resumes an interrupted one, or trains afresh (from `warm`'s field, identified by
-/// its fingerprint, when given). `shadings_id` fingerprints the shadings. Returns the field,
-/// the manifest and whether training ran now.
+/// its fingerprint, when given). `shadings_id` fingerprints the shadings, which are dropped
+/// once the training set holds them (so that the two are not in memory together). Returns the
+/// field, the manifest and whether training ran now.
 pub fn stage(
     scene: &LoadedScene,
     shadings_id: &str,
-    shadings: &[ViewShadings],
+    shadings: Vec<ViewShadings>,
     cfg: &TrainConfig,
     dir: &Path,
     force: bool,
@@ -293,7 +299,8 @@ pub fn stage(
     let Some(bounds) = Bounds::around(points.iter().flatten().flatten().copied(), 1.1) else {
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
-    let data = TrainingSet::new(&points, shadings, &scene.images, &bounds)?;
+    let data = TrainingSet::new(&points, &shadings, &scene.images, &bounds)?;
+    drop((shadings, points));
     let (mut data, segments_id) = with_segments(scene, data, cfg.segments)?;
     let mut targets_id = None;
     if let Some(t) = targets {
