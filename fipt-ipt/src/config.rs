@@ -46,6 +46,12 @@ pub struct IptConfig {
     /// observed on each triangle): it decides between a surface that reflects and one that
     /// emits.
     pub emission_prior: f32,
+    /// Weight of the L1 prior on metallic (each group's m weighted by its share of the training
+    /// pixels, so the prior is on the loss's per-pixel scale): where the views cannot tell a
+    /// rough metal of base colour a from a rough dielectric (σ near 1: both lobes are broad),
+    /// nothing else holds m, and the fit wandered to m ≈ 0.25 on rough walls; a metal the
+    /// highlights demand outweighs it. 0: off.
+    pub metallic_prior: f32,
     /// Rebuild the emitter sampler from the current emission every this many steps.
     pub light_update_every: u32,
     /// Save the state every this many steps (and at the end); a rerun resumes from it.
@@ -86,6 +92,7 @@ impl IptConfig {
             segments: Segments::Auto,
             two_sided_emission: false,
             emission_prior: 0.1,
+            metallic_prior: 0.05,
             light_update_every: 10,
             checkpoint_every: 50,
             emitter_share: 0.5,
@@ -153,6 +160,9 @@ impl IptConfig {
         }
         if !(self.emission_prior >= 0.0 && self.emission_prior.is_finite()) {
             return bad("emission_prior", "must be ≥ 0");
+        }
+        if !(self.metallic_prior >= 0.0 && self.metallic_prior <= 100.0) {
+            return bad("metallic_prior", "must be in [0, 100]");
         }
         if self.light_update_every == 0 || self.checkpoint_every % self.light_update_every != 0 {
             return bad(

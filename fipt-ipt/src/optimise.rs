@@ -188,6 +188,19 @@ impl Pixels {
     }
 }
 
+/// Each material group's share of the training pixels (their centre rays' triangles).
+fn group_shares(p: &Problem) -> Vec<f32> {
+    let mut n = vec![0u64; p.groups];
+    for &slot in p.pixel_slots.iter().flatten() {
+        let group = p.tri_group.get(slot as usize / 2);
+        if let Some(c) = group.and_then(|&g| n.get_mut(g as usize)) {
+            *c += 1;
+        }
+    }
+    let total = n.iter().sum::<u64>().max(1) as f32;
+    n.iter().map(|&k| k as f32 / total).collect()
+}
+
 /// Runs steps `state.iteration..until` (saving a checkpoint every `checkpoint_every` steps
 /// and at the last); `progress(step, cfg.iterations)`.
 pub fn run(
@@ -209,6 +222,7 @@ pub fn run(
     let until = until.min(cfg.iterations);
     let total_area: f32 = (0..p.mesh.triangles.len()).map(|t| p.mesh.area(t)).sum();
     let lum_w = [Vec3::X, Vec3::Y, Vec3::Z].map(luminance);
+    let share = group_shares(p);
     let mut lights = LightSampler::new(p.mesh, &state.params);
     while state.iteration < until {
         let it = state.iteration;
@@ -294,6 +308,12 @@ pub fn run(
                 for c in 0..3 {
                     g[i + c] += a * lum_w[c] * le[c];
                 }
+            }
+        }
+        // The L1 prior on metallic: λ Σ_g share_g m_g (m ≥ 0).
+        if cfg.metallic_prior > 0.0 {
+            for (group, &sh) in share.iter().enumerate() {
+                g[Params::metallic_index(group as u32)] += cfg.metallic_prior * sh;
             }
         }
         let frac = it as f32 / cfg.iterations.max(1) as f32;
