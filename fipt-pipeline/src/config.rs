@@ -1,7 +1,6 @@
 //! Typed configuration files (TOML or JSON) applied on top of a named preset.
 use crate::bail;
-use crate::error::Context;
-use crate::error::Result;
+use crate::error::{Context, Result};
 use serde::{de::DeserializeOwned, Serialize};
 use std::path::Path;
 

@@ -6,8 +6,7 @@
 //! pooled over the split: the share of metal pixels predicted ≥ 0.8 and of dielectric ones
 //! predicted > 0.1; emitter IoU (Emit summed over channels > 0) and log-L2 =
 //! MSE(log(1 + E_pred), log(1 + E_gt)) over all pixels.
-use crate::error::Context;
-use crate::error::Result;
+use crate::error::{Context, Result};
 use crate::eval_parts::{PartScores, ViewMaps};
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::fsutil::write_json_atomic;

@@ -3,8 +3,7 @@
 //! present, and warnings (degenerate triangles, views that see nothing, bad pixels, black or
 //! saturated views). A scene no camera ray hits is an error.
 use crate::bail;
-use crate::error::Context;
-use crate::error::Result;
+use crate::error::{Context, Result};
 use fipt_core::dataset::{hdr_stats, Dataset, HdrStats, Layout};
 use fipt_core::image::BadPixelPolicy;
 use fipt_geom::{view_coverage, BuildQuality, Bvh, Mesh};

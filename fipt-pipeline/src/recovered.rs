@@ -2,8 +2,7 @@
 //! material field and emitters, and the surfaces the path tracer renders from them (the
 //! re-render of `fipt run`, `fipt render` and `fipt export` share them).
 use crate::bail;
-use crate::error::Context;
-use crate::error::Result;
+use crate::error::{Context, Result};
 use fipt_core::dataset::{Dataset, View};
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;

@@ -1,8 +1,7 @@
 //! The path-grown refinement stage of `fipt run`: re-computes the shadings of the training
 //! views from the last round's field and the extracted emitters, stored like a bake in
 //! `OUT/refine<k>/` (manifest last), keyed by the settings and the upstream fingerprints.
-use crate::error::PipelineError;
-use crate::error::Result;
+use crate::error::{PipelineError, Result};
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
 use crate::shard::Sharding;

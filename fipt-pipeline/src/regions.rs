@@ -1,8 +1,7 @@
 //! Material regions of the training pixels for the search: the scene's part ids (`IndexMA/`),
 //! its semantic classes (`segmentation/`), or smooth patches of the mesh.
 use crate::bail;
-use crate::error::Context;
-use crate::error::Result;
+use crate::error::{Context, Result};
 use crate::scene::LoadedScene;
 use fipt_core::dataset::GtKind;
 use fipt_shading::bake::PixelRecord;

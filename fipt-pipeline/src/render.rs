@@ -1,8 +1,7 @@
 //! Path-traced views (`fipt render`) of a recovered scene (a `fipt run` output folder) or of a
 //! mesh with given materials, from any cameras, optionally relit by a lights file.
 use crate::bail;
-use crate::error::Context;
-use crate::error::Result;
+use crate::error::{Context, Result};
 use crate::observe::{bar, Stage};
 use crate::recovered::RunOutput;
 use fipt_core::camera::Camera;

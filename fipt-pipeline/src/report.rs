@@ -1,6 +1,5 @@
 //! The pictures of a finished run: contact sheets and `report.html` (fipt-report).
-use crate::error::Context;
-use crate::error::Result;
+use crate::error::{Context, Result};
 use std::path::{Path, PathBuf};
 
 /// Writes the report of run folder `out` of scene `ds`; returns the HTML page.

@@ -2,8 +2,7 @@
 //! per-view maps → re-render → report (→ eval when ground truth exists). Every stage writes
 //! its results atomically and a manifest last; re-running skips finished stages and resumes an
 //! interrupted training.
-use crate::error::PipelineError;
-use crate::error::Result;
+use crate::error::{PipelineError, Result};
 use crate::observe::Stage;
 use crate::outputs::{
     emitters_summary, evaluate_if_gt, extend, extract_emitters, has_ground_truth, report_header,
@@ -319,12 +318,8 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
         cfg.pipeline.method = m.clone();
     }
     cfg.train.validate()?;
-    cfg.search
-        .validate()
-        .map_err(crate::error::PipelineError::invalid)?;
-    cfg.rounds
-        .validate()
-        .map_err(crate::error::PipelineError::invalid)?;
+    cfg.search.validate().map_err(PipelineError::invalid)?;
+    cfg.rounds.validate().map_err(PipelineError::invalid)?;
     // Components first: a misspelt name or bad plug-in settings fail before any work.
     let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
     let bake_settings = cfg.baker_settings()?;

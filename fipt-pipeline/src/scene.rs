@@ -1,6 +1,5 @@
 //! Loading a scene folder for the stages: dataset, geometry, training images, fingerprint.
-use crate::error::Context;
-use crate::error::Result;
+use crate::error::{Context, Result};
 use crate::observe::Stage;
 use fipt_core::dataset::Dataset;
 use fipt_core::image::{BadPixelPolicy, Image};

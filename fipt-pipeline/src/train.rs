@@ -1,8 +1,7 @@
 //! `fipt train <scene> --out OUT`: fit the material field to the bake in OUT/bake, write the
 //! checkpoint to OUT/train/ and per-view maps to OUT/train/views/<split>/.
 use crate::bail;
-use crate::error::Context;
-use crate::error::Result;
+use crate::error::{Context, Result};
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
 use fipt_core::dataset::{GtKind, View};
@@ -271,8 +270,8 @@ fn targets_fingerprint(data: &TrainingSet) -> String {
 
 /// The training stage: reuses a finished run in `dir` (same inputs and settings) unless
 /// `force`, resumes an interrupted one, or trains afresh (from `warm`'s field, identified by
-/// its fingerprint, when given). `shadings_id` fingerprints the shadings, which are dropped
-/// once the training set holds them (so that the two are not in memory together). Returns the
+/// its fingerprint, when given). `shadings_id` fingerprints the shadings, which are freed
+/// once the training set holds them (they do not stay beside it through the training). Returns the
 /// field, the manifest and whether training ran now.
 pub fn stage(
     scene: &LoadedScene,
