@@ -1,9 +1,10 @@
 //! `fipt bench --suite bake --scene DIR`: bake throughput against the BVH's raw incoherent
 //! throughput on the same scene, wall time per term, and the ablations (diffuse cache,
 //! sampler, specular estimator, SLF fallback) with their accuracy.
-use crate::rays::{make_rays, peak_rss_mib, throughput};
+use crate::rays::{make_rays, throughput};
 use crate::{BenchError, Result};
 use fipt_core::image::BadPixelPolicy;
+use fipt_core::memory::peak_rss_mib;
 use fipt_core::metrics::{psnr, srgb_psnr};
 use fipt_core::shading::ViewShadings;
 use fipt_shading::bake::{BakeConfig, BakeStats, FactorizedBaker, SamplerKind, SpecularEstimator};

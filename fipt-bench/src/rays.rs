@@ -3,6 +3,7 @@
 //! path-tracing speed, thread scaling and peak memory; written as JSON.
 use crate::Result;
 use fipt_core::brdf::Frame;
+use fipt_core::memory::peak_rss_mib;
 use fipt_core::rng::Pcg32;
 use fipt_geom::{hit_point, shading_normal, BuildQuality, Bvh, Mesh};
 use fipt_shading::brdf::sample_cosine_hemisphere;
@@ -126,8 +127,6 @@ fn rays_section(
         "thread_scaling": inc_w / inc_1t,
     })
 }
-
-pub use fipt_core::memory::peak_rss_mib;
 
 /// The rays suite: the room and a ~1M-triangle mesh, then the path tracer on the room.
 pub fn run(quick: bool, reps: usize, out: &std::path::Path) -> Result<()> {

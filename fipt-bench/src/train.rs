@@ -298,7 +298,7 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         "presets": presets,
         "encoding_step_ms": {"custom_op": custom, "plain_candle": plain, "speedup": plain / custom},
         "mlp_step_ms": mlps,
-        "peak_rss_mib": crate::rays::peak_rss_mib(),
+        "peak_rss_mib": fipt_core::memory::peak_rss_mib(),
     });
     write_json_atomic(out, &report)?;
     Ok(())
