@@ -149,6 +149,10 @@ pub trait RayQuery: Sync {
 /// Progress callback: `(units done so far in this call, total units)`.
 pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
 
+/// Receives each finished view's shadings by view index, in view order: the caller writes it
+/// and lets it go, so that a stage need not hold every view at once.
+pub type ViewSink<'a> = &'a mut dyn FnMut(usize, ViewShadings) -> Result<()>;
+
 /// A stage's output and what it reports about the work (counts, timings), as JSON for
 /// `report.json` and the stage's manifest.
 pub struct Reported<T> {
@@ -240,6 +244,37 @@ pub trait ShadingBaker {
         let _ = shard;
         self.bake(geometry, views, images, progress)
     }
+
+    /// [`ShadingBaker::bake_shard`] handing each of `shard`'s views to `sink` as it is done;
+    /// returns the report. The default bakes the shard, then hands its views over; a baker
+    /// that can hold one view at a time overrides it (the stage's memory then does not grow
+    /// with the number of views).
+    fn bake_into(
+        &self,
+        geometry: &dyn RayQuery,
+        views: &[View],
+        images: &[Image],
+        shard: Shard,
+        progress: Progress,
+        sink: ViewSink,
+    ) -> Result<serde_json::Value> {
+        let baked = self.bake_shard(geometry, views, images, shard, progress)?;
+        hand_over(baked, shard, sink)
+    }
+}
+
+/// Hands a stage's `shard` views to `sink`, in order; returns the report.
+fn hand_over(
+    done: Reported<Vec<ViewShadings>>,
+    shard: Shard,
+    sink: ViewSink,
+) -> Result<serde_json::Value> {
+    for (k, s) in done.output.into_iter().enumerate() {
+        if shard.contains(k) {
+            sink(k, s)?;
+        }
+    }
+    Ok(done.report)
 }
 
 /// What a [`ShadingRefiner`] works from: the scene, the training views and their images, the
@@ -278,6 +313,19 @@ pub trait ShadingRefiner {
     ) -> Result<Reported<Vec<ViewShadings>>> {
         let _ = shard;
         self.refine(inputs, progress)
+    }
+
+    /// [`ShadingRefiner::refine_shard`] handing each of `shard`'s views to `sink` as it is
+    /// done; returns the report. The default refines the shard, then hands its views over.
+    fn refine_into(
+        &self,
+        inputs: &RefineInputs,
+        shard: Shard,
+        progress: Progress,
+        sink: ViewSink,
+    ) -> Result<serde_json::Value> {
+        let refined = self.refine_shard(inputs, shard, progress)?;
+        hand_over(refined, shard, sink)
     }
 }
 

@@ -96,12 +96,31 @@ impl TrainingSet {
                 ),
             ));
         }
-        let levels = shadings
-            .first()
-            .map(|s| s.levels)
-            .unwrap_or(fipt_core::shading::DEFAULT_LEVELS);
+        Self::from_views(points, images, bounds, |v| Ok(shadings[v].clone()))
+    }
+
+    /// [`TrainingSet::new`] with each view's shadings asked of `shading(v)` in view order and
+    /// let go after its pixels are gathered (the set then never sits beside every view's
+    /// shadings). `shading`'s errors pass through.
+    pub fn from_views<E: From<NeuralError>>(
+        points: &[Vec<Option<Vec3>>],
+        images: &[Image],
+        bounds: &Bounds,
+        mut shading: impl FnMut(usize) -> std::result::Result<ViewShadings, E>,
+    ) -> std::result::Result<Self, E> {
+        let views = points.len();
+        if images.len() != views {
+            return Err(NeuralError::config(
+                "training set",
+                format!(
+                    "{views} point sets, {} images: one of each per view is needed",
+                    images.len()
+                ),
+            )
+            .into());
+        }
         let mut set = TrainingSet {
-            levels,
+            levels: fipt_core::shading::DEFAULT_LEVELS,
             unit: vec![],
             ld: vec![],
             ld_poly: vec![],
@@ -115,40 +134,76 @@ impl TrainingSet {
             semantic: false,
             target: vec![],
         };
-        let poly = shadings.first().is_some_and(|s| !s.ld_poly.is_empty());
-        for (v, ((pts, sh), img)) in points.iter().zip(shadings).zip(images).enumerate() {
-            let n = sh.width * sh.height;
-            if poly != !sh.ld_poly.is_empty() {
-                return Err(NeuralError::config(
-                    "training set",
-                    format!("view {v}: shadings of two reflectance models are mixed"),
-                ));
+        // At most every hit pixel: reserved once, so that growing never holds two copies.
+        let hits = points.iter().flatten().flatten().count();
+        set.reserve(hits);
+        let mut poly = false;
+        for (v, (pts, img)) in points.iter().zip(images).enumerate() {
+            let sh = shading(v)?;
+            if v == 0 {
+                (set.levels, poly) = (sh.levels, !sh.ld_poly.is_empty());
             }
-            if pts.len() != n || img.data.len() != n || sh.levels != levels {
-                return Err(NeuralError::config(
-                    "training set",
-                    format!("view {v}: sizes or roughness levels differ between shadings, hits and image"),
-                ));
+            if v == 0 && poly {
+                set.ld_poly.reserve(hits);
             }
-            for i in 0..n {
-                let Some(p) = pts[i] else { continue };
-                if !sh.valid[i] {
-                    continue;
-                }
-                let arr = |x: &[Vec3; NUM_LEVELS]| x.map(|c| c.to_array());
-                set.unit.push(bounds.unit(p));
-                set.morton.push(morton(bounds.unit(p)));
-                set.ld.push(sh.ld[i].to_array());
-                if let Some(p) = sh.poly(i) {
-                    set.ld_poly.push(p.map(|c| c.to_array()));
-                }
-                set.ls0.push(arr(&sh.ls0[i]));
-                set.ls1.push(arr(&sh.ls1[i]));
-                set.gt.push(img.data[i].to_array());
-                set.origin.push((v as u32, i as u32));
-            }
+            set.push_view(v, pts, &sh, img, bounds, poly)?;
         }
         Ok(set)
+    }
+
+    fn reserve(&mut self, n: usize) {
+        self.unit.reserve(n);
+        self.morton.reserve(n);
+        self.ld.reserve(n);
+        self.ls0.reserve(n);
+        self.ls1.reserve(n);
+        self.gt.reserve(n);
+        self.origin.reserve(n);
+    }
+
+    /// Appends view `v`'s pixels with a primary hit and valid shadings.
+    fn push_view(
+        &mut self,
+        v: usize,
+        pts: &[Option<Vec3>],
+        sh: &ViewShadings,
+        img: &Image,
+        bounds: &Bounds,
+        poly: bool,
+    ) -> Result<()> {
+        let n = sh.width * sh.height;
+        if poly != !sh.ld_poly.is_empty() {
+            return Err(NeuralError::config(
+                "training set",
+                format!("view {v}: shadings of two reflectance models are mixed"),
+            ));
+        }
+        if pts.len() != n || img.data.len() != n || sh.levels != self.levels {
+            return Err(NeuralError::config(
+                "training set",
+                format!(
+                    "view {v}: sizes or roughness levels differ between shadings, hits and image"
+                ),
+            ));
+        }
+        for i in 0..n {
+            let Some(p) = pts[i] else { continue };
+            if !sh.valid[i] {
+                continue;
+            }
+            let arr = |x: &[Vec3; NUM_LEVELS]| x.map(|c| c.to_array());
+            self.unit.push(bounds.unit(p));
+            self.morton.push(morton(bounds.unit(p)));
+            self.ld.push(sh.ld[i].to_array());
+            if let Some(p) = sh.poly(i) {
+                self.ld_poly.push(p.map(|c| c.to_array()));
+            }
+            self.ls0.push(arr(&sh.ls0[i]));
+            self.ls1.push(arr(&sh.ls1[i]));
+            self.gt.push(img.data[i].to_array());
+            self.origin.push((v as u32, i as u32));
+        }
+        Ok(())
     }
 
     /// Attaches segment ids: `ids[v][i]` is the id of pixel `i` of view `v` (a part or

@@ -7,10 +7,10 @@ use fipt_core::image::Image;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::ShadingBaker;
 use fipt_core::shading::Shard;
-use fipt_core::shading::ViewShadings;
 use fipt_shading::bake::{BakeConfig, BakeStats};
 use fipt_shading::bake_store::{
-    load_if_current, mismatch, save, save_shard, shard_done, BakeManifest, FORMAT_VERSION,
+    begin, finish, load_if_current, mismatch, shard_done, write_view, BakeManifest, StoredShadings,
+    FORMAT_VERSION,
 };
 use std::path::{Path, PathBuf};
 
@@ -72,7 +72,7 @@ pub fn stage(
     dir: &Path,
     force: bool,
     shard: Shard,
-) -> Result<(BakeManifest, Vec<ViewShadings>)> {
+) -> Result<(BakeManifest, StoredShadings)> {
     let name = baker.name().to_string();
     let check = |m: &BakeManifest| mismatch(m, &scene.cache_key, settings, &name);
     if !force {
@@ -96,7 +96,10 @@ pub fn stage(
     let split = scene.ds.train();
     let pb = bar(1, "bake");
     let st = Stage::start("bake");
-    let baked = baker.bake_shard(
+    // Each view is written (with its preview of Ld) as soon as it is baked, and let go.
+    begin(dir, shard)?;
+    let mut written = 0;
+    let report = baker.bake_into(
         &scene.geometry,
         &split.views,
         &scene.images,
@@ -105,48 +108,48 @@ pub fn stage(
             pb.set_length(t as u64);
             pb.set_position(d as u64);
         },
+        &mut |k, s| {
+            write_view(dir, &split.name, k, &s)?;
+            written += 1;
+            let img = Image {
+                width: s.width,
+                height: s.height,
+                data: s.ld,
+            };
+            img.write_png(&dir.join("preview").join(format!("{k:03}_ld.png")), 1.0)
+        },
     )?;
-    let shadings = baked.output;
     pb.finish_and_clear();
     let secs = st.done();
+    let expected = (0..split.views.len())
+        .filter(|k| shard.contains(*k))
+        .count();
+    if written != expected {
+        crate::bail!(
+            "baker `{name}` handed over {written} of the {expected} views it was asked for"
+        );
+    }
     let manifest = BakeManifest {
         version: FORMAT_VERSION,
         baker: name.clone(),
         inputs_hash: scene.cache_key.clone(),
         config: settings.clone(),
         split: split.name.clone(),
-        views: shadings.len(),
+        views: split.views.len(),
         width: scene.ds.width,
         height: scene.ds.height,
-        stats: baked.report.clone(),
+        stats: report.clone(),
         seconds_total: secs,
     };
-    let st = Stage::start("write bake");
-    if shard.is_all() {
-        save(dir, &manifest, &shadings)?;
-    } else {
-        save_shard(dir, &manifest, &shadings, shard)?;
-    }
-    for (k, s) in shadings
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| shard.contains(*k))
-    {
-        let img = Image {
-            width: s.width,
-            height: s.height,
-            data: s.ld.clone(),
-        };
-        img.write_png(&dir.join("preview").join(format!("{k:03}_ld.png")), 1.0)?;
-    }
-    st.done();
+    finish(dir, &manifest, shard)?;
     if !shard.is_all() {
         return Err(crate::shard::done(dir, "bake", shard, check).into());
     }
+    let stored = StoredShadings::of(dir, &manifest);
     // The built-in baker's figures in words; any other baker's report as it is.
-    let Ok(stats) = serde_json::from_value::<BakeStats>(baked.report.clone()) else {
-        crate::note!("{}: {}", manifest.baker, baked.report);
-        return Ok((manifest, shadings));
+    let Ok(stats) = serde_json::from_value::<BakeStats>(report.clone()) else {
+        crate::note!("{}: {}", manifest.baker, report);
+        return Ok((manifest, stored));
     };
     let rays = stats.rays_diffuse + stats.rays_specular;
     crate::note!(
@@ -165,5 +168,5 @@ pub fn stage(
         stats.valid_pixels as f64 / secs,
         rays as f64 / secs / 1e6
     );
-    Ok((manifest, shadings))
+    Ok((manifest, stored))
 }

@@ -349,7 +349,7 @@ pub fn evaluate_run(scene: &Path, out: &Path) -> Result<serde_json::Value> {
 /// the renderer's noise.
 pub fn closure_psnr(
     scene: &crate::scene::LoadedScene,
-    sh: &[fipt_core::shading::ViewShadings],
+    sh: &dyn fipt_shading::bake_store::ShadingViews,
 ) -> Result<Option<f64>> {
     let ds = &scene.ds;
     let split = ds.train();
@@ -365,7 +365,8 @@ pub fn closure_psnr(
         return Ok(None);
     }
     let mut sum = 0.0;
-    for (k, s) in sh.iter().enumerate() {
+    for k in 0..sh.count() {
+        let s = sh.get(k)?;
         let v = &split.views[k];
         let g = |kind| {
             ds.load_gt(split, kind, v.index)
@@ -386,7 +387,7 @@ pub fn closure_psnr(
         sum +=
             fipt_core::metrics::srgb_psnr(&pred, &scene.images[k].data, Some(&mask)).unwrap_or(0.0);
     }
-    Ok(Some(sum / sh.len() as f64))
+    Ok(Some(sum / sh.count() as f64))
 }
 
 #[cfg(test)]

@@ -82,6 +82,8 @@ pub fn run(
     std::fs::create_dir_all(&dir)?;
     let st = crate::observe::Stage::start("fit");
     let pb = crate::observe::bar(1, fitter.name());
+    // A fitter that asks for the shadings gets every view's at once.
+    let all = shadings.as_ref().map(|s| s.load_all()).transpose()?;
     let fitted = fitter.fit(
         &FitInputs {
             geometry: &scene.geometry,
@@ -89,7 +91,7 @@ pub fn run(
             triangles: &mesh.triangles,
             views: &split.views,
             images: &scene.images,
-            shadings: shadings.as_deref(),
+            shadings: all.as_deref(),
             segments: segments.as_deref(),
             model: cfg.model.brdf,
             dir: &dir,
@@ -99,6 +101,7 @@ pub fn run(
             pb.set_position(d as u64);
         },
     )?;
+    drop(all);
     pb.finish_and_clear();
     st.done();
     stages.push(StageReport::since("fit", t));
@@ -112,7 +115,9 @@ pub fn run(
                 .iter()
                 .map(|v| primary_records(&scene.geometry, v))
                 .collect();
-            let reflected = shadings.as_deref().map(crate::outputs::max_reflected);
+            let reflected = (shadings.as_ref())
+                .map(|s| crate::outputs::max_reflected(s))
+                .transpose()?;
             extract_emitters(&scene, &records, field, reflected.as_deref(), extractor)?
         }
     };

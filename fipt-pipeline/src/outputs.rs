@@ -237,16 +237,16 @@ pub(crate) fn write_views(
 /// over the levels; None where the pixel has no shading): all the emitter extraction needs of
 /// them, 16 bytes a pixel, so that the shadings themselves can go before the training.
 pub(crate) fn max_reflected(
-    shadings: &[fipt_core::shading::ViewShadings],
-) -> Vec<Vec<Option<Vec3>>> {
+    shadings: &dyn fipt_shading::bake_store::ShadingViews,
+) -> Result<Vec<Vec<Option<Vec3>>>> {
     let m =
         |x: &[Vec3; fipt_core::shading::NUM_LEVELS]| x.iter().fold(Vec3::ZERO, |a, b| a.max(*b));
-    shadings
-        .iter()
-        .map(|sh| {
-            (0..sh.ld.len())
+    (0..shadings.count())
+        .map(|k| {
+            let sh = shadings.get(k)?;
+            Ok((0..sh.ld.len())
                 .map(|i| sh.valid[i].then(|| sh.ld[i] + m(&sh.ls0[i]) + m(&sh.ls1[i])))
-                .collect()
+                .collect())
         })
         .collect()
 }

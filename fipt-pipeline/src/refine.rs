@@ -8,16 +8,17 @@ use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{hash_bytes, read_json, write_json_atomic};
-use fipt_core::shading::{RefineInputs, ShadingRefiner, ViewShadings};
+use fipt_core::shading::{RefineInputs, ShadingRefiner};
 use fipt_shading::bake_store::{
-    keyed_mismatch, load_keyed, save, save_shard, shard_done, BakeManifest, FORMAT_VERSION,
+    begin, finish, keyed_mismatch, load_keyed, shard_done, write_view, BakeManifest,
+    StoredShadings, FORMAT_VERSION,
 };
 use fipt_shading::refine::RefineStats;
 use std::path::Path;
 
-/// A finished refinement: its shadings, their fingerprint and what the rays met.
+/// A finished refinement: its shadings (on disk), their fingerprint and what the rays met.
 pub struct Refined {
-    pub shadings: Vec<ViewShadings>,
+    pub shadings: StoredShadings,
     pub key: String,
     /// The refiner's report (`ShadingRefiner::refine`).
     pub stats: serde_json::Value,
@@ -100,14 +101,31 @@ pub fn stage(
     };
     let pb = bar(1, "refine");
     let st = Stage::start("refine");
-    let refined = refiner.refine_shard(&inputs, shard, &|d, t| {
-        pb.set_length(t as u64);
-        pb.set_position(d as u64);
-    })?;
-    let shadings = refined.output;
-    let stats = refined.report;
+    // Each view is written as soon as it is refined, and let go.
+    begin(dir, shard)?;
+    let mut written = 0;
+    let stats = refiner.refine_into(
+        &inputs,
+        shard,
+        &|d, t| {
+            pb.set_length(t as u64);
+            pb.set_position(d as u64);
+        },
+        &mut |k, s| {
+            written += 1;
+            write_view(dir, &split.name, k, &s)
+        },
+    )?;
     pb.finish_and_clear();
     let secs = st.done();
+    let expected = (0..split.views.len())
+        .filter(|k| shard.contains(*k))
+        .count();
+    if written != expected {
+        crate::bail!(
+            "refiner `{name}` handed over {written} of the {expected} views it was asked for"
+        );
+    }
     print_stats(&name, &stats, secs);
     let manifest = BakeManifest {
         version: FORMAT_VERSION,
@@ -115,7 +133,7 @@ pub fn stage(
         inputs_hash: scene.cache_key.clone(),
         config: serde_json::json!({ "key": key, "settings": settings, "field": field_id }),
         split: split.name.clone(),
-        views: shadings.len(),
+        views: split.views.len(),
         width: scene.ds.width,
         height: scene.ds.height,
         stats: Default::default(),
@@ -129,13 +147,13 @@ pub fn stage(
         if stats_path.exists() {
             std::fs::remove_file(&stats_path)?;
         }
-        save_shard(dir, &manifest, &shadings, shard)?;
+        finish(dir, &manifest, shard)?;
         return Err(crate::shard::done(dir, "refinement", shard, check).into());
     }
     write_json_atomic(&stats_path, &stats)?;
-    save(dir, &manifest, &shadings)?;
+    finish(dir, &manifest, shard)?;
     Ok(Refined {
-        shadings,
+        shadings: StoredShadings::of(dir, &manifest),
         key,
         stats,
         seconds: secs,

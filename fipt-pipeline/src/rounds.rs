@@ -193,7 +193,7 @@ pub(crate) fn refinement_rounds(
         let (f, m, _) = crate::train::stage(
             ctx.scene,
             &refined.key,
-            refined.shadings,
+            &refined.shadings,
             &round_cfg,
             &train_dir(ctx.out, r),
             ctx.force,

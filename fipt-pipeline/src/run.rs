@@ -427,13 +427,13 @@ fn run_locked(
     }
     // What the closure and the extraction need of the shadings, before the training takes them.
     let mut closure = bake_closure(&scene, &shadings, has_gt)?;
-    let reflected = crate::outputs::max_reflected(&shadings);
+    let reflected = crate::outputs::max_reflected(&shadings)?;
     let t = std::time::Instant::now();
     let bake_id = fipt_shading::bake_store::fingerprint(&bake);
     let (mut field, mut train, _) = crate::train::stage(
         &scene,
         &bake_id,
-        shadings,
+        &shadings,
         &cfg.train,
         &a.out.join("train"),
         a.force,
@@ -549,7 +549,7 @@ fn components_report(
 /// The closure of the bake's shadings with the true materials (empty without ground truth).
 fn bake_closure(
     scene: &crate::scene::LoadedScene,
-    shadings: &[fipt_core::shading::ViewShadings],
+    shadings: &fipt_shading::bake_store::StoredShadings,
     has_gt: bool,
 ) -> Result<Vec<serde_json::Value>> {
     Ok(if has_gt {

@@ -9,6 +9,7 @@ use fipt_core::color::luminance;
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_shading::bake::PixelRecord;
+use fipt_shading::bake_store::StoredShadings;
 use fipt_shading::search::{
     choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, Albedo,
     RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
@@ -117,7 +118,7 @@ fn fitted_profiles(
 pub fn on_bake(
     scene: &LoadedScene,
     records: &[Vec<Option<PixelRecord>>],
-    shadings: &[ViewShadings],
+    shadings: &StoredShadings,
     cfg: &SearchConfig,
     footprint: f32,
 ) -> Result<Option<Searched>> {
@@ -144,7 +145,7 @@ pub enum When {
 pub fn stage(
     scene: &LoadedScene,
     records: &[Vec<Option<PixelRecord>>],
-    shadings: &[ViewShadings],
+    shadings: &StoredShadings,
     cfg: &SearchConfig,
     footprint: f32,
     previous: Option<&Searched>,
@@ -154,6 +155,8 @@ pub fn stage(
     if !cfg.enabled {
         return Ok(None);
     }
+    // The search reads any pixel of any view: it holds them all, until it returns.
+    let shadings = &shadings.load_all()?[..];
     let bake_cfg = SearchConfig {
         metal_margin: cfg.bake_metal_margin,
         ..cfg.clone()
@@ -294,7 +297,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
     let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
     let dir = a.out.join(&a.shadings);
     let shadings = match fipt_shading::bake_store::load_for_inputs(&dir, &scene.cache_key)? {
-        Ok((_, s)) => s,
+        Ok((_, s)) => s.load_all()?,
         Err(why) => bail!(
             "{}: {why} (run `fipt run` or `fipt bake` first)",
             dir.display()

@@ -12,7 +12,7 @@ use fipt_geom::Geometry;
 use fipt_neural::train::{render_factorized, SegmentSource, StepLosses, TrainTimings};
 use fipt_neural::{Bounds, NeuralField, TrainConfig, Trainer, TrainingSet};
 use fipt_shading::bake::primary_records;
-use fipt_shading::bake_store::{fingerprint, load_for_inputs};
+use fipt_shading::bake_store::{fingerprint, load_for_inputs, StoredShadings};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -160,7 +160,7 @@ pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
     } else {
         None // no bake there: the error below says what to run first
     };
-    let (bake, shadings) = match load_for_inputs(&bake_dir, &scene.cache_key)? {
+    let (bake, stored) = match load_for_inputs(&bake_dir, &scene.cache_key)? {
         Ok(x) => x,
         Err(why) => bail!(
             "{}: {why}; run `fipt bake {} --out {}` first",
@@ -173,7 +173,7 @@ pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
     let (field, m, fresh) = stage(
         &scene,
         &fingerprint(&bake),
-        shadings,
+        &stored,
         &cfg,
         &dir,
         a.force,
@@ -182,11 +182,8 @@ pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
         false,
     )?;
     if fresh || !dir.join("views").is_dir() {
-        // The training took the shadings; the maps' predicted renders read them again.
-        let shadings = match load_for_inputs(&bake_dir, &scene.cache_key)? {
-            Ok((_, sh)) => sh,
-            Err(why) => bail!("{}: {why}", bake_dir.display()),
-        };
+        // The maps' predicted renders read the shadings.
+        let shadings = stored.load_all()?;
         let st = Stage::start("export maps");
         let split = scene.ds.train();
         for s in &scene.ds.splits {
@@ -276,7 +273,7 @@ fn targets_fingerprint(data: &TrainingSet) -> String {
 pub fn stage(
     scene: &LoadedScene,
     shadings_id: &str,
-    shadings: Vec<ViewShadings>,
+    shadings: &StoredShadings,
     cfg: &TrainConfig,
     dir: &Path,
     force: bool,
@@ -298,8 +295,10 @@ pub fn stage(
     let Some(bounds) = Bounds::around(points.iter().flatten().flatten().copied(), 1.1) else {
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
-    let data = TrainingSet::new(&points, &shadings, &scene.images, &bounds)?;
-    drop((shadings, points));
+    let data = TrainingSet::from_views(&points, &scene.images, &bounds, |k| {
+        shadings.view(k).map_err(crate::PipelineError::from)
+    })?;
+    drop(points);
     let (mut data, segments_id) = with_segments(scene, data, cfg.segments)?;
     let mut targets_id = None;
     if let Some(t) = targets {

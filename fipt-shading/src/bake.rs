@@ -9,11 +9,12 @@
 //! * **Low-discrepancy sampling** (`sampler = "stratified"`): a rank-1 lattice (R2 sequence)
 //!   with a random shift per pixel and term, instead of independent random numbers.
 pub use crate::diffuse::{
-    diffuse_moments, diffuse_shading, DiffuseCell, DiffuseCells, DiffuseMoments,
+    diffuse_moments, diffuse_shading, CellShading, DiffuseCell, DiffuseCells, DiffuseMoments,
 };
 use crate::incident::{power_heuristic, IncidentLight, Incoming};
 pub use crate::records::{
-    empty_shadings, empty_shadings_of, median_footprint, primary_records, PixelRecord,
+    empty_shadings, empty_shadings_of, empty_view_shadings, median_footprint, primary_records,
+    HitsSummary, PixelRecord,
 };
 use crate::slf::{Cube, SlfBuilder, SurfaceLightField};
 use fipt_core::brdf::Frame;
@@ -23,7 +24,8 @@ use fipt_core::image::Image;
 use fipt_core::reflectance::{ggx_d, schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    Progress, RayQuery, Reported, ShadingBaker, Shard, ViewShadings, DEFAULT_LEVELS, NUM_LEVELS,
+    Progress, RayQuery, Reported, ShadingBaker, Shard, ViewShadings, ViewSink, DEFAULT_LEVELS,
+    NUM_LEVELS,
 };
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -479,7 +481,7 @@ impl FactorizedBaker {
     /// cache's cells come from every view's primary hits (cheap), only the cells that the
     /// shard's pixels fall in are integrated, and every sample stream is keyed by the global
     /// view and cell indices, so the shard's shadings are bit-identical to an unsharded bake's.
-    /// The other views' shadings stay zero; the counts in the stats are the shard's work.
+    /// The other views' shadings are 0 × 0; the counts in the stats are the shard's work.
     pub fn bake_views(
         &self,
         geometry: &dyn RayQuery,
@@ -488,43 +490,76 @@ impl FactorizedBaker {
         shard: Shard,
         progress: Progress,
     ) -> (Vec<ViewShadings>, BakeStats, Option<SurfaceLightField>) {
+        let poly = self.model.diffuse_depends_on_roughness();
+        let levels = self.config.levels;
+        let mut out: Vec<ViewShadings> = views
+            .iter()
+            .map(|_| ViewShadings::zeros_for(0, 0, levels, poly))
+            .collect();
+        let (stats, slf) = self
+            .bake_streamed(geometry, views, images, shard, progress, &mut |k, s| {
+                out[k] = s;
+                Ok(())
+            })
+            .expect("collecting views does not fail");
+        (out, stats, slf)
+    }
+
+    /// The bake of `shard`'s views, each view handed to `sink` as soon as it is done (in view
+    /// order) and dropped: the bake holds one view's hits and shadings at a time, beside the
+    /// SLF and the diffuse cache (one entry per surface cell, bounded by the surface area, not
+    /// by the number of views). The primary hits are traced again in each of three passes
+    /// (the cube and footprint, the SLF and the cells, the shadings); they are a small part of
+    /// the bake's rays. Results are those of a bake that holds every view.
+    pub fn bake_streamed(
+        &self,
+        geometry: &dyn RayQuery,
+        views: &[View],
+        images: &[Image],
+        shard: Shard,
+        progress: Progress,
+        sink: ViewSink,
+    ) -> fipt_core::Result<(BakeStats, Option<SurfaceLightField>)> {
         let cfg = &self.config;
         let mut stats = BakeStats::default();
         let t = Instant::now();
-        let records: Vec<Vec<Option<PixelRecord>>> =
-            views.iter().map(|v| primary_records(geometry, v)).collect();
-        let selected = shard.mask(views.len());
+        let summary = HitsSummary::of(geometry, views, 1.1);
         stats.seconds_primary = t.elapsed().as_secs_f64();
-        let mine = || {
-            records
-                .iter()
-                .zip(&selected)
-                .filter(|(_, &s)| s)
-                .map(|(r, _)| r)
+        let selected = shard.mask(views.len());
+        let model = self.model;
+        let Some(cube) = summary.cube else {
+            for (k, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
+                let cam = &v.camera;
+                let poly = model.diffuse_depends_on_roughness();
+                sink(
+                    k,
+                    ViewShadings::zeros_for(cam.width, cam.height, cfg.levels, poly),
+                )?;
+            }
+            return Ok((stats, None));
         };
-        stats.pixels = mine().map(|r| r.len()).sum();
-        stats.valid_pixels = mine().flatten().flatten().count();
+        // The SLF and the diffuse cache's cells, one view at a time.
         let t = Instant::now();
-        let Some(slf) = build_slf(
-            &records,
-            images,
-            cfg.slf_resolution,
-            cfg.slf_fallback_levels,
-            |_| true,
-        ) else {
-            let out = views
-                .iter()
-                .map(|v| {
-                    ViewShadings::zeros_for(
-                        v.camera.width,
-                        v.camera.height,
-                        cfg.levels,
-                        self.model.diffuse_depends_on_roughness(),
-                    )
-                })
-                .collect();
-            return (out, stats, None);
-        };
+        let mut slf = SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels);
+        let cell = summary.footprint.unwrap_or(1e-3).max(1e-9) * cfg.cache_cell_scale.max(1e-3);
+        let mut cells = DiffuseCells::new(cube.min, cell);
+        for (k, (v, img)) in views.iter().zip(images).enumerate() {
+            let r = primary_records(geometry, v);
+            for (rec, l) in r.iter().zip(&img.data) {
+                if let Some(rec) = rec {
+                    slf.add(rec.hit.p, *l);
+                }
+            }
+            if cfg.diffuse_cache {
+                cells.add_view(&r, selected[k]);
+            }
+            if selected[k] {
+                stats.pixels += r.len();
+                stats.valid_pixels += r.iter().flatten().count();
+            }
+        }
+        let slf = slf.finish();
+        let cells = cells.finish();
         stats.seconds_slf = t.elapsed().as_secs_f64();
         stats.slf_occupied_voxels = slf.occupied();
         stats.slf_memory_bytes = slf.memory_bytes();
@@ -532,28 +567,21 @@ impl FactorizedBaker {
             geometry,
             slf: &slf,
         };
-        let spec_per_pixel: u32 = cfg.specular_samples.iter().sum();
         let total_work = stats.valid_pixels * 2;
         let done = AtomicUsize::new(0);
         let tick = |n: usize| {
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             progress(d, total_work);
         };
-        let mut out = empty_shadings_of(views, &records, cfg.levels, self.model, shard);
-
-        // Diffuse shading.
-        let t = Instant::now();
-        let model = self.model;
-        let full = model.diffuse_depends_on_roughness();
         let seed = cfg.seed;
-        if cfg.diffuse_cache {
-            let cell = median_footprint(views, &records).unwrap_or(1e-3).max(1e-9)
-                * cfg.cache_cell_scale.max(1e-3);
+        let full = model.diffuse_depends_on_roughness();
+        let t = Instant::now();
+        let cached = cfg.diffuse_cache.then(|| {
             stats.cache_cell = cell;
-            let cells = DiffuseCells::build(&records, slf.cube.min, cell);
-            let needed = cells.used_by(&selected);
+            let needed = cells.used();
             stats.cache_entries = needed.iter().filter(|&&n| n).count();
-            cells.integrate_and_scatter(model, &records, &mut out, |k, c| {
+            stats.rays_diffuse = stats.cache_entries as u64 * cfg.diffuse_samples as u64;
+            cells.integrate(model, |k, c| {
                 if !needed[k] {
                     return DiffuseMoments::default();
                 }
@@ -572,130 +600,141 @@ impl FactorizedBaker {
                     &mut rng,
                     full,
                 )
-            });
-            stats.rays_diffuse = stats.cache_entries as u64 * cfg.diffuse_samples as u64;
-            tick(stats.valid_pixels);
-        } else {
-            for (vi, (s, r)) in out.iter_mut().zip(&records).enumerate() {
-                if !selected[vi] {
-                    continue;
-                }
-                let n = s.ld.len();
-                let computed: Vec<(Rgb, [Rgb; 2])> = (0..n)
-                    .into_par_iter()
-                    .map(|i| {
-                        let Some(rec) = &r[i] else {
-                            return (Vec3::ZERO, [Vec3::ZERO; 2]);
-                        };
-                        let mut st =
-                            SampleStream::new(cfg.sampler, &[seed, 0xD1FF, vi as u64, i as u64]);
-                        diffuse_moments(
-                            &light,
-                            geometry,
-                            rec.hit.p,
-                            rec.ng,
-                            rec.ns,
-                            cfg.diffuse_samples,
-                            0,
-                            &mut st,
-                            &mut Pcg32::new(0, 0),
-                            full,
-                        )
-                        .shading(model, rec.wo, rec.ns)
-                    })
-                    .collect();
-                for (i, (l0, lp)) in computed.into_iter().enumerate() {
-                    s.ld[i] = l0;
-                    if let Some(slot) = s.ld_poly.get_mut(i) {
-                        *slot = lp;
-                    }
-                }
-                tick(r.iter().flatten().count());
-            }
+            })
+        });
+        if !cfg.diffuse_cache {
             stats.rays_diffuse = stats.valid_pixels as u64 * cfg.diffuse_samples as u64;
         }
         stats.seconds_diffuse = t.elapsed().as_secs_f64();
-
-        // Specular shadings.
-        let t = Instant::now();
-        self.specular_views(&light, geometry, &records, &selected, &mut out, &tick);
+        let spec_per_pixel: u32 = cfg.specular_samples.iter().sum();
         stats.rays_specular = stats.valid_pixels as u64 * spec_per_pixel as u64;
-        stats.seconds_specular = t.elapsed().as_secs_f64();
-        (out, stats, Some(slf))
+        // The shadings, one view at a time.
+        for (vi, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
+            let r = primary_records(geometry, v);
+            let mut s = empty_view_shadings(v, &r, cfg.levels, model);
+            let t = Instant::now();
+            match &cached {
+                Some(shading) => cells.scatter_view(shading, model, &r, &mut s),
+                None => self.diffuse_view(&light, geometry, vi, &r, &mut s),
+            }
+            tick(r.iter().flatten().count());
+            stats.seconds_diffuse += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            self.specular_view(&light, geometry, vi, &r, &mut s);
+            tick(r.iter().flatten().count());
+            stats.seconds_specular += t.elapsed().as_secs_f64();
+            sink(vi, s)?;
+        }
+        Ok((stats, Some(slf)))
     }
 
-    /// Ls0 and Ls1 of the `selected` views' pixels, each pixel's sample streams keyed by its
-    /// view and pixel index.
-    fn specular_views(
+    /// Ld of one view's pixels integrated per pixel (no cache), each pixel's sample stream
+    /// keyed by its view and pixel index.
+    fn diffuse_view(
         &self,
         light: &SlfLight,
         geometry: &dyn RayQuery,
-        records: &[Vec<Option<PixelRecord>>],
-        selected: &[bool],
-        out: &mut [ViewShadings],
-        tick: &(dyn Fn(usize) + Sync),
+        vi: usize,
+        r: &[Option<PixelRecord>],
+        s: &mut ViewShadings,
+    ) {
+        let (cfg, model) = (&self.config, self.model);
+        let full = model.diffuse_depends_on_roughness();
+        let computed: Vec<(Rgb, [Rgb; 2])> = (0..r.len())
+            .into_par_iter()
+            .map(|i| {
+                let Some(rec) = &r[i] else {
+                    return (Vec3::ZERO, [Vec3::ZERO; 2]);
+                };
+                let mut st =
+                    SampleStream::new(cfg.sampler, &[cfg.seed, 0xD1FF, vi as u64, i as u64]);
+                diffuse_moments(
+                    light,
+                    geometry,
+                    rec.hit.p,
+                    rec.ng,
+                    rec.ns,
+                    cfg.diffuse_samples,
+                    0,
+                    &mut st,
+                    &mut Pcg32::new(0, 0),
+                    full,
+                )
+                .shading(model, rec.wo, rec.ns)
+            })
+            .collect();
+        for (i, (l0, lp)) in computed.into_iter().enumerate() {
+            s.ld[i] = l0;
+            if let Some(slot) = s.ld_poly.get_mut(i) {
+                *slot = lp;
+            }
+        }
+    }
+
+    /// Ls0 and Ls1 of one view's pixels, each pixel's sample streams keyed by its view and
+    /// pixel index.
+    fn specular_view(
+        &self,
+        light: &SlfLight,
+        geometry: &dyn RayQuery,
+        vi: usize,
+        r: &[Option<PixelRecord>],
+        s: &mut ViewShadings,
     ) {
         let cfg = &self.config;
-        for (vi, (s, r)) in out.iter_mut().zip(records).enumerate() {
-            if !selected[vi] {
-                continue;
-            }
-            let seed = cfg.seed;
-            let ViewShadings { ls0, ls1, .. } = s;
-            let mixture = cfg.specular_estimator == SpecularEstimator::Mixture;
-            ls0.par_iter_mut()
-                .zip(ls1.par_iter_mut())
-                .zip(r.par_iter())
-                .enumerate()
-                .with_min_len(64)
-                .for_each(|(i, ((l0, l1), rec))| {
-                    if let Some(rec) = rec {
-                        if mixture {
-                            let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
-                                SampleStream::new(
-                                    cfg.sampler,
-                                    &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
-                                )
-                            });
-                            (*l0, *l1) = specular_shading_mixture(
-                                light,
-                                geometry,
-                                rec.hit.p,
-                                rec.ng,
-                                rec.ns,
-                                rec.wo,
-                                &cfg.levels,
-                                &cfg.specular_samples,
-                                0,
-                                &mut st,
-                                &mut Pcg32::new(0, 0),
-                                self.model,
-                            );
-                            return;
-                        }
-                        for l in 0..NUM_LEVELS {
-                            let mut st = SampleStream::new(
-                                cfg.sampler,
-                                &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
-                            );
-                            let (a, b) = specular_shading(
-                                light,
-                                rec.hit.p,
-                                rec.ng,
-                                rec.ns,
-                                rec.wo,
-                                cfg.levels[l],
-                                cfg.specular_samples[l],
-                                &mut st,
-                                self.model,
-                            );
-                            l0[l] = a;
-                            l1[l] = b;
-                        }
-                    }
-                });
-            tick(r.iter().flatten().count());
-        }
+        let seed = cfg.seed;
+        let ViewShadings { ls0, ls1, .. } = s;
+        let mixture = cfg.specular_estimator == SpecularEstimator::Mixture;
+        ls0.par_iter_mut()
+            .zip(ls1.par_iter_mut())
+            .zip(r.par_iter())
+            .enumerate()
+            .with_min_len(64)
+            .for_each(|(i, ((l0, l1), rec))| {
+                let Some(rec) = rec else { return };
+                if mixture {
+                    let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
+                        SampleStream::new(
+                            cfg.sampler,
+                            &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
+                        )
+                    });
+                    (*l0, *l1) = specular_shading_mixture(
+                        light,
+                        geometry,
+                        rec.hit.p,
+                        rec.ng,
+                        rec.ns,
+                        rec.wo,
+                        &cfg.levels,
+                        &cfg.specular_samples,
+                        0,
+                        &mut st,
+                        &mut Pcg32::new(0, 0),
+                        self.model,
+                    );
+                    return;
+                }
+                for l in 0..NUM_LEVELS {
+                    let mut st = SampleStream::new(
+                        cfg.sampler,
+                        &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
+                    );
+                    let (a, b) = specular_shading(
+                        light,
+                        rec.hit.p,
+                        rec.ng,
+                        rec.ns,
+                        rec.wo,
+                        cfg.levels[l],
+                        cfg.specular_samples[l],
+                        &mut st,
+                        self.model,
+                    );
+                    l0[l] = a;
+                    l1[l] = b;
+                }
+            });
     }
 }
 
@@ -724,16 +763,36 @@ impl ShadingBaker for FactorizedBaker {
         shard: Shard,
         progress: Progress,
     ) -> fipt_core::Result<Reported<Vec<ViewShadings>>> {
-        if views.len() != images.len() {
-            return Err(fipt_core::CoreError::invalid(
-                "bake",
-                format!("{} views but {} images", views.len(), images.len()),
-            ));
-        }
+        check_counts("bake", views, images)?;
         let (output, stats, _) = self.bake_views(geometry, views, images, shard, progress);
         Ok(Reported {
             output,
             report: serde_json::to_value(stats).unwrap_or_default(),
         })
     }
+
+    fn bake_into(
+        &self,
+        geometry: &dyn RayQuery,
+        views: &[View],
+        images: &[Image],
+        shard: Shard,
+        progress: Progress,
+        sink: ViewSink,
+    ) -> fipt_core::Result<serde_json::Value> {
+        check_counts("bake", views, images)?;
+        let (stats, _) = self.bake_streamed(geometry, views, images, shard, progress, sink)?;
+        Ok(serde_json::to_value(stats).unwrap_or_default())
+    }
+}
+
+/// Refuses views and images that do not pair up.
+pub(crate) fn check_counts(stage: &str, views: &[View], images: &[Image]) -> fipt_core::Result<()> {
+    if views.len() != images.len() {
+        return Err(fipt_core::CoreError::invalid(
+            stage,
+            format!("{} views but {} images", views.len(), images.len()),
+        ));
+    }
+    Ok(())
 }

@@ -87,21 +87,16 @@ pub fn encode(s: &ViewShadings) -> Vec<u8> {
     out
 }
 
-/// Decodes one view's shadings; `path` names the file in errors.
-pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
-    let bad = |m: &str| {
-        CoreError::invalid(
-            path,
-            format!("not a valid shading file: {m} (delete it to re-bake)"),
-        )
-    };
+/// What a `.fsh` header says: (width, height, whether the σ polynomial is stored, pixels,
+/// the file's length in bytes). `bytes` needs only the first 24.
+fn header(bytes: &[u8], path: &Path) -> Result<(usize, usize, bool, usize, usize)> {
     if bytes.len() < 24 || &bytes[..8] != MAGIC {
-        return Err(bad("wrong magic"));
+        return Err(damaged(path, "wrong magic"));
     }
     let u = |i: usize| u32::from_le_bytes(bytes[8 + 4 * i..12 + 4 * i].try_into().unwrap());
     let (ver, w, h, nl) = (u(0), u(1) as usize, u(2) as usize, u(3) as usize);
     if !(ver == FORMAT_VERSION || ver == FORMAT_VERSION_POLY) || nl != NUM_LEVELS {
-        return Err(bad(&format!("version {ver} with {nl} levels")));
+        return Err(damaged(path, &format!("version {ver} with {nl} levels")));
     }
     let poly = ver == FORMAT_VERSION_POLY;
     // Checked: a corrupt size must not wrap around to a plausible length.
@@ -115,13 +110,26 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
         ))
     });
     let Some((n, expected)) = sizes else {
-        return Err(bad(&format!("a {w}x{h} header")));
+        return Err(damaged(path, &format!("a {w}x{h} header")));
     };
+    Ok((w, h, poly, n, expected))
+}
+
+fn damaged(path: &Path, m: &str) -> CoreError {
+    CoreError::invalid(
+        path,
+        format!("not a valid shading file: {m} (delete it to re-bake)"),
+    )
+}
+
+/// Decodes one view's shadings; `path` names the file in errors.
+pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
+    let (w, h, poly, n, expected) = header(bytes, path)?;
     if bytes.len() != expected {
-        return Err(bad(&format!(
-            "{} bytes, expected {expected} (truncated?)",
-            bytes.len()
-        )));
+        return Err(damaged(
+            path,
+            &format!("{} bytes, expected {expected} (truncated?)", bytes.len()),
+        ));
     }
     let f = |off: usize| f32::from_le_bytes(bytes[off..off + 4].try_into().unwrap());
     let mut off = 24;
@@ -165,15 +173,125 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
 
 /// Writes every view's file, then the manifest.
 pub fn save(dir: &Path, manifest: &BakeManifest, shadings: &[ViewShadings]) -> Result<()> {
-    // An older manifest must not vouch for new files being written.
-    let mpath = dir.join("manifest.json");
-    if mpath.exists() {
-        std::fs::remove_file(&mpath).map_err(|e| CoreError::io(&mpath, e))?;
-    }
+    begin(dir, Shard::ALL)?;
     for (k, s) in shadings.iter().enumerate() {
-        write_bytes_atomic(&view_path(dir, &manifest.split, k), &encode(s))?;
+        write_view(dir, &manifest.split, k, s)?;
     }
-    write_json_atomic(&mpath, manifest)
+    finish(dir, manifest, Shard::ALL)
+}
+
+/// Starts writing a stage's views into `dir` (`shard`'s, or all): removes the manifests that
+/// would vouch for files about to change (the stage's, and the shard's own).
+pub fn begin(dir: &Path, shard: Shard) -> Result<()> {
+    let mut stale = vec![dir.join("manifest.json")];
+    if !shard.is_all() {
+        stale.push(shard_manifest_path(dir, shard));
+    }
+    for p in stale {
+        if p.exists() {
+            std::fs::remove_file(&p).map_err(|e| CoreError::io(&p, e))?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes view `k`'s file (temporary file, then rename).
+pub fn write_view(dir: &Path, split: &str, k: usize, s: &ViewShadings) -> Result<()> {
+    write_bytes_atomic(&view_path(dir, split, k), &encode(s))
+}
+
+/// Ends a stage's writing: its manifest, or `shard`'s (`manifest.views` is the stage's view
+/// count), once every view file is written.
+pub fn finish(dir: &Path, manifest: &BakeManifest, shard: Shard) -> Result<()> {
+    let path = if shard.is_all() {
+        dir.join("manifest.json")
+    } else {
+        shard_manifest_path(dir, shard)
+    };
+    write_json_atomic(&path, manifest)
+}
+
+/// Shadings one view at a time, whether held in memory or stored on disk: what a consumer
+/// that reads the views in turn takes.
+pub trait ShadingViews {
+    /// The number of views.
+    fn count(&self) -> usize;
+    /// View `k`'s shadings.
+    fn get(&self, k: usize) -> Result<std::borrow::Cow<'_, ViewShadings>>;
+}
+
+impl ShadingViews for Vec<ViewShadings> {
+    fn count(&self) -> usize {
+        self.len()
+    }
+    fn get(&self, k: usize) -> Result<std::borrow::Cow<'_, ViewShadings>> {
+        Ok(std::borrow::Cow::Borrowed(&self[k]))
+    }
+}
+
+impl ShadingViews for StoredShadings {
+    fn count(&self) -> usize {
+        self.views
+    }
+    fn get(&self, k: usize) -> Result<std::borrow::Cow<'_, ViewShadings>> {
+        self.view(k).map(std::borrow::Cow::Owned)
+    }
+}
+
+/// A finished stage's shadings on disk, read one view at a time, so that a consumer need not
+/// hold every view at once.
+#[derive(Clone, Debug)]
+pub struct StoredShadings {
+    pub dir: PathBuf,
+    pub split: String,
+    pub views: usize,
+}
+
+impl StoredShadings {
+    /// The shadings of the finished stage in `dir` that `manifest` describes.
+    pub fn of(dir: &Path, manifest: &BakeManifest) -> Self {
+        StoredShadings {
+            dir: dir.to_path_buf(),
+            split: manifest.split.clone(),
+            views: manifest.views,
+        }
+    }
+
+    /// View `k`'s shadings.
+    pub fn view(&self, k: usize) -> Result<ViewShadings> {
+        let p = view_path(&self.dir, &self.split, k);
+        let bytes = std::fs::read(&p).map_err(|e| CoreError::io(&p, e))?;
+        decode(&bytes, &p)
+    }
+
+    /// Every view's shadings, in order.
+    pub fn load_all(&self) -> Result<Vec<ViewShadings>> {
+        (0..self.views).map(|k| self.view(k)).collect()
+    }
+
+    /// Checks that every view's file is present and as long as its header says, without
+    /// reading it (a damaged or truncated file is found before any work relies on it).
+    pub fn check(&self) -> Result<()> {
+        use std::io::Read;
+        for k in 0..self.views {
+            let p = view_path(&self.dir, &self.split, k);
+            let mut head = [0u8; 24];
+            let len = std::fs::File::open(&p)
+                .and_then(|mut f| {
+                    f.read_exact(&mut head)?;
+                    Ok(f.metadata()?.len())
+                })
+                .map_err(|e| CoreError::io(&p, e))?;
+            let expected = header(&head, &p)?.4;
+            if len != expected as u64 {
+                return Err(damaged(
+                    &p,
+                    &format!("{len} bytes, expected {expected} (truncated?)"),
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Why a stored bake cannot be reused (None when it can).
@@ -248,7 +366,7 @@ pub fn load_keyed(
     inputs_hash: &str,
     baker: &str,
     key: &str,
-) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
+) -> Result<std::result::Result<(BakeManifest, StoredShadings), String>> {
     load_checked(dir, |m| keyed_mismatch(m, inputs_hash, baker, key))
 }
 
@@ -258,7 +376,7 @@ pub fn load_if_current(
     inputs_hash: &str,
     config: &serde_json::Value,
     baker: &str,
-) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
+) -> Result<std::result::Result<(BakeManifest, StoredShadings), String>> {
     load_checked(dir, |m| mismatch(m, inputs_hash, config, baker))
 }
 
@@ -267,7 +385,7 @@ pub fn load_if_current(
 pub fn load_for_inputs(
     dir: &Path,
     inputs_hash: &str,
-) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
+) -> Result<std::result::Result<(BakeManifest, StoredShadings), String>> {
     load_checked(dir, |m| {
         if m.version != FORMAT_VERSION {
             Some(format!("format version {}", m.version))
@@ -282,7 +400,7 @@ pub fn load_for_inputs(
 fn load_checked(
     dir: &Path,
     check: impl Fn(&BakeManifest) -> Option<String>,
-) -> Result<std::result::Result<(BakeManifest, Vec<ViewShadings>), String>> {
+) -> Result<std::result::Result<(BakeManifest, StoredShadings), String>> {
     let mpath = dir.join("manifest.json");
     if !mpath.is_file() {
         return Ok(Err("no finished bake found".into()));
@@ -294,18 +412,11 @@ fn load_checked(
     if let Some(why) = check(&m) {
         return Ok(Err(why));
     }
-    let mut out = Vec::with_capacity(m.views);
-    for k in 0..m.views {
-        let p = view_path(dir, &m.split, k);
-        let decoded = std::fs::read(&p)
-            .map_err(|e| CoreError::io(&p, e))
-            .and_then(|b| decode(&b, &p));
-        match decoded {
-            Ok(s) => out.push(s),
-            Err(e) => return Ok(Err(format!("a stored view is damaged ({e})"))),
-        }
+    let stored = StoredShadings::of(dir, &m);
+    match stored.check() {
+        Ok(()) => Ok(Ok((m, stored))),
+        Err(e) => Ok(Err(format!("a stored view is damaged ({e})"))),
     }
-    Ok(Ok((m, out)))
 }
 
 #[cfg(test)]
@@ -361,19 +472,15 @@ pub fn save_shard(
     shadings: &[ViewShadings],
     shard: Shard,
 ) -> Result<()> {
-    for p in [dir.join("manifest.json"), shard_manifest_path(dir, shard)] {
-        if p.exists() {
-            std::fs::remove_file(&p).map_err(|e| CoreError::io(&p, e))?;
-        }
-    }
+    begin(dir, shard)?;
     for (k, s) in shadings
         .iter()
         .enumerate()
         .filter(|(k, _)| shard.contains(*k))
     {
-        write_bytes_atomic(&view_path(dir, &manifest.split, k), &encode(s))?;
+        write_view(dir, &manifest.split, k, s)?;
     }
-    write_json_atomic(&shard_manifest_path(dir, shard), manifest)
+    finish(dir, manifest, shard)
 }
 
 /// What [`merge_shards`] found.

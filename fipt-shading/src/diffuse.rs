@@ -236,14 +236,19 @@ pub struct DiffuseCell {
     pub pixels: u32,
 }
 
-/// The diffuse cache's cells (triangle × side × a cubic cell of edge `cell`) and which cell
-/// each pixel of each view falls in. The moments of the incident light do not depend on the
-/// view, so they are integrated once per cell and shared by every pixel of every view that sees
-/// the cell.
+/// The diffuse cache's cells (triangle × side × a cubic cell of edge `cell`), built one view
+/// at a time ([`DiffuseCells::add_view`]) so that no view's hits outlive their pass. The
+/// moments of the incident light do not depend on the view, so they are integrated once per
+/// cell ([`DiffuseCells::integrate`]) and shared by every pixel of every view that sees the
+/// cell ([`DiffuseCells::scatter_view`]).
 pub struct DiffuseCells {
     pub entries: Vec<DiffuseCell>,
-    /// Per view, per pixel: the cell index (`u32::MAX` where the pixel misses the mesh).
-    pub assign: Vec<Vec<u32>>,
+    index: HashMap<CellKey, u32>,
+    origin: Vec3,
+    inv: f32,
+    /// Per cell: whether a pixel of a view added with `used` true falls in it.
+    used: Vec<bool>,
+    finished: bool,
 }
 
 #[derive(Hash, PartialEq, Eq, Clone, Copy)]
@@ -253,107 +258,145 @@ struct CellKey {
     cell: [i32; 3],
 }
 
+/// The integrated cache: one colour per cell under Lambert (15× smaller), all the moments
+/// under a model whose diffuse factor depends on the view.
+pub enum CellShading {
+    Lambert(Vec<Rgb>),
+    Moments(Vec<DiffuseMoments>),
+}
+
 impl DiffuseCells {
-    /// Groups the pixels of `records` into cells of edge `cell` on a lattice anchored at
-    /// `origin`. Sequential assignment keeps the entry order (and so results) deterministic.
-    pub fn build(records: &[Vec<Option<PixelRecord>>], origin: Vec3, cell: f32) -> Self {
-        let inv = 1.0 / cell;
-        let mut index: HashMap<CellKey, u32> = HashMap::new();
-        let mut entries: Vec<DiffuseCell> = Vec::new(); // sums until the end
-        let mut assign: Vec<Vec<u32>> = Vec::with_capacity(records.len());
-        for r in records {
-            let mut a = Vec::with_capacity(r.len());
-            for rec in r {
-                let Some(rec) = rec else {
-                    a.push(u32::MAX);
-                    continue;
-                };
-                let q = ((rec.hit.p - origin) * inv).floor();
-                let key = CellKey {
-                    tri: rec.hit.tri,
-                    side: rec.ng.dot(rec.hit.ng) > 0.0,
-                    cell: [q.x as i32, q.y as i32, q.z as i32],
-                };
-                let id = *index.entry(key).or_insert_with(|| {
-                    entries.push(DiffuseCell {
-                        tri: rec.hit.tri,
-                        p: Vec3::ZERO,
-                        ng: rec.ng,
-                        ns: Vec3::ZERO,
-                        pixels: 0,
-                    });
-                    entries.len() as u32 - 1
-                });
-                let e = &mut entries[id as usize];
-                e.p += rec.hit.p;
-                e.ns += rec.ns;
-                e.pixels += 1;
-                a.push(id);
-            }
-            assign.push(a);
+    /// No cells yet, on a lattice of edge `cell` anchored at `origin`.
+    pub fn new(origin: Vec3, cell: f32) -> Self {
+        DiffuseCells {
+            entries: vec![],
+            index: HashMap::new(),
+            origin,
+            inv: 1.0 / cell,
+            used: vec![],
+            finished: false,
         }
-        for e in &mut entries {
+    }
+
+    fn key(&self, rec: &PixelRecord) -> CellKey {
+        let q = ((rec.hit.p - self.origin) * self.inv).floor();
+        CellKey {
+            tri: rec.hit.tri,
+            side: rec.ng.dot(rec.hit.ng) > 0.0,
+            cell: [q.x as i32, q.y as i32, q.z as i32],
+        }
+    }
+
+    /// Adds one view's pixels (views in order: sequential assignment keeps the entry order, and
+    /// so results, deterministic); `used` marks their cells as needed (a shard's views).
+    pub fn add_view(&mut self, records: &[Option<PixelRecord>], used: bool) {
+        for rec in records.iter().flatten() {
+            let key = self.key(rec);
+            let entries = &mut self.entries;
+            let id = *self.index.entry(key).or_insert_with(|| {
+                entries.push(DiffuseCell {
+                    tri: rec.hit.tri,
+                    p: Vec3::ZERO,
+                    ng: rec.ng,
+                    ns: Vec3::ZERO,
+                    pixels: 0,
+                });
+                entries.len() as u32 - 1
+            });
+            let e = &mut self.entries[id as usize];
+            e.p += rec.hit.p;
+            e.ns += rec.ns;
+            e.pixels += 1;
+            if self.used.len() < self.entries.len() {
+                self.used.resize(self.entries.len(), false);
+            }
+            self.used[id as usize] |= used;
+        }
+    }
+
+    /// Turns the sums into means; call once every view is added.
+    pub fn finish(mut self) -> Self {
+        for e in &mut self.entries {
             e.p /= e.pixels as f32;
             e.ns = e.ns.normalize_or(e.ng);
         }
-        DiffuseCells { entries, assign }
+        self.used.resize(self.entries.len(), false);
+        self.finished = true;
+        self
     }
 
-    /// Per cell: whether a pixel of a view with `views[k]` true falls in it (the cells a shard
-    /// of the views needs).
-    pub fn used_by(&self, views: &[bool]) -> Vec<bool> {
-        let mut used = vec![false; self.entries.len()];
-        for (a, _) in self.assign.iter().zip(views).filter(|(_, &v)| v) {
-            for &id in a.iter().filter(|&&id| id != u32::MAX) {
-                used[id as usize] = true;
-            }
+    /// Groups the pixels of `records` into cells of edge `cell` on a lattice anchored at
+    /// `origin` (every view used).
+    pub fn build(records: &[Vec<Option<PixelRecord>>], origin: Vec3, cell: f32) -> Self {
+        let mut c = Self::new(origin, cell);
+        for r in records {
+            c.add_view(r, true);
         }
-        used
+        c.finish()
     }
 
-    /// Integrates every cell with `moments(cell index, cell)` and writes the diffuse shadings
-    /// of `model` into the pixels of `out` (each pixel with its own ωo).
-    pub fn integrate_and_scatter(
+    /// Per cell: whether a pixel of a view added as used falls in it.
+    pub fn used(&self) -> &[bool] {
+        &self.used
+    }
+
+    /// Which cell each pixel of `records` (a view added before) falls in (`u32::MAX` where the
+    /// pixel misses the mesh).
+    pub fn assign_view(&self, records: &[Option<PixelRecord>]) -> Vec<u32> {
+        debug_assert!(self.finished);
+        records
+            .iter()
+            .map(|r| {
+                r.as_ref()
+                    .and_then(|r| self.index.get(&self.key(r)).copied())
+            })
+            .map(|id| id.unwrap_or(u32::MAX))
+            .collect()
+    }
+
+    /// Integrates every cell with `moments(cell index, cell)`.
+    pub fn integrate(
         &self,
         model: ReflectanceModel,
-        records: &[Vec<Option<PixelRecord>>],
-        out: &mut [ViewShadings],
         moments: impl Fn(usize, &DiffuseCell) -> DiffuseMoments + Sync,
+    ) -> CellShading {
+        let all = self.entries.par_iter().enumerate();
+        if model.diffuse_depends_on_roughness() {
+            CellShading::Moments(all.map(|(k, c)| moments(k, c)).collect())
+        } else {
+            CellShading::Lambert(all.map(|(k, c)| moments(k, c).m0).collect())
+        }
+    }
+
+    /// Writes the diffuse shadings of `model` into the pixels of one view (`records` and `out`
+    /// of the same view), each pixel with its own ωo.
+    pub fn scatter_view(
+        &self,
+        shading: &CellShading,
+        model: ReflectanceModel,
+        records: &[Option<PixelRecord>],
+        out: &mut ViewShadings,
     ) {
-        if !model.diffuse_depends_on_roughness() {
-            // Lambert: one colour per cell (keeps the cache 15× smaller).
-            let ld: Vec<Rgb> = self
-                .entries
-                .par_iter()
-                .enumerate()
-                .map(|(k, c)| moments(k, c).m0)
-                .collect();
-            // Views left empty (not a shard's) have no pixels to fill.
-            for (s, a) in out.iter_mut().zip(&self.assign) {
-                for (l, &id) in s.ld.iter_mut().zip(a) {
+        let assign = self.assign_view(records);
+        match shading {
+            CellShading::Lambert(ld) => {
+                for (l, &id) in out.ld.iter_mut().zip(&assign) {
                     if id != u32::MAX {
                         *l = ld[id as usize];
                     }
                 }
             }
-            return;
-        }
-        let m: Vec<DiffuseMoments> = self
-            .entries
-            .par_iter()
-            .enumerate()
-            .map(|(k, c)| moments(k, c))
-            .collect();
-        for ((s, a), r) in out.iter_mut().zip(&self.assign).zip(records) {
-            let ViewShadings { ld, ld_poly, .. } = s;
-            ld.par_iter_mut()
-                .zip(ld_poly.par_iter_mut())
-                .zip(a.par_iter().zip(r.par_iter()))
-                .for_each(|((l0, lp), (&id, rec))| {
-                    if let (Some(rec), true) = (rec, id != u32::MAX) {
-                        (*l0, *lp) = m[id as usize].shading(model, rec.wo, rec.ns);
-                    }
-                });
+            CellShading::Moments(m) => {
+                let ViewShadings { ld, ld_poly, .. } = out;
+                ld.par_iter_mut()
+                    .zip(ld_poly.par_iter_mut())
+                    .zip(assign.par_iter().zip(records.par_iter()))
+                    .for_each(|((l0, lp), (&id, rec))| {
+                        if let (Some(rec), true) = (rec, id != u32::MAX) {
+                            (*l0, *lp) = m[id as usize].shading(model, rec.wo, rec.ns);
+                        }
+                    });
+            }
         }
     }
 }

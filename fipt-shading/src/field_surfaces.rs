@@ -177,6 +177,31 @@ impl FieldSurfaces {
         extra: &[(Vec3, u32)],
         cell: f32,
     ) -> fipt_core::Result<Self> {
+        let visit = |f: &mut dyn FnMut(Vec3, u32)| observed.iter().for_each(|&(p, t)| f(p, t));
+        Self::build_visiting(field, mesh, emitters, &visit, extra, cell)
+    }
+
+    /// [`FieldSurfaces::build`] from the observed points that `observed` hands to its argument
+    /// (twice, in the same order each time): for callers that trace them again rather than
+    /// hold them all.
+    pub fn build_from(
+        field: &dyn MaterialField,
+        mesh: &Mesh,
+        emitters: &[Emitter],
+        observed: &dyn Fn(&mut dyn FnMut(Vec3, u32)),
+        cell: f32,
+    ) -> fipt_core::Result<Self> {
+        Self::build_visiting(field, mesh, emitters, observed, &[], cell)
+    }
+
+    fn build_visiting(
+        field: &dyn MaterialField,
+        mesh: &Mesh,
+        emitters: &[Emitter],
+        observed: &dyn Fn(&mut dyn FnMut(Vec3, u32)),
+        extra: &[(Vec3, u32)],
+        cell: f32,
+    ) -> fipt_core::Result<Self> {
         let cell = if cell > 0.0 && cell.is_finite() {
             cell
         } else {
@@ -184,29 +209,6 @@ impl FieldSurfaces {
         };
         let tri_facing = facings(mesh);
         let key = |p: Vec3, t: u32| voxel_key(p, cell, &tri_facing, t);
-        let points = || observed.iter().chain(extra).filter(|(p, _)| p.is_finite());
-        let mut acc: HashMap<Key, (Vec3, u32)> = HashMap::new();
-        for &(p, t) in points() {
-            let e = acc.entry(key(p, t)).or_insert((Vec3::ZERO, 0));
-            e.0 += p;
-            e.1 += 1;
-        }
-        // Each voxel's point nearest its mean.
-        let mut nearest: HashMap<Key, (f32, Vec3)> = HashMap::with_capacity(acc.len());
-        for &(p, t) in points() {
-            let k = key(p, t);
-            let d = p.distance_squared(acc[&k].0 / acc[&k].1 as f32);
-            let e = nearest.entry(k).or_insert((f32::INFINITY, p));
-            if d < e.0 {
-                *e = (d, p);
-            }
-        }
-        let mut keys: Vec<Key> = acc.keys().copied().collect();
-        keys.sort_unstable();
-        let centers: Vec<Vec3> = keys.iter().map(|k| nearest[k].1).collect();
-        let mats = field.materials(&centers)?;
-        let voxels: HashMap<Key, SurfacePoint> =
-            keys.into_iter().zip(mats.iter().map(to_surface)).collect();
         let mut emission = vec![Vec3::ZERO; mesh.triangles.len()];
         for e in emitters {
             for (t, l) in e.triangles.iter().zip(&e.radiance) {
@@ -215,14 +217,46 @@ impl FieldSurfaces {
                 }
             }
         }
-        // Observed points per (voxel, triangle); emitters' points say nothing of the
-        // surfaces around them.
-        let mut on_triangle: HashMap<(Key, u32), u32> = HashMap::new();
-        for &(p, t) in observed.iter().filter(|(p, _)| p.is_finite()) {
-            if emission.get(t as usize) == Some(&Vec3::ZERO) {
-                *on_triangle.entry((key(p, t), t)).or_insert(0) += 1;
+        // Every point (observed, then extra) that is finite, in a fixed order.
+        let points = |f: &mut dyn FnMut(Vec3, u32, bool)| {
+            observed(&mut |p, t| {
+                if p.is_finite() {
+                    f(p, t, true)
+                }
+            });
+            for &(p, t) in extra.iter().filter(|(p, _)| p.is_finite()) {
+                f(p, t, false);
             }
-        }
+        };
+        // Point sums per voxel, and observed points per (voxel, triangle): emitters' points
+        // say nothing of the surfaces around them.
+        let mut acc: HashMap<Key, (Vec3, u32)> = HashMap::new();
+        let mut on_triangle: HashMap<(Key, u32), u32> = HashMap::new();
+        points(&mut |p, t, seen| {
+            let k = key(p, t);
+            let e = acc.entry(k).or_insert((Vec3::ZERO, 0));
+            e.0 += p;
+            e.1 += 1;
+            if seen && emission.get(t as usize) == Some(&Vec3::ZERO) {
+                *on_triangle.entry((k, t)).or_insert(0) += 1;
+            }
+        });
+        // Each voxel's point nearest its mean.
+        let mut nearest: HashMap<Key, (f32, Vec3)> = HashMap::with_capacity(acc.len());
+        points(&mut |p, t, _| {
+            let k = key(p, t);
+            let d = p.distance_squared(acc[&k].0 / acc[&k].1 as f32);
+            let e = nearest.entry(k).or_insert((f32::INFINITY, p));
+            if d < e.0 {
+                *e = (d, p);
+            }
+        });
+        let mut keys: Vec<Key> = acc.keys().copied().collect();
+        keys.sort_unstable();
+        let centers: Vec<Vec3> = keys.iter().map(|k| nearest[k].1).collect();
+        let mats = field.materials(&centers)?;
+        let voxels: HashMap<Key, SurfacePoint> =
+            keys.into_iter().zip(mats.iter().map(to_surface)).collect();
         let mut per_tri = vec![MeanSurface::default(); mesh.triangles.len()];
         let mut votes: Vec<_> = on_triangle.into_iter().collect();
         votes.sort_unstable();

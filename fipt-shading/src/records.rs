@@ -86,10 +86,66 @@ pub fn empty_shadings_of(
 pub fn median_footprint(views: &[View], records: &[Vec<Option<PixelRecord>>]) -> Option<f32> {
     let mut foot = Vec::new();
     for (v, r) in views.iter().zip(records) {
-        let step = (r.len() / 512).max(1);
-        for rec in r.iter().step_by(step).flatten() {
-            foot.push(rec.hit.t / v.camera.fx);
-        }
+        footprint_samples(v, r, &mut foot);
     }
     median(foot)
+}
+
+/// Appends the footprints of a sample of one view's pixels (at most about 512), those
+/// [`median_footprint`] takes the median of.
+pub fn footprint_samples(view: &View, records: &[Option<PixelRecord>], foot: &mut Vec<f32>) {
+    let step = (records.len() / 512).max(1);
+    for rec in records.iter().step_by(step).flatten() {
+        foot.push(rec.hit.t / view.camera.fx);
+    }
+}
+
+/// What the shading stages need of every view's primary hits before any view's shadings, found
+/// one view at a time (each view's hits are dropped after its pass): the cube around the hits
+/// and the median pixel footprint.
+pub struct HitsSummary {
+    pub cube: Option<fipt_core::cube::Cube>,
+    pub footprint: Option<f32>,
+}
+
+impl HitsSummary {
+    /// The summary of `views`' hits (cube scaled by `scale` around them).
+    pub fn of(geometry: &dyn RayQuery, views: &[View], scale: f32) -> Self {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        let mut foot = Vec::new();
+        for v in views {
+            let r = primary_records(geometry, v);
+            for rec in r.iter().flatten() {
+                if rec.hit.p.is_finite() {
+                    lo = lo.min(rec.hit.p);
+                    hi = hi.max(rec.hit.p);
+                }
+            }
+            footprint_samples(v, &r, &mut foot);
+        }
+        // The corners span the same box as the points (`Cube::around` takes their bounds).
+        let cube = (lo.x <= hi.x)
+            .then(|| fipt_core::cube::Cube::around([lo, hi], scale))
+            .flatten();
+        HitsSummary {
+            cube,
+            footprint: median(foot),
+        }
+    }
+}
+
+/// The shadings of one view with no shading yet, valid where the pixel-centre ray hit.
+pub fn empty_view_shadings(
+    view: &View,
+    records: &[Option<PixelRecord>],
+    levels: [f32; NUM_LEVELS],
+    model: ReflectanceModel,
+) -> ViewShadings {
+    let cam = &view.camera;
+    let poly = model.diffuse_depends_on_roughness();
+    let mut s = ViewShadings::zeros_for(cam.width, cam.height, levels, poly);
+    for (v, rec) in s.valid.iter_mut().zip(records) {
+        *v = rec.is_some();
+    }
+    s
 }

@@ -17,21 +17,21 @@
 //! * The field is not evaluated per path vertex: [`FieldSurfaces`] caches it on a voxel grid of
 //!   the observed surface.
 use crate::bake::{
-    build_slf, diffuse_moments, empty_shadings_of, median_footprint, primary_records,
-    specular_shading_mixture, DiffuseCells, DiffuseMoments, PixelRecord, SampleStream, SamplerKind,
+    check_counts, diffuse_moments, empty_view_shadings, primary_records, specular_shading_mixture,
+    DiffuseCells, DiffuseMoments, HitsSummary, PixelRecord, SampleStream, SamplerKind,
 };
 use crate::brdf::MicrofacetBrdf;
 use crate::field_surfaces::FieldSurfaces;
 use crate::incident::{power_heuristic, IncidentLight, Incoming, LightSample};
 use crate::scene::SurfaceModel;
-use crate::slf::SurfaceLightField;
+use crate::slf::{SlfBuilder, SurfaceLightField};
 use fipt_core::brdf::{Brdf, Frame};
 use fipt_core::color::Rgb;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
     Progress, RayQuery, RefineInputs, Reported, ShadingRefiner, Shard, SurfaceHit, ViewShadings,
-    DEFAULT_LEVELS, NUM_LEVELS,
+    ViewSink, DEFAULT_LEVELS, NUM_LEVELS,
 };
 use fipt_core::CoreError;
 use fipt_geom::{Mesh, TriangleSampler};
@@ -467,7 +467,7 @@ impl PathGrownRefiner {
     /// [`PathGrownRefiner::refine_detailed`] of `shard`'s views only, bit-identical to the
     /// unsharded refinement there (the SLF, the material cache and the diffuse cache's cells
     /// come from every view; only the cells of the shard's pixels are integrated; sample
-    /// streams are keyed by global indices). The other views' shadings stay zero; the stats
+    /// streams are keyed by global indices). The other views' shadings are 0 × 0; the stats
     /// count the shard's work.
     pub fn refine_views(
         &self,
@@ -475,6 +475,28 @@ impl PathGrownRefiner {
         shard: Shard,
         progress: Progress,
     ) -> fipt_core::Result<(Vec<ViewShadings>, RefineStats)> {
+        let poly = self.model.diffuse_depends_on_roughness();
+        let mut out: Vec<ViewShadings> = (inputs.views.iter())
+            .map(|_| ViewShadings::zeros_for(0, 0, self.config.levels, poly))
+            .collect();
+        let stats = self.refine_streamed(inputs, shard, progress, &mut |k, s| {
+            out[k] = s;
+            Ok(())
+        })?;
+        Ok((out, stats))
+    }
+
+    /// The refinement of `shard`'s views, each view handed to `sink` as soon as it is done (in
+    /// view order) and dropped: it holds one view's hits and shadings at a time beside the SLF,
+    /// the material cache and the diffuse cache (all bounded by the surface area, not by the
+    /// number of views). The primary hits are traced again per pass instead of held.
+    pub fn refine_streamed(
+        &self,
+        inputs: &RefineInputs,
+        shard: Shard,
+        progress: Progress,
+        sink: ViewSink,
+    ) -> fipt_core::Result<RefineStats> {
         let cfg = &self.config;
         let RefineInputs {
             geometry,
@@ -482,12 +504,7 @@ impl PathGrownRefiner {
             images,
             ..
         } = *inputs;
-        if views.len() != images.len() {
-            return Err(CoreError::invalid(
-                "refine",
-                format!("{} views but {} images", views.len(), images.len()),
-            ));
-        }
+        check_counts("refine", views, images)?;
         let t = Instant::now();
         let mut stats = RefineStats::default();
         let mesh = Mesh::from_triangles(inputs.positions.to_vec(), None, inputs.triangles.to_vec());
@@ -497,39 +514,50 @@ impl PathGrownRefiner {
                 "the mesh holds degenerate triangles: pass the mesh as loaded (degenerate triangles dropped)",
             ));
         }
-        let records: Vec<Vec<Option<PixelRecord>>> =
-            views.iter().map(|v| primary_records(geometry, v)).collect();
         let selected = shard.mask(views.len());
-        stats.pixels = (records.iter().zip(&selected))
-            .filter(|(_, &s)| s)
-            .map(|(r, _)| r.iter().flatten().count())
-            .sum();
         let model = self.model;
-        let mut out = empty_shadings_of(views, &records, cfg.levels, model, shard);
+        let summary = HitsSummary::of(geometry, views, 1.1);
+        let Some(cube) = summary.cube else {
+            for (k, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
+                let r = primary_records(geometry, v);
+                sink(k, empty_view_shadings(v, &r, cfg.levels, model))?;
+            }
+            return Ok(stats);
+        };
+        let footprint = summary.footprint.unwrap_or(1e-3).max(1e-9);
         // The SLF from the pixels off the emitters: a voxel straddling a light's outline
         // would otherwise lend the light's radiance to the surface beside it, which the
-        // emitters' own sampling already counts.
+        // emitters' own sampling already counts. The diffuse cache's cells beside it.
         let emitting = emitting_triangles(mesh.triangles.len(), inputs.emitters);
-        let Some(slf) = build_slf(
-            &records,
-            images,
-            cfg.slf_resolution,
-            cfg.slf_fallback_levels,
-            |r| !emitting[r.hit.tri as usize],
-        ) else {
-            return Ok((out, stats));
+        let mut slf = SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels);
+        let mut cells = DiffuseCells::new(cube.min, footprint * cfg.cache_cell_scale.max(1e-3));
+        for (k, (v, img)) in views.iter().zip(images).enumerate() {
+            let r = primary_records(geometry, v);
+            for (rec, l) in r.iter().zip(&img.data) {
+                if let Some(rec) = rec.as_ref().filter(|r| !emitting[r.hit.tri as usize]) {
+                    slf.add(rec.hit.p, *l);
+                }
+            }
+            if cfg.diffuse_cache {
+                cells.add_view(&r, selected[k]);
+            }
+            if selected[k] {
+                stats.pixels += r.iter().flatten().count();
+            }
+        }
+        let (slf, cells) = (slf.finish(), cells.finish());
+        let hits = |f: &mut dyn FnMut(Vec3, u32)| {
+            for v in views {
+                for r in primary_records(geometry, v).iter().flatten() {
+                    f(r.hit.p, r.hit.tri);
+                }
+            }
         };
-        let footprint = median_footprint(views, &records).unwrap_or(1e-3).max(1e-9);
-        let surfaces = FieldSurfaces::build(
+        let surfaces = FieldSurfaces::build_from(
             inputs.field,
             &mesh,
             inputs.emitters,
-            &records
-                .iter()
-                .flatten()
-                .flatten()
-                .map(|r| (r.hit.p, r.hit.tri))
-                .collect::<Vec<_>>(),
+            &hits,
             footprint * cfg.material_cell_scale,
         )?
         .with_model(model);
@@ -569,106 +597,84 @@ impl PathGrownRefiner {
                 full,
             )
         };
-        if cfg.diffuse_cache {
-            let cells = DiffuseCells::build(
-                &records,
-                slf.cube.min,
-                footprint * cfg.cache_cell_scale.max(1e-3),
-            );
-            let needed = cells.used_by(&selected);
+        let cached = cfg.diffuse_cache.then(|| {
+            let needed = cells.used();
             stats.cache_entries = needed.iter().filter(|&&n| n).count();
-            cells.integrate_and_scatter(model, &records, &mut out, |k, c| {
+            cells.integrate(model, |k, c| {
                 if !needed[k] || surfaces.emission(c.tri) != Vec3::ZERO {
                     return DiffuseMoments::default();
                 }
                 moments_at(&[seed, 0xD1FF, c.tri as u64, k as u64], c.p, c.ng, c.ns)
-            });
-            tick(stats.pixels);
-        } else {
-            diffuse_per_pixel(
-                model,
-                &records,
-                &selected,
-                &mut out,
-                is_emitter,
-                |vi, i, rec| {
-                    let key = [seed, 0xD1FF, vi as u64, i as u64];
-                    moments_at(&key, rec.hit.p, rec.ng, rec.ns)
-                },
-                &tick,
-            );
-        }
+            })
+        });
         stats.seconds_diffuse = t.elapsed().as_secs_f64();
 
-        // Ls0/Ls1 per pixel (emitter pixels keep 0: the mask explains them).
-        let t = Instant::now();
-        self.specular_views(
-            &light,
-            geometry,
-            &records,
-            &selected,
-            &mut out,
-            &is_emitter,
-            &tick,
-        );
-        stats.seconds_specular = t.elapsed().as_secs_f64();
+        for (vi, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
+            let r = primary_records(geometry, v);
+            let mut s = empty_view_shadings(v, &r, cfg.levels, model);
+            let t = Instant::now();
+            match &cached {
+                Some(shading) => cells.scatter_view(shading, model, &r, &mut s),
+                None => diffuse_per_pixel(model, &r, &mut s, is_emitter, |i, rec| {
+                    let key = [seed, 0xD1FF, vi as u64, i as u64];
+                    moments_at(&key, rec.hit.p, rec.ng, rec.ns)
+                }),
+            }
+            tick(r.iter().flatten().count());
+            stats.seconds_diffuse += t.elapsed().as_secs_f64();
+            // Ls0/Ls1 per pixel (emitter pixels keep 0: the mask explains them).
+            let t = Instant::now();
+            self.specular_view(&light, geometry, vi, &r, &mut s, &is_emitter);
+            tick(r.iter().flatten().count());
+            stats.seconds_specular += t.elapsed().as_secs_f64();
+            sink(vi, s)?;
+        }
         stats.take_counters(&light.counters);
-        Ok((out, stats))
+        Ok(stats)
     }
 
-    /// Ls0 and Ls1 of the `selected` views' pixels (emitter pixels keep 0), each pixel's
-    /// sample streams keyed by its view and pixel index.
-    #[allow(clippy::too_many_arguments)]
-    fn specular_views(
+    /// Ls0 and Ls1 of one view's pixels (emitter pixels keep 0), each pixel's sample streams
+    /// keyed by its view and pixel index.
+    fn specular_view(
         &self,
         light: &GrownLight,
         geometry: &dyn RayQuery,
-        records: &[Vec<Option<PixelRecord>>],
-        selected: &[bool],
-        out: &mut [ViewShadings],
+        vi: usize,
+        r: &[Option<PixelRecord>],
+        s: &mut ViewShadings,
         is_emitter: &(dyn Fn(&PixelRecord) -> bool + Sync),
-        tick: &(dyn Fn(usize) + Sync),
     ) {
         let (cfg, model) = (&self.config, self.model);
         let seed = cfg.seed;
-        for (vi, (s, r)) in out.iter_mut().zip(records).enumerate() {
-            if !selected[vi] {
-                continue;
-            }
-            let ViewShadings { ls0, ls1, .. } = s;
-            ls0.par_iter_mut()
-                .zip(ls1.par_iter_mut())
-                .zip(r.par_iter())
-                .enumerate()
-                .with_min_len(64)
-                .for_each(|(i, ((l0, l1), rec))| {
-                    let Some(rec) = rec.filter(|r| !is_emitter(r)) else {
-                        return;
-                    };
-                    let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
-                        SampleStream::new(
-                            cfg.sampler,
-                            &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
-                        )
-                    });
-                    let mut rng = Pcg32::from_keys(&[seed, 0x5BED, vi as u64, i as u64]);
-                    (*l0, *l1) = specular_shading_mixture(
-                        light,
-                        geometry,
-                        rec.hit.p,
-                        rec.ng,
-                        rec.ns,
-                        rec.wo,
-                        &cfg.levels,
-                        &cfg.specular_samples,
-                        cfg.light_samples,
-                        &mut st,
-                        &mut rng,
-                        model,
-                    );
+        let ViewShadings { ls0, ls1, .. } = s;
+        ls0.par_iter_mut()
+            .zip(ls1.par_iter_mut())
+            .zip(r.par_iter())
+            .enumerate()
+            .with_min_len(64)
+            .for_each(|(i, ((l0, l1), rec))| {
+                let Some(rec) = rec.filter(|r| !is_emitter(r)) else {
+                    return;
+                };
+                let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
+                    SampleStream::new(cfg.sampler, &[seed, 0x5BEC, vi as u64, i as u64, l as u64])
                 });
-            tick(r.iter().flatten().count());
-        }
+                let mut rng = Pcg32::from_keys(&[seed, 0x5BED, vi as u64, i as u64]);
+                (*l0, *l1) = specular_shading_mixture(
+                    light,
+                    geometry,
+                    rec.hit.p,
+                    rec.ng,
+                    rec.ns,
+                    rec.wo,
+                    &cfg.levels,
+                    &cfg.specular_samples,
+                    cfg.light_samples,
+                    &mut st,
+                    &mut rng,
+                    model,
+                );
+            });
     }
 }
 
@@ -698,36 +704,38 @@ impl ShadingRefiner for PathGrownRefiner {
             report: serde_json::to_value(stats).unwrap_or_default(),
         })
     }
+    fn refine_into(
+        &self,
+        inputs: &RefineInputs,
+        shard: Shard,
+        progress: Progress,
+        sink: ViewSink,
+    ) -> fipt_core::Result<serde_json::Value> {
+        let stats = self.refine_streamed(inputs, shard, progress, sink)?;
+        Ok(serde_json::to_value(stats).unwrap_or_default())
+    }
 }
 
-/// Ld per pixel of the `selected` views (no cache): `moments_at(view, pixel, record)`
-/// integrates one pixel; emitter pixels keep 0.
+/// Ld per pixel of one view (no cache): `moments_at(pixel, record)` integrates one pixel;
+/// emitter pixels keep 0.
 fn diffuse_per_pixel(
     model: ReflectanceModel,
-    records: &[Vec<Option<PixelRecord>>],
-    selected: &[bool],
-    out: &mut [ViewShadings],
+    r: &[Option<PixelRecord>],
+    s: &mut ViewShadings,
     is_emitter: impl Fn(&PixelRecord) -> bool + Sync,
-    moments_at: impl Fn(usize, usize, &PixelRecord) -> DiffuseMoments + Sync,
-    tick: impl Fn(usize),
+    moments_at: impl Fn(usize, &PixelRecord) -> DiffuseMoments + Sync,
 ) {
-    for (vi, (s, r)) in out.iter_mut().zip(records).enumerate() {
-        if !selected[vi] {
-            continue;
+    let computed: Vec<(Rgb, [Rgb; 2])> = (0..s.ld.len())
+        .into_par_iter()
+        .map(|i| match r[i].filter(|r| !is_emitter(r)) {
+            None => (Vec3::ZERO, [Vec3::ZERO; 2]),
+            Some(rec) => moments_at(i, &rec).shading(model, rec.wo, rec.ns),
+        })
+        .collect();
+    for (i, (l0, lp)) in computed.into_iter().enumerate() {
+        s.ld[i] = l0;
+        if let Some(slot) = s.ld_poly.get_mut(i) {
+            *slot = lp;
         }
-        let computed: Vec<(Rgb, [Rgb; 2])> = (0..s.ld.len())
-            .into_par_iter()
-            .map(|i| match r[i].filter(|r| !is_emitter(r)) {
-                None => (Vec3::ZERO, [Vec3::ZERO; 2]),
-                Some(rec) => moments_at(vi, i, &rec).shading(model, rec.wo, rec.ns),
-            })
-            .collect();
-        for (i, (l0, lp)) in computed.into_iter().enumerate() {
-            s.ld[i] = l0;
-            if let Some(slot) = s.ld_poly.get_mut(i) {
-                *slot = lp;
-            }
-        }
-        tick(r.iter().flatten().count());
     }
 }
