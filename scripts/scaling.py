@@ -6,6 +6,7 @@ DIR/scaling.md (the table and the fitted growth: the exponent b of seconds ~ wor
 and axis, least squares on the logs). Python 3 standard library only.
 
 usage: scripts/scaling.py DIR [--fipt target/release/fipt] [--preset fast] [--quick]
+                          [--axes views,pixels,triangles]
 """
 import argparse
 import csv
@@ -68,9 +69,11 @@ def main():
     ap.add_argument("--fipt", default="target/release/fipt")
     ap.add_argument("--preset", default="fast")
     ap.add_argument("--quick", action="store_true", help="x1 and x2 only")
+    ap.add_argument("--axes", default=",".join(AXES), help="comma-separated: views,pixels,triangles")
     args = ap.parse_args()
-    rows, fits = [], {}
-    for axis, steps in AXES.items():
+    rows, fits, mem_fits = [], {}, {}
+    for axis in args.axes.split(","):
+        steps = AXES[axis]
         steps = steps[:2] if args.quick else steps
         pts = []
         for factor, over in steps:
@@ -87,6 +90,7 @@ def main():
         xs = [p["factor"] for p in pts]
         fits[axis] = {k: slope(xs, [p["stages"].get(k, [0, 0])[0] for p in pts]) for k in names}
         fits[axis]["total"] = slope([p["factor"] for p in pts], [p["total_s"] for p in pts])
+        mem_fits[axis] = {k: slope(xs, [p["stages"].get(k, [0, 0])[1] for p in pts]) for k in names}
     stages = []
     for p in rows:
         stages += [k for k in p["stages"] if k not in stages]
@@ -115,6 +119,17 @@ def main():
         for axis, fit in fits.items():
             f.write(f"| {axis} | {fit['total']:.2f} | "
                     + " | ".join(f"{fit.get(k, float('nan')):.2f}" for k in stages) + " |\n")
+        f.write("\nPeak RSS MiB while each stage ran (the largest over a stage's rounds):\n\n")
+        f.write("| axis | ×work | " + " | ".join(stages) + " |\n")
+        f.write("|" + "---|" * (2 + len(stages)) + "\n")
+        for p in rows:
+            f.write(f"| {p['axis']} | {p['factor']} | "
+                    + " | ".join(f"{p['stages'].get(k, [0, 0])[1]:.0f}" for k in stages) + " |\n")
+        f.write("\nFitted growth b of each stage's peak memory (MiB ∝ work^b):\n\n")
+        f.write("| axis | " + " | ".join(stages) + " |\n")
+        f.write("|" + "---|" * (1 + len(stages)) + "\n")
+        for axis, fit in mem_fits.items():
+            f.write(f"| {axis} | " + " | ".join(f"{fit.get(k, float('nan')):.2f}" for k in stages) + " |\n")
     print(open(os.path.join(args.dir, "scaling.md")).read())
 
 

@@ -35,6 +35,12 @@ pub fn peak_rss_mib() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
+/// Starts a new peak: after this, [`peak_rss_mib`] is the peak since now (Linux resets
+/// `VmHWM` on writing 5 to /proc/self/clear_refs). False where it cannot.
+pub fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
 /// Bytes in GiB, for messages.
 pub fn gib(bytes: u64) -> f64 {
     bytes as f64 / (1u64 << 30) as f64
@@ -48,5 +54,23 @@ mod tests {
             let a = super::available_bytes().expect("readable on Linux");
             assert!(a > 1 << 20, "{a} bytes");
         }
+    }
+
+    #[test]
+    fn the_peak_can_be_restarted() {
+        if !cfg!(target_os = "linux") {
+            return;
+        }
+        // 64 MiB touched, then freed: the peak holds it until restarted.
+        let big = vec![1u8; 64 << 20];
+        std::hint::black_box(&big);
+        drop(big);
+        let before = super::peak_rss_mib().unwrap();
+        assert!(super::reset_peak_rss());
+        let after = super::peak_rss_mib().unwrap();
+        assert!(
+            after < before - 32.0,
+            "peak {before:.0} MiB, then {after:.0} MiB"
+        );
     }
 }

@@ -15,17 +15,21 @@ use std::collections::HashMap;
 use std::path::Path;
 
 impl StageReport {
-    /// The stage `stage` that started at `t`, ending now.
+    /// The stage `stage` that started at `t`, ending now; the peak memory restarts here, so
+    /// that the next stage's is its own.
     pub fn since(stage: &'static str, t: std::time::Instant) -> Self {
+        let peak_rss_mib = fipt_core::memory::peak_rss_mib();
+        fipt_core::memory::reset_peak_rss();
         StageReport {
             stage,
             seconds: t.elapsed().as_secs_f64(),
-            peak_rss_mib: fipt_core::memory::peak_rss_mib(),
+            peak_rss_mib,
         }
     }
 }
 
-/// A stage's wall time and the process's peak memory when it ended.
+/// A stage's wall time and the process's peak memory while it ran (since the stage before it
+/// ended: the largest over the stages is the run's peak).
 #[derive(Clone, Debug, Serialize)]
 pub struct StageReport {
     pub stage: &'static str,
