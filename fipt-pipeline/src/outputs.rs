@@ -15,10 +15,11 @@ use std::collections::HashMap;
 use std::path::Path;
 
 impl StageReport {
-    /// The stage `stage` that started at `t`, ending now; the peak memory restarts here, so
-    /// that the next stage's is its own.
+    /// The stage `stage` that started at `t`, ending now; the freed memory goes back to the
+    /// system and the peak restarts here, so that the next stage's peak is its own.
     pub fn since(stage: &'static str, t: std::time::Instant) -> Self {
         let peak_rss_mib = fipt_core::memory::peak_rss_mib();
+        fipt_core::memory::release_free_memory();
         fipt_core::memory::reset_peak_rss();
         StageReport {
             stage,
