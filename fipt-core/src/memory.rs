@@ -29,8 +29,13 @@ pub fn available_bytes() -> Option<u64> {
 
 /// This process's peak resident memory so far in MiB (`VmHWM`); None where unreadable.
 pub fn peak_rss_mib() -> Option<f64> {
+    status_mib("VmHWM:")
+}
+
+/// A figure of /proc/self/status in MiB.
+fn status_mib(key: &str) -> Option<f64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let line = s.lines().find(|l| l.starts_with(key))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb / 1024.0)
 }
@@ -55,6 +60,11 @@ pub fn release_free_memory() {
 /// `VmHWM` on writing 5 to /proc/self/clear_refs). False where it cannot.
 pub fn reset_peak_rss() -> bool {
     std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// This process's resident memory now in MiB (`VmRSS`); None where unreadable.
+pub fn rss_mib() -> Option<f64> {
+    status_mib("VmRSS:")
 }
 
 /// Bytes in GiB, for messages.

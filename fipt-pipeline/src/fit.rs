@@ -14,7 +14,7 @@ use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::{FitInputs, MaterialFitter};
 use fipt_core::fsutil::write_json_atomic;
 use fipt_core::shading::ShadingBaker;
-use fipt_shading::bake::primary_records;
+use fipt_shading::records::hit_points;
 use std::time::Instant;
 
 /// The components a fitted run uses.
@@ -113,7 +113,7 @@ pub fn run(
             let records: Vec<_> = split
                 .views
                 .iter()
-                .map(|v| primary_records(&scene.geometry, v))
+                .map(|v| hit_points(&scene.geometry, v))
                 .collect();
             let reflected = (shadings.as_ref())
                 .map(|s| crate::outputs::max_reflected(s))

@@ -6,7 +6,7 @@ use crate::run::{RunConfig, RunRequest};
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::write_bytes_atomic;
 use fipt_core::image::ExrPrecision;
-use fipt_shading::bake::PixelRecord;
+use fipt_shading::records::HitPoint;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::scene::Scene as RenderScene;
 use glam::Vec3;
@@ -15,8 +15,9 @@ use std::collections::HashMap;
 use std::path::Path;
 
 impl StageReport {
-    /// The stage `stage` that started at `t`, ending now; the freed memory goes back to the
-    /// system and the peak restarts here, so that the next stage's peak is its own.
+    /// The stage `stage` that started at `t`, ending now; the heap's free pages go back to the
+    /// system (glibc's malloc) and the peak restarts here, so that the next stage's peak is
+    /// its own.
     pub fn since(stage: &'static str, t: std::time::Instant) -> Self {
         let peak_rss_mib = fipt_core::memory::peak_rss_mib();
         fipt_core::memory::release_free_memory();
@@ -30,7 +31,9 @@ impl StageReport {
 }
 
 /// A stage's wall time and the process's peak memory while it ran (since the stage before it
-/// ended: the largest over the stages is the run's peak).
+/// ended: the largest over the stages is the run's peak). An allocator that keeps freed
+/// memory for reuse (the `fipt` binary's mimalloc does) keeps the resident size from falling,
+/// so a stage's figure is then at least the resident size it started from.
 #[derive(Clone, Debug, Serialize)]
 pub struct StageReport {
     pub stage: &'static str,
@@ -260,7 +263,7 @@ pub(crate) fn max_reflected(
 /// shadings say each pixel could at most reflect, [`max_reflected`]).
 pub(crate) fn extract_emitters(
     scene: &crate::scene::LoadedScene,
-    records: &[Vec<Option<PixelRecord>>],
+    records: &[Vec<Option<HitPoint>>],
     field: &dyn fipt_core::field::MaterialField,
     reflected: Option<&[Vec<Option<Vec3>>]>,
     extractor: &dyn EmitterExtractor,
@@ -271,7 +274,7 @@ pub(crate) fn extract_emitters(
         for (i, (r, l)) in recs.iter().zip(&img.data).enumerate() {
             if let Some(r) = r {
                 hits.push(PixelHit {
-                    triangle: r.hit.tri,
+                    triangle: r.tri,
                     radiance: *l,
                     max_reflected: most.and_then(|m| m.get(i).copied().flatten()),
                 });

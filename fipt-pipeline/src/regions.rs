@@ -4,7 +4,7 @@ use crate::bail;
 use crate::error::{Context, Result};
 use crate::scene::LoadedScene;
 use fipt_core::dataset::GtKind;
-use fipt_shading::bake::PixelRecord;
+use fipt_shading::records::HitPoint;
 use fipt_shading::search::RegionSource;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -41,7 +41,7 @@ pub fn split_ids(scene: &LoadedScene, kind: GtKind) -> Result<Vec<Vec<i64>>> {
 /// The regions `source` asks for (None for `none`).
 pub fn load(
     scene: &LoadedScene,
-    records: &[Vec<Option<PixelRecord>>],
+    records: &[Vec<Option<HitPoint>>],
     source: RegionSource,
     mesh_angle_deg: f32,
 ) -> Result<Option<Regions>> {
@@ -72,7 +72,7 @@ pub fn load(
             .iter()
             .map(|recs| {
                 recs.iter()
-                    .map(|r| r.map(|r| patch[r.hit.tri as usize]))
+                    .map(|r| r.map(|r| patch[r.tri as usize]))
                     .collect()
             })
             .collect();

@@ -6,7 +6,7 @@ use crate::run::RunConfig;
 use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;
 use fipt_core::shading::ShadingRefiner;
-use fipt_shading::bake::PixelRecord;
+use fipt_shading::records::HitPoint;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -113,7 +113,7 @@ pub(crate) struct RoundsContext<'a> {
     pub(crate) cfg: &'a RunConfig,
     pub(crate) out: &'a Path,
     pub(crate) force: bool,
-    pub(crate) records: &'a [Vec<Option<PixelRecord>>],
+    pub(crate) records: &'a [Vec<Option<HitPoint>>],
     pub(crate) footprint: f32,
     pub(crate) emitters: &'a [Emitter],
     pub(crate) has_gt: bool,
@@ -244,7 +244,7 @@ fn settle(
 /// Fraction of the observed surface (every 7th primary hit of the training views) whose
 /// trained roughness is at most `threshold`.
 pub(crate) fn glossy_fraction(
-    records: &[Vec<Option<PixelRecord>>],
+    records: &[Vec<Option<HitPoint>>],
     field: &dyn fipt_core::field::MaterialField,
     threshold: f32,
 ) -> Result<f64> {
@@ -253,7 +253,7 @@ pub(crate) fn glossy_fraction(
         .flatten()
         .flatten()
         .step_by(7)
-        .map(|r| r.hit.p)
+        .map(|r| r.p)
         .collect();
     if pts.is_empty() {
         return Ok(0.0);

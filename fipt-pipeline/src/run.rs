@@ -18,7 +18,8 @@ use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::Shard;
 use fipt_emitter::MaskExtractorConfig;
 use fipt_neural::TrainConfig;
-use fipt_shading::bake::{primary_records, BakeConfig};
+use fipt_shading::bake::BakeConfig;
+use fipt_shading::records::hit_points;
 use fipt_shading::refine::RefineConfig;
 use fipt_shading::search::SearchConfig;
 use serde::{Deserialize, Serialize};
@@ -495,7 +496,7 @@ fn run_locked(
     past_sharded_stages(a)?;
 
     // Observation counts per surface cell (the search's cells: 4 footprints).
-    let points = records.iter().flatten().flatten().map(|r| r.hit.p);
+    let points = records.iter().flatten().flatten().map(|r| r.p);
     let observed =
         fipt_shading::search::CellCounts::new(points, cfg.search.cell_footprints * footprint);
     write_views(
@@ -566,11 +567,11 @@ fn bake_closure(
 /// glossiness check) and their median pixel footprint.
 fn train_hits(
     scene: &crate::scene::LoadedScene,
-) -> (Vec<Vec<Option<fipt_shading::bake::PixelRecord>>>, f32) {
+) -> (Vec<Vec<Option<fipt_shading::records::HitPoint>>>, f32) {
     let views = &scene.ds.train().views;
     let records = views
         .iter()
-        .map(|v| primary_records(&scene.geometry, v))
+        .map(|v| hit_points(&scene.geometry, v))
         .collect();
     let footprint = crate::train::view_points(&scene.geometry, views)
         .1

@@ -8,8 +8,8 @@ use crate::scene::LoadedScene;
 use fipt_core::color::luminance;
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
-use fipt_shading::bake::PixelRecord;
 use fipt_shading::bake_store::StoredShadings;
+use fipt_shading::records::HitPoint;
 use fipt_shading::search::{
     choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, Albedo,
     RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
@@ -38,7 +38,7 @@ struct Prepared {
 /// The search's pixels, regions and σ grid for `shadings`.
 fn prepare(
     scene: &LoadedScene,
-    records: &[Vec<Option<PixelRecord>>],
+    records: &[Vec<Option<HitPoint>>],
     shadings: &[ViewShadings],
     cfg: &SearchConfig,
     footprint: f32,
@@ -117,7 +117,7 @@ fn fitted_profiles(
 /// The search on the initial bake, when `cfg.on_bake` asks for it.
 pub fn on_bake(
     scene: &LoadedScene,
-    records: &[Vec<Option<PixelRecord>>],
+    records: &[Vec<Option<HitPoint>>],
     shadings: &StoredShadings,
     cfg: &SearchConfig,
     footprint: f32,
@@ -144,7 +144,7 @@ pub enum When {
 
 pub fn stage(
     scene: &LoadedScene,
-    records: &[Vec<Option<PixelRecord>>],
+    records: &[Vec<Option<HitPoint>>],
     shadings: &StoredShadings,
     cfg: &SearchConfig,
     footprint: f32,
@@ -317,7 +317,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
     let records: Vec<_> = split
         .views
         .iter()
-        .map(|v| fipt_shading::bake::primary_records(&scene.geometry, v))
+        .map(|v| fipt_shading::records::hit_points(&scene.geometry, v))
         .collect();
     let (_, footprint) = crate::train::view_points(&scene.geometry, &split.views);
     let Some(Prepared {

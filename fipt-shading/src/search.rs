@@ -16,7 +16,7 @@
 //! well the shadings explain the views at the true materials); [`choose`] turns a curve into a
 //! decision. The residual is the training's: squared difference of sRGB-encoded values (no
 //! clamp), averaged over pixels and channels.
-use crate::bake::PixelRecord;
+use crate::records::PrimaryHit;
 use fipt_core::color::{srgb_oetf, Rgb};
 use fipt_core::dataset::{Dataset, GtKind, Split};
 use fipt_core::image::Image;
@@ -349,11 +349,11 @@ impl CellCounts {
 
 /// The search's pixels of the training views: every valid pixel whose `region_of` is `Some`,
 /// with cells of edge `cell`.
-pub fn gather_pixels(
-    records: &[Vec<Option<PixelRecord>>],
+pub fn gather_pixels<R: PrimaryHit>(
+    records: &[Vec<Option<R>>],
     shadings: &[ViewShadings],
     cell: f32,
-    region_of: &dyn Fn(usize, usize, &PixelRecord) -> Option<u32>,
+    region_of: &dyn Fn(usize, usize, &R) -> Option<u32>,
 ) -> Vec<SearchPixel> {
     let mut keyed = vec![];
     for (v, (recs, sh)) in records.iter().zip(shadings).enumerate() {
@@ -363,7 +363,7 @@ pub fn gather_pixels(
                 continue;
             }
             if let Some(region) = region_of(v, i, r) {
-                keyed.push((v as u32, i as u32, region, r.hit.p));
+                keyed.push((v as u32, i as u32, region, r.point()));
             }
         }
     }
