@@ -1,7 +1,10 @@
-//! The memory a run will need, estimated before any work from what dominates it: the
-//! shadings of every training pixel (held by the bake, the refinement and the training set)
-//! and the hash tables with their optimiser state. A run that would not fit is refused with
-//! the figures; one that would take most of the memory is warned about.
+//! The memory a run will need, estimated before any work from what dominates it: per training
+//! pixel, the training set (or, before it, the search's copy of the shadings, whichever is
+//! larger: they are never held together) and what the run holds throughout (each pixel's hit
+//! point, image value and search target); and the hash tables with their optimiser state. The
+//! bake and the refinement write each view as it is done and hold one view at a time. A run
+//! that would not fit is refused with the figures; one that would take most of the memory is
+//! warned about.
 use crate::bail;
 use crate::error::Result;
 use crate::run::RunConfig;
@@ -11,14 +14,21 @@ use fipt_core::shading::NUM_LEVELS;
 /// Estimated bytes of a run on `pixels` training pixels, by part.
 pub fn estimate(pixels: u64, cfg: &RunConfig) -> Vec<(&'static str, u64)> {
     let poly = cfg.model.brdf.diffuse_depends_on_roughness() as u64;
-    // Ld, Ld1/Ld2 for principled, Ls0 and Ls1 at every level, the valid flag.
-    let per_pixel = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64) + 1;
-    // The bake's shadings, a refinement's, and the training set's copy.
-    let shadings = 3 * pixels * per_pixel;
+    // Ld, Ld1/Ld2 for principled, Ls0 and Ls1 at every level.
+    let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
+    // The search's copy adds the valid flag; the training set the image value, the position,
+    // the Morton code, the origin, the segment and the search target.
+    let per_pixel = (shadings + 1).max(shadings + 12 + 12 + 8 + 8 + 4 + 8);
+    // Held through the run: the hit point and triangle, the image value, the search target.
+    let held = 20 + 12 + 12;
     let g = &cfg.train.field.grid;
     // Parameters and two Adam moments, f32.
     let tables = g.levels as u64 * (1u64 << g.log2_table) * g.features as u64 * 4 * 3;
-    vec![("shadings", shadings), ("hash tables", tables)]
+    vec![
+        ("training set", pixels * per_pixel),
+        ("hits and images", pixels * held),
+        ("hash tables", tables),
+    ]
 }
 
 /// Refuses a run whose estimate exceeds the memory available.

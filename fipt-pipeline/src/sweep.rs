@@ -34,7 +34,10 @@ pub struct SweepSummary {
 /// The run-config key of the method.
 const METHOD_KEY: &str = "pipeline.method";
 
-/// A sweep's grid: each preset, crossed with every combination of the axes' values.
+/// A sweep's grid: each preset, crossed with every combination of the axes' values
+/// (`vary = "product"`), or each preset as it is and with one axis changed at a time
+/// (`vary = "one_at_a_time"`: a denser grid around the presets at the cost of the sum of the
+/// axes' lengths, not their product).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Grid {
@@ -42,6 +45,19 @@ pub struct Grid {
     /// Dotted keys of the run config (`train.steps`, `bake.diffuse_samples`) → values.
     #[serde(default)]
     pub axes: BTreeMap<String, Vec<toml::Value>>,
+    #[serde(default)]
+    pub vary: Vary,
+}
+
+/// How a grid combines its axes.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Vary {
+    /// Every combination of the axes' values.
+    #[default]
+    Product,
+    /// The preset alone, then each value of each axis with the others at the preset's.
+    OneAtATime,
 }
 
 impl Grid {
@@ -60,6 +76,7 @@ impl Grid {
         Grid {
             presets: vec!["fast".into(), "balanced".into(), "paper".into()],
             axes,
+            vary: Vary::Product,
         }
     }
 
@@ -82,6 +99,7 @@ impl Grid {
         Grid {
             presets: vec!["fast".into()],
             axes,
+            vary: Vary::Product,
         }
     }
 
@@ -89,16 +107,23 @@ impl Grid {
     pub fn points(&self) -> Vec<(String, String, Vec<(String, toml::Value)>)> {
         let mut combos: Vec<Vec<(String, toml::Value)>> = vec![vec![]];
         for (key, values) in &self.axes {
-            combos = combos
-                .into_iter()
-                .flat_map(|c| {
-                    values.iter().map(move |v| {
-                        let mut c = c.clone();
-                        c.push((key.clone(), v.clone()));
-                        c
+            let one = |v: &toml::Value| (key.clone(), v.clone());
+            combos = match self.vary {
+                Vary::Product => combos
+                    .into_iter()
+                    .flat_map(|c| {
+                        values.iter().map(move |v| {
+                            let mut c = c.clone();
+                            c.push(one(v));
+                            c
+                        })
                     })
-                })
-                .collect();
+                    .collect(),
+                Vary::OneAtATime => {
+                    combos.extend(values.iter().map(|v| vec![one(v)]));
+                    combos
+                }
+            };
         }
         let mut out = Vec::new();
         for p in &self.presets {
@@ -349,5 +374,26 @@ mod tests {
         );
         assert!(Grid::default_grid(&["fipt"]).axes.is_empty());
         assert!(g_with_steps().preset_points().is_empty());
+    }
+
+    #[test]
+    fn one_at_a_time_changes_one_axis_around_each_preset() {
+        let g: Grid = toml::from_str(
+            "presets = [\"fast\"]\nvary = \"one_at_a_time\"\n[axes]\n\"train.steps\" = [500, 2000]\n\"render.val_spp\" = [128]\n",
+        )
+        .unwrap();
+        let names: Vec<String> = g.points().into_iter().map(|p| p.0).collect();
+        assert_eq!(
+            names,
+            [
+                "fast",
+                "fast_val_spp=128",
+                "fast_steps=500",
+                "fast_steps=2000"
+            ]
+        );
+        assert_eq!(g.preset_points(), ["fast"]);
+        assert!(g.points().iter().all(|p| p.2.len() <= 1));
+        assert!(toml::from_str::<Grid>("presets = [\"fast\"]\nvary = \"diagonal\"\n").is_err());
     }
 }
