@@ -540,26 +540,19 @@ impl FactorizedBaker {
         };
         // The SLF and the diffuse cache's cells, one view at a time.
         let t = Instant::now();
-        let mut slf = SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels);
         let cell = summary.footprint.unwrap_or(1e-3).max(1e-9) * cfg.cache_cell_scale.max(1e-3);
-        let mut cells = DiffuseCells::new(cube.min, cell);
-        for (k, (v, img)) in views.iter().zip(images).enumerate() {
-            let r = primary_records(geometry, v);
-            for (rec, l) in r.iter().zip(&img.data) {
-                if let Some(rec) = rec {
-                    slf.add(rec.hit.p, *l);
-                }
-            }
-            if cfg.diffuse_cache {
-                cells.add_view(&r, selected[k]);
-            }
-            if selected[k] {
-                stats.pixels += r.len();
-                stats.valid_pixels += r.iter().flatten().count();
-            }
-        }
-        let slf = slf.finish();
-        let cells = cells.finish();
+        let slf;
+        let cells;
+        (slf, cells, stats.pixels, stats.valid_pixels) = slf_and_cells(
+            geometry,
+            views,
+            images,
+            SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels),
+            DiffuseCells::new(cube.min, cell),
+            cfg.diffuse_cache,
+            &selected,
+            |_| true,
+        );
         stats.seconds_slf = t.elapsed().as_secs_f64();
         stats.slf_occupied_voxels = slf.occupied();
         stats.slf_memory_bytes = slf.memory_bytes();
@@ -682,9 +675,19 @@ impl FactorizedBaker {
         s: &mut ViewShadings,
     ) {
         let cfg = &self.config;
+        if cfg.specular_estimator == SpecularEstimator::Mixture {
+            let set = SpecularSettings {
+                levels: &cfg.levels,
+                counts: &cfg.specular_samples,
+                n_light: 0,
+                sampler: cfg.sampler,
+                seed: cfg.seed,
+                model: self.model,
+            };
+            return specular_mixture_view(light, geometry, &set, vi, r, s, &|_| false);
+        }
         let seed = cfg.seed;
         let ViewShadings { ls0, ls1, .. } = s;
-        let mixture = cfg.specular_estimator == SpecularEstimator::Mixture;
         ls0.par_iter_mut()
             .zip(ls1.par_iter_mut())
             .zip(r.par_iter())
@@ -692,35 +695,12 @@ impl FactorizedBaker {
             .with_min_len(64)
             .for_each(|(i, ((l0, l1), rec))| {
                 let Some(rec) = rec else { return };
-                if mixture {
-                    let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
-                        SampleStream::new(
-                            cfg.sampler,
-                            &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
-                        )
-                    });
-                    (*l0, *l1) = specular_shading_mixture(
-                        light,
-                        geometry,
-                        rec.hit.p,
-                        rec.ng,
-                        rec.ns,
-                        rec.wo,
-                        &cfg.levels,
-                        &cfg.specular_samples,
-                        0,
-                        &mut st,
-                        &mut Pcg32::new(0, 0),
-                        self.model,
-                    );
-                    return;
-                }
                 for l in 0..NUM_LEVELS {
                     let mut st = SampleStream::new(
                         cfg.sampler,
                         &[seed, 0x5BEC, vi as u64, i as u64, l as u64],
                     );
-                    let (a, b) = specular_shading(
+                    (l0[l], l1[l]) = specular_shading(
                         light,
                         rec.hit.p,
                         rec.ng,
@@ -731,11 +711,96 @@ impl FactorizedBaker {
                         &mut st,
                         self.model,
                     );
-                    l0[l] = a;
-                    l1[l] = b;
                 }
             });
     }
+}
+
+/// What the per-pixel specular estimator of a stage needs.
+pub(crate) struct SpecularSettings<'a> {
+    pub levels: &'a [f32; NUM_LEVELS],
+    pub counts: &'a [u32; NUM_LEVELS],
+    /// Emitter samples per pixel (used when the light has emitters).
+    pub n_light: u32,
+    pub sampler: SamplerKind,
+    pub seed: u64,
+    pub model: ReflectanceModel,
+}
+
+/// Ls0 and Ls1 of one view's pixels by [`specular_shading_mixture`] (pixels that `skip`
+/// accepts keep 0), each pixel's sample streams keyed by its view and pixel index.
+pub(crate) fn specular_mixture_view<L: IncidentLight + Sync>(
+    light: &L,
+    geometry: &dyn RayQuery,
+    set: &SpecularSettings,
+    vi: usize,
+    r: &[Option<PixelRecord>],
+    s: &mut ViewShadings,
+    skip: &(dyn Fn(&PixelRecord) -> bool + Sync),
+) {
+    let seed = set.seed;
+    let ViewShadings { ls0, ls1, .. } = s;
+    ls0.par_iter_mut()
+        .zip(ls1.par_iter_mut())
+        .zip(r.par_iter())
+        .enumerate()
+        .with_min_len(64)
+        .for_each(|(i, ((l0, l1), rec))| {
+            let Some(rec) = rec.filter(|r| !skip(r)) else {
+                return;
+            };
+            let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
+                SampleStream::new(set.sampler, &[seed, 0x5BEC, vi as u64, i as u64, l as u64])
+            });
+            let mut rng = Pcg32::from_keys(&[seed, 0x5BED, vi as u64, i as u64]);
+            (*l0, *l1) = specular_shading_mixture(
+                light,
+                geometry,
+                rec.hit.p,
+                rec.ng,
+                rec.ns,
+                rec.wo,
+                set.levels,
+                set.counts,
+                set.n_light,
+                &mut st,
+                &mut rng,
+                set.model,
+            );
+        });
+}
+
+/// The SLF (from the hit pixels `keep` accepts) and the diffuse cache's cells (when
+/// `cached`; the cells of the `selected` views' pixels marked used), built one view at a
+/// time, and the selected views' (pixels, hit pixels).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn slf_and_cells(
+    geometry: &dyn RayQuery,
+    views: &[View],
+    images: &[Image],
+    mut slf: SlfBuilder,
+    mut cells: DiffuseCells,
+    cached: bool,
+    selected: &[bool],
+    keep: impl Fn(&PixelRecord) -> bool,
+) -> (SurfaceLightField, DiffuseCells, usize, usize) {
+    let (mut pixels, mut hit) = (0, 0);
+    for (k, (v, img)) in views.iter().zip(images).enumerate() {
+        let r = primary_records(geometry, v);
+        for (rec, l) in r.iter().zip(&img.data) {
+            if let Some(rec) = rec.as_ref().filter(|r| keep(r)) {
+                slf.add(rec.hit.p, *l);
+            }
+        }
+        if cached {
+            cells.add_view(&r, selected[k]);
+        }
+        if selected[k] {
+            pixels += r.len();
+            hit += r.iter().flatten().count();
+        }
+    }
+    (slf.finish(), cells.finish(), pixels, hit)
 }
 
 impl ShadingBaker for FactorizedBaker {

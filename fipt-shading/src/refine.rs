@@ -17,8 +17,9 @@
 //! * The field is not evaluated per path vertex: [`FieldSurfaces`] caches it on a voxel grid of
 //!   the observed surface.
 use crate::bake::{
-    check_counts, diffuse_moments, empty_view_shadings, primary_records, specular_shading_mixture,
-    DiffuseCells, DiffuseMoments, HitsSummary, PixelRecord, SampleStream, SamplerKind,
+    check_counts, diffuse_moments, empty_view_shadings, primary_records, slf_and_cells,
+    specular_mixture_view, DiffuseCells, DiffuseMoments, HitsSummary, PixelRecord, SampleStream,
+    SamplerKind, SpecularSettings,
 };
 use crate::brdf::MicrofacetBrdf;
 use crate::field_surfaces::FieldSurfaces;
@@ -529,23 +530,17 @@ impl PathGrownRefiner {
         // would otherwise lend the light's radiance to the surface beside it, which the
         // emitters' own sampling already counts. The diffuse cache's cells beside it.
         let emitting = emitting_triangles(mesh.triangles.len(), inputs.emitters);
-        let mut slf = SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels);
-        let mut cells = DiffuseCells::new(cube.min, footprint * cfg.cache_cell_scale.max(1e-3));
-        for (k, (v, img)) in views.iter().zip(images).enumerate() {
-            let r = primary_records(geometry, v);
-            for (rec, l) in r.iter().zip(&img.data) {
-                if let Some(rec) = rec.as_ref().filter(|r| !emitting[r.hit.tri as usize]) {
-                    slf.add(rec.hit.p, *l);
-                }
-            }
-            if cfg.diffuse_cache {
-                cells.add_view(&r, selected[k]);
-            }
-            if selected[k] {
-                stats.pixels += r.iter().flatten().count();
-            }
-        }
-        let (slf, cells) = (slf.finish(), cells.finish());
+        let (slf, cells, _, hit) = slf_and_cells(
+            geometry,
+            views,
+            images,
+            SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels),
+            DiffuseCells::new(cube.min, footprint * cfg.cache_cell_scale.max(1e-3)),
+            cfg.diffuse_cache,
+            &selected,
+            |r| !emitting[r.hit.tri as usize],
+        );
+        stats.pixels = hit;
         let hits = |f: &mut dyn FnMut(Vec3, u32)| {
             for v in views {
                 for r in primary_records(geometry, v).iter().flatten() {
@@ -624,57 +619,21 @@ impl PathGrownRefiner {
             stats.seconds_diffuse += t.elapsed().as_secs_f64();
             // Ls0/Ls1 per pixel (emitter pixels keep 0: the mask explains them).
             let t = Instant::now();
-            self.specular_view(&light, geometry, vi, &r, &mut s, &is_emitter);
+            let set = SpecularSettings {
+                levels: &cfg.levels,
+                counts: &cfg.specular_samples,
+                n_light: cfg.light_samples,
+                sampler: cfg.sampler,
+                seed,
+                model,
+            };
+            specular_mixture_view(&light, geometry, &set, vi, &r, &mut s, &is_emitter);
             tick(r.iter().flatten().count());
             stats.seconds_specular += t.elapsed().as_secs_f64();
             sink(vi, s)?;
         }
         stats.take_counters(&light.counters);
         Ok(stats)
-    }
-
-    /// Ls0 and Ls1 of one view's pixels (emitter pixels keep 0), each pixel's sample streams
-    /// keyed by its view and pixel index.
-    fn specular_view(
-        &self,
-        light: &GrownLight,
-        geometry: &dyn RayQuery,
-        vi: usize,
-        r: &[Option<PixelRecord>],
-        s: &mut ViewShadings,
-        is_emitter: &(dyn Fn(&PixelRecord) -> bool + Sync),
-    ) {
-        let (cfg, model) = (&self.config, self.model);
-        let seed = cfg.seed;
-        let ViewShadings { ls0, ls1, .. } = s;
-        ls0.par_iter_mut()
-            .zip(ls1.par_iter_mut())
-            .zip(r.par_iter())
-            .enumerate()
-            .with_min_len(64)
-            .for_each(|(i, ((l0, l1), rec))| {
-                let Some(rec) = rec.filter(|r| !is_emitter(r)) else {
-                    return;
-                };
-                let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
-                    SampleStream::new(cfg.sampler, &[seed, 0x5BEC, vi as u64, i as u64, l as u64])
-                });
-                let mut rng = Pcg32::from_keys(&[seed, 0x5BED, vi as u64, i as u64]);
-                (*l0, *l1) = specular_shading_mixture(
-                    light,
-                    geometry,
-                    rec.hit.p,
-                    rec.ng,
-                    rec.ns,
-                    rec.wo,
-                    &cfg.levels,
-                    &cfg.specular_samples,
-                    cfg.light_samples,
-                    &mut st,
-                    &mut rng,
-                    model,
-                );
-            });
     }
 }
 
