@@ -172,7 +172,7 @@ impl TrainingSet {
         poly: bool,
     ) -> Result<()> {
         let n = sh.width * sh.height;
-        if poly != !sh.ld_poly.is_empty() {
+        if poly == sh.ld_poly.is_empty() {
             return Err(NeuralError::config(
                 "training set",
                 format!("view {v}: shadings of two reflectance models are mixed"),

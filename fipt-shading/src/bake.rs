@@ -12,6 +12,9 @@ pub use crate::diffuse::{
     diffuse_moments, diffuse_shading, CellShading, DiffuseCell, DiffuseCells, DiffuseMoments,
 };
 use crate::incident::{power_heuristic, IncidentLight, Incoming};
+pub(crate) use crate::passes::{
+    check_counts, slf_and_cells, specular_mixture_view, SpecularSettings,
+};
 pub use crate::records::{
     empty_shadings, empty_shadings_of, empty_view_shadings, median_footprint, primary_records,
     HitsSummary, PixelRecord,
@@ -716,93 +719,6 @@ impl FactorizedBaker {
     }
 }
 
-/// What the per-pixel specular estimator of a stage needs.
-pub(crate) struct SpecularSettings<'a> {
-    pub levels: &'a [f32; NUM_LEVELS],
-    pub counts: &'a [u32; NUM_LEVELS],
-    /// Emitter samples per pixel (used when the light has emitters).
-    pub n_light: u32,
-    pub sampler: SamplerKind,
-    pub seed: u64,
-    pub model: ReflectanceModel,
-}
-
-/// Ls0 and Ls1 of one view's pixels by [`specular_shading_mixture`] (pixels that `skip`
-/// accepts keep 0), each pixel's sample streams keyed by its view and pixel index.
-pub(crate) fn specular_mixture_view<L: IncidentLight + Sync>(
-    light: &L,
-    geometry: &dyn RayQuery,
-    set: &SpecularSettings,
-    vi: usize,
-    r: &[Option<PixelRecord>],
-    s: &mut ViewShadings,
-    skip: &(dyn Fn(&PixelRecord) -> bool + Sync),
-) {
-    let seed = set.seed;
-    let ViewShadings { ls0, ls1, .. } = s;
-    ls0.par_iter_mut()
-        .zip(ls1.par_iter_mut())
-        .zip(r.par_iter())
-        .enumerate()
-        .with_min_len(64)
-        .for_each(|(i, ((l0, l1), rec))| {
-            let Some(rec) = rec.filter(|r| !skip(r)) else {
-                return;
-            };
-            let mut st: [SampleStream; NUM_LEVELS] = std::array::from_fn(|l| {
-                SampleStream::new(set.sampler, &[seed, 0x5BEC, vi as u64, i as u64, l as u64])
-            });
-            let mut rng = Pcg32::from_keys(&[seed, 0x5BED, vi as u64, i as u64]);
-            (*l0, *l1) = specular_shading_mixture(
-                light,
-                geometry,
-                rec.hit.p,
-                rec.ng,
-                rec.ns,
-                rec.wo,
-                set.levels,
-                set.counts,
-                set.n_light,
-                &mut st,
-                &mut rng,
-                set.model,
-            );
-        });
-}
-
-/// The SLF (from the hit pixels `keep` accepts) and the diffuse cache's cells (when
-/// `cached`; the cells of the `selected` views' pixels marked used), built one view at a
-/// time, and the selected views' (pixels, hit pixels).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn slf_and_cells(
-    geometry: &dyn RayQuery,
-    views: &[View],
-    images: &[Image],
-    mut slf: SlfBuilder,
-    mut cells: DiffuseCells,
-    cached: bool,
-    selected: &[bool],
-    keep: impl Fn(&PixelRecord) -> bool,
-) -> (SurfaceLightField, DiffuseCells, usize, usize) {
-    let (mut pixels, mut hit) = (0, 0);
-    for (k, (v, img)) in views.iter().zip(images).enumerate() {
-        let r = primary_records(geometry, v);
-        for (rec, l) in r.iter().zip(&img.data) {
-            if let Some(rec) = rec.as_ref().filter(|r| keep(r)) {
-                slf.add(rec.hit.p, *l);
-            }
-        }
-        if cached {
-            cells.add_view(&r, selected[k]);
-        }
-        if selected[k] {
-            pixels += r.len();
-            hit += r.iter().flatten().count();
-        }
-    }
-    (slf.finish(), cells.finish(), pixels, hit)
-}
-
 impl ShadingBaker for FactorizedBaker {
     fn name(&self) -> &str {
         match self.model {
@@ -849,15 +765,4 @@ impl ShadingBaker for FactorizedBaker {
         let (stats, _) = self.bake_streamed(geometry, views, images, shard, progress, sink)?;
         Ok(serde_json::to_value(stats).unwrap_or_default())
     }
-}
-
-/// Refuses views and images that do not pair up.
-pub(crate) fn check_counts(stage: &str, views: &[View], images: &[Image]) -> fipt_core::Result<()> {
-    if views.len() != images.len() {
-        return Err(fipt_core::CoreError::invalid(
-            stage,
-            format!("{} views but {} images", views.len(), images.len()),
-        ));
-    }
-    Ok(())
 }

@@ -149,6 +149,9 @@ fn voxel_key(p: Vec3, cell: f32, tri_facing: &[u8], t: u32) -> Key {
     (q.x as i32, q.y as i32, q.z as i32, side)
 }
 
+/// Hands every observed point (position, triangle) to its argument, in a fixed order.
+pub type PointVisitor<'a> = &'a dyn Fn(&mut dyn FnMut(Vec3, u32));
+
 impl FieldSurfaces {
     /// Caches `field` at voxels of edge `cell` occupied by the `observed` points (each with
     /// its mesh triangle, or [`NO_TRIANGLE`]); see the module's notes for the fallback.
@@ -188,7 +191,7 @@ impl FieldSurfaces {
         field: &dyn MaterialField,
         mesh: &Mesh,
         emitters: &[Emitter],
-        observed: &dyn Fn(&mut dyn FnMut(Vec3, u32)),
+        observed: PointVisitor,
         cell: f32,
     ) -> fipt_core::Result<Self> {
         Self::build_visiting(field, mesh, emitters, observed, &[], cell)
@@ -198,7 +201,7 @@ impl FieldSurfaces {
         field: &dyn MaterialField,
         mesh: &Mesh,
         emitters: &[Emitter],
-        observed: &dyn Fn(&mut dyn FnMut(Vec3, u32)),
+        observed: PointVisitor,
         extra: &[(Vec3, u32)],
         cell: f32,
     ) -> fipt_core::Result<Self> {

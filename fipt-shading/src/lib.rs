@@ -34,6 +34,7 @@ pub mod field_surfaces;
 pub mod incident;
 pub mod lights;
 pub mod limits;
+mod passes;
 pub mod records;
 pub mod refine;
 pub mod relight;
