@@ -1,0 +1,253 @@
+//! The training pixels: every training pixel's shadings, image value and position, gathered
+//! view by view, with the segment ids and the search's targets attached.
+use crate::error::{NeuralError, Result};
+use crate::field::Bounds;
+use crate::ops::NO_SEGMENT;
+use fipt_core::image::Image;
+use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+use glam::Vec3;
+
+/// The training pixels, structure of arrays.
+pub struct TrainingSet {
+    pub levels: [f32; NUM_LEVELS],
+    /// Unit-cube positions of the primary hits.
+    pub unit: Vec<[f32; 3]>,
+    pub ld: Vec<[f32; 3]>,
+    /// [Ld1, Ld2] of each sample when the shadings' diffuse part depends on σ, else empty.
+    pub ld_poly: Vec<[[f32; 3]; 2]>,
+    pub ls0: Vec<[[f32; 3]; NUM_LEVELS]>,
+    pub ls1: Vec<[[f32; 3]; NUM_LEVELS]>,
+    pub gt: Vec<[f32; 3]>,
+    /// (view, pixel) of each sample.
+    pub origin: Vec<(u32, u32)>,
+    /// Morton code of each sample's position: batches are processed in this order, so that
+    /// neighbouring rows share hash-grid cells and cache lines.
+    pub morton: Vec<u64>,
+    /// Dense segment id of each sample ([`NO_SEGMENT`] for none); empty without segments
+    /// ([`TrainingSet::with_segments`]).
+    pub segment: Vec<u32>,
+    /// Number of distinct segment ids.
+    pub segments: usize,
+    /// The ids are semantic classes ([`TrainingSet::with_classes`]), not parts.
+    pub semantic: bool,
+    /// The material search's (σ*, m*) per sample (NaN: none); empty without a search
+    /// ([`TrainingSet::with_targets`]).
+    pub target: Vec<[f32; 2]>,
+}
+
+/// 3 × 21-bit Morton code of a unit-cube point.
+fn morton(p: [f32; 3]) -> u64 {
+    fn spread(x: u64) -> u64 {
+        let mut x = x & 0x1F_FFFF;
+        x = (x | x << 32) & 0x1F00000000FFFF;
+        x = (x | x << 16) & 0x1F0000FF0000FF;
+        x = (x | x << 8) & 0x100F00F00F00F00F;
+        x = (x | x << 4) & 0x10C30C30C30C30C3;
+        (x | x << 2) & 0x1249249249249249
+    }
+    let q = |v: f32| (v.clamp(0.0, 1.0) * 2_097_151.0) as u64;
+    spread(q(p[0])) | spread(q(p[1])) << 1 | spread(q(p[2])) << 2
+}
+
+impl TrainingSet {
+    /// Gathers every pixel with a primary hit and valid shadings. `points[v][i]` is the primary
+    /// hit of pixel `i` of view `v` (None on a miss).
+    pub fn new(
+        points: &[Vec<Option<Vec3>>],
+        shadings: &[ViewShadings],
+        images: &[Image],
+        bounds: &Bounds,
+    ) -> Result<Self> {
+        if points.len() != shadings.len() || images.len() != shadings.len() {
+            return Err(NeuralError::config(
+                "training set",
+                format!(
+                    "{} point sets, {} shadings, {} images: one of each per view is needed",
+                    points.len(),
+                    shadings.len(),
+                    images.len()
+                ),
+            ));
+        }
+        Self::from_views(points, images, bounds, |v| Ok(shadings[v].clone()))
+    }
+
+    /// [`TrainingSet::new`] with each view's shadings asked of `shading(v)` in view order and
+    /// let go after its pixels are gathered (the set then never sits beside every view's
+    /// shadings). `shading`'s errors pass through.
+    pub fn from_views<E: From<NeuralError>>(
+        points: &[Vec<Option<Vec3>>],
+        images: &[Image],
+        bounds: &Bounds,
+        mut shading: impl FnMut(usize) -> std::result::Result<ViewShadings, E>,
+    ) -> std::result::Result<Self, E> {
+        let views = points.len();
+        if images.len() != views {
+            return Err(NeuralError::config(
+                "training set",
+                format!(
+                    "{views} point sets, {} images: one of each per view is needed",
+                    images.len()
+                ),
+            )
+            .into());
+        }
+        let mut set = TrainingSet {
+            levels: fipt_core::shading::DEFAULT_LEVELS,
+            unit: vec![],
+            ld: vec![],
+            ld_poly: vec![],
+            ls0: vec![],
+            ls1: vec![],
+            gt: vec![],
+            origin: vec![],
+            morton: vec![],
+            segment: vec![],
+            segments: 0,
+            semantic: false,
+            target: vec![],
+        };
+        // At most every hit pixel: reserved once, so that growing never holds two copies.
+        let hits = points.iter().flatten().flatten().count();
+        set.reserve(hits);
+        let mut poly = false;
+        for (v, (pts, img)) in points.iter().zip(images).enumerate() {
+            let sh = shading(v)?;
+            if v == 0 {
+                (set.levels, poly) = (sh.levels, !sh.ld_poly.is_empty());
+            }
+            if v == 0 && poly {
+                set.ld_poly.reserve(hits);
+            }
+            set.push_view(v, pts, &sh, img, bounds, poly)?;
+        }
+        Ok(set)
+    }
+
+    fn reserve(&mut self, n: usize) {
+        self.unit.reserve(n);
+        self.morton.reserve(n);
+        self.ld.reserve(n);
+        self.ls0.reserve(n);
+        self.ls1.reserve(n);
+        self.gt.reserve(n);
+        self.origin.reserve(n);
+    }
+
+    /// Appends view `v`'s pixels with a primary hit and valid shadings.
+    fn push_view(
+        &mut self,
+        v: usize,
+        pts: &[Option<Vec3>],
+        sh: &ViewShadings,
+        img: &Image,
+        bounds: &Bounds,
+        poly: bool,
+    ) -> Result<()> {
+        let n = sh.width * sh.height;
+        if poly == sh.ld_poly.is_empty() {
+            return Err(NeuralError::config(
+                "training set",
+                format!("view {v}: shadings of two reflectance models are mixed"),
+            ));
+        }
+        if pts.len() != n || img.data.len() != n || sh.levels != self.levels {
+            return Err(NeuralError::config(
+                "training set",
+                format!(
+                    "view {v}: sizes or roughness levels differ between shadings, hits and image"
+                ),
+            ));
+        }
+        for i in 0..n {
+            let Some(p) = pts[i] else { continue };
+            if !sh.valid[i] {
+                continue;
+            }
+            let arr = |x: &[Vec3; NUM_LEVELS]| x.map(|c| c.to_array());
+            self.unit.push(bounds.unit(p));
+            self.morton.push(morton(bounds.unit(p)));
+            self.ld.push(sh.ld[i].to_array());
+            if let Some(p) = sh.poly(i) {
+                self.ld_poly.push(p.map(|c| c.to_array()));
+            }
+            self.ls0.push(arr(&sh.ls0[i]));
+            self.ls1.push(arr(&sh.ls1[i]));
+            self.gt.push(img.data[i].to_array());
+            self.origin.push((v as u32, i as u32));
+        }
+        Ok(())
+    }
+
+    /// Attaches segment ids: `ids[v][i]` is the id of pixel `i` of view `v` (a part or
+    /// semantic id as stored in the scene; negative for none). Ids are renumbered densely.
+    pub fn with_segments(mut self, ids: &[Vec<i64>]) -> Result<Self> {
+        let mut dense: std::collections::BTreeMap<i64, u32> = Default::default();
+        for (v, view) in ids.iter().enumerate() {
+            if view.len() != ids.first().map_or(0, |f| f.len()) {
+                return Err(NeuralError::config(
+                    "segments",
+                    format!("view {v} has {} ids, view 0 {}", view.len(), ids[0].len()),
+                ));
+            }
+        }
+        let mut segment = Vec::with_capacity(self.len());
+        for &(v, i) in &self.origin {
+            let id = ids
+                .get(v as usize)
+                .and_then(|view| view.get(i as usize))
+                .copied()
+                .ok_or_else(|| {
+                    NeuralError::config(
+                        "segments",
+                        format!(
+                            "no id for pixel {i} of view {v}: one id per pixel of every view is needed"
+                        ),
+                    )
+                })?;
+            segment.push(if id < 0 {
+                NO_SEGMENT
+            } else {
+                let next = dense.len() as u32;
+                *dense.entry(id).or_insert(next)
+            });
+        }
+        self.segments = dense.len();
+        self.segment = segment;
+        Ok(self)
+    }
+
+    /// Attaches the material search's targets: `targets[v][i]` is (σ*, m*) of pixel `i` of view
+    /// `v`, None where the search has none (the default prior applies there).
+    pub fn with_targets(mut self, targets: &[Vec<Option<[f32; 2]>>]) -> Result<Self> {
+        let mut out = Vec::with_capacity(self.len());
+        for &(v, i) in &self.origin {
+            let t = targets
+                .get(v as usize)
+                .and_then(|view| view.get(i as usize))
+                .ok_or_else(|| {
+                    NeuralError::config(
+                        "targets",
+                        format!("no target entry for pixel {i} of view {v}: one per pixel of every view is needed"),
+                    )
+                })?;
+            out.push(t.unwrap_or([f32::NAN; 2]));
+        }
+        self.target = out;
+        Ok(self)
+    }
+
+    /// [`TrainingSet::with_segments`] for semantic classes: the semantic prior is used.
+    pub fn with_classes(self, ids: &[Vec<i64>]) -> Result<Self> {
+        let mut s = self.with_segments(ids)?;
+        s.semantic = true;
+        Ok(s)
+    }
+
+    pub fn len(&self) -> usize {
+        self.unit.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.unit.is_empty()
+    }
+}
