@@ -121,14 +121,7 @@ pub fn stage(
     )?;
     pb.finish_and_clear();
     let secs = st.done();
-    let expected = (0..split.views.len())
-        .filter(|k| shard.contains(*k))
-        .count();
-    if written != expected {
-        crate::bail!(
-            "baker `{name}` handed over {written} of the {expected} views it was asked for"
-        );
-    }
+    crate::shard::check_handed_over("baker", &name, written, split.views.len(), shard)?;
     let manifest = BakeManifest {
         version: FORMAT_VERSION,
         baker: name.clone(),

@@ -118,14 +118,7 @@ pub fn stage(
     )?;
     pb.finish_and_clear();
     let secs = st.done();
-    let expected = (0..split.views.len())
-        .filter(|k| shard.contains(*k))
-        .count();
-    if written != expected {
-        crate::bail!(
-            "refiner `{name}` handed over {written} of the {expected} views it was asked for"
-        );
-    }
+    crate::shard::check_handed_over("refiner", &name, written, split.views.len(), shard)?;
     print_stats(&name, &stats, secs);
     let manifest = BakeManifest {
         version: FORMAT_VERSION,

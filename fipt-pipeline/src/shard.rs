@@ -9,6 +9,22 @@ use fipt_core::shading::Shard;
 use fipt_shading::bake_store::{merge_shards, BakeManifest, ShardState};
 use std::path::Path;
 
+/// Refuses a per-view stage whose component (`what` `name`) handed over `written` views when
+/// `shard` of `views` asked for another number.
+pub(crate) fn check_handed_over(
+    what: &str,
+    name: &str,
+    written: usize,
+    views: usize,
+    shard: Shard,
+) -> Result<()> {
+    let expected = (0..views).filter(|k| shard.contains(*k)).count();
+    if written != expected {
+        bail!("{what} `{name}` handed over {written} of the {expected} views it was asked for");
+    }
+    Ok(())
+}
+
 /// Merges the finished shards of the stage in `dir` (named `what`) when all are present.
 /// An unsharded run (`shard` = all) refuses a partial set, which it would otherwise silently
 /// recompute on one machine; a shard run goes on to compute its part.

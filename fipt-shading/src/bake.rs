@@ -13,7 +13,7 @@ pub use crate::diffuse::{
 };
 use crate::incident::{power_heuristic, IncidentLight, Incoming};
 pub(crate) use crate::passes::{
-    check_counts, slf_and_cells, specular_mixture_view, SpecularSettings,
+    check_counts, diffuse_per_pixel, slf_and_cells, specular_mixture_view, SpecularSettings,
 };
 pub use crate::records::{
     empty_shadings, empty_shadings_of, empty_view_shadings, median_footprint, primary_records,
@@ -607,64 +607,35 @@ impl FactorizedBaker {
         // The shadings, one view at a time.
         for (vi, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
             let r = primary_records(geometry, v);
+            let hit = r.iter().flatten().count();
             let mut s = empty_view_shadings(v, &r, cfg.levels, model);
             let t = Instant::now();
             match &cached {
                 Some(shading) => cells.scatter_view(shading, model, &r, &mut s),
-                None => self.diffuse_view(&light, geometry, vi, &r, &mut s),
+                None => diffuse_per_pixel(
+                    model,
+                    &r,
+                    &mut s,
+                    |_| false,
+                    |i, rec| {
+                        let key = [seed, 0xD1FF, vi as u64, i as u64];
+                        let mut st = SampleStream::new(cfg.sampler, &key);
+                        let (n, rng) = (cfg.diffuse_samples, &mut Pcg32::new(0, 0));
+                        diffuse_moments(
+                            &light, geometry, rec.hit.p, rec.ng, rec.ns, n, 0, &mut st, rng, full,
+                        )
+                    },
+                ),
             }
-            tick(r.iter().flatten().count());
+            tick(hit);
             stats.seconds_diffuse += t.elapsed().as_secs_f64();
             let t = Instant::now();
             self.specular_view(&light, geometry, vi, &r, &mut s);
-            tick(r.iter().flatten().count());
+            tick(hit);
             stats.seconds_specular += t.elapsed().as_secs_f64();
             sink(vi, s)?;
         }
         Ok((stats, Some(slf)))
-    }
-
-    /// Ld of one view's pixels integrated per pixel (no cache), each pixel's sample stream
-    /// keyed by its view and pixel index.
-    fn diffuse_view(
-        &self,
-        light: &SlfLight,
-        geometry: &dyn RayQuery,
-        vi: usize,
-        r: &[Option<PixelRecord>],
-        s: &mut ViewShadings,
-    ) {
-        let (cfg, model) = (&self.config, self.model);
-        let full = model.diffuse_depends_on_roughness();
-        let computed: Vec<(Rgb, [Rgb; 2])> = (0..r.len())
-            .into_par_iter()
-            .map(|i| {
-                let Some(rec) = &r[i] else {
-                    return (Vec3::ZERO, [Vec3::ZERO; 2]);
-                };
-                let mut st =
-                    SampleStream::new(cfg.sampler, &[cfg.seed, 0xD1FF, vi as u64, i as u64]);
-                diffuse_moments(
-                    light,
-                    geometry,
-                    rec.hit.p,
-                    rec.ng,
-                    rec.ns,
-                    cfg.diffuse_samples,
-                    0,
-                    &mut st,
-                    &mut Pcg32::new(0, 0),
-                    full,
-                )
-                .shading(model, rec.wo, rec.ns)
-            })
-            .collect();
-        for (i, (l0, lp)) in computed.into_iter().enumerate() {
-            s.ld[i] = l0;
-            if let Some(slot) = s.ld_poly.get_mut(i) {
-                *slot = lp;
-            }
-        }
     }
 
     /// Ls0 and Ls1 of one view's pixels, each pixel's sample streams keyed by its view and

@@ -1,15 +1,18 @@
 //! The passes over the training views that the bake and the refinement share: the SLF and the
-//! diffuse cache's cells built one view at a time, and one view's specular shadings.
+//! diffuse cache's cells built one view at a time, and one view's per-pixel diffuse and
+//! specular shadings.
 use crate::bake::{specular_shading_mixture, SampleStream, SamplerKind};
-use crate::diffuse::DiffuseCells;
+use crate::diffuse::{DiffuseCells, DiffuseMoments};
 use crate::incident::IncidentLight;
 use crate::records::{primary_records, PixelRecord};
 use crate::slf::{SlfBuilder, SurfaceLightField};
+use fipt_core::color::Rgb;
 use fipt_core::dataset::View;
 use fipt_core::image::Image;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, ViewShadings, NUM_LEVELS};
+use glam::Vec3;
 use rayon::prelude::*;
 
 /// What the per-pixel specular estimator of a stage needs.
@@ -108,4 +111,28 @@ pub(crate) fn check_counts(stage: &str, views: &[View], images: &[Image]) -> fip
         ));
     }
     Ok(())
+}
+
+/// Ld per pixel of one view (no cache): `moments_at(pixel, record)` integrates one pixel;
+/// the pixels `skip` accepts keep 0.
+pub(crate) fn diffuse_per_pixel(
+    model: ReflectanceModel,
+    r: &[Option<PixelRecord>],
+    s: &mut ViewShadings,
+    skip: impl Fn(&PixelRecord) -> bool + Sync,
+    moments_at: impl Fn(usize, &PixelRecord) -> DiffuseMoments + Sync,
+) {
+    let computed: Vec<(Rgb, [Rgb; 2])> = (0..s.ld.len())
+        .into_par_iter()
+        .map(|i| match r[i].filter(|r| !skip(r)) {
+            None => (Vec3::ZERO, [Vec3::ZERO; 2]),
+            Some(rec) => moments_at(i, &rec).shading(model, rec.wo, rec.ns),
+        })
+        .collect();
+    for (i, (l0, lp)) in computed.into_iter().enumerate() {
+        s.ld[i] = l0;
+        if let Some(slot) = s.ld_poly.get_mut(i) {
+            *slot = lp;
+        }
+    }
 }

@@ -17,9 +17,9 @@
 //! * The field is not evaluated per path vertex: [`FieldSurfaces`] caches it on a voxel grid of
 //!   the observed surface.
 use crate::bake::{
-    check_counts, diffuse_moments, empty_view_shadings, primary_records, slf_and_cells,
-    specular_mixture_view, DiffuseCells, DiffuseMoments, HitsSummary, PixelRecord, SampleStream,
-    SamplerKind, SpecularSettings,
+    check_counts, diffuse_moments, diffuse_per_pixel, empty_view_shadings, primary_records,
+    slf_and_cells, specular_mixture_view, DiffuseCells, DiffuseMoments, HitsSummary, PixelRecord,
+    SampleStream, SamplerKind, SpecularSettings,
 };
 use crate::brdf::MicrofacetBrdf;
 use crate::field_surfaces::FieldSurfaces;
@@ -37,7 +37,6 @@ use fipt_core::shading::{
 use fipt_core::CoreError;
 use fipt_geom::{Mesh, TriangleSampler};
 use glam::Vec3;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
@@ -604,8 +603,17 @@ impl PathGrownRefiner {
         });
         stats.seconds_diffuse = t.elapsed().as_secs_f64();
 
+        let set = SpecularSettings {
+            levels: &cfg.levels,
+            counts: &cfg.specular_samples,
+            n_light: cfg.light_samples,
+            sampler: cfg.sampler,
+            seed,
+            model,
+        };
         for (vi, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
             let r = primary_records(geometry, v);
+            let hit = r.iter().flatten().count();
             let mut s = empty_view_shadings(v, &r, cfg.levels, model);
             let t = Instant::now();
             match &cached {
@@ -615,20 +623,12 @@ impl PathGrownRefiner {
                     moments_at(&key, rec.hit.p, rec.ng, rec.ns)
                 }),
             }
-            tick(r.iter().flatten().count());
+            tick(hit);
             stats.seconds_diffuse += t.elapsed().as_secs_f64();
             // Ls0/Ls1 per pixel (emitter pixels keep 0: the mask explains them).
             let t = Instant::now();
-            let set = SpecularSettings {
-                levels: &cfg.levels,
-                counts: &cfg.specular_samples,
-                n_light: cfg.light_samples,
-                sampler: cfg.sampler,
-                seed,
-                model,
-            };
             specular_mixture_view(&light, geometry, &set, vi, &r, &mut s, &is_emitter);
-            tick(r.iter().flatten().count());
+            tick(hit);
             stats.seconds_specular += t.elapsed().as_secs_f64();
             sink(vi, s)?;
         }
@@ -672,29 +672,5 @@ impl ShadingRefiner for PathGrownRefiner {
     ) -> fipt_core::Result<serde_json::Value> {
         let stats = self.refine_streamed(inputs, shard, progress, sink)?;
         Ok(serde_json::to_value(stats).unwrap_or_default())
-    }
-}
-
-/// Ld per pixel of one view (no cache): `moments_at(pixel, record)` integrates one pixel;
-/// emitter pixels keep 0.
-fn diffuse_per_pixel(
-    model: ReflectanceModel,
-    r: &[Option<PixelRecord>],
-    s: &mut ViewShadings,
-    is_emitter: impl Fn(&PixelRecord) -> bool + Sync,
-    moments_at: impl Fn(usize, &PixelRecord) -> DiffuseMoments + Sync,
-) {
-    let computed: Vec<(Rgb, [Rgb; 2])> = (0..s.ld.len())
-        .into_par_iter()
-        .map(|i| match r[i].filter(|r| !is_emitter(r)) {
-            None => (Vec3::ZERO, [Vec3::ZERO; 2]),
-            Some(rec) => moments_at(i, &rec).shading(model, rec.wo, rec.ns),
-        })
-        .collect();
-    for (i, (l0, lp)) in computed.into_iter().enumerate() {
-        s.ld[i] = l0;
-        if let Some(slot) = s.ld_poly.get_mut(i) {
-            *slot = lp;
-        }
     }
 }
