@@ -391,12 +391,16 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     assert!(out.join("views/val/000_render.exr").is_file());
     let rp = m["val"]["mean"]["render_psnr"].as_f64().unwrap();
     assert!(rp.is_finite() && rp > 10.0, "re-render PSNR {rp}");
-    // Re-running reuses the bake and the field; `fipt eval` alone reproduces the metrics.
+    // Re-running reuses the bake, the searches, the field and the re-renders, without building
+    // a training set; `fipt eval` alone reproduces the metrics.
     let (ok, _, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
     assert!(
         ok && err.contains("reusing the bake")
             && err.contains("reusing the trained field")
-            && err.contains("reusing the refined shadings"),
+            && err.contains("reusing the refined shadings")
+            && err.contains("reusing the search")
+            && err.contains("re-rendered views")
+            && !err.contains("training set"),
         "{err}"
     );
     let (ok, stdout, err) = fipt(&["eval", d, o]);

@@ -126,7 +126,12 @@ pub fn run(
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     stages.push(StageReport::since("emitters", t));
     let mut mark = |stage: &'static str, t: Instant| stages.push(StageReport::since(stage, t));
-    write_views(&scene, cfg, &a.out, field, &emitters, None, &mut mark)?;
+    let recovered = crate::outputs::Recovered {
+        field,
+        emitters: &emitters,
+        id: None,
+    };
+    write_views(&scene, cfg, &a.out, recovered, None, &mut mark)?;
     let metrics = evaluate_if_gt(&scene, &a.out, &mut mark)?;
     let mut report = report_header(a, &scene, cfg, &stages, t_all);
     extend(

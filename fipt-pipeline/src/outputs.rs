@@ -4,7 +4,7 @@ use crate::error::Result;
 use crate::observe::Stage;
 use crate::run::{RunConfig, RunRequest};
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
-use fipt_core::fsutil::write_bytes_atomic;
+use fipt_core::fsutil::{read_json, write_bytes_atomic, write_json_atomic};
 use fipt_core::image::ExrPrecision;
 use fipt_shading::records::HitPoint;
 use fipt_shading::render::RenderConfig;
@@ -154,18 +154,37 @@ pub(crate) fn emitters_summary(emitters: &[Emitter]) -> Vec<serde_json::Value> {
         .collect()
 }
 
+/// The recovered scene the maps and re-renders come from.
+pub(crate) struct Recovered<'a> {
+    pub field: &'a dyn fipt_core::field::MaterialField,
+    pub emitters: &'a [Emitter],
+    /// What identifies the field (its training's fingerprint); None: unknown or `--force`,
+    /// every view is re-rendered.
+    pub id: Option<String>,
+}
+
+/// What the re-renders of a run folder are a function of, and which views are done
+/// (`views/render.json`, rewritten after each view: a killed run re-renders only the rest).
+#[derive(Serialize, serde::Deserialize)]
+struct RenderProgress {
+    key: String,
+    done: Vec<(String, usize)>,
+}
+
 /// The stages every method ends with: per-view maps of every split (`maps`) and path-traced
-/// re-renders of every view from the recovered scene (`re-render`).
+/// re-renders of every view from the recovered scene (`re-render`), skipping the views a
+/// previous run rendered from the same field, lights and settings.
 pub(crate) fn write_views(
     scene: &crate::scene::LoadedScene,
     cfg: &RunConfig,
     out: &Path,
-    field: &dyn fipt_core::field::MaterialField,
-    emitters: &[Emitter],
+    recovered: Recovered,
     observed: Option<&fipt_shading::search::CellCounts>,
     mark: &mut dyn FnMut(&'static str, std::time::Instant),
 ) -> Result<()> {
-    let mesh = &scene.geometry.mesh;
+    let Recovered {
+        field, emitters, ..
+    } = recovered;
     let t = std::time::Instant::now();
     let st = Stage::start("maps");
     let mut emission_of: HashMap<u32, Vec3> = HashMap::new();
@@ -192,52 +211,121 @@ pub(crate) fn write_views(
     if cfg.render.spp > 0 {
         let t = std::time::Instant::now();
         let st = Stage::start("re-render");
-        let views: Vec<_> = scene
-            .ds
-            .splits
-            .iter()
-            .flat_map(|s| s.views.clone())
-            .collect();
-        let surfaces =
-            crate::recovered::surfaces(&scene.geometry, &views, field, emitters, cfg.model.brdf)?;
-        let rscene = RenderScene::new(mesh.clone(), surfaces);
+        re_render(scene, cfg, out, &recovered)?;
+        st.done();
+        mark("re-render", t);
+    }
+    Ok(())
+}
+
+impl RenderProgress {
+    /// The views already re-rendered in `out` from the same recovered scene and settings
+    /// (none when the field is not identified).
+    fn open(
+        scene: &crate::scene::LoadedScene,
+        cfg: &RunConfig,
+        out: &Path,
+        recovered: &Recovered,
+    ) -> Option<RenderProgress> {
+        let id = recovered.id.as_ref()?;
+        let what = serde_json::json!({ "render": cfg.render, "model": cfg.model.brdf });
+        let lights = serde_json::to_vec(recovered.emitters).unwrap_or_default();
+        let key = format!(
+            "{}|{id}|{}|{}",
+            scene.cache_key,
+            fipt_core::fsutil::hash_json(&what),
+            fipt_core::fsutil::hash_bytes(&lights)
+        );
+        let done = read_json::<RenderProgress>(&out.join("views").join("render.json"))
+            .ok()
+            .filter(|p| p.key == key)
+            .map_or(vec![], |p| p.done);
+        Some(RenderProgress { key, done })
+    }
+}
+
+/// Path-traces every view not already rendered (`progress`) from the recovered scene.
+fn re_render(
+    scene: &crate::scene::LoadedScene,
+    cfg: &RunConfig,
+    out: &Path,
+    recovered: &Recovered,
+) -> Result<()> {
+    let total: usize = scene.ds.splits.iter().map(|s| s.views.len()).sum();
+    let progress_path = out.join("views").join("render.json");
+    let mut progress = RenderProgress::open(scene, cfg, out, recovered);
+    let is_done = |p: &Option<RenderProgress>, split: &str, k: usize, exr: &Path| {
+        p.as_ref()
+            .is_some_and(|p| p.done.iter().any(|d| d.0 == split && d.1 == k))
+            && exr.is_file()
+    };
+    let exr_of = |split: &str, k: usize| {
+        out.join("views")
+            .join(split)
+            .join(format!("{k:03}_render.exr"))
+    };
+    let reused = (scene.ds.splits.iter())
+        .flat_map(|s| s.views.iter().map(move |v| (s, v.index)))
+        .filter(|(s, k)| is_done(&progress, &s.name, *k, &exr_of(&s.name, *k)))
+        .count();
+    if reused > 0 {
+        crate::note!(
+            "reusing {reused} of {total} re-rendered views (same field, lights and settings); --force to redo them"
+        );
+    }
+    if reused == total {
+        return Ok(());
+    }
+    let views: Vec<_> = scene
+        .ds
+        .splits
+        .iter()
+        .flat_map(|s| s.views.clone())
+        .collect();
+    let surfaces = crate::recovered::surfaces(
+        &scene.geometry,
+        &views,
+        recovered.field,
+        recovered.emitters,
+        cfg.model.brdf,
+    )?;
+    let rscene = RenderScene::new(scene.geometry.mesh.clone(), surfaces);
+    let pb = crate::observe::bar(total as u64, "re-render");
+    for (si, s) in scene.ds.splits.iter().enumerate() {
+        let dir = out.join("views").join(&s.name);
         let rc = RenderConfig {
-            spp: cfg.render.spp,
+            spp: if s.name == scene.ds.train().name || cfg.render.val_spp == 0 {
+                cfg.render.spp
+            } else {
+                cfg.render.val_spp
+            },
             max_bounces: cfg.render.max_bounces,
             seed: cfg.render.seed,
             ..Default::default()
         };
-        let total: usize = scene.ds.splits.iter().map(|s| s.views.len()).sum();
-        let pb = crate::observe::bar(total as u64, "re-render");
-        for (si, s) in scene.ds.splits.iter().enumerate() {
-            let dir = out.join("views").join(&s.name);
-            let rc = RenderConfig {
-                spp: if s.name == scene.ds.train().name || cfg.render.val_spp == 0 {
-                    cfg.render.spp
-                } else {
-                    cfg.render.val_spp
-                },
-                ..rc.clone()
-            };
-            for v in &s.views {
-                let key = ((si as u64) << 32) + v.index as u64;
-                let (mut img, _) =
-                    fipt_shading::render::render(&rscene, &v.camera, &rc, key, &|_| {});
-                let k = v.index;
-                img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
-                if scene.exposure != 1.0 {
-                    for p in &mut img.data {
-                        *p *= scene.exposure;
-                    }
+        for v in &s.views {
+            let k = v.index;
+            let exr = exr_of(&s.name, k);
+            pb.inc(1);
+            if is_done(&progress, &s.name, k, &exr) {
+                continue;
+            }
+            let key = ((si as u64) << 32) + v.index as u64;
+            let (mut img, _) = fipt_shading::render::render(&rscene, &v.camera, &rc, key, &|_| {});
+            img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
+            if scene.exposure != 1.0 {
+                for p in &mut img.data {
+                    *p *= scene.exposure;
                 }
-                img.write_exr(&dir.join(format!("{k:03}_render.exr")), ExrPrecision::F32)?;
-                pb.inc(1);
+            }
+            img.write_exr(&exr, ExrPrecision::F32)?;
+            if let Some(p) = &mut progress {
+                p.done.push((s.name.clone(), k));
+                write_json_atomic(&progress_path, p)?;
             }
         }
-        pb.finish_and_clear();
-        st.done();
-        mark("re-render", t);
     }
+    pb.finish_and_clear();
     Ok(())
 }
 

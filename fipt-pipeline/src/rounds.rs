@@ -169,10 +169,15 @@ pub(crate) fn refinement_rounds(
         } else {
             crate::search::When::Settling
         };
+        let on = crate::search::SearchOn {
+            shadings: &refined.shadings,
+            id: &refined.key,
+            force: ctx.force,
+        };
         st.searched = crate::search::stage(
             ctx.scene,
             ctx.records,
-            &refined.shadings,
+            on,
             &cfg.search,
             ctx.footprint,
             st.searched.as_ref(),

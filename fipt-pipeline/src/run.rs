@@ -422,7 +422,13 @@ fn run_locked(
     let (records, footprint) = train_hits(&scene);
     let mut searches = vec![];
     let t = std::time::Instant::now();
-    let searched = crate::search::on_bake(&scene, &records, &shadings, &cfg.search, footprint)?;
+    let bake_id = fipt_shading::bake_store::fingerprint(&bake);
+    let on = crate::search::SearchOn {
+        shadings: &shadings,
+        id: &bake_id,
+        force: a.force,
+    };
+    let searched = crate::search::on_bake(&scene, &records, on, &cfg.search, footprint)?;
     if searched.is_some() {
         mark("search", t);
     }
@@ -430,7 +436,6 @@ fn run_locked(
     let mut closure = bake_closure(&scene, &shadings, has_gt)?;
     let reflected = crate::outputs::max_reflected(&shadings)?;
     let t = std::time::Instant::now();
-    let bake_id = fipt_shading::bake_store::fingerprint(&bake);
     let (mut field, mut train, _) = crate::train::stage(
         &scene,
         &bake_id,
@@ -499,15 +504,12 @@ fn run_locked(
     let points = records.iter().flatten().flatten().map(|r| r.p);
     let observed =
         fipt_shading::search::CellCounts::new(points, cfg.search.cell_footprints * footprint);
-    write_views(
-        &scene,
-        cfg,
-        &a.out,
-        &field,
-        &emitters,
-        Some(&observed),
-        &mut mark,
-    )?;
+    let recovered = crate::outputs::Recovered {
+        field: &field,
+        emitters: &emitters,
+        id: (!a.force).then(|| train.fingerprint()),
+    };
+    write_views(&scene, cfg, &a.out, recovered, Some(&observed), &mut mark)?;
 
     let metrics = evaluate_if_gt(&scene, &a.out, &mut mark)?;
     let mut report = report_header(a, &scene, cfg, &stages, t_all);

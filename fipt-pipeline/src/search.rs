@@ -6,6 +6,7 @@ use crate::error::Result;
 use crate::regions::Regions;
 use crate::scene::LoadedScene;
 use fipt_core::color::luminance;
+use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_shading::bake_store::StoredShadings;
@@ -47,12 +48,30 @@ fn prepare(
     else {
         return Ok(None);
     };
+    let (pixels, grid) = search_pixels(&scene.images, records, shadings, &regions, cfg, footprint);
+    Ok(Some(Prepared {
+        regions,
+        pixels,
+        grid,
+    }))
+}
+
+/// The search's pixels of `regions` (outlines left out with `cfg.drop_edges`) and its σ
+/// candidates.
+fn search_pixels(
+    images: &[fipt_core::image::Image],
+    records: &[Vec<Option<HitPoint>>],
+    shadings: &[ViewShadings],
+    regions: &Regions,
+    cfg: &SearchConfig,
+    footprint: f32,
+) -> (Vec<SearchPixel>, Vec<f32>) {
     let pixels = gather_pixels(
         records,
         shadings,
         cfg.cell_footprints * footprint,
         &|v, i, _| {
-            let (ids, img) = (&regions.ids[v], &scene.images[v].data);
+            let (ids, img) = (&regions.ids[v], &images[v].data);
             let region = ids[i]?;
             if cfg.drop_edges {
                 let floor = cfg.edge_contrast * luminance(img[i]);
@@ -68,11 +87,7 @@ fn prepare(
         .first()
         .map_or(fipt_core::shading::DEFAULT_LEVELS, |s| s.levels);
     let grid = sigma_grid(levels[0], levels[NUM_LEVELS - 1], cfg.roughness_steps);
-    Ok(Some(Prepared {
-        regions,
-        pixels,
-        grid,
-    }))
+    (pixels, grid)
 }
 
 /// Every region's profile on each half of the views (even, odd), for `held_out`.
@@ -113,23 +128,41 @@ fn fitted_profiles(
     (fitted(pixels), halves)
 }
 
+/// The shadings a search reads: where they are, their fingerprint, and whether a search kept
+/// beside them may be reused (not with `--force`).
+pub struct SearchOn<'a> {
+    pub shadings: &'a StoredShadings,
+    pub id: &'a str,
+    pub force: bool,
+}
+
+/// A finished search kept beside its shadings (`search.json`): what it was keyed on and what
+/// it decided (the per-pixel targets follow from the regions).
+#[derive(Serialize, serde::Deserialize)]
+struct KeptSearch {
+    key: String,
+    source: String,
+    regions: Vec<(i64, RegionChoice)>,
+    seconds: f64,
+}
+
 /// Runs the search (None when it is off or has no regions; the reason is printed).
 /// The search on the initial bake, when `cfg.on_bake` asks for it.
 pub fn on_bake(
     scene: &LoadedScene,
     records: &[Vec<Option<HitPoint>>],
-    shadings: &StoredShadings,
+    on: SearchOn,
     cfg: &SearchConfig,
     footprint: f32,
 ) -> Result<Option<Searched>> {
     if !cfg.on_bake {
         return Ok(None);
     }
-    stage(scene, records, shadings, cfg, footprint, None, When::Bake)
+    stage(scene, records, on, cfg, footprint, None, When::Bake)
 }
 
 /// Which shadings the search reads.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub enum When {
     /// The initial bake: dielectric σ waits for the refined shadings.
     Bake,
@@ -142,71 +175,69 @@ pub enum When {
     Settling,
 }
 
+/// The search on the shadings `on` names: reused from `search.json` beside them when it was
+/// made with the same shadings, settings, regions and previous decisions (a resumed run does
+/// not read every view's shadings again), else run and kept there.
 pub fn stage(
     scene: &LoadedScene,
     records: &[Vec<Option<HitPoint>>],
-    shadings: &StoredShadings,
+    on: SearchOn,
     cfg: &SearchConfig,
     footprint: f32,
     previous: Option<&Searched>,
     when: When,
 ) -> Result<Option<Searched>> {
-    let on_bake = when == When::Bake;
     if !cfg.enabled {
         return Ok(None);
     }
-    // The search reads any pixel of any view: it holds them all, until it returns.
-    let shadings = &shadings.load_all()?[..];
-    let bake_cfg = SearchConfig {
-        metal_margin: cfg.bake_metal_margin,
-        ..cfg.clone()
-    };
-    let cfg = if on_bake { &bake_cfg } else { cfg };
-    let t = std::time::Instant::now();
-    let Some(Prepared {
-        regions,
-        pixels,
-        grid,
-    }) = prepare(scene, records, shadings, cfg, footprint)?
+    let Some(regions) = crate::regions::load(scene, records, cfg.regions, cfg.mesh_angle_deg)?
     else {
         crate::note!("search: skipped (search.regions = \"none\")");
         return Ok(None);
     };
-    let (profiles, halves) = fitted_profiles(
-        &scene.images,
-        shadings,
-        &regions,
-        &pixels,
-        &grid,
-        cfg,
-        cfg.held_out && !on_bake,
-    );
-    let was_metal = |label: i64| {
-        previous.is_some_and(|s| {
-            s.regions
-                .iter()
-                .any(|(l, c)| *l == label && c.metallic > Some(0.5))
-        })
-    };
-    let choices: Vec<RegionChoice> = profiles
-        .iter()
-        .map(|p| {
-            let r = p.region as usize;
-            let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
-            let mut c = choose(p, cfg, was_metal(regions.labels[r]), held);
-            let dielectric = c.metallic < Some(0.5);
-            let label = regions.labels[r];
-            let had_target = previous.is_some_and(|s| {
-                s.regions
+    let key = search_key(&on, cfg, footprint, previous, when, &regions)?;
+    let kept = on.shadings.dir.join("search.json");
+    let reuse = (!on.force)
+        .then(|| read_json::<KeptSearch>(&kept).ok())
+        .flatten()
+        .filter(|k| k.key == key);
+    let (choices, seconds) = match reuse {
+        Some(k) => {
+            crate::note!(
+                "reusing the search in {} ({:.1} s); --force to redo it",
+                kept.display(),
+                k.seconds
+            );
+            (k.regions.into_iter().map(|r| r.1).collect(), k.seconds)
+        }
+        None => {
+            let t = std::time::Instant::now();
+            let choices = decide(
+                scene,
+                records,
+                on.shadings,
+                cfg,
+                footprint,
+                previous,
+                when,
+                &regions,
+            )?;
+            let seconds = t.elapsed().as_secs_f64();
+            let keep = KeptSearch {
+                key,
+                source: regions.source.to_string(),
+                regions: regions
+                    .labels
                     .iter()
-                    .any(|(l, c)| *l == label && c.roughness.is_some())
-            });
-            if dielectric && (on_bake || (when == When::Settling && !had_target)) {
-                c.roughness = None;
-            }
-            c
-        })
-        .collect();
+                    .copied()
+                    .zip(choices.clone())
+                    .collect(),
+                seconds,
+            };
+            write_json_atomic(&kept, &keep)?;
+            (choices, seconds)
+        }
+    };
     let targets = regions
         .ids
         .iter()
@@ -224,7 +255,6 @@ pub fn stage(
                 .collect()
         })
         .collect();
-    let seconds = t.elapsed().as_secs_f64();
     let glossy = choices.iter().filter(|c| c.roughness.is_some()).count();
     let metal = choices.iter().filter(|c| c.metallic > Some(0.5)).count();
     crate::note!(
@@ -241,6 +271,97 @@ pub fn stage(
         targets,
         seconds,
     }))
+}
+
+/// What a search's decisions are a function of.
+fn search_key(
+    on: &SearchOn,
+    cfg: &SearchConfig,
+    footprint: f32,
+    previous: Option<&Searched>,
+    when: When,
+    regions: &Regions,
+) -> Result<String> {
+    let ids: Vec<u8> = regions
+        .ids
+        .iter()
+        .flatten()
+        .flat_map(|r| r.map_or(u32::MAX, |r| r).to_le_bytes())
+        .chain(regions.labels.iter().flat_map(|l| l.to_le_bytes()))
+        .collect();
+    let previous = previous
+        .map(|p| serde_json::to_value(&p.regions))
+        .transpose()?;
+    let settings = serde_json::json!({
+        "search": cfg,
+        "when": when,
+        "footprint": footprint,
+        "previous": previous,
+    });
+    Ok(format!(
+        "{}|{}|{}|{}",
+        on.id,
+        fipt_core::fsutil::hash_json(&settings),
+        regions.source,
+        fipt_core::fsutil::hash_bytes(&ids)
+    ))
+}
+
+/// The search's decision per region on `shadings` (every view's, held until it returns).
+#[allow(clippy::too_many_arguments)]
+fn decide(
+    scene: &LoadedScene,
+    records: &[Vec<Option<HitPoint>>],
+    shadings: &StoredShadings,
+    cfg: &SearchConfig,
+    footprint: f32,
+    previous: Option<&Searched>,
+    when: When,
+    regions: &Regions,
+) -> Result<Vec<RegionChoice>> {
+    let on_bake = when == When::Bake;
+    let shadings = &shadings.load_all()?[..];
+    let bake_cfg = SearchConfig {
+        metal_margin: cfg.bake_metal_margin,
+        ..cfg.clone()
+    };
+    let cfg = if on_bake { &bake_cfg } else { cfg };
+    let (pixels, grid) = search_pixels(&scene.images, records, shadings, regions, cfg, footprint);
+    let (profiles, halves) = fitted_profiles(
+        &scene.images,
+        shadings,
+        regions,
+        &pixels,
+        &grid,
+        cfg,
+        cfg.held_out && !on_bake,
+    );
+    let was_metal = |label: i64| {
+        previous.is_some_and(|s| {
+            s.regions
+                .iter()
+                .any(|(l, c)| *l == label && c.metallic > Some(0.5))
+        })
+    };
+    Ok(profiles
+        .iter()
+        .map(|p| {
+            let r = p.region as usize;
+            let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
+            let mut c = choose(p, cfg, was_metal(regions.labels[r]), held);
+            let dielectric = c.metallic < Some(0.5);
+            let label = regions.labels[r];
+            let had_target = previous.is_some_and(|s| {
+                s.regions
+                    .iter()
+                    .any(|(l, c)| *l == label && c.roughness.is_some())
+            });
+            if dielectric && (on_bake || (when == When::Settling && !had_target)) {
+                c.roughness = None;
+            }
+            c
+        })
+        .collect())
 }
 
 /// The true base colour's σ argmins at m = 0 and m = 1, and the views' scale against the

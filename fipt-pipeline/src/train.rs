@@ -40,6 +40,10 @@ pub struct TrainRequest {
 #[serde(deny_unknown_fields)]
 pub struct TrainManifest {
     pub inputs: String,
+    /// [`request_key`]: what decided this training before its set was built (empty in
+    /// manifests written before it existed).
+    #[serde(default)]
+    pub request: String,
     pub config: TrainConfig,
     pub pixels: usize,
     pub params_grid: usize,
@@ -205,25 +209,21 @@ pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
     Ok(dir)
 }
 
-/// Attaches the scene's part ids (`IndexMA/`) or semantic classes (`segmentation/`) to the
-/// training set as `source` asks; with them, a fingerprint of the id files.
-fn with_segments(
-    scene: &LoadedScene,
-    data: TrainingSet,
-    source: SegmentSource,
-) -> Result<(TrainingSet, Option<String>)> {
+/// The ground-truth ids the segment prior reads as `source` asks (`IndexMA/` or
+/// `segmentation/`; None: no prior), with a fingerprint of their files.
+fn segment_ids(scene: &LoadedScene, source: SegmentSource) -> Result<Option<(GtKind, String)>> {
     let split = scene.ds.train();
     let has_parts = split.has_gt(GtKind::IndexMA);
     let has_classes = split.has_gt(GtKind::Segmentation);
     let kind = match source {
-        SegmentSource::None => return Ok((data, None)),
+        SegmentSource::None => return Ok(None),
         SegmentSource::Auto if has_parts => GtKind::IndexMA,
         SegmentSource::Auto if has_classes => GtKind::Segmentation,
         SegmentSource::Auto => {
             crate::note!(
                 "no part ids (IndexMA/) or classes (segmentation/) in the scene: training without the segment prior"
             );
-            return Ok((data, None));
+            return Ok(None);
         }
         SegmentSource::Parts if has_parts => GtKind::IndexMA,
         SegmentSource::Semantic if has_classes => GtKind::Segmentation,
@@ -236,13 +236,25 @@ fn with_segments(
             split.dir.display()
         ),
     };
-    let folder = kind.folder();
-    let ids = crate::regions::split_ids(scene, kind)?;
     let files: Vec<PathBuf> = (0..split.views.len())
         .map(|k| split.gt_path(kind, k))
         .collect();
     let hash = fipt_core::fsutil::hash_files(&files)?;
-    let data = if kind == GtKind::IndexMA {
+    Ok(Some((kind, format!("{}:{hash}", kind.folder()))))
+}
+
+/// Attaches the ids `found` by [`segment_ids`] to the training set.
+fn with_segments(
+    scene: &LoadedScene,
+    data: TrainingSet,
+    found: Option<&(GtKind, String)>,
+) -> Result<TrainingSet> {
+    let Some((kind, _)) = found else {
+        return Ok(data);
+    };
+    let folder = kind.folder();
+    let ids = crate::regions::split_ids(scene, *kind)?;
+    Ok(if *kind == GtKind::IndexMA {
         let d = data.with_segments(&ids)?;
         crate::note!("segment prior on {} parts ({folder}/)", d.segments);
         d
@@ -250,8 +262,59 @@ fn with_segments(
         let d = data.with_classes(&ids)?;
         crate::note!("semantic prior on {} classes ({folder}/)", d.segments);
         d
-    };
-    Ok((data, Some(format!("{folder}:{hash}"))))
+    })
+}
+
+/// What decides a training before its set is built: the inputs, the shadings, the warm start,
+/// the settings as given, the search's targets and the segment ids. A finished training with
+/// the same key is reused without building the training set (a resumed run skips it).
+fn request_key(
+    scene: &LoadedScene,
+    shadings_id: &str,
+    cfg: &TrainConfig,
+    warm: Option<&str>,
+    targets: Option<&[Vec<Option<[f32; 2]>>]>,
+    segments: Option<&(GtKind, String)>,
+) -> Result<String> {
+    let targets = targets.map(|t| {
+        let bytes: Vec<u8> = t
+            .iter()
+            .flatten()
+            .flat_map(|x| match x {
+                Some([a, b]) => [1u32, a.to_bits(), b.to_bits()],
+                None => [0, 0, 0],
+            })
+            .flat_map(u32::to_le_bytes)
+            .collect();
+        fipt_core::fsutil::hash_bytes(&bytes)
+    });
+    Ok(format!(
+        "{}|{shadings_id}|{}|{}|{}|{}",
+        scene.cache_key,
+        warm.unwrap_or("none"),
+        fipt_core::fsutil::hash_json(&serde_json::to_value(cfg)?),
+        targets.as_deref().unwrap_or("none"),
+        segments.map_or("none", |s| &s.1)
+    ))
+}
+
+/// A finished training in `dir` whose manifest `fits`, with its field.
+fn finished(
+    dir: &Path,
+    fits: impl Fn(&TrainManifest) -> bool,
+) -> Option<(NeuralField, TrainManifest)> {
+    let m = read_json::<TrainManifest>(&dir.join("manifest.json")).ok()?;
+    if !fits(&m) {
+        return None;
+    }
+    let (field, _) = fipt_neural::train::load_field(dir).ok()?;
+    crate::note!(
+        "reusing the trained field in {} ({} steps in {:.1} s); --force to redo it",
+        dir.display(),
+        m.config.steps,
+        m.seconds
+    );
+    Some((field, m))
 }
 
 /// A fingerprint of the training set's search targets (part of the training's cache key).
@@ -282,6 +345,14 @@ pub fn stage(
     must_reuse: bool,
 ) -> Result<(NeuralField, TrainManifest, bool)> {
     let split = scene.ds.train();
+    let segments = segment_ids(scene, cfg.segments)?;
+    let warm_id = warm.map(|w| w.1);
+    let request = request_key(scene, shadings_id, cfg, warm_id, targets, segments.as_ref())?;
+    if !force {
+        if let Some((field, m)) = finished(dir, |m| m.request == request) {
+            return Ok((field, m, false));
+        }
+    }
     let st = Stage::start("training set");
     let (mut points, footprint) = view_points(&scene.geometry, &split.views);
     if cfg.bleed_radius > 0 {
@@ -299,7 +370,7 @@ pub fn stage(
         shadings.view(k).map_err(crate::PipelineError::from)
     })?;
     drop(points);
-    let (mut data, segments_id) = with_segments(scene, data, cfg.segments)?;
+    let mut data = with_segments(scene, data, segments.as_ref())?;
     let mut targets_id = None;
     if let Some(t) = targets {
         data = data.with_targets(t)?;
@@ -309,28 +380,22 @@ pub fn stage(
     let mut inputs = format!(
         "{}+shadings:{shadings_id}+warm:{}",
         scene.cache_key,
-        warm.map_or("none", |w| w.1)
+        warm_id.unwrap_or("none")
     );
-    if let Some(id) = segments_id {
+    if let Some((_, id)) = &segments {
         inputs += &format!("+segments:{id}");
     }
     if let Some(id) = targets_id {
         inputs += &format!("+targets:{id}");
     }
     st.done();
+    // A training finished before manifests held the request key: reused, and its manifest
+    // given the key so that the next run skips the training set.
     if !force {
-        if let Ok(m) = read_json::<TrainManifest>(&dir.join("manifest.json")) {
-            if m.inputs == inputs && m.config == cfg {
-                if let Ok((field, _)) = fipt_neural::train::load_field(dir) {
-                    crate::note!(
-                        "reusing the trained field in {} ({} steps in {:.1} s); --force to redo it",
-                        dir.display(),
-                        m.config.steps,
-                        m.seconds
-                    );
-                    return Ok((field, m, false));
-                }
-            }
+        if let Some((field, mut m)) = finished(dir, |m| m.inputs == inputs && m.config == cfg) {
+            m.request = request;
+            write_json_atomic(&dir.join("manifest.json"), &m)?;
+            return Ok((field, m, false));
         }
     }
     if must_reuse {
@@ -407,6 +472,7 @@ pub fn stage(
     );
     let manifest = TrainManifest {
         inputs,
+        request,
         config: cfg,
         pixels: data.len(),
         params_grid: pg,
