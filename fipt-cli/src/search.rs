@@ -31,6 +31,16 @@ pub struct Args {
     edge_contrast: f32,
 }
 
+/// The lowest cost over σ at the `mi`-th metallic candidate (NaN when there is none).
+fn part_best(p: &fipt_shading::search::RegionProfile, mi: usize) -> f64 {
+    p.cost.get(mi).map_or(f64::NAN, |c| {
+        c.iter()
+            .copied()
+            .filter(|x| x.is_finite())
+            .fold(f64::NAN, f64::min)
+    })
+}
+
 pub fn run(a: Args) -> Result<()> {
     let rows = profile_rows(&ProfileRequest {
         scene: a.scene,
@@ -42,7 +52,7 @@ pub fn run(a: Args) -> Result<()> {
         edge_contrast: a.edge_contrast,
     })?;
     println!(
-        "{:>6} {:>7} {:>6} | {:>18} {:>7} | {:>8} {:>8} | {:>9} {:>9} {:>9} | chosen σ, m",
+        "{:>6} {:>7} {:>6} | {:>18} {:>7} | {:>8} {:>8} | {:>9} {:>9} {:>9} | {:>9} {:>9} | chosen σ, m",
         "region",
         "pixels",
         "cells",
@@ -52,7 +62,9 @@ pub fn run(a: Args) -> Result<()> {
         "fit σ m1",
         "cost σ=1",
         "best m0",
-        "best m1"
+        "best m1",
+        "part m0",
+        "part m1"
     );
     for row in &rows {
         let (f, c) = (&row.fitted, &row.choice);
@@ -61,7 +73,7 @@ pub fn run(a: Args) -> Result<()> {
             (format!("{m0:.2}@0 {m1:.2}@1"), gain)
         });
         println!(
-            "{:>6} {:>7} {:>6} | {:>18} {:>7.3} | {:>8.2} {:>8.2} | {:>9.6} {:>9.6} {:>9.6} | {}, {}",
+            "{:>6} {:>7} {:>6} | {:>18} {:>7.3} | {:>8.2} {:>8.2} | {:>9.6} {:>9.6} {:>9.6} | {:>9.6} {:>9.6} | {}, {}",
             row.label,
             f.pixels,
             f.cells,
@@ -72,6 +84,8 @@ pub fn run(a: Args) -> Result<()> {
             c.default_cost,
             c.best_cost[0],
             c.best_cost.get(1).copied().unwrap_or(f64::NAN),
+            part_best(&row.part, 0),
+            part_best(&row.part, 1),
             c.roughness.map_or("–".into(), |v| format!("{v:.2}")),
             c.metallic.map_or("–".into(), |v| format!("{v:.0}"))
         );

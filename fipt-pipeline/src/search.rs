@@ -410,7 +410,23 @@ pub struct ProfileRow {
     pub label: i64,
     pub fitted: RegionProfile,
     pub given: Option<RegionProfile>,
+    /// The same with one base colour for the whole region (not per surface cell): what a part
+    /// of one material shows when its albedo cannot absorb view dependence.
+    pub part: RegionProfile,
     pub choice: RegionChoice,
+}
+
+/// A placeholder profile (what is left after a row takes its own).
+fn empty_profile() -> RegionProfile {
+    RegionProfile {
+        region: 0,
+        pixels: 0,
+        cells: 0,
+        sigma: vec![],
+        metallic: vec![],
+        cost: vec![],
+        gain: vec![],
+    }
 }
 
 /// The search's cost curves per region on the shadings `a` names.
@@ -473,6 +489,23 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
     } else {
         None
     };
+    // One base colour per region: every pixel of a region in one cell.
+    let per_part: Vec<SearchPixel> = pixels
+        .iter()
+        .map(|p| SearchPixel {
+            cell: p.region,
+            ..*p
+        })
+        .collect();
+    let mut part = profile(
+        &per_part,
+        &shadings,
+        &scene.images,
+        regions.len(),
+        &grid,
+        &cfg.metallic,
+        Albedo::Fitted,
+    );
     let mut rows = vec![];
     for (r, f) in fitted.into_iter().enumerate() {
         let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
@@ -482,6 +515,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
             label: regions.labels[r],
             fitted: f,
             given: g,
+            part: std::mem::replace(&mut part[r], empty_profile()),
             choice: c,
         });
     }
