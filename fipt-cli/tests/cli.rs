@@ -405,6 +405,25 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     );
     let (ok, stdout, err) = fipt(&["eval", d, o]);
     assert!(ok && stdout.contains("kd dB"), "{stdout}{err}");
+    // The search's evidence per part: a row per region with the fitted and the whole-part
+    // base colour's costs, finite.
+    let (ok, stdout, err) = fipt(&["profile", d, o, "--shadings", "refine1"]);
+    assert!(ok && stdout.contains("part m0"), "{stdout}{err}");
+    let rows: Vec<Vec<&str>> = (stdout.lines().skip(1))
+        .filter(|l| l.contains('|'))
+        .map(|l| l.split('|').collect())
+        .collect();
+    assert!(rows.len() >= 3, "{stdout}");
+    for r in &rows {
+        let part: Vec<f64> = r[4]
+            .split_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect();
+        assert!(
+            part.len() == 2 && part.iter().all(|c| c.is_finite() && *c >= 0.0),
+            "{stdout}"
+        );
+    }
     // Against another scene, eval refuses (the report's inputs fingerprint differs).
     let other = tmp("run-other-scene");
     synth_cornell(other.to_str().unwrap(), [2, 1, 16, 12, 4]);
