@@ -317,6 +317,28 @@ fn finished(
     Some((field, m))
 }
 
+/// Per-step timings and the final losses of a training, printed.
+fn note_training(t: &TrainTimings, l: &StepLosses, done: usize, sps: f64) {
+    let ms = |x: f64| x / done as f64 * 1e3;
+    crate::note!(
+        "{sps:.1} steps/s; per step: batch {:.1} ms, forward {:.1} ms (hash grid {:.1}), backward {:.1} ms (hash grid {:.1}, with its Adam update {:.1}), MLP optimiser {:.1} ms",
+        ms(t.batch),
+        ms(t.forward),
+        ms(t.grid_forward),
+        ms(t.backward),
+        ms(t.grid_backward + t.grid_optimizer),
+        ms(t.grid_optimizer),
+        ms(t.optimizer),
+    );
+    crate::note!(
+        "final losses: total {:.5}, image {:.5}, mask {:.5}, prior {:.5}",
+        l.total,
+        l.image,
+        l.mask,
+        l.prior
+    );
+}
+
 /// A fingerprint of the training set's search targets (part of the training's cache key).
 fn targets_fingerprint(data: &TrainingSet) -> String {
     let bytes: Vec<u8> = data
@@ -452,24 +474,8 @@ pub fn stage(
     let t = trainer.timings;
     let done = (trainer.step_count() - first).max(1);
     let sps = done as f64 / secs.max(1e-9);
-    crate::note!(
-        "{sps:.1} steps/s; per step: batch {:.1} ms, forward {:.1} ms (hash grid {:.1}), backward {:.1} ms (hash grid {:.1}, with its Adam update {:.1}), MLP optimiser {:.1} ms",
-        t.batch / done as f64 * 1e3,
-        t.forward / done as f64 * 1e3,
-        t.grid_forward / done as f64 * 1e3,
-        t.backward / done as f64 * 1e3,
-        (t.grid_backward + t.grid_optimizer) / done as f64 * 1e3,
-        t.grid_optimizer / done as f64 * 1e3,
-        t.optimizer / done as f64 * 1e3,
-    );
+    note_training(&t, &trainer.last, done, sps);
     let l = trainer.last;
-    crate::note!(
-        "final losses: total {:.5}, image {:.5}, mask {:.5}, prior {:.5}",
-        l.total,
-        l.image,
-        l.mask,
-        l.prior
-    );
     let manifest = TrainManifest {
         inputs,
         request,
