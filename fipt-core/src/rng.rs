@@ -56,6 +56,19 @@ impl Pcg32 {
     }
 }
 
+/// Whether pixel `pixel` of view `view` is in a uniform random subset holding `share` of the
+/// pixels, decided from (`seed`, view, pixel) alone: the same pixels for the same seed, in
+/// any order and on any thread. Used wherever a stage keeps a share of the views' pixels.
+#[inline]
+pub fn pixel_kept(seed: u64, view: usize, pixel: usize, share: f64) -> bool {
+    if share >= 1.0 {
+        return true;
+    }
+    let below = (share.max(0.0) * 4_294_967_296.0) as u64;
+    let mut rng = Pcg32::from_keys(&[seed, 0x5E7C, view as u64, pixel as u64]);
+    u64::from(rng.next_u32()) < below
+}
+
 /// SplitMix64 finaliser: a good 64-bit mixing function.
 #[inline]
 pub fn splitmix64(mut z: u64) -> u64 {

@@ -94,6 +94,26 @@ impl ViewShadings {
         s
     }
 
+    /// The pixels `idx` (in that order) as one row: what a stage that reads only some pixels
+    /// keeps of a view.
+    pub fn select(&self, idx: &[u32]) -> ViewShadings {
+        let pick = |i: &u32| *i as usize;
+        ViewShadings {
+            width: idx.len(),
+            height: 1,
+            levels: self.levels,
+            ld: idx.iter().map(|i| self.ld[pick(i)]).collect(),
+            ld_poly: if self.ld_poly.is_empty() {
+                vec![]
+            } else {
+                idx.iter().map(|i| self.ld_poly[pick(i)]).collect()
+            },
+            ls0: idx.iter().map(|i| self.ls0[pick(i)]).collect(),
+            ls1: idx.iter().map(|i| self.ls1[pick(i)]).collect(),
+            valid: idx.iter().map(|i| self.valid[pick(i)]).collect(),
+        }
+    }
+
     /// [Ld1, Ld2] of pixel `i`, or None when Ld does not depend on σ.
     #[inline]
     pub fn poly(&self, i: usize) -> Option<&[Rgb; 2]> {
@@ -332,6 +352,30 @@ pub trait ShadingRefiner {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A selection is a row of the chosen pixels in the given order, each with all its
+    /// shadings, and its reflected radiance is the view's at those pixels.
+    #[test]
+    fn select_keeps_the_chosen_pixels_in_order() {
+        let mut v = ViewShadings::zeros_for(3, 2, DEFAULT_LEVELS, true);
+        for i in 0..6 {
+            let x = Vec3::splat(i as f32);
+            v.ld[i] = x;
+            v.ld_poly[i] = [x * 0.5, x * 0.25];
+            v.ls0[i] = [x * 2.0; NUM_LEVELS];
+            v.ls1[i] = [x * 3.0; NUM_LEVELS];
+            v.valid[i] = i % 2 == 0;
+        }
+        let s = v.select(&[4, 1, 4]);
+        assert_eq!((s.width, s.height, s.levels), (3, 1, v.levels));
+        for (j, &i) in [4usize, 1, 4].iter().enumerate() {
+            let (kd, ks) = (Vec3::new(0.3, 0.5, 0.7), Vec3::splat(0.04));
+            assert_eq!(s.reflected(j, kd, ks, 0.4), v.reflected(i, kd, ks, 0.4));
+            assert_eq!((s.ld_poly[j], s.valid[j]), (v.ld_poly[i], v.valid[i]));
+        }
+        let lambert = ViewShadings::zeros(2, 1, DEFAULT_LEVELS).select(&[1]);
+        assert!(lambert.ld_poly.is_empty() && lambert.ld.len() == 1);
+    }
 
     fn values() -> [Rgb; NUM_LEVELS] {
         std::array::from_fn(|i| Vec3::new(i as f32, (i * i) as f32, -(i as f32)))

@@ -7,13 +7,13 @@ use crate::regions::Regions;
 use crate::scene::LoadedScene;
 use fipt_core::color::luminance;
 use fipt_core::fsutil::{read_json, write_json_atomic};
-use fipt_core::image::BadPixelPolicy;
+use fipt_core::image::{BadPixelPolicy, Image};
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_shading::bake_store::StoredShadings;
 use fipt_shading::records::HitPoint;
 use fipt_shading::search::{
-    choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, Albedo,
-    RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
+    choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, view_pixels,
+    with_cells, Albedo, RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
 };
 use serde::Serialize;
 use std::path::PathBuf;
@@ -56,38 +56,118 @@ fn prepare(
     }))
 }
 
+/// A pixel's search region: its region, unless `cfg.drop_edges` leaves it out as an outline
+/// pixel.
+fn region_rule<'a>(
+    images: &'a [Image],
+    regions: &'a Regions,
+    cfg: &'a SearchConfig,
+) -> impl Fn(usize, usize, &HitPoint) -> Option<u32> + 'a {
+    move |v, i, _| {
+        let (ids, img) = (&regions.ids[v], &images[v]);
+        let region = ids[i]?;
+        if cfg.drop_edges {
+            let floor = cfg.edge_contrast * luminance(img.data[i]);
+            let brighter = |j: usize| luminance(img.data[j]) >= floor;
+            if on_region_edge(ids, img.width, i, &brighter) {
+                return None;
+            }
+        }
+        Some(region)
+    }
+}
+
+/// The σ candidates of the search on shadings of these levels.
+fn sigma_candidates(first: Option<&ViewShadings>, cfg: &SearchConfig) -> Vec<f32> {
+    let levels = first.map_or(fipt_core::shading::DEFAULT_LEVELS, |s| s.levels);
+    sigma_grid(levels[0], levels[NUM_LEVELS - 1], cfg.roughness_steps)
+}
+
 /// The search's pixels of `regions` (outlines left out with `cfg.drop_edges`) and its σ
 /// candidates.
 fn search_pixels(
-    images: &[fipt_core::image::Image],
+    images: &[Image],
     records: &[Vec<Option<HitPoint>>],
     shadings: &[ViewShadings],
     regions: &Regions,
     cfg: &SearchConfig,
     footprint: f32,
 ) -> (Vec<SearchPixel>, Vec<f32>) {
-    let pixels = gather_pixels(
-        records,
+    let rule = region_rule(images, regions, cfg);
+    let pixels = gather_pixels(records, shadings, cfg.cell_footprints * footprint, &rule);
+    (pixels, sigma_candidates(shadings.first(), cfg))
+}
+
+/// Seeds the share of pixels the search keeps beyond `search.max_pixels`.
+const SEARCH_SEED: u64 = 0x5EA2C4;
+
+/// What the search reads, and nothing more.
+struct Compact {
+    pixels: Vec<SearchPixel>,
+    /// Per view, the shadings of its search pixels as one row (`SearchPixel::pixel` indexes it).
+    shadings: Vec<ViewShadings>,
+    /// The same pixels' image values.
+    images: Vec<Image>,
+    grid: Vec<f32>,
+}
+
+/// The search's pixels with only their shadings and image values held: each view's shadings
+/// are read from disk in turn and cut down to the pixels the search uses, at most
+/// `cfg.max_pixels` of them (a uniform random share beyond).
+fn compact_inputs(
+    scene: &LoadedScene,
+    records: &[Vec<Option<HitPoint>>],
+    stored: &StoredShadings,
+    regions: &Regions,
+    cfg: &SearchConfig,
+    footprint: f32,
+) -> Result<Compact> {
+    let rule = region_rule(&scene.images, regions, cfg);
+    // The share from the hits on a region (the shadings' validity is known view by view).
+    let candidates: usize = (regions.ids.iter().zip(records))
+        .map(|(ids, recs)| {
+            (ids.iter().zip(recs))
+                .filter(|(r, h)| r.is_some() && h.is_some())
+                .count()
+        })
+        .sum();
+    let share = match cfg.max_pixels {
+        0 => 1.0,
+        m => m as f64 / candidates.max(1) as f64,
+    };
+    let keep = |v: usize, i: usize, h: &HitPoint| {
+        rule(v, i, h).filter(|_| fipt_core::rng::pixel_kept(SEARCH_SEED, v, i, share))
+    };
+    let (mut keyed, mut shadings, mut images) = (vec![], vec![], vec![]);
+    for (v, recs) in records.iter().enumerate() {
+        let sh = stored.view(v)?;
+        let mine = view_pixels(v, recs, &sh.valid, &keep);
+        let idx: Vec<u32> = mine.iter().map(|k| k.1).collect();
+        shadings.push(sh.select(&idx));
+        let data = idx
+            .iter()
+            .map(|&i| scene.images[v].data[i as usize])
+            .collect();
+        images.push(Image {
+            width: idx.len(),
+            height: 1,
+            data,
+        });
+        let at = mine.into_iter().enumerate();
+        keyed.extend(at.map(|(j, (v, _, r, p))| (v, j as u32, r, p)));
+    }
+    if share < 1.0 {
+        crate::note!(
+            "search: {} of {candidates} pixels, a uniform share (search.max_pixels)",
+            keyed.len()
+        );
+    }
+    Ok(Compact {
+        pixels: with_cells(&keyed, cfg.cell_footprints * footprint),
+        grid: sigma_candidates(shadings.first(), cfg),
         shadings,
-        cfg.cell_footprints * footprint,
-        &|v, i, _| {
-            let (ids, img) = (&regions.ids[v], &images[v].data);
-            let region = ids[i]?;
-            if cfg.drop_edges {
-                let floor = cfg.edge_contrast * luminance(img[i]);
-                let brighter = |j: usize| luminance(img[j]) >= floor;
-                if on_region_edge(ids, shadings[v].width, i, &brighter) {
-                    return None;
-                }
-            }
-            Some(region)
-        },
-    );
-    let levels = shadings
-        .first()
-        .map_or(fipt_core::shading::DEFAULT_LEVELS, |s| s.levels);
-    let grid = sigma_grid(levels[0], levels[NUM_LEVELS - 1], cfg.roughness_steps);
-    (pixels, grid)
+        images,
+    })
 }
 
 /// Every region's profile on each half of the views (even, odd), for `held_out`.
@@ -96,7 +176,7 @@ type Halves = Option<[Vec<RegionProfile>; 2]>;
 /// The fitted profiles of every region, and with `halves` the same on each half of the views
 /// (not wanted on the bake, where dielectric σ waits for the refined shadings).
 fn fitted_profiles(
-    images: &[fipt_core::image::Image],
+    images: &[Image],
     shadings: &[ViewShadings],
     regions: &Regions,
     pixels: &[SearchPixel],
@@ -320,19 +400,18 @@ fn decide(
     regions: &Regions,
 ) -> Result<Vec<RegionChoice>> {
     let on_bake = when == When::Bake;
-    let shadings = &shadings.load_all()?[..];
     let bake_cfg = SearchConfig {
         metal_margin: cfg.bake_metal_margin,
         ..cfg.clone()
     };
     let cfg = if on_bake { &bake_cfg } else { cfg };
-    let (pixels, grid) = search_pixels(&scene.images, records, shadings, regions, cfg, footprint);
+    let c = compact_inputs(scene, records, shadings, regions, cfg, footprint)?;
     let (profiles, halves) = fitted_profiles(
-        &scene.images,
-        shadings,
+        &c.images,
+        &c.shadings,
         regions,
-        &pixels,
-        &grid,
+        &c.pixels,
+        &c.grid,
         cfg,
         cfg.held_out && !on_bake,
     );

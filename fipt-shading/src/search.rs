@@ -109,6 +109,15 @@ pub struct SearchConfig {
     /// prefers must beat σ = 1 by `interior_gain` on the other half. Minima made by the noise
     /// of a small bake do not carry over.
     pub held_out: bool,
+    /// At most this many pixels take part (a uniform random share of them beyond it, the
+    /// same for the same views); only they and their shadings are held while the search
+    /// runs, 182 bytes each with `principled`. 0: every pixel.
+    #[serde(default = "default_max_pixels")]
+    pub max_pixels: usize,
+}
+
+fn default_max_pixels() -> usize {
+    8_000_000
 }
 
 /// Where the search's regions come from.
@@ -143,6 +152,7 @@ impl Default for SearchConfig {
             drop_edges: true,
             edge_contrast: 4.0,
             held_out: true,
+            max_pixels: default_max_pixels(),
         }
     }
 }
@@ -347,6 +357,9 @@ impl CellCounts {
     }
 }
 
+/// A search pixel before its surface cell is known: (view, pixel, region, point).
+pub type KeyedPixel = (u32, u32, u32, Vec3);
+
 /// The search's pixels of the training views: every valid pixel whose `region_of` is `Some`,
 /// with cells of edge `cell`.
 pub fn gather_pixels<R: PrimaryHit>(
@@ -357,16 +370,34 @@ pub fn gather_pixels<R: PrimaryHit>(
 ) -> Vec<SearchPixel> {
     let mut keyed = vec![];
     for (v, (recs, sh)) in records.iter().zip(shadings).enumerate() {
-        for (i, r) in recs.iter().enumerate() {
-            let Some(r) = r else { continue };
-            if !sh.valid.get(i).copied().unwrap_or(false) {
-                continue;
-            }
-            if let Some(region) = region_of(v, i, r) {
-                keyed.push((v as u32, i as u32, region, r.point()));
-            }
+        keyed.extend(view_pixels(v, recs, &sh.valid, region_of));
+    }
+    with_cells(&keyed, cell)
+}
+
+/// View `v`'s search pixels: every pixel with a hit, `valid` shadings and a region from
+/// `region_of`, in pixel order.
+pub fn view_pixels<R: PrimaryHit>(
+    v: usize,
+    recs: &[Option<R>],
+    valid: &[bool],
+    region_of: &dyn Fn(usize, usize, &R) -> Option<u32>,
+) -> Vec<KeyedPixel> {
+    let mut keyed = vec![];
+    for (i, r) in recs.iter().enumerate() {
+        let Some(r) = r else { continue };
+        if !valid.get(i).copied().unwrap_or(false) {
+            continue;
+        }
+        if let Some(region) = region_of(v, i, r) {
+            keyed.push((v as u32, i as u32, region, r.point()));
         }
     }
+    keyed
+}
+
+/// The search pixels of `keyed` with their surface cells (edge `cell`).
+pub fn with_cells(keyed: &[KeyedPixel], cell: f32) -> Vec<SearchPixel> {
     let pts: Vec<(Vec3, u32)> = keyed.iter().map(|k| (k.3, k.2)).collect();
     let cells = cell_ids(&pts, cell);
     keyed
