@@ -17,15 +17,21 @@ pub fn estimate(pixels: u64, cfg: &RunConfig) -> Vec<(&'static str, u64)> {
     // Ld, Ld1/Ld2 for principled, Ls0 and Ls1 at every level.
     let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
     // The search's copy adds the valid flag; the training set the image value, the position,
-    // the Morton code, the origin, the segment and the search target.
-    let per_pixel = (shadings + 1).max(shadings + 12 + 12 + 8 + 8 + 4 + 8);
+    // the Morton code, the origin, the segment and the search target, on at most
+    // `train.set_cap · steps · batch` pixels.
+    let search = pixels * (shadings + 1);
+    let kept = cfg
+        .train
+        .set_limit()
+        .map_or(pixels, |l| pixels.min(l as u64));
+    let training = kept * (shadings + 12 + 12 + 8 + 8 + 4 + 8);
     // Held through the run: the hit point and triangle, the image value, the search target.
     let held = 20 + 12 + 12;
     let g = &cfg.train.field.grid;
     // Parameters and two Adam moments, f32.
     let tables = g.levels as u64 * (1u64 << g.log2_table) * g.features as u64 * 4 * 3;
     vec![
-        ("training set", pixels * per_pixel),
+        ("training set or search", search.max(training)),
         ("hits and images", pixels * held),
         ("hash tables", tables),
     ]

@@ -525,7 +525,7 @@ fn run_locked(
             "exposure_scale": scene.exposure,
             "memory_estimate_gib": fipt_core::memory::gib(memory),
             "components": components_report(cfg, components, extractor.name(), &field),
-            "modeled": modeled(cfg, &emitters, &refine_plan, train.config.field.grid.log2_table),
+            "modeled": modeled(cfg, &emitters, &refine_plan, &train),
             "metrics": metrics,
         }),
     );
@@ -602,8 +602,27 @@ fn modeled(
     cfg: &RunConfig,
     emitters: &[Emitter],
     refine_plan: &Result<String, String>,
-    log2_table: u32,
+    train: &crate::train::TrainManifest,
 ) -> serde_json::Value {
+    let t = &train.config;
+    let passes = (t.steps * t.batch) as f64 / train.pixels.max(1) as f64;
+    let mut training = format!(
+        "{} steps of {} pixels a round over {} training pixels ({passes:.1} passes)",
+        t.steps, t.batch, train.pixels
+    );
+    if t.steps < cfg.train.steps {
+        training += &format!(
+            "; {} steps asked, capped at {} passes (train.max_passes)",
+            cfg.train.steps, t.max_passes
+        );
+    }
+    if train.pixels_left_out > 0 {
+        training += &format!(
+            "; {} more hit pixels left out at random: a round draws no more than {} (train.set_cap)",
+            train.pixels_left_out,
+            cfg.train.set_limit().unwrap_or(0)
+        );
+    }
     let search = if cfg.search.enabled {
         format!(
             "per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}",
@@ -635,7 +654,8 @@ fn modeled(
         "emitters_doubtful": crate::outputs::doubtful_emitters(emitters),
         "path_grown_refinement": match refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
         "re_render": re_render,
-        "hash_table_log2": log2_table,
+        "training": training,
+        "hash_table_log2": t.field.grid.log2_table,
     })
 }
 

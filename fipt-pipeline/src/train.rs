@@ -46,6 +46,9 @@ pub struct TrainManifest {
     pub request: String,
     pub config: TrainConfig,
     pub pixels: usize,
+    /// Hit pixels that `train.set_cap` left out of the training set.
+    #[serde(default)]
+    pub pixels_left_out: usize,
     pub params_grid: usize,
     pub params_mlp: usize,
     pub seconds: f64,
@@ -112,6 +115,34 @@ fn leave_out_bleed(points: &mut [Vec<Option<Vec3>>], images: &[Image], radius: u
         radius,
         contrast
     );
+}
+
+/// Keeps a uniform random share of `points`' hits, each kept or not from (`seed`, view,
+/// pixel), so that about `limit` remain (`train.set_cap`), and says so. Returns how many it
+/// left out.
+fn keep_at_most(points: &mut [Vec<Option<Vec3>>], limit: usize, seed: u64) -> usize {
+    let all = points.iter().flatten().flatten().count();
+    if all <= limit {
+        return 0;
+    }
+    let share = limit as f64 / all as f64;
+    let mut kept = 0usize;
+    for (v, pts) in points.iter_mut().enumerate() {
+        for (i, p) in pts.iter_mut().enumerate() {
+            if p.is_some() {
+                if fipt_core::rng::pixel_kept(seed, v, i, share) {
+                    kept += 1;
+                } else {
+                    *p = None;
+                }
+            }
+        }
+    }
+    crate::note!(
+        "training set: {kept} of {all} pixels kept ({:.1} %): a round draws at most {limit} (train.set_cap × steps × batch)",
+        100.0 * kept as f64 / all.max(1) as f64
+    );
+    all - kept
 }
 
 /// Pixels within `radius` pixels (a square) of one at least `contrast` times brighter, by
@@ -385,6 +416,9 @@ pub fn stage(
             cfg.bleed_contrast,
         );
     }
+    let left_out = cfg
+        .set_limit()
+        .map_or(0, |limit| keep_at_most(&mut points, limit, cfg.seed));
     let Some(bounds) = Bounds::around(points.iter().flatten().flatten().copied(), 1.1) else {
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
@@ -398,7 +432,19 @@ pub fn stage(
         data = data.with_targets(t)?;
         targets_id = Some(targets_fingerprint(&data));
     }
-    let cfg = cfg.sized_for(data.len(), footprint, &bounds);
+    let cfg = {
+        let sized = cfg.sized_for(data.len(), footprint, &bounds);
+        if sized.steps < cfg.steps {
+            crate::note!(
+                "training for {} steps instead of {}: at most {} passes over {} pixels (train.max_passes)",
+                sized.steps,
+                cfg.steps,
+                cfg.max_passes,
+                data.len()
+            );
+        }
+        sized
+    };
     let mut inputs = format!(
         "{}+shadings:{shadings_id}+warm:{}",
         scene.cache_key,
@@ -481,6 +527,7 @@ pub fn stage(
         request,
         config: cfg,
         pixels: data.len(),
+        pixels_left_out: left_out,
         params_grid: pg,
         params_mlp: pm,
         seconds: secs,
@@ -607,5 +654,45 @@ mod tests {
             *c = Vec3::splat(if i % 2 == 0 { 1e-4 } else { 5e-3 });
         }
         assert!(bleed_mask(&img, 2, 10.0, 0.01).iter().all(|&b| !b));
+    }
+
+    /// The set keeps about `limit` of its hits, the same ones for the same seed, a uniform
+    /// share of every view, and nothing is touched when the hits fit.
+    #[test]
+    fn keep_at_most_keeps_a_seeded_uniform_share() {
+        let view = |n: usize| -> Vec<Option<Vec3>> {
+            (0..n).map(|i| (i % 10 != 0).then_some(Vec3::ONE)).collect()
+        };
+        let points = vec![view(20_000), view(40_000)];
+        let hits = |p: &[Vec<Option<Vec3>>]| -> Vec<usize> {
+            p.iter().map(|v| v.iter().flatten().count()).collect()
+        };
+        let mut a = points.clone();
+        assert_eq!(keep_at_most(&mut a, 60_000, 9), 0);
+        assert_eq!(a, points);
+        let left = keep_at_most(&mut a, 13_500, 9);
+        let kept = hits(&a);
+        assert_eq!(kept.iter().sum::<usize>() + left, 54_000);
+        // Binomial: 13,500 ± 3 standard deviations (about 3·√(13,500·0.75)).
+        assert!(
+            kept.iter().sum::<usize>().abs_diff(13_500) < 310,
+            "{kept:?}"
+        );
+        assert!(
+            kept[0].abs_diff(4_500) < 200 && kept[1].abs_diff(9_000) < 250,
+            "{kept:?}"
+        );
+        // Only hits are kept, and the same seed keeps the same pixels.
+        assert!(a
+            .iter()
+            .flatten()
+            .enumerate()
+            .all(|(i, p)| p.is_none() || i % 10 != 0));
+        let mut b = points.clone();
+        keep_at_most(&mut b, 13_500, 9);
+        assert_eq!(a, b);
+        let mut c = points.clone();
+        keep_at_most(&mut c, 13_500, 10);
+        assert_ne!(a, c);
     }
 }
