@@ -607,13 +607,13 @@ fn modeled(
     let t = &train.config;
     let passes = (t.steps * t.batch) as f64 / train.pixels.max(1) as f64;
     let mut training = format!(
-        "{} steps of {} pixels a round over {} training pixels ({passes:.1} passes)",
+        "the last round: {} steps of {} pixels over {} training pixels ({passes:.1} passes)",
         t.steps, t.batch, train.pixels
     );
     if t.steps < cfg.train.steps {
         training += &format!(
-            "; {} steps asked, capped at {} passes (train.max_passes)",
-            cfg.train.steps, t.max_passes
+            "; {} steps asked, capped at {} passes and at least {} steps in the rounds from a previous round's field (train.max_passes, min_steps)",
+            cfg.train.steps, t.max_passes, t.min_steps
         );
     }
     if train.pixels_left_out > 0 {

@@ -433,14 +433,16 @@ pub fn stage(
         targets_id = Some(targets_fingerprint(&data));
     }
     let cfg = {
-        let sized = cfg.sized_for(data.len(), footprint, &bounds);
+        let mut sized = cfg.sized_for(data.len(), footprint, &bounds);
+        sized.steps = cfg.capped_steps(data.len(), warm.is_some());
         if sized.steps < cfg.steps {
             crate::note!(
-                "training for {} steps instead of {}: at most {} passes over {} pixels (train.max_passes)",
+                "training for {} steps instead of {}: at most {} passes over {} pixels from the previous round's field, at least {} steps (train.max_passes, min_steps)",
                 sized.steps,
                 cfg.steps,
                 cfg.max_passes,
-                data.len()
+                data.len(),
+                cfg.min_steps
             );
         }
         sized

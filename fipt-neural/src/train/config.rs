@@ -9,14 +9,20 @@ pub struct TrainConfig {
     pub steps: usize,
     /// Pixels per batch.
     pub batch: usize,
-    /// At most this many passes over the training pixels in a round: where `steps` batches
-    /// would draw each pixel more often, the steps fall to ⌈max_passes · pixels / batch⌉
-    /// (at least `min_steps`); 0: no cap ([`TrainConfig::sized_for`]). On a small scene the
-    /// field otherwise fits the noise of the views and the shadings: on the default cornell
-    /// (37,000 pixels) 1,000 steps are 220 passes, and val kd rose as the steps fell.
+    /// At most this many passes over the training pixels in a round warm-started from the
+    /// previous round's field: where `steps` batches would draw each pixel more often, the
+    /// steps fall to ⌈max_passes · pixels / batch⌉ (at least `min_steps`); 0: no cap
+    /// ([`TrainConfig::capped_steps`]). On a small scene the field otherwise fits the noise of
+    /// the views and the shadings: on the default cornell (36,000 pixels) 1,000 steps are 225
+    /// passes, and val kd rose as the steps fell. A round from a fresh field keeps its steps:
+    /// its emission mask starts at α ≈ 0.5 and needs them to fall (capped at 25 passes, with
+    /// 249 steps of 2,048 a 12-view cornell at 48×36 kept a floor triangle as a light; 400
+    /// were enough there but not on a 4-spp cornell at 40×30).
     #[serde(default)]
     pub max_passes: f32,
-    /// The fewest steps the `max_passes` cap leaves.
+    /// The fewest steps the `max_passes` cap leaves. A round after a search moves σ and
+    /// metallic to its targets from a trained field: with 150 steps `balanced` left
+    /// `cornell-metal`'s gold block dielectric (metal recall 0.99 → 0.17), with 400 it did not.
     #[serde(default)]
     pub min_steps: usize,
     /// The training set keeps at most `set_cap · steps · batch` pixels (a uniform random
@@ -231,7 +237,6 @@ impl TrainConfig {
     /// 4 cm pixels).
     pub fn sized_for(&self, pixels: usize, footprint: Option<f32>, bounds: &Bounds) -> TrainConfig {
         let mut c = self.clone();
-        c.steps = c.capped_steps(pixels);
         if c.table_from_data {
             let need = (4 * pixels.max(1))
                 .next_power_of_two()
@@ -252,10 +257,11 @@ impl TrainConfig {
         c
     }
 
-    /// `steps`, lowered so that a round passes over `pixels` at most `max_passes` times
-    /// (never below `min_steps`, never above `steps`).
-    pub fn capped_steps(&self, pixels: usize) -> usize {
-        if self.max_passes <= 0.0 || self.batch == 0 {
+    /// `steps`, lowered so that a round `warm`-started from the previous one passes over
+    /// `pixels` at most `max_passes` times (never below `min_steps`, never above `steps`); a
+    /// round from a fresh field keeps `steps`.
+    pub fn capped_steps(&self, pixels: usize, warm: bool) -> usize {
+        if !warm || self.max_passes <= 0.0 || self.batch == 0 {
             return self.steps;
         }
         let cap = (self.max_passes as f64 * pixels as f64 / self.batch as f64).ceil() as usize;
@@ -364,7 +370,7 @@ impl TrainConfig {
 /// `balanced`'s and `fast`'s cap on passes over the training pixels (`max_passes`).
 pub const MAX_PASSES: f32 = 25.0;
 /// `balanced`'s and `fast`'s fewest steps under that cap (`min_steps`).
-pub const MIN_STEPS: usize = 150;
+pub const MIN_STEPS: usize = 400;
 
 fn unit_scale() -> f32 {
     1.0
@@ -472,36 +478,32 @@ pub enum PriorNorm {
 mod tests {
     use super::*;
 
-    /// The cap lowers the steps to ⌈passes · pixels / batch⌉, never below the floor nor above
-    /// the steps asked; 0 turns it off; the set's limit is one round's draws.
+    /// The cap lowers a warm-started round's steps to ⌈passes · pixels / batch⌉, never below
+    /// the floor nor above the steps asked; a fresh round keeps its steps; 0 turns it off; the
+    /// set's limit is one round's draws.
     #[test]
     fn steps_are_capped_in_passes_over_the_pixels() {
         let c = TrainConfig::fast();
-        assert_eq!((c.steps, c.batch), (1000, 8192));
-        // 37,000 pixels at 25 passes: 113 steps, raised to the floor of 150.
-        let want = (c.max_passes as f64 * 37_000.0 / 8192.0).ceil() as usize;
-        assert_eq!(c.capped_steps(37_000), want.max(c.min_steps).min(1000));
-        assert_eq!(c.capped_steps(100), c.min_steps);
-        // 1.6 M pixels: 5 passes, untouched.
-        assert_eq!(c.capped_steps(1_600_000), 1000);
+        assert_eq!((c.steps, c.batch, c.min_steps), (1000, 8192, 400));
+        // 36,000 pixels at 25 passes: 110 steps, raised to the floor; a fresh round: all.
+        assert_eq!(c.capped_steps(36_000, true), 400);
+        assert_eq!(c.capped_steps(36_000, false), 1000);
+        // 200,000 pixels: 611 steps; 1.6 M pixels (5 passes): untouched.
+        assert_eq!(c.capped_steps(200_000, true), 611);
+        assert_eq!(c.capped_steps(1_600_000, true), 1000);
         let off = TrainConfig {
             max_passes: 0.0,
             ..c.clone()
         };
-        assert_eq!(off.capped_steps(100), 1000);
-        assert_eq!(TrainConfig::paper().capped_steps(37_000), 10_000);
+        assert_eq!(off.capped_steps(100, true), 1000);
+        assert_eq!(TrainConfig::paper().capped_steps(36_000, true), 10_000);
         let floor_above = TrainConfig {
             min_steps: 5000,
             ..c.clone()
         };
-        assert_eq!(floor_above.capped_steps(100), 1000);
+        assert_eq!(floor_above.capped_steps(100, true), 1000);
         assert_eq!(c.set_limit(), Some(8_192_000));
         assert_eq!(TrainConfig::reference().set_limit(), None);
-        let bounds = Bounds::around([glam::Vec3::ZERO, glam::Vec3::ONE], 1.1).unwrap();
-        assert_eq!(
-            c.sized_for(37_000, None, &bounds).steps,
-            c.capped_steps(37_000)
-        );
         for bad in [-1.0, f32::NAN, f32::INFINITY] {
             assert!(TrainConfig {
                 max_passes: bad,
