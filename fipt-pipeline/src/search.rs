@@ -387,7 +387,8 @@ fn search_key(
     ))
 }
 
-/// The search's decision per region on `shadings` (every view's, held until it returns).
+/// The search's decision per region on `shadings` (read view by view; only the search's own
+/// pixels' shadings are held, see [`compact_inputs`]).
 #[allow(clippy::too_many_arguments)]
 fn decide(
     scene: &LoadedScene,
