@@ -32,7 +32,7 @@ mod config;
 mod set;
 use candle_loss::reflected;
 pub use candle_loss::{candle_ops_loss, LossWeights};
-pub use config::{LrDecay, PriorNorm, SegmentSource, SemanticPrior, TrainConfig};
+pub use config::{ImageLoss, LrDecay, PriorNorm, SegmentSource, SemanticPrior, TrainConfig};
 pub use set::TrainingSet;
 
 /// Losses of one step.
@@ -287,6 +287,7 @@ impl Trainer {
             },
             roughness_prior_scale: cfg.roughness_prior,
             target_weight: cfg.target_weight,
+            image_loss: cfg.image_loss,
             cache: Default::default(),
         };
         let terms = out.packed().and_then(|p| p.apply_op1(loss)).ctx("loss")?;

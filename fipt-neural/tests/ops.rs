@@ -112,7 +112,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
     use fipt_neural::field::FieldOutput;
     use fipt_neural::ops::NO_SEGMENT;
     use fipt_neural::ops::{FactorizedLoss, LossBatch};
-    use fipt_neural::train::{candle_ops_loss, LossWeights, PriorNorm};
+    use fipt_neural::train::{candle_ops_loss, ImageLoss, LossWeights, PriorNorm};
     let n = 300;
     let dev = Device::Cpu;
     let mut r = Pcg32::new(8, 9);
@@ -212,16 +212,18 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
         .collect();
     let poly = std::sync::Arc::new(poly);
     let targeted = std::sync::Arc::new(targeted);
-    for (norm, l1, ml1, batch, rp) in [
-        (PriorNorm::L2Roughness, false, true, &poly, 0.0),
-        (PriorNorm::L2, false, false, &unsegmented, 1.0),
-        (PriorNorm::L1, true, true, &unsegmented, 1.0),
-        (PriorNorm::L1, true, true, &segmented, 0.35),
-        (PriorNorm::L2, false, false, &segmented, 0.0),
-        (PriorNorm::L2Roughness, false, true, &segmented, 0.7),
-        (PriorNorm::L2Roughness, false, true, &semantic, 0.7),
-        (PriorNorm::L2Roughness, false, true, &targeted, 0.0),
-        (PriorNorm::L1, true, true, &targeted, 1.0),
+    let (srgb, slope) = (ImageLoss::Srgb, ImageLoss::SrgbSlope);
+    for (norm, l1, ml1, batch, rp, image_loss) in [
+        (PriorNorm::L2Roughness, false, true, &poly, 0.0, srgb),
+        (PriorNorm::L2Roughness, false, true, &poly, 0.0, slope),
+        (PriorNorm::L2, false, false, &unsegmented, 1.0, srgb),
+        (PriorNorm::L1, true, true, &unsegmented, 1.0, slope),
+        (PriorNorm::L1, true, true, &segmented, 0.35, srgb),
+        (PriorNorm::L2, false, false, &segmented, 0.0, srgb),
+        (PriorNorm::L2Roughness, false, true, &segmented, 0.7, slope),
+        (PriorNorm::L2Roughness, false, true, &semantic, 0.7, srgb),
+        (PriorNorm::L2Roughness, false, true, &targeted, 0.0, srgb),
+        (PriorNorm::L1, true, true, &targeted, 1.0, slope),
     ] {
         let var = |c: usize, w: usize| {
             let v: Vec<f32> = (0..n)
@@ -249,6 +251,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
                 segment_weight: 0.4,
                 roughness_prior_scale: rp,
                 target_weight: 0.25,
+                image_loss,
                 cache: Default::default(),
             })
             .unwrap();
@@ -259,6 +262,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
             roughness_prior: rp,
             segment: 0.4,
             target: 0.25,
+            image_loss,
         };
         let plain = candle_ops_loss(&out, batch, DEFAULT_LEVELS, weights).unwrap();
         let (fv, pv) = (
@@ -314,4 +318,87 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
             }
         }
     }
+}
+
+/// Pixels of one surface whose views carry zero-mean noise (±25 %, a few-sample render's):
+/// at the noise-free albedo the sRGB loss's gradient pushes kd down (the encoded mean of a
+/// noisy pixel lies below the encoded noise-free value), while the slope-weighted error's
+/// gradient vanishes, and its minimum over kd is the true one. Far from the prediction (beyond
+/// the clip) both are the sRGB difference.
+#[test]
+fn slope_weighted_loss_is_unbiased_under_zero_mean_noise() {
+    use fipt_neural::ops::{FactorizedLoss, LossBatch};
+    use fipt_neural::train::ImageLoss;
+    let n = 2000;
+    let (kd, ld) = (0.5f32, 0.8f32);
+    let mut batch = LossBatch::default();
+    for j in 0..n {
+        // Symmetric noise: each pair of pixels averages to the noise-free value exactly.
+        let k = (j / 2) as f32 / (n / 2) as f32;
+        let e = if j % 2 == 0 { 0.25 * k } else { -0.25 * k };
+        batch.ld.push([ld; 3]);
+        batch.ls0.push([[0.0; 3]; NUM_LEVELS]);
+        batch.ls1.push([[0.0; 3]; NUM_LEVELS]);
+        batch.gt.push([kd * ld * (1.0 + e); 3]);
+    }
+    let batch = std::sync::Arc::new(batch);
+    // The image term's derivative in kd, at albedo `a` (σ 1, m 0, α 0).
+    let slope_at = |loss: ImageLoss, a: f32| -> (f32, f32) {
+        let x: Vec<f32> = (0..n).flat_map(|_| [a, a, a, 1.0, 0.0, 0.0]).collect();
+        let v = Var::from_tensor(&Tensor::from_vec(x, (n, 6), &Device::Cpu).unwrap()).unwrap();
+        let op = FactorizedLoss {
+            batch: batch.clone(),
+            levels: DEFAULT_LEVELS,
+            mask_weight: 0.0,
+            prior_weight: 0.0,
+            prior_l1: false,
+            metallic_l1: false,
+            segment_weight: 0.0,
+            roughness_prior_scale: 0.0,
+            target_weight: 0.0,
+            image_loss: loss,
+            cache: Default::default(),
+        };
+        let out = v.as_tensor().apply_op1(op).unwrap();
+        let image = out.narrow(0, 1, 1).unwrap();
+        let value = image.to_vec1::<f32>().unwrap()[0];
+        let g = image.sum_all().unwrap().backward().unwrap();
+        let g = g.get(v.as_tensor()).unwrap().to_vec2::<f32>().unwrap();
+        (g.iter().map(|r| r[0]).sum(), value)
+    };
+    let (srgb, slope) = (
+        slope_at(ImageLoss::Srgb, kd).0,
+        slope_at(ImageLoss::SrgbSlope, kd).0,
+    );
+    assert!(
+        srgb > 1e-5,
+        "sRGB loss at the true kd: gradient {srgb} (expected > 0)"
+    );
+    assert!(
+        slope.abs() < 1e-3 * srgb,
+        "slope-weighted loss at the true kd: gradient {slope} (sRGB {srgb})"
+    );
+    // The sRGB loss's minimum lies over 0.3 % below kd (0.6 % by a series expansion).
+    let low = slope_at(ImageLoss::Srgb, kd * 0.997).0;
+    assert!(
+        low > 0.0,
+        "the sRGB loss's minimum lies below kd·0.997 (gradient {low})"
+    );
+    let (below, above) = (
+        slope_at(ImageLoss::SrgbSlope, kd * 0.999).0,
+        slope_at(ImageLoss::SrgbSlope, kd * 1.001).0,
+    );
+    assert!(
+        below < 0.0 && above > 0.0,
+        "slope-weighted minimum at kd: {below}, {above}"
+    );
+    // An albedo of 0.01: every pixel 50× brighter than predicted, beyond the clip.
+    let (far_srgb, far_slope) = (
+        slope_at(ImageLoss::Srgb, 0.01),
+        slope_at(ImageLoss::SrgbSlope, 0.01),
+    );
+    assert_eq!(
+        far_srgb, far_slope,
+        "far from the prediction both are the sRGB difference"
+    );
 }

@@ -48,6 +48,8 @@ pub struct LossWeights {
     pub segment: f32,
     /// [`TrainConfig::target_weight`].
     pub target: f32,
+    /// [`TrainConfig::image_loss`].
+    pub image_loss: ImageLoss,
 }
 
 /// The loss of [`Trainer::step`] written with plain candle ops (`[5]`: total, image, mask,
@@ -65,6 +67,7 @@ pub fn candle_ops_loss(
         roughness_prior,
         segment: segment_weight,
         target: target_weight,
+        image_loss,
     } = weights;
     let dev = out.albedo.device();
     let b = batch.gt.len();
@@ -101,8 +104,30 @@ pub fn candle_ops_loss(
         )?;
         let keep = out.alpha.affine(-1.0, 1.0)?;
         let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha)?)?;
-        let diff = (pred.apply_op1(SrgbOetf)? - gt_oetf)?;
-        let image = diff.sqr()?.mean_all()?;
+        let image = match image_loss {
+            ImageLoss::Srgb => (pred.apply_op1(SrgbOetf)? - gt_oetf)?.sqr()?.mean_all()?,
+            ImageLoss::SrgbSlope => {
+                // Where the slope-weighted error is within the clip: that error, the slope
+                // held constant; elsewhere the sRGB difference.
+                let pv = pred.flatten_all()?.to_vec1::<f32>()?;
+                let gv = flat3(&batch.gt);
+                let (w, near): (Vec<f32>, Vec<f32>) = pv
+                    .iter()
+                    .zip(&gv)
+                    .map(|(&p, &g)| {
+                        let w = crate::ops::srgb_oetf_grad(p.max(0.0));
+                        let near = (w * (p - g)).abs() <= crate::ops::SLOPE_LOSS_CLIP;
+                        (w, f32::from(u8::from(near)))
+                    })
+                    .unzip();
+                let t = |v: Vec<f32>| Tensor::from_vec(v, (b, 3), dev);
+                let near = t(near)?;
+                let lin = ((&pred - &gt)? * t(w)?)?;
+                let srgb = (pred.apply_op1(SrgbOetf)? - gt_oetf)?;
+                let e = ((lin * &near)? + (srgb * near.affine(-1.0, 1.0)?)?)?;
+                e.sqr()?.mean_all()?
+            }
+        };
         let mask = out.alpha.mean_all()?;
         let dr = out.roughness.affine(1.0, -1.0)?;
         let k = roughness_prior as f64;

@@ -113,6 +113,13 @@ pub struct TrainConfig {
     /// that floor (a noisy shadow is not a bright edge).
     #[serde(default = "default_bleed_contrast")]
     pub bleed_contrast: f32,
+    /// How a pixel's error is measured: `srgb` compares sRGB-encoded values (the reference);
+    /// `srgb_slope` weighs the linear error by the sRGB curve's slope at the prediction (the
+    /// same emphasis on dark pixels, but the views' noise averages out instead of pulling kd
+    /// down: the sRGB curve is concave, so the mean of a noisy pixel's encoded values lies
+    /// below the encoded mean).
+    #[serde(default)]
+    pub image_loss: ImageLoss,
 }
 
 impl Default for TrainConfig {
@@ -151,6 +158,7 @@ impl Default for TrainConfig {
             checkpoint_every: 500,
             bleed_radius: 2,
             bleed_contrast: default_bleed_contrast(),
+            image_loss: ImageLoss::Srgb,
         }
     }
 }
@@ -462,6 +470,17 @@ pub enum SegmentSource {
     Semantic,
     /// No segment prior.
     None,
+}
+
+/// The per-pixel error of the training loss ([`TrainConfig::image_loss`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ImageLoss {
+    /// (oetf(p) − oetf(g))²: the reference.
+    #[default]
+    Srgb,
+    /// (oetf′(p)·(p − g))², oetf′(p) held constant: unbiased under zero-mean noise in g.
+    SrgbSlope,
 }
 
 /// Norm of the roughness/metallic prior.
