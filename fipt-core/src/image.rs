@@ -384,6 +384,47 @@ impl Image {
 mod tests {
     use super::*;
 
+    /// One set pixel grows into the 3×3 square around it (cut at the border); radius 0 and an
+    /// empty mask change nothing.
+    #[test]
+    fn dilate_grows_a_mask_by_a_square() {
+        let (w, h) = (7, 5);
+        let mut m = vec![false; w * h];
+        m[2 * w + 1] = true;
+        let d = dilate(&m, w, h, 1);
+        for y in 0..h {
+            for x in 0..w {
+                let near = x <= 2 && (1..=3).contains(&y);
+                assert_eq!(d[y * w + x], near, "pixel ({x}, {y})");
+            }
+        }
+        assert_eq!(dilate(&m, w, h, 0), m);
+        assert!(dilate(&vec![false; w * h], w, h, 3).iter().all(|&b| !b));
+    }
+
+    /// A lamp pixel marks its neighbours within the radius, not itself, not beyond, and not
+    /// for a contrast it does not reach; noise below the floor marks nothing.
+    #[test]
+    fn bleed_mask_marks_the_ring_around_a_bright_pixel() {
+        let (w, h) = (9, 9);
+        let mut img = Image::new(w, h);
+        img.data.fill(Vec3::ONE);
+        img.data[4 * w + 4] = Vec3::splat(20.0);
+        let m = bleed_mask(&img, 2, 10.0, 0.01);
+        for y in 0..h {
+            for x in 0..w {
+                let near = x.abs_diff(4) <= 2 && y.abs_diff(4) <= 2 && (x, y) != (4, 4);
+                assert_eq!(m[y * w + x], near, "pixel ({x}, {y})");
+            }
+        }
+        assert!(bleed_mask(&img, 2, 25.0, 0.01).iter().all(|&b| !b));
+        // A dark view with noise, 1e-4 next to 5e-3: below the floor, no edge.
+        for (i, c) in img.data.iter_mut().enumerate() {
+            *c = Vec3::splat(if i % 2 == 0 { 1e-4 } else { 5e-3 });
+        }
+        assert!(bleed_mask(&img, 2, 10.0, 0.01).iter().all(|&b| !b));
+    }
+
     fn test_image() -> Image {
         let mut img = Image::new(7, 5);
         for y in 0..5 {
@@ -511,6 +552,66 @@ mod tests {
         );
         std::fs::remove_dir_all(&dir).ok();
     }
+}
+
+/// `mask` (row-major, `width` × `height`) grown by `radius` pixels (a square): a pixel is set
+/// when any within `radius` is.
+pub fn dilate(mask: &[bool], width: usize, height: usize, radius: usize) -> Vec<bool> {
+    let (w, h) = (width, height);
+    assert_eq!(
+        mask.len(),
+        w * h,
+        "dilate: mask of {} for {w}×{h}",
+        mask.len()
+    );
+    let mut rows = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (a, b) = (x.saturating_sub(radius), (x + radius).min(w - 1));
+            rows[y * w + x] = mask[y * w + a..=y * w + b].iter().any(|&m| m);
+        }
+    }
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let (a, b) = (y.saturating_sub(radius), (y + radius).min(h - 1));
+            (a..=b).any(|yy| rows[yy * w + x])
+        })
+        .collect()
+}
+
+/// The contrast of [`bleed_mask`] the training set uses by default (`train.bleed_contrast`).
+pub const BLEED_CONTRAST: f32 = 10.0;
+
+/// Pixels within `radius` pixels (a square) of one at least `contrast` times brighter, by
+/// luminance; a pixel darker than `floor` counts as `floor`.
+pub fn bleed_mask(img: &Image, radius: usize, contrast: f32, floor: f32) -> Vec<bool> {
+    let (w, h) = (img.width, img.height);
+    let lum: Vec<f32> = img
+        .data
+        .iter()
+        .map(|&c| crate::color::luminance(c).max(0.0))
+        .collect();
+    let floor = floor.max(f32::MIN_POSITIVE);
+    // The brightest neighbour: a separable max filter, rows then columns.
+    let mut rows = vec![0.0f32; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (a, b) = (x.saturating_sub(radius), (x + radius).min(w - 1));
+            rows[y * w + x] = lum[y * w + a..=y * w + b]
+                .iter()
+                .copied()
+                .fold(0.0, f32::max);
+        }
+    }
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let (a, b) = (y.saturating_sub(radius), (y + radius).min(h - 1));
+            let brightest = (a..=b).map(|yy| rows[yy * w + x]).fold(0.0, f32::max);
+            brightest >= contrast * lum[i].max(floor)
+        })
+        .collect()
 }
 
 /// The median luminance the pipeline works at: views are scaled to it (camera exposure is

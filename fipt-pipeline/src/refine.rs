@@ -177,4 +177,10 @@ fn print_stats(name: &str, report: &serde_json::Value, secs: f64) {
         stats.secondary_unobserved,
         stats.secondary_miss
     );
+    if stats.slf_margin_pixels > 0 {
+        crate::note!(
+            "refine: {} pixels beside the lights left out of the SLF (refine.slf_light_margin)",
+            stats.slf_margin_pixels
+        );
+    }
 }

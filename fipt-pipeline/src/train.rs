@@ -92,7 +92,7 @@ pub fn view_points(geometry: &Geometry, views: &[View]) -> (Vec<Vec<Option<Vec3>
     (pts, median)
 }
 
-/// Leaves out of `points` the pixels [`bleed_mask`] marks (`train.bleed_radius`,
+/// Leaves out of `points` the pixels [`fipt_core::image::bleed_mask`] marks (`train.bleed_radius`,
 /// `bleed_contrast`), and says how many.
 fn leave_out_bleed(points: &mut [Vec<Option<Vec3>>], images: &[Image], radius: u32, contrast: f32) {
     // The floor: 1 % of the median luminance over every training view (a view into a
@@ -101,7 +101,7 @@ fn leave_out_bleed(points: &mut [Vec<Option<Vec3>>], images: &[Image], radius: u
     let (mut dropped, mut all) = (0usize, 0usize);
     for (pts, img) in points.iter_mut().zip(images) {
         let (r, c) = (radius as usize, contrast);
-        let bleed = bleed_mask(img, r, c, 0.01 * median);
+        let bleed = fipt_core::image::bleed_mask(img, r, c, 0.01 * median);
         for (p, b) in pts.iter_mut().zip(bleed) {
             all += usize::from(p.is_some());
             if b && p.take().is_some() {
@@ -143,37 +143,6 @@ fn keep_at_most(points: &mut [Vec<Option<Vec3>>], limit: usize, seed: u64) -> us
         100.0 * kept as f64 / all.max(1) as f64
     );
     all - kept
-}
-
-/// Pixels within `radius` pixels (a square) of one at least `contrast` times brighter, by
-/// luminance; a pixel darker than `floor` counts as `floor`.
-pub fn bleed_mask(img: &Image, radius: usize, contrast: f32, floor: f32) -> Vec<bool> {
-    let (w, h) = (img.width, img.height);
-    let lum: Vec<f32> = img
-        .data
-        .iter()
-        .map(|&c| fipt_core::color::luminance(c).max(0.0))
-        .collect();
-    let floor = floor.max(f32::MIN_POSITIVE);
-    // The brightest neighbour: a separable max filter, rows then columns.
-    let mut rows = vec![0.0f32; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let (a, b) = (x.saturating_sub(radius), (x + radius).min(w - 1));
-            rows[y * w + x] = lum[y * w + a..=y * w + b]
-                .iter()
-                .copied()
-                .fold(0.0, f32::max);
-        }
-    }
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let (a, b) = (y.saturating_sub(radius), (y + radius).min(h - 1));
-            let brightest = (a..=b).map(|yy| rows[yy * w + x]).fold(0.0, f32::max);
-            brightest >= contrast * lum[i].max(floor)
-        })
-        .collect()
 }
 
 /// The training alone (`fipt train`); returns the folder written.
@@ -634,29 +603,6 @@ pub fn export_views(
 mod tests {
     use super::*;
     use glam::Vec3;
-
-    /// A lamp pixel marks its neighbours within the radius, not itself, not beyond, and not
-    /// for a contrast it does not reach; noise below the floor marks nothing.
-    #[test]
-    fn bleed_mask_marks_the_ring_around_a_bright_pixel() {
-        let (w, h) = (9, 9);
-        let mut img = Image::new(w, h);
-        img.data.fill(Vec3::ONE);
-        img.data[4 * w + 4] = Vec3::splat(20.0);
-        let m = bleed_mask(&img, 2, 10.0, 0.01);
-        for y in 0..h {
-            for x in 0..w {
-                let near = x.abs_diff(4) <= 2 && y.abs_diff(4) <= 2 && (x, y) != (4, 4);
-                assert_eq!(m[y * w + x], near, "pixel ({x}, {y})");
-            }
-        }
-        assert!(bleed_mask(&img, 2, 25.0, 0.01).iter().all(|&b| !b));
-        // A dark view with noise, 1e-4 next to 5e-3: below the floor, no edge.
-        for (i, c) in img.data.iter_mut().enumerate() {
-            *c = Vec3::splat(if i % 2 == 0 { 1e-4 } else { 5e-3 });
-        }
-        assert!(bleed_mask(&img, 2, 10.0, 0.01).iter().all(|&b| !b));
-    }
 
     /// The set keeps about `limit` of its hits, the same ones for the same seed, a uniform
     /// share of every view, and nothing is touched when the hits fit.

@@ -546,7 +546,7 @@ impl FactorizedBaker {
         let cell = summary.footprint.unwrap_or(1e-3).max(1e-9) * cfg.cache_cell_scale.max(1e-3);
         let slf;
         let cells;
-        (slf, cells, stats.pixels, stats.valid_pixels) = slf_and_cells(
+        (slf, cells, stats.pixels, stats.valid_pixels, _) = slf_and_cells(
             geometry,
             views,
             images,
@@ -555,6 +555,7 @@ impl FactorizedBaker {
             cfg.diffuse_cache,
             &selected,
             |_| true,
+            0,
         );
         stats.seconds_slf = t.elapsed().as_secs_f64();
         stats.slf_occupied_voxels = slf.occupied();

@@ -69,9 +69,10 @@ pub(crate) fn specular_mixture_view<L: IncidentLight + Sync>(
         });
 }
 
-/// The SLF (from the hit pixels `keep` accepts) and the diffuse cache's cells (when
-/// `cached`; the cells of the `selected` views' pixels marked used), built one view at a
-/// time, and the selected views' (pixels, hit pixels).
+/// The SLF (from the hit pixels `keep` accepts, less those within `margin` pixels of a hit
+/// pixel it rejects) and the diffuse cache's cells (when `cached`; the cells of the
+/// `selected` views' pixels marked used), built one view at a time, the selected views'
+/// (pixels, hit pixels), and how many hit pixels `keep` accepts the margin left out.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn slf_and_cells(
     geometry: &dyn RayQuery,
@@ -82,12 +83,25 @@ pub(crate) fn slf_and_cells(
     cached: bool,
     selected: &[bool],
     keep: impl Fn(&PixelRecord) -> bool,
-) -> (SurfaceLightField, DiffuseCells, usize, usize) {
-    let (mut pixels, mut hit) = (0, 0);
+    margin: usize,
+) -> (SurfaceLightField, DiffuseCells, usize, usize, usize) {
+    let (mut pixels, mut hit, mut bled) = (0, 0, 0);
     for (k, (v, img)) in views.iter().zip(images).enumerate() {
         let r = primary_records(geometry, v);
-        for (rec, l) in r.iter().zip(&img.data) {
-            if let Some(rec) = rec.as_ref().filter(|r| keep(r)) {
+        let rejected: Vec<bool> = r
+            .iter()
+            .map(|rec| rec.as_ref().is_some_and(|x| !keep(x)))
+            .collect();
+        let near = if margin > 0 {
+            fipt_core::image::dilate(&rejected, img.width, img.height, margin)
+        } else {
+            rejected
+        };
+        for ((rec, l), &near) in r.iter().zip(&img.data).zip(&near) {
+            let Some(rec) = rec.as_ref() else { continue };
+            if near {
+                bled += usize::from(keep(rec));
+            } else {
                 slf.add(rec.hit.p, *l);
             }
         }
@@ -99,7 +113,7 @@ pub(crate) fn slf_and_cells(
             hit += r.iter().flatten().count();
         }
     }
-    (slf.finish(), cells.finish(), pixels, hit)
+    (slf.finish(), cells.finish(), pixels, hit, bled)
 }
 
 /// Refuses views and images that do not pair up.

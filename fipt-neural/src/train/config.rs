@@ -389,7 +389,7 @@ fn default_target_weight() -> f32 {
 }
 
 fn default_bleed_contrast() -> f32 {
-    10.0
+    fipt_core::image::BLEED_CONTRAST
 }
 
 fn default_segment_weight() -> f32 {
