@@ -386,27 +386,29 @@ fn refined_shadings_raise_the_closure_psnr() {
         .refine(&inputs, &|_, _| {})
         .unwrap()
         .output;
-    // The SLF without the pixels beside the light (its anti-aliased outline).
-    let (with_margin, margin_stats) = PathGrownRefiner::new(RefineConfig {
-        slf_light_margin: 2,
+    // The SLF with the pixels beside the light (its anti-aliased outline), which the default
+    // leaves out.
+    let (with_outline, outline_stats) = PathGrownRefiner::new(RefineConfig {
+        slf_light_margin: 0,
         ..Default::default()
     })
     .refine_detailed(&inputs, &|_, _| {})
     .unwrap();
-    let (c_bake, c_ref, c_nolight, c_pixel, c_margin) = (
+    let (c_bake, c_ref, c_nolight, c_pixel, c_outline) = (
         closure(&ds, &bake, &images),
         closure(&ds, &refined, &images),
         closure(&ds, &no_light, &images),
         closure(&ds, &per_pixel, &images),
-        closure(&ds, &with_margin, &images),
+        closure(&ds, &with_outline, &images),
     );
     eprintln!(
-        "closure: initial bake {c_bake:.2} dB, refined {c_ref:.2} dB, refined without emitter samples {c_nolight:.2} dB, per-pixel Ld (reference) {c_pixel:.2} dB, the light's outline out of the SLF {c_margin:.2} dB; {stats:?}"
+        "closure: initial bake {c_bake:.2} dB, refined {c_ref:.2} dB, refined without emitter samples {c_nolight:.2} dB, per-pixel Ld (reference) {c_pixel:.2} dB, the light's outline in the SLF {c_outline:.2} dB; {stats:?}"
     );
-    assert!(stats.slf_margin_pixels == 0 && margin_stats.slf_margin_pixels > 0);
+    // Measured: 31.52 dB against 31.29 with the outline.
+    assert!(stats.slf_margin_pixels > 0 && outline_stats.slf_margin_pixels == 0);
     assert!(
-        c_margin >= c_ref,
-        "leaving the light's outline out of the SLF should not lower the closure: {c_ref:.2} → {c_margin:.2} dB"
+        c_ref >= c_outline,
+        "leaving the light's outline out of the SLF should not lower the closure: {c_outline:.2} → {c_ref:.2} dB"
     );
     // Measured: 22.7 dB against 31.3 with the cache and emitter samples (the reference's
     // estimator is noisy where small lights are found only by BRDF samples).
