@@ -253,7 +253,7 @@ pub struct FactorizedLoss {
     /// `roughness_prior_scale`): (σ − σ*)² + (m − m*)².
     pub target_weight: f32,
     /// How a pixel's error is measured.
-    pub image_loss: crate::train::ImageLoss,
+    pub image_loss: ImageLoss,
     /// The segment prior's terms of the forward, for the backward (leave it `Default`).
     pub cache: PriorCache,
 }
