@@ -557,25 +557,39 @@ mod tests {
 /// `mask` (row-major, `width` × `height`) grown by `radius` pixels (a square): a pixel is set
 /// when any within `radius` is.
 pub fn dilate(mask: &[bool], width: usize, height: usize, radius: usize) -> Vec<bool> {
-    let (w, h) = (width, height);
     assert_eq!(
         mask.len(),
-        w * h,
-        "dilate: mask of {} for {w}×{h}",
+        width * height,
+        "dilate: mask of {} for {width}×{height}",
         mask.len()
     );
-    let mut rows = vec![false; w * h];
+    window_max(mask, width, height, radius, |a, b| a || b)
+}
+
+/// The largest of each pixel's neighbours within `radius` (a square; the pixel included) by
+/// `max`: a separable filter, rows then columns.
+fn window_max<T: Copy + Default>(
+    v: &[T],
+    w: usize,
+    h: usize,
+    radius: usize,
+    max: impl Fn(T, T) -> T,
+) -> Vec<T> {
+    let mut rows = vec![T::default(); w * h];
     for y in 0..h {
         for x in 0..w {
             let (a, b) = (x.saturating_sub(radius), (x + radius).min(w - 1));
-            rows[y * w + x] = mask[y * w + a..=y * w + b].iter().any(|&m| m);
+            rows[y * w + x] = v[y * w + a..=y * w + b]
+                .iter()
+                .copied()
+                .fold(T::default(), &max);
         }
     }
     (0..w * h)
         .map(|i| {
             let (x, y) = (i % w, i / w);
             let (a, b) = (y.saturating_sub(radius), (y + radius).min(h - 1));
-            (a..=b).any(|yy| rows[yy * w + x])
+            (a..=b).map(|yy| rows[yy * w + x]).fold(T::default(), &max)
         })
         .collect()
 }
@@ -593,24 +607,9 @@ pub fn bleed_mask(img: &Image, radius: usize, contrast: f32, floor: f32) -> Vec<
         .map(|&c| crate::color::luminance(c).max(0.0))
         .collect();
     let floor = floor.max(f32::MIN_POSITIVE);
-    // The brightest neighbour: a separable max filter, rows then columns.
-    let mut rows = vec![0.0f32; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let (a, b) = (x.saturating_sub(radius), (x + radius).min(w - 1));
-            rows[y * w + x] = lum[y * w + a..=y * w + b]
-                .iter()
-                .copied()
-                .fold(0.0, f32::max);
-        }
-    }
+    let brightest = window_max(&lum, w, h, radius, f32::max);
     (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let (a, b) = (y.saturating_sub(radius), (y + radius).min(h - 1));
-            let brightest = (a..=b).map(|yy| rows[yy * w + x]).fold(0.0, f32::max);
-            brightest >= contrast * lum[i].max(floor)
-        })
+        .map(|i| brightest[i] >= contrast * lum[i].max(floor))
         .collect()
 }
 
