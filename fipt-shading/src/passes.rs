@@ -88,21 +88,17 @@ pub(crate) fn slf_and_cells(
     let (mut pixels, mut hit, mut bled) = (0, 0, 0);
     for (k, (v, img)) in views.iter().zip(images).enumerate() {
         let r = primary_records(geometry, v);
-        let rejected: Vec<bool> = r
-            .iter()
-            .map(|rec| rec.as_ref().is_some_and(|x| !keep(x)))
-            .collect();
-        let near = if margin > 0 {
+        // Per pixel: None off the geometry, else whether `keep` accepts the hit.
+        let kept: Vec<Option<bool>> = r.iter().map(|rec| rec.as_ref().map(&keep)).collect();
+        let near = (margin > 0).then(|| {
+            let rejected: Vec<bool> = kept.iter().map(|k| *k == Some(false)).collect();
             fipt_core::image::dilate(&rejected, img.width, img.height, margin)
-        } else {
-            rejected
-        };
-        for ((rec, l), &near) in r.iter().zip(&img.data).zip(&near) {
-            let Some(rec) = rec.as_ref() else { continue };
-            if near {
-                bled += usize::from(keep(rec));
-            } else {
-                slf.add(rec.hit.p, *l);
+        });
+        for (i, ((rec, l), k)) in r.iter().zip(&img.data).zip(&kept).enumerate() {
+            match (rec, k) {
+                (Some(_), Some(true)) if near.as_ref().is_some_and(|n| n[i]) => bled += 1,
+                (Some(rec), Some(true)) => slf.add(rec.hit.p, *l),
+                _ => {}
             }
         }
         if cached {
