@@ -92,6 +92,9 @@ pub struct PixelHit {
     /// Ld + max_σ Ls0 + max_σ Ls1 (a white surface with kd = ks = 1). Radiance above it must
     /// be emitted.
     pub max_reflected: Option<Rgb>,
+    /// Where the pixel lies, `[view, x, y]`, if known: an extractor can then tell a light's
+    /// inner pixels from its outline, whose footprint also covers what lies beside the light.
+    pub at: Option<[u32; 3]>,
 }
 
 /// Finds the emitters of a scene.

@@ -1,11 +1,11 @@
 //! Emitters from the emission mask and the observed radiance.
 use fipt_core::color::luminance;
-use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs};
+use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::rng::Pcg32;
 use fipt_core::Result;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// Settings of [`MaskExtractor`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -20,7 +20,19 @@ pub struct MaskExtractorConfig {
     /// merely failed to explain (measured: two walls of a 4-view cornell became "lights");
     /// an emitter is what no reflectance can explain. false: the reference's rule.
     pub require_unexplained: bool,
+    /// A triangle's radiance from the inner pixels of its light: those whose 8 neighbours in
+    /// their view also see an emitter triangle. A pixel on a light's outline integrates its
+    /// footprint, part of which lies beside the light, and a small light is mostly outline
+    /// (`room`'s bulb, about 5 pixels across: 4 % low from all its pixels). A triangle with
+    /// no inner pixel takes its light's inner median; a light with none keeps all its pixels.
+    /// false: every pixel (the reference). Needs the pixels' places ([`PixelHit::at`]).
+    #[serde(default = "inner_default")]
+    pub inner_pixels: bool,
     pub seed: u64,
+}
+
+fn inner_default() -> bool {
+    true
 }
 
 impl Default for MaskExtractorConfig {
@@ -29,6 +41,7 @@ impl Default for MaskExtractorConfig {
             threshold: 0.01,
             samples_per_triangle: 100,
             require_unexplained: true,
+            inner_pixels: true,
             seed: 0,
         }
     }
@@ -95,12 +108,12 @@ impl EmitterExtractor for MaskExtractor {
         let mut is_emitter: Vec<bool> = alpha.iter().map(|&a| a > c.threshold).collect();
         // 2. Observed pixels per emitter triangle; with `require_unexplained`, drop triangles
         //    whose pixels are mostly within what they could reflect.
-        let mut obs: HashMap<u32, Vec<Vec3>> = HashMap::new();
+        let mut obs: HashMap<u32, Vec<&PixelHit>> = HashMap::new();
         let mut votes: HashMap<u32, (usize, usize)> = HashMap::new();
         for h in inp.pixel_hits {
             let t = h.triangle;
             if (t as usize) < n && is_emitter[t as usize] {
-                obs.entry(t).or_default().push(h.radiance);
+                obs.entry(t).or_default().push(h);
                 if let Some(b) = h.max_reflected {
                     let v = votes.entry(t).or_default();
                     v.0 += (luminance(h.radiance) > luminance(b)) as usize;
@@ -158,22 +171,47 @@ impl EmitterExtractor for MaskExtractor {
             }
             Vec3::new(median(&mut ch[0]), median(&mut ch[1]), median(&mut ch[2]))
         };
+        // With `inner_pixels`, each triangle's pixels that lie wholly on a light.
+        let on_light: HashSet<[u32; 3]> = if c.inner_pixels {
+            obs.values().flatten().filter_map(|h| h.at).collect()
+        } else {
+            HashSet::new()
+        };
+        let inner = |h: &PixelHit| {
+            h.at.is_some_and(|[v, x, y]| {
+                (-1i64..=1).all(|dy| {
+                    (-1i64..=1).all(|dx| {
+                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                        nx >= 0 && ny >= 0 && on_light.contains(&[v, nx as u32, ny as u32])
+                    })
+                })
+            })
+        };
+        let radiance_of = |t: usize, inner_only: bool| -> Vec<Vec3> {
+            obs.get(&(t as u32)).map_or(vec![], |v| {
+                v.iter()
+                    .filter(|h| !inner_only || inner(h))
+                    .map(|h| h.radiance)
+                    .collect()
+            })
+        };
         let mut out = Vec::new();
         for g in groups {
-            let all: Vec<Vec3> = g
-                .iter()
-                .flat_map(|t| obs.get(&(*t as u32)).cloned().unwrap_or_default())
-                .collect();
+            let all: Vec<Vec3> = g.iter().flat_map(|&t| radiance_of(t, false)).collect();
             if all.is_empty() {
                 continue; // never seen: no radiance to give it
             }
-            let fallback = channel_median(&all);
+            let inside: Vec<Vec3> = g.iter().flat_map(|&t| radiance_of(t, true)).collect();
+            let use_inner = c.inner_pixels && !inside.is_empty();
+            let fallback = channel_median(if use_inner { &inside } else { &all });
             let (mut tris, mut rad) = (vec![], vec![]);
             for &t in &g {
-                let l = obs
-                    .get(&(t as u32))
-                    .map(|v| channel_median(v))
-                    .unwrap_or(fallback);
+                let own = radiance_of(t, use_inner);
+                let l = if own.is_empty() {
+                    fallback
+                } else {
+                    channel_median(&own)
+                };
                 if l.max_element() <= 0.0 || !l.is_finite() {
                     continue;
                 }
@@ -251,6 +289,7 @@ mod tests {
             triangle: t,
             radiance: l,
             max_reflected: Some(Vec3::splat(1.0)),
+            at: None,
         };
         let mut hits = vec![];
         for k in 0..9 {
@@ -297,6 +336,57 @@ mod tests {
         assert!((tiny.area - 1e-4).abs() < 1e-7);
     }
 
+    /// A light seen as a 5×5-pixel square whose outline pixels are half covered by the dark
+    /// floor beside it: its radiance comes from the 3×3 inner pixels, also for a triangle
+    /// whose pixels are all on the outline; the reference's rule takes every pixel.
+    #[test]
+    fn a_lights_radiance_comes_from_its_inner_pixels() {
+        let (pos, tris) = scene();
+        let field = BoxMask(Vec3::new(-1.0, 1.5, -1.0), Vec3::new(2.0, 2.5, 2.0));
+        let l = Vec3::new(8.0, 6.0, 4.0);
+        let mut hits = vec![];
+        for y in 0..5u32 {
+            for x in 0..5u32 {
+                let outline = x == 0 || y == 0 || x == 4 || y == 4;
+                hits.push(PixelHit {
+                    // Triangle 1 holds only outline pixels (the top row).
+                    triangle: if y == 0 { 1 } else { 0 },
+                    radiance: if outline { l * 0.5 } else { l },
+                    max_reflected: Some(Vec3::splat(0.1)),
+                    at: Some([3, 10 + x, 20 + y]),
+                });
+            }
+        }
+        let mut ex = MaskExtractor {
+            config: MaskExtractorConfig::default(),
+        };
+        let inp = EmitterInputs {
+            positions: &pos,
+            triangles: &tris,
+            field: &field,
+            pixel_hits: &hits,
+        };
+        let e = ex.extract(&inp).unwrap();
+        assert_eq!(e.len(), 1, "{e:?}");
+        assert_eq!(e[0].triangles, vec![0, 1]);
+        assert_eq!(e[0].radiance, vec![l.to_array(); 2]);
+        assert_eq!(e[0].pixels, 25);
+        // Every pixel: 11 of triangle 0's 20 pixels are on the outline, all of triangle 1's.
+        ex.config.inner_pixels = false;
+        let e = ex.extract(&inp).unwrap();
+        assert_eq!(e[0].radiance, vec![(l * 0.5).to_array(); 2]);
+        // Without the pixels' places nothing is inner: every pixel counts.
+        ex.config.inner_pixels = true;
+        let unplaced: Vec<PixelHit> = hits.iter().map(|h| PixelHit { at: None, ..*h }).collect();
+        let e = ex
+            .extract(&EmitterInputs {
+                pixel_hits: &unplaced,
+                ..inp
+            })
+            .unwrap();
+        assert_eq!(e[0].radiance[1], (l * 0.5).to_array());
+    }
+
     #[test]
     fn a_masked_surface_within_its_reflectable_radiance_is_not_a_light() {
         let (pos, tris) = scene();
@@ -308,11 +398,13 @@ mod tests {
                 triangle: 0,
                 radiance: Vec3::splat(5.0),
                 max_reflected: Some(Vec3::splat(0.5)),
+                at: None,
             });
             hits.push(PixelHit {
                 triangle: 4,
                 radiance: Vec3::splat(0.3),
                 max_reflected: Some(Vec3::splat(0.5)),
+                at: None,
             });
         }
         let mut ex = MaskExtractor {
@@ -341,6 +433,7 @@ mod tests {
             triangle: 0,
             radiance: Vec3::ONE,
             max_reflected: None,
+            at: None,
         }];
         let e = MaskExtractor {
             config: MaskExtractorConfig::default(),

@@ -361,10 +361,12 @@ pub(crate) fn extract_emitters(
         let most = reflected.and_then(|s| s.get(v));
         for (i, (r, l)) in recs.iter().zip(&img.data).enumerate() {
             if let Some(r) = r {
+                let w = img.width.max(1);
                 hits.push(PixelHit {
                     triangle: r.tri,
                     radiance: *l,
                     max_reflected: most.and_then(|m| m.get(i).copied().flatten()),
+                    at: Some([v as u32, (i % w) as u32, (i / w) as u32]),
                 });
             }
         }
