@@ -263,6 +263,20 @@ mod tests {
         }
     }
 
+    fn inputs<'a>(
+        positions: &'a [Vec3],
+        triangles: &'a [[u32; 3]],
+        field: &'a dyn MaterialField,
+        pixel_hits: &'a [PixelHit],
+    ) -> EmitterInputs<'a> {
+        EmitterInputs {
+            positions,
+            triangles,
+            field,
+            pixel_hits,
+        }
+    }
+
     /// Two separate unit quads at x = 0 and x = 10 (2 triangles each, split vertices), and a
     /// floor quad.
     fn scene() -> (Vec<Vec3>, Vec<[u32; 3]>) {
@@ -360,12 +374,7 @@ mod tests {
         let mut ex = MaskExtractor {
             config: MaskExtractorConfig::default(),
         };
-        let inp = EmitterInputs {
-            positions: &pos,
-            triangles: &tris,
-            field: &field,
-            pixel_hits: &hits,
-        };
+        let inp = inputs(&pos, &tris, &field, &hits);
         let e = ex.extract(&inp).unwrap();
         assert_eq!(e.len(), 1, "{e:?}");
         assert_eq!(e[0].triangles, vec![0, 1]);
@@ -410,12 +419,7 @@ mod tests {
         let mut ex = MaskExtractor {
             config: MaskExtractorConfig::default(),
         };
-        let inp = EmitterInputs {
-            positions: &pos,
-            triangles: &tris,
-            field: &field,
-            pixel_hits: &hits,
-        };
+        let inp = inputs(&pos, &tris, &field, &hits);
         let e = ex.extract(&inp).unwrap();
         assert_eq!(e.len(), 1, "{e:?}");
         assert!(e[0].triangles.contains(&0) && !e[0].triangles.contains(&4));
