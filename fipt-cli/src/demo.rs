@@ -1,5 +1,6 @@
-//! `fipt demo`: the main job on a fresh machine with nothing at hand: generate `room`, run the
-//! pipeline on it with the `balanced` preset, evaluate, and say where everything is.
+//! `fipt demo`: the main job on a fresh machine with nothing at hand: generate `room` (in the
+//! preset's reflectance model), run the pipeline on it with the `balanced` preset, evaluate,
+//! and say where everything is.
 use crate::progress::bar;
 use anyhow::Result;
 use fipt_pipeline::run::{RunOutcome, RunRequest};
@@ -24,7 +25,13 @@ pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
             scene.display()
         );
         let pb = bar(1, "synth");
-        let opts = SynthOptions::defaults("room");
+        // Rendered in the reflectance model the preset fits (`principled`; `reference`:
+        // FIPT's): fitting one model to views of another biases kd and σ by itself
+        // (docs/kd-bias.md).
+        let mut opts = SynthOptions::defaults("room");
+        if let Some(cfg) = fipt_pipeline::run::RunConfig::preset(&a.preset) {
+            opts.model = cfg.model.brdf;
+        }
         write_dataset(build("room")?, &scene, &opts, &|d, t| {
             pb.set_length(t as u64);
             pb.set_position(d as u64);
