@@ -187,21 +187,34 @@ impl EmitterExtractor for MaskExtractor {
                 })
             })
         };
-        let radiance_of = |t: usize, inner_only: bool| -> Vec<Vec3> {
-            obs.get(&(t as u32)).map_or(vec![], |v| {
-                v.iter()
-                    .filter(|h| !inner_only || inner(h))
-                    .map(|h| h.radiance)
-                    .collect()
+        // Per emitter triangle: (every pixel's radiance, its inner pixels' radiance).
+        let seen: HashMap<u32, (Vec<Vec3>, Vec<Vec3>)> = obs
+            .iter()
+            .map(|(&t, v)| {
+                let all = v.iter().map(|h| h.radiance).collect();
+                let inside = v.iter().filter(|h| inner(h)).map(|h| h.radiance).collect();
+                (t, (all, inside))
             })
+            .collect();
+        let radiance_of = |t: usize, inner_only: bool| -> &[Vec3] {
+            seen.get(&(t as u32))
+                .map_or(&[], |(all, inside)| if inner_only { inside } else { all })
         };
         let mut out = Vec::new();
         for g in groups {
-            let all: Vec<Vec3> = g.iter().flat_map(|&t| radiance_of(t, false)).collect();
+            let all: Vec<Vec3> = g
+                .iter()
+                .flat_map(|&t| radiance_of(t, false))
+                .copied()
+                .collect();
             if all.is_empty() {
                 continue; // never seen: no radiance to give it
             }
-            let inside: Vec<Vec3> = g.iter().flat_map(|&t| radiance_of(t, true)).collect();
+            let inside: Vec<Vec3> = g
+                .iter()
+                .flat_map(|&t| radiance_of(t, true))
+                .copied()
+                .collect();
             let use_inner = c.inner_pixels && !inside.is_empty();
             let fallback = channel_median(if use_inner { &inside } else { &all });
             let (mut tris, mut rad) = (vec![], vec![]);
@@ -210,7 +223,7 @@ impl EmitterExtractor for MaskExtractor {
                 let l = if own.is_empty() {
                     fallback
                 } else {
-                    channel_median(&own)
+                    channel_median(own)
                 };
                 if l.max_element() <= 0.0 || !l.is_finite() {
                     continue;
