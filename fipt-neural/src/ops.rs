@@ -307,6 +307,14 @@ fn sign(x: f32) -> f32 {
 /// pulled the emission mask over small lights (`room` at 80×60 lost its bulb).
 pub const SLOPE_LOSS_CLIP: f32 = 0.1;
 
+/// The pixel's [`ImageLoss::Srgb`] term, the squared sRGB difference, and its derivative in
+/// the prediction `p`.
+#[inline]
+fn srgb_term(p: f32, g: f32) -> (f32, f32) {
+    let e = srgb_oetf(p) - srgb_oetf(g);
+    (e * e, 2.0 * e * srgb_oetf_grad(p))
+}
+
 /// The pixel's [`ImageLoss::SrgbSlope`] term and its derivative in the prediction `p`.
 #[inline]
 fn slope_term(p: f32, g: f32) -> (f32, f32) {
@@ -315,8 +323,7 @@ fn slope_term(p: f32, g: f32) -> (f32, f32) {
     if e.abs() <= SLOPE_LOSS_CLIP {
         (e * e, 2.0 * e * w)
     } else {
-        let e = srgb_oetf(p) - srgb_oetf(g);
-        (e * e, 2.0 * e * srgb_oetf_grad(p))
+        srgb_term(p, g)
     }
 }
 
@@ -355,10 +362,7 @@ impl FactorizedLoss {
             let p = (1.0 - alpha) * r + alpha * g[c];
             // The pixel's term and its derivative in P, then the chain to the inputs.
             let (term, dp) = match self.image_loss {
-                ImageLoss::Srgb => {
-                    let e = srgb_oetf(p) - srgb_oetf(g[c]);
-                    (e * e, 2.0 * e * srgb_oetf_grad(p))
-                }
+                ImageLoss::Srgb => srgb_term(p, g[c]),
                 ImageLoss::SrgbSlope => slope_term(p, g[c]),
             };
             sq += term;
