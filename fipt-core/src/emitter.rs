@@ -1,7 +1,10 @@
 //! The emitter-extraction contract: which triangles emit, how much, grouped into lights.
 //!
-//! Emitters are opaque, double-sided, constant radiance per triangle and reflect nothing
-//! (method §1). A light is a connected group of emitter triangles (a lamp is one light).
+//! Emitters are opaque, constant radiance per triangle and reflect nothing (method §1). The
+//! method assumes they emit on both sides; an extractor may say per triangle which side emits
+//! ([`EmitSide`]): a luminaire's back, or an area light in Mitsuba, is dark, and a panel hung
+//! 1 cm under a ceiling would otherwise light a ring of ceiling no view shows lit. A light is
+//! a connected group of emitter triangles (a lamp is one light).
 use crate::color::Rgb;
 use crate::error::Result;
 use crate::field::MaterialField;
@@ -19,12 +22,58 @@ pub struct Emitter {
     pub area: f32,
     /// Area-weighted mean radiance.
     pub mean_radiance: [f32; 3],
-    /// Emitted power, double-sided Lambertian: 2π·Σ A·L (W if L is in W·m⁻²·sr⁻¹).
+    /// Emitted power, Lambertian on each emitting side: π·Σ A·L per side (W if L is in
+    /// W·m⁻²·sr⁻¹).
     pub power: [f32; 3],
     /// Area-weighted centroid.
     pub centroid: [f32; 3],
     /// Training pixels whose centre ray hits the light.
     pub pixels: usize,
+    /// The side each triangle emits from (same order as `triangles`); empty: every triangle
+    /// emits on both sides (the method's assumption, and files written before sides).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sides: Vec<EmitSide>,
+}
+
+/// Which side of a triangle emits: the side its winding faces (`Front`, where
+/// (b − a) × (c − a) points), the other (`Back`) or both.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EmitSide {
+    #[default]
+    Both,
+    Front,
+    Back,
+}
+
+impl EmitSide {
+    /// Whether a triangle with geometric (winding) normal `ng` emits towards direction `w`
+    /// (from the triangle to the receiver; any length).
+    #[inline]
+    pub fn emits_towards(self, ng: Vec3, w: Vec3) -> bool {
+        match self {
+            EmitSide::Both => true,
+            EmitSide::Front => ng.dot(w) > 0.0,
+            EmitSide::Back => ng.dot(w) < 0.0,
+        }
+    }
+    /// The side seen by `front` pixels looking at the winding side and `back` at the other:
+    /// the only side seen, or both when both or neither were seen.
+    pub fn from_counts(front: usize, back: usize) -> EmitSide {
+        match (front > 0, back > 0) {
+            (true, false) => EmitSide::Front,
+            (false, true) => EmitSide::Back,
+            _ => EmitSide::Both,
+        }
+    }
+    /// How many sides emit (1 or 2).
+    pub fn count(self) -> f32 {
+        if self == EmitSide::Both {
+            2.0
+        } else {
+            1.0
+        }
+    }
 }
 
 impl Emitter {
@@ -68,7 +117,42 @@ impl Emitter {
             power: (wsum * 2.0 * std::f32::consts::PI).to_array(),
             centroid: (csum / area).to_array(),
             pixels,
+            sides: Vec::new(),
         })
+    }
+
+    /// The same light emitting from `sides` (one per triangle), its power recomputed: π·A·L
+    /// per emitting side. `positions` and `triangles` as in [`Emitter::from_triangles`].
+    pub fn with_sides(
+        mut self,
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        sides: Vec<EmitSide>,
+    ) -> Emitter {
+        if sides.len() != self.triangles.len() {
+            return self;
+        }
+        let mut power = Vec3::ZERO;
+        for ((&t, l), s) in self.triangles.iter().zip(&self.radiance).zip(&sides) {
+            let Some(tri) = triangles.get(t as usize) else {
+                return self;
+            };
+            let [a, b, c] = tri.map(|v| positions.get(v as usize).copied().unwrap_or_default());
+            let ar = 0.5 * (b - a).cross(c - a).length();
+            power += Vec3::from(*l) * ar * s.count() * std::f32::consts::PI;
+        }
+        self.power = power.to_array();
+        self.sides = if sides.iter().all(|&s| s == EmitSide::Both) {
+            Vec::new()
+        } else {
+            sides
+        };
+        self
+    }
+
+    /// The side triangle `i` (an index into `triangles`) emits from.
+    pub fn side(&self, i: usize) -> EmitSide {
+        self.sides.get(i).copied().unwrap_or_default()
     }
 }
 
@@ -95,6 +179,9 @@ pub struct PixelHit {
     /// Where the pixel lies, `[view, x, y]`, if known: an extractor can then tell a light's
     /// inner pixels from its outline, whose footprint also covers what lies beside the light.
     pub at: Option<[u32; 3]>,
+    /// Whether the pixel looks at the triangle's winding side (true) or the other, if known:
+    /// an extractor can then leave dark a side no view saw ([`EmitSide`]).
+    pub front: Option<bool>,
 }
 
 /// Finds the emitters of a scene.

@@ -8,6 +8,7 @@
 //! so no UV coordinates are needed. The Mitsuba `studio` scene's `scene_parts.json` is imported
 //! by [`SceneMaterials::from_scene_parts`].
 use crate::color::Rgb;
+use crate::emitter::EmitSide;
 use crate::error::{CoreError, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -104,8 +105,14 @@ pub enum MaterialDesc {
         /// m ∈ [0, 1].
         metallic: Texture,
     },
-    /// An opaque, double-sided, black emitter of constant radiance.
-    Emitter { name: String, radiance: [f32; 3] },
+    /// An opaque, black emitter of constant radiance, on both sides unless `one_sided` (then
+    /// only towards the side its triangles' winding faces, as Mitsuba's area lights).
+    Emitter {
+        name: String,
+        radiance: [f32; 3],
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        one_sided: bool,
+    },
 }
 
 impl MaterialDesc {
@@ -116,6 +123,15 @@ impl MaterialDesc {
     }
     pub fn is_emitter(&self) -> bool {
         matches!(self, MaterialDesc::Emitter { .. })
+    }
+    /// The side an emitter emits from (both for reflecting materials, which emit nothing).
+    pub fn emit_side(&self) -> EmitSide {
+        match self {
+            MaterialDesc::Emitter {
+                one_sided: true, ..
+            } => EmitSide::Front,
+            _ => EmitSide::Both,
+        }
     }
 }
 
@@ -283,6 +299,10 @@ impl SceneMaterials {
             }
             Ok(out)
         };
+        // Emitters are one-sided where the table's conventions say so (Mitsuba's area lights).
+        let one_sided = v["gt_conventions"]["emitters"]
+            .as_str()
+            .is_some_and(|s| s.contains("one-sided"));
         let mut materials = Vec::new();
         let mut faces = Vec::new();
         for (i, o) in objects.iter().enumerate() {
@@ -299,6 +319,7 @@ impl SceneMaterials {
                 Some("emitter") => MaterialDesc::Emitter {
                     name,
                     radiance: arr3(&o["radiance"], "radiance")?,
+                    one_sided,
                 },
                 Some("principled") => {
                     let bc = &o["base_color"];
@@ -370,6 +391,7 @@ mod tests {
                 MaterialDesc::Emitter {
                     name: "lamp".into(),
                     radiance: [5.0, 4.0, 3.0],
+                    one_sided: true,
                 },
                 MaterialDesc::Principled {
                     name: "floor".into(),

@@ -1,6 +1,6 @@
 //! Emitters from the emission mask and the observed radiance.
 use fipt_core::color::luminance;
-use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
+use fipt_core::emitter::{EmitSide, Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::rng::Pcg32;
 use fipt_core::Result;
 use glam::Vec3;
@@ -26,12 +26,19 @@ pub struct MaskExtractorConfig {
     /// (`room`'s bulb, about 5 pixels across: 4 % low from all its pixels). A triangle with
     /// no inner pixel takes its light's inner median; a light with none keeps all its pixels.
     /// false: every pixel (the reference). Needs the pixels' places ([`PixelHit::at`]).
-    #[serde(default = "inner_default")]
+    #[serde(default = "yes")]
     pub inner_pixels: bool,
+    /// A triangle emits only on the sides its pixels saw it from (both when seen from both,
+    /// or unseen). A luminaire's back is dark, as an area light's in Mitsuba: on
+    /// `studio-mitsuba`, whose ceiling panel hangs 1 cm under the ceiling, two-sided lights
+    /// lit a ring of ceiling the views show dark. false: both sides (the reference). Needs
+    /// the pixels' sides ([`PixelHit::front`]).
+    #[serde(default = "yes")]
+    pub observed_sides: bool,
     pub seed: u64,
 }
 
-fn inner_default() -> bool {
+fn yes() -> bool {
     true
 }
 
@@ -42,6 +49,7 @@ impl Default for MaskExtractorConfig {
             samples_per_triangle: 100,
             require_unexplained: true,
             inner_pixels: true,
+            observed_sides: true,
             seed: 0,
         }
     }
@@ -232,13 +240,20 @@ impl EmitterExtractor for MaskExtractor {
                 rad.push(l);
             }
             let pixels = tris.iter().map(|t| obs.get(t).map_or(0, |v| v.len())).sum();
-            out.extend(Emitter::from_triangles(
-                inp.positions,
-                inp.triangles,
-                tris,
-                rad,
-                pixels,
-            ));
+            let sides: Vec<EmitSide> = tris
+                .iter()
+                .map(|t| match obs.get(t) {
+                    Some(v) if c.observed_sides => EmitSide::from_counts(
+                        v.iter().filter(|h| h.front == Some(true)).count(),
+                        v.iter().filter(|h| h.front == Some(false)).count(),
+                    ),
+                    _ => EmitSide::Both,
+                })
+                .collect();
+            out.extend(
+                Emitter::from_triangles(inp.positions, inp.triangles, tris, rad, pixels)
+                    .map(|e| e.with_sides(inp.positions, inp.triangles, sides)),
+            );
         }
         out.sort_by(|a, b| {
             let p = |e: &Emitter| e.power.iter().sum::<f32>();
@@ -317,6 +332,7 @@ mod tests {
             radiance: l,
             max_reflected: Some(Vec3::splat(1.0)),
             at: None,
+            front: None,
         };
         let mut hits = vec![];
         for k in 0..9 {
@@ -381,6 +397,7 @@ mod tests {
                     radiance: if outline { l * 0.5 } else { l },
                     max_reflected: Some(Vec3::splat(0.1)),
                     at: Some([3, 10 + x, 20 + y]),
+                    front: None,
                 });
             }
         }
@@ -409,6 +426,68 @@ mod tests {
         assert_eq!(e[0].radiance[1], (l * 0.5).to_array());
     }
 
+    /// A light seen only from its winding side emits only there, one seen only from the
+    /// other side only there, one seen from both on both; power counts the emitting sides.
+    /// With `observed_sides` off (the reference) or the sides unknown, both sides emit.
+    #[test]
+    fn a_light_emits_on_the_sides_its_pixels_saw() {
+        let (pos, tris) = scene();
+        let field = BoxMask(Vec3::new(-1.0, 1.5, -1.0), Vec3::new(11.0, 2.5, 1.0));
+        let hit = |t: u32, front: Option<bool>| PixelHit {
+            triangle: t,
+            radiance: Vec3::splat(5.0),
+            max_reflected: Some(Vec3::splat(0.5)),
+            at: None,
+            front,
+        };
+        // Panel (triangles 0, 1): 0 seen from its winding side, 1 from both.
+        // Lamp (2, 3): 2 seen from the other side only, 3 unseen.
+        let hits = vec![
+            hit(0, Some(true)),
+            hit(0, Some(true)),
+            hit(1, Some(true)),
+            hit(1, Some(false)),
+            hit(2, Some(false)),
+        ];
+        let mut ex = MaskExtractor {
+            config: MaskExtractorConfig::default(),
+        };
+        let inp = inputs(&pos, &tris, &field, &hits);
+        let e = ex.extract(&inp).unwrap();
+        let light = |t: u32| e.iter().find(|l| l.triangles.contains(&t)).unwrap();
+        assert_eq!(light(0).sides, vec![EmitSide::Front, EmitSide::Both]);
+        assert_eq!(light(2).sides, vec![EmitSide::Back, EmitSide::Both]);
+        let pi5 = std::f32::consts::PI * 5.0;
+        // Panel: area 0.5 on one side + 0.5 on both = 1.5 sides·m².
+        assert!(
+            (light(0).power[0] - 1.5 * pi5).abs() < 1e-3,
+            "{:?}",
+            light(0)
+        );
+        let (up, down) = (Vec3::Y, -Vec3::Y);
+        let n0 = (pos[1] - pos[0]).cross(pos[2] - pos[0]);
+        assert!(light(0).side(0).emits_towards(n0, n0) && !light(0).side(0).emits_towards(n0, -n0));
+        assert!(light(0).side(1).emits_towards(n0, up) && light(0).side(1).emits_towards(n0, down));
+        assert!(EmitSide::Back.emits_towards(n0, -n0) && !EmitSide::Back.emits_towards(n0, n0));
+        ex.config.observed_sides = false;
+        let e = ex.extract(&inp).unwrap();
+        assert!(e.iter().all(|l| l.sides.is_empty()), "{e:?}");
+        let p = 2.0 * pi5;
+        assert!(e.iter().all(|l| (l.power[0] / l.area - p).abs() < 1e-3 * p));
+        ex.config.observed_sides = true;
+        let unknown: Vec<PixelHit> = hits
+            .iter()
+            .map(|h| PixelHit { front: None, ..*h })
+            .collect();
+        let e = ex
+            .extract(&EmitterInputs {
+                pixel_hits: &unknown,
+                ..inp
+            })
+            .unwrap();
+        assert!(e.iter().all(|l| l.sides.is_empty()), "{e:?}");
+    }
+
     #[test]
     fn a_masked_surface_within_its_reflectable_radiance_is_not_a_light() {
         let (pos, tris) = scene();
@@ -421,12 +500,14 @@ mod tests {
                 radiance: Vec3::splat(5.0),
                 max_reflected: Some(Vec3::splat(0.5)),
                 at: None,
+                front: None,
             });
             hits.push(PixelHit {
                 triangle: 4,
                 radiance: Vec3::splat(0.3),
                 max_reflected: Some(Vec3::splat(0.5)),
                 at: None,
+                front: None,
             });
         }
         let mut ex = MaskExtractor {
@@ -451,6 +532,7 @@ mod tests {
             radiance: Vec3::ONE,
             max_reflected: None,
             at: None,
+            front: None,
         }];
         let e = MaskExtractor {
             config: MaskExtractorConfig::default(),

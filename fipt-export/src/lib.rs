@@ -26,7 +26,7 @@ pub mod textures;
 
 use atlas::Atlas;
 use fipt_core::color::Rgb;
-use fipt_core::emitter::Emitter;
+use fipt_core::emitter::{EmitSide, Emitter};
 use fipt_geom::Mesh;
 use fipt_shading::scene::SurfaceModel;
 use glam::{Vec2, Vec3};
@@ -125,7 +125,9 @@ fn vertex_normal(mesh: &Mesh, t: usize, corner: usize) -> Vec3 {
     }
 }
 
-/// The emitters' primitives, wound to face the centre of the mesh's bounds.
+/// The emitters' primitives, wound to face the side each triangle emits from
+/// ([`Emitter::sides`]; for a two-sided one, the centre of the mesh's bounds: Mitsuba's area
+/// lights emit on their front only).
 fn emitter_primitives(mesh: &Mesh, emitters: &[Emitter]) -> Vec<EmitterPrimitive> {
     let b = mesh.bounds();
     let centre = (b.min + b.max) * 0.5;
@@ -134,14 +136,19 @@ fn emitter_primitives(mesh: &Mesh, emitters: &[Emitter]) -> Vec<EmitterPrimitive
         .enumerate()
         .map(|(id, e)| {
             let mut p = Primitive::default();
-            for &t in &e.triangles {
+            for (i, &t) in e.triangles.iter().enumerate() {
                 let t = t as usize;
                 if t >= mesh.triangles.len() {
                     continue;
                 }
                 let mut v = mesh.vertices(t);
                 let mut n = mesh.face_normal(t);
-                if n.dot(centre - (v[0] + v[1] + v[2]) / 3.0) < 0.0 {
+                let flip = match e.side(i) {
+                    EmitSide::Front => false,
+                    EmitSide::Back => true,
+                    EmitSide::Both => n.dot(centre - (v[0] + v[1] + v[2]) / 3.0) < 0.0,
+                };
+                if flip {
                     v.swap(1, 2);
                     n = -n;
                 }
@@ -310,4 +317,47 @@ pub(crate) fn png(
         .write_image(pixels, width, height, color)
         .expect("PNG encoding to memory");
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An emitter triangle at y = 1 wound to face +y, above a floor triangle: exported facing
+    /// the side it emits from, and a two-sided one facing the bounds' centre (below it).
+    #[test]
+    fn an_exported_light_faces_the_side_it_emits_from() {
+        let p = vec![
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 1.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ];
+        let mesh = Mesh::from_triangles(p, None, vec![[0, 1, 2], [3, 4, 5]]);
+        assert!(mesh.face_normal(0).y > 0.99);
+        let light = Emitter::from_triangles(
+            &mesh.positions,
+            &mesh.triangles,
+            vec![0],
+            vec![Vec3::ONE],
+            1,
+        )
+        .unwrap();
+        for (side, up) in [
+            (EmitSide::Front, true),
+            (EmitSide::Back, false),
+            (EmitSide::Both, false),
+        ] {
+            let e = light
+                .clone()
+                .with_sides(&mesh.positions, &mesh.triangles, vec![side]);
+            let prim = &emitter_primitives(&mesh, &[e])[0].primitive;
+            let v = &prim.positions;
+            let n = (v[1] - v[0]).cross(v[2] - v[0]);
+            assert_eq!(n.y > 0.0, up, "{side:?}: winding normal {n}");
+            assert_eq!(prim.normals[0].y > 0.0, up, "{side:?}");
+        }
+    }
 }

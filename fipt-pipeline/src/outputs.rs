@@ -356,22 +356,34 @@ pub(crate) fn extract_emitters(
     reflected: Option<&[Vec<Option<Vec3>>]>,
     extractor: &dyn EmitterExtractor,
 ) -> Result<Vec<Emitter>> {
+    let mesh = &scene.geometry.mesh;
+    let views = &scene.ds.train().views;
     let mut hits = Vec::new();
     for (v, (recs, img)) in records.iter().zip(&scene.images).enumerate() {
         let most = reflected.and_then(|s| s.get(v));
+        let eye = views.get(v).map(|view| view.camera.origin);
         for (i, (r, l)) in recs.iter().zip(&img.data).enumerate() {
             if let Some(r) = r {
                 let w = img.width.max(1);
+                // The winding normal against the direction to the camera: the side seen.
+                let front = eye.and_then(|eye| {
+                    let [a, b, c] = mesh
+                        .triangles
+                        .get(r.tri as usize)?
+                        .map(|k| mesh.positions[k as usize]);
+                    let d = (b - a).cross(c - a).dot(eye - r.p);
+                    (d != 0.0).then_some(d > 0.0)
+                });
                 hits.push(PixelHit {
                     triangle: r.tri,
                     radiance: *l,
                     max_reflected: most.and_then(|m| m.get(i).copied().flatten()),
                     at: Some([v as u32, (i % w) as u32, (i / w) as u32]),
+                    front,
                 });
             }
         }
     }
-    let mesh = &scene.geometry.mesh;
     Ok(extractor.extract(&EmitterInputs {
         positions: &mesh.positions,
         triangles: &mesh.triangles,

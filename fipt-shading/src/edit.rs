@@ -3,6 +3,7 @@
 //! edits on its triangles, and triangles appended after them (added lights and objects).
 use crate::scene::SurfaceModel;
 use fipt_core::color::Rgb;
+use fipt_core::emitter::EmitSide;
 use fipt_core::materials::SurfacePoint;
 use fipt_core::reflectance::{base_color, clamp_roughness, metallic_workflow, ReflectanceModel};
 use fipt_geom::Mesh;
@@ -210,10 +211,11 @@ impl<S: SurfaceModel> SurfaceModel for EditedSurfaces<S> {
             None => self.base.part(tri),
         }
     }
-    fn one_sided(&self, tri: u32) -> bool {
+    fn emit_side(&self, tri: u32) -> EmitSide {
         match self.added(tri) {
-            Some(a) => a.one_sided,
-            None => self.base.one_sided(tri),
+            Some(a) if a.one_sided => EmitSide::Front,
+            Some(_) => EmitSide::Both,
+            None => self.base.emit_side(tri),
         }
     }
 }
@@ -268,10 +270,10 @@ mod tests {
         assert_eq!(s.surface(1, Vec3::ZERO).kd, Vec3::splat(0.5));
         for t in [2, 3] {
             assert_eq!(s.emission(t), Vec3::splat(7.0));
-            assert!(s.one_sided(t));
+            assert_eq!(s.emit_side(t), EmitSide::Front);
             assert_eq!(s.part(t), 99);
         }
-        assert!(!s.one_sided(0));
+        assert_eq!(s.emit_side(0), EmitSide::Both);
     }
 
     #[test]

@@ -12,7 +12,7 @@
 //! light), and paths that bounce off such surfaces brightened the refined Ld by 6 %.
 use crate::scene::SurfaceModel;
 use fipt_core::color::Rgb;
-use fipt_core::emitter::Emitter;
+use fipt_core::emitter::{EmitSide, Emitter};
 use fipt_core::field::{Material, MaterialField};
 use fipt_core::materials::SurfacePoint;
 use fipt_core::reflectance::ReflectanceModel;
@@ -32,6 +32,8 @@ pub struct FieldSurfaces {
     tri_facing: Vec<u8>,
     per_triangle: Vec<SurfacePoint>,
     emission: Vec<Rgb>,
+    /// The side each triangle emits from (the extracted emitters' [`EmitSide`]).
+    side: Vec<EmitSide>,
     model: ReflectanceModel,
 }
 
@@ -213,10 +215,12 @@ impl FieldSurfaces {
         let tri_facing = facings(mesh);
         let key = |p: Vec3, t: u32| voxel_key(p, cell, &tri_facing, t);
         let mut emission = vec![Vec3::ZERO; mesh.triangles.len()];
+        let mut side = vec![EmitSide::Both; mesh.triangles.len()];
         for e in emitters {
-            for (t, l) in e.triangles.iter().zip(&e.radiance) {
+            for (i, (t, l)) in e.triangles.iter().zip(&e.radiance).enumerate() {
                 if let Some(slot) = emission.get_mut(*t as usize) {
                     *slot = Vec3::from(*l);
+                    side[*t as usize] = e.side(i);
                 }
             }
         }
@@ -282,6 +286,7 @@ impl FieldSurfaces {
             tri_facing,
             per_triangle,
             emission,
+            side,
             model: ReflectanceModel::Fipt,
         })
     }
@@ -368,6 +373,9 @@ impl SurfaceModel for FieldSurfaces {
     fn emission(&self, tri: u32) -> Rgb {
         self.emission[tri as usize]
     }
+    fn emit_side(&self, tri: u32) -> EmitSide {
+        self.side[tri as usize]
+    }
     fn part(&self, tri: u32) -> u32 {
         tri
     }
@@ -422,6 +430,7 @@ mod tests {
             power: [0.0; 3],
             centroid: [0.0; 3],
             pixels: 1,
+            sides: Vec::new(),
         };
         let s = FieldSurfaces::build(&Ramp, &mesh, &[em], &pts, 0.05).unwrap();
         assert_eq!(s.voxels(), 20);
@@ -474,6 +483,7 @@ mod tests {
             power: [0.0; 3],
             centroid: [0.0; 3],
             pixels: 1,
+            sides: Vec::new(),
         };
         let seen = [
             (Vec3::new(0.8, 0.0, 0.1), 0),

@@ -374,6 +374,14 @@ impl<'a> GrownLight<'a> {
                 return l;
             };
             let le = self.surfaces.emission(next.tri);
+            if le != Vec3::ZERO
+                && !self
+                    .surfaces
+                    .emit_side(next.tri)
+                    .emits_towards(next.ng, -wi_w)
+            {
+                return l;
+            }
             if le != Vec3::ZERO {
                 let lp = self.light_pdf(next.tri, next.t, next.ng.dot(wi_w).abs());
                 return l + beta * le * power_heuristic(s.pdf, lp);
@@ -393,6 +401,10 @@ impl IncidentLight for GrownLight<'_> {
             return Incoming::Miss;
         };
         let le = self.surfaces.emission(hit.tri);
+        if le != Vec3::ZERO && !self.surfaces.emit_side(hit.tri).emits_towards(hit.ng, -dir) {
+            // A light's dark side: black, and it reflects nothing.
+            return Incoming::Radiance(Vec3::ZERO);
+        }
         if le != Vec3::ZERO {
             self.counters.get().emitter.fetch_add(1, Ordering::Relaxed);
             return Incoming::Emitter {
@@ -417,6 +429,9 @@ impl IncidentLight for GrownLight<'_> {
             return None;
         }
         let wi = d / dist;
+        if !self.surfaces.emit_side(s.tri).emits_towards(s.n, -wi) {
+            return None;
+        }
         let cos = s.n.dot(wi).abs();
         if !(cos > 0.0) {
             return None;

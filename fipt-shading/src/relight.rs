@@ -173,7 +173,7 @@ mod tests {
         assert_eq!(mesh.triangles.len(), 2 + 80);
         assert_eq!(s.emission(1), Vec3::ZERO);
         assert_eq!(s.emission(2), Vec3::splat(5.0));
-        assert!(s.one_sided(2));
+        assert_eq!(s.emit_side(2), fipt_core::emitter::EmitSide::Front);
     }
 
     #[test]

@@ -92,7 +92,7 @@ pub fn trace_path<S: SurfaceModel>(
         let le = scene.surfaces.emission(tri);
         let wo_w = -dir;
         let cos_ng = hit.ng.dot(wo_w);
-        if le != Vec3::ZERO && (cos_ng > 0.0 || !scene.surfaces.one_sided(tri)) {
+        if le != Vec3::ZERO && scene.surfaces.emit_side(tri).emits_towards(hit.ng, wo_w) {
             if prev_pdf == 0.0 {
                 l += beta * le;
             } else if cos_ng.abs() > 0.0 {
@@ -131,7 +131,7 @@ pub fn trace_path<S: SurfaceModel>(
                 let wi_w = d / dist;
                 let cos_l = ls.n.dot(wi_w).abs();
                 let wi = frame.to_local(wi_w);
-                let faces = ls.n.dot(wi_w) < 0.0 || !scene.surfaces.one_sided(ls.tri);
+                let faces = scene.surfaces.emit_side(ls.tri).emits_towards(ls.n, -wi_w);
                 if cos_l > 0.0 && faces && wi.z > 0.0 && wi_w.dot(ng) > 0.0 {
                     let f = brdf.eval(wo, wi);
                     if f != Vec3::ZERO {

@@ -2,6 +2,7 @@
 use crate::brdf::{BrdfModel, Lambert, MicrofacetBrdf};
 use crate::lights::DeltaLight;
 use fipt_core::color::{luminance, Rgb};
+use fipt_core::emitter::EmitSide;
 use fipt_core::materials::{SceneMaterials, SurfacePoint};
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::{BuildQuality, Bvh, Mesh, TriangleSampler};
@@ -16,9 +17,9 @@ pub trait SurfaceModel: Sync {
     fn emission(&self, tri: u32) -> Rgb;
     /// Index of the material/part of triangle `tri` (for the `IndexMA` map).
     fn part(&self, tri: u32) -> u32;
-    /// Whether triangle `tri` emits only towards the side its winding faces (both by default).
-    fn one_sided(&self, _tri: u32) -> bool {
-        false
+    /// The side triangle `tri` emits from (both by default).
+    fn emit_side(&self, _tri: u32) -> EmitSide {
+        EmitSide::Both
     }
     /// The reflectance model of the surfaces (FIPT's unless overridden).
     fn model(&self) -> ReflectanceModel {
@@ -45,8 +46,8 @@ impl<S: SurfaceModel + ?Sized> SurfaceModel for &S {
     fn part(&self, tri: u32) -> u32 {
         (**self).part(tri)
     }
-    fn one_sided(&self, tri: u32) -> bool {
-        (**self).one_sided(tri)
+    fn emit_side(&self, tri: u32) -> EmitSide {
+        (**self).emit_side(tri)
     }
     fn model(&self) -> ReflectanceModel {
         (**self).model()
@@ -63,6 +64,8 @@ pub struct TableSurfaces {
     pub tri_material: Vec<u32>,
     /// Emitted radiance of each material (0 for reflecting ones).
     material_emission: Vec<Rgb>,
+    /// The side each material emits from.
+    material_side: Vec<EmitSide>,
     /// The reflectance model the table's parameters are meant for.
     pub model: ReflectanceModel,
 }
@@ -79,10 +82,12 @@ impl TableSurfaces {
         let material_emission = (0..materials.materials.len() as u32)
             .map(|m| materials.eval(m, Vec3::ZERO).emission)
             .collect();
+        let material_side = materials.materials.iter().map(|m| m.emit_side()).collect();
         Ok(TableSurfaces {
             materials,
             tri_material,
             material_emission,
+            material_side,
             model: ReflectanceModel::Fipt,
         })
     }
@@ -102,6 +107,9 @@ impl SurfaceModel for TableSurfaces {
     }
     fn part(&self, tri: u32) -> u32 {
         self.tri_material[tri as usize]
+    }
+    fn emit_side(&self, tri: u32) -> EmitSide {
+        self.material_side[self.tri_material[tri as usize] as usize]
     }
 }
 

@@ -106,12 +106,16 @@ impl Builder {
         self.semantic.push(class);
     }
 
-    /// An emitting quad (corner `o`, edges `a`, `b`) with its centre as a camera target.
+    /// An emitting quad (corner `o`, edges `a`, `b`), emitting towards a × b only, with its
+    /// centre as a camera target.
     fn quad_light(&mut self, name: &str, radiance: [f32; 3], o: Vec3, a: Vec3, b: Vec3) {
         self.part(
+            // A luminaire's back is dark (as Mitsuba's area lights): a two-sided panel 1 cm
+            // under a ceiling lit a ring of it that no light seen from the room explains.
             MaterialDesc::Emitter {
                 name: name.into(),
                 radiance,
+                one_sided: true,
             },
             LIGHT,
             |p, t| quad(p, t, o, a, b),

@@ -2,7 +2,7 @@
 //! against plain BRDF sampling, and the closure test: ground-truth materials through the
 //! refined shadings reproduce the views better than through the initial bake.
 use fipt_core::dataset::{Dataset, GtKind};
-use fipt_core::emitter::Emitter;
+use fipt_core::emitter::{EmitSide, Emitter};
 use fipt_core::field::{Material, MaterialField};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::metrics::srgb_psnr;
@@ -65,6 +65,7 @@ fn floor_and_lamp(a: f32, h: f32, le: Vec3) -> (Mesh, Emitter) {
         power: [0.0; 3],
         centroid: [0.0, 0.0, h],
         pixels: 1,
+        sides: Vec::new(),
     };
     (mesh, e)
 }
@@ -79,7 +80,12 @@ struct LampScene {
 
 impl LampScene {
     fn new(a: f32, h: f32, le: Vec3) -> Self {
-        let (mesh, e) = floor_and_lamp(a, h, le);
+        Self::with_sides(a, h, le, Vec::new())
+    }
+    /// The lamp emitting from `sides` (its winding faces the floor).
+    fn with_sides(a: f32, h: f32, le: Vec3, sides: Vec<EmitSide>) -> Self {
+        let (mesh, mut e) = floor_and_lamp(a, h, le);
+        e.sides = sides;
         let field = Uniform(Material {
             albedo: Vec3::splat(0.5),
             roughness: 0.9,
@@ -164,6 +170,42 @@ fn next_event_estimation_matches_the_form_factor() {
         s_mis < 0.5 * s_cos,
         "MIS spread {s_mis} should be well below cosine-only {s_cos}"
     );
+}
+
+/// A lamp emitting only on its side facing the floor lights it as a two-sided one does; one
+/// emitting only on its other side leaves it dark, by cosine and by emitter samples alike.
+#[test]
+fn a_one_sided_lamp_lights_only_the_side_it_faces() {
+    let (a, h, le) = (0.3f32, 1.0f32, Vec3::splat(2.0));
+    let exact = le.y * 4.0 * corner_form_factor(a, a, h);
+    for (sides, want) in [
+        (vec![], exact),
+        (vec![EmitSide::Front; 2], exact),
+        (vec![EmitSide::Back; 2], 0.0),
+    ] {
+        let scene = LampScene::with_sides(a, h, le, sides.clone());
+        let light = scene.light();
+        for (n_cos, n_light) in [(4096, 0), (0, 256), (1024, 64)] {
+            let mut st = SampleStream::new(SamplerKind::Independent, &[3]);
+            let mut rng = Pcg32::from_keys(&[3, 7]);
+            let ld = diffuse_shading(
+                &light,
+                &scene.geo,
+                Vec3::ZERO,
+                Vec3::Z,
+                Vec3::Z,
+                n_cos,
+                n_light,
+                &mut st,
+                &mut rng,
+            );
+            assert!(
+                (ld.y - want).abs() <= 0.03 * exact,
+                "sides {sides:?}, {n_cos} cosine + {n_light} emitter samples: Ld {} against {want}",
+                ld.y
+            );
+        }
+    }
 }
 
 /// The GGX-mixture estimate of Ls0/Ls1 at every level, with and without emitter samples,
@@ -342,6 +384,7 @@ fn refined_shadings_raise_the_closure_psnr() {
         power: [0.0; 3],
         centroid: [0.0; 3],
         pixels: 0,
+        sides: Vec::new(),
     };
     for t in 0..mesh.triangles.len() as u32 {
         use fipt_shading::scene::SurfaceModel;

@@ -85,6 +85,8 @@ fn room_lights(b: &mut Builder) {
         MaterialDesc::Emitter {
             name: "bulb".into(),
             radiance: [120.0, 90.0, 50.0],
+            // A closed sphere: its inside is never lit either way.
+            one_sided: false,
         },
         LIGHT,
         |p, t| icosphere(p, t, lamp + Vec3::new(0.0, 1.48, 0.0), 0.07, 2),
