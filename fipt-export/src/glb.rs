@@ -123,7 +123,7 @@ pub fn write_glb(prepared: &Prepared, path: &Path) -> Result<PathBuf> {
             Vec3::ZERO
         };
         materials.push(json!({
-            "name": format!("emitter_{}", e.id), "doubleSided": true,
+            "name": format!("emitter_{}", e.id), "doubleSided": e.two_sided,
             "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
             "emissiveFactor": factor.to_array(),
             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": strength}},

@@ -108,6 +108,9 @@ pub struct EmitterPrimitive {
     pub id: usize,
     pub radiance: Rgb,
     pub primitive: Primitive,
+    /// Some triangle emits on both sides (glTF `doubleSided`); otherwise each is wound to face
+    /// the side it emits from.
+    pub two_sided: bool,
 }
 
 /// Everything a writer needs: the reflecting surface (textured or per-vertex) and the lights.
@@ -161,6 +164,7 @@ fn emitter_primitives(mesh: &Mesh, emitters: &[Emitter]) -> Vec<EmitterPrimitive
                 id,
                 radiance: Vec3::from(e.mean_radiance),
                 primitive: p,
+                two_sided: (0..e.triangles.len()).any(|i| e.side(i) == EmitSide::Both),
             }
         })
         .collect()

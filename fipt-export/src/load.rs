@@ -1,9 +1,11 @@
 //! Reading an exported `.glb` back as a renderable scene: the mesh of every primitive and a
 //! [`SurfaceModel`] that samples its textures (or per-vertex materials) at the hit point and
-//! takes emission from emissive materials — what `fipt render scene.glb` renders, and how the
+//! takes emission from emissive materials (on both sides when `doubleSided`, else towards the
+//! winding) — what `fipt render scene.glb` renders, and how the
 //! round trip of an export is checked against the scene it came from.
 use crate::{ExportError, Result};
 use fipt_core::color::{srgb_eotf, Rgb};
+use fipt_core::emitter::EmitSide;
 use fipt_core::materials::SurfacePoint;
 use fipt_core::reflectance::{clamp_roughness, metallic_workflow};
 use fipt_geom::Mesh;
@@ -62,8 +64,9 @@ enum Source {
     Textured([Vec2; 3]),
     /// Materials at its corners: base colour, roughness, metallic.
     Vertex([(Rgb, f32, f32); 3]),
-    /// An emitter (black, emitting).
-    Emitter(Rgb),
+    /// An emitter (black, emitting): its radiance and whether it emits on both sides (its
+    /// material's `doubleSided`; else only towards its winding).
+    Emitter(Rgb, bool),
 }
 
 /// The surfaces of a loaded `.glb`.
@@ -91,7 +94,7 @@ impl SurfaceModel for GlbSurfaces {
     fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint {
         let b = barycentric(&self.corners[tri as usize], p);
         let (albedo, roughness, metallic) = match &self.source[tri as usize] {
-            Source::Emitter(le) => {
+            Source::Emitter(le, _) => {
                 return SurfacePoint {
                     roughness: 1.0,
                     emission: *le,
@@ -126,8 +129,14 @@ impl SurfaceModel for GlbSurfaces {
     }
     fn emission(&self, tri: u32) -> Rgb {
         match &self.source[tri as usize] {
-            Source::Emitter(le) => *le,
+            Source::Emitter(le, _) => *le,
             _ => Vec3::ZERO,
+        }
+    }
+    fn emit_side(&self, tri: u32) -> EmitSide {
+        match &self.source[tri as usize] {
+            Source::Emitter(_, false) => EmitSide::Front,
+            _ => EmitSide::Both,
         }
     }
     fn part(&self, _tri: u32) -> u32 {
@@ -207,7 +216,7 @@ pub fn load_glb(path: &Path) -> Result<(Mesh, GlbSurfaces)> {
                 }
                 tris.push([f[0] + off, f[1] + off, f[2] + off]);
                 source.push(if le.max_element() > 0.0 {
-                    Source::Emitter(le)
+                    Source::Emitter(le, mat.double_sided())
                 } else if let Some(uv) = &uv {
                     Source::Textured(c.map(|i| uv[i]))
                 } else if let (Some(col), Some(r), Some(m)) = (&col, &rough, &metal) {

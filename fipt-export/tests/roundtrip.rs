@@ -70,7 +70,11 @@ fn scene() -> (Mesh, Vec<Emitter>) {
         .filter(|&t| surf.emission(t).max_element() > 0.0)
         .collect();
     let le: Vec<Vec3> = tris.iter().map(|&t| surf.emission(t)).collect();
-    let e = Emitter::from_triangles(&s.mesh.positions, &s.mesh.triangles, tris, le, 1).unwrap();
+    // The panel emits from its winding side only, as `fipt synth` makes it.
+    let sides = tris.iter().map(|&t| surf.emit_side(t)).collect();
+    let e = Emitter::from_triangles(&s.mesh.positions, &s.mesh.triangles, tris, le, 1)
+        .unwrap()
+        .with_sides(&s.mesh.positions, &s.mesh.triangles, sides);
     let mut mesh = s.mesh;
     // A sphere of triangles a few texels across: each its own chart.
     mesh.append(&fipt_shading::synth::icosphere_mesh(

@@ -27,7 +27,7 @@ pub mod tracer;
 
 pub use config::{IptConfig, Segments};
 use fipt_core::color::{luminance, Rgb};
-use fipt_core::emitter::Emitter;
+use fipt_core::emitter::{EmitSide, Emitter};
 use fipt_core::field::Material;
 use fipt_core::fit::{FitInputs, Fitted, MaterialFitter};
 use fipt_core::shading::Progress;
@@ -245,7 +245,8 @@ impl Ipt {
     /// The emitters of a fitted state: triangles with a seen side whose emission is at least
     /// `emitter_share` of the radiance observed on it, grouped by shared edges; a group is a
     /// light when the radiance observed on it is `emitter_contrast` times the views' median
-    /// luminance. The radiance of each triangle is its brighter side's.
+    /// luminance. The radiance of each triangle is its brighter side's; with one radiance per
+    /// side, a triangle emits on the sides that pass the share (both when neither alone does).
     pub fn emitters(&self, prep: &Prepared, state: &State) -> (Vec<bool>, Vec<Emitter>) {
         let nt = prep.mesh.triangles.len();
         let slot_emits = |s: usize| {
@@ -287,11 +288,21 @@ impl Ipt {
                 .iter()
                 .map(|&t| (prep.seen[2 * t as usize].0 + prep.seen[2 * t as usize + 1].0) as usize)
                 .sum();
+            let sides = tris
+                .iter()
+                .map(
+                    |&t| match (slot_emits(2 * t as usize), slot_emits(2 * t as usize + 1)) {
+                        (true, false) if !self.config.two_sided_emission => EmitSide::Front,
+                        (false, true) if !self.config.two_sided_emission => EmitSide::Back,
+                        _ => EmitSide::Both,
+                    },
+                )
+                .collect();
             let m = &prep.mesh;
             if let Some(e) =
                 Emitter::from_triangles(&m.positions, &m.triangles, tris, radiance, pixels)
             {
-                lights.push(e);
+                lights.push(e.with_sides(&m.positions, &m.triangles, sides));
             }
         }
         (emitting, lights)

@@ -24,13 +24,18 @@ fn check(model: ReflectanceModel) {
         params.x[i..i + 3].copy_from_slice(&a.to_array());
         params.x[Params::roughness_index(t)] = sp.roughness;
         params.x[Params::metallic_index(t)] = sp.metallic;
-        // The forward tracer's emitters are two-sided: both slots.
-        for e in [
-            params.emission_index(2 * t),
-            params.emission_index(2 * t + 1),
-        ] {
+        // Each side's slot: the truth's emission where that side emits (the panel's front).
+        let side = fx.table.emit_side(t);
+        let n = mesh.face_normal(t as usize);
+        for (slot, towards) in [(2 * t, n), (2 * t + 1, -n)] {
+            let le = if side.emits_towards(n, towards) {
+                fx.emission(t)
+            } else {
+                Vec3::ZERO
+            };
+            let e = params.emission_index(slot);
             for c in 0..3 {
-                params.x[e + c] = fx.emission(t)[c].max(1e-30).ln();
+                params.x[e + c] = le[c].max(1e-30).ln();
             }
         }
     }

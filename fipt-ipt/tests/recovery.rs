@@ -17,9 +17,8 @@ fn config() -> IptConfig {
     let mut base = serde_json::to_value(IptConfig {
         iterations: 800,
         batch: 4096,
-        // cornell's light is two-sided (the forward tracer's emitters are), and its upper side
-        // lights the ceiling from 1 cm where no view sees it.
-        two_sided_emission: true,
+        // cornell's light is one-sided (`fipt synth`'s panels are): one radiance per side.
+        two_sided_emission: false,
         ..IptConfig::balanced()
     })
     .unwrap();
@@ -205,9 +204,11 @@ fn the_truth_is_a_fixed_point() {
         p.x[i..i + 3].copy_from_slice(&a.to_array());
         p.x[Params::roughness_index(g)] = sp.roughness;
         p.x[Params::metallic_index(g)] = sp.metallic;
-        let e = p.emission_index(2 * t);
+        // The front's slot holds the truth, the back's (a one-sided panel's) nothing.
+        let (front, back) = (p.emission_index(2 * t), p.emission_index(2 * t + 1));
         for c in 0..3 {
-            p.x[e + c] = fx.emission(t)[c].max(1e-30).ln();
+            p.x[front + c] = fx.emission(t)[c].max(1e-30).ln();
+            p.x[back + c] = 1e-30f32.ln();
         }
     }
     p.project();
