@@ -29,18 +29,22 @@ static ALLOC: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 #[test]
 fn training_on_exact_shadings_recovers_materials_and_emitters() {
-    recover(GtKind::IndexMA);
+    recover(GtKind::IndexMA, 25.0);
 }
 
 /// The same with the semantic classes (`segmentation/`: the three blocks are one class,
 /// "furniture") and the semantic prior instead of part ids, as a real scene would have them.
-/// Measured: kd 41.3 dB, glossy block's σ 27.2 dB.
+/// Measured: kd 44.3 dB, glossy block's σ 24.6 dB. With the panel lit on both sides (as
+/// `fipt synth` made it before 2026-11-26) 41.7 and 30.3 dB: its back lit a bright ring of
+/// ceiling 1 cm above it, whose reflection in the block pinned σ more tightly.
 #[test]
 fn training_with_semantic_classes_recovers_the_glossy_block() {
-    recover(GtKind::Segmentation);
+    recover(GtKind::Segmentation, 23.0);
 }
 
-fn recover(ids: GtKind) {
+/// Trains on exact shadings with part ids `ids`; the glossy block's σ must reach
+/// `glossy_min` dB.
+fn recover(ids: GtKind, glossy_min: f64) {
     let dir = std::env::temp_dir().join(format!(
         "fipt-neural-recovery-{}-{}",
         ids.folder(),
@@ -212,8 +216,8 @@ fn recover(ids: GtKind) {
     );
     assert!(kd_psnr >= 33.0, "kd PSNR {kd_psnr:.2} dB < 33");
     assert!(
-        r_psnr >= 25.0,
-        "glossy-block roughness PSNR {r_psnr:.2} dB < 25"
+        r_psnr >= glossy_min,
+        "glossy-block roughness PSNR {r_psnr:.2} dB < {glossy_min}"
     );
     assert!(
         rr_psnr >= 17.0,
