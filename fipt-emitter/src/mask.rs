@@ -28,8 +28,9 @@ pub struct MaskExtractorConfig {
     /// false: every pixel (the reference). Needs the pixels' places ([`PixelHit::at`]).
     #[serde(default = "yes")]
     pub inner_pixels: bool,
-    /// A triangle emits only on the sides its pixels saw it from (both when seen from both,
-    /// or unseen). A luminaire's back is dark, as an area light's in Mitsuba: on
+    /// A triangle emits only on the sides its pixels saw it from (both when seen from both);
+    /// an unseen one as the nearest seen triangle of its light facing the same way, else on
+    /// both. A luminaire's back is dark, as an area light's in Mitsuba: on
     /// `studio-mitsuba`, whose ceiling panel hangs 1 cm under the ceiling, two-sided lights
     /// lit a ring of ceiling the views show dark. false: both sides (the reference). Needs
     /// the pixels' sides ([`PixelHit::front`]).
@@ -72,6 +73,54 @@ fn median(v: &mut [f32]) -> f32 {
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
     }
+}
+
+/// The side each of a light's triangles `tris` emits from: the sides its pixels saw it from
+/// ([`EmitSide::from_counts`]). A triangle no pixel saw takes the side of the nearest seen
+/// triangle of the light lying in the same plane direction (normals within about 8°, the
+/// side flipped when its winding is reversed): a panel of many small triangles, some between
+/// pixel centres, stays dark at the back. Otherwise it emits on both sides.
+fn observed_sides(
+    inp: &EmitterInputs,
+    tris: &[u32],
+    obs: &HashMap<u32, Vec<&PixelHit>>,
+) -> Vec<EmitSide> {
+    let geo = |t: u32| {
+        let [a, b, c] = inp.triangles[t as usize].map(|i| inp.positions[i as usize]);
+        ((b - a).cross(c - a).normalize_or_zero(), (a + b + c) / 3.0)
+    };
+    let seen: Vec<(EmitSide, Vec3, Vec3)> = tris
+        .iter()
+        .filter_map(|t| {
+            let side = seen_side(obs.get(t)?);
+            let (n, c) = geo(*t);
+            Some((side, n, c))
+        })
+        .collect();
+    tris.iter()
+        .map(|t| {
+            if obs.contains_key(t) {
+                return seen_side(obs[t].as_slice());
+            }
+            let (n, c) = geo(*t);
+            seen.iter()
+                .filter(|(_, m, _)| n.dot(*m).abs() > 0.99)
+                .min_by(|a, b| a.2.distance_squared(c).total_cmp(&b.2.distance_squared(c)))
+                .map_or(EmitSide::Both, |&(side, m, _)| match side {
+                    EmitSide::Front if n.dot(m) < 0.0 => EmitSide::Back,
+                    EmitSide::Back if n.dot(m) < 0.0 => EmitSide::Front,
+                    s => s,
+                })
+        })
+        .collect()
+}
+
+/// The side the pixels `v` saw a triangle from.
+fn seen_side(v: &[&PixelHit]) -> EmitSide {
+    EmitSide::from_counts(
+        v.iter().filter(|h| h.front == Some(true)).count(),
+        v.iter().filter(|h| h.front == Some(false)).count(),
+    )
 }
 
 fn find(parent: &mut [usize], mut i: usize) -> usize {
@@ -240,16 +289,11 @@ impl EmitterExtractor for MaskExtractor {
                 rad.push(l);
             }
             let pixels = tris.iter().map(|t| obs.get(t).map_or(0, |v| v.len())).sum();
-            let sides: Vec<EmitSide> = tris
-                .iter()
-                .map(|t| match obs.get(t) {
-                    Some(v) if c.observed_sides => EmitSide::from_counts(
-                        v.iter().filter(|h| h.front == Some(true)).count(),
-                        v.iter().filter(|h| h.front == Some(false)).count(),
-                    ),
-                    _ => EmitSide::Both,
-                })
-                .collect();
+            let sides = if c.observed_sides {
+                observed_sides(inp, &tris, &obs)
+            } else {
+                vec![EmitSide::Both; tris.len()]
+            };
             out.extend(
                 Emitter::from_triangles(inp.positions, inp.triangles, tris, rad, pixels)
                     .map(|e| e.with_sides(inp.positions, inp.triangles, sides)),
@@ -441,7 +485,8 @@ mod tests {
             front,
         };
         // Panel (triangles 0, 1): 0 seen from its winding side, 1 from both.
-        // Lamp (2, 3): 2 seen from the other side only, 3 unseen.
+        // Lamp (2, 3): 2 seen from the other side only, 3 unseen: it lies in 2's plane,
+        // wound the same way, and takes 2's side.
         let hits = vec![
             hit(0, Some(true)),
             hit(0, Some(true)),
@@ -456,7 +501,7 @@ mod tests {
         let e = ex.extract(&inp).unwrap();
         let light = |t: u32| e.iter().find(|l| l.triangles.contains(&t)).unwrap();
         assert_eq!(light(0).sides, vec![EmitSide::Front, EmitSide::Both]);
-        assert_eq!(light(2).sides, vec![EmitSide::Back, EmitSide::Both]);
+        assert_eq!(light(2).sides, vec![EmitSide::Back, EmitSide::Back]);
         let pi5 = std::f32::consts::PI * 5.0;
         // Panel: area 0.5 on one side + 0.5 on both = 1.5 sides·m².
         assert!(
@@ -469,6 +514,17 @@ mod tests {
         assert!(light(0).side(0).emits_towards(n0, n0) && !light(0).side(0).emits_towards(n0, -n0));
         assert!(light(0).side(1).emits_towards(n0, up) && light(0).side(1).emits_towards(n0, down));
         assert!(EmitSide::Back.emits_towards(n0, -n0) && !EmitSide::Back.emits_towards(n0, n0));
+        // The unseen triangle wound the other way takes the other side.
+        let mut flipped = tris.clone();
+        flipped[3].swap(1, 2);
+        let e = ex
+            .extract(&EmitterInputs {
+                triangles: &flipped,
+                ..inputs(&pos, &tris, &field, &hits)
+            })
+            .unwrap();
+        let lamp = e.iter().find(|l| l.triangles.contains(&2)).unwrap();
+        assert_eq!(lamp.sides, vec![EmitSide::Back, EmitSide::Front]);
         ex.config.observed_sides = false;
         let e = ex.extract(&inp).unwrap();
         assert!(e.iter().all(|l| l.sides.is_empty()), "{e:?}");
