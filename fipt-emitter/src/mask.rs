@@ -28,9 +28,9 @@ pub struct MaskExtractorConfig {
     /// false: every pixel (the reference). Needs the pixels' places ([`PixelHit::at`]).
     #[serde(default = "yes")]
     pub inner_pixels: bool,
-    /// A triangle emits only on the sides its pixels saw it from (both when seen from both);
-    /// an unseen one as the nearest seen triangle of its light facing the same way, else on
-    /// both. A luminaire's back is dark, as an area light's in Mitsuba: on
+    /// A triangle emits only on the sides its pixels saw it lit from (at least a quarter of
+    /// its light's luminance; both when seen lit from both); one not seen lit as the nearest
+    /// seen triangle of its light facing the same way, else on both. A luminaire's back is dark, as an area light's in Mitsuba: on
     /// `studio-mitsuba`, whose ceiling panel hangs 1 cm under the ceiling, two-sided lights
     /// lit a ring of ceiling the views show dark. false: both sides (the reference). Needs
     /// the pixels' sides ([`PixelHit::front`]).
@@ -75,36 +75,53 @@ fn median(v: &mut [f32]) -> f32 {
     }
 }
 
-/// The side each of a light's triangles `tris` emits from: the sides its pixels saw it from
-/// ([`EmitSide::from_counts`]). A triangle no pixel saw takes the side of the nearest seen
-/// triangle of the light lying in the same plane direction (normals within about 8°, the
-/// side flipped when its winding is reversed): a panel of many small triangles, some between
-/// pixel centres, stays dark at the back. Otherwise it emits on both sides.
+/// The side each of a light's triangles `tris` emits from: the sides from which its pixels saw
+/// it lit, at least a quarter of the light's luminance `light` ([`EmitSide::from_counts`]; a
+/// view of a panel's dark back is no sign that the back emits). A triangle not seen lit takes
+/// the side of the nearest seen triangle of the light lying in the same plane (normals within
+/// about 8°, the side flipped when its winding is reversed): a panel of many small
+/// triangles, some between pixel centres, stays dark at the back. Otherwise (the unseen top
+/// of a bulb) it emits on both sides.
 fn observed_sides(
     inp: &EmitterInputs,
     tris: &[u32],
     obs: &HashMap<u32, Vec<&PixelHit>>,
+    light: Vec3,
 ) -> Vec<EmitSide> {
     let geo = |t: u32| {
         let [a, b, c] = inp.triangles[t as usize].map(|i| inp.positions[i as usize]);
         ((b - a).cross(c - a).normalize_or_zero(), (a + b + c) / 3.0)
     };
+    let lit = 0.25 * luminance(light);
+    let seen_lit = |t: &u32| -> Option<EmitSide> {
+        let v = obs.get(t)?;
+        let count = |front: bool| {
+            v.iter()
+                .filter(|h| h.front == Some(front) && luminance(h.radiance) >= lit)
+                .count()
+        };
+        let (f, b) = (count(true), count(false));
+        (f + b > 0).then(|| EmitSide::from_counts(f, b))
+    };
     let seen: Vec<(EmitSide, Vec3, Vec3)> = tris
         .iter()
         .filter_map(|t| {
-            let side = seen_side(obs.get(t)?);
             let (n, c) = geo(*t);
-            Some((side, n, c))
+            Some((seen_lit(t)?, n, c))
         })
         .collect();
     tris.iter()
         .map(|t| {
-            if obs.contains_key(t) {
-                return seen_side(obs[t].as_slice());
+            if let Some(side) = seen_lit(t) {
+                return side;
             }
             let (n, c) = geo(*t);
+            // The same plane: parallel normals (either winding) and the centroids within ~3°
+            // of it (the far side of a sphere is parallel too, and not in the plane).
             seen.iter()
-                .filter(|(_, m, _)| n.dot(*m).abs() > 0.99)
+                .filter(|(_, m, d)| {
+                    n.dot(*m).abs() > 0.99 && m.dot(c - *d).abs() <= 0.05 * c.distance(*d)
+                })
                 .min_by(|a, b| a.2.distance_squared(c).total_cmp(&b.2.distance_squared(c)))
                 .map_or(EmitSide::Both, |&(side, m, _)| match side {
                     EmitSide::Front if n.dot(m) < 0.0 => EmitSide::Back,
@@ -113,14 +130,6 @@ fn observed_sides(
                 })
         })
         .collect()
-}
-
-/// The side the pixels `v` saw a triangle from.
-fn seen_side(v: &[&PixelHit]) -> EmitSide {
-    EmitSide::from_counts(
-        v.iter().filter(|h| h.front == Some(true)).count(),
-        v.iter().filter(|h| h.front == Some(false)).count(),
-    )
 }
 
 fn find(parent: &mut [usize], mut i: usize) -> usize {
@@ -290,7 +299,7 @@ impl EmitterExtractor for MaskExtractor {
             }
             let pixels = tris.iter().map(|t| obs.get(t).map_or(0, |v| v.len())).sum();
             let sides = if c.observed_sides {
-                observed_sides(inp, &tris, &obs)
+                observed_sides(inp, &tris, &obs, fallback)
             } else {
                 vec![EmitSide::Both; tris.len()]
             };
@@ -484,12 +493,18 @@ mod tests {
             at: None,
             front,
         };
-        // Panel (triangles 0, 1): 0 seen from its winding side, 1 from both.
+        // Panel (triangles 0, 1): 0 seen lit from its winding side and dark from the other
+        // (a view of a luminaire's back), 1 lit from both.
         // Lamp (2, 3): 2 seen from the other side only, 3 unseen: it lies in 2's plane,
         // wound the same way, and takes 2's side.
+        let dark_back = PixelHit {
+            radiance: Vec3::splat(0.5),
+            ..hit(0, Some(false))
+        };
         let hits = vec![
             hit(0, Some(true)),
             hit(0, Some(true)),
+            dark_back,
             hit(1, Some(true)),
             hit(1, Some(false)),
             hit(2, Some(false)),
@@ -542,6 +557,34 @@ mod tests {
             })
             .unwrap();
         assert!(e.iter().all(|l| l.sides.is_empty()), "{e:?}");
+    }
+
+    /// An unseen triangle takes the side of a seen one in its plane, not of a parallel one
+    /// across a closed light (the far side of a bulb).
+    #[test]
+    fn an_unseen_triangle_takes_the_side_of_one_in_its_plane_only() {
+        let tri = |o: Vec3| [o, o + Vec3::Z, o + Vec3::X];
+        let pos: Vec<Vec3> = [Vec3::ZERO, Vec3::Y, Vec3::new(2.0, 0.0, 0.0)]
+            .into_iter()
+            .flat_map(tri)
+            .collect();
+        let tris = vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]];
+        let seen = PixelHit {
+            triangle: 0,
+            radiance: Vec3::splat(5.0),
+            max_reflected: None,
+            at: None,
+            front: Some(true),
+        };
+        let field = BoxMask(Vec3::ZERO, Vec3::ZERO);
+        let hits = [seen];
+        let inp = inputs(&pos, &tris, &field, &hits);
+        let obs = HashMap::from([(0u32, vec![&hits[0]])]);
+        let sides = observed_sides(&inp, &[0, 1, 2], &obs, Vec3::splat(5.0));
+        assert_eq!(
+            sides,
+            vec![EmitSide::Front, EmitSide::Both, EmitSide::Front]
+        );
     }
 
     #[test]
