@@ -101,10 +101,7 @@ impl Emitter {
     ) -> Option<Emitter> {
         let (mut area, mut wsum, mut csum) = (0f32, Vec3::ZERO, Vec3::ZERO);
         for (&t, &l) in tris.iter().zip(&radiance) {
-            let tri = triangles.get(t as usize)?;
-            let [a, b, c] = tri.map(|v| positions.get(v as usize).copied());
-            let (a, b, c) = (a?, b?, c?);
-            let ar = 0.5 * (b - a).cross(c - a).length();
+            let ([a, b, c], ar) = corners_and_area(positions, triangles, t)?;
             area += ar;
             wsum += l * ar;
             csum += (a + b + c) / 3.0 * ar;
@@ -134,11 +131,9 @@ impl Emitter {
         }
         let mut power = Vec3::ZERO;
         for ((&t, l), s) in self.triangles.iter().zip(&self.radiance).zip(&sides) {
-            let Some(tri) = triangles.get(t as usize) else {
+            let Some((_, ar)) = corners_and_area(positions, triangles, t) else {
                 return self;
             };
-            let [a, b, c] = tri.map(|v| positions.get(v as usize).copied().unwrap_or_default());
-            let ar = 0.5 * (b - a).cross(c - a).length();
             power += Vec3::from(*l) * ar * s.count() * std::f32::consts::PI;
         }
         self.power = power.to_array();
@@ -154,6 +149,19 @@ impl Emitter {
     pub fn side(&self, i: usize) -> EmitSide {
         self.sides.get(i).copied().unwrap_or_default()
     }
+}
+
+/// The corners and area of triangle `t` (None when an index is out of range).
+fn corners_and_area(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    t: u32,
+) -> Option<([Vec3; 3], f32)> {
+    let [a, b, c] = triangles
+        .get(t as usize)?
+        .map(|v| positions.get(v as usize).copied());
+    let (a, b, c) = (a?, b?, c?);
+    Some(([a, b, c], 0.5 * (b - a).cross(c - a).length()))
 }
 
 /// The geometry and observations an extractor works from.

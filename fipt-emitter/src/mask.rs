@@ -103,16 +103,19 @@ fn observed_sides(
         let (f, b) = (count(true), count(false));
         (f + b > 0).then(|| EmitSide::from_counts(f, b))
     };
+    let lit_sides: Vec<Option<EmitSide>> = tris.iter().map(seen_lit).collect();
     let seen: Vec<(EmitSide, Vec3, Vec3)> = tris
         .iter()
-        .filter_map(|t| {
+        .zip(&lit_sides)
+        .filter_map(|(t, side)| {
             let (n, c) = geo(*t);
-            Some((seen_lit(t)?, n, c))
+            Some(((*side)?, n, c))
         })
         .collect();
     tris.iter()
-        .map(|t| {
-            if let Some(side) = seen_lit(t) {
+        .zip(lit_sides)
+        .map(|(t, side)| {
+            if let Some(side) = side {
                 return side;
             }
             let (n, c) = geo(*t);
