@@ -347,6 +347,18 @@ mod tests {
         }
     }
 
+    /// A pixel of triangle `triangle` with radiance `radiance`, its reflectable bound
+    /// `max_reflected`, and no place or side.
+    fn pixel(triangle: u32, radiance: Vec3, max_reflected: Option<Vec3>) -> PixelHit {
+        PixelHit {
+            triangle,
+            radiance,
+            max_reflected,
+            at: None,
+            front: None,
+        }
+    }
+
     fn inputs<'a>(
         positions: &'a [Vec3],
         triangles: &'a [[u32; 3]],
@@ -383,13 +395,7 @@ mod tests {
     fn finds_both_lights_groups_triangles_and_takes_medians() {
         let (pos, tris) = scene();
         let field = BoxMask(Vec3::new(-1.0, 1.5, -1.0), Vec3::new(11.0, 2.5, 1.0));
-        let hit = |t: u32, l: Vec3| PixelHit {
-            triangle: t,
-            radiance: l,
-            max_reflected: Some(Vec3::splat(1.0)),
-            at: None,
-            front: None,
-        };
+        let hit = |t: u32, l: Vec3| pixel(t, l, Some(Vec3::splat(1.0)));
         let mut hits = vec![];
         for k in 0..9 {
             // Triangle 0: 9 pixels around 5 with one outlier; triangle 1 unseen.
@@ -447,13 +453,11 @@ mod tests {
         for y in 0..5u32 {
             for x in 0..5u32 {
                 let outline = x == 0 || y == 0 || x == 4 || y == 4;
+                // Triangle 1 holds only outline pixels (the top row).
+                let (t, radiance) = (u32::from(y == 0), if outline { l * 0.5 } else { l });
                 hits.push(PixelHit {
-                    // Triangle 1 holds only outline pixels (the top row).
-                    triangle: if y == 0 { 1 } else { 0 },
-                    radiance: if outline { l * 0.5 } else { l },
-                    max_reflected: Some(Vec3::splat(0.1)),
                     at: Some([3, 10 + x, 20 + y]),
-                    front: None,
+                    ..pixel(t, radiance, Some(Vec3::splat(0.1)))
                 });
             }
         }
@@ -490,11 +494,8 @@ mod tests {
         let (pos, tris) = scene();
         let field = BoxMask(Vec3::new(-1.0, 1.5, -1.0), Vec3::new(11.0, 2.5, 1.0));
         let hit = |t: u32, front: Option<bool>| PixelHit {
-            triangle: t,
-            radiance: Vec3::splat(5.0),
-            max_reflected: Some(Vec3::splat(0.5)),
-            at: None,
             front,
+            ..pixel(t, Vec3::splat(5.0), Some(Vec3::splat(0.5)))
         };
         // Panel (triangles 0, 1): 0 seen lit from its winding side and dark from the other
         // (a view of a luminaire's back), 1 lit from both.
@@ -573,11 +574,8 @@ mod tests {
             .collect();
         let tris = vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]];
         let seen = PixelHit {
-            triangle: 0,
-            radiance: Vec3::splat(5.0),
-            max_reflected: None,
-            at: None,
             front: Some(true),
+            ..pixel(0, Vec3::splat(5.0), None)
         };
         let field = BoxMask(Vec3::ZERO, Vec3::ZERO);
         let hits = [seen];
@@ -597,20 +595,8 @@ mod tests {
         let field = BoxMask(Vec3::splat(-100.0), Vec3::splat(100.0));
         let mut hits = vec![];
         for _ in 0..4 {
-            hits.push(PixelHit {
-                triangle: 0,
-                radiance: Vec3::splat(5.0),
-                max_reflected: Some(Vec3::splat(0.5)),
-                at: None,
-                front: None,
-            });
-            hits.push(PixelHit {
-                triangle: 4,
-                radiance: Vec3::splat(0.3),
-                max_reflected: Some(Vec3::splat(0.5)),
-                at: None,
-                front: None,
-            });
+            hits.push(pixel(0, Vec3::splat(5.0), Some(Vec3::splat(0.5))));
+            hits.push(pixel(4, Vec3::splat(0.3), Some(Vec3::splat(0.5))));
         }
         let mut ex = MaskExtractor {
             config: MaskExtractorConfig::default(),
@@ -629,13 +615,7 @@ mod tests {
     fn nothing_emits_when_the_mask_is_empty() {
         let (pos, tris) = scene();
         let field = BoxMask(Vec3::splat(100.0), Vec3::splat(101.0));
-        let hits = vec![PixelHit {
-            triangle: 0,
-            radiance: Vec3::ONE,
-            max_reflected: None,
-            at: None,
-            front: None,
-        }];
+        let hits = vec![pixel(0, Vec3::ONE, None)];
         let e = MaskExtractor {
             config: MaskExtractorConfig::default(),
         }

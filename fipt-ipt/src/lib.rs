@@ -290,13 +290,14 @@ impl Ipt {
                 .sum();
             let sides = tris
                 .iter()
-                .map(
-                    |&t| match (slot_emits(2 * t as usize), slot_emits(2 * t as usize + 1)) {
-                        (true, false) if !self.config.two_sided_emission => EmitSide::Front,
-                        (false, true) if !self.config.two_sided_emission => EmitSide::Back,
-                        _ => EmitSide::Both,
-                    },
-                )
+                .map(|&t| {
+                    let emits = |s: usize| usize::from(slot_emits(s));
+                    if self.config.two_sided_emission {
+                        EmitSide::Both
+                    } else {
+                        EmitSide::from_counts(emits(2 * t as usize), emits(2 * t as usize + 1))
+                    }
+                })
                 .collect();
             let m = &prep.mesh;
             if let Some(e) =
