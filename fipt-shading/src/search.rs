@@ -80,6 +80,13 @@ pub struct SearchConfig {
     /// 0.86–0.92 (true 0.85–0.95), where their minima alone say 0.76–0.88. With 1 and
     /// `interior_gain` 0.05 the rule is the one before 2026-11-25.
     pub interior_tolerance: f32,
+    /// The `interior_gain` rule decides every dielectric whose minimum is interior and holds
+    /// out, not only those `dielectric_tolerance` would leave at σ = 1. False: a minimum more
+    /// than `dielectric_tolerance` below σ = 1 takes the roughest σ within that 25 %, which put
+    /// `loft-mitsuba`'s glossy floor (σ 0.35, minimum at 0.36) at 0.74 and `studio-mitsuba`'s
+    /// glossy box (0.30, minimum at 0.32) at 0.48 (`docs/loft-mitsuba.md`).
+    #[serde(default = "default_interior_always")]
+    pub interior_always: bool,
     /// A region is metal when its best metal cost is below its best dielectric cost by at
     /// least this fraction.
     pub metal_margin: f32,
@@ -116,6 +123,10 @@ pub struct SearchConfig {
     pub max_pixels: usize,
 }
 
+fn default_interior_always() -> bool {
+    true
+}
+
 fn default_max_pixels() -> usize {
     8_000_000
 }
@@ -145,6 +156,7 @@ impl Default for SearchConfig {
             interior_gain: 0.001,
             interior_sigma: 0.1,
             interior_tolerance: 0.25,
+            interior_always: true,
             metal_margin: 0.2,
             min_pixels: 200,
             regions: RegionSource::Auto,
@@ -606,8 +618,10 @@ fn holds_out(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool
 
 /// The decision for one region (see [`SearchConfig`]): metal when its best cost beats the best
 /// dielectric one by `metal_margin`; then the roughest σ within the tolerance of the minimum
-/// for that metallic (none for a dielectric whose answer is the roughest candidate, unless its
-/// minimum is interior and beats σ = 1 by `interior_gain`). No target on too few pixels.
+/// for that metallic (none for a dielectric whose answer is the roughest candidate); a
+/// dielectric whose minimum is interior, beats σ = 1 by `interior_gain` and holds out takes the
+/// `interior_tolerance` rule instead (with `interior_always` off, only when the first rule
+/// left it at σ = 1). No target on too few pixels.
 ///
 /// `was_metal`: the previous search (on earlier shadings) called this region metal; it stays
 /// metal unless the dielectric answer beats it by `metal_margin` (hysteresis: the margin is
@@ -683,7 +697,7 @@ pub fn choose(
     let mut si = roughest_within(tol as f64);
     let gain = p.cost[mi][n - 1] / p.cost[mi][b] - 1.0;
     if !metal
-        && si + 1 == n
+        && (si + 1 == n || cfg.interior_always)
         && p.sigma[b] >= cfg.interior_sigma
         && gain >= cfg.interior_gain as f64
         && (!cfg.held_out || halves.is_some_and(|h| holds_out(h, mi, cfg)))

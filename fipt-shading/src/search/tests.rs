@@ -133,9 +133,26 @@ fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
         ..trusting
     };
     assert_eq!(choose(&wall, &old, false, None).roughness, None);
-    // A strong minimum: the roughest within 25 %.
+    // A strong minimum at the mirror end: the roughest within 25 %.
     let p = curve(vec![1.0; 5], vec![0.100, 0.120, 0.200, 0.300, 0.300]);
     assert_eq!(choose(&p, &cfg, false, None).roughness, Some(0.25));
+    // A strong interior minimum (a glossy floor, 3× below σ = 1) that holds out: within 2 %
+    // of it, where the 25 % rule (`interior_always = false`, or no held-out views) took the
+    // next level, 10 % above it.
+    let floor = curve(vec![1.0; 5], vec![0.2, 0.100, 0.110, 0.200, 0.300]);
+    assert_eq!(
+        choose(&floor, &cfg, false, Some([&floor, &floor])).roughness,
+        Some(0.25)
+    );
+    assert_eq!(choose(&floor, &cfg, false, None).roughness, Some(0.5));
+    let loose = SearchConfig {
+        interior_always: false,
+        ..SearchConfig::default()
+    };
+    assert_eq!(
+        choose(&floor, &loose, false, Some([&floor, &floor])).roughness,
+        Some(0.5)
+    );
     // Metal by 15 %: not metal, unless it was (then only a 20 % better dielectric turns it).
     let p = curve(vec![0.3, 0.085, 0.3, 0.3, 0.3], vec![0.1; 5]);
     assert_eq!(choose(&p, &cfg, false, None).metallic, Some(0.0));

@@ -1,0 +1,374 @@
+#!/usr/bin/env python3
+"""Renders `loft-mitsuba`: a second room made by an independent renderer (Mitsuba 3,
+`principled` BSDF) in the FIPT synthetic layout, to check the presets on data our tracer did
+not make and that they were not tuned on (`docs/loft-mitsuba.md`).
+
+    pip install mitsuba==3.9.1 numpy
+    python3 scripts/mitsuba_loft.py --out loft --spp 512
+
+A glossy textured floor, one one-sided ceiling panel, a copper cylinder (metal, σ 0.25), a
+rough aluminium box (metal, σ 0.45), a glossy red sphere (dielectric, σ 0.15), a cabinet and a
+low table. 40 train and 8 val views at 240×160, a relighting set (a sphere light, the panel
+off). Ground-truth maps are the values at each pixel-centre ray. Deterministic with --seed.
+"""
+import argparse
+import json
+import math
+import os
+import time
+
+import numpy as np
+import mitsuba as mi
+import drjit as dr
+
+mi.set_variant("llvm_ad_rgb")
+
+W, H, FOV = 240, 160, 65.0
+ROOM_LO = np.array([-2.4, 0.0, -1.8])
+ROOM_HI = np.array([2.4, 2.7, 1.8])
+
+
+def quad(p0, p1, p2, p3):
+    """Two triangles p0 p1 p2, p0 p2 p3 (counter-clockwise seen from the normal side)."""
+    return [(p0, p1, p2), (p0, p2, p3)]
+
+
+def box(lo, hi):
+    """Closed box, outward normals."""
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    c = lambda x, y, z: np.array([x, y, z], float)
+    t = []
+    t += quad(c(x0, y1, z0), c(x0, y1, z1), c(x1, y1, z1), c(x1, y1, z0))  # +y
+    t += quad(c(x0, y0, z0), c(x1, y0, z0), c(x1, y0, z1), c(x0, y0, z1))  # -y
+    t += quad(c(x1, y0, z0), c(x1, y1, z0), c(x1, y1, z1), c(x1, y0, z1))  # +x
+    t += quad(c(x0, y0, z0), c(x0, y0, z1), c(x0, y1, z1), c(x0, y1, z0))  # -x
+    t += quad(c(x0, y0, z1), c(x1, y0, z1), c(x1, y1, z1), c(x0, y1, z1))  # +z
+    t += quad(c(x0, y0, z0), c(x0, y1, z0), c(x1, y1, z0), c(x1, y0, z0))  # -z
+    return t
+
+
+def cylinder(cx, cz, r, h, n=64):
+    """Capped cylinder standing on y = 0, outward normals."""
+    t = []
+    ang = [2 * math.pi * i / n for i in range(n + 1)]
+    for a0, a1 in zip(ang[:-1], ang[1:]):
+        p0 = np.array([cx + r * math.cos(a0), 0, cz + r * math.sin(a0)])
+        p1 = np.array([cx + r * math.cos(a1), 0, cz + r * math.sin(a1)])
+        q0, q1 = p0 + [0, h, 0], p1 + [0, h, 0]
+        t += quad(p0, q0, q1, p1)
+        top, bot = np.array([cx, h, cz]), np.array([cx, 0, cz])
+        t.append((top, q1, q0))
+        t.append((bot, p0, p1))
+    return t
+
+
+def sphere(c, r, nu=48, nv=24):
+    """UV sphere, outward normals."""
+    t = []
+    c = np.asarray(c, float)
+
+    def pt(i, j):
+        th, ph = math.pi * j / nv, 2 * math.pi * i / nu
+        return c + r * np.array([math.sin(th) * math.cos(ph), math.cos(th), math.sin(th) * math.sin(ph)])
+
+    for j in range(nv):
+        for i in range(nu):
+            a, b, cc, d = pt(i, j), pt(i + 1, j), pt(i + 1, j + 1), pt(i, j + 1)
+            if j > 0:
+                t.append((a, b, cc))
+            if j < nv - 1:
+                t.append((a, cc, d))
+    return t
+
+
+def outward(tris, centre):
+    """Flips triangles whose geometric normal points towards `centre` (for closed meshes)."""
+    out = []
+    for a, b, c in tris:
+        n = np.cross(b - a, c - a)
+        m = (a + b + c) / 3
+        out.append((a, b, c) if np.dot(n, m - centre) > 0 else (a, c, b))
+    return out
+
+
+def objects():
+    lo, hi = ROOM_LO, ROOM_HI
+    c = lambda x, y, z: np.array([x, y, z], float)
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    # Room surfaces, normals inward.
+    floor = quad(c(x0, y0, z1), c(x1, y0, z1), c(x1, y0, z0), c(x0, y0, z0))
+    ceiling = quad(c(x0, y1, z0), c(x1, y1, z0), c(x1, y1, z1), c(x0, y1, z1))
+    wall_xm = quad(c(x0, y0, z0), c(x0, y1, z0), c(x0, y1, z1), c(x0, y0, z1))
+    wall_xp = quad(c(x1, y0, z0), c(x1, y0, z1), c(x1, y1, z1), c(x1, y1, z0))
+    wall_zm = quad(c(x0, y0, z0), c(x1, y0, z0), c(x1, y1, z0), c(x0, y1, z0))
+    wall_zp = quad(c(x0, y0, z1), c(x0, y1, z1), c(x1, y1, z1), c(x1, y0, z1))
+    py = y1 - 0.01
+    panel = quad(c(-0.2, py, -0.6), c(1.4, py, -0.6), c(1.4, py, 0.0), c(-0.2, py, 0.0))
+    cyl = cylinder(-1.3, -0.8, 0.28, 0.9)
+    cab_lo, cab_hi = c(1.2, 0.0, -1.78), c(2.38, 0.75, -1.2)
+    table_lo, table_hi = c(-0.6, 0.0, 0.5), c(0.5, 0.42, 1.2)
+    alu_lo, alu_hi = c(-0.35, 0.42, 0.65), c(0.0, 0.72, 0.95)
+    red = sphere([0.9, 0.25, 0.3], 0.25)
+    checker = {"type": "checker", "color0": [0.62, 0.44, 0.28], "color1": [0.30, 0.20, 0.12],
+               "uv_scale": [6.0, 4.5]}
+    return [
+        ("floor", floor, dict(base_color=checker, roughness=0.35, metallic=0.0)),
+        ("ceiling", ceiling, dict(base_color=[0.85, 0.85, 0.83], roughness=1.0, metallic=0.0)),
+        ("wall_left_x-", wall_xm, dict(base_color=[0.35, 0.45, 0.60], roughness=0.9, metallic=0.0)),
+        ("wall_right_x+", wall_xp, dict(base_color=[0.75, 0.70, 0.55], roughness=0.85, metallic=0.0)),
+        ("wall_back_z-", wall_zm, dict(base_color=[0.55, 0.60, 0.45], roughness=0.95, metallic=0.0)),
+        ("wall_front_z+", wall_zp, dict(base_color=[0.70, 0.50, 0.45], roughness=0.9, metallic=0.0)),
+        ("ceiling_panel", panel, dict(radiance=[14.0, 13.0, 11.5])),
+        ("copper_cylinder", outward(cyl, c(-1.3, 0.45, -0.8)),
+         dict(base_color=[0.95, 0.64, 0.54], roughness=0.25, metallic=1.0)),
+        ("cabinet", box(cab_lo, cab_hi), dict(base_color=[0.60, 0.50, 0.38], roughness=0.8, metallic=0.0)),
+        ("low_table", box(table_lo, table_hi), dict(base_color=[0.12, 0.12, 0.14], roughness=0.5, metallic=0.0)),
+        ("alu_box", box(alu_lo, alu_hi), dict(base_color=[0.91, 0.92, 0.92], roughness=0.45, metallic=1.0)),
+        ("red_sphere", red, dict(base_color=[0.70, 0.12, 0.10], roughness=0.15, metallic=0.0)),
+    ]
+
+
+def write_obj(path, tris, comment, uv=None):
+    """Flat-shaded OBJ: each triangle its own three vertices and one normal."""
+    with open(path, "w") as f:
+        f.write(f"# {comment}\n")
+        for a, b, c in tris:
+            for p in (a, b, c):
+                f.write(f"v {p[0]:.6f} {p[1]:.6f} {p[2]:.6f}\n")
+        if uv is not None:
+            for a, b, c in tris:
+                for p in (a, b, c):
+                    u, v = uv(p)
+                    f.write(f"vt {u:.6f} {v:.6f}\n")
+        for a, b, c in tris:
+            n = np.cross(b - a, c - a)
+            n /= np.linalg.norm(n)
+            f.write(f"vn {n[0]:.6f} {n[1]:.6f} {n[2]:.6f}\n")
+        for i in range(len(tris)):
+            v = [3 * i + 1, 3 * i + 2, 3 * i + 3]
+            if uv is not None:
+                f.write("f " + " ".join(f"{k}/{k}/{i + 1}" for k in v) + "\n")
+            else:
+                f.write("f " + " ".join(f"{k}//{i + 1}" for k in v) + "\n")
+
+
+def rgb(v):
+    return {"type": "rgb", "value": list(map(float, v))}
+
+
+def floor_uv(p):
+    return ((p[0] - ROOM_LO[0]) / (ROOM_HI[0] - ROOM_LO[0]), (ROOM_HI[2] - p[2]) / (ROOM_HI[2] - ROOM_LO[2]))
+
+
+def scene_dict(objs, tmp, lights_on=True, extra=None):
+    d = {"type": "scene", "integrator": {"type": "path", "max_depth": 8}}
+    for i, (name, tris, m) in enumerate(objs):
+        path = os.path.join(tmp, f"{i:02d}.obj")
+        write_obj(path, tris, name, floor_uv if name == "floor" else None)
+        shape = {"type": "obj", "filename": path, "face_normals": True, "flip_tex_coords": False}
+        if "radiance" in m:
+            shape["bsdf"] = {"type": "diffuse", "reflectance": rgb([0, 0, 0])}
+            if lights_on:
+                shape["emitter"] = {"type": "area", "radiance": rgb(m["radiance"])}
+        else:
+            bc = m["base_color"]
+            if isinstance(bc, dict):
+                bc = {"type": "checkerboard", "color0": rgb(bc["color0"]), "color1": rgb(bc["color1"]),
+                      "to_uv": mi.ScalarTransform4f().scale([bc["uv_scale"][0], bc["uv_scale"][1], 1.0])}
+            else:
+                bc = rgb(bc)
+            shape["bsdf"] = {"type": "principled", "base_color": bc, "roughness": m["roughness"],
+                             "metallic": m["metallic"], "specular": 0.5}
+        d[f"shape_{i:02d}"] = shape
+    if extra:
+        d.update(extra)
+    return d
+
+
+def cameras(rng, n, objs, panel_every):
+    """Poses inside the room, aimed at objects, walls or (every `panel_every`-th) the panel."""
+    targets = {name: np.mean([np.mean(t, axis=0) for t in tris], axis=0) for name, tris, _ in objs}
+    blockers = [(np.min([p for t in tris for p in t], 0) - 0.25, np.max([p for t in tris for p in t], 0) + 0.25)
+                for name, tris, m in objs[7:]]
+    # Objects twice as often as the floor and walls.
+    names = [n_ for n_, _, _ in objs[:6] if n_ != "ceiling"] + 2 * [n_ for n_, _, _ in objs[7:]]
+    out = []
+    while len(out) < n:
+        o = rng.uniform(ROOM_LO + [0.35, 0.7, 0.35], ROOM_HI - [0.35, 0.5, 0.35])
+        if any(np.all(o > lo) and np.all(o < hi) for lo, hi in blockers):
+            continue
+        aim = "ceiling_panel" if panel_every and len(out) % panel_every == panel_every - 1 else names[rng.integers(len(names))]
+        t = targets[aim] + rng.normal(0, 0.3, 3)
+        t = np.clip(t, ROOM_LO + 0.05, ROOM_HI - 0.05)
+        d = t - o
+        if np.linalg.norm(d) < 1.6 or abs(d[1]) / np.linalg.norm(d) > 0.9:
+            continue
+        out.append((o, t, aim))
+    return out
+
+
+def to_world(o, t):
+    return mi.ScalarTransform4f().look_at(origin=list(map(float, o)), target=list(map(float, t)), up=[0, 1, 0])
+
+
+def sensor(o, t, spp, seed):
+    return {"type": "perspective", "fov": FOV, "fov_axis": "x", "to_world": to_world(o, t),
+            "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
+            "film": {"type": "hdrfilm", "width": W, "height": H, "rfilter": {"type": "box"},
+                     "pixel_format": "rgb"}}
+
+
+def pixel_rays(o, t):
+    m = np.array(to_world(o, t).matrix, dtype=np.float64)
+    f = 0.5 * W / math.tan(math.radians(FOV) / 2)
+    u, v = np.meshgrid(np.arange(W) + 0.5, np.arange(H) + 0.5)
+    d = np.stack([-(u - W / 2) / f, -(v - H / 2) / f, np.ones_like(u)], -1).reshape(-1, 3)
+    d = d @ m[:3, :3].T
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return m, d
+
+
+def gt_maps(scene, objs, o, t):
+    """Per-pixel-centre maps: IndexMA, DiffCol, Specular, Roughness, Metallic, Emit, albedo."""
+    m, d = pixel_rays(o, t)
+    n = d.shape[0]
+    ray = mi.Ray3f(mi.Point3f(*[np.full(n, m[i, 3], np.float32) for i in range(3)]),
+                   mi.Vector3f(*[d[:, i].astype(np.float32) for i in range(3)]))
+    si = scene.ray_intersect(ray)
+    ids = np.array(dr.reinterpret_array(mi.UInt32, si.shape))
+    shape_ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()))
+    order = {sid: int(scene.shapes()[k].id()[len("shape_"):]) for k, sid in enumerate(shape_ids)}
+    idx = np.array([order.get(int(s), -1) for s in ids])
+    p = np.stack([np.array(si.p.x), np.array(si.p.y), np.array(si.p.z)], -1)
+    maps = {k: np.zeros((n, 3), np.float32) for k in ("DiffCol", "Specular", "Roughness", "Metallic", "Emit")}
+    maps["Roughness"][:] = 1.0
+    for i, (name, _, mat) in enumerate(objs):
+        sel = idx == i
+        if not sel.any():
+            continue
+        if "radiance" in mat:
+            maps["Emit"][sel] = mat["radiance"]
+            continue
+        bc = mat["base_color"]
+        if isinstance(bc, dict):
+            u, v = floor_uv(p[sel].T)
+            su, sv = bc["uv_scale"]
+            ms = (u * su) % 1.0 > 0.5
+            mt = (v * sv) % 1.0 > 0.5
+            col = np.where((ms == mt)[:, None], bc["color0"], bc["color1"])
+        else:
+            col = np.asarray(bc, float)[None, :]
+        mm = mat["metallic"]
+        maps["DiffCol"][sel] = col * (1 - mm)
+        maps["Specular"][sel] = 0.04 * (1 - mm) + col * mm
+        maps["Roughness"][sel] = mat["roughness"]
+        maps["Metallic"][sel] = mm
+    maps["albedo"] = maps["DiffCol"] + maps["Specular"]
+    maps["IndexMA"] = np.repeat(np.maximum(idx, 0)[:, None], 3, 1).astype(np.float32)
+    return {k: v.reshape(H, W, 3) for k, v in maps.items()}, idx.reshape(H, W)
+
+
+def write_exr(path, a):
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    tmp = path + ".tmp.exr"
+    mi.Bitmap(np.ascontiguousarray(a, dtype=np.float32)).write(tmp)
+    os.replace(tmp, path)
+
+
+def transforms(cams):
+    frames = []
+    for k, (o, t, _) in enumerate(cams):
+        frames.append({"file_path": f"Image/{k:03d}_0001.exr",
+                       "transform_matrix": np.array(to_world(o, t).matrix).tolist(),
+                       "origin": [round(float(x), 4) for x in o], "look_at": [round(float(x), 4) for x in t]})
+    return {"camera_angle_x": math.radians(FOV), "width": W, "height": H,
+            "camera_convention": "Mitsuba camera-to-world: local +X = image left, +Y = up, +Z = forward; "
+                                 "pixel-centre ray (-(u-W/2)/f, -(v-H/2)/f, 1), f = 0.5*W/tan(camera_angle_x/2)",
+            "frames": frames}
+
+
+def parts_json(objs):
+    out, start = [], 0
+    for i, (name, tris, m) in enumerate(objs):
+        pts = np.array([p for t in tris for p in t])
+        o = {"index": i, "name": name, "face_start": start, "face_end": start + len(tris),
+             "num_faces": len(tris), "bbox": [pts.min(0).round(6).tolist(), pts.max(0).round(6).tolist()]}
+        start += len(tris)
+        if "radiance" in m:
+            o.update(type="emitter", radiance=m["radiance"],
+                     emitter="Mitsuba area (one-sided, front = normal side), BSDF black")
+        else:
+            o.update(type="principled", roughness=m["roughness"], metallic=m["metallic"], specular=0.5,
+                     base_color=m["base_color"])
+        out.append(o)
+    return {"scene": "loft", "geometry": {"file": "scene.obj", "num_faces": start,
+                                          "face_range": "[face_start, face_end) in scene.obj face order (0-based)"},
+            "gt_conventions": {
+                "bsdf": "Mitsuba 3.9.1 `principled` (specular 0.5 -> dielectric F0 0.04; one-sided)",
+                "kd": "base_color * (1 - metallic)", "ks": "F0 = 0.04 * (1 - metallic) + base_color * metallic",
+                "roughness": "principled roughness; GGX alpha = roughness^2",
+                "emitters": "area emitters, constant radiance, one-sided (front = normal side); BSDF black. "
+                            "Emitter pixels in GT maps: kd = ks = metallic = 0, roughness = 1, Emit = radiance"},
+            "objects": out}
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--spp", type=int, default=512)
+    ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--train", type=int, default=40)
+    ap.add_argument("--val", type=int, default=8)
+    a = ap.parse_args()
+    rng = np.random.default_rng(a.seed)
+    objs = objects()
+    os.makedirs(a.out, exist_ok=True)
+    tmp = os.path.join(a.out, ".meshes")
+    os.makedirs(tmp, exist_ok=True)
+    all_tris = [t for _, tris, _ in objs for t in tris]
+    write_obj(os.path.join(a.out, "scene.obj"), all_tris, "loft-mitsuba: whole scene, world space, metres, y up")
+    with open(os.path.join(a.out, "scene_parts.json"), "w") as f:
+        json.dump(parts_json(objs), f, indent=1)
+    scene = mi.load_dict(scene_dict(objs, tmp))
+    centre, radius = [1.6, 1.9, 1.0], 0.15
+    relight_scene = mi.load_dict(scene_dict(objs, tmp, lights_on=False, extra={"relight": {
+        "type": "sphere", "center": centre, "radius": radius,
+        "bsdf": {"type": "diffuse", "reflectance": rgb([0, 0, 0])},
+        "emitter": {"type": "area", "radiance": rgb([70.0, 66.0, 58.0])}}}))
+    log = {"scene": "loft", "mitsuba": mi.__version__, "variant": mi.variant(), "spp": a.spp, "seed": a.seed,
+           "render": {}}
+    splits = {"train": cameras(rng, a.train, objs, 5), "val": cameras(rng, a.val, objs, 6)}
+    for split, cams in list(splits.items()) + [("relight", splits["val"])]:
+        sdir = os.path.join(a.out, split)
+        os.makedirs(sdir, exist_ok=True)
+        with open(os.path.join(sdir, "transforms.json"), "w") as f:
+            json.dump(transforms(cams), f, indent=1)
+        seen = {}
+        for k, (o, t, aim) in enumerate(cams):
+            t0 = time.time()
+            sc = relight_scene if split == "relight" else scene
+            seed = 1000 * ["train", "val", "relight"].index(split) + k
+            img = mi.render(sc, sensor=mi.load_dict(sensor(o, t, a.spp, seed)))
+            write_exr(os.path.join(sdir, "Image", f"{k:03d}_0001.exr"), np.array(img))
+            if split != "relight":
+                maps, idx = gt_maps(scene, objs, o, t)
+                for kind, arr in maps.items():
+                    name = f"{k:03d}.exr" if kind == "albedo" else f"{k:03d}_0001.exr"
+                    write_exr(os.path.join(sdir, kind, name), arr)
+                for i in np.unique(idx[idx >= 0]):
+                    seen.setdefault(objs[i][0], []).append([k, int((idx == i).sum())])
+            log["render"].setdefault(split, []).append({"view": k, "aim": aim, "seconds": round(time.time() - t0, 2)})
+            print(f"{split} {k:03d} {time.time() - t0:.1f}s aim {aim}", flush=True)
+        log.setdefault("pixels_per_object", {})[split] = seen
+    with open(os.path.join(a.out, "relight", "light.json"), "w") as f:
+        json.dump({"type": "sphere", "center": centre, "radius": radius, "radiance": [70.0, 66.0, 58.0],
+                   "original_emitters": "OFF: the panel emits nothing in relight/Image; its geometry stays, black",
+                   "cameras": "relight/transforms.json (= val/transforms.json)"}, f, indent=1)
+    with open(os.path.join(a.out, "build_log.json"), "w") as f:
+        json.dump(log, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
