@@ -321,6 +321,7 @@ def main():
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--train", type=int, default=40)
     ap.add_argument("--val", type=int, default=8)
+    ap.add_argument("--relight-only", action="store_true", help="render only relight/ (same cameras)")
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
     objs = objects()
@@ -332,7 +333,8 @@ def main():
     with open(os.path.join(a.out, "scene_parts.json"), "w") as f:
         json.dump(parts_json(objs), f, indent=1)
     scene = mi.load_dict(scene_dict(objs, tmp))
-    centre, radius = [1.6, 1.9, 1.0], 0.15
+    # The relighting light, at least 1.3 m from every val camera (one sat inside it first).
+    centre, radius = [-0.8, 2.2, 1.3], 0.15
     relight_scene = mi.load_dict(scene_dict(objs, tmp, lights_on=False, extra={"relight": {
         "type": "sphere", "center": centre, "radius": radius,
         "bsdf": {"type": "diffuse", "reflectance": rgb([0, 0, 0])},
@@ -340,7 +342,8 @@ def main():
     log = {"scene": "loft", "mitsuba": mi.__version__, "variant": mi.variant(), "spp": a.spp, "seed": a.seed,
            "render": {}}
     splits = {"train": cameras(rng, a.train, objs, 5), "val": cameras(rng, a.val, objs, 6)}
-    for split, cams in list(splits.items()) + [("relight", splits["val"])]:
+    todo = [] if a.relight_only else list(splits.items())
+    for split, cams in todo + [("relight", splits["val"])]:
         sdir = os.path.join(a.out, split)
         os.makedirs(sdir, exist_ok=True)
         with open(os.path.join(sdir, "transforms.json"), "w") as f:
@@ -366,6 +369,8 @@ def main():
         json.dump({"type": "sphere", "center": centre, "radius": radius, "radiance": [70.0, 66.0, 58.0],
                    "original_emitters": "OFF: the panel emits nothing in relight/Image; its geometry stays, black",
                    "cameras": "relight/transforms.json (= val/transforms.json)"}, f, indent=1)
+    if a.relight_only:
+        return
     with open(os.path.join(a.out, "build_log.json"), "w") as f:
         json.dump(log, f, indent=1)
 
