@@ -26,6 +26,8 @@ mi.set_variant("llvm_ad_rgb")
 W, H, FOV = 240, 160, 65.0
 ROOM_LO = np.array([-2.4, 0.0, -1.8])
 ROOM_HI = np.array([2.4, 2.7, 1.8])
+# `objects()` lists the floor, the ceiling and four walls first, then the panel, then furniture.
+ROOM_SURFACES = 6
 
 
 def quad(p0, p1, p2, p3):
@@ -162,11 +164,18 @@ def floor_uv(p):
     return ((p[0] - ROOM_LO[0]) / (ROOM_HI[0] - ROOM_LO[0]), (ROOM_HI[2] - p[2]) / (ROOM_HI[2] - ROOM_LO[2]))
 
 
-def scene_dict(objs, tmp, lights_on=True, extra=None):
+def write_meshes(objs, tmp):
+    """One OBJ per object (the floor with its uv), for Mitsuba; returns their paths."""
+    paths = []
+    for i, (name, tris, _) in enumerate(objs):
+        paths.append(os.path.join(tmp, f"{i:02d}.obj"))
+        write_obj(paths[-1], tris, name, floor_uv if name == "floor" else None)
+    return paths
+
+
+def scene_dict(objs, paths, lights_on=True, extra=None):
     d = {"type": "scene", "integrator": {"type": "path", "max_depth": 8}}
-    for i, (name, tris, m) in enumerate(objs):
-        path = os.path.join(tmp, f"{i:02d}.obj")
-        write_obj(path, tris, name, floor_uv if name == "floor" else None)
+    for i, ((name, tris, m), path) in enumerate(zip(objs, paths)):
         shape = {"type": "obj", "filename": path, "face_normals": True, "flip_tex_coords": False}
         if "radiance" in m:
             shape["bsdf"] = {"type": "diffuse", "reflectance": rgb([0, 0, 0])}
@@ -190,10 +199,11 @@ def scene_dict(objs, tmp, lights_on=True, extra=None):
 def cameras(rng, n, objs, panel_every):
     """Poses inside the room, aimed at objects, walls or (every `panel_every`-th) the panel."""
     targets = {name: np.mean([np.mean(t, axis=0) for t in tris], axis=0) for name, tris, _ in objs}
+    room, furniture = objs[:ROOM_SURFACES], objs[ROOM_SURFACES + 1:]
     blockers = [(np.min([p for t in tris for p in t], 0) - 0.25, np.max([p for t in tris for p in t], 0) + 0.25)
-                for name, tris, m in objs[7:]]
+                for name, tris, m in furniture]
     # Objects twice as often as the floor and walls.
-    names = [n_ for n_, _, _ in objs[:6] if n_ != "ceiling"] + 2 * [n_ for n_, _, _ in objs[7:]]
+    names = [n_ for n_, _, _ in room if n_ != "ceiling"] + 2 * [n_ for n_, _, _ in furniture]
     out = []
     while len(out) < n:
         o = rng.uniform(ROOM_LO + [0.35, 0.7, 0.35], ROOM_HI - [0.35, 0.5, 0.35])
@@ -230,17 +240,24 @@ def pixel_rays(o, t):
     return m, d
 
 
-def gt_maps(scene, objs, o, t):
+def shape_index(scene):
+    """Object index (the `shape_NN` key) of each of the scene's shape ids, -1 elsewhere."""
+    shape_ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()))
+    lut = np.full(int(shape_ids.max()) + 1, -1)
+    for k, sid in enumerate(shape_ids):
+        lut[sid] = int(scene.shapes()[k].id()[len("shape_"):])
+    return lut
+
+
+def gt_maps(scene, index, objs, o, t):
     """Per-pixel-centre maps: IndexMA, DiffCol, Specular, Roughness, Metallic, Emit, albedo."""
     m, d = pixel_rays(o, t)
     n = d.shape[0]
     ray = mi.Ray3f(mi.Point3f(*[np.full(n, m[i, 3], np.float32) for i in range(3)]),
                    mi.Vector3f(*[d[:, i].astype(np.float32) for i in range(3)]))
     si = scene.ray_intersect(ray)
-    ids = np.array(dr.reinterpret_array(mi.UInt32, si.shape))
-    shape_ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()))
-    order = {sid: int(scene.shapes()[k].id()[len("shape_"):]) for k, sid in enumerate(shape_ids)}
-    idx = np.array([order.get(int(s), -1) for s in ids])
+    ids = np.array(dr.reinterpret_array(mi.UInt32, si.shape)).astype(np.int64)
+    idx = np.where(ids < len(index), index[np.minimum(ids, len(index) - 1)], -1)
     p = np.stack([np.array(si.p.x), np.array(si.p.y), np.array(si.p.z)], -1)
     maps = {k: np.zeros((n, 3), np.float32) for k in ("DiffCol", "Specular", "Roughness", "Metallic", "Emit")}
     maps["Roughness"][:] = 1.0
@@ -332,10 +349,12 @@ def main():
     write_obj(os.path.join(a.out, "scene.obj"), all_tris, "loft-mitsuba: whole scene, world space, metres, y up")
     with open(os.path.join(a.out, "scene_parts.json"), "w") as f:
         json.dump(parts_json(objs), f, indent=1)
-    scene = mi.load_dict(scene_dict(objs, tmp))
+    paths = write_meshes(objs, tmp)
+    scene = mi.load_dict(scene_dict(objs, paths))
+    index = shape_index(scene)
     # The relighting light, at least 1.3 m from every val camera (one sat inside it first).
     centre, radius = [-0.8, 2.2, 1.3], 0.15
-    relight_scene = mi.load_dict(scene_dict(objs, tmp, lights_on=False, extra={"relight": {
+    relight_scene = mi.load_dict(scene_dict(objs, paths, lights_on=False, extra={"relight": {
         "type": "sphere", "center": centre, "radius": radius,
         "bsdf": {"type": "diffuse", "reflectance": rgb([0, 0, 0])},
         "emitter": {"type": "area", "radiance": rgb([70.0, 66.0, 58.0])}}}))
@@ -356,7 +375,7 @@ def main():
             img = mi.render(sc, sensor=mi.load_dict(sensor(o, t, a.spp, seed)))
             write_exr(os.path.join(sdir, "Image", f"{k:03d}_0001.exr"), np.array(img))
             if split != "relight":
-                maps, idx = gt_maps(scene, objs, o, t)
+                maps, idx = gt_maps(scene, index, objs, o, t)
                 for kind, arr in maps.items():
                     name = f"{k:03d}.exr" if kind == "albedo" else f"{k:03d}_0001.exr"
                     write_exr(os.path.join(sdir, kind, name), arr)
