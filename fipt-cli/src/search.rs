@@ -68,13 +68,27 @@ pub fn run(a: Args) -> Result<()> {
     );
     for row in &rows {
         let (f, c) = (&row.fitted, &row.choice);
+        // A side of a region divided by colour: `7a`, `7b`; `*` when the sides keep their own.
+        let label = match row.side {
+            Some(s) => format!(
+                "{}{}{}",
+                row.label,
+                ["a", "b"][s as usize],
+                if row.sides_kept == Some(true) {
+                    "*"
+                } else {
+                    ""
+                }
+            ),
+            None => row.label.to_string(),
+        };
         let (gt, gain) = row.given.as_ref().map_or(("–".to_string(), f64::NAN), |g| {
             let ([m0, m1], gain) = given_summary(g);
             (format!("{m0:.2}@0 {m1:.2}@1"), gain)
         });
         println!(
             "{:>6} {:>7} {:>6} | {:>18} {:>7.3} | {:>8.2} {:>8.2} | {:>9.6} {:>9.6} {:>9.6} | {:>9.6} {:>9.6} | {}, {}",
-            row.label,
+            label,
             f.pixels,
             f.cells,
             gt,
@@ -89,6 +103,21 @@ pub fn run(a: Args) -> Result<()> {
             c.roughness.map_or("–".into(), |v| format!("{v:.2}")),
             c.metallic.map_or("–".into(), |v| format!("{v:.0}"))
         );
+    }
+    for row in rows.iter().filter(|r| r.side == Some(0)) {
+        if let Some(w) = &row.whole {
+            println!(
+                "region {} divided by colour; both sides together: {}, {}{}",
+                row.label,
+                w.roughness.map_or("–".into(), |v| format!("{v:.2}")),
+                w.metallic.map_or("–".into(), |v| format!("{v:.0}")),
+                if row.sides_kept == Some(true) {
+                    " (the sides keep their own: *)"
+                } else {
+                    " (taken by both sides)"
+                }
+            );
+        }
     }
     if let Some(path) = &a.json {
         fipt_core::fsutil::write_json_atomic(path, &rows)?;

@@ -20,6 +20,7 @@
 pub mod bake;
 pub mod components;
 pub mod config;
+mod divided;
 pub mod error;
 pub mod eval;
 mod eval_parts;

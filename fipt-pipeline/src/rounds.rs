@@ -205,7 +205,7 @@ pub(crate) fn refinement_rounds(
             cfg.rounds
                 .warm_start
                 .then_some((&st.field, prev_id.as_str())),
-            st.searched.as_ref().map(|s| &s.targets[..]),
+            st.searched.as_ref(),
             !ctx.sharding.shard.is_all(),
         )?;
         mark("train", t);

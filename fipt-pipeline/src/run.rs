@@ -444,7 +444,7 @@ fn run_locked(
         &a.out.join("train"),
         a.force,
         None,
-        searched.as_ref().map(|s| &s.targets[..]),
+        searched.as_ref(),
         !a.sharding().shard.is_all(),
     )?;
     mark("train", t);

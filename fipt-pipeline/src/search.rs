@@ -2,6 +2,7 @@
 //! curves per region for `fipt profile` (with the ground truth's base colour beside the fitted
 //! one when the scene has it).
 use crate::bail;
+use crate::divided::{choose_regions, Divided, DividedCells, SideLookup};
 use crate::error::Result;
 use crate::regions::Regions;
 use crate::scene::LoadedScene;
@@ -10,10 +11,11 @@ use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, Image};
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_shading::bake_store::StoredShadings;
-use fipt_shading::records::HitPoint;
+use fipt_shading::records::{HitPoint, PrimaryHit};
+use fipt_shading::search::split::{colour_split, ColourSplit};
 use fipt_shading::search::{
     choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, view_pixels,
-    with_cells, Albedo, RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
+    with_cells_keyed, Albedo, RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
 };
 use serde::Serialize;
 use std::path::PathBuf;
@@ -24,8 +26,15 @@ use std::path::PathBuf;
 pub struct Searched {
     pub source: &'static str,
     pub regions: Vec<(i64, RegionChoice)>,
+    /// Regions divided by colour whose sides keep their own decisions (`[search.split]`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub divided: Vec<Divided>,
     #[serde(skip)]
     pub targets: Vec<Vec<Option<[f32; 2]>>>,
+    /// The training pixels (view, pixel) on the second side of divided region k: the segment
+    /// prior treats each side as a part of its own.
+    #[serde(skip)]
+    pub second_sides: Vec<(u32, u32, u32)>,
     pub seconds: f64,
 }
 
@@ -109,6 +118,8 @@ struct Compact {
     /// The same pixels' image values.
     images: Vec<Image>,
     grid: Vec<f32>,
+    /// The voxel of each surface cell.
+    voxels: Vec<[i32; 3]>,
 }
 
 /// The search's pixels with only their shadings and image values held: each view's shadings
@@ -162,11 +173,13 @@ fn compact_inputs(
             keyed.len()
         );
     }
+    let (pixels, voxels) = with_cells_keyed(&keyed, cfg.cell_footprints * footprint);
     Ok(Compact {
-        pixels: with_cells(&keyed, cfg.cell_footprints * footprint),
+        pixels,
         grid: sigma_candidates(shadings.first(), cfg),
         shadings,
         images,
+        voxels,
     })
 }
 
@@ -178,7 +191,7 @@ type Halves = Option<[Vec<RegionProfile>; 2]>;
 fn fitted_profiles(
     images: &[Image],
     shadings: &[ViewShadings],
-    regions: &Regions,
+    regions: usize,
     pixels: &[SearchPixel],
     grid: &[f32],
     cfg: &SearchConfig,
@@ -189,7 +202,7 @@ fn fitted_profiles(
             pixels,
             shadings,
             images,
-            regions.len(),
+            regions,
             grid,
             &cfg.metallic,
             Albedo::Fitted,
@@ -223,6 +236,10 @@ struct KeptSearch {
     key: String,
     source: String,
     regions: Vec<(i64, RegionChoice)>,
+    #[serde(default)]
+    divided: Vec<Divided>,
+    #[serde(default)]
+    divided_cells: DividedCells,
     seconds: f64,
 }
 
@@ -281,18 +298,23 @@ pub fn stage(
         .then(|| read_json::<KeptSearch>(&kept).ok())
         .flatten()
         .filter(|k| k.key == key);
-    let (choices, seconds) = match reuse {
+    let (found, seconds) = match reuse {
         Some(k) => {
             crate::note!(
                 "reusing the search in {} ({:.1} s); --force to redo it",
                 kept.display(),
                 k.seconds
             );
-            (k.regions.into_iter().map(|r| r.1).collect(), k.seconds)
+            let found = Decisions {
+                choices: k.regions.into_iter().map(|r| r.1).collect(),
+                divided: k.divided,
+                cells: k.divided_cells,
+            };
+            (found, k.seconds)
         }
         None => {
             let t = std::time::Instant::now();
-            let choices = decide(
+            let found = decide(
                 scene,
                 records,
                 on.shadings,
@@ -306,31 +328,42 @@ pub fn stage(
             let keep = KeptSearch {
                 key,
                 source: regions.source.to_string(),
-                regions: regions
-                    .labels
-                    .iter()
-                    .copied()
-                    .zip(choices.clone())
+                regions: (regions.labels.iter().copied())
+                    .zip(found.choices.clone())
                     .collect(),
+                divided: found.divided.clone(),
+                divided_cells: found.cells.clone(),
                 seconds,
             };
             write_json_atomic(&kept, &keep)?;
-            (choices, seconds)
+            (found, seconds)
         }
     };
-    let targets = regions
-        .ids
-        .iter()
-        .map(|v| {
-            v.iter()
-                .map(|r| {
-                    r.map(|r| {
-                        let c = &choices[r as usize];
-                        [
-                            c.roughness.unwrap_or(f32::NAN),
-                            c.metallic.unwrap_or(f32::NAN),
-                        ]
-                    })
+    let Decisions {
+        choices,
+        divided,
+        cells,
+    } = found;
+    let sides = SideLookup::new(&divided, &cells);
+    let target = |c: &RegionChoice| {
+        [
+            c.roughness.unwrap_or(f32::NAN),
+            c.metallic.unwrap_or(f32::NAN),
+        ]
+    };
+    let mut second_sides = vec![];
+    let targets = (regions.ids.iter().zip(records).enumerate())
+        .map(|(v, (ids, recs))| {
+            (ids.iter().zip(recs).enumerate())
+                .map(|(i, (r, h))| {
+                    let r = (*r)?;
+                    let Some((k, side)) = h.and_then(|h| sides.side(r, h.point())) else {
+                        return Some(target(&choices[r as usize]));
+                    };
+                    if side == 1 {
+                        second_sides.push((v as u32, i as u32, k as u32));
+                    }
+                    Some(target(&divided[k].sides[side as usize]))
                 })
                 .collect()
         })
@@ -338,17 +371,20 @@ pub fn stage(
     let glossy = choices.iter().filter(|c| c.roughness.is_some()).count();
     let metal = choices.iter().filter(|c| c.metallic > Some(0.5)).count();
     crate::note!(
-        "search: {} regions ({}): {} with a σ target, {} metal, in {:.1} s",
+        "search: {} regions ({}): {} with a σ target, {} metal, {} divided by colour, in {:.1} s",
         regions.len(),
         regions.source,
         glossy,
         metal,
+        divided.len(),
         seconds
     );
     Ok(Some(Searched {
         source: regions.source,
         regions: regions.labels.iter().copied().zip(choices).collect(),
+        divided,
         targets,
+        second_sides,
         seconds,
     }))
 }
@@ -387,6 +423,13 @@ fn search_key(
     ))
 }
 
+/// What a search decided: per region, then the regions divided by colour and their cells.
+struct Decisions {
+    choices: Vec<RegionChoice>,
+    divided: Vec<Divided>,
+    cells: DividedCells,
+}
+
 /// The search's decision per region on `shadings` (read view by view; only the search's own
 /// pixels' shadings are held, see [`compact_inputs`]).
 #[allow(clippy::too_many_arguments)]
@@ -399,7 +442,7 @@ fn decide(
     previous: Option<&Searched>,
     when: When,
     regions: &Regions,
-) -> Result<Vec<RegionChoice>> {
+) -> Result<Decisions> {
     let on_bake = when == When::Bake;
     let bake_cfg = SearchConfig {
         metal_margin: cfg.bake_metal_margin,
@@ -407,41 +450,78 @@ fn decide(
     };
     let cfg = if on_bake { &bake_cfg } else { cfg };
     let c = compact_inputs(scene, records, shadings, regions, cfg, footprint)?;
+    // Dielectric σ waits for the refined shadings, and with it the division by colour.
+    let split = if on_bake {
+        ColourSplit::none(regions.len())
+    } else {
+        colour_split(
+            &c.pixels,
+            &c.shadings,
+            &c.images,
+            regions.len(),
+            cfg.min_pixels,
+            &cfg.split,
+        )
+    };
     let (profiles, halves) = fitted_profiles(
         &c.images,
         &c.shadings,
-        regions,
-        &c.pixels,
+        split.regions(),
+        &split.apply(&c.pixels),
         &c.grid,
         cfg,
         cfg.held_out && !on_bake,
     );
-    let was_metal = |label: i64| {
+    // What the previous search said of a region (as a whole or on either side).
+    let previously = |label: i64, test: &dyn Fn(&RegionChoice) -> bool| {
         previous.is_some_and(|s| {
-            s.regions
-                .iter()
-                .any(|(l, c)| *l == label && c.metallic > Some(0.5))
+            let whole = s.regions.iter().any(|(l, c)| *l == label && test(c));
+            whole || (s.divided.iter()).any(|d| d.label == label && d.sides.iter().any(test))
         })
     };
-    Ok(profiles
-        .iter()
-        .map(|p| {
-            let r = p.region as usize;
-            let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
-            let mut c = choose(p, cfg, was_metal(regions.labels[r]), held);
-            let dielectric = c.metallic < Some(0.5);
-            let label = regions.labels[r];
-            let had_target = previous.is_some_and(|s| {
-                s.regions
-                    .iter()
-                    .any(|(l, c)| *l == label && c.roughness.is_some())
-            });
-            if dielectric && (on_bake || (when == When::Settling && !had_target)) {
-                c.roughness = None;
-            }
-            c
+    let choose_one = |p: &RegionProfile, held: Option<[&RegionProfile; 2]>, r: usize| {
+        let label = regions.labels[r];
+        let was_metal = previously(label, &|c| c.metallic > Some(0.5));
+        let mut c = choose(p, cfg, was_metal, held);
+        let dielectric = c.metallic < Some(0.5);
+        let had_target = previously(label, &|c| c.roughness.is_some());
+        if dielectric && (on_bake || (when == When::Settling && !had_target)) {
+            c.roughness = None;
+        }
+        c
+    };
+    let (choices, kept) =
+        choose_regions(&profiles, halves.as_ref(), &split, &cfg.split, &choose_one);
+    let mut cells = DividedCells {
+        cell: cfg.cell_footprints * footprint,
+        cells: vec![vec![]; kept.len()],
+    };
+    let slot: std::collections::HashMap<u32, usize> = (kept.iter().enumerate())
+        .map(|(k, d)| (d.0 as u32, k))
+        .collect();
+    let mut region_of_cell = vec![u32::MAX; c.voxels.len()];
+    for p in &c.pixels {
+        region_of_cell[p.cell as usize] = p.region;
+    }
+    for (cell, &r) in region_of_cell.iter().enumerate() {
+        if let Some(&k) = slot.get(&r) {
+            cells.cells[k].push((c.voxels[cell], split.side[cell]));
+        }
+    }
+    let divided = kept
+        .into_iter()
+        .map(|(r, sides, pixels)| Divided {
+            region: r as u32,
+            label: regions.labels[r],
+            sides,
+            pixels,
         })
-        .collect())
+        .collect();
+    Ok(Decisions {
+        choices,
+        divided,
+        cells,
+    })
 }
 
 /// The true base colour's σ argmins at m = 0 and m = 1, and the views' scale against the
@@ -488,11 +568,19 @@ pub struct ProfileRequest {
 #[derive(Serialize)]
 pub struct ProfileRow {
     pub label: i64,
+    /// The side of a region divided by colour (`[search.split]`), None for a whole region.
+    pub side: Option<u8>,
+    /// Whether a divided region's sides keep their own decisions.
+    pub sides_kept: Option<bool>,
+    /// A divided region's decision for both sides together.
+    pub whole: Option<RegionChoice>,
     pub fitted: RegionProfile,
     pub given: Option<RegionProfile>,
     /// The same with one base colour for the whole region (not per surface cell): what a part
     /// of one material shows when its albedo cannot absorb view dependence.
     pub part: RegionProfile,
+    /// The fitted profile on each half of the views (even, odd), as `held_out` reads them.
+    pub halves: Option<[RegionProfile; 2]>,
     pub choice: RegionChoice,
 }
 
@@ -545,14 +633,40 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
     else {
         bail!("no regions");
     };
+    let split_by_colour = colour_split(
+        &pixels,
+        &shadings,
+        &scene.images,
+        regions.len(),
+        cfg.min_pixels,
+        &cfg.split,
+    );
+    let pixels = split_by_colour.apply(&pixels);
+    let n = split_by_colour.regions();
+    let mut parent: Vec<usize> = (0..regions.len()).collect();
+    for (r, s) in split_by_colour.sub.iter().enumerate() {
+        if s.is_some() {
+            parent.push(r);
+        }
+    }
     let (fitted, halves) = fitted_profiles(
         &scene.images,
         &shadings,
-        &regions,
+        n,
         &pixels,
         &grid,
         &cfg,
         cfg.held_out,
+    );
+    let choose_one = |p: &RegionProfile, held: Option<[&RegionProfile; 2]>, _: usize| {
+        choose(p, &cfg, false, held)
+    };
+    let (whole, kept) = choose_regions(
+        &fitted,
+        halves.as_ref(),
+        &split_by_colour,
+        &cfg.split,
+        &choose_one,
     );
     // The ground truth's base colour: kd for dielectrics, ks for metals.
     let given = if let Some(base) = true_base_colours(&scene.ds, split, &pixels)? {
@@ -561,7 +675,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
             &pixels,
             &shadings,
             &scene.images,
-            regions.len(),
+            n,
             &grid,
             &metal_grid,
             Albedo::Given(&base),
@@ -581,21 +695,32 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
         &per_part,
         &shadings,
         &scene.images,
-        regions.len(),
+        n,
         &grid,
         &cfg.metallic,
         Albedo::Fitted,
     );
     let mut rows = vec![];
+    let mut halves = halves;
     for (r, f) in fitted.into_iter().enumerate() {
         let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
         let c = choose(&f, &cfg, false, held);
+        let halves = halves.as_mut().map(|h| {
+            h.each_mut()
+                .map(|h| std::mem::replace(&mut h[r], empty_profile()))
+        });
         let g = given.as_ref().map(|g| g[r].clone());
+        let top = parent[r];
+        let side = split_by_colour.sub[top].map(|_| u8::from(r != top));
         rows.push(ProfileRow {
-            label: regions.labels[r],
+            label: regions.labels[top],
+            side,
+            sides_kept: side.map(|_| kept.iter().any(|k| k.0 == top)),
+            whole: side.map(|_| whole[top].clone()),
             fitted: f,
             given: g,
             part: std::mem::replace(&mut part[r], empty_profile()),
+            halves,
             choice: c,
         });
     }

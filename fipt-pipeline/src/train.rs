@@ -4,6 +4,7 @@ use crate::bail;
 use crate::error::{Context, Result};
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
+use crate::search::Searched;
 use fipt_core::dataset::{GtKind, View};
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, ExrPrecision, Image};
@@ -248,12 +249,25 @@ fn with_segments(
     scene: &LoadedScene,
     data: TrainingSet,
     found: Option<&(GtKind, String)>,
+    search: Option<&Searched>,
 ) -> Result<TrainingSet> {
     let Some((kind, _)) = found else {
         return Ok(data);
     };
     let folder = kind.folder();
-    let ids = crate::regions::split_ids(scene, *kind)?;
+    let mut ids = crate::regions::split_ids(scene, *kind)?;
+    if let Some(sides) = second_sides(search, *kind) {
+        // The second side of a region the search divided by colour is a part of its own.
+        let base = ids.iter().flatten().copied().max().unwrap_or(0).max(0) + 1;
+        for &(v, i, k) in sides {
+            if let Some(id) = ids
+                .get_mut(v as usize)
+                .and_then(|view| view.get_mut(i as usize))
+            {
+                *id = base + k as i64;
+            }
+        }
+    }
     Ok(if *kind == GtKind::IndexMA {
         let d = data.with_segments(&ids)?;
         crate::note!("segment prior on {} parts ({folder}/)", d.segments);
@@ -265,6 +279,14 @@ fn with_segments(
     })
 }
 
+/// The search's second sides of divided regions when they split the segment ids: the search's
+/// regions are the scene's parts and so are the segments.
+fn second_sides(search: Option<&Searched>, kind: GtKind) -> Option<&[(u32, u32, u32)]> {
+    search
+        .filter(|s| kind == GtKind::IndexMA && s.source == "parts" && !s.second_sides.is_empty())
+        .map(|s| &s.second_sides[..])
+}
+
 /// What decides a training before its set is built: the inputs, the shadings, the warm start,
 /// the settings as given, the search's targets and the segment ids. A finished training with
 /// the same key is reused without building the training set (a resumed run skips it).
@@ -273,10 +295,20 @@ fn request_key(
     shadings_id: &str,
     cfg: &TrainConfig,
     warm: Option<&str>,
-    targets: Option<&[Vec<Option<[f32; 2]>>]>,
+    search: Option<&Searched>,
     segments: Option<&(GtKind, String)>,
 ) -> Result<String> {
-    let targets = targets.map(|t| {
+    let segments = segments.map(|s| match second_sides(search, s.0) {
+        Some(sides) => {
+            let bytes: Vec<u8> = (sides.iter())
+                .flat_map(|&(v, i, k)| [v, i, k])
+                .flat_map(u32::to_le_bytes)
+                .collect();
+            format!("{}+divided:{}", s.1, fipt_core::fsutil::hash_bytes(&bytes))
+        }
+        None => s.1.clone(),
+    });
+    let targets = search.map(|s| &s.targets[..]).map(|t| {
         let bytes: Vec<u8> = t
             .iter()
             .flatten()
@@ -294,7 +326,7 @@ fn request_key(
         warm.unwrap_or("none"),
         fipt_core::fsutil::hash_json(&serde_json::to_value(cfg)?),
         targets.as_deref().unwrap_or("none"),
-        segments.map_or("none", |s| &s.1)
+        segments.as_deref().unwrap_or("none")
     ))
 }
 
@@ -363,13 +395,13 @@ pub fn stage(
     dir: &Path,
     force: bool,
     warm: Option<(&NeuralField, &str)>,
-    targets: Option<&[Vec<Option<[f32; 2]>>]>,
+    search: Option<&Searched>,
     must_reuse: bool,
 ) -> Result<(NeuralField, TrainManifest, bool)> {
     let split = scene.ds.train();
     let segments = segment_ids(scene, cfg.segments)?;
     let warm_id = warm.map(|w| w.1);
-    let request = request_key(scene, shadings_id, cfg, warm_id, targets, segments.as_ref())?;
+    let request = request_key(scene, shadings_id, cfg, warm_id, search, segments.as_ref())?;
     if !force {
         if let Some((field, m)) = finished(dir, |m| m.request == request) {
             return Ok((field, m, false));
@@ -395,9 +427,9 @@ pub fn stage(
         shadings.view(k).map_err(crate::PipelineError::from)
     })?;
     drop(points);
-    let mut data = with_segments(scene, data, segments.as_ref())?;
+    let mut data = with_segments(scene, data, segments.as_ref(), search)?;
     let mut targets_id = None;
-    if let Some(t) = targets {
+    if let Some(t) = search.map(|s| &s.targets[..]) {
         data = data.with_targets(t)?;
         targets_id = Some(targets_fingerprint(&data));
     }

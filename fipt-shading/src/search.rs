@@ -121,6 +121,9 @@ pub struct SearchConfig {
     /// runs, 182 bytes each with `principled`. 0: every pixel.
     #[serde(default = "default_max_pixels")]
     pub max_pixels: usize,
+    /// Dividing regions of two finishes by colour ([`split`]).
+    #[serde(default)]
+    pub split: split::SplitConfig,
 }
 
 fn default_interior_always() -> bool {
@@ -165,6 +168,7 @@ impl Default for SearchConfig {
             edge_contrast: 4.0,
             held_out: true,
             max_pixels: default_max_pixels(),
+            split: split::SplitConfig::default(),
         }
     }
 }
@@ -211,7 +215,7 @@ impl SearchConfig {
         if !(0.0..=180.0).contains(&self.mesh_angle_deg) {
             return bad("mesh_angle_deg", &self.mesh_angle_deg, "[0, 180]");
         }
-        Ok(())
+        self.split.validate()
     }
 
     /// The search off (the reference's behaviour).
@@ -327,6 +331,11 @@ pub fn sigma_grid(lo: f32, hi: f32, steps: usize) -> Vec<f32> {
 
 /// The surface cell (voxel of edge 1/`inv`) holding `p`.
 #[inline]
+/// The surface cell (voxel of edge `cell`) a point falls in.
+pub fn voxel(p: Vec3, cell: f32) -> [i32; 3] {
+    cell_of(p, 1.0 / cell.max(1e-9))
+}
+
 fn cell_of(p: Vec3, inv: f32) -> [i32; 3] {
     let q = (p * inv).floor();
     [q.x as i32, q.y as i32, q.z as i32]
@@ -334,15 +343,25 @@ fn cell_of(p: Vec3, inv: f32) -> [i32; 3] {
 
 /// Dense cell ids for `points` (with their region): voxels of edge `cell` per region.
 pub fn cell_ids(points: &[(Vec3, u32)], cell: f32) -> Vec<u32> {
+    cell_ids_keyed(points, cell).0
+}
+
+/// [`cell_ids`] and the voxel of each cell id.
+pub fn cell_ids_keyed(points: &[(Vec3, u32)], cell: f32) -> (Vec<u32>, Vec<[i32; 3]>) {
     let inv = 1.0 / cell.max(1e-9);
     let mut map: HashMap<(u32, [i32; 3]), u32> = HashMap::new();
-    points
+    let mut voxels = vec![];
+    let ids = points
         .iter()
         .map(|&(p, r)| {
-            let next = map.len() as u32;
-            *map.entry((r, cell_of(p, inv))).or_insert(next)
+            let v = cell_of(p, inv);
+            *map.entry((r, v)).or_insert_with(|| {
+                voxels.push(v);
+                voxels.len() as u32 - 1
+            })
         })
-        .collect()
+        .collect();
+    (ids, voxels)
 }
 
 /// How many training pixels fall in each surface cell: where the views observed a surface
@@ -410,9 +429,14 @@ pub fn view_pixels<R: PrimaryHit>(
 
 /// The search pixels of `keyed` with their surface cells (edge `cell`).
 pub fn with_cells(keyed: &[KeyedPixel], cell: f32) -> Vec<SearchPixel> {
+    with_cells_keyed(keyed, cell).0
+}
+
+/// [`with_cells`] and the voxel of each cell ([`voxel`]).
+pub fn with_cells_keyed(keyed: &[KeyedPixel], cell: f32) -> (Vec<SearchPixel>, Vec<[i32; 3]>) {
     let pts: Vec<(Vec3, u32)> = keyed.iter().map(|k| (k.3, k.2)).collect();
-    let cells = cell_ids(&pts, cell);
-    keyed
+    let (cells, voxels) = cell_ids_keyed(&pts, cell);
+    let pixels = keyed
         .iter()
         .zip(cells)
         .map(|(&(view, pixel, region, _), cell)| SearchPixel {
@@ -421,7 +445,8 @@ pub fn with_cells(keyed: &[KeyedPixel], cell: f32) -> Vec<SearchPixel> {
             region,
             cell,
         })
-        .collect()
+        .collect();
+    (pixels, voxels)
 }
 
 /// Whether pixel `i` of a view (`width` pixels a row, region `ids` per pixel) has a neighbour
@@ -711,6 +736,8 @@ pub fn choose(
         ..fallback
     }
 }
+
+pub mod split;
 
 #[cfg(test)]
 mod tests;
