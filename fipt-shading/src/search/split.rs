@@ -315,13 +315,15 @@ pub fn sides_differ(
     let m = choices[0].metallic.unwrap_or(0.0);
     let gap = |a: &RegionProfile, b: &RegionProfile| argmin_sigma(b, m) - argmin_sigma(a, m);
     let whole = gap(sides[0], sides[1]);
-    if !(whole.abs() >= cfg.sigma_gap) {
+    // σ candidates are f32 steps: a gap of exactly `sigma_gap` may come out a rounding below.
+    let slack = 1e-4;
+    if !(whole.abs() >= cfg.sigma_gap - slack) {
         return false;
     }
     halves.is_none_or(|h| {
         (0..2).all(|k| {
             let g = gap(h[0][k], h[1][k]);
-            g * whole.signum() >= 0.5 * cfg.sigma_gap
+            g * whole.signum() >= 0.5 * cfg.sigma_gap - slack
         })
     })
 }
