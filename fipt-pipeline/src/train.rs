@@ -257,16 +257,7 @@ fn with_segments(
     let folder = kind.folder();
     let mut ids = crate::regions::split_ids(scene, *kind)?;
     if let Some(sides) = second_sides(search, *kind) {
-        // The second side of a region the search divided by colour is a part of its own.
-        let base = ids.iter().flatten().copied().max().unwrap_or(0).max(0) + 1;
-        for &(v, i, k) in sides {
-            if let Some(id) = ids
-                .get_mut(v as usize)
-                .and_then(|view| view.get_mut(i as usize))
-            {
-                *id = base + k as i64;
-            }
-        }
+        divide_ids(&mut ids, sides);
     }
     Ok(if *kind == GtKind::IndexMA {
         let d = data.with_segments(&ids)?;
@@ -277,6 +268,20 @@ fn with_segments(
         crate::note!("semantic prior on {} classes ({folder}/)", d.segments);
         d
     })
+}
+
+/// Gives the pixels `(view, pixel, k)` on the second side of the k-th region the search divided
+/// by colour a part id of their own (after every id in `ids`).
+fn divide_ids(ids: &mut [Vec<i64>], sides: &[(u32, u32, u32)]) {
+    let base = ids.iter().flatten().copied().max().unwrap_or(0).max(0) + 1;
+    for &(v, i, k) in sides {
+        if let Some(id) = ids
+            .get_mut(v as usize)
+            .and_then(|view| view.get_mut(i as usize))
+        {
+            *id = base + k as i64;
+        }
+    }
 }
 
 /// The search's second sides of divided regions when they split the segment ids: the search's
@@ -635,6 +640,18 @@ pub fn export_views(
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    /// A divided region's second side gets a part id after every other; the first side, the
+    /// background (-1) and pixels out of range are left alone.
+    #[test]
+    fn second_sides_become_parts_of_their_own() {
+        let mut ids = vec![vec![0, 3, 3, -1], vec![3, 3, 5, 0]];
+        divide_ids(
+            &mut ids,
+            &[(0, 2, 0), (1, 0, 0), (1, 2, 1), (7, 0, 0), (0, 99, 0)],
+        );
+        assert_eq!(ids, vec![vec![0, 3, 6, -1], vec![6, 3, 7, 0]]);
+    }
 
     /// The set keeps about `limit` of its hits, the same ones for the same seed, a uniform
     /// share of every view, and nothing is touched when the hits fit.

@@ -333,42 +333,18 @@ mod tests {
     use super::super::{choose, profile, Albedo, SearchConfig};
     use super::*;
     use fipt_core::rng::Pcg32;
-    use fipt_core::shading::{DEFAULT_LEVELS, NUM_LEVELS};
+    use fipt_core::shading::DEFAULT_LEVELS;
 
     /// One region of two finishes rendered by the factorised model: cells 0–7 a bright base
-    /// colour at σ `sigma[0]`, cells 8–15 a dark one at `sigma[1]`; random shadings per pixel,
-    /// 8 views × 64 pixels.
+    /// colour at σ `sigma[0]`, cells 8–15 a dark one at `sigma[1]`.
     fn two_finishes(sigma: [f32; 2]) -> (Vec<SearchPixel>, Vec<ViewShadings>, Vec<Image>) {
-        let mut rng = Pcg32::new(5, 9);
-        let mut u = || rng.next_f32();
-        let (mut pixels, mut shadings, mut images) = (vec![], vec![], vec![]);
-        for v in 0..8u32 {
-            let mut sh = ViewShadings::zeros(8, 8, DEFAULT_LEVELS);
-            let mut img = Image::new(8, 8);
-            for i in 0..64 {
-                sh.valid[i] = true;
-                sh.ld[i] = Vec3::splat(0.5 + u());
-                for l in 0..NUM_LEVELS {
-                    sh.ls0[i][l] = Vec3::splat(0.2 + 3.0 * u() * (1.0 - l as f32 / 6.0));
-                    sh.ls1[i][l] = Vec3::splat(0.05 * u());
-                }
-                let cell = ((v as usize * 64 + i) % 16) as u32;
-                let side = usize::from(cell >= 8);
-                let base = [Vec3::new(0.6, 0.45, 0.3), Vec3::new(0.3, 0.2, 0.12)][side]
-                    * (1.0 + 0.05 * (cell % 8) as f32 / 8.0);
-                let (b, c) = linear_terms(&sh, i, sigma[side], 0.0);
-                img.data[i] = base * b + c;
-                pixels.push(SearchPixel {
-                    view: v,
-                    pixel: i as u32,
-                    region: 0,
-                    cell,
-                });
-            }
-            shadings.push(sh);
-            images.push(img);
-        }
-        (pixels, shadings, images)
+        let material = |cell: u32| {
+            let side = usize::from(cell >= 8);
+            let base = [Vec3::new(0.6, 0.45, 0.3), Vec3::new(0.3, 0.2, 0.12)][side]
+                * (1.0 + 0.05 * (cell % 8) as f32 / 8.0);
+            (base, sigma[side])
+        };
+        super::super::tests::rendered(&mut Pcg32::new(5, 9), 0.0, &material)
     }
 
     #[test]

@@ -8,10 +8,27 @@ use fipt_core::shading::{DEFAULT_LEVELS, NUM_LEVELS};
 /// random shadings per pixel, 8 views × 64 pixels, 16 cells of 32 pixels each.
 fn scene(sigma: f32, m: f32) -> (Vec<SearchPixel>, Vec<ViewShadings>, Vec<Image>) {
     let mut rng = Pcg32::new(3, 7);
-    let mut u = || rng.next_f32();
     let base: Vec<Rgb> = (0..16)
-        .map(|_| Vec3::new(0.2 + 0.7 * u(), 0.2 + 0.7 * u(), 0.2 + 0.7 * u()))
+        .map(|_| {
+            Vec3::new(
+                0.2 + 0.7 * rng.next_f32(),
+                0.2 + 0.7 * rng.next_f32(),
+                0.2 + 0.7 * rng.next_f32(),
+            )
+        })
         .collect();
+    rendered(&mut rng, m, &|cell| (base[cell as usize], sigma))
+}
+
+/// Views rendered by the factorised model at metallic `m`, `material(cell)` giving each
+/// cell's base colour and σ: random shadings per pixel (from `rng`), 8 views × 64 pixels, 16
+/// cells of 32 pixels each, one region.
+pub(in crate::search) fn rendered(
+    rng: &mut Pcg32,
+    m: f32,
+    material: &dyn Fn(u32) -> (Rgb, f32),
+) -> (Vec<SearchPixel>, Vec<ViewShadings>, Vec<Image>) {
+    let mut u = || rng.next_f32();
     let (mut pixels, mut shadings, mut images) = (vec![], vec![], vec![]);
     for v in 0..8u32 {
         let mut sh = ViewShadings::zeros(8, 8, DEFAULT_LEVELS);
@@ -25,8 +42,9 @@ fn scene(sigma: f32, m: f32) -> (Vec<SearchPixel>, Vec<ViewShadings>, Vec<Image>
                 sh.ls1[i][l] = Vec3::splat(0.05 * u());
             }
             let cell = ((v as usize * 64 + i) % 16) as u32;
+            let (base, sigma) = material(cell);
             let (b, c) = linear_terms(&sh, i, sigma, m);
-            img.data[i] = base[cell as usize] * b + c;
+            img.data[i] = base * b + c;
             pixels.push(SearchPixel {
                 view: v,
                 pixel: i as u32,
