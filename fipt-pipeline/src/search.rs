@@ -649,7 +649,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
             parent.push(r);
         }
     }
-    let (fitted, halves) = fitted_profiles(
+    let (fitted, mut halves) = fitted_profiles(
         &scene.images,
         &shadings,
         n,
@@ -701,7 +701,6 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
         Albedo::Fitted,
     );
     let mut rows = vec![];
-    let mut halves = halves;
     for (r, f) in fitted.into_iter().enumerate() {
         let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);
         let c = choose(&f, &cfg, false, held);
