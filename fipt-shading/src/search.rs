@@ -500,6 +500,37 @@ fn linear_terms(sh: &ViewShadings, i: usize, sigma: f32, m: f32) -> (Rgb, Rgb) {
     )
 }
 
+/// The weighted least-squares base colour of `a·b + c` over a set of pixels at one (σ, m):
+/// each channel's squared sRGB error linearised at the pixel's value (weight: the sRGB slope
+/// squared). Shared by the search's profiles and the colour split.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct AlbedoFit {
+    sbb: Vec3,
+    sbr: Vec3,
+}
+
+impl AlbedoFit {
+    /// Adds pixel `i` of a view (its shadings and image) at (σ, m).
+    #[inline]
+    pub(crate) fn add(&mut self, sh: &ViewShadings, img: &Image, i: usize, sigma: f32, m: f32) {
+        let g = img.data[i];
+        let (b, c) = linear_terms(sh, i, sigma, m);
+        let w = Vec3::new(oetf_grad(g.x), oetf_grad(g.y), oetf_grad(g.z));
+        let w = w * w;
+        self.sbb += w * b * b;
+        self.sbr += w * b * (g - c);
+    }
+
+    /// The fitted base colour (0 in a channel without evidence), unclamped.
+    pub(crate) fn albedo(&self) -> Rgb {
+        Vec3::select(
+            self.sbb.cmpgt(Vec3::splat(1e-20)),
+            self.sbr / self.sbb,
+            Vec3::ZERO,
+        )
+    }
+}
+
 #[inline]
 fn sq_err(pred: Rgb, gt: Rgb) -> f64 {
     let e = |p: f32, g: f32| {
@@ -552,19 +583,18 @@ pub fn profile(
                 let idx = &order[span.clone()];
                 let fitted = match albedo {
                     Albedo::Fitted => {
-                        let (mut sbb, mut sbr) = (Vec3::ZERO, Vec3::ZERO);
+                        let mut fit = AlbedoFit::default();
                         for &j in idx {
                             let p = pixels[j];
-                            let (sh, i) = (&shadings[p.view as usize], p.pixel as usize);
-                            let g = images[p.view as usize].data[i];
-                            let (b, c) = linear_terms(sh, i, sg, m);
-                            let w = Vec3::new(oetf_grad(g.x), oetf_grad(g.y), oetf_grad(g.z));
-                            let w = w * w;
-                            sbb += w * b * b;
-                            sbr += w * b * (g - c);
+                            fit.add(
+                                &shadings[p.view as usize],
+                                &images[p.view as usize],
+                                p.pixel as usize,
+                                sg,
+                                m,
+                            );
                         }
-                        let a = Vec3::select(sbb.cmpgt(Vec3::splat(1e-20)), sbr / sbb, Vec3::ZERO);
-                        Some(a.clamp(Vec3::ZERO, Vec3::ONE))
+                        Some(fit.albedo().clamp(Vec3::ZERO, Vec3::ONE))
                     }
                     Albedo::Given(_) => None,
                 };

@@ -11,7 +11,7 @@
 //! `separation` within-group standard deviations apart along the line between them: one
 //! Gaussian cloud cut in two gives 2.7, a uniform ramp (a colour gradient the shadings did not
 //! explain) 3.5.
-use super::{linear_terms, oetf_grad, RegionChoice, RegionProfile, SearchPixel};
+use super::{argmin, AlbedoFit, RegionChoice, RegionProfile, SearchPixel};
 use fipt_core::image::Image;
 use fipt_core::shading::ViewShadings;
 use glam::{DVec3, Vec3};
@@ -118,23 +118,17 @@ fn cell_colours(
         .map(|p| p.cell as usize + 1)
         .max()
         .unwrap_or(0);
-    let mut acc = vec![(u32::MAX, 0u32, Vec3::ZERO, Vec3::ZERO); cells];
+    let mut acc = vec![(u32::MAX, 0u32, AlbedoFit::default()); cells];
     for p in pixels {
-        let (sh, i) = (&shadings[p.view as usize], p.pixel as usize);
-        let g = images[p.view as usize].data[i];
-        let (b, c) = linear_terms(sh, i, 1.0, 0.0);
-        let w = Vec3::new(oetf_grad(g.x), oetf_grad(g.y), oetf_grad(g.z));
-        let w = w * w;
         let e = &mut acc[p.cell as usize];
         e.0 = p.region;
         e.1 += 1;
-        e.2 += w * b * b;
-        e.3 += w * b * (g - c);
+        let (v, i) = (p.view as usize, p.pixel as usize);
+        e.2.add(&shadings[v], &images[v], i, 1.0, 0.0);
     }
     acc.into_iter()
-        .map(|(r, n, sbb, sbr)| {
-            let a = Vec3::select(sbb.cmpgt(Vec3::splat(1e-20)), sbr / sbb, Vec3::ZERO);
-            let a = a.clamp(Vec3::splat(1e-3), Vec3::ONE);
+        .map(|(r, n, fit)| {
+            let a = fit.albedo().clamp(Vec3::splat(1e-3), Vec3::ONE);
             (
                 r,
                 n,
@@ -284,13 +278,8 @@ pub fn merged(a: &RegionProfile, b: &RegionProfile) -> RegionProfile {
 
 /// The σ of the lowest cost at metallic `m` (NaN without one).
 fn argmin_sigma(p: &RegionProfile, m: f32) -> f32 {
-    let Some(row) = p.metallic.iter().position(|&x| x == m).map(|k| &p.cost[k]) else {
-        return f32::NAN;
-    };
-    (row.iter().enumerate())
-        .filter(|c| c.1.is_finite())
-        .min_by(|a, b| a.1.total_cmp(b.1))
-        .map_or(f32::NAN, |(i, _)| p.sigma[i])
+    let row = p.metallic.iter().position(|&x| x == m).map(|k| &p.cost[k]);
+    row.and_then(|r| argmin(r)).map_or(f32::NAN, |i| p.sigma[i])
 }
 
 /// Whether two sides keep their own decisions `[ca, cb]` (from profiles `[a, b]`): one is metal
