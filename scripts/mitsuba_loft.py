@@ -1,15 +1,18 @@
 #!/usr/bin/env python3
-"""Renders `loft-mitsuba`: a second room made by an independent renderer (Mitsuba 3,
-`principled` BSDF) in the FIPT synthetic layout, to check the presets on data our tracer did
-not make and that they were not tuned on (`docs/loft-mitsuba.md`).
+"""Renders rooms made by an independent renderer (Mitsuba 3, `principled` BSDF) in the FIPT
+synthetic layout, to check the presets on data our tracer did not make and that they were not
+tuned on (`docs/loft-mitsuba.md`).
 
     pip install mitsuba==3.9.1 numpy
     python3 scripts/mitsuba_loft.py --out loft --spp 512
+    python3 scripts/mitsuba_loft.py --layout gallery --out gallery --spp 512
 
-A glossy textured floor, one one-sided ceiling panel, a copper cylinder (metal, σ 0.25), a
-rough aluminium box (metal, σ 0.45), a glossy red sphere (dielectric, σ 0.15), a cabinet and a
-low table. 40 train and 8 val views at 240×160, a relighting set (a sphere light, the panel
-off). Ground-truth maps are the values at each pixel-centre ray. Deterministic with --seed.
+`loft`: a glossy textured floor, one one-sided ceiling panel, a copper cylinder (metal,
+σ 0.25), a rough aluminium box (metal, σ 0.45), a glossy red sphere (dielectric, σ 0.15), a
+cabinet and a low table. `gallery` (held out: not used to choose any setting): see
+`gallery_objects`. 40 train and 8 val views at 240×160, a relighting set (a sphere light, the
+scene's lights off). Ground-truth maps are the values at each pixel-centre ray. Deterministic
+with --seed.
 """
 import argparse
 import json
@@ -24,9 +27,7 @@ import drjit as dr
 mi.set_variant("llvm_ad_rgb")
 
 W, H, FOV = 240, 160, 65.0
-ROOM_LO = np.array([-2.4, 0.0, -1.8])
-ROOM_HI = np.array([2.4, 2.7, 1.8])
-# `objects()` lists the floor, the ceiling and four walls first, then the panel, then furniture.
+# A layout's objects list the floor, the ceiling and four walls first, then the rest.
 ROOM_SURFACES = 6
 
 
@@ -94,8 +95,7 @@ def outward(tris, centre):
     return out
 
 
-def objects():
-    lo, hi = ROOM_LO, ROOM_HI
+def loft_objects(lo, hi):
     c = lambda x, y, z: np.array([x, y, z], float)
     x0, y0, z0 = lo
     x1, y1, z1 = hi
@@ -132,6 +132,61 @@ def objects():
     ]
 
 
+def gallery_objects(lo, hi):
+    """A second layout for a held-out check: a dark glossy floor, two lights (a one-sided wall
+    panel and a small bright ceiling square), a rough steel cylinder, a brass pole, a chrome
+    sphere, a black glossy sphere on a painted pedestal, a white glossy box and a checkered rug."""
+    c = lambda x, y, z: np.array([x, y, z], float)
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    floor = quad(c(x0, y0, z1), c(x1, y0, z1), c(x1, y0, z0), c(x0, y0, z0))
+    ceiling = quad(c(x0, y1, z0), c(x1, y1, z0), c(x1, y1, z1), c(x0, y1, z1))
+    wall_xm = quad(c(x0, y0, z0), c(x0, y1, z0), c(x0, y1, z1), c(x0, y0, z1))
+    wall_xp = quad(c(x1, y0, z0), c(x1, y0, z1), c(x1, y1, z1), c(x1, y1, z0))
+    wall_zm = quad(c(x0, y0, z0), c(x1, y0, z0), c(x1, y1, z0), c(x0, y1, z0))
+    wall_zp = quad(c(x0, y0, z1), c(x0, y1, z1), c(x1, y1, z1), c(x1, y0, z1))
+    zp, py = z0 + 0.01, y1 - 0.01
+    wall_panel = quad(c(-0.8, 1.6, zp), c(0.8, 1.6, zp), c(0.8, 2.4, zp), c(-0.8, 2.4, zp))
+    spot = quad(c(1.65, py, 0.85), c(1.95, py, 0.85), c(1.95, py, 1.15), c(1.65, py, 1.15))
+    ry = y0 + 0.005
+    rug = quad(c(-1.6, ry, 1.4), c(0.4, ry, 1.4), c(0.4, ry, -0.2), c(-1.6, ry, -0.2))
+    checker = {"type": "checker", "color0": [0.70, 0.62, 0.50], "color1": [0.25, 0.18, 0.15],
+               "uv_scale": [5.0, 4.0]}
+    return [
+        ("floor", floor, dict(base_color=[0.22, 0.22, 0.24], roughness=0.2, metallic=0.0)),
+        ("ceiling", ceiling, dict(base_color=[0.90, 0.90, 0.90], roughness=1.0, metallic=0.0)),
+        ("wall_left_x-", wall_xm, dict(base_color=[0.80, 0.78, 0.72], roughness=0.9, metallic=0.0)),
+        ("wall_right_x+", wall_xp, dict(base_color=[0.45, 0.30, 0.28], roughness=0.75, metallic=0.0)),
+        ("wall_back_z-", wall_zm, dict(base_color=[0.30, 0.42, 0.38], roughness=0.95, metallic=0.0)),
+        ("wall_front_z+", wall_zp, dict(base_color=[0.78, 0.76, 0.70], roughness=0.85, metallic=0.0)),
+        ("wall_panel", wall_panel, dict(radiance=[9.0, 9.5, 10.5])),
+        ("ceiling_spot", spot, dict(radiance=[60.0, 52.0, 40.0])),
+        ("rug", rug, dict(base_color=checker, roughness=0.6, metallic=0.0)),
+        ("steel_cylinder", outward(cylinder(-2.1, -1.2, 0.3, 1.1), c(-2.1, 0.55, -1.2)),
+         dict(base_color=[0.56, 0.57, 0.58], roughness=0.5, metallic=1.0)),
+        ("brass_pole", box(c(2.14, 0.0, -0.26), c(2.26, 1.6, -0.14)),
+         dict(base_color=[0.90, 0.72, 0.40], roughness=0.3, metallic=1.0)),
+        ("white_box", box(c(-0.85, 0.0, 0.35), c(-0.35, 0.5, 0.85)),
+         dict(base_color=[0.82, 0.82, 0.80], roughness=0.25, metallic=0.0)),
+        ("pedestal", box(c(1.2, 0.0, -1.6), c(1.6, 0.8, -1.2)),
+         dict(base_color=[0.20, 0.30, 0.55], roughness=0.6, metallic=0.0)),
+        ("black_sphere", sphere([1.4, 1.02, -1.4], 0.22),
+         dict(base_color=[0.04, 0.04, 0.05], roughness=0.1, metallic=0.0)),
+        ("chrome_sphere", sphere([0.9, 0.2, 1.3], 0.2),
+         dict(base_color=[0.95, 0.95, 0.95], roughness=0.08, metallic=1.0)),
+    ]
+
+
+# Each layout: room bounds, its objects (floor, ceiling and four walls first), the relighting
+# sphere light (centre, radius, radiance; at least 1.3 m from every val camera).
+LAYOUTS = {
+    "loft": dict(lo=[-2.4, 0.0, -1.8], hi=[2.4, 2.7, 1.8], objects=loft_objects,
+                 relight=([-0.8, 2.2, 1.3], 0.15, [70.0, 66.0, 58.0])),
+    "gallery": dict(lo=[-3.0, 0.0, -2.0], hi=[3.0, 3.0, 2.0], objects=gallery_objects,
+                    relight=([-1.5, 2.5, 1.2], 0.15, [70.0, 66.0, 58.0])),
+}
+
+
 def write_obj(path, tris, comment, uv=None):
     """Flat-shaded OBJ: each triangle its own three vertices and one normal."""
     with open(path, "w") as f:
@@ -160,16 +215,24 @@ def rgb(v):
     return {"type": "rgb", "value": list(map(float, v))}
 
 
-def floor_uv(p):
-    return ((p[0] - ROOM_LO[0]) / (ROOM_HI[0] - ROOM_LO[0]), (ROOM_HI[2] - p[2]) / (ROOM_HI[2] - ROOM_LO[2]))
+def bbox_uv(tris):
+    """The uv of a checkered (horizontal) object: u along +x, v along -z over its bounding box,
+    as `fipt` reads `scene_parts.json` checkers."""
+    pts = np.array([p for t in tris for p in t])
+    lo, hi = pts.min(0), pts.max(0)
+    return lambda p: ((p[0] - lo[0]) / (hi[0] - lo[0]), (hi[2] - p[2]) / (hi[2] - lo[2]))
+
+
+def textured(m):
+    return isinstance(m.get("base_color"), dict)
 
 
 def write_meshes(objs, tmp):
     """One OBJ per object (the floor with its uv), for Mitsuba; returns their paths."""
     paths = []
-    for i, (name, tris, _) in enumerate(objs):
+    for i, (name, tris, m) in enumerate(objs):
         paths.append(os.path.join(tmp, f"{i:02d}.obj"))
-        write_obj(paths[-1], tris, name, floor_uv if name == "floor" else None)
+        write_obj(paths[-1], tris, name, bbox_uv(tris) if textured(m) else None)
     return paths
 
 
@@ -196,22 +259,25 @@ def scene_dict(objs, paths, lights_on=True, extra=None):
     return d
 
 
-def cameras(rng, n, objs, panel_every):
-    """Poses inside the room, aimed at objects, walls or (every `panel_every`-th) the panel."""
+def cameras(rng, n, objs, lo, hi, panel_every):
+    """Poses inside the room, aimed at objects, walls or (every `panel_every`-th) a light."""
     targets = {name: np.mean([np.mean(t, axis=0) for t in tris], axis=0) for name, tris, _ in objs}
-    room, furniture = objs[:ROOM_SURFACES], objs[ROOM_SURFACES + 1:]
+    room = objs[:ROOM_SURFACES]
+    lights = [name for name, _, m in objs if "radiance" in m]
+    furniture = [o for o in objs[ROOM_SURFACES:] if "radiance" not in o[2]]
     blockers = [(np.min([p for t in tris for p in t], 0) - 0.25, np.max([p for t in tris for p in t], 0) + 0.25)
                 for name, tris, m in furniture]
     # Objects twice as often as the floor and walls.
     names = [n_ for n_, _, _ in room if n_ != "ceiling"] + 2 * [n_ for n_, _, _ in furniture]
     out = []
     while len(out) < n:
-        o = rng.uniform(ROOM_LO + [0.35, 0.7, 0.35], ROOM_HI - [0.35, 0.5, 0.35])
-        if any(np.all(o > lo) and np.all(o < hi) for lo, hi in blockers):
+        o = rng.uniform(lo + [0.35, 0.7, 0.35], hi - [0.35, 0.5, 0.35])
+        if any(np.all(o > b0) and np.all(o < b1) for b0, b1 in blockers):
             continue
-        aim = "ceiling_panel" if panel_every and len(out) % panel_every == panel_every - 1 else names[rng.integers(len(names))]
+        k = len(out) // panel_every
+        aim = lights[k % len(lights)] if len(out) % panel_every == panel_every - 1 else names[rng.integers(len(names))]
         t = targets[aim] + rng.normal(0, 0.3, 3)
-        t = np.clip(t, ROOM_LO + 0.05, ROOM_HI - 0.05)
+        t = np.clip(t, lo + 0.05, hi - 0.05)
         d = t - o
         if np.linalg.norm(d) < 1.6 or abs(d[1]) / np.linalg.norm(d) > 0.9:
             continue
@@ -261,7 +327,7 @@ def gt_maps(scene, index, objs, o, t):
     p = np.stack([np.array(si.p.x), np.array(si.p.y), np.array(si.p.z)], -1)
     maps = {k: np.zeros((n, 3), np.float32) for k in ("DiffCol", "Specular", "Roughness", "Metallic", "Emit")}
     maps["Roughness"][:] = 1.0
-    for i, (name, _, mat) in enumerate(objs):
+    for i, (name, tris, mat) in enumerate(objs):
         sel = idx == i
         if not sel.any():
             continue
@@ -270,7 +336,7 @@ def gt_maps(scene, index, objs, o, t):
             continue
         bc = mat["base_color"]
         if isinstance(bc, dict):
-            u, v = floor_uv(p[sel].T)
+            u, v = bbox_uv(tris)(p[sel].T)
             su, sv = bc["uv_scale"]
             ms = (u * su) % 1.0 > 0.5
             mt = (v * sv) % 1.0 > 0.5
@@ -306,7 +372,7 @@ def transforms(cams):
             "frames": frames}
 
 
-def parts_json(objs):
+def parts_json(objs, layout):
     out, start = [], 0
     for i, (name, tris, m) in enumerate(objs):
         pts = np.array([p for t in tris for p in t])
@@ -320,7 +386,7 @@ def parts_json(objs):
             o.update(type="principled", roughness=m["roughness"], metallic=m["metallic"], specular=0.5,
                      base_color=m["base_color"])
         out.append(o)
-    return {"scene": "loft", "geometry": {"file": "scene.obj", "num_faces": start,
+    return {"scene": layout, "geometry": {"file": "scene.obj", "num_faces": start,
                                           "face_range": "[face_start, face_end) in scene.obj face order (0-based)"},
             "gt_conventions": {
                 "bsdf": "Mitsuba 3.9.1 `principled` (specular 0.5 -> dielectric F0 0.04; one-sided)",
@@ -334,6 +400,7 @@ def parts_json(objs):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", required=True)
+    ap.add_argument("--layout", choices=sorted(LAYOUTS), default="loft")
     ap.add_argument("--spp", type=int, default=512)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--train", type=int, default=40)
@@ -341,26 +408,27 @@ def main():
     ap.add_argument("--relight-only", action="store_true", help="render only relight/ (same cameras)")
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
-    objs = objects()
+    lay = LAYOUTS[a.layout]
+    lo, hi = np.array(lay["lo"]), np.array(lay["hi"])
+    objs = lay["objects"](lo, hi)
     os.makedirs(a.out, exist_ok=True)
     tmp = os.path.join(a.out, ".meshes")
     os.makedirs(tmp, exist_ok=True)
     all_tris = [t for _, tris, _ in objs for t in tris]
-    write_obj(os.path.join(a.out, "scene.obj"), all_tris, "loft-mitsuba: whole scene, world space, metres, y up")
+    write_obj(os.path.join(a.out, "scene.obj"), all_tris, f"{a.layout}-mitsuba: whole scene, world space, metres, y up")
     with open(os.path.join(a.out, "scene_parts.json"), "w") as f:
-        json.dump(parts_json(objs), f, indent=1)
+        json.dump(parts_json(objs, a.layout), f, indent=1)
     paths = write_meshes(objs, tmp)
     scene = mi.load_dict(scene_dict(objs, paths))
     index = shape_index(scene)
-    # The relighting light, at least 1.3 m from every val camera (one sat inside it first).
-    centre, radius = [-0.8, 2.2, 1.3], 0.15
+    centre, radius, power = lay["relight"]
     relight_scene = mi.load_dict(scene_dict(objs, paths, lights_on=False, extra={"relight": {
         "type": "sphere", "center": centre, "radius": radius,
         "bsdf": {"type": "diffuse", "reflectance": rgb([0, 0, 0])},
-        "emitter": {"type": "area", "radiance": rgb([70.0, 66.0, 58.0])}}}))
-    log = {"scene": "loft", "mitsuba": mi.__version__, "variant": mi.variant(), "spp": a.spp, "seed": a.seed,
+        "emitter": {"type": "area", "radiance": rgb(power)}}}))
+    log = {"scene": a.layout, "mitsuba": mi.__version__, "variant": mi.variant(), "spp": a.spp, "seed": a.seed,
            "render": {}}
-    splits = {"train": cameras(rng, a.train, objs, 5), "val": cameras(rng, a.val, objs, 6)}
+    splits = {"train": cameras(rng, a.train, objs, lo, hi, 5), "val": cameras(rng, a.val, objs, lo, hi, 6)}
     todo = [] if a.relight_only else list(splits.items())
     for split, cams in todo + [("relight", splits["val"])]:
         sdir = os.path.join(a.out, split)
@@ -385,8 +453,8 @@ def main():
             print(f"{split} {k:03d} {time.time() - t0:.1f}s aim {aim}", flush=True)
         log.setdefault("pixels_per_object", {})[split] = seen
     with open(os.path.join(a.out, "relight", "light.json"), "w") as f:
-        json.dump({"type": "sphere", "center": centre, "radius": radius, "radiance": [70.0, 66.0, 58.0],
-                   "original_emitters": "OFF: the panel emits nothing in relight/Image; its geometry stays, black",
+        json.dump({"type": "sphere", "center": centre, "radius": radius, "radiance": power,
+                   "original_emitters": "OFF: the scene's lights emit nothing in relight/Image; its geometry stays, black",
                    "cameras": "relight/transforms.json (= val/transforms.json)"}, f, indent=1)
     if a.relight_only:
         return
