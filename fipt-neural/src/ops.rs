@@ -254,6 +254,8 @@ pub struct FactorizedLoss {
     pub target_weight: f32,
     /// How a pixel's error is measured.
     pub image_loss: ImageLoss,
+    /// Whether pixels with α > 0.5 pass gradient to the material ([`TrainConfig::emitter_material`]).
+    pub emitter_material: bool,
     /// The segment prior's terms of the forward, for the backward (leave it `Default`).
     pub cache: PriorCache,
 }
@@ -307,6 +309,28 @@ fn sign(x: f32) -> f32 {
 /// pulled the emission mask over small lights (`room` at 80×60 lost its bulb).
 pub const SLOPE_LOSS_CLIP: f32 = 0.1;
 
+/// How many times brighter than the brightest reflection its shadings allow (kd = ks = 1 at the
+/// roughness level that reflects most) a pixel must be to count as a light's
+/// ([`FactorizedLoss::emitter_material`]).
+pub const UNREFLECTABLE: f32 = 4.0;
+
+/// Whether a pixel is more than [`UNREFLECTABLE`] times brighter (summed over channels) than
+/// any material could make it under its shadings: a light's pixel, which no albedo explains.
+pub fn unreflectable(
+    ld: [f32; 3],
+    ls0: &[[f32; 3]; NUM_LEVELS],
+    ls1: &[[f32; 3]; NUM_LEVELS],
+    gt: [f32; 3],
+) -> bool {
+    let most = |ls: &[[f32; 3]; NUM_LEVELS]| {
+        ls.iter()
+            .map(|l| l.iter().sum::<f32>())
+            .fold(0f32, f32::max)
+    };
+    let bound = ld.iter().sum::<f32>() + most(ls0) + most(ls1);
+    gt.iter().sum::<f32>() > UNREFLECTABLE * bound
+}
+
 /// The pixel's [`ImageLoss::Srgb`] term, the squared sRGB difference, and its derivative in
 /// the prediction `p`.
 #[inline]
@@ -353,6 +377,12 @@ impl FactorizedLoss {
         };
         let mut sq = 0.0;
         let mut d = [0f32; 6];
+        // The material's share of the image term (none at an emitter, unless asked).
+        let material = if self.emitter_material || !unreflectable(ld0, s0l, s1l, g) {
+            1.0 - alpha
+        } else {
+            0.0
+        };
         for c in 0..3 {
             let s0 = s0l[i][c] * (1.0 - t) + s0l[i + 1][c] * t;
             let s1 = s1l[i][c] * (1.0 - t) + s1l[i + 1][c] * t;
@@ -366,7 +396,7 @@ impl FactorizedLoss {
                 ImageLoss::SrgbSlope => slope_term(p, g[c]),
             };
             sq += term;
-            let dr = dp * (1.0 - alpha);
+            let dr = dp * material;
             d[c] += dr * ((1.0 - m) * ld[c] + m * s0);
             d[3] += dr * (ks * (s0l[i + 1][c] - s0l[i][c]) + (s1l[i + 1][c] - s1l[i][c])) * dt
                 + dr * kd * dld[c];

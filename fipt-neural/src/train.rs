@@ -288,6 +288,7 @@ impl Trainer {
             roughness_prior_scale: cfg.roughness_prior,
             target_weight: cfg.target_weight,
             image_loss: cfg.image_loss,
+            emitter_material: cfg.emitter_material,
             cache: Default::default(),
         };
         let terms = out.packed().and_then(|p| p.apply_op1(loss)).ctx("loss")?;

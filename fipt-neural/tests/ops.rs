@@ -213,17 +213,43 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
     let poly = std::sync::Arc::new(poly);
     let targeted = std::sync::Arc::new(targeted);
     let (srgb, slope) = (ImageLoss::Srgb, ImageLoss::SrgbSlope);
-    for (norm, l1, ml1, batch, rp, image_loss) in [
-        (PriorNorm::L2Roughness, false, true, &poly, 0.0, srgb),
-        (PriorNorm::L2Roughness, false, true, &poly, 0.0, slope),
-        (PriorNorm::L2, false, false, &unsegmented, 1.0, srgb),
-        (PriorNorm::L1, true, true, &unsegmented, 1.0, slope),
-        (PriorNorm::L1, true, true, &segmented, 0.35, srgb),
-        (PriorNorm::L2, false, false, &segmented, 0.0, srgb),
-        (PriorNorm::L2Roughness, false, true, &segmented, 0.7, slope),
-        (PriorNorm::L2Roughness, false, true, &semantic, 0.7, srgb),
-        (PriorNorm::L2Roughness, false, true, &targeted, 0.0, srgb),
-        (PriorNorm::L1, true, true, &targeted, 1.0, slope),
+    // Last: whether pixels of α > 0.5 train the material (half the pixels here).
+    for (norm, l1, ml1, batch, rp, image_loss, em) in [
+        (PriorNorm::L2Roughness, false, true, &poly, 0.0, srgb, false),
+        (PriorNorm::L2Roughness, false, true, &poly, 0.0, slope, true),
+        (PriorNorm::L2, false, false, &unsegmented, 1.0, srgb, true),
+        (PriorNorm::L2, false, false, &unsegmented, 1.0, srgb, false),
+        (PriorNorm::L1, true, true, &unsegmented, 1.0, slope, false),
+        (PriorNorm::L1, true, true, &segmented, 0.35, srgb, true),
+        (PriorNorm::L2, false, false, &segmented, 0.0, srgb, false),
+        (
+            PriorNorm::L2Roughness,
+            false,
+            true,
+            &segmented,
+            0.7,
+            slope,
+            true,
+        ),
+        (
+            PriorNorm::L2Roughness,
+            false,
+            true,
+            &semantic,
+            0.7,
+            srgb,
+            false,
+        ),
+        (
+            PriorNorm::L2Roughness,
+            false,
+            true,
+            &targeted,
+            0.0,
+            srgb,
+            true,
+        ),
+        (PriorNorm::L1, true, true, &targeted, 1.0, slope, false),
     ] {
         let var = |c: usize, w: usize| {
             let v: Vec<f32> = (0..n)
@@ -252,6 +278,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
                 roughness_prior_scale: rp,
                 target_weight: 0.25,
                 image_loss,
+                emitter_material: em,
                 cache: Default::default(),
             })
             .unwrap();
@@ -263,6 +290,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
             segment: 0.4,
             target: 0.25,
             image_loss,
+            emitter_material: em,
         };
         let plain = candle_ops_loss(&out, batch, DEFAULT_LEVELS, weights).unwrap();
         let (fv, pv) = (
@@ -357,6 +385,7 @@ fn slope_weighted_loss_is_unbiased_under_zero_mean_noise() {
             roughness_prior_scale: 0.0,
             target_weight: 0.0,
             image_loss: loss,
+            emitter_material: true,
             cache: Default::default(),
         };
         let out = v.as_tensor().apply_op1(op).unwrap();
@@ -401,4 +430,65 @@ fn slope_weighted_loss_is_unbiased_under_zero_mean_noise() {
         far_srgb, far_slope,
         "far from the prediction both are the sRGB difference"
     );
+}
+
+/// A wall pixel (α 0.1) and a light's pixel (α 0.7, 30× brighter): with `emitter_material`
+/// off the light's pixel passes no gradient to its albedo, σ or metallic (there the reference's
+/// term drives kd up, and the hash cells shared with the wall carry it over), while its mask
+/// gradient and everything at the wall pixel are unchanged.
+#[test]
+fn emitter_pixels_train_the_mask_only_unless_asked() {
+    use fipt_neural::ops::{FactorizedLoss, LossBatch};
+    use fipt_neural::train::ImageLoss;
+    let mut batch = LossBatch::default();
+    for gt in [0.3f32, 9.0] {
+        batch.ld.push([0.6; 3]);
+        batch
+            .ls0
+            .push(std::array::from_fn(|l| [0.1 * (l + 1) as f32; 3]));
+        batch
+            .ls1
+            .push(std::array::from_fn(|l| [0.01 * (l + 1) as f32; 3]));
+        batch.gt.push([gt; 3]);
+    }
+    let batch = std::sync::Arc::new(batch);
+    let grads = |emitter_material: bool| -> Vec<Vec<f32>> {
+        let x: Vec<f32> = vec![0.4, 0.4, 0.4, 0.8, 0.1, 0.1, 0.4, 0.4, 0.4, 0.8, 0.1, 0.7];
+        let v = Var::from_tensor(&Tensor::from_vec(x, (2, 6), &Device::Cpu).unwrap()).unwrap();
+        let op = FactorizedLoss {
+            batch: batch.clone(),
+            levels: DEFAULT_LEVELS,
+            mask_weight: 0.0,
+            prior_weight: 0.0,
+            prior_l1: false,
+            metallic_l1: false,
+            segment_weight: 0.0,
+            roughness_prior_scale: 0.0,
+            target_weight: 0.0,
+            image_loss: ImageLoss::Srgb,
+            emitter_material,
+            cache: Default::default(),
+        };
+        let out = v.as_tensor().apply_op1(op).unwrap();
+        let g = out
+            .narrow(0, 0, 1)
+            .unwrap()
+            .sum_all()
+            .unwrap()
+            .backward()
+            .unwrap();
+        g.get(v.as_tensor()).unwrap().to_vec2::<f32>().unwrap()
+    };
+    let (on, off) = (grads(true), grads(false));
+    assert_eq!(on[0], off[0], "the wall pixel's gradient must not change");
+    assert_eq!(
+        on[1][5], off[1][5],
+        "the light's mask gradient must not change"
+    );
+    assert!(
+        on[1][..5].iter().all(|g| g.abs() > 1e-6) && on[1][0] < 0.0,
+        "the reference's term pushes the light's albedo up: {:?}",
+        on[1]
+    );
+    assert_eq!(off[1][..5], [0.0; 5], "material gradient at the light");
 }

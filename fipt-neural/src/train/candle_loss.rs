@@ -50,6 +50,8 @@ pub struct LossWeights {
     pub target: f32,
     /// [`TrainConfig::image_loss`].
     pub image_loss: ImageLoss,
+    /// [`TrainConfig::emitter_material`].
+    pub emitter_material: bool,
 }
 
 /// The loss of [`Trainer::step`] written with plain candle ops (`[5]`: total, image, mask,
@@ -68,6 +70,7 @@ pub fn candle_ops_loss(
         segment: segment_weight,
         target: target_weight,
         image_loss,
+        emitter_material,
     } = weights;
     let dev = out.albedo.device();
     let b = batch.gt.len();
@@ -102,6 +105,25 @@ pub fn candle_ops_loss(
             &ls1,
             levels,
         )?;
+        // At a light's pixel the material's value enters but not its gradient, unless asked.
+        let render = if emitter_material {
+            render
+        } else {
+            let at: Vec<f32> = (0..b)
+                .map(|j| {
+                    let (ld, ls0, ls1) = (batch.ld[j], &batch.ls0[j], &batch.ls1[j]);
+                    f32::from(u8::from(crate::ops::unreflectable(
+                        ld,
+                        ls0,
+                        ls1,
+                        batch.gt[j],
+                    )))
+                })
+                .collect();
+            let at = Tensor::from_vec(at, (b, 1), dev)?;
+            let apart = at.affine(-1.0, 1.0)?;
+            (render.broadcast_mul(&apart)? + render.detach().broadcast_mul(&at)?)?
+        };
         let keep = out.alpha.affine(-1.0, 1.0)?;
         let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha)?)?;
         let image = match image_loss {

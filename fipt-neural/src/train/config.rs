@@ -102,11 +102,13 @@ pub struct TrainConfig {
     /// Steps between checkpoints (0: only at the end).
     pub checkpoint_every: usize,
     /// Leave out of the training set the pixels within this many pixels of one at least
-    /// `bleed_contrast` times brighter (0: keep every pixel). A camera's pixel filter spreads
-    /// a light over its neighbours (Mitsuba's default Gaussian over about two pixels), while
-    /// the model sees the surface at the pixel's centre: kd came out bright in a ring around
-    /// `studio-mitsuba`'s ceiling panel. The ring's surface is still fitted from the pixels
-    /// beyond it.
+    /// `bleed_contrast` times brighter (0: keep every pixel, the presets). A camera's pixel
+    /// filter spreads a light over its neighbours (Mitsuba's default Gaussian over about two
+    /// pixels), while the model sees the surface at the pixel's centre. Radius 2 was the
+    /// presets' answer to a bright kd ring around `studio-mitsuba`'s ceiling panel, which
+    /// `emitter_material = false` now removes at its cause; left out, the pixels beside a light
+    /// leave its neighbourhood to the light's own kd (a ring 4–5 pixels wide around
+    /// `gallery-mitsuba`'s wall panel).
     #[serde(default)]
     pub bleed_radius: u32,
     /// See `bleed_radius`. Darker pixels than 1 % of the view's median luminance count as
@@ -120,6 +122,14 @@ pub struct TrainConfig {
     /// below the encoded mean).
     #[serde(default)]
     pub image_loss: ImageLoss,
+    /// Whether the pixels the mask calls emitters (α > 0.5) train the material too (the
+    /// reference). Their loss term is (1 − α)·(kd·Ld + …) + α·I, so at α ≈ 0.7 a light 30× as
+    /// bright as the wall behind it drives kd to 1 there, and the hash cells it shares with
+    /// the wall 1 cm behind carry that albedo into the wall around the light (a white ring
+    /// 4–5 pixels wide around `gallery-mitsuba`'s wall panel). Off: those pixels train the
+    /// mask only (`docs/gallery-mitsuba.md`).
+    #[serde(default = "default_true")]
+    pub emitter_material: bool,
 }
 
 impl Default for TrainConfig {
@@ -156,9 +166,12 @@ impl Default for TrainConfig {
             finest_cell_footprints: 4.0,
             seed: 9,
             checkpoint_every: 500,
-            bleed_radius: 2,
+            // With `emitter_material` off, leaving out the pixels beside the lights only
+            // opened a gap the lights' undefined kd filled (`docs/gallery-mitsuba.md`).
+            bleed_radius: 0,
             bleed_contrast: default_bleed_contrast(),
             image_loss: ImageLoss::Srgb,
+            emitter_material: false,
         }
     }
 }
@@ -205,6 +218,7 @@ impl TrainConfig {
             finest_from_data: false,
             lr_decay: LrDecay::default(),
             bleed_radius: 0,
+            emitter_material: true,
             ..Self::default()
         }
     }
@@ -394,6 +408,11 @@ fn default_bleed_contrast() -> f32 {
 
 fn default_segment_weight() -> f32 {
     5e-3
+}
+
+/// Settings written before `emitter_material` existed trained the material at emitters.
+fn default_true() -> bool {
+    true
 }
 
 /// Geometric learning-rate decay: `adam.lr` until `start·steps`, then down to
