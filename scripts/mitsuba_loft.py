@@ -95,17 +95,25 @@ def outward(tris, centre):
     return out
 
 
-def loft_objects(lo, hi):
+def shell(lo, hi):
+    """The room's floor, ceiling and walls x-, x+, z-, z+ (normals inward)."""
     c = lambda x, y, z: np.array([x, y, z], float)
     x0, y0, z0 = lo
     x1, y1, z1 = hi
-    # Room surfaces, normals inward.
     floor = quad(c(x0, y0, z1), c(x1, y0, z1), c(x1, y0, z0), c(x0, y0, z0))
     ceiling = quad(c(x0, y1, z0), c(x1, y1, z0), c(x1, y1, z1), c(x0, y1, z1))
     wall_xm = quad(c(x0, y0, z0), c(x0, y1, z0), c(x0, y1, z1), c(x0, y0, z1))
     wall_xp = quad(c(x1, y0, z0), c(x1, y0, z1), c(x1, y1, z1), c(x1, y1, z0))
     wall_zm = quad(c(x0, y0, z0), c(x1, y0, z0), c(x1, y1, z0), c(x0, y1, z0))
     wall_zp = quad(c(x0, y0, z1), c(x0, y1, z1), c(x1, y1, z1), c(x1, y0, z1))
+    return floor, ceiling, wall_xm, wall_xp, wall_zm, wall_zp
+
+
+def loft_objects(lo, hi):
+    c = lambda x, y, z: np.array([x, y, z], float)
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    floor, ceiling, wall_xm, wall_xp, wall_zm, wall_zp = shell(lo, hi)
     py = y1 - 0.01
     panel = quad(c(-0.2, py, -0.6), c(1.4, py, -0.6), c(1.4, py, 0.0), c(-0.2, py, 0.0))
     cyl = cylinder(-1.3, -0.8, 0.28, 0.9)
@@ -139,12 +147,7 @@ def gallery_objects(lo, hi):
     c = lambda x, y, z: np.array([x, y, z], float)
     x0, y0, z0 = lo
     x1, y1, z1 = hi
-    floor = quad(c(x0, y0, z1), c(x1, y0, z1), c(x1, y0, z0), c(x0, y0, z0))
-    ceiling = quad(c(x0, y1, z0), c(x1, y1, z0), c(x1, y1, z1), c(x0, y1, z1))
-    wall_xm = quad(c(x0, y0, z0), c(x0, y1, z0), c(x0, y1, z1), c(x0, y0, z1))
-    wall_xp = quad(c(x1, y0, z0), c(x1, y0, z1), c(x1, y1, z1), c(x1, y1, z0))
-    wall_zm = quad(c(x0, y0, z0), c(x1, y0, z0), c(x1, y1, z0), c(x0, y1, z0))
-    wall_zp = quad(c(x0, y0, z1), c(x0, y1, z1), c(x1, y1, z1), c(x1, y0, z1))
+    floor, ceiling, wall_xm, wall_xp, wall_zm, wall_zp = shell(lo, hi)
     zp, py = z0 + 0.01, y1 - 0.01
     wall_panel = quad(c(-0.8, 1.6, zp), c(0.8, 1.6, zp), c(0.8, 2.4, zp), c(-0.8, 2.4, zp))
     spot = quad(c(1.65, py, 0.85), c(1.95, py, 0.85), c(1.95, py, 1.15), c(1.65, py, 1.15))
