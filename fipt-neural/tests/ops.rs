@@ -348,6 +348,28 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
     }
 }
 
+/// The fused loss with its image term alone (no mask, prior, segment or target weight).
+fn image_term_only(
+    batch: std::sync::Arc<fipt_neural::ops::LossBatch>,
+    image_loss: fipt_neural::train::ImageLoss,
+    emitter_material: bool,
+) -> fipt_neural::ops::FactorizedLoss {
+    fipt_neural::ops::FactorizedLoss {
+        batch,
+        levels: DEFAULT_LEVELS,
+        mask_weight: 0.0,
+        prior_weight: 0.0,
+        prior_l1: false,
+        metallic_l1: false,
+        segment_weight: 0.0,
+        roughness_prior_scale: 0.0,
+        target_weight: 0.0,
+        image_loss,
+        emitter_material,
+        cache: Default::default(),
+    }
+}
+
 /// Pixels of one surface whose views carry zero-mean noise (±25 %, a few-sample render's):
 /// at the noise-free albedo the sRGB loss's gradient pushes kd down (the encoded mean of a
 /// noisy pixel lies below the encoded noise-free value), while the slope-weighted error's
@@ -355,7 +377,7 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
 /// the clip) both are the sRGB difference.
 #[test]
 fn slope_weighted_loss_is_unbiased_under_zero_mean_noise() {
-    use fipt_neural::ops::{FactorizedLoss, LossBatch};
+    use fipt_neural::ops::LossBatch;
     use fipt_neural::train::ImageLoss;
     let n = 2000;
     let (kd, ld) = (0.5f32, 0.8f32);
@@ -374,20 +396,7 @@ fn slope_weighted_loss_is_unbiased_under_zero_mean_noise() {
     let slope_at = |loss: ImageLoss, a: f32| -> (f32, f32) {
         let x: Vec<f32> = (0..n).flat_map(|_| [a, a, a, 1.0, 0.0, 0.0]).collect();
         let v = Var::from_tensor(&Tensor::from_vec(x, (n, 6), &Device::Cpu).unwrap()).unwrap();
-        let op = FactorizedLoss {
-            batch: batch.clone(),
-            levels: DEFAULT_LEVELS,
-            mask_weight: 0.0,
-            prior_weight: 0.0,
-            prior_l1: false,
-            metallic_l1: false,
-            segment_weight: 0.0,
-            roughness_prior_scale: 0.0,
-            target_weight: 0.0,
-            image_loss: loss,
-            emitter_material: true,
-            cache: Default::default(),
-        };
+        let op = image_term_only(batch.clone(), loss, true);
         let out = v.as_tensor().apply_op1(op).unwrap();
         let image = out.narrow(0, 1, 1).unwrap();
         let value = image.to_vec1::<f32>().unwrap()[0];
@@ -438,7 +447,7 @@ fn slope_weighted_loss_is_unbiased_under_zero_mean_noise() {
 /// gradient and everything at the wall pixel are unchanged.
 #[test]
 fn emitter_pixels_train_the_mask_only_unless_asked() {
-    use fipt_neural::ops::{FactorizedLoss, LossBatch};
+    use fipt_neural::ops::LossBatch;
     use fipt_neural::train::ImageLoss;
     let mut batch = LossBatch::default();
     for gt in [0.3f32, 9.0] {
@@ -455,20 +464,7 @@ fn emitter_pixels_train_the_mask_only_unless_asked() {
     let grads = |emitter_material: bool| -> Vec<Vec<f32>> {
         let x: Vec<f32> = vec![0.4, 0.4, 0.4, 0.8, 0.1, 0.1, 0.4, 0.4, 0.4, 0.8, 0.1, 0.7];
         let v = Var::from_tensor(&Tensor::from_vec(x, (2, 6), &Device::Cpu).unwrap()).unwrap();
-        let op = FactorizedLoss {
-            batch: batch.clone(),
-            levels: DEFAULT_LEVELS,
-            mask_weight: 0.0,
-            prior_weight: 0.0,
-            prior_l1: false,
-            metallic_l1: false,
-            segment_weight: 0.0,
-            roughness_prior_scale: 0.0,
-            target_weight: 0.0,
-            image_loss: ImageLoss::Srgb,
-            emitter_material,
-            cache: Default::default(),
-        };
+        let op = image_term_only(batch.clone(), ImageLoss::Srgb, emitter_material);
         let out = v.as_tensor().apply_op1(op).unwrap();
         let g = out
             .narrow(0, 0, 1)
