@@ -432,6 +432,15 @@ pub fn stage(
         shadings.view(k).map_err(crate::PipelineError::from)
     })?;
     drop(points);
+    if !cfg.emitter_material {
+        let lights = data.lights();
+        crate::note!(
+            "training set: {lights} of {} pixels ({:.2} %) are over {}× brighter than any reflection their shadings allow (a light's): they train the emission mask only (train.emitter_material)",
+            data.len(),
+            100.0 * lights as f64 / data.len().max(1) as f64,
+            fipt_neural::ops::UNREFLECTABLE
+        );
+    }
     let mut data = with_segments(scene, data, segments.as_ref(), search)?;
     let mut targets_id = None;
     if let Some(t) = search.map(|s| &s.targets[..]) {

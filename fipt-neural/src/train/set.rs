@@ -250,4 +250,13 @@ impl TrainingSet {
     pub fn is_empty(&self) -> bool {
         self.unit.is_empty()
     }
+    /// How many samples are a light's ([`crate::ops::unreflectable`]): with
+    /// `train.emitter_material` off they train the mask only.
+    pub fn lights(&self) -> usize {
+        (0..self.len())
+            .filter(|&j| {
+                crate::ops::unreflectable(self.ld[j], &self.ls0[j], &self.ls1[j], self.gt[j])
+            })
+            .count()
+    }
 }
