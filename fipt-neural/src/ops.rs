@@ -254,7 +254,8 @@ pub struct FactorizedLoss {
     pub target_weight: f32,
     /// How a pixel's error is measured.
     pub image_loss: ImageLoss,
-    /// Whether pixels with α > 0.5 pass gradient to the material ([`TrainConfig::emitter_material`]).
+    /// Whether a light's pixels ([`unreflectable`]) pass gradient to the material
+    /// ([`crate::train::TrainConfig::emitter_material`]).
     pub emitter_material: bool,
     /// The segment prior's terms of the forward, for the backward (leave it `Default`).
     pub cache: PriorCache,

@@ -133,9 +133,17 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
         batch.ls1.push(std::array::from_fn(|_| {
             [u(0.0, 0.1), u(0.0, 0.1) * scale, u(0.0, 0.1)]
         }));
-        batch
-            .gt
-            .push([u(0.0, 2.0) * scale, u(0.0, 1.0), u(0.0, 5.0)]);
+        // Every seventh pixel a light's: far brighter than its shadings could reflect.
+        let light = if j % 7 == 3 {
+            1e3 * scale.max(1.0)
+        } else {
+            1.0
+        };
+        batch.gt.push([
+            u(0.0, 2.0) * scale * light,
+            u(0.0, 1.0) * light,
+            u(0.0, 5.0) * light,
+        ]);
         let sigma = if j % 10 == 0 {
             0.02
         } else if j % 10 == 1 {
@@ -213,7 +221,17 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
     let poly = std::sync::Arc::new(poly);
     let targeted = std::sync::Arc::new(targeted);
     let (srgb, slope) = (ImageLoss::Srgb, ImageLoss::SrgbSlope);
-    // Last: whether pixels of α > 0.5 train the material (half the pixels here).
+    // Last: whether a light's pixels ([`fipt_neural::ops::unreflectable`]) train the material.
+    let lights = (0..n)
+        .filter(|&j| {
+            let b = &unsegmented;
+            fipt_neural::ops::unreflectable(b.ld[j], &b.ls0[j], &b.ls1[j], b.gt[j])
+        })
+        .count();
+    assert!(
+        lights > 10 && lights < n - 10,
+        "{lights} of {n} pixels are a light's: both kinds must be tested"
+    );
     for (norm, l1, ml1, batch, rp, image_loss, em) in [
         (PriorNorm::L2Roughness, false, true, &poly, 0.0, srgb, false),
         (PriorNorm::L2Roughness, false, true, &poly, 0.0, slope, true),

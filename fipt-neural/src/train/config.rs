@@ -122,9 +122,10 @@ pub struct TrainConfig {
     /// below the encoded mean).
     #[serde(default)]
     pub image_loss: ImageLoss,
-    /// Whether the pixels the mask calls emitters (α > 0.5) train the material too (the
-    /// reference). Their loss term is (1 − α)·(kd·Ld + …) + α·I, so at α ≈ 0.7 a light 30× as
-    /// bright as the wall behind it drives kd to 1 there, and the hash cells it shares with
+    /// Whether a light's pixels (over 4× brighter than any reflection their shadings allow:
+    /// [`crate::ops::unreflectable`]) train the material too (the reference). Their loss term
+    /// is (1 − α)·(kd·Ld + …) + α·I, so at α ≈ 0.7 a light 30× as bright as the wall behind it
+    /// drives kd to 1 there, and the hash cells it shares with
     /// the wall 1 cm behind carry that albedo into the wall around the light (a white ring
     /// 4–5 pixels wide around `gallery-mitsuba`'s wall panel). Off: those pixels train the
     /// mask only (`docs/gallery-mitsuba.md`).
