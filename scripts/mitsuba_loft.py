@@ -9,8 +9,8 @@ tuned on (`docs/loft-mitsuba.md`).
 
 `loft`: a glossy textured floor, one one-sided ceiling panel, a copper cylinder (metal,
 σ 0.25), a rough aluminium box (metal, σ 0.45), a glossy red sphere (dielectric, σ 0.15), a
-cabinet and a low table. `gallery` (held out: not used to choose any setting): see
-`gallery_objects`. 40 train and 8 val views at 240×160, a relighting set (a sphere light, the
+cabinet and a low table. `gallery` (held out for its first run only; settings were chosen with
+it since: `docs/gallery-mitsuba.md`): see `gallery_objects`. 40 train and 8 val views at 240×160, a relighting set (a sphere light, the
 scene's lights off). Ground-truth maps are the values at each pixel-centre ray. Deterministic
 with --seed.
 """
@@ -141,7 +141,7 @@ def loft_objects(lo, hi):
 
 
 def gallery_objects(lo, hi):
-    """A second layout for a held-out check: a dark glossy floor, two lights (a one-sided wall
+    """A second layout, rendered for a held-out check: a dark glossy floor, two lights (a one-sided wall
     panel and a small bright ceiling square), a rough steel cylinder, a brass pole, a chrome
     sphere, a black glossy sphere on a painted pedestal, a white glossy box and a checkered rug."""
     c = lambda x, y, z: np.array([x, y, z], float)
