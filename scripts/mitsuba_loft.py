@@ -180,6 +180,51 @@ def gallery_objects(lo, hi):
     ]
 
 
+def bedroom_objects(lo, hi):
+    """A third layout, rendered for a held-out check of materials that vary inside one object:
+    a plank floor whose base colour and roughness alternate together (σ 0.25 / 0.6), a tray of
+    alternating gold (metal) and black glossy (dielectric) tiles, a semi-gloss wall (σ 0.45), a
+    lacquered nightstand (σ 0.12), a gold vase, a bed, and two lights: a ceiling square and a
+    lamp shade that emits from all its faces (a closed box)."""
+    c = lambda x, y, z: np.array([x, y, z], float)
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    floor, ceiling, wall_xm, wall_xp, wall_zm, wall_zp = shell(lo, hi)
+    py = y1 - 0.01
+    panel = quad(c(-0.3, py, -0.3), c(0.3, py, -0.3), c(0.3, py, 0.3), c(-0.3, py, 0.3))
+    planks = {"type": "checker", "color0": [0.46, 0.31, 0.19], "color1": [0.30, 0.19, 0.12],
+              "uv_scale": [9.0, 3.0]}
+    plank_sigma = {"type": "checker", "color0": 0.25, "color1": 0.6, "uv_scale": [9.0, 3.0]}
+    tiles = {"type": "checker", "color0": [1.0, 0.78, 0.34], "color1": [0.05, 0.05, 0.05], "uv_scale": [4.0, 4.0]}
+    tile_metal = {"type": "checker", "color0": 1.0, "color1": 0.0, "uv_scale": [4.0, 4.0]}
+    return [
+        ("floor", floor, dict(base_color=planks, roughness=plank_sigma, metallic=0.0)),
+        ("ceiling", ceiling, dict(base_color=[0.88, 0.88, 0.86], roughness=1.0, metallic=0.0)),
+        ("wall_left_x-", wall_xm, dict(base_color=[0.62, 0.66, 0.72], roughness=0.45, metallic=0.0)),
+        ("wall_right_x+", wall_xp, dict(base_color=[0.80, 0.74, 0.62], roughness=0.9, metallic=0.0)),
+        ("wall_back_z-", wall_zm, dict(base_color=[0.50, 0.36, 0.40], roughness=0.85, metallic=0.0)),
+        ("wall_front_z+", wall_zp, dict(base_color=[0.74, 0.74, 0.70], roughness=0.95, metallic=0.0)),
+        ("ceiling_square", panel, dict(radiance=[11.0, 11.0, 12.0])),
+        ("lamp_shade", box(c(1.85, 1.05, 1.15), c(2.15, 1.35, 1.45)), dict(radiance=[7.0, 5.6, 3.6])),
+        ("lamp_pole", box(c(1.98, 0.0, 1.28), c(2.02, 1.05, 1.32)),
+         dict(base_color=[0.15, 0.15, 0.16], roughness=0.4, metallic=0.0)),
+        ("bed", box(c(-2.2, 0.0, -1.9), c(-0.6, 0.5, 0.2)),
+         dict(base_color=[0.25, 0.35, 0.55], roughness=1.0, metallic=0.0)),
+        ("headboard", box(c(-2.2, 0.0, -2.0), c(-0.6, 1.1, -1.9)),
+         dict(base_color=[0.35, 0.22, 0.14], roughness=0.35, metallic=0.0)),
+        ("nightstand", box(c(-0.45, 0.0, -1.95), c(0.05, 0.55, -1.5)),
+         dict(base_color=[0.85, 0.85, 0.84], roughness=0.12, metallic=0.0)),
+        ("table", box(c(0.8, 0.0, -0.9), c(1.9, 0.7, -0.2)),
+         dict(base_color=[0.55, 0.55, 0.52], roughness=0.7, metallic=0.0)),
+        ("tray", box(c(1.05, 0.7, -0.75), c(1.55, 0.73, -0.35)),
+         dict(base_color=tiles, roughness=0.25, metallic=tile_metal)),
+        ("gold_vase", outward(cylinder(2.1, -1.6, 0.09, 0.4, n=48), c(2.1, 0.2, -1.6)),
+         dict(base_color=[1.0, 0.78, 0.34], roughness=0.15, metallic=1.0)),
+        ("grey_sphere", sphere([0.3, 0.3, 1.2], 0.3),
+         dict(base_color=[0.45, 0.45, 0.45], roughness=0.7, metallic=0.0)),
+    ]
+
+
 # Each layout: room bounds, its objects (floor, ceiling and four walls first), the relighting
 # sphere light (centre, radius, radiance; at least 1.3 m from every val camera).
 LAYOUTS = {
@@ -187,6 +232,8 @@ LAYOUTS = {
                  relight=([-0.8, 2.2, 1.3], 0.15, [70.0, 66.0, 58.0])),
     "gallery": dict(lo=[-3.0, 0.0, -2.0], hi=[3.0, 3.0, 2.0], objects=gallery_objects,
                     relight=([-1.5, 2.5, 1.2], 0.15, [70.0, 66.0, 58.0])),
+    "bedroom": dict(lo=[-2.5, 0.0, -2.1], hi=[2.5, 2.6, 2.1], objects=bedroom_objects,
+                    relight=([1.0, 2.1, 0.9], 0.15, [70.0, 66.0, 58.0]), camera=(256, 192, 60.0)),
 }
 
 
@@ -226,8 +273,32 @@ def bbox_uv(tris):
     return lambda p: ((p[0] - lo[0]) / (hi[0] - lo[0]), (hi[2] - p[2]) / (hi[2] - lo[2]))
 
 
+TEXTURED = ("base_color", "roughness", "metallic")
+
+
 def textured(m):
-    return isinstance(m.get("base_color"), dict)
+    return any(isinstance(m.get(k), dict) for k in TEXTURED)
+
+
+def mi_texture(v):
+    """A material parameter for Mitsuba: a constant (RGB or float) or a checkerboard over the uv."""
+    if not isinstance(v, dict):
+        return rgb(v) if isinstance(v, (list, tuple)) else float(v)
+    val = lambda x: rgb(x) if isinstance(x, (list, tuple)) else float(x)
+    return {"type": "checkerboard", "color0": val(v["color0"]), "color1": val(v["color1"]),
+            "to_uv": mi.ScalarTransform4f().scale([v["uv_scale"][0], v["uv_scale"][1], 1.0])}
+
+
+def gt_texture(v, tris, p):
+    """A material parameter's value at points `p` (n × 3) of an object: n × 3."""
+    if not isinstance(v, dict):
+        return np.broadcast_to(np.asarray(v, float), (len(p), 3)) if isinstance(v, (list, tuple)) \
+            else np.full((len(p), 3), float(v))
+    u, w = bbox_uv(tris)(p.T)
+    su, sv = v["uv_scale"]
+    first = ((u * su) % 1.0 > 0.5) == ((w * sv) % 1.0 > 0.5)
+    c0, c1 = (np.broadcast_to(np.asarray(x, float), (3,)) for x in (v["color0"], v["color1"]))
+    return np.where(first[:, None], c0, c1)
 
 
 def write_meshes(objs, tmp):
@@ -248,14 +319,9 @@ def scene_dict(objs, paths, lights_on=True, extra=None):
             if lights_on:
                 shape["emitter"] = {"type": "area", "radiance": rgb(m["radiance"])}
         else:
-            bc = m["base_color"]
-            if isinstance(bc, dict):
-                bc = {"type": "checkerboard", "color0": rgb(bc["color0"]), "color1": rgb(bc["color1"]),
-                      "to_uv": mi.ScalarTransform4f().scale([bc["uv_scale"][0], bc["uv_scale"][1], 1.0])}
-            else:
-                bc = rgb(bc)
-            shape["bsdf"] = {"type": "principled", "base_color": bc, "roughness": m["roughness"],
-                             "metallic": m["metallic"], "specular": 0.5}
+            shape["bsdf"] = {"type": "principled", "base_color": mi_texture(m["base_color"]),
+                             "roughness": mi_texture(m["roughness"]), "metallic": mi_texture(m["metallic"]),
+                             "specular": 0.5}
         d[f"shape_{i:02d}"] = shape
     if extra:
         d.update(extra)
@@ -337,19 +403,10 @@ def gt_maps(scene, index, objs, o, t):
         if "radiance" in mat:
             maps["Emit"][sel] = mat["radiance"]
             continue
-        bc = mat["base_color"]
-        if isinstance(bc, dict):
-            u, v = bbox_uv(tris)(p[sel].T)
-            su, sv = bc["uv_scale"]
-            ms = (u * su) % 1.0 > 0.5
-            mt = (v * sv) % 1.0 > 0.5
-            col = np.where((ms == mt)[:, None], bc["color0"], bc["color1"])
-        else:
-            col = np.asarray(bc, float)[None, :]
-        mm = mat["metallic"]
+        col, sig, mm = (gt_texture(mat[k], tris, p[sel]) for k in TEXTURED)
         maps["DiffCol"][sel] = col * (1 - mm)
         maps["Specular"][sel] = 0.04 * (1 - mm) + col * mm
-        maps["Roughness"][sel] = mat["roughness"]
+        maps["Roughness"][sel] = sig
         maps["Metallic"][sel] = mm
     maps["albedo"] = maps["DiffCol"] + maps["Specular"]
     maps["IndexMA"] = np.repeat(np.maximum(idx, 0)[:, None], 3, 1).astype(np.float32)
@@ -410,6 +467,8 @@ def main():
     ap.add_argument("--val", type=int, default=8)
     ap.add_argument("--relight-only", action="store_true", help="render only relight/ (same cameras)")
     a = ap.parse_args()
+    global W, H, FOV
+    W, H, FOV = LAYOUTS[a.layout].get("camera", (W, H, FOV))
     rng = np.random.default_rng(a.seed)
     lay = LAYOUTS[a.layout]
     lo, hi = np.array(lay["lo"]), np.array(lay["hi"])

@@ -278,8 +278,10 @@ impl SceneMaterials {
     }
 
     /// Imports a `scene_parts.json` table (objects with face ranges, `principled` or `emitter`).
-    /// Checker base colours are defined on the object's bounding box: u along +x, v along −z
-    /// (the floor quad's uv in the studio scene), scaled by `uv_scale`.
+    /// Base colour, roughness and metallic are each a number, an RGB triple or a checker
+    /// (`color0`/`color1` numbers or triples), defined on the object's bounding box: u along +x,
+    /// v along −z (the floor quad's uv in the studio scene), scaled by `uv_scale`. Anything
+    /// else is an error naming the object.
     pub fn from_scene_parts(v: &serde_json::Value, path: &Path) -> Result<Self> {
         let bad = |m: String| CoreError::invalid(path, m);
         let objects = v["objects"]
@@ -298,6 +300,50 @@ impl SceneMaterials {
                     as f32;
             }
             Ok(out)
+        };
+        // A colour or a scalar: a number stands for its grey.
+        let value = |x: &serde_json::Value, what: &str| -> Result<[f32; 3]> {
+            match x.as_f64() {
+                Some(v) => Ok([v as f32; 3]),
+                None => arr3(x, what),
+            }
+        };
+        // A parameter: a constant, or a checker over the object's bounding box.
+        let param = |o: &serde_json::Value, key: &str, default: f32| -> Result<Texture> {
+            let x = &o[key];
+            let what = format!("object {}: {key}", o["name"].as_str().unwrap_or("?"));
+            if x.is_null() {
+                return Ok(Texture::Scalar(default));
+            }
+            if let Some(v) = x.as_f64() {
+                return Ok(Texture::Scalar(v as f32));
+            }
+            if x.is_array() {
+                return Ok(Texture::Rgb(arr3(x, &what)?));
+            }
+            if x["type"].as_str() != Some("checker") {
+                return Err(bad(format!(
+                    "{what} is {x}: expected a number, an RGB triple or a checker"
+                )));
+            }
+            let lo = arr3(&o["bbox"][0], "bbox[0]")?;
+            let hi = arr3(&o["bbox"][1], "bbox[1]")?;
+            let sc = x["uv_scale"]
+                .as_array()
+                .ok_or_else(|| bad(format!("{what}: checker without uv_scale")))?;
+            let (su, sv) = (
+                sc[0].as_f64().unwrap_or(1.0) as f32,
+                sc[1].as_f64().unwrap_or(1.0) as f32,
+            );
+            let ex = (hi[0] - lo[0]).max(1e-9);
+            let ez = (hi[2] - lo[2]).max(1e-9);
+            Ok(Texture::Pattern(Pattern::Checker {
+                color0: value(&x["color0"], &format!("{what}.color0"))?,
+                color1: value(&x["color1"], &format!("{what}.color1"))?,
+                origin: [lo[0], lo[1], hi[2]],
+                u_axis: [su / ex, 0.0, 0.0],
+                v_axis: [0.0, 0.0, -sv / ez],
+            }))
         };
         // Emitters are one-sided where the table's conventions say so (Mitsuba's area lights).
         let one_sided = v["gt_conventions"]["emitters"]
@@ -321,40 +367,12 @@ impl SceneMaterials {
                     radiance: arr3(&o["radiance"], "radiance")?,
                     one_sided,
                 },
-                Some("principled") => {
-                    let bc = &o["base_color"];
-                    let base_color = if bc.is_array() {
-                        Texture::Rgb(arr3(bc, "base_color")?)
-                    } else if bc["type"].as_str() == Some("checker") {
-                        let bbox = &o["bbox"];
-                        let lo = arr3(&bbox[0], "bbox[0]")?;
-                        let hi = arr3(&bbox[1], "bbox[1]")?;
-                        let sc = bc["uv_scale"]
-                            .as_array()
-                            .ok_or_else(|| bad("checker without uv_scale".into()))?;
-                        let (su, sv) = (
-                            sc[0].as_f64().unwrap_or(1.0) as f32,
-                            sc[1].as_f64().unwrap_or(1.0) as f32,
-                        );
-                        let ex = (hi[0] - lo[0]).max(1e-9);
-                        let ez = (hi[2] - lo[2]).max(1e-9);
-                        Texture::Pattern(Pattern::Checker {
-                            color0: arr3(&bc["color0"], "color0")?,
-                            color1: arr3(&bc["color1"], "color1")?,
-                            origin: [lo[0], lo[1], hi[2]],
-                            u_axis: [su / ex, 0.0, 0.0],
-                            v_axis: [0.0, 0.0, -sv / ez],
-                        })
-                    } else {
-                        return Err(bad(format!("object {name}: unsupported base_color {bc}")));
-                    };
-                    MaterialDesc::Principled {
-                        name,
-                        base_color,
-                        roughness: Texture::Scalar(o["roughness"].as_f64().unwrap_or(1.0) as f32),
-                        metallic: Texture::Scalar(o["metallic"].as_f64().unwrap_or(0.0) as f32),
-                    }
-                }
+                Some("principled") => MaterialDesc::Principled {
+                    base_color: param(o, "base_color", 0.5)?,
+                    roughness: param(o, "roughness", 1.0)?,
+                    metallic: param(o, "metallic", 0.0)?,
+                    name,
+                },
                 other => return Err(bad(format!("object {name}: unknown type {other:?}"))),
             };
             faces.push(FaceRange {
@@ -453,6 +471,38 @@ mod tests {
             .to_string();
         assert!(err.contains("1 faces have no material"), "{err}");
         assert!(s.face_table(3, Path::new("t.json")).is_err());
+    }
+
+    #[test]
+    fn scene_parts_checkers_drive_base_colour_roughness_and_metallic() {
+        // A 2 m × 2 m tile field: 2 × 2 checks, metal gold where color0, black dielectric else.
+        let parts = serde_json::json!({"objects": [{
+            "name": "tray", "type": "principled", "face_start": 0, "face_end": 2,
+            "bbox": [[0.0, 0.0, 0.0], [2.0, 0.1, 2.0]],
+            "base_color": {"type": "checker", "color0": [1.0, 0.8, 0.3], "color1": [0.05, 0.05, 0.05], "uv_scale": [2.0, 2.0]},
+            "roughness": {"type": "checker", "color0": 0.25, "color1": 0.6, "uv_scale": [2.0, 2.0]},
+            "metallic": {"type": "checker", "color0": 1.0, "color1": 0.0, "uv_scale": [2.0, 2.0]}
+        }]});
+        let s = SceneMaterials::from_scene_parts(&parts, Path::new("p.json")).unwrap();
+        // u = x / 2, v = (2 − z) / 2; color0 where frac(2u) > 0.5 equals frac(2v) > 0.5.
+        let gold = s.eval(0, Vec3::new(0.75, 0.1, 0.25));
+        let black = s.eval(0, Vec3::new(0.25, 0.1, 0.25));
+        assert_eq!((gold.roughness, black.roughness), (0.25, 0.6));
+        assert_eq!((gold.metallic, black.metallic), (1.0, 0.0));
+        assert_eq!(gold.kd, Vec3::ZERO);
+        assert_eq!(gold.ks, Vec3::new(1.0, 0.8, 0.3));
+        assert!((black.kd - Vec3::splat(0.05)).length() < 1e-7);
+        let bad = serde_json::json!({"objects": [{
+            "name": "floor", "type": "principled", "face_start": 0, "face_end": 2,
+            "roughness": {"type": "noise"}
+        }]});
+        let err = SceneMaterials::from_scene_parts(&bad, Path::new("p.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("p.json") && err.contains("floor: roughness"),
+            "{err}"
+        );
     }
 
     #[test]
