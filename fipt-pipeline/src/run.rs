@@ -623,6 +623,15 @@ fn modeled(
             cfg.train.set_limit().unwrap_or(0)
         );
     }
+    if train.pixels_lights > 0 {
+        training += &format!(
+            "; {} pixels ({:.2} %) over {}× brighter than any reflection their shadings allow (a light's) train {} (train.emitter_material)",
+            train.pixels_lights,
+            100.0 * train.pixels_lights as f64 / train.pixels.max(1) as f64,
+            fipt_neural::ops::UNREFLECTABLE,
+            if t.emitter_material { "the material and the emission mask" } else { "the emission mask only" }
+        );
+    }
     let search = if cfg.search.enabled {
         format!(
             "per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}",

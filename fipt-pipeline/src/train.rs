@@ -50,6 +50,11 @@ pub struct TrainManifest {
     /// Hit pixels that `train.set_cap` left out of the training set.
     #[serde(default)]
     pub pixels_left_out: usize,
+    /// Training pixels over [`fipt_neural::ops::UNREFLECTABLE`]× brighter than any reflection
+    /// their shadings allow (a light's); with `emitter_material = false` they train the
+    /// emission mask only.
+    #[serde(default)]
+    pub pixels_lights: usize,
     pub params_grid: usize,
     pub params_mlp: usize,
     pub seconds: f64,
@@ -432,8 +437,8 @@ pub fn stage(
         shadings.view(k).map_err(crate::PipelineError::from)
     })?;
     drop(points);
+    let lights = data.lights();
     if !cfg.emitter_material {
-        let lights = data.lights();
         crate::note!(
             "training set: {lights} of {} pixels ({:.2} %) are over {}× brighter than any reflection their shadings allow (a light's): they train the emission mask only (train.emitter_material)",
             data.len(),
@@ -545,6 +550,7 @@ pub fn stage(
         config: cfg,
         pixels: data.len(),
         pixels_left_out: left_out,
+        pixels_lights: lights,
         params_grid: pg,
         params_mlp: pm,
         seconds: secs,
