@@ -284,8 +284,14 @@ def mi_texture(v):
     """A material parameter for Mitsuba: a constant (RGB or float) or a checkerboard over the uv."""
     if not isinstance(v, dict):
         return rgb(v) if isinstance(v, (list, tuple)) else float(v)
-    val = lambda x: rgb(x) if isinstance(x, (list, tuple)) else float(x)
-    return {"type": "checkerboard", "color0": val(v["color0"]), "color1": val(v["color1"]),
+    c0, c1 = v["color0"], v["color1"]
+    if not isinstance(c0, (list, tuple)):
+        # Mitsuba 3.9.1's checkerboard returns color1 from eval_1 (scalar parameters) where
+        # eval (colours) returns color0: swapped here so both follow the colour rule.
+        c0, c1 = float(c1), float(c0)
+    else:
+        c0, c1 = rgb(c0), rgb(c1)
+    return {"type": "checkerboard", "color0": c0, "color1": c1,
             "to_uv": mi.ScalarTransform4f().scale([v["uv_scale"][0], v["uv_scale"][1], 1.0])}
 
 
