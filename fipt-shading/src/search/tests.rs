@@ -135,6 +135,25 @@ fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
         choose(&wall, &cfg, false, Some([&wall, &noise])).roughness,
         None
     );
+    // A lacquer (σ 0.12): the whole's minimum is interior, one half's lies below
+    // `interior_sigma` (0.08) but above the mirror end: it holds out. A half whose minimum is
+    // the mirror end does not.
+    let lacquer = |c: Vec<f64>| RegionProfile {
+        sigma: vec![0.02, 0.08, 0.12, 0.5, 1.0],
+        ..curve(vec![1.0; 5], c)
+    };
+    // Held out, within 2 % of the minimum (0.12); otherwise within 25 % (0.5).
+    let whole = lacquer(vec![0.1003, 0.1001, 0.1000, 0.1150, 0.1420]);
+    let low = lacquer(vec![0.1003, 0.1000, 0.1001, 0.1150, 0.1420]);
+    let end = lacquer(vec![0.1000, 0.1001, 0.1002, 0.1150, 0.1420]);
+    assert_eq!(
+        choose(&whole, &cfg, false, Some([&whole, &low])).roughness,
+        Some(0.12)
+    );
+    assert_eq!(
+        choose(&whole, &cfg, false, Some([&whole, &end])).roughness,
+        Some(0.5)
+    );
     // Without halves the held-out check cannot pass; without the check the curve decides.
     assert_eq!(choose(&wall, &cfg, false, None).roughness, None);
     let trusting = SearchConfig {
