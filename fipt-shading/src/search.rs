@@ -666,7 +666,7 @@ fn holds_out(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool
         let n = other.len();
         // A half's minimum must not lie at the mirror end; it may lie below `interior_sigma`
         // (the whole's minimum is held to that): halves are noisier, and a lacquer at σ 0.12
-        // has halves at 0.08 and 0.12 (`docs/bedroom-mitsuba.md`).
+        // has halves at 0.08 and 0.14 (`docs/bedroom-mitsuba.md`).
         b > 0
             && other[b].is_finite()
             && other[b] > 0.0
