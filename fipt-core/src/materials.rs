@@ -309,11 +309,14 @@ impl SceneMaterials {
             }
         };
         // A parameter: a constant, or a checker over the object's bounding box.
-        let param = |o: &serde_json::Value, key: &str, default: f32| -> Result<Texture> {
+        // A missing parameter takes `default`, or is an error where there is none.
+        let param = |o: &serde_json::Value, key: &str, default: Option<f32>| -> Result<Texture> {
             let x = &o[key];
             let what = format!("object {}: {key}", o["name"].as_str().unwrap_or("?"));
             if x.is_null() {
-                return Ok(Texture::Scalar(default));
+                return default
+                    .map(Texture::Scalar)
+                    .ok_or_else(|| bad(format!("{what} is missing")));
             }
             if let Some(v) = x.as_f64() {
                 return Ok(Texture::Scalar(v as f32));
@@ -368,9 +371,9 @@ impl SceneMaterials {
                     one_sided,
                 },
                 Some("principled") => MaterialDesc::Principled {
-                    base_color: param(o, "base_color", 0.5)?,
-                    roughness: param(o, "roughness", 1.0)?,
-                    metallic: param(o, "metallic", 0.0)?,
+                    base_color: param(o, "base_color", None)?,
+                    roughness: param(o, "roughness", Some(1.0))?,
+                    metallic: param(o, "metallic", Some(0.0))?,
                     name,
                 },
                 other => return Err(bad(format!("object {name}: unknown type {other:?}"))),
@@ -494,7 +497,7 @@ mod tests {
         assert!((black.kd - Vec3::splat(0.05)).length() < 1e-7);
         let bad = serde_json::json!({"objects": [{
             "name": "floor", "type": "principled", "face_start": 0, "face_end": 2,
-            "roughness": {"type": "noise"}
+            "base_color": 0.5, "roughness": {"type": "noise"}
         }]});
         let err = SceneMaterials::from_scene_parts(&bad, Path::new("p.json"))
             .unwrap_err()
@@ -503,6 +506,13 @@ mod tests {
             err.contains("p.json") && err.contains("floor: roughness"),
             "{err}"
         );
+        let bare = serde_json::json!({"objects": [{
+            "name": "wall", "type": "principled", "face_start": 0, "face_end": 2
+        }]});
+        let err = SceneMaterials::from_scene_parts(&bare, Path::new("p.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("wall: base_color is missing"), "{err}");
     }
 
     #[test]
