@@ -6,11 +6,14 @@ tuned on (`docs/loft-mitsuba.md`).
     pip install mitsuba==3.9.1 numpy
     python3 scripts/mitsuba_loft.py --out loft --spp 512
     python3 scripts/mitsuba_loft.py --layout gallery --out gallery --spp 512
+    python3 scripts/mitsuba_loft.py --layout bedroom --out bedroom --spp 512
 
 `loft`: a glossy textured floor, one one-sided ceiling panel, a copper cylinder (metal,
 σ 0.25), a rough aluminium box (metal, σ 0.45), a glossy red sphere (dielectric, σ 0.15), a
 cabinet and a low table. `gallery` (held out for its first run only; settings were chosen with
-it since: `docs/gallery-mitsuba.md`): see `gallery_objects`. 40 train and 8 val views at 240×160, a relighting set (a sphere light, the
+it since: `docs/gallery-mitsuba.md`): see `gallery_objects`. `bedroom` (held out for its first
+run only: `docs/bedroom-mitsuba.md`): see `bedroom_objects`, at 256×192. 40 train and 8 val views
+(240×160 unless the layout says otherwise), a relighting set (a sphere light, the
 scene's lights off). Ground-truth maps are the values at each pixel-centre ray. Deterministic
 with --seed.
 """
