@@ -184,16 +184,14 @@ def gallery_objects(lo, hi):
 
 
 def bedroom_objects(lo, hi):
-    """A third layout, rendered for a held-out check of materials that vary inside one object:
+    """A fourth layout, rendered for a held-out check of materials that vary inside one object:
     a plank floor whose base colour and roughness alternate together (σ 0.25 / 0.6), a tray of
     alternating gold (metal) and black glossy (dielectric) tiles, a semi-gloss wall (σ 0.45), a
     lacquered nightstand (σ 0.12), a gold vase, a bed, and two lights: a ceiling square and a
     lamp shade that emits from all its faces (a closed box)."""
     c = lambda x, y, z: np.array([x, y, z], float)
-    x0, y0, z0 = lo
-    x1, y1, z1 = hi
     floor, ceiling, wall_xm, wall_xp, wall_zm, wall_zp = shell(lo, hi)
-    py = y1 - 0.01
+    py = hi[1] - 0.01
     panel = quad(c(-0.3, py, -0.3), c(0.3, py, -0.3), c(0.3, py, 0.3), c(-0.3, py, 0.3))
     planks = {"type": "checker", "color0": [0.46, 0.31, 0.19], "color1": [0.30, 0.19, 0.12],
               "uv_scale": [9.0, 3.0]}
