@@ -329,15 +329,14 @@ impl SceneMaterials {
                     "{what} is {x}: expected a number, an RGB triple or a checker"
                 )));
             }
-            let lo = arr3(&o["bbox"][0], "bbox[0]")?;
-            let hi = arr3(&o["bbox"][1], "bbox[1]")?;
-            let sc = x["uv_scale"]
-                .as_array()
-                .ok_or_else(|| bad(format!("{what}: checker without uv_scale")))?;
-            let (su, sv) = (
-                sc[0].as_f64().unwrap_or(1.0) as f32,
-                sc[1].as_f64().unwrap_or(1.0) as f32,
-            );
+            let lo = arr3(&o["bbox"][0], &format!("{what}: the object's bbox[0]"))?;
+            let hi = arr3(&o["bbox"][1], &format!("{what}: the object's bbox[1]"))?;
+            let scale = |i: usize| x["uv_scale"][i].as_f64().map(|v| v as f32);
+            let (Some(su), Some(sv)) = (scale(0), scale(1)) else {
+                return Err(bad(format!(
+                    "{what}: a checker needs uv_scale = [u, v] (numbers)"
+                )));
+            };
             let ex = (hi[0] - lo[0]).max(1e-9);
             let ez = (hi[2] - lo[2]).max(1e-9);
             Ok(Texture::Pattern(Pattern::Checker {
@@ -513,6 +512,18 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("wall: base_color is missing"), "{err}");
+        let unscaled = serde_json::json!({"objects": [{
+            "name": "rug", "type": "principled", "face_start": 0, "face_end": 2,
+            "bbox": [[0.0, 0.0, 0.0], [2.0, 0.1, 2.0]],
+            "base_color": {"type": "checker", "color0": 0.2, "color1": 0.8, "uv_scale": []}
+        }]});
+        let err = SceneMaterials::from_scene_parts(&unscaled, Path::new("p.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("rug: base_color: a checker needs uv_scale"),
+            "{err}"
+        );
     }
 
     #[test]
