@@ -474,10 +474,10 @@ def main():
     ap.add_argument("--val", type=int, default=8)
     ap.add_argument("--relight-only", action="store_true", help="render only relight/ (same cameras)")
     a = ap.parse_args()
-    global W, H, FOV
-    W, H, FOV = LAYOUTS[a.layout].get("camera", (W, H, FOV))
     rng = np.random.default_rng(a.seed)
     lay = LAYOUTS[a.layout]
+    global W, H, FOV
+    W, H, FOV = lay.get("camera", (W, H, FOV))
     lo, hi = np.array(lay["lo"]), np.array(lay["hi"])
     objs = lay["objects"](lo, hi)
     os.makedirs(a.out, exist_ok=True)
