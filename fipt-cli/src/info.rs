@@ -77,7 +77,8 @@ pub fn run(a: Args) -> Result<()> {
             s.fov_x_deg
         );
         say!(
-            "  HDR        min {:.3e}, max {:.3e}, mean luminance {:.4}, median {:.4} (exposure scale {})",
+            "  {}        min {:.3e}, max {:.3e}, mean luminance {:.4}, median {:.4} (exposure scale {})",
+            if s.hdr.ldr.ldr { "LDR" } else { "HDR" },
             s.hdr.min,
             s.hdr.max,
             s.hdr.mean_luminance,

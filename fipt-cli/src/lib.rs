@@ -6,6 +6,7 @@
 //! subcommand, preset and file layout stays as it is (see `examples/brightest-emitters`).
 mod bake;
 mod bench;
+mod degrade;
 mod demo;
 mod eval;
 mod export;
@@ -43,6 +44,9 @@ enum Command {
     Info(info::Args),
     /// Generate a procedural scene with exact ground truth in the reference layout.
     Synth(synth::Args),
+    /// A capture-like copy of a scene: real layout, pose and pixel noise, 8-bit photos at one
+    /// or each view's exposure, JPEG, a denser mesh warped by millimetres.
+    Degrade(degrade::Args),
     /// Bake the diffuse and specular shadings of the training views (the first FIPT stage).
     Bake(bake::Args),
     /// The whole pipeline: bake → train → emitters → maps → report (→ eval with ground truth).
@@ -108,6 +112,7 @@ fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
     match cli.command {
         Command::Info(a) => info::run(a),
         Command::Synth(a) => synth::run(a),
+        Command::Degrade(a) => degrade::run(a),
         Command::Render(a) => render::run(a),
         Command::Export(a) => export::run(a),
         Command::Report(a) => report::run(a),

@@ -162,6 +162,30 @@ impl Camera {
         2.0 * (0.5 * self.width as f32 / self.fx).atan()
     }
 
+    /// The camera as `cam.txt` and `K_list.txt` hold it: origin, a look-at point one unit
+    /// ahead, the up vector (−Y of the OpenCV axes) and K (row-major).
+    pub fn to_opencv_lookat(&self) -> (Vec3, Vec3, Vec3, [[f32; 3]; 3]) {
+        let r = match self.convention {
+            PoseConvention::OpenCv => self.rotation,
+            PoseConvention::Mitsuba => self.rotation * FLIP_XY,
+        };
+        let k = [
+            [self.fx, 0.0, self.cx],
+            [0.0, self.fy, self.cy],
+            [0.0, 0.0, 1.0],
+        ];
+        (self.origin, self.origin + r.z_axis, -r.y_axis, k)
+    }
+
+    /// The same camera moved by `offset` and turned by `turn` (a world-space rotation about
+    /// its centre): a pose off by a known amount.
+    pub fn moved(&self, offset: Vec3, turn: Mat3) -> Camera {
+        let mut c = self.clone();
+        c.origin += offset;
+        c.rotation = turn * self.rotation;
+        c
+    }
+
     /// Deviation of the rotation from a proper rotation: (max |RᵀR − I|, det R).
     pub fn rotation_error(&self) -> (f32, f32) {
         rotation_error(self.rotation)
@@ -232,6 +256,10 @@ mod tests {
         assert!((mi.to_mitsuba_matrix() - cv.to_mitsuba_matrix()).abs_diff_eq(Mat4::ZERO, 1e-5));
         let (err, det) = cv.rotation_error();
         assert!(err < 1e-5 && (det - 1.0).abs() < 1e-5);
+        // And back through cam.txt's look-at form.
+        let (o2, t2, up2, k2) = mi.to_opencv_lookat();
+        let back = Camera::from_opencv(o2, t2, up2, k2, 64, 48);
+        assert!((back.to_mitsuba_matrix() - mi.to_mitsuba_matrix()).abs_diff_eq(Mat4::ZERO, 1e-5));
     }
 
     #[test]

@@ -10,6 +10,7 @@
 //! (reading only EXR headers); [`Dataset::load_image`] reads pixels and applies the
 //! [`BadPixelPolicy`].
 use crate::camera::Camera;
+use crate::color::Rgb;
 use crate::error::{CoreError, Result};
 use crate::image::{BadPixelCount, BadPixelPolicy, Image};
 use glam::{Mat4, Vec3};
@@ -85,6 +86,21 @@ pub fn image_file_name(k: usize) -> String {
     format!("{k:03}_0001.exr")
 }
 
+/// Extensions a view's image may have, in the order they are looked for: EXR (linear HDR),
+/// then 8/16-bit PNG and JPEG (through the response curve of `capture.json`).
+pub const IMAGE_EXTENSIONS: [&str; 4] = ["exr", "png", "jpg", "jpeg"];
+
+/// The image of view `k` in `dir`: `{k:03}_0001` with the first extension of
+/// [`IMAGE_EXTENSIONS`] present (the EXR name when none is, for the error that names it).
+pub fn find_image(dir: &Path, k: usize) -> PathBuf {
+    let exr = dir.join(image_file_name(k));
+    IMAGE_EXTENSIONS
+        .iter()
+        .map(|e| exr.with_extension(e))
+        .find(|p| p.is_file())
+        .unwrap_or(exr)
+}
+
 /// One posed view.
 #[derive(Clone, Debug)]
 pub struct View {
@@ -127,6 +143,8 @@ pub struct Dataset {
     pub height: usize,
     /// Problems that do not stop a run (shown by `fipt info`).
     pub warnings: Vec<String>,
+    /// `capture.json`: the response curve of 8/16-bit views and known exposures.
+    pub capture: crate::capture::CaptureInfo,
 }
 
 /// Mesh file names looked for in a scene folder, in order.
@@ -168,6 +186,19 @@ impl Dataset {
             ));
         };
         let (width, height) = check_image_sizes(&splits)?;
+        let capture = crate::capture::CaptureInfo::read(root)?;
+        if let Some(e) = &capture.exposures {
+            let n = splits[0].views.len();
+            if e.len() != n {
+                return Err(CoreError::invalid(
+                    &root.join(crate::capture::CAPTURE_FILE),
+                    format!(
+                        "{} exposures for {n} training views: give one per view",
+                        e.len()
+                    ),
+                ));
+            }
+        }
         Ok(Dataset {
             root: root.to_path_buf(),
             layout,
@@ -176,6 +207,7 @@ impl Dataset {
             width,
             height,
             warnings,
+            capture,
         })
     }
 
@@ -188,13 +220,47 @@ impl Dataset {
         &self.splits[0]
     }
 
-    /// Reads a view's HDR image, checks its size and applies `policy` to bad pixels.
+    /// Reads a view's image as linear radiance (8/16-bit files through the response curve),
+    /// checks its size and applies `policy` to bad pixels. Known exposures (`capture.json`)
+    /// are not applied here: see [`Dataset::view_exposure`].
     pub fn load_image(
         &self,
         view: &View,
         policy: BadPixelPolicy,
     ) -> Result<(Image, BadPixelCount)> {
+        let c = &self.capture;
+        if crate::capture::is_ldr_file(&view.image) || c.exr_response {
+            let mut img = if crate::capture::is_ldr_file(&view.image) {
+                crate::capture::read_ldr(&view.image, &c.response)?
+            } else {
+                let mut img = Image::read_exr(&view.image)?;
+                for p in &mut img.data {
+                    *p = Rgb::from_array(p.to_array().map(|v| c.response.to_linear(v)));
+                }
+                img
+            };
+            check_size(&img, &view.image, self.width, self.height)?;
+            let bad = img.sanitize(policy, &view.image)?;
+            return Ok((img, bad));
+        }
         load_checked(&view.image, self.width, self.height, policy)
+    }
+
+    /// The relative exposure `capture.json` gives for training view `k` (1 without one).
+    pub fn view_exposure(&self, k: usize) -> f32 {
+        self.capture
+            .exposures
+            .as_ref()
+            .and_then(|e| e.get(k).copied())
+            .unwrap_or(1.0)
+    }
+
+    /// Whether any view is an 8/16-bit file (PNG, JPEG).
+    pub fn has_ldr_files(&self) -> bool {
+        self.splits
+            .iter()
+            .flat_map(|s| &s.views)
+            .any(|v| crate::capture::is_ldr_file(&v.image))
     }
 
     /// Reads a ground-truth map of view `k` of `split` (None when the folder is absent).
@@ -238,6 +304,21 @@ impl Dataset {
 /// Reads an EXR of `w`×`h` pixels; another size is an error naming the file, with `hint`.
 fn read_sized(path: &Path, w: usize, h: usize, hint: &str) -> Result<Image> {
     let img = Image::read_exr(path)?;
+    check_size_hint(&img, path, w, h, hint)?;
+    Ok(img)
+}
+
+fn check_size(img: &Image, path: &Path, w: usize, h: usize) -> Result<()> {
+    check_size_hint(
+        img,
+        path,
+        w,
+        h,
+        "all views of a scene must have the same size",
+    )
+}
+
+fn check_size_hint(img: &Image, path: &Path, w: usize, h: usize, hint: &str) -> Result<()> {
     if (img.width, img.height) != (w, h) {
         return Err(CoreError::SizeMismatch {
             path: path.to_path_buf(),
@@ -248,7 +329,7 @@ fn read_sized(path: &Path, w: usize, h: usize, hint: &str) -> Result<Image> {
             hint: hint.into(),
         });
     }
-    Ok(img)
+    Ok(())
 }
 
 fn load_checked(
@@ -260,6 +341,15 @@ fn load_checked(
     let mut img = read_sized(path, w, h, "all views of a scene must have the same size")?;
     let bad = img.sanitize(policy, path)?;
     Ok((img, bad))
+}
+
+/// Size of a view's image (EXR, PNG or JPEG) from its header alone.
+pub fn image_size(path: &Path) -> Result<(usize, usize)> {
+    if crate::capture::is_ldr_file(path) {
+        crate::capture::ldr_size(path)
+    } else {
+        exr_size(path)
+    }
 }
 
 /// Size of an EXR image from its header alone.
@@ -308,10 +398,10 @@ fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
         .first()
         .ok_or_else(|| CoreError::invalid(&splits[0].cameras_file, "no views"))?
         .image;
-    let (w, h) = exr_size(first)?;
+    let (w, h) = image_size(first)?;
     for s in splits {
         for v in &s.views {
-            let (vw, vh) = exr_size(&v.image)?;
+            let (vw, vh) = image_size(&v.image)?;
             if (vw, vh) != (w, h) {
                 return Err(CoreError::SizeMismatch {
                     path: v.image.clone(),
@@ -422,9 +512,9 @@ pub fn read_transforms(tf_path: &Path, size: Option<(usize, usize)>) -> Result<V
 fn read_synthetic_split(root: &Path, name: &str, warnings: &mut Vec<String>) -> Result<Split> {
     let dir = root.join(name);
     let tf_path = dir.join("transforms.json");
-    let img0 = dir.join("Image").join(image_file_name(0));
+    let img0 = find_image(&dir.join("Image"), 0);
     let size = if img0.is_file() {
-        Some(exr_size(&img0)?)
+        Some(image_size(&img0)?)
     } else {
         None
     };
@@ -435,7 +525,7 @@ fn read_synthetic_split(root: &Path, name: &str, warnings: &mut Vec<String>) -> 
         .map(|(k, camera)| View {
             index: k,
             camera,
-            image: dir.join("Image").join(image_file_name(k)),
+            image: find_image(&dir.join("Image"), k),
         })
         .collect();
     let gt = present_gt(&dir, views.len(), warnings, name);
@@ -466,11 +556,18 @@ fn warn_unused_images(
     let Ok(entries) = std::fs::read_dir(images) else {
         return;
     };
-    let named: std::collections::HashSet<String> = (0..n).map(image_file_name).collect();
+    let named: std::collections::HashSet<String> = (0..n)
+        .map(|k| image_file_name(k).trim_end_matches(".exr").to_string())
+        .collect();
     let extra: Vec<String> = entries
         .flatten()
         .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|f| f.ends_with(".exr") && !named.contains(f))
+        .filter(|f| {
+            let p = Path::new(f);
+            let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
+            IMAGE_EXTENSIONS.contains(&ext.to_ascii_lowercase().as_str())
+                && !named.contains(p.file_stem().and_then(|s| s.to_str()).unwrap_or(""))
+        })
         .collect();
     if !extra.is_empty() {
         warnings.push(format!(
@@ -572,7 +669,7 @@ pub fn read_cam_list(cam_path: &Path, k_path: &Path, w: usize, h: usize) -> Resu
 
 fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
     let cam_path = root.join("cam.txt");
-    let img0 = root.join("Image").join(image_file_name(0));
+    let img0 = find_image(&root.join("Image"), 0);
     let k_path = root.join("K_list.txt");
     if !k_path.is_file() {
         return Err(CoreError::invalid(
@@ -580,14 +677,14 @@ fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
             "missing: the real layout needs K_list.txt beside cam.txt",
         ));
     }
-    let (w, h) = exr_size(&img0)?;
+    let (w, h) = image_size(&img0)?;
     let views: Vec<View> = read_cam_list(&cam_path, &k_path, w, h)?
         .into_iter()
         .enumerate()
         .map(|(i, camera)| View {
             index: i,
             camera,
-            image: root.join("Image").join(image_file_name(i)),
+            image: find_image(&root.join("Image"), i),
         })
         .collect();
     let n = views.len();
@@ -631,6 +728,23 @@ pub fn write_transforms(path: &Path, cameras: &[Camera]) -> Result<()> {
     crate::fsutil::write_json_atomic(path, &v)
 }
 
+/// Writes the real layout's `cam.txt` (N, then origin, look-at and up per camera) and
+/// `K_list.txt` (N, then K per camera) for `cameras`, atomically.
+pub fn write_cam_list(cam_path: &Path, k_path: &Path, cameras: &[Camera]) -> Result<()> {
+    let mut cam = format!("{}\n", cameras.len());
+    let mut ks = cam.clone();
+    let row = |v: Vec3| format!("{} {} {}\n", v.x, v.y, v.z);
+    for c in cameras {
+        let (o, t, up, k) = c.to_opencv_lookat();
+        cam += &(row(o) + &row(t) + &row(up));
+        for r in k {
+            ks += &row(Vec3::from_array(r));
+        }
+    }
+    crate::fsutil::write_bytes_atomic(cam_path, cam.as_bytes())?;
+    crate::fsutil::write_bytes_atomic(k_path, ks.as_bytes())
+}
+
 /// Summary of a split's HDR pixels.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct HdrStats {
@@ -648,12 +762,23 @@ pub struct HdrStats {
     pub black_views: Vec<usize>,
     /// Views with ≥ 99 % of their pixels at the view's maximum (clipped or blown out).
     pub saturated_views: Vec<usize>,
+    /// Whether the views are low dynamic range, why, and which clip.
+    pub ldr: crate::capture::LdrCheck,
 }
 
 /// Reads every image of `split` (in parallel) and summarises the HDR range.
 pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<HdrStats> {
     use rayon::prelude::*;
-    type PerView = (usize, f32, f32, f64, usize, Vec<f32>, bool);
+    type PerView = (
+        usize,
+        f32,
+        f32,
+        f64,
+        usize,
+        Vec<f32>,
+        bool,
+        crate::capture::ViewLdr,
+    );
     let per: Vec<Result<PerView>> = split
         .views
         .par_iter()
@@ -675,7 +800,8 @@ pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<
                 .collect();
             let at_max = img.data.iter().filter(|p| p.max_element() >= hi).count();
             let saturated = hi > 0.0 && at_max * 100 >= img.data.len() * 99;
-            Ok((v.index, lo, hi, lum, bad.total(), samples, saturated))
+            let ldr = crate::capture::ViewLdr::of(&img);
+            Ok((v.index, lo, hi, lum, bad.total(), samples, saturated, ldr))
         })
         .collect();
     let mut s = HdrStats {
@@ -685,8 +811,10 @@ pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<
     };
     let n = per.len().max(1) as f64;
     let mut samples = Vec::new();
+    let mut ldr = vec![];
     for r in per {
-        let (k, lo, hi, lum, bad, l, saturated) = r?;
+        let (k, lo, hi, lum, bad, l, saturated, view_ldr) = r?;
+        ldr.push((k, view_ldr));
         samples.extend(l);
         if hi <= 0.0 {
             s.black_views.push(k);
@@ -705,5 +833,10 @@ pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<
         let m = samples.len() / 2;
         s.median_luminance = *samples.select_nth_unstable_by(m, f32::total_cmp).1;
     }
+    let files_ldr = split
+        .views
+        .iter()
+        .any(|v| crate::capture::is_ldr_file(&v.image));
+    s.ldr = crate::capture::ldr_check(&ldr, files_ldr);
     Ok(s)
 }

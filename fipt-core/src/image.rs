@@ -626,11 +626,16 @@ pub fn median_luminance(images: &[Image]) -> f32 {
         .map(|&p| crate::color::luminance(p))
         .filter(|v| v.is_finite())
         .collect();
-    if l.is_empty() {
+    median(&mut l)
+}
+
+/// The median of `values` (reordered; 0 when empty).
+pub fn median(values: &mut [f32]) -> f32 {
+    if values.is_empty() {
         return 0.0;
     }
-    let n = l.len() / 2;
-    *l.select_nth_unstable_by(n, f32::total_cmp).1
+    let n = values.len() / 2;
+    *values.select_nth_unstable_by(n, f32::total_cmp).1
 }
 
 /// The exposure scale s of views with median luminance `median`: the pipeline works on

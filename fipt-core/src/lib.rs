@@ -30,6 +30,7 @@
 //! ```
 pub mod brdf;
 pub mod camera;
+pub mod capture;
 pub mod color;
 pub mod cube;
 pub mod dataset;

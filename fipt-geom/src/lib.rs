@@ -24,6 +24,7 @@ pub mod nearest;
 pub mod patches;
 mod ply;
 pub mod sampling;
+mod scan;
 
 pub use bvh::{hit_point, offset_ray_origin, shading_normal, BuildQuality, Bvh, Hit};
 pub use error::{GeomError, Result};

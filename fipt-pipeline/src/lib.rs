@@ -20,6 +20,7 @@
 pub mod bake;
 pub mod components;
 pub mod config;
+pub mod degrade;
 mod divided;
 pub mod error;
 pub mod eval;

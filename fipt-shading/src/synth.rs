@@ -418,31 +418,10 @@ impl SynthScene {
     /// table scale by 4^levels and the geometry, materials and renders stay the same (for
     /// measuring how the stages grow with the triangle count).
     pub fn subdivided(mut self, levels: u32) -> SynthScene {
-        for _ in 0..levels {
-            let m = &self.mesh;
-            let mut pos = m.positions.clone();
-            let mut nor = m.normals.clone();
-            let mut mids: std::collections::HashMap<(u32, u32), u32> = Default::default();
-            let mut mid = |a: u32, b: u32| {
-                *mids.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    let (pa, pb) = (pos[a as usize], pos[b as usize]);
-                    pos.push((pa + pb) * 0.5);
-                    if let Some(n) = nor.as_mut() {
-                        let v = (n[a as usize] + n[b as usize]).normalize_or(n[a as usize]);
-                        n.push(v);
-                    }
-                    pos.len() as u32 - 1
-                })
-            };
-            let mut tris = Vec::with_capacity(m.triangles.len() * 4);
-            for &[a, b, c] in &m.triangles {
-                let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
-                tris.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
-            }
-            self.mesh = Mesh::from_triangles(pos, nor, tris);
-            for r in &mut self.materials.faces {
-                (r.start, r.end) = (r.start * 4, r.end * 4);
-            }
+        self.mesh = self.mesh.subdivided(levels);
+        let f = 4u32.pow(levels);
+        for r in &mut self.materials.faces {
+            (r.start, r.end) = (r.start * f, r.end * f);
         }
         self
     }

@@ -1,0 +1,123 @@
+//! `fipt degrade SRC --out DST`: fipt-pipeline's capture simulator, with its options parsed.
+use anyhow::{bail, Result};
+use fipt_pipeline::degrade::{degrade, DegradeRequest, LdrMode, ViewFormat};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene folder to copy (any layout; ground truth is kept unless --drop-gt or --layout real).
+    source: PathBuf,
+    /// The copy's folder (new, or one `fipt degrade` made: it is replaced).
+    #[arg(long)]
+    out: PathBuf,
+    /// `real`: cam.txt + K_list.txt + Image/ with the training views only (no ground truth);
+    /// `same`: the source's layout.
+    #[arg(long, value_enum, default_value = "same")]
+    layout: LayoutArg,
+    /// Leave out the ground-truth maps and the part tables.
+    #[arg(long)]
+    drop_gt: bool,
+    /// Pose error: MM,DEG (each camera moved by MM millimetres and turned by DEG degrees, in
+    /// random directions).
+    #[arg(long, value_name = "MM,DEG", default_value = "0,0")]
+    pose_noise: String,
+    /// Multiplicative Gaussian pixel noise (0.03 = 3 %).
+    #[arg(long, default_value_t = 0.0)]
+    pixel_noise: f32,
+    /// 8-bit sRGB photos: `fixed` (one exposure: the median to middle grey, the lights clip)
+    /// or `auto` (each view metered alone); `none` keeps HDR.
+    #[arg(long, value_enum, default_value = "none")]
+    ldr: LdrArg,
+    /// File format of the views (png and jpg need --ldr).
+    #[arg(long, value_enum, default_value = "exr")]
+    format: FormatArg,
+    #[arg(long, default_value_t = 90)]
+    jpeg_quality: u8,
+    /// Split every triangle into 4^K (a scan is denser than a model).
+    #[arg(long, default_value_t = 0)]
+    subdivide: u32,
+    /// Warp the mesh smoothly by up to this many millimetres.
+    #[arg(long, default_value_t = 0.0)]
+    mesh_warp: f32,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum LayoutArg {
+    Same,
+    Real,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum LdrArg {
+    None,
+    Fixed,
+    Auto,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum FormatArg {
+    Exr,
+    Png,
+    Jpg,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let Some((mm, deg)) = a
+        .pose_noise
+        .split_once(',')
+        .and_then(|(m, d)| Some((m.trim().parse().ok()?, d.trim().parse().ok()?)))
+    else {
+        bail!(
+            "--pose-noise {}: expected MM,DEG (e.g. 5,0.15)",
+            a.pose_noise
+        );
+    };
+    let req = DegradeRequest {
+        source: a.source,
+        out: a.out,
+        real_layout: matches!(a.layout, LayoutArg::Real),
+        drop_gt: a.drop_gt,
+        pose_mm: mm,
+        pose_deg: deg,
+        pixel_noise: a.pixel_noise,
+        ldr: match a.ldr {
+            LdrArg::None => LdrMode::None,
+            LdrArg::Fixed => LdrMode::Fixed,
+            LdrArg::Auto => LdrMode::Auto,
+        },
+        format: match a.format {
+            FormatArg::Exr => ViewFormat::Exr,
+            FormatArg::Png => ViewFormat::Png,
+            FormatArg::Jpg => ViewFormat::Jpg,
+        },
+        jpeg_quality: a.jpeg_quality,
+        subdivide: a.subdivide,
+        warp_mm: a.mesh_warp,
+        seed: a.seed,
+    };
+    let rec = degrade(&req)?;
+    let gains: Vec<f32> = rec.views.iter().map(|v| v.gain).collect();
+    let (lo, hi) = gains
+        .iter()
+        .fold((f32::INFINITY, 0.0f32), |(l, h), &g| (l.min(g), h.max(g)));
+    let clipped =
+        rec.views.iter().map(|v| v.clipped_share).sum::<f64>() / rec.views.len().max(1) as f64;
+    println!(
+        "wrote {} views and a mesh of {} triangles to {}",
+        rec.views.len(),
+        rec.triangles,
+        req.out.display()
+    );
+    println!(
+        "{}; gains {lo:.4e} … {hi:.4e}, {:.2} % of pixels clipped",
+        rec.note,
+        100.0 * clipped
+    );
+    println!(
+        "what was done to each view: {}",
+        req.out.join(fipt_pipeline::degrade::RECORD_FILE).display()
+    );
+    Ok(())
+}

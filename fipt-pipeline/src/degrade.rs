@@ -1,0 +1,407 @@
+//! `fipt degrade`: a capture-like copy of a scene with ground truth: the real layout, poses
+//! off by a known amount, pixel noise, 8-bit photos at one exposure or each view's own, JPEG,
+//! and a denser mesh warped smoothly by millimetres (a scan). What was done to each view is
+//! written to `DST/degrade.json` (the gains, the pose offsets, the warp), which no stage reads:
+//! it is for scoring (`fipt eval SRC OUT --cameras-from SRC`) and for tests.
+use crate::bail;
+use crate::error::{Context, Result};
+use crate::observe::Stage;
+use fipt_core::camera::Camera;
+use fipt_core::capture::{LdrFormat, Response};
+use fipt_core::color::{luminance, Rgb};
+use fipt_core::dataset::{image_file_name, write_cam_list, write_transforms, Dataset, Split};
+use fipt_core::image::{BadPixelPolicy, ExrPrecision, Image};
+use fipt_core::rng::Pcg32;
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// The file a copy's record goes to.
+pub const RECORD_FILE: &str = "degrade.json";
+
+/// Middle grey: what a camera's metering maps the median luminance to.
+pub const METERED_GREY: f32 = 0.18;
+
+/// How the copy is exposed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LdrMode {
+    /// Linear HDR values, as the source.
+    None,
+    /// 8-bit through sRGB, one exposure for all views (the training views' median luminance
+    /// to middle grey): the lights clip.
+    Fixed,
+    /// 8-bit through sRGB, each view's own exposure (its median luminance to middle grey).
+    Auto,
+}
+
+/// The copy's file format of the views.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ViewFormat {
+    Exr,
+    Png,
+    Jpg,
+}
+
+/// What `fipt degrade` does.
+#[derive(Clone, Debug, Serialize)]
+pub struct DegradeRequest {
+    pub source: PathBuf,
+    pub out: PathBuf,
+    /// The real layout (`cam.txt`, `K_list.txt`, `Image/`: the training views only, no
+    /// ground truth) instead of the source's.
+    pub real_layout: bool,
+    /// Leave out every ground-truth folder, `scene_gt.json` and `scene_parts.json`.
+    pub drop_gt: bool,
+    /// Each camera moved by this many millimetres in a random direction…
+    pub pose_mm: f32,
+    /// …and turned by this many degrees about a random axis.
+    pub pose_deg: f32,
+    /// Multiplicative Gaussian noise per pixel and channel (0.03 = 3 %).
+    pub pixel_noise: f32,
+    pub ldr: LdrMode,
+    pub format: ViewFormat,
+    pub jpeg_quality: u8,
+    /// Subdivision levels of the mesh (every triangle into 4^K).
+    pub subdivide: u32,
+    /// Largest displacement of the smooth mesh warp, millimetres.
+    pub warp_mm: f32,
+    pub seed: u64,
+}
+
+/// What was done to one view.
+#[derive(Clone, Debug, Serialize)]
+pub struct ViewRecord {
+    pub split: String,
+    pub index: usize,
+    /// The factor the radiance was multiplied by before the response (1 for HDR).
+    pub gain: f32,
+    /// Share of the view's pixels that clipped.
+    pub clipped_share: f64,
+    pub offset_mm: [f32; 3],
+    pub turn_deg: f32,
+}
+
+/// `degrade.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct DegradeRecord {
+    pub fipt_version: &'static str,
+    pub request: DegradeRequest,
+    pub triangles: usize,
+    pub views: Vec<ViewRecord>,
+    /// The copy's views are at 1/gain of the source's radiance (for `ldr = fixed`, one gain).
+    pub note: String,
+}
+
+/// Checks the request before any work.
+fn validate(a: &DegradeRequest) -> Result<()> {
+    let finite_in = |v: f32, lo: f32, hi: f32| v.is_finite() && (lo..=hi).contains(&v);
+    if !finite_in(a.pose_mm, 0.0, 1000.0) || !finite_in(a.pose_deg, 0.0, 45.0) {
+        bail!(
+            "--pose-noise {},{}: give millimetres in [0, 1000] and degrees in [0, 45]",
+            a.pose_mm,
+            a.pose_deg
+        );
+    }
+    if !finite_in(a.pixel_noise, 0.0, 1.0) {
+        bail!(
+            "--pixel-noise {}: give a relative standard deviation in [0, 1] (0.03 = 3 %)",
+            a.pixel_noise
+        );
+    }
+    if !finite_in(a.warp_mm, 0.0, 1000.0) {
+        bail!("--mesh-warp {}: give millimetres in [0, 1000]", a.warp_mm);
+    }
+    if a.subdivide > 4 {
+        bail!(
+            "--subdivide {}: at most 4 (256 triangles per triangle)",
+            a.subdivide
+        );
+    }
+    if !(1..=100).contains(&a.jpeg_quality) {
+        bail!("--jpeg-quality {}: give 1 to 100", a.jpeg_quality);
+    }
+    if a.ldr == LdrMode::None && a.format != ViewFormat::Exr {
+        bail!("--format {:?}: PNG and JPEG hold 8-bit values; pass --ldr fixed or --ldr auto (or --format exr)", a.format);
+    }
+    let src = a
+        .source
+        .canonicalize()
+        .with_context(|| format!("{}: no such folder", a.source.display()))?;
+    if let Ok(out) = a.out.canonicalize() {
+        if out.starts_with(&src) || src.starts_with(&out) {
+            bail!(
+                "{}: the copy must go to a folder outside the source {} (and not hold it)",
+                a.out.display(),
+                a.source.display()
+            );
+        }
+    }
+    if a.out.is_dir()
+        && !a.out.join(RECORD_FILE).is_file()
+        && std::fs::read_dir(&a.out)?.next().is_some()
+    {
+        bail!(
+            "{}: a folder that is not empty and was not made by `fipt degrade`; choose a new one",
+            a.out.display()
+        );
+    }
+    Ok(())
+}
+
+/// Makes the copy; returns its record (also written to `DST/degrade.json`).
+pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
+    validate(a)?;
+    let ds = Dataset::open(&a.source)
+        .with_context(|| format!("opening scene {}", a.source.display()))?;
+    if a.out.join(RECORD_FILE).is_file() {
+        std::fs::remove_dir_all(&a.out)
+            .with_context(|| format!("replacing {}", a.out.display()))?;
+    }
+    std::fs::create_dir_all(&a.out)?;
+    let triangles = write_mesh(a, &ds)?;
+    let splits: Vec<&Split> = if a.real_layout {
+        vec![ds.train()]
+    } else {
+        ds.splits.iter().collect()
+    };
+    let fixed_gain = match a.ldr {
+        LdrMode::Fixed => Some(METERED_GREY / median_luminance(&ds, ds.train())?),
+        _ => None,
+    };
+    let mut views = vec![];
+    for s in splits {
+        let st = Stage::start(&format!("degrade {}", s.name));
+        let dir = if a.real_layout {
+            a.out.clone()
+        } else {
+            a.out.join(&s.name)
+        };
+        let cams: Vec<(Camera, [f32; 3], f32)> = s
+            .views
+            .iter()
+            .map(|v| moved(a, &s.name, v.index, &v.camera))
+            .collect();
+        let cameras: Vec<Camera> = cams.iter().map(|c| c.0.clone()).collect();
+        if a.real_layout {
+            write_cam_list(&dir.join("cam.txt"), &dir.join("K_list.txt"), &cameras)?;
+        } else {
+            write_transforms(&dir.join("transforms.json"), &cameras)?;
+        }
+        let recs: Vec<Result<ViewRecord>> = s
+            .views
+            .par_iter()
+            .zip(&cams)
+            .map(|(v, (_, offset_mm, turn_deg))| {
+                let img = ds.load_image(v, BadPixelPolicy::Clamp)?.0;
+                let (gain, clipped_share) =
+                    write_view(a, &s.name, v.index, img, fixed_gain, &dir.join("Image"))?;
+                Ok(ViewRecord {
+                    split: s.name.clone(),
+                    index: v.index,
+                    gain,
+                    clipped_share,
+                    offset_mm: *offset_mm,
+                    turn_deg: *turn_deg,
+                })
+            })
+            .collect();
+        for r in recs {
+            views.push(r?);
+        }
+        if !a.real_layout && !a.drop_gt {
+            copy_gt(s, &dir)?;
+        }
+        st.done();
+    }
+    if !a.drop_gt && !a.real_layout && a.subdivide == 0 {
+        for f in ["scene_gt.json", "scene_parts.json"] {
+            if ds.root.join(f).is_file() {
+                std::fs::copy(ds.root.join(f), a.out.join(f))?;
+            }
+        }
+    }
+    let note = match a.ldr {
+        LdrMode::None => "HDR: the views are the source's radiance (with the noise)".into(),
+        LdrMode::Fixed => format!("8-bit sRGB at one exposure: stored = sRGB(min(1, {:.4e} × radiance))", fixed_gain.unwrap_or(1.0)),
+        LdrMode::Auto => "8-bit sRGB at each view's exposure: stored = sRGB(min(1, gain × radiance)), gain per view below".into(),
+    };
+    let record = DegradeRecord {
+        fipt_version: env!("CARGO_PKG_VERSION"),
+        request: a.clone(),
+        triangles,
+        views,
+        note,
+    };
+    fipt_core::fsutil::write_json_atomic(&a.out.join(RECORD_FILE), &record)?;
+    Ok(record)
+}
+
+/// The mesh, subdivided and warped as asked (copied byte for byte otherwise).
+fn write_mesh(a: &DegradeRequest, ds: &Dataset) -> Result<usize> {
+    let mesh = fipt_geom::Mesh::load(&ds.mesh)?;
+    if a.subdivide == 0 && a.warp_mm == 0.0 {
+        let name = ds.mesh.file_name().unwrap_or_default();
+        std::fs::copy(&ds.mesh, a.out.join(name))?;
+        return Ok(mesh.triangles.len());
+    }
+    let m = mesh
+        .subdivided(a.subdivide)
+        .warped(a.warp_mm / 1000.0, a.seed);
+    let header = format!(
+        "fipt degrade of {}: subdivided {}×, warped by up to {} mm (seed {})",
+        ds.mesh.display(),
+        a.subdivide,
+        a.warp_mm,
+        a.seed
+    );
+    m.write_obj(&a.out.join("scene.obj"), &header)?;
+    Ok(m.triangles.len())
+}
+
+/// A split's median luminance (every 7th pixel of every view).
+fn median_luminance(ds: &Dataset, s: &Split) -> Result<f32> {
+    let mut l: Vec<f32> = vec![];
+    for v in &s.views {
+        let img = ds.load_image(v, BadPixelPolicy::Clamp)?.0;
+        l.extend(img.data.iter().step_by(7).map(|&p| luminance(p)));
+    }
+    let m = fipt_core::image::median(&mut l);
+    if !(m > 0.0) {
+        bail!(
+            "{}: the median training pixel is black; an exposure cannot be metered",
+            ds.root.display()
+        );
+    }
+    Ok(m)
+}
+
+/// The camera of view `k` of `split`, moved and turned as asked: (camera, offset in mm, turn
+/// in degrees).
+fn moved(a: &DegradeRequest, split: &str, k: usize, cam: &Camera) -> (Camera, [f32; 3], f32) {
+    if a.pose_mm == 0.0 && a.pose_deg == 0.0 {
+        return (cam.clone(), [0.0; 3], 0.0);
+    }
+    let mut rng = Pcg32::from_keys(&[
+        a.seed,
+        0x9053,
+        split.len() as u64,
+        split.as_bytes()[0] as u64,
+        k as u64,
+    ]);
+    let offset = unit_vector(&mut rng) * (a.pose_mm / 1000.0);
+    let turn = Mat3::from_axis_angle(unit_vector(&mut rng), a.pose_deg.to_radians());
+    (
+        cam.moved(offset, turn),
+        (offset * 1000.0).to_array(),
+        a.pose_deg,
+    )
+}
+
+fn unit_vector(rng: &mut Pcg32) -> Vec3 {
+    loop {
+        let v = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - Vec3::ONE;
+        if (1e-4..=1.0).contains(&v.length_squared()) {
+            return v.normalize();
+        }
+    }
+}
+
+/// A standard normal sample (Box–Muller).
+fn gauss(rng: &mut Pcg32) -> f32 {
+    let u1 = rng.next_f32().max(1e-7);
+    let u2 = rng.next_f32();
+    (-2.0 * u1.ln()).sqrt() * (std::f32::consts::TAU * u2).cos()
+}
+
+/// Noise, exposure, response and format for one view; returns its gain and clipped share.
+fn write_view(
+    a: &DegradeRequest,
+    split: &str,
+    k: usize,
+    mut img: Image,
+    fixed_gain: Option<f32>,
+    dir: &Path,
+) -> Result<(f32, f64)> {
+    if a.pixel_noise > 0.0 {
+        let mut rng = Pcg32::from_keys(&[a.seed, 0x6e01, split.as_bytes()[0] as u64, k as u64]);
+        for p in &mut img.data {
+            let n = Rgb::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng));
+            *p = (*p * (Rgb::ONE + n * a.pixel_noise)).max(Rgb::ZERO);
+        }
+    }
+    let name = image_file_name(k);
+    if a.ldr == LdrMode::None {
+        img.write_exr(&dir.join(&name), ExrPrecision::F32)?;
+        return Ok((1.0, 0.0));
+    }
+    let gain = match fixed_gain {
+        Some(g) => g,
+        None => {
+            let mut l: Vec<f32> = img.data.iter().map(|&p| luminance(p)).collect();
+            let m = fipt_core::image::median(&mut l);
+            if m > 0.0 {
+                METERED_GREY / m
+            } else {
+                1.0
+            }
+        }
+    };
+    let r = Response::Srgb;
+    let clipped = img
+        .data
+        .iter()
+        .filter(|p| p.max_element() * gain >= 1.0)
+        .count();
+    let stored = Image {
+        width: img.width,
+        height: img.height,
+        data: img
+            .data
+            .iter()
+            .map(|&p| Rgb::from_array((p * gain).to_array().map(|v| r.to_stored(v))))
+            .collect(),
+    };
+    match a.format {
+        ViewFormat::Png => fipt_core::capture::write_ldr(
+            &dir.join(&name).with_extension("png"),
+            &stored,
+            LdrFormat::Png,
+        )?,
+        ViewFormat::Jpg => fipt_core::capture::write_ldr(
+            &dir.join(&name).with_extension("jpg"),
+            &stored,
+            LdrFormat::Jpeg(a.jpeg_quality),
+        )?,
+        ViewFormat::Exr => {
+            // 8-bit steps, decoded back to linear: an LDR photo in an EXR.
+            let q = |v: f32| r.to_linear(fipt_core::capture::quantise8(v) as f32 / 255.0);
+            let lin = Image {
+                data: stored
+                    .data
+                    .iter()
+                    .map(|p| Rgb::from_array(p.to_array().map(q)))
+                    .collect(),
+                ..stored
+            };
+            lin.write_exr(&dir.join(&name), ExrPrecision::F32)?;
+        }
+    }
+    Ok((gain, clipped as f64 / img.data.len().max(1) as f64))
+}
+
+/// Copies a split's ground-truth folders as they are (at the source's cameras).
+fn copy_gt(s: &Split, dir: &Path) -> Result<()> {
+    for kind in &s.gt {
+        let to = dir.join(kind.folder());
+        std::fs::create_dir_all(&to)?;
+        for v in &s.views {
+            let from = s.gt_path(*kind, v.index);
+            std::fs::copy(&from, to.join(kind.file_name(v.index)))
+                .with_context(|| format!("copying {}", from.display()))?;
+        }
+    }
+    Ok(())
+}
