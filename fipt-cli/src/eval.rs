@@ -9,9 +9,72 @@ pub struct Args {
     scene: PathBuf,
     /// Output folder of `fipt run`.
     out: PathBuf,
+    /// Score at this scene folder's cameras (the scene itself: a run of a copy made by
+    /// `fipt degrade` is scored against its source): the recovered scene is rendered there
+    /// into OUT/eval/cameras-from/ and scored.
+    #[arg(long, value_name = "SCENE")]
+    cameras_from: Option<PathBuf>,
+    /// With --cameras-from: the split to score at (default val).
+    #[arg(long)]
+    split: Option<String>,
+    /// With --cameras-from: samples per pixel of the renders.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// With --cameras-from: seed of the renders.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// With --cameras-from: fit one global kd scale and one radiance scale before scoring
+    /// (auto: when the run's views were LDR).
+    #[arg(long, value_enum, default_value = "auto")]
+    fit_scales: Fit,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Fit {
+    Auto,
+    On,
+    Off,
 }
 
 pub fn run(a: Args) -> Result<()> {
+    if let Some(cams) = &a.cameras_from {
+        use fipt_pipeline::eval_at::{evaluate_at, render_dir, EvalAtRequest, FitScales};
+        let same = |p: &PathBuf| p.canonicalize().ok();
+        if same(cams) != same(&a.scene) {
+            anyhow::bail!(
+                "--cameras-from {}: the ground truth is scored at its own cameras; pass the scene folder {} itself",
+                cams.display(),
+                a.scene.display()
+            );
+        }
+        let m = evaluate_at(&EvalAtRequest {
+            truth: a.scene.clone(),
+            out: a.out.clone(),
+            split: a.split,
+            spp: a.spp,
+            seed: a.seed,
+            fit: match a.fit_scales {
+                Fit::Auto => FitScales::Auto,
+                Fit::On => FitScales::On,
+                Fit::Off => FitScales::Off,
+            },
+        })?;
+        print_metrics(&m);
+        for (name, v) in m.as_object().into_iter().flatten() {
+            let c = &v["cameras_from"];
+            if c["scales_fitted"].as_bool() == Some(true) {
+                println!(
+                    "{name}: scores after fitted scales kd × {:.4}, radiance × {:.4} (unscaled: kd {:.2} dB, re-render {:.2} dB)",
+                    c["scales"]["kd"].as_f64().unwrap_or(1.0),
+                    c["scales"]["radiance"].as_f64().unwrap_or(1.0),
+                    c["unscaled"]["kd_psnr"].as_f64().unwrap_or(f64::NAN),
+                    c["unscaled"]["render_psnr"].as_f64().unwrap_or(f64::NAN),
+                );
+            }
+        }
+        println!("wrote {}", render_dir(&a.out).join("metrics.json").display());
+        return Ok(());
+    }
     let m = fipt_pipeline::eval::evaluate_run(&a.scene, &a.out)?;
     print_metrics(&m);
     println!("wrote {}", a.out.join("metrics.json").display());

@@ -99,6 +99,12 @@ pub fn print_summary(s: &RunSummary) {
     if let Some(html) = &s.pictures {
         println!("  pictures: {}", html.display());
     }
+    if !s.warnings.is_empty() {
+        println!("\n{} WARNING(S) (also in report.json):", s.warnings.len());
+        for w in &s.warnings {
+            println!("  - {w}");
+        }
+    }
 }
 
 fn print_stages(stages: &[StageReport]) {

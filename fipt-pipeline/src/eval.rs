@@ -92,13 +92,13 @@ fn emission_scores(emis: &Image, emit_gt: Option<&Image>) -> (Option<f64>, f64) 
     ((uni > 0).then(|| inter as f64 / uni as f64), log2)
 }
 
-/// The sRGB PSNR of view `v`'s re-render in `dir` against its input, both divided by
-/// `display` (None without a re-render, or for a black or saturated view).
+/// The sRGB PSNR of view `v`'s re-render in `dir` (× `radiance`) against its input, both
+/// divided by `display` (None without a re-render, or for a black or saturated view).
 fn render_score(
     ds: &Dataset,
     v: &fipt_core::dataset::View,
     dir: &Path,
-    display: f32,
+    [display, radiance]: [f32; 2],
     split: &str,
 ) -> Result<Option<f64>> {
     let k = v.index;
@@ -108,7 +108,10 @@ fn render_score(
     }
     let mut r = Image::read_exr(&path).with_context(|| format!("reading {}", path.display()))?;
     let mut img = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0;
-    for p in r.data.iter_mut().chain(img.data.iter_mut()) {
+    for p in r.data.iter_mut() {
+        *p *= radiance / display;
+    }
+    for p in img.data.iter_mut() {
         *p /= display;
     }
     if let Some(why) = degenerate(&img) {
@@ -121,6 +124,32 @@ fn render_score(
 /// Evaluates the maps in `out/views/<split>/` of every split with ground truth; `exposure` is
 /// the run's exposure scale (see [`display_scale`]).
 pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::Value> {
+    evaluate_scaled(ds, out, exposure, Scales::ONE)
+}
+
+/// Global factors applied to the predicted kd and to the re-renders before scoring: what a run
+/// of LDR views cannot identify (the absolute scale of radiance, and with it of kd), fitted
+/// against the ground truth by `fipt eval --cameras-from` and reported beside the scores.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Scales {
+    pub kd: f32,
+    pub radiance: f32,
+}
+
+impl Scales {
+    pub const ONE: Scales = Scales {
+        kd: 1.0,
+        radiance: 1.0,
+    };
+}
+
+/// [`evaluate`] with the predicted kd and re-renders multiplied by `scales`.
+pub fn evaluate_scaled(
+    ds: &Dataset,
+    out: &Path,
+    exposure: f32,
+    scales: Scales,
+) -> Result<serde_json::Value> {
     let display = display_scale(exposure);
     let names = crate::eval_parts::part_names(&ds.root);
     let mut splits = serde_json::Map::new();
@@ -151,7 +180,10 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                 continue;
             };
             let emit_gt = gt(GtKind::Emit);
-            let kd = pred("kd")?;
+            let mut kd = pred("kd")?;
+            for p in &mut kd.data {
+                *p *= scales.kd;
+            }
             let ks = pred("ks")?;
             let rough = pred("roughness")?;
             let emis = pred("emission")?;
@@ -231,7 +263,7 @@ pub fn evaluate(ds: &Dataset, out: &Path, exposure: f32) -> Result<serde_json::V
                     .push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
             }
             let (iou, log2) = emission_scores(&emis, emit_gt.as_ref());
-            let render_p = render_score(ds, v, &dir, display, &s.name)?;
+            let render_p = render_score(ds, v, &dir, [display, scales.radiance], &s.name)?;
             render_all.push(render_p);
             let log_l2 = log2 / (3 * n) as f64;
             write_kd_error(out, &s.name, k, &kd, &kd_gt, &valid)?;

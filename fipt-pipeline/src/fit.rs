@@ -125,6 +125,11 @@ pub fn run(
     write_json_atomic(&a.out.join("emitters.json"), &user_emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     stages.push(StageReport::since("emitters", t));
+    let mut warnings = scene.capture.warnings.clone();
+    if let Some(w) = crate::outputs::no_light_warning(&scene, &emitters) {
+        crate::note!("WARNING: {w}");
+        warnings.push(w);
+    }
     let mut mark = |stage: &'static str, t: Instant| stages.push(StageReport::since(stage, t));
     let recovered = crate::outputs::Recovered {
         field,
@@ -156,6 +161,7 @@ pub fn run(
                 "search_and_refinement": "skipped (FIPT's rounds; this run's method replaces them)",
             },
             "metrics": metrics,
+            "warnings": warnings,
         }),
     );
     RunSummary::write(a, cfg, &scene, &report, stages, emitters.len(), None)

@@ -19,11 +19,13 @@
 //! ```
 pub mod bake;
 pub mod components;
+pub mod capture;
 pub mod config;
 pub mod degrade;
 mod divided;
 pub mod error;
 pub mod eval;
+pub mod eval_at;
 mod eval_parts;
 mod fit;
 pub mod inspect;

@@ -109,7 +109,46 @@ pub(crate) fn report_header(
             "height": scene.ds.height,
             "triangles": scene.geometry.mesh.triangles.len(),
         },
+        "capture": scene.capture,
     })
+}
+
+/// The loud warning of a run that found no light while its views have clipped or very bright
+/// pixels: its re-renders will be black and its materials wrong, and the report must say why.
+pub(crate) fn no_light_warning(
+    scene: &crate::scene::LoadedScene,
+    emitters: &[Emitter],
+) -> Option<String> {
+    if !emitters.is_empty() {
+        return None;
+    }
+    let c = &scene.capture.check;
+    let mut lum: Vec<f32> = scene
+        .images
+        .iter()
+        .flat_map(|i| i.data.iter().step_by(3))
+        .map(|&p| fipt_core::color::luminance(p))
+        .collect();
+    let median = fipt_core::image::median(&mut lum);
+    let k = (lum.len() as f64 * 0.999) as usize;
+    let top = if k < lum.len() {
+        *lum.select_nth_unstable_by(k, f32::total_cmp).1
+    } else {
+        0.0
+    };
+    let bright = median > 0.0 && top > 20.0 * median;
+    if c.clipped_share == 0.0 && !bright {
+        return None;
+    }
+    Some(format!(
+        "NO LIGHT FOUND, yet {:.2} % of the training pixels are at the clip level ({} views clip{}) and the brightest 0.1 % are {:.1}× the median: \
+         the lights are probably there but clipped or unexplained; the re-renders will be dark and the materials too bright. \
+         Give HDR views (EXR) or photos at a shorter exposure where the lights do not clip, or check the emitter settings ([emitters])",
+        100.0 * c.clipped_share,
+        c.clipped_views.len(),
+        if c.ldr { ", the views are LDR" } else { "" },
+        if median > 0.0 { top / median } else { 0.0 }
+    ))
 }
 
 /// Adds the keys of the object `more` to the object `report`.

@@ -96,6 +96,8 @@ pub struct RunSummary {
     pub metrics: Option<serde_json::Value>,
     /// `report.html`, when it was written.
     pub pictures: Option<PathBuf>,
+    /// `report.json`'s warnings (the capture's, a run that found no light).
+    pub warnings: Vec<String>,
 }
 
 impl RunSummary {
@@ -119,6 +121,12 @@ impl RunSummary {
             field,
             pictures: crate::report::write_or_warn(&a.out, &scene.ds),
             metrics: Some(report["metrics"].clone()).filter(|m| !m.is_null()),
+            warnings: report["warnings"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter_map(|w| w.as_str().map(str::to_string))
+                .collect(),
         })
     }
 }
@@ -463,6 +471,11 @@ fn run_locked(
     drop(reflected);
     let user_emitters = write_emitters(&a.out, &scene, &emitters)?;
     mark("emitters", t);
+    let mut warnings = scene.capture.warnings.clone();
+    if let Some(w) = crate::outputs::no_light_warning(&scene, &emitters) {
+        crate::note!("WARNING: {w}");
+        warnings.push(w);
+    }
 
     // Refine → train rounds, unless nothing in the scene needs them.
     let glossy = glossy_fraction(&records, &field, cfg.refine.rough_threshold)?;
@@ -527,6 +540,7 @@ fn run_locked(
             "components": components_report(cfg, components, extractor.name(), &field),
             "modeled": modeled(cfg, &emitters, &refine_plan, &train),
             "metrics": metrics,
+            "warnings": warnings,
         }),
     );
     let field = crate::rounds::train_dir(&a.out, done_rounds).join("field.safetensors");

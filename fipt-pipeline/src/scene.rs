@@ -20,6 +20,8 @@ pub struct LoadedScene {
     /// What the stages' caches key on: the inputs' fingerprint and the exposure scale (the
     /// stages see images / exposure).
     pub cache_key: String,
+    /// The views as a capture: LDR or not, clipped pixels, fitted exposures, warnings.
+    pub capture: crate::capture::CaptureReport,
 }
 
 /// The fingerprint of a scene's inputs: the mesh, the training cameras and images (what every
@@ -55,6 +57,19 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
         .collect::<Result<Vec<_>, _>>()
         .context("reading the training images")?;
     let mut images = images;
+    for (k, img) in images.iter_mut().enumerate() {
+        let e = ds.view_exposure(k);
+        if e != 1.0 {
+            img.data.iter_mut().for_each(|p| *p /= e);
+        }
+    }
+    let mut capture =
+        crate::capture::examine(&geometry, &split.views, &mut images, ds.has_ldr_files());
+    capture.exposures_known = ds.capture.exposures.is_some();
+    crate::capture::restore_clipped_lights(&geometry, &split.views, &mut images, &mut capture);
+    for w in &capture.warnings {
+        crate::note!("warning: {w}");
+    }
     let median = fipt_core::image::median_luminance(&images);
     let exposure = fipt_core::image::exposure_scale(median);
     if !(0.5..=2.0).contains(&exposure) {
@@ -85,6 +100,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
         inputs_hash,
         exposure,
         cache_key,
+        capture,
     })
 }
 

@@ -419,6 +419,12 @@ pub fn stage(
     }
     let st = Stage::start("training set");
     let (mut points, footprint) = view_points(&scene.geometry, &split.views);
+    // Clipped pixels off the lights: their radiance is only bounded below.
+    for (pts, out) in points.iter_mut().zip(&scene.capture.left_out) {
+        for (p, _) in pts.iter_mut().zip(out).filter(|(_, o)| **o) {
+            *p = None;
+        }
+    }
     if cfg.bleed_radius > 0 {
         leave_out_bleed(
             &mut points,

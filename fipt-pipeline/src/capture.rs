@@ -1,0 +1,293 @@
+//! What a run knows of its views as a capture: whether they are LDR (and which pixels clip),
+//! each view's exposure relative to the others (fitted on the surfaces they share: the mesh
+//! gives exact correspondences), and the warnings a user must read. `report.json`'s `capture`.
+use fipt_core::capture::{clipped_mask, ldr_check, LdrCheck, ViewLdr};
+use fipt_core::color::luminance;
+use fipt_core::dataset::View;
+use fipt_core::image::Image;
+use fipt_geom::Geometry;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// Cells per axis of the scene's bounds over which views are compared.
+const CELLS: f32 = 256.0;
+/// Views whose fitted exposures spread wider than this ratio disagree.
+pub const GAIN_SPREAD_WARN: f32 = 1.05;
+
+/// Each view's exposure relative to the others, from the surfaces they share.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct GainFit {
+    /// Per training view: its radiance / the views' common radiance (geometric mean 1).
+    pub gains: Vec<f32>,
+    /// Largest / smallest gain.
+    pub spread: f32,
+    /// Surface cells seen (unclipped, not dark) by at least two views, and (cell, view) pairs.
+    pub cells: usize,
+    pub pairs: usize,
+    /// RMS of the log residual after the fit (view-dependent light, noise, misregistration).
+    pub residual_log_rms: f32,
+}
+
+/// `report.json`'s `capture`.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct CaptureReport {
+    /// The LDR check of the training views.
+    #[serde(flatten)]
+    pub check: LdrCheck,
+    /// The value LDR views clip at (1 for 8-bit files), before any gain.
+    pub clip_level: Option<f32>,
+    /// The fitted exposures, and whether the views were divided by them (LDR views only).
+    pub exposure_fit: Option<GainFit>,
+    pub exposures_applied: bool,
+    /// Known exposures from `capture.json`, applied first.
+    pub exposures_known: bool,
+    /// What the user must know, with numbers (also printed).
+    pub warnings: Vec<String>,
+    /// Per training view, its clipped pixels (LDR views only).
+    #[serde(skip)]
+    pub clipped: Vec<Vec<bool>>,
+    /// Per training view, the clipped pixels the material loss leaves out (clipped but not on
+    /// a light: a highlight or a bright wall whose radiance is only bounded below).
+    #[serde(skip)]
+    pub left_out: Vec<Vec<bool>>,
+    /// The lights seen only clipped, and the convention their radiance was set by.
+    pub clipped_lights: Option<ClippedLights>,
+}
+
+/// Triangles whose every view clips: lights whose radiance the views do not give.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ClippedLights {
+    pub triangles: usize,
+    /// Their pixels, set to `assumed` × the clip level.
+    pub pixels: usize,
+    pub assumed: f32,
+    /// Other clipped pixels, left out of the material loss.
+    pub left_out_pixels: usize,
+    pub convention: String,
+}
+
+/// A triangle counts as a clipped light when this share of its pixels clip (over all views).
+const CLIPPED_TRIANGLE_SHARE: f64 = 0.9;
+/// The radiance assumed for a clipped light, in clip levels: not identifiable from LDR views,
+/// fixed by this convention (a lamp is typically one to two orders of magnitude brighter than
+/// the surfaces a camera meters for; what it lights then fixes the scale of kd).
+pub const CLIPPED_LIGHT_LEVELS: f32 = 16.0;
+
+/// For LDR views: the pixels of triangles that clip in every view they are seen from (lights)
+/// are set to [`CLIPPED_LIGHT_LEVELS`] × the clip level of their view (white), so that the
+/// stages see a light; the other clipped pixels are marked to be left out of the material
+/// loss. `gains` are the views' fitted exposures (the clip level of view k is level / g_k).
+pub fn restore_clipped_lights(
+    geometry: &Geometry,
+    views: &[View],
+    images: &mut [Image],
+    report: &mut CaptureReport,
+) {
+    let Some(level) = report.clip_level else {
+        return;
+    };
+    if report.clipped.is_empty() {
+        return;
+    }
+    let hits: Vec<Vec<Option<u32>>> = views
+        .par_iter()
+        .map(|v| {
+            fipt_shading::records::hit_points(geometry, v)
+                .into_iter()
+                .map(|h| h.map(|h| h.tri))
+                .collect()
+        })
+        .collect();
+    let mut count: HashMap<u32, (usize, usize)> = HashMap::new();
+    for (v, hv) in hits.iter().enumerate() {
+        for (i, t) in hv.iter().enumerate() {
+            if let Some(t) = t {
+                let e = count.entry(*t).or_default();
+                e.0 += usize::from(report.clipped[v][i]);
+                e.1 += 1;
+            }
+        }
+    }
+    let light = |t: u32| {
+        count
+            .get(&t)
+            .is_some_and(|&(c, n)| n >= 3 && c as f64 >= CLIPPED_TRIANGLE_SHARE * n as f64)
+    };
+    let gains = report.exposure_fit.as_ref().map(|f| f.gains.clone());
+    let mut cl = ClippedLights {
+        triangles: count.keys().filter(|&&t| light(t)).count(),
+        assumed: CLIPPED_LIGHT_LEVELS,
+        ..Default::default()
+    };
+    report.left_out = vec![];
+    for (v, img) in images.iter_mut().enumerate() {
+        let g = gains.as_ref().map_or(1.0, |g| g[v]);
+        let mut out = vec![false; img.data.len()];
+        for (i, p) in img.data.iter_mut().enumerate() {
+            if !report.clipped[v][i] {
+                continue;
+            }
+            if hits[v][i].is_some_and(light) {
+                *p = glam::Vec3::splat(CLIPPED_LIGHT_LEVELS * level / g);
+                cl.pixels += 1;
+            } else {
+                out[i] = true;
+                cl.left_out_pixels += 1;
+            }
+        }
+        report.left_out.push(out);
+    }
+    cl.convention = format!(
+        "{} triangles clip in at least {:.0} % of their pixels over all views: lights whose radiance LDR views do not give; their pixels were set to {} × the clip level (white), a convention: the lights' absolute radiance, and with it the scale of kd, is not identified; {} other clipped pixels are left out of the material loss",
+        cl.triangles,
+        100.0 * CLIPPED_TRIANGLE_SHARE,
+        CLIPPED_LIGHT_LEVELS,
+        cl.left_out_pixels
+    );
+    report.warnings.push(cl.convention.clone());
+    report.clipped_lights = Some(cl);
+}
+
+/// Checks the training images, fits their exposures on shared surfaces and, for LDR views,
+/// divides each by its fitted gain. Returns what it found.
+pub fn examine(
+    geometry: &Geometry,
+    views: &[View],
+    images: &mut [Image],
+    files_ldr: bool,
+) -> CaptureReport {
+    let per_view: Vec<(usize, ViewLdr)> = images
+        .par_iter()
+        .enumerate()
+        .map(|(k, img)| (k, ViewLdr::of(img)))
+        .collect();
+    let check = ldr_check(&per_view, files_ldr);
+    let mut r = CaptureReport {
+        warnings: crate::inspect::ldr_warnings("train", &check),
+        ..Default::default()
+    };
+    if check.ldr {
+        let level = per_view.iter().map(|(_, v)| v.max).fold(0.0f32, f32::max);
+        let level = if files_ldr || level <= 1.0 + 1e-3 { 1.0 } else { level };
+        r.clip_level = Some(level);
+        r.clipped = images.iter().map(|i| clipped_mask(i, level)).collect();
+    }
+    let fit = fit_gains(geometry, views, images, &r.clipped);
+    if let Some(f) = &fit {
+        if f.spread > GAIN_SPREAD_WARN {
+            r.warnings.push(format!(
+                "train: the views' exposures disagree on the surfaces they share: fitted gains {:.3} … {:.3} (×{:.2}) over {} surface cells{}",
+                f.gains.iter().cloned().fold(f32::INFINITY, f32::min),
+                f.gains.iter().cloned().fold(0.0f32, f32::max),
+                f.spread,
+                f.cells,
+                if check.ldr { "; each view is divided by its gain (auto-exposure)" } else { "; HDR views are used as they are" }
+            ));
+        }
+        if check.ldr {
+            for (img, g) in images.iter_mut().zip(&f.gains) {
+                for p in &mut img.data {
+                    *p /= *g;
+                }
+            }
+            r.exposures_applied = true;
+        }
+    }
+    r.exposure_fit = fit;
+    r.check = check;
+    r
+}
+
+/// Least squares of log radiance = log gain(view) + log radiance(cell) over the surface cells
+/// that several views see unclipped and above 1/256 of the clip level or the median; the
+/// gains' geometric mean is 1. None when fewer than two views share a cell.
+pub fn fit_gains(
+    geometry: &Geometry,
+    views: &[View],
+    images: &[Image],
+    clipped: &[Vec<bool>],
+) -> Option<GainFit> {
+    let b = geometry.mesh.bounds();
+    let cell = ((b.max - b.min).max_element() / CELLS).max(1e-6);
+    // Per view: cell → (sum of log luminance, count).
+    let per_view: Vec<HashMap<(i32, i32, i32), (f64, u32)>> = views
+        .par_iter()
+        .zip(images)
+        .enumerate()
+        .map(|(v, (view, img))| {
+            let hits = fipt_shading::records::hit_points(geometry, view);
+            let mut m: HashMap<(i32, i32, i32), (f64, u32)> = HashMap::new();
+            let floor = 1e-3 * fipt_core::image::median(
+                &mut img.data.iter().step_by(7).map(|&p| luminance(p)).collect::<Vec<_>>(),
+            );
+            for (i, h) in hits.iter().enumerate() {
+                let (Some(h), l) = (h, luminance(img.data[i])) else {
+                    continue;
+                };
+                if clipped.get(v).is_some_and(|c| c[i]) || !(l > floor.max(1e-8)) {
+                    continue;
+                }
+                let q = ((h.p - b.min) / cell).floor();
+                let e = m.entry((q.x as i32, q.y as i32, q.z as i32)).or_default();
+                e.0 += (l as f64).ln();
+                e.1 += 1;
+            }
+            m
+        })
+        .collect();
+    // cell → [(view, mean log luminance)] for cells seen by two views or more.
+    let mut cells: HashMap<(i32, i32, i32), Vec<(usize, f64)>> = HashMap::new();
+    for (v, m) in per_view.iter().enumerate() {
+        for (c, (s, n)) in m {
+            if *n >= 2 {
+                cells.entry(*c).or_default().push((v, s / *n as f64));
+            }
+        }
+    }
+    cells.retain(|_, obs| obs.len() >= 2);
+    if cells.is_empty() {
+        return None;
+    }
+    let obs: Vec<&Vec<(usize, f64)>> = cells.values().collect();
+    let nv = views.len();
+    let mut g = vec![0f64; nv];
+    let mut radiance = vec![0f64; obs.len()];
+    for _ in 0..100 {
+        for (c, o) in obs.iter().enumerate() {
+            radiance[c] = o.iter().map(|(v, y)| y - g[*v]).sum::<f64>() / o.len() as f64;
+        }
+        let mut res: Vec<Vec<f64>> = vec![vec![]; nv];
+        for (c, o) in obs.iter().enumerate() {
+            for (v, y) in o.iter() {
+                res[*v].push(y - radiance[c]);
+            }
+        }
+        // The median of each view's residuals: robust to highlights that move with the view.
+        for v in 0..nv {
+            if !res[v].is_empty() {
+                let m = res[v].len() / 2;
+                g[v] = *res[v].select_nth_unstable_by(m, f64::total_cmp).1;
+            }
+        }
+        let mean = g.iter().sum::<f64>() / nv as f64;
+        g.iter_mut().for_each(|x| *x -= mean);
+    }
+    let pairs: usize = obs.iter().map(|o| o.len()).sum();
+    let sq: f64 = obs
+        .iter()
+        .enumerate()
+        .flat_map(|(c, o)| o.iter().map(move |(v, y)| (v, y, c)))
+        .map(|(v, y, c)| (y - radiance[c] - g[*v]).powi(2))
+        .sum();
+    let gains: Vec<f32> = g.iter().map(|x| x.exp() as f32).collect();
+    let spread = gains.iter().cloned().fold(0.0f32, f32::max)
+        / gains.iter().cloned().fold(f32::INFINITY, f32::min);
+    Some(GainFit {
+        gains,
+        spread,
+        cells: obs.len(),
+        pairs,
+        residual_log_rms: (sq / pairs.max(1) as f64).sqrt() as f32,
+    })
+}
