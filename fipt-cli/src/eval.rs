@@ -72,7 +72,10 @@ pub fn run(a: Args) -> Result<()> {
                 );
             }
         }
-        println!("wrote {}", render_dir(&a.out).join("metrics.json").display());
+        println!(
+            "wrote {}",
+            render_dir(&a.out).join("metrics.json").display()
+        );
         return Ok(());
     }
     let m = fipt_pipeline::eval::evaluate_run(&a.scene, &a.out)?;

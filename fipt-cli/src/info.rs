@@ -100,6 +100,16 @@ pub fn run(a: Args) -> Result<()> {
             }
         );
     }
+    if let Some(f) = &sum.exposure_fit {
+        let lo = f.gains.iter().cloned().fold(f32::INFINITY, f32::min);
+        let hi = f.gains.iter().cloned().fold(0.0f32, f32::max);
+        say!(
+            "exposures   fitted on {} shared surface cells: gains {lo:.3} … {hi:.3} (×{:.3}), log residual {:.3}",
+            f.cells,
+            f.spread,
+            f.residual_log_rms
+        );
+    }
     if sum.warnings.is_empty() {
         say!("warnings     none");
     } else {

@@ -8,6 +8,16 @@ use std::collections::HashMap;
 /// Vertices are matched by position, so meshes that split vertices for normals or UVs still
 /// join; an edge shared by more than two triangles joins all pairs within the angle.
 pub fn smooth_patches(mesh: &Mesh, max_angle_deg: f32) -> (Vec<u32>, usize) {
+    patches_among(mesh, max_angle_deg, |_| true)
+}
+
+/// [`smooth_patches`] where only triangles `joins(t)` join across their edges (the others
+/// are patches of their own): with 180°, the connected pieces of a set of triangles.
+pub fn patches_among(
+    mesh: &Mesh,
+    max_angle_deg: f32,
+    joins: impl Fn(u32) -> bool,
+) -> (Vec<u32>, usize) {
     let n = mesh.triangles.len();
     let key = |v: u32| {
         let p = mesh.positions[v as usize];
@@ -34,7 +44,7 @@ pub fn smooth_patches(mesh: &Mesh, max_angle_deg: f32) -> (Vec<u32>, usize) {
     for tris in edges.values() {
         for (i, &a) in tris.iter().enumerate() {
             for &b in &tris[i + 1..] {
-                if normals[a as usize].dot(normals[b as usize]) >= cos_max {
+                if joins(a) && joins(b) && normals[a as usize].dot(normals[b as usize]) >= cos_max {
                     let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
                     if ra != rb {
                         parent[ra.max(rb) as usize] = ra.min(rb);

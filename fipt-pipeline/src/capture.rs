@@ -65,8 +65,12 @@ pub struct ClippedLights {
     /// Other clipped pixels, left out of the material loss.
     pub left_out_pixels: usize,
     pub convention: String,
+    /// Per connected light, its estimated radiance ([`crate::light_scale`]).
+    pub estimates: Vec<crate::light_scale::LightEstimate>,
 }
 
+/// A connected set of clipped triangles seen by fewer pixels (over all views) is a highlight.
+const MIN_LIGHT_PIXELS: usize = 16;
 /// A triangle counts as a clipped light when this share of its pixels clip (over all views).
 const CLIPPED_TRIANGLE_SHARE: f64 = 0.9;
 /// The radiance assumed for a clipped light, in clip levels: not identifiable from LDR views,
@@ -116,10 +120,36 @@ pub fn restore_clipped_lights(
     };
     let gains = report.exposure_fit.as_ref().map(|f| f.gains.clone());
     let mut cl = ClippedLights {
-        triangles: count.keys().filter(|&&t| light(t)).count(),
         assumed: CLIPPED_LIGHT_LEVELS,
         ..Default::default()
     };
+    // The connected lights, each its own radiance.
+    let (piece, _) = fipt_geom::patches::patches_among(&geometry.mesh, 180.0, light);
+    let mut groups: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
+    for t in (0..geometry.mesh.triangles.len() as u32).filter(|&t| light(t)) {
+        groups.entry(piece[t as usize]).or_default().push(t);
+    }
+    // A light is seen by a few pixels at least: fewer are a highlight's (left out).
+    let lights: Vec<Vec<u32>> = groups
+        .into_values()
+        .filter(|g| g.iter().map(|t| count[t].1).sum::<usize>() >= MIN_LIGHT_PIXELS)
+        .collect();
+    let kept: std::collections::HashSet<u32> = lights.iter().flatten().copied().collect();
+    let light = |t: u32| kept.contains(&t);
+    let skip: Vec<Vec<bool>> = report.clipped.clone();
+    let estimates = crate::light_scale::estimate(geometry, views, images, &lights, &skip, level);
+    let mut radiance: HashMap<u32, f32> = HashMap::new();
+    for (e, tris) in lights.iter().enumerate() {
+        let est = estimates
+            .as_ref()
+            .and_then(|v| v.get(e))
+            .filter(|x| x.pinned);
+        for &t in tris {
+            radiance.insert(t, est.map_or(f32::NAN, |x| x.radiance));
+        }
+    }
+    cl.estimates = estimates.unwrap_or_default();
+    cl.triangles = lights.iter().map(Vec::len).sum();
     report.left_out = vec![];
     for (v, img) in images.iter_mut().enumerate() {
         let g = gains.as_ref().map_or(1.0, |g| g[v]);
@@ -128,21 +158,37 @@ pub fn restore_clipped_lights(
             if !report.clipped[v][i] {
                 continue;
             }
-            if hits[v][i].is_some_and(light) {
-                *p = glam::Vec3::splat(CLIPPED_LIGHT_LEVELS * level / g);
-                cl.pixels += 1;
-            } else {
-                out[i] = true;
-                cl.left_out_pixels += 1;
+            match hits[v][i].filter(|&t| light(t)) {
+                Some(t) => {
+                    let r = radiance.get(&t).copied().filter(|r| r.is_finite());
+                    *p = glam::Vec3::splat(r.unwrap_or(CLIPPED_LIGHT_LEVELS * level / g));
+                    cl.pixels += 1;
+                }
+                None => {
+                    out[i] = true;
+                    cl.left_out_pixels += 1;
+                }
             }
         }
         report.left_out.push(out);
     }
+    let said: Vec<String> = cl
+        .estimates
+        .iter()
+        .map(|e| {
+            if e.pinned {
+                format!("{} triangles: {:.1} clip levels (the curve rises {:.0} % at 10× off)", e.triangles, e.levels, 100.0 * e.contrast)
+            } else {
+                format!("{} triangles: NOT PINNED by the views (the curve rises {:.1} % at 10× off), set by convention to {} clip levels", e.triangles, 100.0 * e.contrast, CLIPPED_LIGHT_LEVELS)
+            }
+        })
+        .collect();
     cl.convention = format!(
-        "{} triangles clip in at least {:.0} % of their pixels over all views: lights whose radiance LDR views do not give; their pixels were set to {} × the clip level (white), a convention: the lights' absolute radiance, and with it the scale of kd, is not identified; {} other clipped pixels are left out of the material loss",
+        "{} triangles clip in at least {:.0} % of their pixels over all views: {} light(s) whose radiance the LDR views do not give. Estimated from the surfaces they light (kd flattest inside smooth patches; white, one value per light): {}. The absolute scale of radiance and kd rests on this estimate; {} other clipped pixels are left out of the material loss",
         cl.triangles,
         100.0 * CLIPPED_TRIANGLE_SHARE,
-        CLIPPED_LIGHT_LEVELS,
+        lights.len(),
+        if said.is_empty() { "no estimate (no sample)".to_string() } else { said.join("; ") },
         cl.left_out_pixels
     );
     report.warnings.push(cl.convention.clone());
@@ -169,7 +215,11 @@ pub fn examine(
     };
     if check.ldr {
         let level = per_view.iter().map(|(_, v)| v.max).fold(0.0f32, f32::max);
-        let level = if files_ldr || level <= 1.0 + 1e-3 { 1.0 } else { level };
+        let level = if files_ldr || level <= 1.0 + 1e-3 {
+            1.0
+        } else {
+            level
+        };
         r.clip_level = Some(level);
         r.clipped = images.iter().map(|i| clipped_mask(i, level)).collect();
     }
@@ -218,9 +268,15 @@ pub fn fit_gains(
         .map(|(v, (view, img))| {
             let hits = fipt_shading::records::hit_points(geometry, view);
             let mut m: HashMap<(i32, i32, i32), (f64, u32)> = HashMap::new();
-            let floor = 1e-3 * fipt_core::image::median(
-                &mut img.data.iter().step_by(7).map(|&p| luminance(p)).collect::<Vec<_>>(),
-            );
+            let floor = 1e-3
+                * fipt_core::image::median(
+                    &mut img
+                        .data
+                        .iter()
+                        .step_by(7)
+                        .map(|&p| luminance(p))
+                        .collect::<Vec<_>>(),
+                );
             for (i, h) in hits.iter().enumerate() {
                 let (Some(h), l) = (h, luminance(img.data[i])) else {
                     continue;
@@ -249,30 +305,35 @@ pub fn fit_gains(
     if cells.is_empty() {
         return None;
     }
-    let obs: Vec<&Vec<(usize, f64)>> = cells.values().collect();
+    let all: Vec<&Vec<(usize, f64)>> = cells.values().collect();
     let nv = views.len();
-    let mut g = vec![0f64; nv];
-    let mut radiance = vec![0f64; obs.len()];
-    for _ in 0..100 {
-        for (c, o) in obs.iter().enumerate() {
-            radiance[c] = o.iter().map(|(v, y)| y - g[*v]).sum::<f64>() / o.len() as f64;
-        }
-        let mut res: Vec<Vec<f64>> = vec![vec![]; nv];
-        for (c, o) in obs.iter().enumerate() {
-            for (v, y) in o.iter() {
-                res[*v].push(y - radiance[c]);
-            }
-        }
-        // The median of each view's residuals: robust to highlights that move with the view.
-        for v in 0..nv {
-            if !res[v].is_empty() {
-                let m = res[v].len() / 2;
-                g[v] = *res[v].select_nth_unstable_by(m, f64::total_cmp).1;
-            }
-        }
-        let mean = g.iter().sum::<f64>() / nv as f64;
-        g.iter_mut().for_each(|x| *x -= mean);
-    }
+    let (g, radiance) = alternate(&all, nv, None);
+    // Leave out the cells the views disagree on most (highlights that move with the view, edges
+    // a pose error shifts): above twice the median residual, then fit again.
+    let rms: Vec<f64> = all
+        .iter()
+        .enumerate()
+        .map(|(c, o)| {
+            (o.iter()
+                .map(|(v, y)| (y - radiance[c] - g[*v]).powi(2))
+                .sum::<f64>()
+                / o.len() as f64)
+                .sqrt()
+        })
+        .collect();
+    let mut sorted = rms.clone();
+    let cut = 2.0
+        * sorted
+            .select_nth_unstable_by(rms.len() / 2, f64::total_cmp)
+            .1
+            .max(1e-3);
+    let obs: Vec<&Vec<(usize, f64)>> = all
+        .iter()
+        .zip(&rms)
+        .filter(|(_, r)| **r <= cut)
+        .map(|(o, _)| *o)
+        .collect();
+    let (g, radiance) = alternate(&obs, nv, Some(g));
     let pairs: usize = obs.iter().map(|o| o.len()).sum();
     let sq: f64 = obs
         .iter()
@@ -290,4 +351,35 @@ pub fn fit_gains(
         pairs,
         residual_log_rms: (sq / pairs.max(1) as f64).sqrt() as f32,
     })
+}
+
+/// Alternating least squares of y(view, cell) = g(view) + r(cell), with each view's g the
+/// median of its residuals (robust to highlights) and the g's mean 0; from `start` if given.
+fn alternate(
+    obs: &[&Vec<(usize, f64)>],
+    nv: usize,
+    start: Option<Vec<f64>>,
+) -> (Vec<f64>, Vec<f64>) {
+    let mut g = start.unwrap_or_else(|| vec![0f64; nv]);
+    let mut radiance = vec![0f64; obs.len()];
+    for _ in 0..100 {
+        for (c, o) in obs.iter().enumerate() {
+            radiance[c] = o.iter().map(|(v, y)| y - g[*v]).sum::<f64>() / o.len() as f64;
+        }
+        let mut res: Vec<Vec<f64>> = vec![vec![]; nv];
+        for (c, o) in obs.iter().enumerate() {
+            for (v, y) in o.iter() {
+                res[*v].push(y - radiance[c]);
+            }
+        }
+        for v in 0..nv {
+            if !res[v].is_empty() {
+                let m = res[v].len() / 2;
+                g[v] = *res[v].select_nth_unstable_by(m, f64::total_cmp).1;
+            }
+        }
+        let mean = g.iter().sum::<f64>() / nv as f64;
+        g.iter_mut().for_each(|x| *x -= mean);
+    }
+    (g, radiance)
 }

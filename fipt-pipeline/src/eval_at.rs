@@ -44,8 +44,8 @@ pub fn render_dir(out: &Path) -> PathBuf {
 /// Renders the run at `truth`'s cameras and scores it; returns (and writes into
 /// [`render_dir`]) `metrics.json`.
 pub fn evaluate_at(a: &EvalAtRequest) -> Result<serde_json::Value> {
-    let ds = Dataset::open(&a.truth)
-        .with_context(|| format!("opening scene {}", a.truth.display()))?;
+    let ds =
+        Dataset::open(&a.truth).with_context(|| format!("opening scene {}", a.truth.display()))?;
     let split = pick_split(&ds, a.split.as_deref())?.clone();
     let dir = render_dir(&a.out);
     let views_dir = dir.join("views").join(&split.name);
@@ -106,7 +106,10 @@ fn pick_split<'a>(ds: &'a Dataset, name: Option<&str>) -> Result<&'a Split> {
     let with_gt = |s: &&Split| s.has_gt(GtKind::DiffCol);
     let found = match name {
         Some(n) => ds.split(n).filter(with_gt),
-        None => ds.split("val").filter(with_gt).or_else(|| ds.splits.iter().find(with_gt)),
+        None => ds
+            .split("val")
+            .filter(with_gt)
+            .or_else(|| ds.splits.iter().find(with_gt)),
     };
     found.with_context(|| {
         format!(

@@ -41,6 +41,8 @@ pub struct SceneSummary {
     pub width: usize,
     pub height: usize,
     pub splits: Vec<SplitSummary>,
+    /// The training views' exposures fitted on the surfaces they share.
+    pub exposure_fit: Option<crate::capture::GainFit>,
     pub warnings: Vec<String>,
 }
 
@@ -104,6 +106,16 @@ pub fn inspect(scene: &Path, policy: BadPixelPolicy) -> Result<SceneSummary> {
             ds.mesh.display()
         );
     }
+    let exposure_fit = exposures(&ds, &mesh, policy)?;
+    if let Some(f) = exposure_fit
+        .as_ref()
+        .filter(|f| f.spread > crate::capture::GAIN_SPREAD_WARN)
+    {
+        warnings.push(format!(
+            "train: the views' exposures disagree on the surfaces they share: fitted gains spread ×{:.2} over {} surface cells (auto-exposure? `fipt run` divides LDR views by them)",
+            f.spread, f.cells
+        ));
+    }
     let b = mesh.bounds();
     Ok(SceneSummary {
         scene: ds.root.clone(),
@@ -117,8 +129,25 @@ pub fn inspect(scene: &Path, policy: BadPixelPolicy) -> Result<SceneSummary> {
         width: ds.width,
         height: ds.height,
         splits,
+        exposure_fit,
         warnings,
     })
+}
+
+/// The training views' exposures, fitted as `fipt run` fits them (clipped pixels left out).
+fn exposures(
+    ds: &Dataset,
+    mesh: &Mesh,
+    policy: BadPixelPolicy,
+) -> Result<Option<crate::capture::GainFit>> {
+    let split = ds.train();
+    let mut images = vec![];
+    for v in &split.views {
+        images.push(ds.load_image(v, policy)?.0);
+    }
+    let geometry = fipt_geom::Geometry::new(mesh.clone());
+    let report = crate::capture::examine(&geometry, &split.views, &mut images, ds.has_ldr_files());
+    Ok(report.exposure_fit)
 }
 
 /// What a split's images say that a user should know: clamped values, black and saturated

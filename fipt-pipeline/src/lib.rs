@@ -18,8 +18,8 @@
 //! # Ok::<(), fipt_pipeline::PipelineError>(())
 //! ```
 pub mod bake;
-pub mod components;
 pub mod capture;
+pub mod components;
 pub mod config;
 pub mod degrade;
 mod divided;
@@ -29,6 +29,7 @@ pub mod eval_at;
 mod eval_parts;
 mod fit;
 pub mod inspect;
+pub mod light_scale;
 pub mod memory;
 pub mod observe;
 pub mod outputs;
