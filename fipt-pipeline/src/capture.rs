@@ -12,6 +12,8 @@ use std::collections::HashMap;
 
 /// Cells per axis of the scene's bounds over which views are compared.
 const CELLS: f32 = 256.0;
+/// A view needs this many surface cells shared with other views for its gain to be fitted.
+pub const MIN_SHARED_CELLS: usize = 20;
 /// Views whose fitted exposures spread wider than this ratio disagree.
 pub const GAIN_SPREAD_WARN: f32 = 1.05;
 
@@ -20,6 +22,9 @@ pub const GAIN_SPREAD_WARN: f32 = 1.05;
 pub struct GainFit {
     /// Per training view: its radiance / the views' common radiance (geometric mean 1).
     pub gains: Vec<f32>,
+    /// Views that share fewer than [`MIN_SHARED_CELLS`] usable cells with the others (most
+    /// of the view clipped or black): their gain is left at 1.
+    pub unfitted: Vec<usize>,
     /// Largest / smallest gain.
     pub spread: f32,
     /// Surface cells seen (unclipped, not dark) by at least two views, and (cell, view) pairs.
@@ -138,14 +143,16 @@ pub fn restore_clipped_lights(
     let light = |t: u32| kept.contains(&t);
     let skip: Vec<Vec<bool>> = report.clipped.clone();
     let estimates = crate::light_scale::estimate(geometry, views, images, &lights, &skip, level);
-    let mut radiance: HashMap<u32, f32> = HashMap::new();
+    let mut radiance: HashMap<u32, glam::Vec3> = HashMap::new();
     for (e, tris) in lights.iter().enumerate() {
         let est = estimates
             .as_ref()
             .and_then(|v| v.get(e))
             .filter(|x| x.pinned);
-        for &t in tris {
-            radiance.insert(t, est.map_or(f32::NAN, |x| x.radiance));
+        if let Some(x) = est {
+            for &t in tris {
+                radiance.insert(t, glam::Vec3::from_array(x.radiance));
+            }
         }
     }
     cl.estimates = estimates.unwrap_or_default();
@@ -160,8 +167,10 @@ pub fn restore_clipped_lights(
             }
             match hits[v][i].filter(|&t| light(t)) {
                 Some(t) => {
-                    let r = radiance.get(&t).copied().filter(|r| r.is_finite());
-                    *p = glam::Vec3::splat(r.unwrap_or(CLIPPED_LIGHT_LEVELS * level / g));
+                    *p = radiance
+                        .get(&t)
+                        .copied()
+                        .unwrap_or(glam::Vec3::splat(CLIPPED_LIGHT_LEVELS * level / g));
                     cl.pixels += 1;
                 }
                 None => {
@@ -177,14 +186,14 @@ pub fn restore_clipped_lights(
         .iter()
         .map(|e| {
             if e.pinned {
-                format!("{} triangles: {:.1} clip levels (the curve rises {:.0} % at 10× off)", e.triangles, e.levels, 100.0 * e.contrast)
+                format!("{} triangles: {:.1} clip levels, RGB {:.2?} (the curve rises {:.0} % at 10× off)", e.triangles, e.levels, e.radiance, 100.0 * e.contrast)
             } else {
                 format!("{} triangles: NOT PINNED by the views (the curve rises {:.1} % at 10× off), set by convention to {} clip levels", e.triangles, 100.0 * e.contrast, CLIPPED_LIGHT_LEVELS)
             }
         })
         .collect();
     cl.convention = format!(
-        "{} triangles clip in at least {:.0} % of their pixels over all views: {} light(s) whose radiance the LDR views do not give. Estimated from the surfaces they light (kd flattest inside smooth patches; white, one value per light): {}. The absolute scale of radiance and kd rests on this estimate; {} other clipped pixels are left out of the material loss",
+        "{} triangles clip in at least {:.0} % of their pixels over all views: {} light(s) whose radiance the LDR views do not give. Estimated from the surfaces they light (the radiance per channel at which kd varies least along smooth patches): {}. The absolute scale of radiance and kd rests on this estimate; {} other clipped pixels are left out of the material loss",
         cl.triangles,
         100.0 * CLIPPED_TRIANGLE_SHARE,
         lights.len(),
@@ -223,8 +232,14 @@ pub fn examine(
         r.clip_level = Some(level);
         r.clipped = images.iter().map(|i| clipped_mask(i, level)).collect();
     }
-    let fit = fit_gains(geometry, views, images, &r.clipped);
+    let fit = fit_gains(geometry, views, images, &r.clipped, r.clip_level);
     if let Some(f) = &fit {
+        if !f.unfitted.is_empty() {
+            r.warnings.push(format!(
+                "train: views {:?} share fewer than {MIN_SHARED_CELLS} usable surface cells with the others (mostly clipped, black or alone): their exposure is unknown and left as it is",
+                f.unfitted
+            ));
+        }
         if f.spread > GAIN_SPREAD_WARN {
             r.warnings.push(format!(
                 "train: the views' exposures disagree on the surfaces they share: fitted gains {:.3} … {:.3} (×{:.2}) over {} surface cells{}",
@@ -257,16 +272,36 @@ pub fn fit_gains(
     views: &[View],
     images: &[Image],
     clipped: &[Vec<bool>],
+    clip_level: Option<f32>,
 ) -> Option<GainFit> {
+    // 8-bit values under 16 steps carry a quantisation error over 3 %: not used.
+    let ldr_floor = clip_level.map_or(0.0, |l| l * fipt_core::color::srgb_eotf(16.0 / 255.0));
     let b = geometry.mesh.bounds();
-    let cell = ((b.max - b.min).max_element() / CELLS).max(1e-6);
+    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
+        .par_iter()
+        .map(|view| fipt_shading::records::hit_points(geometry, view))
+        .collect();
+    // Cells of 3 pixel footprints (the median), at least 1/CELLS of the bounds: every cell
+    // gathers several pixels of each view that sees it.
+    let mut foot: Vec<f32> = hits
+        .iter()
+        .zip(views)
+        .flat_map(|(h, view)| {
+            h.iter()
+                .step_by(16)
+                .flatten()
+                .map(move |h| (h.p - view.camera.origin).length() / view.camera.fx)
+        })
+        .collect();
+    let cell = (3.0 * fipt_core::image::median(&mut foot))
+        .max((b.max - b.min).max_element() / CELLS)
+        .max(1e-6);
     // Per view: cell → (sum of log luminance, count).
-    let per_view: Vec<HashMap<(i32, i32, i32), (f64, u32)>> = views
+    let per_view: Vec<HashMap<(i32, i32, i32), (f64, u32)>> = hits
         .par_iter()
         .zip(images)
         .enumerate()
-        .map(|(v, (view, img))| {
-            let hits = fipt_shading::records::hit_points(geometry, view);
+        .map(|(v, (hits, img))| {
             let mut m: HashMap<(i32, i32, i32), (f64, u32)> = HashMap::new();
             let floor = 1e-3
                 * fipt_core::image::median(
@@ -281,7 +316,7 @@ pub fn fit_gains(
                 let (Some(h), l) = (h, luminance(img.data[i])) else {
                     continue;
                 };
-                if clipped.get(v).is_some_and(|c| c[i]) || !(l > floor.max(1e-8)) {
+                if clipped.get(v).is_some_and(|c| c[i]) || !(l > floor.max(ldr_floor).max(1e-8)) {
                     continue;
                 }
                 let q = ((h.p - b.min) / cell).floor();
@@ -334,6 +369,28 @@ pub fn fit_gains(
         .map(|(o, _)| *o)
         .collect();
     let (g, radiance) = alternate(&obs, nv, Some(g));
+    // Views that share too few cells with the others keep gain 1 and are named.
+    let mut shared = vec![0usize; nv];
+    for o in &obs {
+        for (v, _) in o.iter() {
+            shared[*v] += 1;
+        }
+    }
+    let unfitted: Vec<usize> = (0..nv).filter(|&v| shared[v] < MIN_SHARED_CELLS).collect();
+    let mut g = g;
+    let fitted = nv - unfitted.len();
+    let mean = (0..nv)
+        .filter(|v| !unfitted.contains(v))
+        .map(|v| g[v])
+        .sum::<f64>()
+        / fitted.max(1) as f64;
+    for (v, x) in g.iter_mut().enumerate() {
+        *x = if unfitted.contains(&v) {
+            0.0
+        } else {
+            *x - mean
+        };
+    }
     let pairs: usize = obs.iter().map(|o| o.len()).sum();
     let sq: f64 = obs
         .iter()
@@ -346,6 +403,7 @@ pub fn fit_gains(
         / gains.iter().cloned().fold(f32::INFINITY, f32::min);
     Some(GainFit {
         gains,
+        unfitted,
         spread,
         cells: obs.len(),
         pairs,

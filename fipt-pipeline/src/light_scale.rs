@@ -37,22 +37,22 @@ const MIN_CONTRAST: f64 = 0.02;
 #[derive(Clone, Debug, Serialize)]
 pub struct LightEstimate {
     pub triangles: usize,
-    /// Radiance (at the views' scale after their gains), and in clip levels.
-    pub radiance: f32,
+    /// Radiance per channel (at the views' scale after their gains), and its luminance in
+    /// clip levels.
+    pub radiance: [f32; 3],
     pub levels: f32,
-    /// Cost at the minimum, and its rise at a tenth and at ten times the radiance.
-    pub cost: f64,
+    /// The least rise of the channels' costs at a tenth and at ten times the radiance.
     pub contrast: f64,
     /// Whether the curve pins it (else the convention stays).
     pub pinned: bool,
 }
 
-/// One sample: its pixel, patch, observed luminance, A and each light's D.
+/// One sample: its pixel, patch, observed radiance, A and each light's D.
 struct Sample {
     at: (usize, usize, usize),
     patch: u32,
-    i: f32,
-    a: f32,
+    i: Vec3,
+    a: Vec3,
     d: Vec<f32>,
 }
 
@@ -130,8 +130,8 @@ pub fn estimate(
                     if skip[v][i] || is_light.contains(&hit.tri) {
                         continue;
                     }
-                    let lum = luminance(images[v].data[i]);
-                    if !(lum > 0.0) {
+                    let seen = images[v].data[i];
+                    if !(seen.min_element() > 0.0) {
                         continue;
                     }
                     let mut n = mesh.face_normal(hit.tri as usize);
@@ -150,7 +150,7 @@ pub fn estimate(
                     out.push(Sample {
                         at: (v, x, y),
                         patch: patch[hit.tri as usize],
-                        i: lum,
+                        i: seen,
                         a,
                         d,
                     });
@@ -165,7 +165,7 @@ pub fn estimate(
     Some(search(&samples, lights, level))
 }
 
-/// A(x): the mean luminance the SLF gives over cosine-distributed directions (lights count 0).
+/// A(x): the mean radiance the SLF gives over cosine-distributed directions (lights count 0).
 fn gather(
     geometry: &Geometry,
     slf: &fipt_shading::slf::SurfaceLightField,
@@ -173,9 +173,9 @@ fn gather(
     o: Vec3,
     n: Vec3,
     rng: &mut Pcg32,
-) -> f32 {
+) -> Vec3 {
     let (t, b) = n.any_orthonormal_pair();
-    let mut sum = 0.0;
+    let mut sum = Vec3::ZERO;
     for _ in 0..GATHER {
         let (u1, u2) = (rng.next_f32(), rng.next_f32());
         let r = u1.sqrt();
@@ -184,7 +184,7 @@ fn gather(
         if let Some(h) = geometry.bvh.closest_hit(o, d, 0.0, f32::INFINITY) {
             if !is_light.contains(&h.tri) {
                 let p = fipt_geom::hit_point(&geometry.mesh, &h);
-                sum += luminance(slf.lookup(p));
+                sum += slf.lookup(p);
             }
         }
     }
@@ -243,65 +243,73 @@ fn neighbours(samples: &[Sample]) -> Vec<(usize, usize)> {
     pairs
 }
 
-/// Coordinate descent over the lights: each light's radiance on a log grid, three rounds.
+/// Each channel on its own: coordinate descent over the lights, each light's radiance on a
+/// log grid, three rounds.
 fn search(samples: &[Sample], lights: &[Vec<u32>], level: f32) -> Vec<LightEstimate> {
     let pairs = neighbours(samples);
     let grid: Vec<f32> = (0..STEPS)
         .map(|k| level * 10f32.powf(DECADES * k as f32 / (STEPS - 1) as f32))
         .collect();
-    let mut l = vec![grid[STEPS / 2]; lights.len()];
-    let mut curves = vec![vec![]; lights.len()];
-    for _ in 0..3 {
-        for e in 0..lights.len() {
-            let curve: Vec<f64> = grid
-                .par_iter()
-                .map(|&g| {
-                    let mut t = l.clone();
-                    t[e] = g;
-                    cost(samples, &pairs, &t)
-                })
-                .collect();
+    let tenth = ((STEPS - 1) as f32 / DECADES) as usize;
+    let mut out: Vec<LightEstimate> = lights
+        .iter()
+        .map(|t| LightEstimate {
+            triangles: t.len(),
+            radiance: [0.0; 3],
+            levels: 0.0,
+            contrast: f64::INFINITY,
+            pinned: true,
+        })
+        .collect();
+    for c in 0..3 {
+        let mut l = vec![grid[STEPS / 2]; lights.len()];
+        let mut curves = vec![vec![]; lights.len()];
+        for _ in 0..3 {
+            for e in 0..lights.len() {
+                let curve: Vec<f64> = grid
+                    .par_iter()
+                    .map(|&g| {
+                        let mut t = l.clone();
+                        t[e] = g;
+                        cost(samples, &pairs, c, &t)
+                    })
+                    .collect();
+                let best = (0..STEPS)
+                    .min_by(|&a, &b| curve[a].total_cmp(&curve[b]))
+                    .unwrap_or(0);
+                l[e] = grid[best];
+                curves[e] = curve;
+            }
+        }
+        for (e, est) in out.iter_mut().enumerate() {
+            let cv = &curves[e];
             let best = (0..STEPS)
-                .min_by(|&a, &b| curve[a].total_cmp(&curve[b]))
+                .min_by(|&a, &b| cv[a].total_cmp(&cv[b]))
                 .unwrap_or(0);
-            l[e] = grid[best];
-            curves[e] = curve;
+            let at = |k: isize| cv[k.clamp(0, STEPS as isize - 1) as usize];
+            let rise = (at(best as isize - tenth as isize).min(at((best + tenth) as isize))
+                / cv[best].max(1e-12))
+                - 1.0;
+            est.radiance[c] = l[e];
+            est.contrast = est.contrast.min(rise);
+            est.pinned &= rise >= MIN_CONTRAST && best > 0 && best + 1 < STEPS;
         }
     }
-    let tenth = ((STEPS - 1) as f32 / DECADES) as usize;
-    lights
-        .iter()
-        .enumerate()
-        .map(|(e, tris)| {
-            let c = &curves[e];
-            let best = (0..STEPS)
-                .min_by(|&a, &b| c[a].total_cmp(&c[b]))
-                .unwrap_or(0);
-            let at = |k: isize| c[k.clamp(0, STEPS as isize - 1) as usize];
-            let rise = (at(best as isize - tenth as isize).min(at((best + tenth) as isize))
-                / c[best].max(1e-12))
-                - 1.0;
-            LightEstimate {
-                triangles: tris.len(),
-                radiance: l[e],
-                levels: l[e] / level,
-                cost: c[best],
-                contrast: rise,
-                pinned: rise >= MIN_CONTRAST && best > 0 && best + 1 < STEPS,
-            }
-        })
-        .collect()
+    for est in &mut out {
+        est.levels = luminance(Vec3::from_array(est.radiance)) / level;
+    }
+    out
 }
 
-/// The total variation of log kd for radiances `l`: the mean |Δ log kd| between neighbouring
+/// The total variation of log kd in `channel` for radiances `l`: the mean |Δ log kd| between neighbouring
 /// samples on one patch. Reflectance is piecewise constant (a texture's edges cost the same
 /// at every guess); a wrong guess leaves the shading's gradients and shadow edges in kd.
-fn cost(samples: &[Sample], pairs: &[(usize, usize)], l: &[f32]) -> f64 {
+fn cost(samples: &[Sample], pairs: &[(usize, usize)], channel: usize, l: &[f32]) -> f64 {
     let kd: Vec<f64> = samples
         .iter()
         .map(|s| {
-            let shade = s.a + s.d.iter().zip(l).map(|(d, l)| d * l).sum::<f32>();
-            (s.i as f64 / shade.max(1e-12) as f64).ln()
+            let shade = s.a[channel] + s.d.iter().zip(l).map(|(d, l)| d * l).sum::<f32>();
+            (s.i[channel] as f64 / shade.max(1e-12) as f64).ln()
         })
         .collect();
     pairs
