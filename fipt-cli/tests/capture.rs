@@ -1,0 +1,272 @@
+//! Captures, not renders: `fipt degrade` copies of generated scenes, and what `fipt info` and
+//! `fipt run` make of them (LDR evidence, exposures, clipped lights, the no-light warning).
+mod common;
+use common::{fipt, synth, tmp};
+use serde_json::Value;
+use std::path::Path;
+
+fn json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The tiny run config of these tests, without the segment prior (a copy has no parts).
+const TINY: &str = "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
+     [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
+     [train]\nsteps = 150\nbatch = 512\nsegments = \"none\"\n[train.field]\nmlp_width = 16\n\
+     mask_width = 16\n[train.field.grid]\nlevels = 4\n[search]\nregions = \"mesh\"\n\
+     [render]\nspp = 2\nval_spp = 2\nmax_bounces = 3\nseed = 0\n";
+
+/// An 8-view cornell at 64×48 (2 val views): every view shares walls with the others.
+fn cornell(dir: &Path) -> std::path::PathBuf {
+    let scene = dir.join("scene");
+    synth("cornell", scene.to_str().unwrap(), [8, 2, 64, 48, 32], &[]);
+    scene
+}
+
+fn degrade(src: &Path, out: &Path, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "degrade",
+        src.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    let (ok, _, err) = fipt(&args);
+    assert!(ok, "{err}");
+    json(&out.join("degrade.json"))
+}
+
+#[test]
+fn a_copy_without_noise_runs_as_its_source_through_the_real_layout() {
+    let dir = tmp("degrade-exact");
+    let src = dir.join("scene");
+    synth("cornell", src.to_str().unwrap(), [4, 2, 32, 24, 16], &[]);
+    let copy = dir.join("copy");
+    let rec = degrade(&src, &copy, &["--layout", "real"]);
+    assert_eq!(
+        rec["views"].as_array().unwrap().len(),
+        4,
+        "the training views only"
+    );
+    assert!(copy.join("cam.txt").is_file() && copy.join("K_list.txt").is_file());
+    assert!(
+        !copy.join("train").exists(),
+        "no ground truth in the real layout"
+    );
+    let cfg = dir.join("run.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let mut scores = vec![];
+    for (scene, out) in [(&src, dir.join("out-src")), (&copy, dir.join("out-copy"))] {
+        let (ok, _, err) = fipt(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--config",
+            cfg.to_str().unwrap(),
+        ]);
+        assert!(ok, "{err}");
+        let (ok, stdout, err) = fipt(&[
+            "eval",
+            src.to_str().unwrap(),
+            out.to_str().unwrap(),
+            "--cameras-from",
+            src.to_str().unwrap(),
+            "--spp",
+            "4",
+        ]);
+        assert!(ok, "{err}");
+        assert!(stdout.contains("val"), "{stdout}");
+        let m = json(&out.join("eval/cameras-from/metrics.json"));
+        scores.push(m["val"]["mean"].clone());
+    }
+    for key in ["kd_psnr", "roughness_psnr", "render_psnr"] {
+        let (a, b) = (
+            scores[0][key].as_f64().unwrap(),
+            scores[1][key].as_f64().unwrap(),
+        );
+        assert!(
+            (a - b).abs() < 0.3,
+            "{key}: source run {a:.2} dB, copy run {b:.2} dB"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn ldr_views_are_recognised_and_a_run_without_a_light_says_so() {
+    let dir = tmp("degrade-ldr");
+    let src = cornell(&dir);
+    let (ok, out, _) = fipt(&["info", src.to_str().unwrap()]);
+    assert!(
+        ok && out.contains("HDR") && !out.contains("LOW DYNAMIC RANGE"),
+        "{out}"
+    );
+    for (name, format) in [("png", "png"), ("exr", "exr")] {
+        let copy = dir.join(name);
+        degrade(
+            &src,
+            &copy,
+            &["--ldr", "fixed", "--format", format, "--layout", "real"],
+        );
+        let (ok, out, err) = fipt(&["info", copy.to_str().unwrap()]);
+        assert!(ok, "{err}");
+        assert!(
+            out.contains("LDR") && out.contains("LOW DYNAMIC RANGE"),
+            "{name}: {out}"
+        );
+        assert!(
+            out.contains("8-bit sRGB steps") && out.contains("views clip"),
+            "{name}: {out}"
+        );
+    }
+    // A run whose extractor finds nothing (no mask value reaches 2) while the views clip.
+    let cfg = dir.join("run.toml");
+    std::fs::write(&cfg, format!("{TINY}[emitters]\nthreshold = 2.0\n")).unwrap();
+    let out = dir.join("out");
+    let (ok, stdout, err) = fipt(&[
+        "run",
+        dir.join("png").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(stdout.contains("NO LIGHT FOUND"), "{stdout}");
+    let report = json(&out.join("report.json"));
+    assert_eq!(report["capture"]["ldr"], true);
+    let warnings = report["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().starts_with("NO LIGHT FOUND")),
+        "{warnings:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn auto_exposed_views_get_their_gains_back() {
+    let dir = tmp("degrade-auto");
+    let src = cornell(&dir);
+    let copy = dir.join("auto");
+    let rec = degrade(
+        &src,
+        &copy,
+        &[
+            "--ldr", "auto", "--format", "png", "--layout", "real", "--seed", "3",
+        ],
+    );
+    let (ok, out, err) = fipt(&["info", copy.to_str().unwrap(), "--json"]);
+    assert!(ok, "{err}");
+    let fit = &serde_json::from_str::<Value>(&out).unwrap()["exposure_fit"];
+    let gains: Vec<f64> = fit["gains"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g.as_f64().unwrap())
+        .collect();
+    let unfitted: Vec<usize> = fit["unfitted"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap() as usize)
+        .collect();
+    let truth: Vec<f64> = rec["views"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["gain"].as_f64().unwrap())
+        .collect();
+    // Views that see little but the light clip almost whole: they are named, not fitted.
+    let fitted: Vec<usize> = (0..truth.len()).filter(|k| !unfitted.contains(k)).collect();
+    assert!(fitted.len() >= 6, "unfitted {unfitted:?}");
+    let mean = |f: &dyn Fn(usize) -> f64| {
+        fitted.iter().map(|&k| f(k).ln()).sum::<f64>() / fitted.len() as f64
+    };
+    let (gm_fit, gm_true) = (mean(&|k| gains[k]).exp(), mean(&|k| truth[k]).exp());
+    let spread =
+        truth.iter().cloned().fold(0.0, f64::max) / truth.iter().cloned().fold(f64::MAX, f64::min);
+    assert!(spread > 1.5, "the copy's exposures differ (×{spread:.2})");
+    for &k in &fitted {
+        let err = (gains[k] / gm_fit) / (truth[k] / gm_true) - 1.0;
+        assert!(
+            err.abs() < 0.06,
+            "view {k}: gain off by {:.1} %",
+            100.0 * err
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_clipped_light_gets_its_radiance_back_from_the_surfaces_it_lights() {
+    let dir = tmp("degrade-clipped");
+    let src = cornell(&dir);
+    let copy = dir.join("ldr");
+    let rec = degrade(
+        &src,
+        &copy,
+        &["--ldr", "fixed", "--format", "png", "--layout", "real"],
+    );
+    let gain = rec["views"][0]["gain"].as_f64().unwrap();
+    let gt = json(&src.join("scene_gt.json"));
+    let light = gt["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["type"] == "emitter")
+        .unwrap();
+    let truth: Vec<f64> = light["radiance"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap() * gain)
+        .collect();
+    assert!(truth.iter().all(|&t| t > 3.0), "the light clips: {truth:?}");
+    let cfg = dir.join("run.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let out = dir.join("out");
+    let (ok, stdout, err) = fipt(&[
+        "run",
+        copy.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(!stdout.contains("NO LIGHT FOUND"), "{stdout}");
+    let report = json(&out.join("report.json"));
+    let est = &report["capture"]["clipped_lights"]["estimates"];
+    let biggest = est
+        .as_array()
+        .unwrap()
+        .iter()
+        .max_by_key(|e| e["triangles"].as_u64())
+        .unwrap();
+    assert_eq!(biggest["pinned"], true, "{est}");
+    // Measured 2026-11-27: RGB (25.1, 14.1, 5.6) for (18.2, 12.9, 4.3), luminance 15.8 for
+    // 13.4 (the clip level is 1): luminance within 25 %, each channel within 45 %.
+    let lum = |v: &[f64]| 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
+    let got: Vec<f64> = (0..3)
+        .map(|c| biggest["radiance"][c].as_f64().unwrap())
+        .collect();
+    assert!(
+        (lum(&got) / lum(&truth) - 1.0).abs() < 0.25,
+        "{got:?} for {truth:?}"
+    );
+    for c in 0..3 {
+        assert!(
+            (got[c] / truth[c] - 1.0).abs() < 0.45,
+            "channel {c}: {got:?} for {truth:?}"
+        );
+    }
+    assert!(
+        report["emitters"].as_array().is_some_and(|e| !e.is_empty()),
+        "{}",
+        report["emitters"]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
