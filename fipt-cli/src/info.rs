@@ -110,6 +110,13 @@ pub fn run(a: Args) -> Result<()> {
             f.residual_log_rms
         );
     }
+    say!(
+        "edges       the views' edges lie a median {:.2} px from the mesh's ({} of {} views {} px or more)",
+        sum.edges.median_px,
+        sum.edges.views_off.len(),
+        sum.edges.shifts.len(),
+        fipt_pipeline::capture::EDGE_OFF_PX
+    );
     if sum.warnings.is_empty() {
         say!("warnings     none");
     } else {

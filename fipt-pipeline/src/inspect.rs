@@ -43,6 +43,8 @@ pub struct SceneSummary {
     pub splits: Vec<SplitSummary>,
     /// The training views' exposures fitted on the surfaces they share.
     pub exposure_fit: Option<crate::capture::GainFit>,
+    /// How well the mesh's edges line up with the training views'.
+    pub edges: crate::capture::EdgeCheck,
     pub warnings: Vec<String>,
 }
 
@@ -106,7 +108,8 @@ pub fn inspect(scene: &Path, policy: BadPixelPolicy) -> Result<SceneSummary> {
             ds.mesh.display()
         );
     }
-    let exposure_fit = exposures(&ds, &mesh, policy)?;
+    let (exposure_fit, edges) = exposures(&ds, &mesh, policy)?;
+    warnings.extend(crate::capture::edge_warning(&edges));
     if let Some(f) = exposure_fit
         .as_ref()
         .filter(|f| f.spread > crate::capture::GAIN_SPREAD_WARN)
@@ -130,16 +133,18 @@ pub fn inspect(scene: &Path, policy: BadPixelPolicy) -> Result<SceneSummary> {
         height: ds.height,
         splits,
         exposure_fit,
+        edges,
         warnings,
     })
 }
 
-/// The training views' exposures, fitted as `fipt run` fits them (clipped pixels left out).
+/// The training views' exposures, fitted as `fipt run` fits them (clipped pixels left out),
+/// and how their edges line up with the mesh's.
 fn exposures(
     ds: &Dataset,
     mesh: &Mesh,
     policy: BadPixelPolicy,
-) -> Result<Option<crate::capture::GainFit>> {
+) -> Result<(Option<crate::capture::GainFit>, crate::capture::EdgeCheck)> {
     let split = ds.train();
     let mut images = vec![];
     for v in &split.views {
@@ -147,7 +152,7 @@ fn exposures(
     }
     let geometry = fipt_geom::Geometry::new(mesh.clone());
     let report = crate::capture::examine(&geometry, &split.views, &mut images, ds.has_ldr_files());
-    Ok(report.exposure_fit)
+    Ok((report.exposure_fit, report.edges))
 }
 
 /// What a split's images say that a user should know: clamped values, black and saturated
