@@ -312,6 +312,8 @@ pub struct LdrCheck {
     pub clipped_views: Vec<(usize, f64)>,
 }
 
+/// Pixels at the maximum that make a view capped (with 0.1 % of its pixels).
+pub const CAPPED_PIXELS: usize = 16;
 /// A view counts as clipped above this share of its pixels at its maximum.
 pub const CLIPPED_VIEW_SHARE: f64 = 0.001;
 
@@ -329,7 +331,12 @@ pub fn ldr_check(views: &[(usize, ViewLdr)], files_ldr: bool) -> LdrCheck {
     let tested: usize = lit.iter().map(|(_, v)| v.tested).sum();
     let steps = lit.iter().map(|(_, v)| v.on_steps).sum::<usize>() as f64 / tested.max(1) as f64;
     let top = lit.iter().map(|(_, v)| v.max).fold(0.0f32, f32::max);
-    let capped = lit.iter().filter(|(_, v)| v.max >= top * 0.998).count();
+    // A view is capped when it reaches the common maximum with many pixels (an HDR render's
+    // maximum is a handful of pixels).
+    let capped = lit
+        .iter()
+        .filter(|(_, v)| v.max >= top * 0.998 && v.at_max >= CAPPED_PIXELS.max(v.pixels / 1000))
+        .count();
     if files_ldr {
         c.evidence
             .push("the views are 8/16-bit files (PNG or JPEG)".into());
@@ -383,7 +390,7 @@ mod tests {
                 let back = r.to_linear(r.to_stored(x));
                 assert!((back - x).abs() < 1e-4, "{r:?}: {x} -> {back}");
             }
-            assert_eq!(r.to_stored(7.0), 1.0, "{r:?} clips above 1");
+            assert!((r.to_stored(7.0) - 1.0).abs() < 1e-6, "{r:?} clips above 1");
         }
     }
 

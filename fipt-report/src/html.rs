@@ -58,6 +58,23 @@ fn header(h: &mut String, report: &Value) {
     );
 }
 
+/// `report.json`'s warnings (LDR views, clipped lights, misregistered edges, no light found)
+/// at the top of the page, where a reader cannot miss them.
+fn warnings(h: &mut String, report: &Value) {
+    let Some(w) = report["warnings"].as_array().filter(|w| !w.is_empty()) else {
+        return;
+    };
+    let _ = writeln!(
+        h,
+        "<div class=\"warnings\" style=\"border:2px solid #c60;background:#fff4e5;padding:0.5em 1em\"><h2>Warnings ({})</h2><ul>",
+        w.len()
+    );
+    for x in w {
+        let _ = writeln!(h, "<li>{}</li>", esc(x.as_str().unwrap_or("")));
+    }
+    h.push_str("</ul></div>\n");
+}
+
 fn metrics_table(h: &mut String, metrics: &Value) {
     let Some(splits) = metrics.as_object() else {
         h.push_str("<p>No ground truth: no metrics.</p>\n");
@@ -189,6 +206,7 @@ pub fn write_html(run: &Path, views: &[ViewPictures]) -> Result<PathBuf> {
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>fipt report</title>\n<style>{STYLE}</style>\n<script>{SCRIPT}</script></head><body>\n"
     );
     header(&mut h, &report);
+    warnings(&mut h, &report);
     metrics_table(&mut h, &metrics);
     h.push_str("<h2>Views</h2>\n<p>Drag a slider to compare the re-render with the input; the error map shows |Δ| of the displayed values ×4 (black → red → yellow → white).</p>\n");
     for v in views {
@@ -209,4 +227,26 @@ pub fn write_html(run: &Path, views: &[ViewPictures]) -> Result<PathBuf> {
     let path = run.join("report.html");
     fipt_core::fsutil::write_bytes_atomic(&path, h.as_bytes())?;
     Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warnings_head_the_page_escaped_and_absent_without_any() {
+        let mut h = String::new();
+        warnings(
+            &mut h,
+            &serde_json::json!({ "warnings": ["NO LIGHT FOUND <b>", "LDR"] }),
+        );
+        assert!(
+            h.contains("Warnings (2)") && h.contains("NO LIGHT FOUND &lt;b&gt;"),
+            "{h}"
+        );
+        let mut none = String::new();
+        warnings(&mut none, &serde_json::json!({ "warnings": [] }));
+        warnings(&mut none, &serde_json::json!({}));
+        assert!(none.is_empty());
+    }
 }
