@@ -83,7 +83,113 @@ pub fn estimate(
         }
     }
     let slf = slf.finish();
-    // The side each light triangle was seen from (+1 its winding's, −1 the other, 0 both).
+    let side = light_sides(geometry, views, &hits, &is_light);
+    let samplers: Vec<TriangleSampler> = lights
+        .iter()
+        .map(|t| TriangleSampler::uniform_area(mesh, t))
+        .collect::<Option<_>>()?;
+    let (patch, _) = fipt_geom::patches::smooth_patches(mesh, 30.0);
+    let at = Surfaces {
+        geometry,
+        slf: &slf,
+        is_light: &is_light,
+        side: &side,
+        samplers: &samplers,
+        patch: &patch,
+    };
+    let samples = at.samples(views, images, &hits, skip);
+    if samples.is_empty() {
+        return None;
+    }
+    Some(search(&samples, lights, level))
+}
+
+/// What a sample is measured against: the scene, its lights and its patches.
+struct Surfaces<'a> {
+    geometry: &'a Geometry,
+    slf: &'a fipt_shading::slf::SurfaceLightField,
+    is_light: &'a std::collections::HashSet<u32>,
+    side: &'a HashMap<u32, f32>,
+    samplers: &'a [TriangleSampler],
+    patch: &'a [u32],
+}
+
+type Hits = [Vec<Option<fipt_shading::records::HitPoint>>];
+
+impl Surfaces<'_> {
+    /// Every STRIDE-th pixel of every view that sees a lit, unclipped surface off the lights.
+    fn samples(
+        &self,
+        views: &[View],
+        images: &[Image],
+        hits: &Hits,
+        skip: &[Vec<bool>],
+    ) -> Vec<Sample> {
+        views
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(v, view)| {
+                let (w, h) = (view.camera.width, view.camera.height);
+                let mut out = vec![];
+                for y in (STRIDE / 2..h).step_by(STRIDE) {
+                    for x in (STRIDE / 2..w).step_by(STRIDE) {
+                        let i = y * w + x;
+                        let Some(hit) =
+                            hits[v][i].filter(|h| !skip[v][i] && !self.is_light.contains(&h.tri))
+                        else {
+                            continue;
+                        };
+                        let seen = images[v].data[i];
+                        if seen.min_element() > 0.0 {
+                            out.push(self.sample((v, x, y), view.camera.origin, hit, seen));
+                        }
+                    }
+                }
+                out
+            })
+            .collect()
+    }
+
+    /// The sample of pixel `at` that sees `hit` from `eye` with radiance `seen`.
+    fn sample(
+        &self,
+        at: (usize, usize, usize),
+        eye: Vec3,
+        hit: fipt_shading::records::HitPoint,
+        seen: Vec3,
+    ) -> Sample {
+        let mut n = self.geometry.mesh.face_normal(hit.tri as usize);
+        if n.dot(eye - hit.p) < 0.0 {
+            n = -n;
+        }
+        // The same random numbers at every pixel: A and D vary smoothly along a surface (their
+        // noise does not pass for texture), but for shadows.
+        let mut rng = Pcg32::from_keys(&[0x11a7]);
+        let o = offset_ray_origin(hit.p, n);
+        let a = gather(self.geometry, self.slf, self.is_light, o, n, &mut rng);
+        let d = self
+            .samplers
+            .iter()
+            .map(|s| direct(self.geometry, s, self.side, o, n, &mut rng))
+            .collect();
+        Sample {
+            at,
+            patch: self.patch[hit.tri as usize],
+            i: seen,
+            a,
+            d,
+        }
+    }
+}
+
+/// The side each light triangle was seen from (+1 its winding's, −1 the other, 0 both).
+fn light_sides(
+    geometry: &Geometry,
+    views: &[View],
+    hits: &Hits,
+    is_light: &std::collections::HashSet<u32>,
+) -> HashMap<u32, f32> {
+    let mesh = &geometry.mesh;
     let mut votes: HashMap<u32, (u32, u32)> = HashMap::new();
     for (v, hv) in hits.iter().enumerate() {
         let eye = views[v].camera.origin;
@@ -97,7 +203,7 @@ pub fn estimate(
             }
         }
     }
-    let side: HashMap<u32, f32> = votes
+    votes
         .into_iter()
         .map(|(t, (f, b))| {
             (
@@ -111,58 +217,7 @@ pub fn estimate(
                 },
             )
         })
-        .collect();
-    let samplers: Vec<TriangleSampler> = lights
-        .iter()
-        .map(|t| TriangleSampler::uniform_area(mesh, t))
-        .collect::<Option<_>>()?;
-    let (patch, _) = fipt_geom::patches::smooth_patches(mesh, 30.0);
-    let samples: Vec<Sample> = views
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(v, view)| {
-            let (w, h) = (view.camera.width, view.camera.height);
-            let mut out = vec![];
-            for y in (STRIDE / 2..h).step_by(STRIDE) {
-                for x in (STRIDE / 2..w).step_by(STRIDE) {
-                    let i = y * w + x;
-                    let Some(hit) = hits[v][i] else { continue };
-                    if skip[v][i] || is_light.contains(&hit.tri) {
-                        continue;
-                    }
-                    let seen = images[v].data[i];
-                    if !(seen.min_element() > 0.0) {
-                        continue;
-                    }
-                    let mut n = mesh.face_normal(hit.tri as usize);
-                    if n.dot(view.camera.origin - hit.p) < 0.0 {
-                        n = -n;
-                    }
-                    // The same random numbers at every pixel: A and D vary smoothly along a
-                    // surface (their noise does not pass for texture), but for shadows.
-                    let mut rng = Pcg32::from_keys(&[0x11a7]);
-                    let o = offset_ray_origin(hit.p, n);
-                    let a = gather(geometry, &slf, &is_light, o, n, &mut rng);
-                    let d = samplers
-                        .iter()
-                        .map(|s| direct(geometry, s, &side, o, n, &mut rng))
-                        .collect();
-                    out.push(Sample {
-                        at: (v, x, y),
-                        patch: patch[hit.tri as usize],
-                        i: seen,
-                        a,
-                        d,
-                    });
-                }
-            }
-            out
-        })
-        .collect();
-    if samples.is_empty() {
-        return None;
-    }
-    Some(search(&samples, lights, level))
+        .collect()
 }
 
 /// A(x): the mean radiance the SLF gives over cosine-distributed directions (lights count 0).

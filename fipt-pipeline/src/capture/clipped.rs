@@ -1,0 +1,175 @@
+//! Lights that LDR views show only clipped: found, their radiance estimated, the other clipped
+//! pixels left out of the material loss.
+use super::CaptureReport;
+use fipt_core::dataset::View;
+use fipt_core::image::Image;
+use fipt_geom::Geometry;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// Triangles whose every view clips: lights whose radiance the views do not give.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ClippedLights {
+    pub triangles: usize,
+    /// Their pixels, set to `assumed` × the clip level.
+    pub pixels: usize,
+    pub assumed: f32,
+    /// Other clipped pixels, left out of the material loss.
+    pub left_out_pixels: usize,
+    pub convention: String,
+    /// Per connected light, its estimated radiance ([`crate::light_scale`]).
+    pub estimates: Vec<crate::light_scale::LightEstimate>,
+}
+
+/// A connected set of clipped triangles seen by fewer pixels (over all views) is a highlight.
+const MIN_LIGHT_PIXELS: usize = 16;
+/// A triangle counts as a clipped light when this share of its pixels clip (over all views).
+const CLIPPED_TRIANGLE_SHARE: f64 = 0.9;
+/// The radiance assumed for a clipped light, in clip levels: not identifiable from LDR views,
+/// fixed by this convention (a lamp is typically one to two orders of magnitude brighter than
+/// the surfaces a camera meters for; what it lights then fixes the scale of kd).
+pub const CLIPPED_LIGHT_LEVELS: f32 = 16.0;
+
+/// For LDR views: the pixels of the clipped lights ([`find_lights`]) are set to each light's
+/// radiance as [`crate::light_scale::estimate`] finds it (where the views pin it; else
+/// [`CLIPPED_LIGHT_LEVELS`] × the clip level of their view, white), so that the stages see a
+/// light; the other clipped pixels are marked to be left out of the material loss.
+pub fn restore_clipped_lights(
+    geometry: &Geometry,
+    views: &[View],
+    images: &mut [Image],
+    report: &mut CaptureReport,
+) {
+    let Some(level) = report.clip_level else {
+        return;
+    };
+    if report.clipped.is_empty() {
+        return;
+    }
+    let (hits, lights) = find_lights(geometry, views, &report.clipped);
+    let kept: std::collections::HashSet<u32> = lights.iter().flatten().copied().collect();
+    let light = |t: u32| kept.contains(&t);
+    let gains = report
+        .exposure_fit
+        .as_ref()
+        .filter(|_| report.exposures_applied)
+        .map(|f| f.gains.clone());
+    let mut cl = ClippedLights {
+        assumed: CLIPPED_LIGHT_LEVELS,
+        ..Default::default()
+    };
+    let skip: Vec<Vec<bool>> = report.clipped.clone();
+    let estimates = crate::light_scale::estimate(geometry, views, images, &lights, &skip, level);
+    let mut radiance: HashMap<u32, glam::Vec3> = HashMap::new();
+    for (e, tris) in lights.iter().enumerate() {
+        let est = estimates
+            .as_ref()
+            .and_then(|v| v.get(e))
+            .filter(|x| x.pinned);
+        if let Some(x) = est {
+            for &t in tris {
+                radiance.insert(t, glam::Vec3::from_array(x.radiance));
+            }
+        }
+    }
+    cl.estimates = estimates.unwrap_or_default();
+    cl.triangles = lights.iter().map(Vec::len).sum();
+    report.left_out = vec![];
+    for (v, img) in images.iter_mut().enumerate() {
+        let g = gains.as_ref().map_or(1.0, |g| g[v]);
+        let mut out = vec![false; img.data.len()];
+        for (i, p) in img.data.iter_mut().enumerate() {
+            if !report.clipped[v][i] {
+                continue;
+            }
+            match hits[v][i].filter(|&t| light(t)) {
+                Some(t) => {
+                    *p = radiance
+                        .get(&t)
+                        .copied()
+                        .unwrap_or(glam::Vec3::splat(CLIPPED_LIGHT_LEVELS * level / g));
+                    cl.pixels += 1;
+                }
+                None => {
+                    out[i] = true;
+                    cl.left_out_pixels += 1;
+                }
+            }
+        }
+        report.left_out.push(out);
+    }
+    cl.convention = describe(&cl, lights.len());
+    report.warnings.push(cl.convention.clone());
+    report.clipped_lights = Some(cl);
+}
+
+/// Per training view the triangle each pixel sees, and the clipped lights: connected pieces of
+/// triangles with [`CLIPPED_TRIANGLE_SHARE`] of their pixels clipped over all views, seen by
+/// [`MIN_LIGHT_PIXELS`] pixels or more.
+#[allow(clippy::type_complexity)]
+fn find_lights(
+    geometry: &Geometry,
+    views: &[View],
+    clipped: &[Vec<bool>],
+) -> (Vec<Vec<Option<u32>>>, Vec<Vec<u32>>) {
+    let hits: Vec<Vec<Option<u32>>> = views
+        .par_iter()
+        .map(|v| {
+            fipt_shading::records::hit_points(geometry, v)
+                .into_iter()
+                .map(|h| h.map(|h| h.tri))
+                .collect()
+        })
+        .collect();
+    let mut count: HashMap<u32, (usize, usize)> = HashMap::new();
+    for (v, hv) in hits.iter().enumerate() {
+        for (i, t) in hv.iter().enumerate() {
+            if let Some(t) = t {
+                let e = count.entry(*t).or_default();
+                e.0 += usize::from(clipped[v][i]);
+                e.1 += 1;
+            }
+        }
+    }
+    let light = |t: u32| {
+        count
+            .get(&t)
+            .is_some_and(|&(c, n)| n >= 3 && c as f64 >= CLIPPED_TRIANGLE_SHARE * n as f64)
+    };
+    // The connected lights, each its own radiance.
+    let (piece, _) = fipt_geom::patches::patches_among(&geometry.mesh, 180.0, light);
+    let mut groups: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
+    for t in (0..geometry.mesh.triangles.len() as u32).filter(|&t| light(t)) {
+        groups.entry(piece[t as usize]).or_default().push(t);
+    }
+    // A light is seen by a few pixels at least: fewer are a highlight's (left out).
+    let lights: Vec<Vec<u32>> = groups
+        .into_values()
+        .filter(|g| g.iter().map(|t| count[t].1).sum::<usize>() >= MIN_LIGHT_PIXELS)
+        .collect();
+    (hits, lights)
+}
+
+/// What `report.json` and the log say of the clipped lights.
+fn describe(cl: &ClippedLights, lights: usize) -> String {
+    let said: Vec<String> = cl
+        .estimates
+        .iter()
+        .map(|e| {
+            if e.pinned {
+                format!("{} triangles: {:.1} clip levels, RGB {:.2?} (the curve rises {:.0} % at 10× off)", e.triangles, e.levels, e.radiance, 100.0 * e.contrast)
+            } else {
+                format!("{} triangles: NOT PINNED by the views (the curve rises {:.1} % at 10× off), set by convention to {} clip levels", e.triangles, 100.0 * e.contrast, CLIPPED_LIGHT_LEVELS)
+            }
+        })
+        .collect();
+    format!(
+        "{} triangles clip in at least {:.0} % of their pixels over all views: {} light(s) whose radiance the LDR views do not give. Estimated from the surfaces they light (the radiance per channel at which kd varies least along smooth patches): {}. The absolute scale of radiance and kd rests on this estimate; {} other clipped pixels are left out of the material loss",
+        cl.triangles,
+        100.0 * CLIPPED_TRIANGLE_SHARE,
+        lights,
+        if said.is_empty() { "no estimate (no sample)".to_string() } else { said.join("; ") },
+        cl.left_out_pixels
+    )
+}

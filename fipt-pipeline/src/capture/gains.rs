@@ -1,0 +1,225 @@
+//! Each view's exposure relative to the others, fitted on the surfaces they share.
+use fipt_core::color::luminance;
+use fipt_core::dataset::View;
+use fipt_core::image::Image;
+use fipt_geom::Geometry;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// Cells per axis of the scene's bounds over which views are compared.
+const CELLS: f32 = 256.0;
+/// A view needs this many surface cells shared with other views for its gain to be fitted.
+pub const MIN_SHARED_CELLS: usize = 20;
+/// Views whose fitted exposures spread wider than this ratio disagree (the fit's own error on
+/// views of one exposure: ×1.07 on `studio-mitsuba`, its glossy and metal surfaces); LDR views
+/// are divided by their gains only then.
+pub const GAIN_SPREAD_WARN: f32 = 1.15;
+
+/// Each view's exposure relative to the others, from the surfaces they share.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct GainFit {
+    /// Per training view: its radiance / the views' common radiance (geometric mean 1).
+    pub gains: Vec<f32>,
+    /// Views that share fewer than [`MIN_SHARED_CELLS`] usable cells with the others (most
+    /// of the view clipped or black): their gain is left at 1.
+    pub unfitted: Vec<usize>,
+    /// Largest / smallest gain.
+    pub spread: f32,
+    /// Surface cells seen (unclipped, not dark) by at least two views, and (cell, view) pairs.
+    pub cells: usize,
+    pub pairs: usize,
+    /// RMS of the log residual after the fit (view-dependent light, noise, misregistration).
+    pub residual_log_rms: f32,
+}
+
+/// Least squares of log radiance = log gain(view) + log radiance(cell) over the surface cells
+/// that several views see unclipped and above 1/256 of the clip level or the median; the
+/// gains' geometric mean is 1. None when fewer than two views share a cell.
+pub fn fit_gains(
+    geometry: &Geometry,
+    views: &[View],
+    images: &[Image],
+    clipped: &[Vec<bool>],
+    clip_level: Option<f32>,
+) -> Option<GainFit> {
+    let cells = shared_cells(geometry, views, images, clipped, clip_level);
+    if cells.is_empty() {
+        return None;
+    }
+    let all: Vec<&Vec<(usize, f64)>> = cells.values().collect();
+    let nv = views.len();
+    let (g, radiance) = alternate(&all, nv, None);
+    // Leave out the cells the views disagree on most (highlights that move with the view, edges
+    // a pose error shifts): above twice the median residual, then fit again.
+    let rms: Vec<f64> = all
+        .iter()
+        .enumerate()
+        .map(|(c, o)| {
+            (o.iter()
+                .map(|(v, y)| (y - radiance[c] - g[*v]).powi(2))
+                .sum::<f64>()
+                / o.len() as f64)
+                .sqrt()
+        })
+        .collect();
+    let mut sorted = rms.clone();
+    let cut = 2.0
+        * sorted
+            .select_nth_unstable_by(rms.len() / 2, f64::total_cmp)
+            .1
+            .max(1e-3);
+    let obs: Vec<&Vec<(usize, f64)>> = all
+        .iter()
+        .zip(&rms)
+        .filter(|(_, r)| **r <= cut)
+        .map(|(o, _)| *o)
+        .collect();
+    let (g, radiance) = alternate(&obs, nv, Some(g));
+    // Views that share too few cells with the others keep gain 1 and are named.
+    let mut shared = vec![0usize; nv];
+    for o in &obs {
+        for (v, _) in o.iter() {
+            shared[*v] += 1;
+        }
+    }
+    let unfitted: Vec<usize> = (0..nv).filter(|&v| shared[v] < MIN_SHARED_CELLS).collect();
+    let mut g = g;
+    let fitted = nv - unfitted.len();
+    let mean = (0..nv)
+        .filter(|v| !unfitted.contains(v))
+        .map(|v| g[v])
+        .sum::<f64>()
+        / fitted.max(1) as f64;
+    for (v, x) in g.iter_mut().enumerate() {
+        *x = if unfitted.contains(&v) {
+            0.0
+        } else {
+            *x - mean
+        };
+    }
+    let pairs: usize = obs.iter().map(|o| o.len()).sum();
+    let sq: f64 = obs
+        .iter()
+        .enumerate()
+        .flat_map(|(c, o)| o.iter().map(move |(v, y)| (v, y, c)))
+        .map(|(v, y, c)| (y - radiance[c] - g[*v]).powi(2))
+        .sum();
+    let gains: Vec<f32> = g.iter().map(|x| x.exp() as f32).collect();
+    let spread = gains.iter().cloned().fold(0.0f32, f32::max)
+        / gains.iter().cloned().fold(f32::INFINITY, f32::min);
+    Some(GainFit {
+        gains,
+        unfitted,
+        spread,
+        cells: obs.len(),
+        pairs,
+        residual_log_rms: (sq / pairs.max(1) as f64).sqrt() as f32,
+    })
+}
+
+/// Per surface cell seen by two views or more: (view, mean log luminance of its pixels there),
+/// over the pixels that are unclipped, above 16 8-bit steps (LDR) and not black.
+fn shared_cells(
+    geometry: &Geometry,
+    views: &[View],
+    images: &[Image],
+    clipped: &[Vec<bool>],
+    clip_level: Option<f32>,
+) -> HashMap<(i32, i32, i32), Vec<(usize, f64)>> {
+    // 8-bit values under 16 steps carry a quantisation error over 3 %: not used.
+    let ldr_floor = clip_level.map_or(0.0, |l| l * fipt_core::color::srgb_eotf(16.0 / 255.0));
+    let b = geometry.mesh.bounds();
+    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
+        .par_iter()
+        .map(|view| fipt_shading::records::hit_points(geometry, view))
+        .collect();
+    // Cells of 3 pixel footprints (the median), at least 1/CELLS of the bounds: every cell
+    // gathers several pixels of each view that sees it.
+    let mut foot: Vec<f32> = hits
+        .iter()
+        .zip(views)
+        .flat_map(|(h, view)| {
+            h.iter()
+                .step_by(16)
+                .flatten()
+                .map(move |h| (h.p - view.camera.origin).length() / view.camera.fx)
+        })
+        .collect();
+    let cell = (3.0 * fipt_core::image::median(&mut foot))
+        .max((b.max - b.min).max_element() / CELLS)
+        .max(1e-6);
+    // Per view: cell → (sum of log luminance, count).
+    let per_view: Vec<HashMap<(i32, i32, i32), (f64, u32)>> = hits
+        .par_iter()
+        .zip(images)
+        .enumerate()
+        .map(|(v, (hits, img))| {
+            let mut m: HashMap<(i32, i32, i32), (f64, u32)> = HashMap::new();
+            let floor = 1e-3
+                * fipt_core::image::median(
+                    &mut img
+                        .data
+                        .iter()
+                        .step_by(7)
+                        .map(|&p| luminance(p))
+                        .collect::<Vec<_>>(),
+                );
+            for (i, h) in hits.iter().enumerate() {
+                let (Some(h), l) = (h, luminance(img.data[i])) else {
+                    continue;
+                };
+                if clipped.get(v).is_some_and(|c| c[i]) || !(l > floor.max(ldr_floor).max(1e-8)) {
+                    continue;
+                }
+                let q = ((h.p - b.min) / cell).floor();
+                let e = m.entry((q.x as i32, q.y as i32, q.z as i32)).or_default();
+                e.0 += (l as f64).ln();
+                e.1 += 1;
+            }
+            m
+        })
+        .collect();
+    // cell → [(view, mean log luminance)] for cells seen by two views or more.
+    let mut cells: HashMap<(i32, i32, i32), Vec<(usize, f64)>> = HashMap::new();
+    for (v, m) in per_view.iter().enumerate() {
+        for (c, (s, n)) in m {
+            if *n >= 2 {
+                cells.entry(*c).or_default().push((v, s / *n as f64));
+            }
+        }
+    }
+    cells.retain(|_, obs| obs.len() >= 2);
+    cells
+}
+
+/// Alternating least squares of y(view, cell) = g(view) + r(cell), with each view's g the
+/// median of its residuals (robust to highlights) and the g's mean 0; from `start` if given.
+fn alternate(
+    obs: &[&Vec<(usize, f64)>],
+    nv: usize,
+    start: Option<Vec<f64>>,
+) -> (Vec<f64>, Vec<f64>) {
+    let mut g = start.unwrap_or_else(|| vec![0f64; nv]);
+    let mut radiance = vec![0f64; obs.len()];
+    for _ in 0..100 {
+        for (c, o) in obs.iter().enumerate() {
+            radiance[c] = o.iter().map(|(v, y)| y - g[*v]).sum::<f64>() / o.len() as f64;
+        }
+        let mut res: Vec<Vec<f64>> = vec![vec![]; nv];
+        for (c, o) in obs.iter().enumerate() {
+            for (v, y) in o.iter() {
+                res[*v].push(y - radiance[c]);
+            }
+        }
+        for v in 0..nv {
+            if !res[v].is_empty() {
+                let m = res[v].len() / 2;
+                g[v] = *res[v].select_nth_unstable_by(m, f64::total_cmp).1;
+            }
+        }
+        let mean = g.iter().sum::<f64>() / nv as f64;
+        g.iter_mut().for_each(|x| *x -= mean);
+    }
+    (g, radiance)
+}

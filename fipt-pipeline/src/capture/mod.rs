@@ -1,0 +1,107 @@
+//! What a run knows of its views as a capture: whether they are LDR (and which pixels clip),
+//! each view's exposure relative to the others (fitted on the surfaces they share: the mesh
+//! gives exact correspondences), and the warnings a user must read. `report.json`'s `capture`.
+mod clipped;
+mod edges;
+mod gains;
+
+pub use clipped::{restore_clipped_lights, ClippedLights, CLIPPED_LIGHT_LEVELS};
+pub use edges::{edge_alignment, edge_warning, EdgeCheck, EDGE_OFF_PX};
+pub use gains::{fit_gains, GainFit, GAIN_SPREAD_WARN, MIN_SHARED_CELLS};
+
+use fipt_core::capture::{clipped_mask, ldr_check, LdrCheck, ViewLdr};
+use fipt_core::dataset::View;
+use fipt_core::image::Image;
+use fipt_geom::Geometry;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// `report.json`'s `capture`.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct CaptureReport {
+    /// The LDR check of the training views.
+    #[serde(flatten)]
+    pub check: LdrCheck,
+    /// The value LDR views clip at (1 for 8-bit files), before any gain.
+    pub clip_level: Option<f32>,
+    /// The fitted exposures, and whether the views were divided by them (LDR views only).
+    pub exposure_fit: Option<GainFit>,
+    pub exposures_applied: bool,
+    /// Known exposures from `capture.json`, applied first.
+    pub exposures_known: bool,
+    /// What the user must know, with numbers (also printed).
+    pub warnings: Vec<String>,
+    /// Per training view, its clipped pixels (LDR views only).
+    #[serde(skip)]
+    pub clipped: Vec<Vec<bool>>,
+    /// Per training view, the clipped pixels the material loss leaves out (clipped but not on
+    /// a light: a highlight or a bright wall whose radiance is only bounded below).
+    #[serde(skip)]
+    pub left_out: Vec<Vec<bool>>,
+    /// The lights seen only clipped, and the convention their radiance was set by.
+    pub clipped_lights: Option<ClippedLights>,
+    /// How the mesh's edges line up with the views'.
+    pub edges: EdgeCheck,
+}
+
+/// Checks the training images, fits their exposures on shared surfaces and, for LDR views,
+/// divides each by its fitted gain. Returns what it found.
+pub fn examine(
+    geometry: &Geometry,
+    views: &[View],
+    images: &mut [Image],
+    files_ldr: bool,
+) -> CaptureReport {
+    let per_view: Vec<(usize, ViewLdr)> = images
+        .par_iter()
+        .enumerate()
+        .map(|(k, img)| (k, ViewLdr::of(img)))
+        .collect();
+    let check = ldr_check(&per_view, files_ldr);
+    let mut r = CaptureReport {
+        warnings: crate::inspect::ldr_warnings("train", &check),
+        ..Default::default()
+    };
+    if check.ldr {
+        let level = per_view.iter().map(|(_, v)| v.max).fold(0.0f32, f32::max);
+        let level = if files_ldr || level <= 1.0 + 1e-3 {
+            1.0
+        } else {
+            level
+        };
+        r.clip_level = Some(level);
+        r.clipped = images.iter().map(|i| clipped_mask(i, level)).collect();
+    }
+    let fit = fit_gains(geometry, views, images, &r.clipped, r.clip_level);
+    if let Some(f) = &fit {
+        if !f.unfitted.is_empty() {
+            r.warnings.push(format!(
+                "train: views {:?} share fewer than {MIN_SHARED_CELLS} usable surface cells with the others (mostly clipped, black or alone): their exposure is unknown and left as it is",
+                f.unfitted
+            ));
+        }
+        if f.spread > GAIN_SPREAD_WARN {
+            r.warnings.push(format!(
+                "train: the views' exposures disagree on the surfaces they share: fitted gains {:.3} … {:.3} (×{:.2}) over {} surface cells{}",
+                f.gains.iter().cloned().fold(f32::INFINITY, f32::min),
+                f.gains.iter().cloned().fold(0.0f32, f32::max),
+                f.spread,
+                f.cells,
+                if check.ldr { "; each view is divided by its gain (auto-exposure)" } else { "; HDR views are used as they are" }
+            ));
+        }
+        if check.ldr && f.spread > GAIN_SPREAD_WARN {
+            for (img, g) in images.iter_mut().zip(&f.gains) {
+                for p in &mut img.data {
+                    *p /= *g;
+                }
+            }
+            r.exposures_applied = true;
+        }
+    }
+    r.exposure_fit = fit;
+    r.check = check;
+    r.edges = edge_alignment(geometry, views, images);
+    r.warnings.extend(edge_warning(&r.edges));
+    r
+}
