@@ -365,12 +365,11 @@ pub fn ldr_check(views: &[(usize, ViewLdr)], files_ldr: bool) -> LdrCheck {
     c
 }
 
-/// The pixels of an LDR view that are clipped: a channel within 0.2 % of `level`.
+/// The pixels of an LDR view that are clipped: a channel at 250 of 255 sRGB steps of `level`
+/// or above (JPEG rings a clipped region down to 250 and so loses its exact cap).
 pub fn clipped_mask(img: &Image, level: f32) -> Vec<bool> {
-    img.data
-        .iter()
-        .map(|p| p.max_element() >= level * 0.998)
-        .collect()
+    let at = level * srgb_eotf(250.0 / 255.0);
+    img.data.iter().map(|p| p.max_element() >= at).collect()
 }
 
 #[cfg(test)]
