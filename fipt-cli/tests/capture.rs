@@ -23,6 +23,20 @@ fn cornell(dir: &Path) -> std::path::PathBuf {
     scene
 }
 
+/// `fipt run SCENE --out OUT --config CFG`, which must succeed; its stdout.
+fn run(scene: &Path, out: &Path, cfg: &Path) -> String {
+    let (ok, stdout, err) = fipt(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    stdout
+}
+
 fn degrade(src: &Path, out: &Path, extra: &[&str]) -> Value {
     let mut args = vec![
         "degrade",
@@ -57,15 +71,7 @@ fn a_copy_without_noise_runs_as_its_source_through_the_real_layout() {
     std::fs::write(&cfg, TINY).unwrap();
     let mut scores = vec![];
     for (scene, out) in [(&src, dir.join("out-src")), (&copy, dir.join("out-copy"))] {
-        let (ok, _, err) = fipt(&[
-            "run",
-            scene.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--config",
-            cfg.to_str().unwrap(),
-        ]);
-        assert!(ok, "{err}");
+        run(scene, &out, &cfg);
         let (ok, stdout, err) = fipt(&[
             "eval",
             src.to_str().unwrap(),
@@ -124,15 +130,7 @@ fn ldr_views_are_recognised_and_a_run_without_a_light_says_so() {
     let cfg = dir.join("run.toml");
     std::fs::write(&cfg, format!("{TINY}[emitters]\nthreshold = 2.0\n")).unwrap();
     let out = dir.join("out");
-    let (ok, stdout, err) = fipt(&[
-        "run",
-        dir.join("png").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--config",
-        cfg.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
+    let stdout = run(&dir.join("png"), &out, &cfg);
     assert!(stdout.contains("NO LIGHT FOUND"), "{stdout}");
     let report = json(&out.join("report.json"));
     assert_eq!(report["capture"]["ldr"], true);
@@ -228,15 +226,7 @@ fn a_clipped_light_gets_its_radiance_back_from_the_surfaces_it_lights() {
     let cfg = dir.join("run.toml");
     std::fs::write(&cfg, TINY).unwrap();
     let out = dir.join("out");
-    let (ok, stdout, err) = fipt(&[
-        "run",
-        copy.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--config",
-        cfg.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
+    let stdout = run(&copy, &out, &cfg);
     assert!(!stdout.contains("NO LIGHT FOUND"), "{stdout}");
     let report = json(&out.join("report.json"));
     let est = &report["capture"]["clipped_lights"]["estimates"];
