@@ -29,9 +29,12 @@ pub struct LoadedScene {
 pub fn inputs_hash(ds: &Dataset) -> Result<String> {
     let split = ds.train();
     let mut files = vec![ds.mesh.clone(), split.cameras_file.clone()];
-    let k = ds.root.join("K_list.txt");
-    if k.is_file() {
-        files.push(k);
+    // The real layout's intrinsics and the capture's response and exposures shape the inputs.
+    for name in ["K_list.txt", fipt_core::capture::CAPTURE_FILE] {
+        let f = ds.root.join(name);
+        if f.is_file() {
+            files.push(f);
+        }
     }
     files.extend(split.views.iter().map(|v| v.image.clone()));
     Ok(fipt_core::fsutil::hash_files(&files)?)
