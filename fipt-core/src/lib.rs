@@ -47,5 +47,6 @@ pub mod metrics;
 pub mod reflectance;
 pub mod rng;
 pub mod shading;
+pub mod view_stats;
 
 pub use error::{CoreError, Result};
