@@ -1,7 +1,7 @@
 //! Captures, not renders: `fipt degrade` copies of generated scenes, and what `fipt info` and
 //! `fipt run` make of them (LDR evidence, exposures, clipped lights, the no-light warning).
 mod common;
-use common::{fipt, synth, tmp};
+use common::{fipt, run, synth, tmp};
 use serde_json::Value;
 use std::path::Path;
 
@@ -21,20 +21,6 @@ fn cornell(dir: &Path) -> std::path::PathBuf {
     let scene = dir.join("scene");
     synth("cornell", scene.to_str().unwrap(), [8, 2, 64, 48, 32], &[]);
     scene
-}
-
-/// `fipt run SCENE --out OUT --config CFG`, which must succeed; its stdout.
-fn run(scene: &Path, out: &Path, cfg: &Path) -> String {
-    let (ok, stdout, err) = fipt(&[
-        "run",
-        scene.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--config",
-        cfg.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
-    stdout
 }
 
 fn degrade(src: &Path, out: &Path, extra: &[&str]) -> Value {

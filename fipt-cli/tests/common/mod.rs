@@ -17,6 +17,20 @@ pub fn fipt(args: &[&str]) -> (bool, String, String) {
     )
 }
 
+/// `fipt run SCENE --out OUT --config CFG`, which must succeed; its stdout.
+pub fn run(scene: &std::path::Path, out: &std::path::Path, cfg: &std::path::Path) -> String {
+    let (ok, stdout, err) = fipt(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    stdout
+}
+
 pub fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("fipt-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
