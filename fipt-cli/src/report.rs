@@ -1,6 +1,5 @@
 //! `fipt report OUT`: contact sheets and `report.html` of a finished run.
 use anyhow::Result;
-use fipt_pipeline::recovered::RunOutput;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -16,9 +15,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let run = RunOutput::open(&a.run, a.scene.as_deref())?;
-    let (ds, _) = run.open_scene()?;
-    if let Some(html) = fipt_pipeline::report::write(&a.run, &ds, a.views)? {
+    if let Some(html) = fipt_pipeline::report::rewrite(&a.run, a.scene.as_deref(), a.views)? {
         println!("  pictures: {}", html.display());
     }
     Ok(())

@@ -57,7 +57,10 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
     assert!(ok, "{err}");
 
     let sharded = root.join("sharded");
-    // The bake's shards, out of order. A plain run refuses a partial set.
+    // A set of another count left behind (an abandoned job array of 2).
+    let (ok, _, err) = run(&sharded, &["--shard", "0/2"]);
+    assert!(ok, "{err}");
+    // The bake's shards, out of order.
     for k in ["2/3", "0/3"] {
         let (ok, out, err) = run(&sharded, &["--shard", k]);
         assert!(ok, "{err}");
@@ -65,8 +68,6 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
         // Shard tasks share the folder: they leave report.json to the plain runs.
         assert!(!sharded.join("report.json").exists());
     }
-    let (ok, _, err) = run(&sharded, &[]);
-    assert!(!ok && err.contains("shards 1/3 are not done"), "{err}");
     // A finished shard is not computed again.
     let (ok, out, err) = run(&sharded, &["--shard", "2/3"]);
     assert!(
@@ -78,22 +79,46 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
         !err.lines().any(|l| l.starts_with("bake ")),
         "baked again: {err}"
     );
-    let (ok, out, err) = run(&sharded, &["--shard", "1/3"]);
-    assert!(
-        ok && out.contains("all 3 shards are done and merged"),
-        "{out}\n{err}"
+    // While a shard works in the folder (its lock held by a live process: this test), a plain
+    // run is refused before it touches anything.
+    let shard_lock = sharded.join(".fipt.shard-1-of-3.lock");
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+    let me = format!(
+        "pid {}\nhost {}\nfipt run --shard 1/3\n",
+        std::process::id(),
+        host.trim()
     );
-    assert!(sharded.join("bake/manifest.json").is_file());
-
-    // A shard run does not train: round 1 is not done yet.
-    let (ok, _, err) = run(&sharded, &["--shard", "0/3"]);
-    assert!(!ok && err.contains("does not train"), "{err}");
-    // One machine trains round 1 and stops before the refinement.
+    std::fs::write(&shard_lock, me).unwrap();
+    let (ok, _, err) = run(&sharded, &[]);
+    assert!(
+        !ok && err.contains("in use") && err.contains(".fipt.shard-1-of-3.lock"),
+        "{err}"
+    );
+    assert!(!sharded.join("report.json").exists() && !sharded.join(".fipt.lock").exists());
+    std::fs::remove_file(&shard_lock).unwrap();
+    // A plain run computes the missing shard itself (the two done are kept), merges, and
+    // clears the stale set of 2; it trains round 1 and stops before the refinement.
     let (ok, out, err) = run(&sharded, &["--stop-before", "refine"]);
     assert!(
         ok && out.contains("stopped before the refinement"),
         "{out}\n{err}"
     );
+    assert!(
+        err.contains("shards 1/3 are not done: computing them here"),
+        "{err}"
+    );
+    assert!(sharded.join("bake/manifest.json").is_file());
+    let left: Vec<_> = std::fs::read_dir(sharded.join("bake"))
+        .unwrap()
+        .flatten()
+        .filter(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .starts_with("manifest.shard-")
+        })
+        .collect();
+    assert!(left.is_empty(), "stale shard manifests left: {left:?}");
+
     assert_eq!(status(&sharded), "stopped");
     // The refinement's shards; the last one merges.
     for k in ["1/3", "2/3", "0/3"] {

@@ -44,6 +44,7 @@ pub mod lock;
 pub mod materials;
 pub mod memory;
 pub mod metrics;
+pub mod range;
 pub mod reflectance;
 pub mod rng;
 pub mod shading;

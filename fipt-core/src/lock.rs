@@ -40,13 +40,36 @@ fn alive(pid: u32) -> bool {
 
 impl OutputLock {
     /// Takes the lock on `dir` (created if absent) for this process, `what` naming the work in
-    /// the file (e.g. "fipt run").
+    /// the file (e.g. "fipt run"). Refused while a shard of a stage ([`OutputLock::acquire_shard`])
+    /// works in the folder.
     pub fn acquire(dir: &Path, what: &str) -> Result<OutputLock> {
-        Self::acquire_named(dir, LOCK_FILE, what)
+        let lock = Self::acquire_named(dir, LOCK_FILE, what)?;
+        let shards = std::fs::read_dir(dir).into_iter().flatten().flatten();
+        for e in shards {
+            let name = e.file_name().to_string_lossy().to_string();
+            if name.starts_with(SHARD_LOCK_PREFIX) && name.ends_with(".lock") {
+                if let Some(holder) = live_holder(&e.path()) {
+                    return Err(in_use(dir, &holder, &e.path()));
+                }
+            }
+        }
+        Ok(lock)
     }
 
-    /// The same with the lock file `name` in `dir`: work that may share a folder with other
-    /// work (a shard of a stage: one lock per shard) takes its own.
+    /// The lock of one shard `name` (`.fipt.shard-K-of-N.lock`) of a stage in `dir`: the
+    /// tasks of a job array write their views side by side, each under its own lock, but never
+    /// beside a plain run of the folder (refused both ways: whoever comes second).
+    pub fn acquire_shard(dir: &Path, index: usize, count: usize, what: &str) -> Result<OutputLock> {
+        let name = format!("{SHARD_LOCK_PREFIX}{index}-of-{count}.lock");
+        let lock = Self::acquire_named(dir, &name, what)?;
+        let main = dir.join(LOCK_FILE);
+        if let Some(holder) = live_holder(&main) {
+            return Err(in_use(dir, &holder, &main));
+        }
+        Ok(lock)
+    }
+
+    /// The same with the lock file `name` in `dir`, alone.
     pub fn acquire_named(dir: &Path, name: &str, what: &str) -> Result<OutputLock> {
         std::fs::create_dir_all(dir).map_err(|e| CoreError::io(dir, e))?;
         let path = dir.join(name);
@@ -63,29 +86,11 @@ impl OutputLock {
                     return Ok(OutputLock { path });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let held = std::fs::read_to_string(&path).unwrap_or_default();
-                    let field = |k: &str| {
-                        held.lines()
-                            .find_map(|l| l.strip_prefix(k).map(|v| v.trim().to_string()))
-                    };
-                    let (pid, host) = (field("pid "), field("host "));
-                    let pid_num = pid.as_deref().and_then(|p| p.parse::<u32>().ok());
-                    let stale = host.as_deref() == Some(host_name().as_str())
-                        && pid_num.is_some_and(|p| !alive(p));
-                    if stale {
-                        // Its holder is gone: take it over.
-                        let _ = std::fs::remove_file(&path);
-                        continue;
+                    if let Some(holder) = live_holder(&path) {
+                        return Err(in_use(dir, &holder, &path));
                     }
-                    return Err(CoreError::invalid(
-                        dir,
-                        format!(
-                            "the folder is in use by another fipt (pid {}, host {}): wait for it to finish, use another --out, or delete {} if that process is gone",
-                            pid.unwrap_or_else(|| "?".into()),
-                            host.unwrap_or_else(|| "?".into()),
-                            path.display()
-                        ),
-                    ));
+                    // Its holder is gone: take it over.
+                    let _ = std::fs::remove_file(&path);
                 }
                 Err(e) => return Err(CoreError::io(&path, e)),
             }
@@ -95,6 +100,129 @@ impl OutputLock {
             "could not take over a stale lock",
         ))
     }
+}
+
+/// The prefix of a shard's lock file.
+pub const SHARD_LOCK_PREFIX: &str = ".fipt.shard-";
+
+/// The holder of lock file `path` ("pid P, host H") unless the file is absent or its holder
+/// is known to be gone (a pid that no longer runs on this host).
+fn live_holder(path: &Path) -> Option<String> {
+    let held = std::fs::read_to_string(path).ok()?;
+    let field = |k: &str| {
+        held.lines()
+            .find_map(|l| l.strip_prefix(k).map(|v| v.trim().to_string()))
+    };
+    let (pid, host) = (field("pid "), field("host "));
+    let pid_num = pid.as_deref().and_then(|p| p.parse::<u32>().ok());
+    let stale = host.as_deref() == Some(host_name().as_str()) && pid_num.is_some_and(|p| !alive(p));
+    (!stale).then(|| {
+        format!(
+            "pid {}, host {}",
+            pid.unwrap_or_else(|| "?".into()),
+            host.unwrap_or_else(|| "?".into())
+        )
+    })
+}
+
+fn in_use(dir: &Path, holder: &str, path: &Path) -> CoreError {
+    CoreError::invalid(
+        dir,
+        format!(
+            "the folder is in use by another fipt ({holder}): wait for it to finish, use another --out, or delete {} if that process is gone",
+            path.display()
+        ),
+    )
+}
+
+/// What a folder holds that other commands must not write into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Owner {
+    /// The output of a `fipt run` (its `report.json`, or its lock while it runs).
+    Run,
+    /// A scene (`train/transforms.json` or `cam.txt`).
+    Scene,
+}
+
+impl Owner {
+    /// What owns `dir`, if anything.
+    pub fn of(dir: &Path) -> Option<Owner> {
+        if dir.join("report.json").is_file() || dir.join(LOCK_FILE).is_file() {
+            Some(Owner::Run)
+        } else if dir.join("train/transforms.json").is_file() || dir.join("cam.txt").is_file() {
+            Some(Owner::Scene)
+        } else {
+            None
+        }
+    }
+
+    fn noun(self) -> &'static str {
+        match self {
+            Owner::Run => "the output folder of a `fipt run`",
+            Owner::Scene => "a scene folder",
+        }
+    }
+}
+
+/// Refuses `what`'s output folder `out` when it is, or lies inside, a folder owned by one of
+/// `refused` (only `fipt run` writes inside a run folder; a render or an export written into
+/// one would be taken for the run's own files). The path is resolved first (`..`, symlinks of
+/// the part that exists).
+pub fn refuse_owned_output(out: &Path, what: &str, refused: &[Owner]) -> Result<()> {
+    refuse_where(out, what, |owner, _| refused.contains(&owner))
+}
+
+/// The rule for a run's own output folder: it may be a run folder (resumed) but not lie inside
+/// another, nor be or lie inside a scene folder.
+pub fn refuse_nested_run(out: &Path) -> Result<()> {
+    refuse_where(out, "run", |owner, is_self| {
+        owner == Owner::Scene || !is_self
+    })
+}
+
+fn refuse_where(out: &Path, what: &str, refused: impl Fn(Owner, bool) -> bool) -> Result<()> {
+    let abs = std::path::absolute(out).map_err(|e| CoreError::io(out, e))?;
+    // Resolve the part that exists, keep the rest as given.
+    let mut existing = abs.as_path();
+    let mut rest = vec![];
+    while !existing.exists() {
+        let (Some(parent), Some(name)) = (existing.parent(), existing.file_name()) else {
+            break;
+        };
+        rest.push(name.to_os_string());
+        existing = parent;
+    }
+    let mut resolved = existing
+        .canonicalize()
+        .unwrap_or_else(|_| existing.to_path_buf());
+    for name in rest.iter().rev() {
+        resolved.push(name);
+    }
+    for dir in resolved.ancestors() {
+        let is_self = dir == resolved;
+        let Some(owner) = Owner::of(dir).filter(|o| refused(*o, is_self)) else {
+            continue;
+        };
+        let place = if is_self {
+            "is".to_string()
+        } else {
+            format!("lies inside {}, which is", dir.display())
+        };
+        let sibling = format!(
+            "{}-{}",
+            dir.file_name().unwrap_or_default().to_string_lossy(),
+            what.replace(' ', "-")
+        );
+        return Err(CoreError::invalid(
+            out,
+            format!(
+                "the {what} output folder {place} {}: write it to a folder of its own (e.g. {})",
+                owner.noun(),
+                dir.with_file_name(sibling).display()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 impl Drop for OutputLock {
@@ -141,6 +269,61 @@ mod tests {
         std::fs::write(d.join(LOCK_FILE), "pid 1\nhost elsewhere\nfipt run\n").unwrap();
         let err = OutputLock::acquire(&d, "test").unwrap_err().to_string();
         assert!(err.contains("host elsewhere"), "{err}");
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    #[test]
+    fn a_shard_and_a_plain_run_never_share_a_folder() {
+        let d = dir("shards");
+        let shard = OutputLock::acquire_shard(&d, 0, 3, "run --shard 0/3").unwrap();
+        let other = OutputLock::acquire_shard(&d, 1, 3, "run --shard 1/3").unwrap();
+        let err = OutputLock::acquire(&d, "run").unwrap_err().to_string();
+        assert!(
+            err.contains("in use") && err.contains(".fipt.shard-"),
+            "{err}"
+        );
+        // The refused plain run left no lock behind.
+        assert!(!d.join(LOCK_FILE).exists());
+        drop((shard, other));
+        let plain = OutputLock::acquire(&d, "run").unwrap();
+        let err = OutputLock::acquire_shard(&d, 2, 3, "run --shard 2/3")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(LOCK_FILE), "{err}");
+        assert!(!d.join(".fipt.shard-2-of-3.lock").exists());
+        drop(plain);
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    #[test]
+    fn outputs_inside_a_run_or_scene_folder_are_refused() {
+        let d = dir("owned");
+        let run = d.join("run");
+        std::fs::create_dir_all(run.join("views/val")).unwrap();
+        std::fs::write(run.join("report.json"), "{}").unwrap();
+        let scene = d.join("scene");
+        std::fs::create_dir_all(scene.join("train")).unwrap();
+        std::fs::write(scene.join("train/transforms.json"), "{}").unwrap();
+        let both = [Owner::Run, Owner::Scene];
+        for bad in [
+            run.clone(),
+            run.join("views/val"),
+            run.join("new/deeper"),
+            d.join("scene/x/../y"),
+        ] {
+            let err = refuse_owned_output(&bad, "render", &both)
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains("folder of its own"), "{err}");
+        }
+        // `..` out of the run folder and a sibling are fine; a scene's split when scenes are allowed.
+        refuse_owned_output(&run.join("../renders"), "render", &both).unwrap();
+        refuse_owned_output(&scene.join("val"), "render", &[Owner::Run]).unwrap();
+        // A run resumes in its own folder, never inside another's or a scene's.
+        refuse_nested_run(&run).unwrap();
+        assert!(refuse_nested_run(&run.join("sub")).is_err());
+        assert!(refuse_nested_run(&scene.join("out")).is_err());
+        assert!(refuse_nested_run(&scene).is_err());
         std::fs::remove_dir_all(&d).ok();
     }
 }

@@ -79,6 +79,24 @@ pub struct ExportOptions {
     pub per_vertex: bool,
 }
 
+/// Bytes an atlas holds per texel while it is filled and written (its maps, coverage, the
+/// texel positions queried and the 8-bit copies encoded).
+pub const ATLAS_BYTES_PER_TEXEL: u64 = 64;
+
+impl ExportOptions {
+    /// Refuses a texel that is not a positive length up to 100 m and an atlas edge outside
+    /// 16..=16384, naming the option.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        fipt_core::range::positive("--texel", self.texel_size as f64, 100.0)?;
+        fipt_core::range::check("--max-atlas", self.max_atlas, 16, 16_384)
+    }
+
+    /// The most memory the atlas may take (`max_atlas`² texels).
+    pub fn atlas_bytes(&self) -> u64 {
+        (self.max_atlas as u64).pow(2) * ATLAS_BYTES_PER_TEXEL
+    }
+}
+
 impl Default for ExportOptions {
     fn default() -> Self {
         ExportOptions {

@@ -51,6 +51,7 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
     )?;
     let settings = serde_json::to_value(&cfg)?;
     let baker = components.baker(crate::components::SLF_BAKER, &settings, a.brdf)?;
+    fipt_core::lock::refuse_nested_run(&a.out)?;
     let _lock = crate::run::lock(&a.out, a.shard, "fipt bake")?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
     let dir = a.out.join("bake");
@@ -76,7 +77,8 @@ pub fn stage(
     let name = baker.name().to_string();
     let check = |m: &BakeManifest| mismatch(m, &scene.cache_key, settings, &name);
     if !force {
-        crate::shard::merge(dir, "bake", shard, check)?;
+        let mut part = |k: Shard| stage(scene, baker, settings, dir, false, k).map(|_| ());
+        crate::shard::merge(dir, "bake", shard, check, Some(&mut part))?;
         match load_if_current(dir, &scene.cache_key, settings, &name)? {
             Ok((m, sh)) => {
                 crate::note!(

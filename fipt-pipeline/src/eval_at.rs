@@ -7,7 +7,7 @@
 //! identify) and reported with the unscaled scores.
 use crate::error::{Context, Result};
 use crate::eval::{evaluate_scaled, Scales};
-use crate::render::{render_request, RenderRequest};
+use crate::render::{render_unchecked, RenderRequest};
 use fipt_core::color::luminance;
 use fipt_core::dataset::{Dataset, GtKind, Split};
 use fipt_core::image::{BadPixelPolicy, Image};
@@ -49,7 +49,10 @@ pub fn evaluate_at(a: &EvalAtRequest) -> Result<serde_json::Value> {
     let split = pick_split(&ds, a.split.as_deref())?.clone();
     let dir = render_dir(&a.out);
     let views_dir = dir.join("views").join(&split.name);
-    render_request(&RenderRequest {
+    // Writes into the run folder: under its lock, as `fipt run` does.
+    let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt eval --cameras-from")?;
+    crate::render::check_spp(a.spp)?;
+    render_unchecked(&RenderRequest {
         source: a.out.clone(),
         materials: None,
         scene: None,

@@ -184,6 +184,20 @@ pub struct ExportRequest {
 
 /// Writes the recovered scene of a run for other tools (glTF, Mitsuba 3, OBJ + MTL).
 pub fn export_run(a: &ExportRequest) -> Result<fipt_export::ExportSummary> {
+    use fipt_core::lock::{refuse_owned_output, Owner};
+    refuse_owned_output(&a.out, "export", &[Owner::Run, Owner::Scene])?;
+    let checked = fipt_export::ExportOptions {
+        texel_size: a.texel.unwrap_or(0.01),
+        max_atlas: a.max_atlas,
+        per_vertex: a.per_vertex,
+    };
+    checked
+        .validate()
+        .map_err(crate::error::PipelineError::invalid)?;
+    crate::memory::check_bytes(
+        "the export's texture atlas (--max-atlas²)",
+        checked.atlas_bytes(),
+    )?;
     let st = crate::observe::Stage::start("load");
     let run = RunOutput::open(&a.run, a.scene.as_deref())?;
     let (ds, geometry) = run.open_scene()?;

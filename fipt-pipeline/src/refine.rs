@@ -8,6 +8,7 @@ use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{hash_bytes, read_json, write_json_atomic};
+use fipt_core::shading::Shard;
 use fipt_core::shading::{RefineInputs, ShadingRefiner};
 use fipt_shading::bake_store::{
     begin, finish, keyed_mismatch, load_keyed, shard_done, write_view, BakeManifest,
@@ -50,7 +51,20 @@ pub fn stage(
     let stats_path = dir.join("refine_stats.json");
     let check = |m: &BakeManifest| keyed_mismatch(m, &scene.cache_key, &name, &key);
     if !force {
-        crate::shard::merge(dir, "refinement", shard, check)?;
+        let mut part = |k: Shard| {
+            let one = Sharding {
+                shard: k,
+                stop_before_refine: false,
+            };
+            let args = (field, field_id, emitters, refiner, settings);
+            stage(
+                scene, args.0, args.1, args.2, args.3, args.4, dir, false, one,
+            )
+            .map(|_| ())
+        };
+        let compute = (!sharding.stop_before_refine)
+            .then_some(&mut part as &mut dyn FnMut(Shard) -> Result<()>);
+        crate::shard::merge(dir, "refinement", shard, check, compute)?;
         if !stats_path.is_file() {
             // Merged shards: the reports of the shards, as the merged manifest holds them.
             if let Ok(m) = read_json::<BakeManifest>(&dir.join("manifest.json")) {

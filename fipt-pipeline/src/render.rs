@@ -1,7 +1,7 @@
 //! Path-traced views (`fipt render`) of a recovered scene (a `fipt run` output folder) or of a
 //! mesh with given materials, from any cameras, optionally relit by a lights file.
 use crate::bail;
-use crate::error::{Context, Result};
+use crate::error::{Context, PipelineError, Result};
 use crate::observe::{bar, Stage};
 use crate::recovered::RunOutput;
 use fipt_core::camera::Camera;
@@ -95,15 +95,50 @@ fn mesh_of(source: &Path) -> Result<PathBuf> {
         .with_context(|| format!("{}: no mesh ({})", source.display(), MESH_NAMES.join(", ")))
 }
 
-/// Renders what `a` asks for.
+/// Renders what `a` asks for. Its output folder may not be, or lie inside, a run folder (only
+/// `fipt run` writes there) nor, for a recovered scene, a scene folder (a mesh rendered with
+/// --materials writes a scene's split in the dataset layout).
 pub fn render_request(a: &RenderRequest) -> Result<RenderSummary> {
-    if RunOutput::is_run_output(&a.out) {
-        bail!(
-            "{}: is the output folder of a `fipt run`; render into a folder of its own (e.g. {})",
-            a.out.display(),
-            a.out.join("renders").display()
-        );
+    use fipt_core::lock::{refuse_owned_output, Owner};
+    let refused: &[Owner] = if a.materials.is_some() {
+        &[Owner::Run]
+    } else {
+        &[Owner::Run, Owner::Scene]
+    };
+    refuse_owned_output(&a.out, "render", refused)?;
+    check_sizes(a)?;
+    render_unchecked(a)
+}
+
+/// The ranges of a render's options (the product with the cameras is checked in
+/// `render_all`).
+fn check_sizes(a: &RenderRequest) -> Result<()> {
+    use fipt_core::range::check;
+    check_spp(a.spp)?;
+    check("--max-bounces", a.max_bounces, 0, 64).map_err(PipelineError::invalid)?;
+    if let Some((w, h)) = a.size {
+        check("--size W", w, 1, 16_384).map_err(PipelineError::invalid)?;
+        check("--size H", h, 1, 16_384).map_err(PipelineError::invalid)?;
     }
+    Ok(())
+}
+
+/// `--spp` within 1..=[`MAX_SPP`].
+pub(crate) fn check_spp(spp: u32) -> Result<()> {
+    fipt_core::range::check("--spp", spp, 1, MAX_SPP).map_err(PipelineError::invalid)?;
+    Ok(())
+}
+
+/// The most samples per pixel of a render (and of `[render] spp`).
+pub const MAX_SPP: u32 = 65_536;
+
+/// The most paths one render may trace (spp × pixels × views × lights sets): about 14 hours
+/// at the 2 M paths/s of 2 cores.
+pub const MAX_PATHS: f64 = 1e11;
+
+/// [`render_request`] into a folder the caller holds (`fipt eval` renders into its run's
+/// `eval/` under the run's lock).
+pub(crate) fn render_unchecked(a: &RenderRequest) -> Result<RenderSummary> {
     let size = a.size;
     if let Some(table) = &a.materials {
         let st = Stage::start("load");
@@ -234,6 +269,18 @@ fn render_all<S: SurfaceModel>(
     } else {
         a.lights.iter().map(|p| Some(p.as_path())).collect()
     };
+    let px = |k: &usize| (cams[*k].width * cams[*k].height) as f64;
+    fipt_core::range::product(
+        "the paths of this render",
+        &[
+            ("spp", a.spp as f64),
+            ("pixels of the views", views.iter().map(px).sum()),
+            ("lights sets", sets.len() as f64),
+        ],
+        MAX_PATHS,
+        "paths",
+    )
+    .map_err(PipelineError::invalid)?;
     let mut scenes = Vec::new();
     for l in &sets {
         scenes.push(build_scene(a, mesh.clone(), surfaces, emitters, cams, *l)?);

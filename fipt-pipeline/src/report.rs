@@ -21,3 +21,12 @@ pub fn write_or_warn(out: &Path, ds: &fipt_core::dataset::Dataset) -> Option<Pat
         None
     })
 }
+
+/// `fipt report RUN`: the pictures of a finished run written again, under the run folder's
+/// lock (nothing else may write there meanwhile); `scene` overrides the scene its report names.
+pub fn rewrite(run: &Path, scene: Option<&Path>, views: usize) -> Result<Option<PathBuf>> {
+    let opened = crate::recovered::RunOutput::open(run, scene)?;
+    let _lock = fipt_core::lock::OutputLock::acquire(run, "fipt report")?;
+    let (ds, _) = opened.open_scene()?;
+    write(run, &ds, views)
+}

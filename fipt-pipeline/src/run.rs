@@ -137,8 +137,8 @@ pub fn lock(out: &Path, shard: Shard, what: &str) -> Result<fipt_core::lock::Out
     Ok(if shard.is_all() {
         fipt_core::lock::OutputLock::acquire(out, what)?
     } else {
-        let name = format!(".fipt.shard-{}-of-{}.lock", shard.index, shard.count);
-        fipt_core::lock::OutputLock::acquire_named(out, &name, &format!("{what} --shard {shard}"))?
+        let what = format!("{what} --shard {shard}");
+        fipt_core::lock::OutputLock::acquire_shard(out, shard.index, shard.count, &what)?
     })
 }
 
@@ -335,6 +335,7 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
     let baker = components.baker(&cfg.pipeline.baker, &bake_settings, cfg.model.brdf)?;
     let refine_settings = cfg.refiner_settings()?;
     let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
+    fipt_core::lock::refuse_nested_run(&a.out)?;
     // One run per output folder at a time (one per shard for shard runs).
     let _lock = lock(&a.out, a.sharding().shard, "fipt run")?;
     // Until it finishes, the folder says so (an older report must not pass for this run's).

@@ -26,25 +26,46 @@ pub(crate) fn check_handed_over(
 }
 
 /// Merges the finished shards of the stage in `dir` (named `what`) when all are present.
-/// An unsharded run (`shard` = all) refuses a partial set, which it would otherwise silently
-/// recompute on one machine; a shard run goes on to compute its part.
+/// A plain run (`shard` = all) that finds a partial set computes the missing shards here with
+/// `compute` (each returns [`PipelineError::Stopped`] once its views are written), then
+/// merges: the shards already done are kept, and a set left by an abandoned job array is no
+/// dead end. With `compute` None (a run told to stop before the stage), the set is left as it
+/// is. A shard run goes on to compute its part.
 pub fn merge(
     dir: &Path,
     what: &str,
     shard: Shard,
     check: impl Fn(&BakeManifest) -> Option<String>,
+    compute: Option<&mut dyn FnMut(Shard) -> Result<()>>,
 ) -> Result<()> {
-    match merge_shards(dir, check)? {
+    match merge_shards(dir, &check)? {
         ShardState::Merged { count } => {
             crate::note!("{what}: merged the {count} shards in {}", dir.display())
         }
         ShardState::Partial { count, missing } if shard.is_all() => {
+            let Some(compute) = compute else {
+                return Ok(());
+            };
             let list: Vec<String> = missing.iter().map(|k| format!("{k}/{count}")).collect();
-            bail!(
-                "{}: the {what} is sharded in {count} and shards {} are not done: run `fipt run … --shard K/{count}` for each (or delete the folder to compute the {what} on this machine)",
+            crate::note!(
+                "warning: {}: the {what} is sharded in {count} and shards {} are not done: computing them here (the {} done are kept)",
                 dir.display(),
-                list.join(", ")
+                list.join(", "),
+                count - missing.len()
             );
+            for k in missing {
+                let part = Shard::new(k, count).expect("k < count");
+                match compute(part) {
+                    Err(e) if e.is_stopped() => {}
+                    other => other?,
+                }
+            }
+            if let ShardState::Partial { missing, .. } = merge_shards(dir, check)? {
+                bail!(
+                    "{}: shards {missing:?} of the {what} are still missing after computing them",
+                    dir.display()
+                );
+            }
         }
         _ => {}
     }

@@ -165,6 +165,7 @@ pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
     cfg.validate()?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
     let bake_dir = a.out.join("bake");
+    fipt_core::lock::refuse_nested_run(&a.out)?;
     let _lock = if a.out.is_dir() {
         Some(fipt_core::lock::OutputLock::acquire(&a.out, "fipt train")?)
     } else {

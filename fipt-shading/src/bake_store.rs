@@ -184,7 +184,10 @@ pub fn save(dir: &Path, manifest: &BakeManifest, shadings: &[ViewShadings]) -> R
 /// would vouch for files about to change (the stage's, and the shard's own).
 pub fn begin(dir: &Path, shard: Shard) -> Result<()> {
     let mut stale = vec![dir.join("manifest.json")];
-    if !shard.is_all() {
+    if shard.is_all() {
+        // The whole stage is computed again: every shard set is stale.
+        stale.extend(shard_manifests(dir));
+    } else {
         stale.push(shard_manifest_path(dir, shard));
     }
     for p in stale {
@@ -463,6 +466,20 @@ pub fn shard_manifest_path(dir: &Path, shard: Shard) -> PathBuf {
     ))
 }
 
+/// Every shard manifest in `dir`, of any count and settings.
+fn shard_manifests(dir: &Path) -> Vec<PathBuf> {
+    std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            let name = p.file_name().unwrap_or_default().to_string_lossy();
+            name.starts_with("manifest.shard-") && name.ends_with(".json")
+        })
+        .collect()
+}
+
 /// Writes `shard`'s view files, then its shard manifest (`manifest.views` is the stage's
 /// view count). A finished manifest of the whole stage is removed first: shards are written
 /// only when it did not match.
@@ -564,8 +581,10 @@ pub fn merge_shards(
         }
     }
     write_json_atomic(&dir.join("manifest.json"), &merged)?;
-    for (s, _) in &mine {
-        let _ = std::fs::remove_file(shard_manifest_path(dir, *s));
+    // Every shard manifest goes: this set's, and any left by a set of another count or of
+    // other settings (stale: the stage is now whole).
+    for p in shard_manifests(dir) {
+        let _ = std::fs::remove_file(p);
     }
     Ok(ShardState::Merged { count })
 }
