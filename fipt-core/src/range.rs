@@ -4,6 +4,20 @@
 //! [`product`] against a stated budget before any work starts.
 use std::fmt::Display;
 
+/// The largest radiance (W·m⁻²·sr⁻¹), intensity (W·sr⁻¹) or emission factor a light or an edit
+/// may have: a path's throughput, the inverse of its pdfs and a pixel's sum of samples stay
+/// far below f32's 3.4e38 (the sun's radiance is about 2e7).
+pub const MAX_RADIANCE: f32 = 1e15;
+
+/// The largest coordinate or size (metres) of a light or an inserted object: beyond it f32
+/// keeps no millimetre of an indoor scene.
+pub const MAX_EXTENT: f32 = 1e6;
+
+/// A radiance-like value `v` in [0, [`MAX_RADIANCE`]].
+pub fn radiance(key: &str, v: f32) -> Result<(), String> {
+    check(key, v, 0.0, MAX_RADIANCE)
+}
+
 /// `key = v` refused unless `lo <= v <= hi` (NaN never is).
 pub fn check<T: PartialOrd + Display + Copy>(key: &str, v: T, lo: T, hi: T) -> Result<(), String> {
     match (v.partial_cmp(&lo), v.partial_cmp(&hi)) {

@@ -56,6 +56,15 @@ impl Default for MaskExtractorConfig {
     }
 }
 
+impl MaskExtractorConfig {
+    /// Refuses a threshold outside [0, 1] and more than 100,000 samples per triangle (the
+    /// reference takes 100; memory grows with it), naming the key.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        fipt_core::range::check("emitters.threshold", self.threshold, 0.0, 1.0)?;
+        fipt_core::range::check("emitters.samples_per_triangle", self.samples_per_triangle, 1, 100_000)
+    }
+}
+
 /// The reference's extraction, with grouping into lights and radiance for emitter triangles
 /// that no pixel centre hits (the median of their light's pixels).
 pub struct MaskExtractor {

@@ -125,6 +125,7 @@ pub fn stage(
     let secs = st.done();
     crate::shard::check_handed_over("baker", &name, written, split.views.len(), shard)?;
     let manifest = BakeManifest {
+        hashes: Default::default(),
         version: FORMAT_VERSION,
         baker: name.clone(),
         inputs_hash: scene.cache_key.clone(),

@@ -117,6 +117,7 @@ impl Components {
             "the trained emission mask averaged per triangle, radiance medians, connected lights (settings: [emitters])",
             Box::new(|v| {
                 let config: fipt_emitter::MaskExtractorConfig = serde_json::from_value(v.clone())?;
+                config.validate().map_err(crate::error::PipelineError::invalid)?;
                 Ok(Box::new(fipt_emitter::MaskExtractor { config }))
             }),
         )

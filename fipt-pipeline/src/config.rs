@@ -74,10 +74,20 @@ fn load_with<T: Serialize + DeserializeOwned>(
     let Some(path) = file else { return Ok(preset) };
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    load_text(preset, &text, path, section)
+}
+
+/// [`load`] from the text of a config (`path` names it in errors and says whether it is JSON).
+pub fn load_text<T: Serialize + DeserializeOwned>(
+    preset: T,
+    text: &str,
+    path: &Path,
+    section: Option<&str>,
+) -> Result<T> {
     let over: serde_json::Value = if path.extension().is_some_and(|e| e == "json") {
-        serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))?
+        serde_json::from_str(text).with_context(|| format!("{}: invalid JSON", path.display()))?
     } else {
-        toml::from_str(&text).with_context(|| format!("{}: invalid TOML", path.display()))?
+        toml::from_str(text).with_context(|| format!("{}: invalid TOML", path.display()))?
     };
     let over = match section.and_then(|k| over.get(k)) {
         Some(table) if table.is_object() => table.clone(),

@@ -106,7 +106,8 @@ fn render_score(
     if !path.is_file() {
         return Ok(None);
     }
-    let mut r = Image::read_exr(&path).with_context(|| format!("reading {}", path.display()))?;
+    let r = Image::read_exr(&path).with_context(|| format!("reading {}", path.display()))?;
+    let mut r = same_size(r, ds, &path)?;
     let mut img = ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0;
     for p in r.data.iter_mut() {
         *p *= radiance / display;
@@ -119,6 +120,22 @@ fn render_score(
         return Ok(None);
     }
     Ok(fipt_core::metrics::srgb_psnr(&r.data, &img.data, None))
+}
+
+/// `img` (read from `path`) when it has the scene's view size; otherwise an error naming both
+/// sizes (a map of another scene's run, or one replaced by hand).
+fn same_size(img: Image, ds: &Dataset, path: &Path) -> Result<Image> {
+    if (img.width, img.height) != (ds.width, ds.height) {
+        crate::bail!(
+            "{}: {}×{} pixels but the scene's views are {}×{}: it is not of this scene (run `fipt run` again to redo it, or evaluate against the scene it came from)",
+            path.display(),
+            img.width,
+            img.height,
+            ds.width,
+            ds.height
+        );
+    }
+    Ok(img)
 }
 
 /// Evaluates the maps in `out/views/<split>/` of every split with ground truth; `exposure` is
@@ -172,14 +189,20 @@ pub fn evaluate_scaled(
             let k = v.index;
             let pred = |name: &str| -> Result<Image> {
                 let p = dir.join(format!("{k:03}_{name}.exr"));
-                Image::read_exr(&p)
-                    .with_context(|| format!("reading {} (run `fipt run` first)", p.display()))
+                let img = Image::read_exr(&p)
+                    .with_context(|| format!("reading {} (run `fipt run` first)", p.display()))?;
+                same_size(img, ds, &p)
             };
-            let gt = |kind: GtKind| ds.load_gt(s, kind, k).ok().flatten();
-            let (Some(kd_gt), Some(r_gt)) = (gt(GtKind::DiffCol), gt(GtKind::Roughness)) else {
+            let gt = |kind: GtKind| -> Result<Option<Image>> {
+                let Some(img) = ds.load_gt(s, kind, k).ok().flatten() else {
+                    return Ok(None);
+                };
+                same_size(img, ds, &s.gt_path(kind, k)).map(Some)
+            };
+            let (Some(kd_gt), Some(r_gt)) = (gt(GtKind::DiffCol)?, gt(GtKind::Roughness)?) else {
                 continue;
             };
-            let emit_gt = gt(GtKind::Emit);
+            let emit_gt = gt(GtKind::Emit)?;
             let mut kd = pred("kd")?;
             for p in &mut kd.data {
                 *p *= scales.kd;
@@ -197,7 +220,7 @@ pub fn evaluate_scaled(
                 .map(|i| !is_emit(i) && r_gt.data[i].x > 0.0)
                 .collect();
             // kd over GT-diffuse pixels (method §6): metals' kd is 0 by definition.
-            let m_gt = gt(GtKind::Metallic);
+            let m_gt = gt(GtKind::Metallic)?;
             let diffuse: Vec<bool> = (0..n)
                 .map(|i| valid[i] && m_gt.as_ref().is_none_or(|m| m.data[i].x < 0.5))
                 .collect();
@@ -208,7 +231,7 @@ pub fn evaluate_scaled(
                 .collect();
             let kd_q8: Vec<Vec3> = kd_gt.data.iter().map(|&v| q8(v)).collect();
             let kd_p = psnr(&kd_clamped, &kd_q8, Some(&diffuse), 1.0);
-            let alb_p = gt(GtKind::Albedo).and_then(|a| {
+            let alb_p = gt(GtKind::Albedo)?.and_then(|a| {
                 let pa: Vec<Vec3> = kd
                     .data
                     .iter()
@@ -356,22 +379,33 @@ pub fn evaluate_run(scene: &Path, out: &Path) -> Result<serde_json::Value> {
             scene.display()
         );
     }
-    // The outputs must be of this scene: `report.json` holds the inputs' fingerprint.
+    // The outputs must be of this scene: `report.json` holds the inputs' fingerprint. Without
+    // it nothing says where the maps came from: refused, never scored blind.
     let report = out.join("report.json");
-    if let Ok(r) = fipt_core::fsutil::read_json::<serde_json::Value>(&report) {
-        let here = crate::scene::inputs_hash(&ds)?;
-        if let Some(there) = r["inputs_hash"].as_str().filter(|h| *h != here) {
-            crate::bail!(
-                "{} was made from another scene (inputs fingerprint {there}, {} has {here}): evaluate it against the scene it came from",
-                out.display(),
-                scene.display()
-            );
-        }
+    let r: serde_json::Value = fipt_core::fsutil::read_json(&report).with_context(|| {
+        format!(
+            "{} cannot be checked against {}: a finished `fipt run` writes it with the scene's fingerprint (run `fipt run {} --out {}` again to restore it; finished stages are reused)",
+            report.display(),
+            scene.display(),
+            scene.display(),
+            out.display()
+        )
+    })?;
+    let here = crate::scene::inputs_hash(&ds)?;
+    match r["inputs_hash"].as_str() {
+        Some(there) if there != here => crate::bail!(
+            "{} was made from another scene (inputs fingerprint {there}, {} has {here}): evaluate it against the scene it came from",
+            out.display(),
+            scene.display()
+        ),
+        Some(_) => {}
+        None => crate::bail!(
+            "{}: the run is not finished (status {}): run `fipt run` to the end first",
+            report.display(),
+            r["status"].as_str().unwrap_or("unknown")
+        ),
     }
-    let exposure = fipt_core::fsutil::read_json::<serde_json::Value>(&report)
-        .ok()
-        .and_then(|r| r["exposure_scale"].as_f64())
-        .unwrap_or(1.0) as f32;
+    let exposure = r["exposure_scale"].as_f64().unwrap_or(1.0) as f32;
     evaluate(&ds, out, exposure)
 }
 

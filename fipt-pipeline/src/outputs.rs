@@ -208,6 +208,30 @@ pub(crate) struct Recovered<'a> {
 struct RenderProgress {
     key: String,
     done: Vec<(String, usize)>,
+    /// Each done view's `_render.exr` content hash by "split/k": a file changed since is
+    /// rendered again (absent in files written before it existed: not checked).
+    #[serde(default)]
+    hashes: std::collections::BTreeMap<String, String>,
+}
+
+impl RenderProgress {
+    /// Whether view `k` of `split` is done and its file `exr` is the one written.
+    fn has(&self, split: &str, k: usize, exr: &Path) -> bool {
+        if !(self.done.iter().any(|d| d.0 == split && d.1 == k) && exr.is_file()) {
+            return false;
+        }
+        let Some(h) = self.hashes.get(&format!("{split}/{k}")) else {
+            return true;
+        };
+        let now = fipt_core::fsutil::hash_files(&[exr.to_path_buf()]).unwrap_or_default();
+        if &now != h {
+            crate::note!(
+                "warning: {} was changed after it was rendered (content hash {now}, recorded {h}): rendering it again",
+                exr.display()
+            );
+        }
+        &now == h
+    }
 }
 
 /// The stages every method ends with: per-view maps of every split (`maps`) and path-traced
@@ -278,8 +302,12 @@ impl RenderProgress {
         let done = read_json::<RenderProgress>(&out.join("views").join("render.json"))
             .ok()
             .filter(|p| p.key == key)
-            .map_or(vec![], |p| p.done);
-        Some(RenderProgress { key, done })
+            .map_or((vec![], Default::default()), |p| (p.done, p.hashes));
+        Some(RenderProgress {
+            key,
+            done: done.0,
+            hashes: done.1,
+        })
     }
 }
 
@@ -294,19 +322,19 @@ fn re_render(
     let progress_path = out.join("views").join("render.json");
     let mut progress = RenderProgress::open(scene, cfg, out, recovered);
     let is_done = |p: &Option<RenderProgress>, split: &str, k: usize, exr: &Path| {
-        p.as_ref()
-            .is_some_and(|p| p.done.iter().any(|d| d.0 == split && d.1 == k))
-            && exr.is_file()
+        p.as_ref().is_some_and(|p| p.has(split, k, exr))
     };
     let exr_of = |split: &str, k: usize| {
         out.join("views")
             .join(split)
             .join(format!("{k:03}_render.exr"))
     };
-    let reused = (scene.ds.splits.iter())
+    let done: std::collections::HashSet<(String, usize)> = (scene.ds.splits.iter())
         .flat_map(|s| s.views.iter().map(move |v| (s, v.index)))
         .filter(|(s, k)| is_done(&progress, &s.name, *k, &exr_of(&s.name, *k)))
-        .count();
+        .map(|(s, k)| (s.name.clone(), k))
+        .collect();
+    let reused = done.len();
     if reused > 0 {
         crate::note!(
             "reusing {reused} of {total} re-rendered views (same field, lights and settings); --force to redo them"
@@ -346,7 +374,7 @@ fn re_render(
             let k = v.index;
             let exr = exr_of(&s.name, k);
             pb.inc(1);
-            if is_done(&progress, &s.name, k, &exr) {
+            if done.contains(&(s.name.clone(), k)) {
                 continue;
             }
             let key = ((si as u64) << 32) + v.index as u64;
@@ -359,7 +387,10 @@ fn re_render(
             }
             img.write_exr(&exr, ExrPrecision::F32)?;
             if let Some(p) = &mut progress {
+                p.done.retain(|d| !(d.0 == s.name && d.1 == k));
                 p.done.push((s.name.clone(), k));
+                let h = fipt_core::fsutil::hash_files(std::slice::from_ref(&exr))?;
+                p.hashes.insert(format!("{}/{k}", s.name), h);
                 write_json_atomic(&progress_path, p)?;
             }
         }

@@ -140,6 +140,12 @@ impl RunOutput {
             );
         }
         let dir = self.field_dir();
+        if let Some(why) = crate::train::field_changed(&dir) {
+            bail!(
+                "{why}: run `fipt run` on {} again (it trains that round again and redoes what follows)",
+                self.dir.display()
+            );
+        }
         let (field, _) = fipt_neural::train::load_field(&dir)
             .with_context(|| format!("loading the material field from {}", dir.display()))?;
         Ok(Box::new(field))

@@ -135,6 +135,7 @@ pub fn stage(
     crate::shard::check_handed_over("refiner", &name, written, split.views.len(), shard)?;
     print_stats(&name, &stats, secs);
     let manifest = BakeManifest {
+        hashes: Default::default(),
         version: FORMAT_VERSION,
         baker: name.clone(),
         inputs_hash: scene.cache_key.clone(),
@@ -148,6 +149,7 @@ pub fn stage(
     };
     if !shard.is_all() {
         let manifest = BakeManifest {
+            hashes: Default::default(),
             stats: stats.clone(),
             ..manifest
         };

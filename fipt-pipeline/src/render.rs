@@ -338,6 +338,8 @@ fn build_scene<'s, S: SurfaceModel>(
         Some(p) => LightsFile::read(p)?,
         None => LightsFile::default(),
     };
+    let origins: Vec<glam::Vec3> = cams.iter().map(|c| c.origin).collect();
+    file.check_cameras(lights.unwrap_or(Path::new("lights")), &origins)?;
     if a.emitters.is_some() {
         file.emitters = a.emitters;
     }

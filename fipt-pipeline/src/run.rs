@@ -263,6 +263,16 @@ pub struct ReRenderConfig {
     pub seed: u64,
 }
 
+impl ReRenderConfig {
+    /// Refuses samples beyond `fipt render`'s range and more than 64 bounces, naming the key.
+    pub fn validate(&self) -> Result<(), String> {
+        let most = crate::render::MAX_SPP;
+        fipt_core::range::check("render.spp", self.spp, 0, most)?;
+        fipt_core::range::check("render.val_spp", self.val_spp, 0, most)?;
+        fipt_core::range::check("render.max_bounces", self.max_bounces, 0, 64)
+    }
+}
+
 impl RunConfig {
     pub fn preset(name: &str) -> Option<Self> {
         Some(RunConfig {
@@ -321,20 +331,19 @@ impl RunConfig {
 
 /// `fipt run`: the configured method's stages, each reused when done, into `a.out`.
 pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome> {
+    crate::sweep::die_with_parent();
     let mut cfg: RunConfig =
         crate::config::load_preset(&a.preset, RunConfig::preset, a.config.as_deref())?;
     if let Some(m) = &a.method {
         cfg.pipeline.method = m.clone();
     }
-    cfg.train.validate()?;
-    cfg.search.validate().map_err(PipelineError::invalid)?;
-    cfg.rounds.validate().map_err(PipelineError::invalid)?;
-    // Components first: a misspelt name or bad plug-in settings fail before any work.
-    let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
-    let bake_settings = cfg.baker_settings()?;
-    let baker = components.baker(&cfg.pipeline.baker, &bake_settings, cfg.model.brdf)?;
-    let refine_settings = cfg.refiner_settings()?;
-    let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
+    let Checked {
+        extractor,
+        baker,
+        refiner,
+        bake_settings,
+        refine_settings,
+    } = check(&cfg, &a.preset, components)?;
     fipt_core::lock::refuse_nested_run(&a.out)?;
     // One run per output folder at a time (one per shard for shard runs).
     let _lock = lock(&a.out, a.sharding().shard, "fipt run")?;
@@ -375,6 +384,42 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
         }
         Ok(summary) => Ok(RunOutcome::Finished(summary)),
     }
+}
+
+/// A run's components built from its checked settings.
+pub(crate) struct Checked {
+    extractor: Box<dyn fipt_core::emitter::EmitterExtractor>,
+    baker: Box<dyn fipt_core::shading::ShadingBaker>,
+    refiner: Box<dyn fipt_core::shading::ShadingRefiner>,
+    bake_settings: serde_json::Value,
+    refine_settings: serde_json::Value,
+}
+
+/// Every setting of `cfg` in its range and every component it names built (a misspelt name or
+/// bad plug-in settings fail here, before any work; `fipt sweep` checks each grid point so).
+pub(crate) fn check(
+    cfg: &RunConfig,
+    preset: &str,
+    components: &crate::Components,
+) -> Result<Checked> {
+    cfg.train.validate()?;
+    cfg.search.validate().map_err(PipelineError::invalid)?;
+    cfg.rounds.validate().map_err(PipelineError::invalid)?;
+    cfg.render.validate().map_err(PipelineError::invalid)?;
+    let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
+    let bake_settings = cfg.baker_settings()?;
+    let baker = components.baker(&cfg.pipeline.baker, &bake_settings, cfg.model.brdf)?;
+    let refine_settings = cfg.refiner_settings()?;
+    let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
+    let method = &cfg.pipeline.method;
+    components.fitter(method, &cfg.plugin_settings(method), preset)?;
+    Ok(Checked {
+        extractor,
+        baker,
+        refiner,
+        bake_settings,
+        refine_settings,
+    })
 }
 
 /// The scene, checked for coverage and for the run's memory (the estimate in bytes).

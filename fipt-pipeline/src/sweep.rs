@@ -267,6 +267,33 @@ fn csv(rows: &[Row]) -> String {
     out
 }
 
+/// The environment variable naming the process a `fipt run` ends with.
+pub const PARENT_ENV: &str = "FIPT_PARENT_PID";
+
+/// When [`PARENT_ENV`] names this process's parent, watches it from a thread and ends this
+/// process (as a kill would: finished stages stay, the rest resumes) once the parent is gone.
+pub fn die_with_parent() {
+    #[cfg(unix)]
+    {
+        let Some(parent) = std::env::var(PARENT_ENV)
+            .ok()
+            .and_then(|p| p.parse::<u32>().ok())
+        else {
+            return;
+        };
+        if std::os::unix::process::parent_id() != parent {
+            std::process::exit(137);
+        }
+        std::thread::spawn(move || loop {
+            std::thread::sleep(std::time::Duration::from_millis(200));
+            if std::os::unix::process::parent_id() != parent {
+                crate::note!("the parent process {parent} is gone: stopping");
+                std::process::exit(137);
+            }
+        });
+    }
+}
+
 /// Runs every point not finished before (a point is kept when its settings file and its
 /// complete report are there), then writes `sweep.csv` and `sweep.svg` into `a.out`.
 pub fn sweep(a: &SweepRequest, components: &crate::Components) -> Result<SweepSummary> {
@@ -283,6 +310,18 @@ pub fn sweep(a: &SweepRequest, components: &crate::Components) -> Result<SweepSu
     if points.is_empty() {
         bail!("the grid has no point (no preset?)");
     }
+    // The whole grid is checked before its first point runs.
+    for (name, preset, overrides) in &points {
+        let origin = a.out.join(format!("{name}.toml"));
+        let cfg = crate::config::load_preset(preset, crate::run::RunConfig::preset, None)
+            .and_then(|base| {
+                crate::config::load_text(base, &overrides_toml(overrides), &origin, None)
+            })
+            .and_then(|cfg| crate::run::check(&cfg, preset, components).map(|_| ()));
+        cfg.with_context(|| format!("grid point {name} (preset {preset})"))?;
+    }
+    // Its own lock file: the points' runs below take theirs in their folders.
+    let _lock = fipt_core::lock::OutputLock::acquire_named(&a.out, ".fipt.sweep.lock", "fipt sweep")?;
     let mut rows = Vec::new();
     for (k, (name, preset, overrides)) in points.iter().enumerate() {
         let dir = a.out.join(name);
@@ -312,13 +351,19 @@ pub fn sweep(a: &SweepRequest, components: &crate::Components) -> Result<SweepSu
             .arg("--config")
             .arg(&cfg)
             .stdout(std::process::Stdio::null())
+            // The run ends with this process (`die_with_parent`): a killed sweep leaves
+            // nothing running that would hold a point's folder.
+            .env(PARENT_ENV, std::process::id().to_string())
             .status()
             .context("running fipt run")?;
         if !status.success() {
-            bail!(
-                "point {name} failed (see {})",
-                dir.join("report.json").display()
-            );
+            let report = dir.join("report.json");
+            let more = if report.is_file() {
+                format!("; its report: {}", report.display())
+            } else {
+                String::new()
+            };
+            bail!("point {name} failed ({status}): its error is printed above{more}");
         }
         rows.push(
             read_row(&dir, name, preset, &settings)

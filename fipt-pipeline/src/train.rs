@@ -61,7 +61,29 @@ pub struct TrainManifest {
     pub steps_per_second: f64,
     pub timings: TrainTimings,
     pub last: StepLosses,
+    /// `field.safetensors`' content hash when the training finished, checked before the field
+    /// is reused or rendered (empty in manifests written before it existed: not checked).
+    #[serde(default)]
+    pub field_hash: String,
 }
+
+/// Why the field in `dir` is not the one its training wrote (None when it is, or when its
+/// manifest records no hash).
+pub fn field_changed(dir: &Path) -> Option<String> {
+    let m = read_json::<TrainManifest>(&dir.join("manifest.json")).ok()?;
+    let path = dir.join(FIELD_FILE);
+    let now = fipt_core::fsutil::hash_files(&[path.clone()]).unwrap_or_else(|e| e.to_string());
+    (!m.field_hash.is_empty() && now != m.field_hash).then(|| {
+        format!(
+            "{} was changed after its training wrote it (content hash {now}, recorded {})",
+            path.display(),
+            m.field_hash
+        )
+    })
+}
+
+/// The trained field's file in a training folder.
+pub const FIELD_FILE: &str = "field.safetensors";
 
 impl TrainManifest {
     /// What the trained field is a function of: its inputs and settings (training is
@@ -350,6 +372,13 @@ fn finished(
     if !fits(&m) {
         return None;
     }
+    if let Some(why) = field_changed(dir) {
+        // Its checkpoint is the same file: training resumes from nothing.
+        crate::note!("warning: {why}: training again");
+        let _ = std::fs::remove_file(dir.join("checkpoint.json"));
+        let _ = std::fs::remove_file(dir.join("manifest.json"));
+        return None;
+    }
     let (field, _) = fipt_neural::train::load_field(dir).ok()?;
     crate::note!(
         "reusing the trained field in {} ({} steps in {:.1} s); --force to redo it",
@@ -564,6 +593,7 @@ pub fn stage(
         steps_per_second: sps,
         timings: t,
         last: l,
+        field_hash: fipt_core::fsutil::hash_files(&[dir.join(FIELD_FILE)])?,
     };
     write_json_atomic(&dir.join("manifest.json"), &manifest)?;
     Ok((trainer.field, manifest, true))

@@ -60,10 +60,28 @@ fn header(h: &mut String, report: &Value) {
 
 /// `report.json`'s warnings (LDR views, clipped lights, misregistered edges, no light found)
 /// at the top of the page, where a reader cannot miss them.
-fn warnings(h: &mut String, report: &Value) {
-    let Some(w) = report["warnings"].as_array().filter(|w| !w.is_empty()) else {
+fn warnings(h: &mut String, report: &Value, views: &[ViewPictures]) {
+    let mut w: Vec<Value> = report["warnings"].as_array().cloned().unwrap_or_default();
+    let missing: Vec<String> = views
+        .iter()
+        .flat_map(|v| {
+            v.maps
+                .iter()
+                .zip(MAPS)
+                .filter(|(m, _)| m.0.is_none())
+                .map(move |(_, (name, _, _))| format!("{}/{:03}_{name}", v.split, v.index))
+        })
+        .collect();
+    if !missing.is_empty() {
+        w.push(Value::from(format!(
+            "{} map(s) of the run are missing ({}): the folder was changed after the run; `fipt run` on it writes them again",
+            missing.len(),
+            missing.join(", ")
+        )));
+    }
+    if w.is_empty() {
         return;
-    };
+    }
     let _ = writeln!(
         h,
         "<div class=\"warnings\" style=\"border:2px solid #c60;background:#fff4e5;padding:0.5em 1em\"><h2>Warnings ({})</h2><ul>",
@@ -185,9 +203,20 @@ fn view_block(h: &mut String, v: &ViewPictures) {
         None => figure(h, &Some(v.input.clone()), "input"),
     }
     figure(h, &v.error, "error ×4");
-    for ((mine, gt), (_, _, label)) in v.maps.iter().zip(MAPS) {
+    for ((mine, gt), (name, _, label)) in v.maps.iter().zip(MAPS) {
         h.push_str("<div class=\"pair\">");
-        figure(h, mine, label);
+        match mine {
+            Some(_) => figure(h, mine, label),
+            None => {
+                let _ = write!(
+                    h,
+                    "<figure><figcaption><b>{} missing</b>: views/{}/{:03}_{name}.exr</figcaption></figure>",
+                    esc(label),
+                    esc(&v.split),
+                    v.index
+                );
+            }
+        }
         if gt.is_some() {
             figure(h, gt, &format!("{label} (truth)"));
         }
@@ -206,7 +235,7 @@ pub fn write_html(run: &Path, views: &[ViewPictures]) -> Result<PathBuf> {
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>fipt report</title>\n<style>{STYLE}</style>\n<script>{SCRIPT}</script></head><body>\n"
     );
     header(&mut h, &report);
-    warnings(&mut h, &report);
+    warnings(&mut h, &report, views);
     metrics_table(&mut h, &metrics);
     h.push_str("<h2>Views</h2>\n<p>Drag a slider to compare the re-render with the input; the error map shows |Δ| of the displayed values ×4 (black → red → yellow → white).</p>\n");
     for v in views {
@@ -239,14 +268,15 @@ mod tests {
         warnings(
             &mut h,
             &serde_json::json!({ "warnings": ["NO LIGHT FOUND <b>", "LDR"] }),
+            &[],
         );
         assert!(
             h.contains("Warnings (2)") && h.contains("NO LIGHT FOUND &lt;b&gt;"),
             "{h}"
         );
         let mut none = String::new();
-        warnings(&mut none, &serde_json::json!({ "warnings": [] }));
-        warnings(&mut none, &serde_json::json!({}));
+        warnings(&mut none, &serde_json::json!({ "warnings": [] }), &[]);
+        warnings(&mut none, &serde_json::json!({}), &[]);
         assert!(none.is_empty());
     }
 }

@@ -159,6 +159,13 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
             let mut maps = Vec::new();
             for (name, kind, _) in MAPS {
                 let png = maps_dir.join(format!("preview/{k:03}_{name}.png"));
+                let exr = maps_dir.join(format!("{k:03}_{name}.exr"));
+                if !png.is_file() && exr.is_file() {
+                    // A deleted preview is drawn again from its map.
+                    let img = Image::read_exr(&exr)?;
+                    let img = if name == "emission" { normalised(img) } else { img };
+                    img.write_png(&png, 1.0)?;
+                }
                 let mine = png.is_file().then(|| rel(run, &png));
                 let gt = match ds.load_gt(split, kind, k)? {
                     Some(img) => {

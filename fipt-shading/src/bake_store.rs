@@ -12,11 +12,12 @@
 //! f32 × 3 × levels × pixels (Ls0), the same for Ls1. Version 1 is written when the shadings
 //! have no σ polynomial (FIPT's model), version 2 when they do (`principled`).
 use crate::bake::BakeConfig;
-use fipt_core::fsutil::{read_json, write_bytes_atomic, write_json_atomic};
+use fipt_core::fsutil::{hash_files, read_json, write_bytes_atomic, write_json_atomic};
 use fipt_core::shading::{Shard, ViewShadings, NUM_LEVELS};
 use fipt_core::{CoreError, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"FIPTSHD\0";
@@ -44,6 +45,11 @@ pub struct BakeManifest {
     #[serde(default)]
     pub stats: serde_json::Value,
     pub seconds_total: f64,
+    /// Each view file's content hash (FNV-1a 64, by view index), recorded when the stage is
+    /// finished and checked before it is reused: a file changed since is computed again.
+    /// Empty in manifests written before it existed (then not checked).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub hashes: BTreeMap<usize, String>,
 }
 
 /// Path of view `k`'s file.
@@ -211,7 +217,27 @@ pub fn finish(dir: &Path, manifest: &BakeManifest, shard: Shard) -> Result<()> {
     } else {
         shard_manifest_path(dir, shard)
     };
-    write_json_atomic(&path, manifest)
+    let mut m = manifest.clone();
+    m.hashes = (0..m.views)
+        .filter(|k| shard.contains(*k))
+        .map(|k| Ok((k, hash_files(&[view_path(dir, &m.split, k)])?)))
+        .collect::<Result<_>>()?;
+    write_json_atomic(&path, &m)
+}
+
+/// The first view file of `m` in `dir` whose content no longer has its recorded hash.
+fn changed_view(dir: &Path, m: &BakeManifest) -> Result<Option<String>> {
+    for (k, h) in &m.hashes {
+        let p = view_path(dir, &m.split, *k);
+        let now = hash_files(&[p.clone()])?;
+        if &now != h {
+            return Ok(Some(format!(
+                "warning: {} was changed after it was written (content hash {now}, recorded {h}): computing the stage again",
+                p.display()
+            )));
+        }
+    }
+    Ok(None)
 }
 
 /// Shadings one view at a time, whether held in memory or stored on disk: what a consumer
@@ -416,9 +442,13 @@ fn load_checked(
         return Ok(Err(why));
     }
     let stored = StoredShadings::of(dir, &m);
-    match stored.check() {
-        Ok(()) => Ok(Ok((m, stored))),
-        Err(e) => Ok(Err(format!("a stored view is damaged ({e})"))),
+    if let Err(e) = stored.check() {
+        return Ok(Err(format!("a stored view is damaged ({e})")));
+    }
+    match changed_view(dir, &m) {
+        Ok(None) => Ok(Ok((m, stored))),
+        Ok(Some(why)) => Ok(Err(why)),
+        Err(e) => Ok(Err(format!("a stored view cannot be read ({e})"))),
     }
 }
 
@@ -568,6 +598,7 @@ pub fn merge_shards(
     }
     let mut merged = mine[0].1.clone();
     merged.seconds_total = mine.iter().map(|(_, m)| m.seconds_total).sum();
+    merged.hashes = mine.iter().flat_map(|(_, m)| m.hashes.clone()).collect();
     merged.stats = serde_json::json!({
         "shards": mine.iter().map(|(_, m)| m.stats.clone()).collect::<Vec<_>>(),
     });

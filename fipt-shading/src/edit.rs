@@ -42,22 +42,23 @@ impl SurfaceEdit {
 
     /// Range checks: set values finite and non-negative, roughness and metallic in [0, 1].
     pub fn check(&self) -> Result<(), String> {
-        let ok3 = |v: &[f32; 3]| v.iter().all(|x| x.is_finite() && *x >= 0.0);
+        let most = fipt_core::range::MAX_RADIANCE;
+        let ok = |x: &f32| (0.0..=most).contains(x);
         let ok_op3 = |o: &Option<Op<[f32; 3]>>| match o {
-            Some(Op::Set(v)) => ok3(v),
-            Some(Op::Scale(k)) => k.is_finite() && *k >= 0.0,
+            Some(Op::Set(v)) => v.iter().all(ok),
+            Some(Op::Scale(k)) => ok(k),
             None => true,
         };
         let ok_op1 = |o: &Option<Op<f32>>| match o {
             Some(Op::Set(v)) => (0.0..=1.0).contains(v),
-            Some(Op::Scale(k)) => k.is_finite() && *k >= 0.0,
+            Some(Op::Scale(k)) => ok(k),
             None => true,
         };
         if !ok_op3(&self.albedo) {
-            return Err("albedo: set values and scales must be finite and ≥ 0".into());
+            return Err(format!("albedo: set values and scales must be in [0, {most:e}]"));
         }
         if !ok_op3(&self.emission) {
-            return Err("emission: set values and scales must be finite and ≥ 0".into());
+            return Err(format!("emission: set values and scales must be in [0, {most:e}] (a larger value overflows the tracer's f32)"));
         }
         if !ok_op1(&self.roughness) || !ok_op1(&self.metallic) {
             return Err("roughness / metallic: set values in [0, 1], scales ≥ 0".into());

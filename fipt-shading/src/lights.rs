@@ -143,9 +143,12 @@ impl std::str::FromStr for EmitterPolicy {
             "keep" => Ok(EmitterPolicy::Keep),
             "off" => Ok(EmitterPolicy::Off),
             _ => match s.strip_prefix("scale=").map(str::parse::<f32>) {
-                Some(Ok(k)) if k.is_finite() && k >= 0.0 => Ok(EmitterPolicy::Scale(k)),
+                Some(Ok(k)) if (0.0..=fipt_core::range::MAX_RADIANCE).contains(&k) => {
+                    Ok(EmitterPolicy::Scale(k))
+                }
                 _ => Err(format!(
-                    "`{s}`: expected keep, off or scale=K with a finite K ≥ 0"
+                    "`{s}`: expected keep, off or scale=K with K in [0, {:e}]",
+                    fipt_core::range::MAX_RADIANCE
                 )),
             },
         }
@@ -223,6 +226,25 @@ fn parse_light(path: &Path, k: usize, mut v: serde_json::Value) -> Result<LightS
 }
 
 impl LightsFile {
+    /// Refuses a sphere light that encloses a camera of `origins` (index `k` named): its
+    /// outside faces away from the camera, which would see nothing at all.
+    pub fn check_cameras(&self, path: &Path, origins: &[Vec3]) -> Result<()> {
+        for (i, l) in self.lights.iter().enumerate() {
+            if let LightSpec::Sphere { center, radius, .. } = l {
+                let inside = origins
+                    .iter()
+                    .position(|o| o.distance(Vec3::from(*center)) < *radius);
+                if let Some(k) = inside {
+                    return Err(invalid(
+                        path,
+                        format!("light {i}: the sphere (radius {radius} m) encloses camera {k}, which would see only its dark inside: make it smaller or move it"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Reads and checks a lights file.
     pub fn read(path: &Path) -> Result<LightsFile> {
         let text = std::fs::read_to_string(path)
@@ -298,19 +320,20 @@ impl LightsFile {
 }
 
 fn finite3(name: &str, v: [f32; 3]) -> std::result::Result<(), String> {
-    if v.iter().all(|x| x.is_finite()) {
+    let most = fipt_core::range::MAX_EXTENT;
+    if v.iter().all(|x| x.abs() <= most) {
         Ok(())
     } else {
-        Err(format!("`{name}` {v:?} is not finite"))
+        Err(format!("`{name}` {v:?} is not finite or beyond ±{most:e} m"))
     }
 }
 
 fn nonnegative3(name: &str, v: [f32; 3]) -> std::result::Result<(), String> {
-    finite3(name, v)?;
-    if v.iter().all(|&x| x >= 0.0) {
+    let most = fipt_core::range::MAX_RADIANCE;
+    if v.iter().all(|&x| (0.0..=most).contains(&x)) {
         Ok(())
     } else {
-        Err(format!("`{name}` {v:?} has a negative component"))
+        Err(format!("`{name}` {v:?} is not in [0, {most:e}] (a larger value overflows the tracer's f32)"))
     }
 }
 
@@ -326,8 +349,9 @@ impl LightSpec {
             } => {
                 finite3("center", *center)?;
                 nonnegative3("radiance", *radiance)?;
-                if !(radius.is_finite() && *radius > 0.0) {
-                    return Err(format!("`radius` {radius} must be > 0"));
+                let most = fipt_core::range::MAX_EXTENT;
+                if !(*radius > 0.0 && *radius <= most) {
+                    return Err(format!("`radius` {radius} must be in (0, {most:e}] m"));
                 }
                 if *subdivisions > 6 {
                     return Err(format!(
@@ -343,6 +367,8 @@ impl LightSpec {
                 ..
             } => {
                 finite3("corner", *corner)?;
+                finite3("edge1", *edge1)?;
+                finite3("edge2", *edge2)?;
                 nonnegative3("radiance", *radiance)?;
                 let n = Vec3::from(*edge1).cross(Vec3::from(*edge2));
                 if !(n.is_finite() && n.length() > 0.0) {

@@ -132,7 +132,7 @@ impl EditsFile {
                 .albedo
                 .iter()
                 .chain(&m.emission)
-                .all(|v| v.is_finite() && *v >= 0.0)
+                .all(|v| (0.0..=fipt_core::range::MAX_RADIANCE).contains(v))
                 && (0.0..=1.0).contains(&m.roughness)
                 && (0.0..=1.0).contains(&m.metallic);
             if !ok {

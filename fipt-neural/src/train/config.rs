@@ -299,6 +299,17 @@ impl TrainConfig {
     }
 
     pub fn validate(&self) -> Result<()> {
+        use fipt_core::range::check;
+        let sizes = [
+            check("steps", self.steps, 1, 10_000_000),
+            check("min_steps", self.min_steps, 0, 10_000_000),
+            check("checkpoint_every", self.checkpoint_every, 0, 10_000_000),
+            check("grid_lr_factor", self.grid_lr_factor, 0.0, 1e6),
+            check("finest_cell_footprints", self.finest_cell_footprints, 0.0, 1e6),
+        ];
+        for r in sizes {
+            r.map_err(|e| NeuralError::config("train", e))?;
+        }
         for (key, v) in [("max_passes", self.max_passes), ("set_cap", self.set_cap)] {
             if !(v >= 0.0 && v <= 1e6) {
                 return Err(NeuralError::config(
