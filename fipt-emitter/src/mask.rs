@@ -61,7 +61,12 @@ impl MaskExtractorConfig {
     /// reference takes 100; memory grows with it), naming the key.
     pub fn validate(&self) -> std::result::Result<(), String> {
         fipt_core::range::check("emitters.threshold", self.threshold, 0.0, 1.0)?;
-        fipt_core::range::check("emitters.samples_per_triangle", self.samples_per_triangle, 1, 100_000)
+        fipt_core::range::check(
+            "emitters.samples_per_triangle",
+            self.samples_per_triangle,
+            1,
+            100_000,
+        )
     }
 }
 

@@ -321,7 +321,8 @@ pub fn sweep(a: &SweepRequest, components: &crate::Components) -> Result<SweepSu
         cfg.with_context(|| format!("grid point {name} (preset {preset})"))?;
     }
     // Its own lock file: the points' runs below take theirs in their folders.
-    let _lock = fipt_core::lock::OutputLock::acquire_named(&a.out, ".fipt.sweep.lock", "fipt sweep")?;
+    let _lock =
+        fipt_core::lock::OutputLock::acquire_named(&a.out, ".fipt.sweep.lock", "fipt sweep")?;
     let mut rows = Vec::new();
     for (k, (name, preset, overrides)) in points.iter().enumerate() {
         let dir = a.out.join(name);

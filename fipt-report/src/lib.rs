@@ -163,7 +163,11 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
                 if !png.is_file() && exr.is_file() {
                     // A deleted preview is drawn again from its map.
                     let img = Image::read_exr(&exr)?;
-                    let img = if name == "emission" { normalised(img) } else { img };
+                    let img = if name == "emission" {
+                        normalised(img)
+                    } else {
+                        img
+                    };
                     img.write_png(&png, 1.0)?;
                 }
                 let mine = png.is_file().then(|| rel(run, &png));

@@ -55,7 +55,9 @@ impl SurfaceEdit {
             None => true,
         };
         if !ok_op3(&self.albedo) {
-            return Err(format!("albedo: set values and scales must be in [0, {most:e}]"));
+            return Err(format!(
+                "albedo: set values and scales must be in [0, {most:e}]"
+            ));
         }
         if !ok_op3(&self.emission) {
             return Err(format!("emission: set values and scales must be in [0, {most:e}] (a larger value overflows the tracer's f32)"));

@@ -324,7 +324,9 @@ fn finite3(name: &str, v: [f32; 3]) -> std::result::Result<(), String> {
     if v.iter().all(|x| x.abs() <= most) {
         Ok(())
     } else {
-        Err(format!("`{name}` {v:?} is not finite or beyond ±{most:e} m"))
+        Err(format!(
+            "`{name}` {v:?} is not finite or beyond ±{most:e} m"
+        ))
     }
 }
 
@@ -333,7 +335,9 @@ fn nonnegative3(name: &str, v: [f32; 3]) -> std::result::Result<(), String> {
     if v.iter().all(|&x| (0.0..=most).contains(&x)) {
         Ok(())
     } else {
-        Err(format!("`{name}` {v:?} is not in [0, {most:e}] (a larger value overflows the tracer's f32)"))
+        Err(format!(
+            "`{name}` {v:?} is not in [0, {most:e}] (a larger value overflows the tracer's f32)"
+        ))
     }
 }
 

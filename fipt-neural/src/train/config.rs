@@ -305,7 +305,12 @@ impl TrainConfig {
             check("min_steps", self.min_steps, 0, 10_000_000),
             check("checkpoint_every", self.checkpoint_every, 0, 10_000_000),
             check("grid_lr_factor", self.grid_lr_factor, 0.0, 1e6),
-            check("finest_cell_footprints", self.finest_cell_footprints, 0.0, 1e6),
+            check(
+                "finest_cell_footprints",
+                self.finest_cell_footprints,
+                0.0,
+                1e6,
+            ),
         ];
         for r in sizes {
             r.map_err(|e| NeuralError::config("train", e))?;
