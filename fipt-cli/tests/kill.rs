@@ -92,3 +92,135 @@ fn a_run_killed_at_random_moments_of_every_stage_resumes_to_the_same_outputs() {
         let _ = std::fs::remove_dir_all(p);
     }
 }
+
+/// The files of a run that do not record times: every shading, field, map and re-render, the
+/// lights and the scores.
+fn results(dir: &std::path::Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    walk(dir)
+        .into_iter()
+        .filter(|p| {
+            let name = p.to_string_lossy();
+            ["fsh", "safetensors", "exr"]
+                .iter()
+                .any(|e| p.extension().is_some_and(|x| x == *e))
+                || name.ends_with("emitters.json")
+                || name.ends_with("metrics.json")
+        })
+        .map(|p| {
+            let rel = p.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
+            (rel, std::fs::read(&p).unwrap())
+        })
+        .collect()
+}
+
+/// The chaos test: the run SIGKILLs itself (`FIPT_CHAOS_KILL`, fipt-core's `chaos`) at two
+/// seeded moments of every stage of its report, each stage's moments counted in an
+/// uninterrupted run (its start, and each atomic write's three steps); every killed run
+/// resumes to the uninterrupted run's results byte for byte, with no temporary left.
+#[test]
+fn a_run_killed_at_seeded_moments_of_every_stage_resumes_to_the_same_results() {
+    let (dir, cfg) = tiny_resumable_scene("chaos-scene", 200);
+    let d = dir.to_str().unwrap();
+    let c = cfg.to_str().unwrap();
+    let full = tmp("chaos-full");
+    let log = dir.join("moments.txt");
+    let out = Command::new(env!("CARGO_BIN_EXE_fipt"))
+        .args(["run", d, "--out", full.to_str().unwrap(), "--config", c])
+        .env("FIPT_CHAOS_LOG", &log)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let reference = results(&full);
+    // The moments of each stage occurrence, in run order.
+    let mut stages: Vec<(String, Vec<u64>)> = vec![];
+    for line in std::fs::read_to_string(&log).unwrap().lines() {
+        let (stage, n) = line.rsplit_once(' ').unwrap();
+        let n: u64 = n.parse().unwrap();
+        match stages.last_mut() {
+            Some((s, seen)) if s == stage => seen.push(n),
+            _ => stages.push((stage.to_string(), vec![n])),
+        }
+    }
+    let names: Vec<&str> = stages
+        .iter()
+        .map(|s| s.0.split('#').next().unwrap())
+        .collect();
+    for expected in [
+        "load",
+        "bake",
+        "search",
+        "train",
+        "emitters",
+        "refine",
+        "maps",
+        "re-render",
+        "eval",
+    ] {
+        assert!(
+            names.contains(&expected),
+            "no moment of stage {expected}: {stages:?}"
+        );
+    }
+    let seed = std::env::var("FIPT_KILL_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0xC4A05_u64);
+    let u = uniforms(seed, 2 * stages.len());
+    let mut cases = 0;
+    for (i, (stage, seen)) in stages.iter().enumerate() {
+        let pick = |j: usize| seen[(u[2 * i + j] * seen.len() as f64) as usize];
+        // FIPT_CHAOS_ALL=1: every moment of every stage (minutes; for a local check).
+        let mut moments = match std::env::var_os("FIPT_CHAOS_ALL") {
+            Some(_) => seen.clone(),
+            None => vec![pick(0), pick(1)],
+        };
+        moments.sort();
+        moments.dedup();
+        for n in moments {
+            let at = format!("{stage}:{n}");
+            let out = tmp(&format!("chaos-{i}-{n}"));
+            let o = out.to_str().unwrap();
+            let status = Command::new(env!("CARGO_BIN_EXE_fipt"))
+                .args(["run", d, "--out", o, "--config", c])
+                .env("FIPT_CHAOS_KILL", &at)
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .status()
+                .unwrap();
+            assert!(!status.success(), "not killed at {at} (seed {seed})");
+            let (ok, _, err) = fipt(&["run", d, "--out", o, "--config", c]);
+            assert!(ok, "killed at {at} (seed {seed}), the resume failed: {err}");
+            let got = results(&out);
+            assert_eq!(
+                got.keys().collect::<Vec<_>>(),
+                reference.keys().collect::<Vec<_>>(),
+                "killed at {at}: other files"
+            );
+            for (f, b) in &reference {
+                assert!(
+                    got[f] == *b,
+                    "{f} differs after a kill at {at} (seed {seed})"
+                );
+            }
+            let leftovers: Vec<_> = walk(&out)
+                .into_iter()
+                .filter(|p| p.to_string_lossy().ends_with(".tmp"))
+                .collect();
+            assert!(leftovers.is_empty(), "kill at {at}: {leftovers:?}");
+            let _ = std::fs::remove_dir_all(&out);
+            cases += 1;
+        }
+    }
+    assert!(
+        cases >= stages.len(),
+        "{cases} kills for {} stages",
+        stages.len()
+    );
+    for p in [dir, full] {
+        let _ = std::fs::remove_dir_all(p);
+    }
+}

@@ -365,3 +365,78 @@ fn a_sweep_checks_its_whole_grid_before_the_first_point() {
         let _ = std::fs::remove_dir_all(p);
     }
 }
+
+/// A sweep killed alone (SIGKILL to its process, not its group) leaves no `fipt run` behind:
+/// the running point stops within a second and the sweep resumes to the end.
+#[test]
+fn a_killed_sweep_leaves_no_run_behind_and_resumes() {
+    let (scene, _) = tiny_resumable_scene("rb-sweep-kill-scene", 100);
+    let out = tmp("rb-sweep-kill");
+    let grid = scene.join("grid.toml");
+    std::fs::write(
+        &grid,
+        "presets = [\"fast\"]\n[axes]\n\"train.steps\" = [5000]\n\"train.max_passes\" = [0.0]\n\"train.batch\" = [512]\n\"train.checkpoint_every\" = [100]\n",
+    )
+    .unwrap();
+    let args = [
+        "sweep",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--grid",
+        grid.to_str().unwrap(),
+    ];
+    let mut sweep = std::process::Command::new(env!("CARGO_BIN_EXE_fipt"))
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // The point's run holds its folder's lock: its pid.
+    let t0 = std::time::Instant::now();
+    let child = loop {
+        let lock = std::fs::read_dir(&out)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| e.path().join(".fipt.lock"))
+            .find(|p| p.is_file());
+        if let Some(pid) = lock
+            .and_then(|p| std::fs::read_to_string(p).ok())
+            .and_then(|t| {
+                t.lines()
+                    .next()?
+                    .strip_prefix("pid ")?
+                    .trim()
+                    .parse::<u32>()
+                    .ok()
+            })
+        {
+            break pid;
+        }
+        assert!(t0.elapsed().as_secs() < 60, "no point started");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    assert!(
+        Path::new(&format!("/proc/{child}")).exists(),
+        "the point ended before the kill"
+    );
+    sweep.kill().unwrap();
+    sweep.wait().unwrap();
+    let t1 = std::time::Instant::now();
+    while Path::new(&format!("/proc/{child}")).exists() && t1.elapsed().as_secs() < 5 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    // A zombie (reaped by init later) no longer runs: its state is Z.
+    let state = std::fs::read_to_string(format!("/proc/{child}/stat")).unwrap_or_default();
+    assert!(
+        state.is_empty() || state.contains(") Z"),
+        "the point's fipt run ({child}) still runs after its sweep was killed: {state}"
+    );
+    let (ok, _, err) = fipt(&args);
+    assert!(ok, "the resumed sweep failed: {err}");
+    assert!(out.join("sweep.csv").is_file());
+    for p in [scene, out] {
+        let _ = std::fs::remove_dir_all(p);
+    }
+}

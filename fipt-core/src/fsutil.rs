@@ -41,6 +41,7 @@ where
         }
     }
     let tmp = temp_path(path);
+    crate::chaos::moment();
     // The usual permissions of a new file (0666 less the umask), restored after the writer in
     // case it made the file private (safetensors writes 0600).
     let usual = std::fs::File::create(&tmp)
@@ -48,12 +49,17 @@ where
         .map_err(|e| CoreError::io(&tmp, e))?
         .permissions();
     match write(&tmp) {
-        Ok(()) => std::fs::set_permissions(&tmp, usual)
-            .and_then(|_| std::fs::rename(&tmp, path))
-            .map_err(|e| {
-                let _ = std::fs::remove_file(&tmp);
-                CoreError::io(path, e)
-            }),
+        Ok(()) => {
+            crate::chaos::moment();
+            let done = std::fs::set_permissions(&tmp, usual)
+                .and_then(|_| std::fs::rename(&tmp, path))
+                .map_err(|e| {
+                    let _ = std::fs::remove_file(&tmp);
+                    CoreError::io(path, e)
+                });
+            crate::chaos::moment();
+            done
+        }
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
             Err(e)

@@ -31,6 +31,7 @@
 pub mod brdf;
 pub mod camera;
 pub mod capture;
+pub mod chaos;
 pub mod color;
 pub mod cube;
 pub mod dataset;

@@ -71,6 +71,13 @@ pub fn bar(total: u64, what: &str) -> Progress {
     Progress(OBSERVER.get().map(|o| o.progress(what, total)))
 }
 
+/// The start of a stage of a run's report (`load`, `bake`, `train`, …): its clock, and the
+/// moment fault injection counts the stage's moments from ([`fipt_core::chaos`]).
+pub fn begin(stage: &str) -> Instant {
+    fipt_core::chaos::stage_started(stage);
+    Instant::now()
+}
+
 /// Times a stage and tells the observer when it is done.
 pub struct Stage {
     label: String,

@@ -59,7 +59,7 @@ pub(crate) fn evaluate_if_gt(
     if !has_ground_truth(scene) {
         return Ok(None);
     }
-    let t = std::time::Instant::now();
+    let t = crate::observe::begin("eval");
     let m = crate::eval::evaluate(&scene.ds, out, scene.exposure)?;
     mark("eval", t);
     Ok(Some(m))
@@ -248,7 +248,7 @@ pub(crate) fn write_views(
     let Recovered {
         field, emitters, ..
     } = recovered;
-    let t = std::time::Instant::now();
+    let t = crate::observe::begin("maps");
     let st = Stage::start("maps");
     let mut emission_of: HashMap<u32, Vec3> = HashMap::new();
     for e in emitters {
@@ -272,7 +272,7 @@ pub(crate) fn write_views(
     mark("maps", t);
 
     if cfg.render.spp > 0 {
-        let t = std::time::Instant::now();
+        let t = crate::observe::begin("re-render");
         let st = Stage::start("re-render");
         re_render(scene, cfg, out, &recovered)?;
         st.done();

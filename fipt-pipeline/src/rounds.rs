@@ -144,7 +144,7 @@ pub(crate) fn refinement_rounds(
     let mut r = 0;
     while r < last {
         r += 1;
-        let t = std::time::Instant::now();
+        let t = crate::observe::begin("refine");
         let refined = crate::refine::stage(
             ctx.scene,
             &st.field,
@@ -163,7 +163,7 @@ pub(crate) fn refinement_rounds(
                 "psnr_db": crate::eval::closure_psnr(ctx.scene, &refined.shadings)?,
             }));
         }
-        let t = std::time::Instant::now();
+        let t = crate::observe::begin("search");
         let when = if r <= cfg.rounds.refinements {
             crate::search::When::Refined
         } else {
@@ -186,7 +186,7 @@ pub(crate) fn refinement_rounds(
         if st.searched.is_some() {
             mark("search", t);
         }
-        let t = std::time::Instant::now();
+        let t = crate::observe::begin("train");
         let prev_id = st.train.fingerprint();
         let mut round_cfg = cfg.train.clone();
         // With search targets, the regions without a σ target keep the σ pull: the search

@@ -428,6 +428,20 @@ fn load_checked(a: &RunRequest, cfg: &RunConfig) -> Result<(crate::scene::Loaded
     crate::scene::check_coverage(&scene)?;
     let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
     let memory = crate::memory::check(pixels, cfg)?;
+    if cfg.pipeline.extractor == crate::components::MASK_EXTRACTOR {
+        // The emission mask is queried at every sample of every triangle: about 10 M queries
+        // a second on 2 cores.
+        let triangles = scene.geometry.mesh.triangles.len() as f64;
+        let factors = [
+            (
+                "emitters.samples_per_triangle",
+                cfg.emitters.samples_per_triangle as f64,
+            ),
+            ("triangles", triangles),
+        ];
+        fipt_core::range::product("the emission mask's queries", &factors, 1e10, "queries")
+            .map_err(PipelineError::invalid)?;
+    }
     Ok((scene, memory))
 }
 
@@ -459,10 +473,10 @@ fn run_locked(
     let mut mark =
         |stage: &'static str, t: std::time::Instant| stages.push(StageReport::since(stage, t));
     fipt_core::fsutil::remove_stale_temporaries(&a.out);
-    let t = std::time::Instant::now();
+    let t = crate::observe::begin("load");
     let (scene, memory) = load_checked(a, cfg)?;
     mark("load", t);
-    let t = std::time::Instant::now();
+    let t = crate::observe::begin("bake");
     let (bake, shadings) = crate::bake::stage(
         &scene,
         baker.as_ref(),
@@ -475,7 +489,7 @@ fn run_locked(
     let has_gt = has_ground_truth(&scene);
     let (records, footprint) = train_hits(&scene);
     let mut searches = vec![];
-    let t = std::time::Instant::now();
+    let t = crate::observe::begin("search");
     let bake_id = fipt_shading::bake_store::fingerprint(&bake);
     let on = crate::search::SearchOn {
         shadings: &shadings,
@@ -489,7 +503,7 @@ fn run_locked(
     // What the closure and the extraction need of the shadings, before the training takes them.
     let mut closure = bake_closure(&scene, &shadings, has_gt)?;
     let reflected = crate::outputs::max_reflected(&shadings)?;
-    let t = std::time::Instant::now();
+    let t = crate::observe::begin("train");
     let (mut field, mut train, _) = crate::train::stage(
         &scene,
         &bake_id,
@@ -506,7 +520,7 @@ fn run_locked(
         searches.push(serde_json::json!({ "shadings": "bake", "search": &searched }));
     }
 
-    let t = std::time::Instant::now();
+    let t = crate::observe::begin("emitters");
     let emitters = extract_emitters(
         &scene,
         &records,
