@@ -57,10 +57,11 @@ impl Default for MaskExtractorConfig {
 }
 
 impl MaskExtractorConfig {
-    /// Refuses a threshold outside [0, 1] and more than 100,000 samples per triangle (the
-    /// reference takes 100; memory grows with it), naming the key.
+    /// Refuses a negative threshold (above the mask's largest value no triangle emits: the
+    /// extraction off) and more than 100,000 samples per triangle (the reference takes 100;
+    /// memory grows with it), naming the key.
     pub fn validate(&self) -> std::result::Result<(), String> {
-        fipt_core::range::check("emitters.threshold", self.threshold, 0.0, 1.0)?;
+        fipt_core::range::check("emitters.threshold", self.threshold, 0.0, 1e6)?;
         fipt_core::range::check(
             "emitters.samples_per_triangle",
             self.samples_per_triangle,
