@@ -26,6 +26,7 @@
 //! ```
 pub mod bake;
 pub mod bake_store;
+pub mod denoise;
 pub mod brdf;
 pub mod diffuse;
 pub mod edit;

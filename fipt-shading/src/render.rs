@@ -210,11 +210,24 @@ pub fn render<S: SurfaceModel>(
     view_key: u64,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Image, RenderStats) {
+    let (img, _, stats) = trace_variance(scene, camera, cfg, view_key, progress);
+    (img, stats)
+}
+
+/// [`render`] with the variance of each pixel's mean luminance (the samples' variance over
+/// their number; what the denoiser's luminance weights are scaled by).
+pub fn trace_variance<S: SurfaceModel>(
+    scene: &Scene<S>,
+    camera: &Camera,
+    cfg: &RenderConfig,
+    view_key: u64,
+    progress: &(dyn Fn(usize) + Sync),
+) -> (Image, Vec<f32>, RenderStats) {
     let (w, h) = (camera.width, camera.height);
     let rays = AtomicUsize::new(0);
     let nonfinite = AtomicUsize::new(0);
     let tile_list = tiles(w, h, cfg.tile);
-    let results: Vec<Vec<Rgb>> = tile_list
+    let results: Vec<Vec<(Rgb, f32)>> = tile_list
         .par_iter()
         .map(|&(x0, y0, x1, y1)| {
             let mut out = Vec::with_capacity((x1 - x0) * (y1 - y0));
@@ -224,6 +237,7 @@ pub fn render<S: SurfaceModel>(
                 for x in x0..x1 {
                     let mut rng = Pcg32::from_keys(&[cfg.seed, view_key, (y * w + x) as u64]);
                     let mut sum = Vec3::ZERO;
+                    let mut sq = 0.0f64;
                     for _ in 0..cfg.spp {
                         let jitter = rng.next_2d();
                         let (o, d) = camera.ray(x as f32 + jitter.x, y as f32 + jitter.y);
@@ -231,11 +245,16 @@ pub fn render<S: SurfaceModel>(
                         nrays += r as usize;
                         if is_finite(li) {
                             sum += li;
+                            sq += (fipt_core::color::luminance(li) as f64).powi(2);
                         } else {
                             bad += 1;
                         }
                     }
-                    out.push(sum / cfg.spp.max(1) as f32);
+                    let n = cfg.spp.max(1) as f32;
+                    let mean = sum / n;
+                    let l = fipt_core::color::luminance(mean) as f64;
+                    let var = ((sq / n as f64 - l * l).max(0.0) / n as f64) as f32;
+                    out.push((mean, var));
                 }
             }
             rays.fetch_add(nrays, Ordering::Relaxed);
@@ -245,11 +264,14 @@ pub fn render<S: SurfaceModel>(
         })
         .collect();
     let mut img = Image::new(w, h);
+    let mut variance = vec![0f32; w * h];
     for (&(x0, y0, x1, y1), px) in tile_list.iter().zip(results) {
         let mut it = px.into_iter();
         for y in y0..y1 {
             for x in x0..x1 {
-                img.set(x, y, it.next().unwrap_or_default());
+                let (c, v) = it.next().unwrap_or_default();
+                img.set(x, y, c);
+                variance[y * w + x] = v;
             }
         }
     }
@@ -258,7 +280,7 @@ pub fn render<S: SurfaceModel>(
         rays: rays.into_inner() as u64,
         nonfinite: nonfinite.into_inner() as u64,
     };
-    (img, stats)
+    (img, variance, stats)
 }
 
 /// Per-pixel ground truth at the pixel-centre ray (not anti-aliased). On emitter pixels
