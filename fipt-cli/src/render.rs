@@ -57,6 +57,11 @@ pub struct Args {
     /// `Image/`), or another render's `{k:03}_render.exr`. Writes `metrics.json` (sRGB PSNR per view and mean) into --out.
     #[arg(long)]
     reference: Option<PathBuf>,
+    /// Denoise the views: `auto` (default: on for a recovered scene or a .glb, whose
+    /// `{k:03}_render.exr` is denoised and `{k:03}_render_raw.exr` kept; off for --materials,
+    /// which writes a scene's ground truth), `on` or `off`.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "on", "off"])]
+    denoise: String,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -76,6 +81,11 @@ pub fn run(a: Args) -> Result<()> {
         emitters: a.emitters,
         edits: a.edits,
         reference: a.reference,
+        denoise: match a.denoise.as_str() {
+            "on" => Some(true),
+            "off" => Some(false),
+            _ => None,
+        },
     })?;
     for (out, psnr) in &summary.outputs {
         if !psnr.is_empty() {

@@ -634,7 +634,8 @@ fn a_run_that_cannot_work_fails_before_any_work_and_marks_its_folder() {
     assert_eq!(report["status"], "failed");
     assert!(report["error"].as_str().unwrap().contains("hits the mesh"));
     // What reads a run refuses this one.
-    let (ok, _, err) = fipt(&["export", o, "--format", "glb", "--out", o]);
+    let exported = format!("{o}-glb");
+    let (ok, _, err) = fipt(&["export", o, "--format", "glb", "--out", &exported]);
     assert!(!ok && err.contains("did not finish"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&out);

@@ -100,9 +100,10 @@ fn render_score(
     dir: &Path,
     [display, radiance]: [f32; 2],
     split: &str,
+    suffix: &str,
 ) -> Result<Option<f64>> {
     let k = v.index;
-    let path = dir.join(format!("{k:03}_render.exr"));
+    let path = dir.join(format!("{k:03}_{suffix}.exr"));
     if !path.is_file() {
         return Ok(None);
     }
@@ -178,6 +179,7 @@ pub fn evaluate_scaled(
         let mut rows = vec![];
         let (mut kd_all, mut alb_all, mut r_all, mut iou_all, mut log_all, mut render_all) =
             (vec![], vec![], vec![], vec![], vec![], vec![]);
+        let mut raw_all = vec![];
         // Metallic, pooled over the split's pixels: [metal pixels, of them predicted ≥ 0.8,
         // dielectric pixels, of them predicted > 0.1].
         let mut metal = [0usize; 4];
@@ -286,8 +288,12 @@ pub fn evaluate_scaled(
                     .push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
             }
             let (iou, log2) = emission_scores(&emis, emit_gt.as_ref());
-            let render_p = render_score(ds, v, &dir, [display, scales.radiance], &s.name)?;
+            let scale = [display, scales.radiance];
+            let render_p = render_score(ds, v, &dir, scale, &s.name, "render")?;
             render_all.push(render_p);
+            // The re-render before denoising, where it was kept.
+            let raw_p = render_score(ds, v, &dir, scale, &s.name, "render_raw")?;
+            raw_all.push(raw_p);
             let log_l2 = log2 / (3 * n) as f64;
             write_kd_error(out, &s.name, k, &kd, &kd_gt, &valid)?;
             kd_all.push(kd_p);
@@ -295,7 +301,7 @@ pub fn evaluate_scaled(
             r_all.push(r_p);
             iou_all.push(iou);
             log_all.push(Some(log_l2));
-            rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p}));
+            rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p, "render_raw_psnr": raw_p}));
         }
         let share = |a: usize, b: usize| (b > 0).then(|| a as f64 / b as f64);
         let parts_json = (!parts.is_empty()).then(|| parts.to_json(&names));
@@ -308,7 +314,8 @@ pub fn evaluate_scaled(
                              "metal_pixels": metal[0], "dielectric_pixels": metal[2]},
                 "roughness_constant": {"value": 1.0, "roughness_psnr": mean(&r_const), "roughness_psnr_median": median(&r_const)},
                 "mean": {"kd_psnr": mean(&kd_all), "albedo_psnr": mean(&alb_all), "roughness_psnr": mean(&r_all),
-                         "emission_iou": mean(&iou_all), "emission_log_l2": mean(&log_all), "render_psnr": mean(&render_all)},
+                         "emission_iou": mean(&iou_all), "emission_log_l2": mean(&log_all), "render_psnr": mean(&render_all),
+                         "render_raw_psnr": mean(&raw_all)},
                 "median": {"kd_psnr": median(&kd_all), "albedo_psnr": median(&alb_all), "roughness_psnr": median(&r_all),
                            "emission_iou": median(&iou_all), "emission_log_l2": median(&log_all), "render_psnr": median(&render_all)},
                 "views": rows,

@@ -68,6 +68,7 @@ pub fn evaluate_at(a: &EvalAtRequest) -> Result<serde_json::Value> {
         emitters: None,
         edits: None,
         reference: None,
+        denoise: Some(true),
     })?;
     let report: serde_json::Value =
         fipt_core::fsutil::read_json(&a.out.join("report.json")).unwrap_or_default();

@@ -378,12 +378,21 @@ fn re_render(
                 continue;
             }
             let key = ((si as u64) << 32) + v.index as u64;
-            let (mut img, _) = fipt_shading::render::render(&rscene, &v.camera, &rc, key, &|_| {});
+            let dn = fipt_shading::denoise::DenoiseConfig {
+                passes: if cfg.render.denoise { 5 } else { 0 },
+                ..Default::default()
+            };
+            let (mut img, mut raw, _) =
+                fipt_shading::denoise::render_denoised(&rscene, &v.camera, &rc, key, &dn, &|_| {});
             img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
-            if scene.exposure != 1.0 {
-                for p in &mut img.data {
-                    *p *= scene.exposure;
-                }
+            for p in img.data.iter_mut().chain(raw.data.iter_mut()) {
+                *p *= scene.exposure;
+            }
+            if cfg.render.denoise {
+                raw.write_exr(
+                    &dir.join(format!("{k:03}_render_raw.exr")),
+                    ExrPrecision::F32,
+                )?;
             }
             img.write_exr(&exr, ExrPrecision::F32)?;
             if let Some(p) = &mut progress {

@@ -13,7 +13,7 @@ use fipt_geom::Mesh;
 use fipt_shading::edit::EditedSurfaces;
 use fipt_shading::lights::{EmitterPolicy, LightsFile};
 use fipt_shading::relight::apply_lights;
-use fipt_shading::render::{render, render_aovs, RenderConfig};
+use fipt_shading::render::{render_aovs, RenderConfig};
 use fipt_shading::scene::{Scene, SurfaceModel, TableSurfaces};
 use fipt_shading::scene_edits::{apply_edits, EditsFile, OBJECT_PART};
 use fipt_shading::synth::write_view;
@@ -51,6 +51,10 @@ pub struct RenderRequest {
     pub edits: Option<PathBuf>,
     /// Reference images to compare with (writes `metrics.json` into each output folder).
     pub reference: Option<PathBuf>,
+    /// Denoise the path-traced views, keeping the raw ones beside them
+    /// (`{k:03}_render_raw.exr`; for --materials, which writes a scene's split, only the
+    /// denoised `Image/`). None: on, except for --materials (ground truth stays raw).
+    pub denoise: Option<bool>,
 }
 
 /// What `fipt render` wrote.
@@ -385,10 +389,27 @@ fn render_views<S: SurfaceModel>(
     let (mut rays, mut nonfinite) = (0u64, 0u64);
     let reference = a.reference.as_deref().map(reference_dir).transpose()?;
     let mut rows = Vec::new();
+    let mut raw_rows = Vec::new();
+    let denoise = a.denoise.unwrap_or(layout == Layout::Flat);
+    let dn = fipt_shading::denoise::DenoiseConfig {
+        passes: if denoise { 5 } else { 0 },
+        ..Default::default()
+    };
     for &k in views {
-        let (img, stats) = render(scene, &cams[k], &cfg, k as u64, &|n| pb.inc(n as u64));
+        let tick = |n: usize| pb.inc(n as u64);
+        let (img, raw, stats) =
+            fipt_shading::denoise::render_denoised(scene, &cams[k], &cfg, k as u64, &dn, &tick);
         if let Some(dir) = &reference {
             rows.push((k, compare(dir, k, &img)?));
+            if denoise {
+                raw_rows.push((k, compare(dir, k, &raw)?));
+            }
+        }
+        if denoise && layout == Layout::Flat {
+            raw.write_exr(
+                &out.join(format!("{k:03}_render_raw.exr")),
+                ExrPrecision::F32,
+            )?;
         }
         rays += stats.rays;
         nonfinite += stats.nonfinite;
@@ -415,7 +436,7 @@ fn render_views<S: SurfaceModel>(
         }
     );
     if reference.is_some() {
-        write_metrics(out, &rows)?;
+        write_metrics(out, &rows, &raw_rows)?;
     }
     Ok(rows)
 }
@@ -457,11 +478,12 @@ fn compare(dir: &Path, k: usize, img: &fipt_core::image::Image) -> Result<f64> {
     Ok(fipt_core::metrics::srgb_psnr(&img.data, &r.data, None).unwrap_or(f64::NAN))
 }
 
-fn write_metrics(out: &Path, rows: &[(usize, f64)]) -> Result<()> {
-    let mean = mean_psnr(rows);
-    let json = serde_json::json!({
-        "render_psnr": { "mean": mean, "views": rows.iter().map(|(k, p)| serde_json::json!({"view": k, "srgb_psnr": p})).collect::<Vec<_>>() },
-    });
+fn write_metrics(out: &Path, rows: &[(usize, f64)], raw: &[(usize, f64)]) -> Result<()> {
+    let table = |rows: &[(usize, f64)]| serde_json::json!({ "mean": mean_psnr(rows), "views": rows.iter().map(|(k, p)| serde_json::json!({"view": k, "srgb_psnr": p})).collect::<Vec<_>>() });
+    let mut json = serde_json::json!({ "render_psnr": table(rows) });
+    if !raw.is_empty() {
+        json["render_raw_psnr"] = table(raw);
+    }
     fipt_core::fsutil::write_json_atomic(&out.join("metrics.json"), &json)?;
     Ok(())
 }

@@ -261,6 +261,14 @@ pub struct ReRenderConfig {
     pub val_spp: u32,
     pub max_bounces: u32,
     pub seed: u64,
+    /// Denoise the re-renders (`_render.exr`), keeping the raw ones beside them
+    /// (`_render_raw.exr`); off: `_render.exr` is the raw render.
+    #[serde(default = "default_denoise")]
+    pub denoise: bool,
+}
+
+fn default_denoise() -> bool {
+    true
 }
 
 impl ReRenderConfig {
@@ -307,6 +315,7 @@ impl RunConfig {
                 },
                 max_bounces: 7,
                 seed: 0,
+                denoise: true,
             },
             search: if name == "reference" {
                 SearchConfig::off()

@@ -8,8 +8,10 @@
 //! The guides are anti-aliased like the image: [`render_guides`] averages jittered primary
 //! hits per pixel. Pixels that see an emitter, miss the scene, or whose albedo is black are
 //! left as rendered and take no part in their neighbours' sums (their light cannot be divided
-//! by their paint). The filter is normalised, so it moves no energy from one surface to another;
-//! each weight depends only on the two pixels, so the result does not depend on threads.
+//! by their paint). Light flows between two pixels in proportion to a weight that is the same
+//! both ways, so the view's radiance is kept exactly (a filter that averages each pixel's
+//! neighbours would drop the fireflies' energy: 3.6 % of a 16-spp view of `room`); each
+//! weight depends only on the two pixels, so the result does not depend on threads.
 use crate::render::trace_variance;
 use crate::scene::{Scene, SurfaceModel};
 use fipt_core::camera::Camera;
@@ -135,8 +137,55 @@ pub fn render_guides<S: SurfaceModel>(
 /// The B3-spline taps of one à-trous pass.
 const TAPS: [f32; 5] = [1.0 / 16.0, 1.0 / 4.0, 3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
 
-/// One à-trous pass over the demodulated light `irr` with its variance `var` at hole `step`:
-/// the filtered light and variance.
+/// The symmetric weight of pixels `p` and `q` (tap product `k`, `sep` pixels apart): their
+/// normals, each one's distance to the other's tangent plane (in their mean footprint), and
+/// their lights' difference against both noises (`sd`).
+#[allow(clippy::too_many_arguments)]
+fn weight(
+    g: &Guides,
+    irr: &[Vec3],
+    sd: &[f32],
+    footprint: &[f32],
+    cfg: &DenoiseConfig,
+    (p, q): (usize, usize),
+    k: f32,
+    sep: f32,
+) -> f32 {
+    let (np, nq) = (g.normal[p], g.normal[q]);
+    let wn = np.dot(nq).max(0.0).powf(cfg.sigma_normal);
+    let d = g.position[q] - g.position[p];
+    let plane = 0.5 * (np.dot(d).abs() + nq.dot(d).abs());
+    let foot = 0.5 * (footprint[p] + footprint[q]);
+    let wp = (-plane / (cfg.sigma_plane * foot * sep + 1e-9)).exp();
+    let noise = (sd[p] * sd[p] + sd[q] * sd[q]).sqrt();
+    let dl = (luminance(irr[q]) - luminance(irr[p])).abs();
+    let wl = (-dl / (cfg.sigma_luminance * noise + 1e-6)).exp();
+    k * wn * wp * wl
+}
+
+/// The neighbours of pixel `i` at hole `step` inside the image: (index, tap product,
+/// separation in pixels), itself excluded.
+fn taps(i: usize, w: usize, h: usize, step: usize) -> impl Iterator<Item = (usize, f32, f32)> {
+    let (x, y) = ((i % w) as isize, (i / w) as isize);
+    (0..25).filter_map(move |t| {
+        let (tx, ty) = (t % 5, t / 5);
+        let (dx, dy) = (
+            (tx as isize - 2) * step as isize,
+            (ty as isize - 2) * step as isize,
+        );
+        let (qx, qy) = (x + dx, y + dy);
+        let inside = qx >= 0 && qy >= 0 && qx < w as isize && qy < h as isize;
+        (inside && (dx, dy) != (0, 0)).then(|| {
+            let sep = ((dx * dx + dy * dy) as f32).sqrt();
+            ((qy as usize) * w + qx as usize, TAPS[tx] * TAPS[ty], sep)
+        })
+    })
+}
+
+/// One à-trous pass at hole `step` over the demodulated light `irr` (variance `var`) of the
+/// pixels with albedo `a`: light flows between each pair of filtered pixels in proportion to
+/// their symmetric weight and the smaller albedo, so that Σ albedo · light (the view's
+/// radiance) is kept exactly while the noise is averaged out.
 fn pass(
     irr: &[Vec3],
     var: &[f32],
@@ -145,67 +194,61 @@ fn pass(
     cfg: &DenoiseConfig,
     step: usize,
 ) -> (Vec<Vec3>, Vec<f32>) {
-    let (w, h) = (g.width as isize, g.height as isize);
-    // The noise's standard deviation around each pixel (3×3 Gaussian of the variance).
-    let sd: Vec<f32> = (0..irr.len())
+    let (w, h) = (g.width, g.height);
+    let n = irr.len();
+    // The noise's standard deviation around each pixel (3×3 B3 average of the variance).
+    let sd: Vec<f32> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let (x, y) = ((i as isize) % w, (i as isize) / w);
-            let (mut s, mut ws) = (0.0, 0.0);
-            for dy in -1..=1isize {
-                for dx in -1..=1isize {
-                    let (qx, qy) = (x + dx, y + dy);
-                    if qx < 0 || qy < 0 || qx >= w || qy >= h {
-                        continue;
-                    }
-                    let q = (qy * w + qx) as usize;
-                    if g.filtered[q] {
-                        let k = TAPS[(dx + 2) as usize] * TAPS[(dy + 2) as usize];
-                        s += k * var[q];
-                        ws += k;
-                    }
-                }
+            let near = taps(i, w, h, 1).filter(|(q, _, sep)| *sep < 2.0 && g.filtered[*q]);
+            let (mut s, mut ws) = (TAPS[2] * TAPS[2] * var[i], TAPS[2] * TAPS[2]);
+            for (q, k, _) in near {
+                s += k * var[q];
+                ws += k;
             }
-            (s / ws.max(1e-12)).max(0.0).sqrt()
+            (s / ws).max(0.0).sqrt()
         })
         .collect();
-    (0..irr.len())
+    let self_tap = TAPS[2] * TAPS[2];
+    // Each pixel's total weight (itself included).
+    let total: Vec<f32> = (0..n)
         .into_par_iter()
-        .map(|i| {
-            if !g.filtered[i] {
-                return (irr[i], var[i]);
+        .map(|p| {
+            if !g.filtered[p] {
+                return 1.0;
             }
-            let (x, y) = ((i as isize) % w, (i as isize) / w);
-            let (np, pp, lp) = (g.normal[i], g.position[i], luminance(irr[i]));
-            let lum_scale = cfg.sigma_luminance * sd[i] + 1e-6;
-            let (mut sum, mut vsum, mut wsum) = (Vec3::ZERO, 0.0f32, 0.0f32);
-            for (ty, ky) in TAPS.iter().enumerate() {
-                for (tx, kx) in TAPS.iter().enumerate() {
-                    let (dx, dy) = ((tx as isize - 2) * step as isize, (ty as isize - 2) * step as isize);
-                    let (qx, qy) = (x + dx, y + dy);
-                    if qx < 0 || qy < 0 || qx >= w || qy >= h {
-                        continue;
-                    }
-                    let q = (qy * w + qx) as usize;
-                    if !g.filtered[q] {
-                        continue;
-                    }
-                    let wn = np.dot(g.normal[q]).max(0.0).powf(cfg.sigma_normal);
-                    let sep = ((dx * dx + dy * dy) as f32).sqrt().max(1.0);
-                    let plane = np.dot(g.position[q] - pp).abs();
-                    let wp = (-plane / (cfg.sigma_plane * footprint[i] * sep + 1e-9)).exp();
-                    let wl = (-(luminance(irr[q]) - lp).abs() / lum_scale).exp();
-                    let k = kx * ky * wn * wp * wl;
-                    sum += k * irr[q];
-                    vsum += k * k * var[q];
-                    wsum += k;
-                }
+            self_tap
+                + taps(p, w, h, step)
+                    .filter(|(q, _, _)| g.filtered[*q])
+                    .map(|(q, k, sep)| weight(g, irr, &sd, footprint, cfg, (p, q), k, sep))
+                    .sum::<f32>()
+        })
+        .collect();
+    let floor = Vec3::splat(ALBEDO_FLOOR);
+    (0..n)
+        .into_par_iter()
+        .map(|p| {
+            if !g.filtered[p] {
+                return (irr[p], var[p]);
             }
-            // The pixel itself always weighs kx·ky > 0.
-            (sum / wsum, vsum / (wsum * wsum))
+            let ap = g.albedo[p].max(floor);
+            let (mut flow, mut keep, mut v) = (Vec3::ZERO, Vec3::ONE, 0.0f32);
+            for (q, k, sep) in taps(p, w, h, step).filter(|(q, _, _)| g.filtered[*q]) {
+                let wpq = weight(g, irr, &sd, footprint, cfg, (p, q), k, sep);
+                let c = wpq / total[p].max(total[q]) * g.albedo[q].max(floor).min(ap) / ap;
+                flow += c * irr[q];
+                keep -= c;
+                let cl = luminance(c);
+                v += cl * cl * var[q];
+            }
+            let kl = luminance(keep);
+            (keep * irr[p] + flow, kl * kl * var[p] + v)
         })
         .unzip()
 }
+
+/// Albedo below which a channel is not divided out.
+const ALBEDO_FLOOR: f32 = 1e-4;
 
 /// `color` (a path-traced view, the variance of each pixel's mean luminance in `variance`)
 /// denoised with `guides`; `camera` gives the pixel footprint.
@@ -224,9 +267,9 @@ pub fn denoise(
     }
     let focal = camera.fx.max(camera.fy).max(1e-6);
     let footprint: Vec<f32> = guides.depth.iter().map(|t| t / focal).collect();
-    let demod = |c: Vec3, a: Vec3| Vec3::select(a.cmpgt(Vec3::splat(1e-4)), c / a, c);
+    let floor = Vec3::splat(ALBEDO_FLOOR);
     let mut irr: Vec<Vec3> = (0..n)
-        .map(|i| demod(color.data[i], guides.albedo[i]))
+        .map(|i| color.data[i] / guides.albedo[i].max(floor))
         .collect();
     let mut var: Vec<f32> = (0..n)
         .map(|i| variance[i] / luminance(guides.albedo[i]).max(1e-4).powi(2))
@@ -239,7 +282,7 @@ pub fn denoise(
     let data = (0..n)
         .map(|i| {
             if guides.filtered[i] {
-                irr[i] * Vec3::select(guides.albedo[i].cmpgt(Vec3::splat(1e-4)), guides.albedo[i], Vec3::ONE)
+                irr[i] * guides.albedo[i].max(floor)
             } else {
                 color.data[i]
             }

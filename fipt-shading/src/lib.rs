@@ -26,8 +26,8 @@
 //! ```
 pub mod bake;
 pub mod bake_store;
-pub mod denoise;
 pub mod brdf;
+pub mod denoise;
 pub mod diffuse;
 pub mod edit;
 pub mod error;
