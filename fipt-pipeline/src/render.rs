@@ -410,6 +410,7 @@ fn render_views<S: SurfaceModel>(
                 &out.join(format!("{k:03}_render_raw.exr")),
                 ExrPrecision::F32,
             )?;
+            raw.write_png(&out.join(format!("preview/{k:03}_render_raw.png")), 1.0)?;
         }
         rays += stats.rays;
         nonfinite += stats.nonfinite;

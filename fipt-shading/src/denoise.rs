@@ -38,6 +38,10 @@ pub struct DenoiseConfig {
     pub sigma_luminance: f32,
     /// Jittered primary rays per pixel for the guides (albedo, normal, position).
     pub guide_spp: u32,
+    /// The largest hole (pixels) a pass may span between two pixels of roughness σ is
+    /// `gloss_reach`·σ² (at least 1): a glossy surface's light changes as fast as the scene it
+    /// reflects, so it is averaged over few pixels; a rough one over the whole kernel.
+    pub gloss_reach: f32,
 }
 
 impl Default for DenoiseConfig {
@@ -48,6 +52,7 @@ impl Default for DenoiseConfig {
             sigma_plane: 1.0,
             sigma_luminance: 4.0,
             guide_spp: 8,
+            gloss_reach: 16.0,
         }
     }
 }
@@ -60,7 +65,8 @@ impl DenoiseConfig {
         check("denoise.sigma_normal", self.sigma_normal, 0.0, 1e4)?;
         check("denoise.sigma_plane", self.sigma_plane, 1e-3, 1e4)?;
         check("denoise.sigma_luminance", self.sigma_luminance, 1e-3, 1e4)?;
-        check("denoise.guide_spp", self.guide_spp, 1, 1024)
+        check("denoise.guide_spp", self.guide_spp, 1, 1024)?;
+        check("denoise.gloss_reach", self.gloss_reach, 0.0, 1e6)
     }
 }
 
@@ -77,6 +83,8 @@ pub struct Guides {
     pub position: Vec<Vec3>,
     /// Distance to the camera of the first hit (averaged).
     pub depth: Vec<f32>,
+    /// First-hit roughness σ (averaged).
+    pub roughness: Vec<f32>,
     /// Whether the pixel is filtered: every ray hit a non-emitting surface of non-black albedo.
     pub filtered: Vec<bool>,
 }
@@ -92,11 +100,12 @@ pub fn render_guides<S: SurfaceModel>(
 ) -> Guides {
     let (w, h) = (camera.width, camera.height);
     let n = spp.max(1);
-    let px: Vec<(Vec3, Vec3, Vec3, f32, bool)> = (0..w * h)
+    let px: Vec<(Vec3, Vec3, Vec3, f32, bool, f32)> = (0..w * h)
         .into_par_iter()
         .map(|i| {
             let mut rng = Pcg32::from_keys(&[seed, view_key, i as u64, 0xDE_0015E]);
             let (mut a, mut nrm, mut p, mut t) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0);
+            let mut r = 0.0;
             let mut ok = true;
             for _ in 0..n {
                 let j = rng.next_2d();
@@ -113,6 +122,7 @@ pub fn render_guides<S: SurfaceModel>(
                 }
                 ok &= scene.surfaces.emission(hit.tri).max_element() <= 0.0;
                 a += sp.kd + sp.ks;
+                r += sp.roughness;
                 nrm += s;
                 p += x;
                 t += hit.t;
@@ -120,7 +130,7 @@ pub fn render_guides<S: SurfaceModel>(
             let k = n as f32;
             let a = a / k;
             ok &= luminance(a) > 1e-3;
-            (a, nrm.normalize_or_zero(), p / k, t / k, ok)
+            (a, nrm.normalize_or_zero(), p / k, t / k, ok, r / k)
         })
         .collect();
     Guides {
@@ -131,6 +141,7 @@ pub fn render_guides<S: SurfaceModel>(
         position: px.iter().map(|x| x.2).collect(),
         depth: px.iter().map(|x| x.3).collect(),
         filtered: px.iter().map(|x| x.4).collect(),
+        roughness: px.iter().map(|x| x.5).collect(),
     }
 }
 
@@ -150,7 +161,12 @@ fn weight(
     (p, q): (usize, usize),
     k: f32,
     sep: f32,
+    step: usize,
 ) -> f32 {
+    let r = g.roughness[p].min(g.roughness[q]);
+    if step > 1 && step as f32 > cfg.gloss_reach * r * r {
+        return 0.0;
+    }
     let (np, nq) = (g.normal[p], g.normal[q]);
     let wn = np.dot(nq).max(0.0).powf(cfg.sigma_normal);
     let d = g.position[q] - g.position[p];
@@ -220,7 +236,7 @@ fn pass(
             self_tap
                 + taps(p, w, h, step)
                     .filter(|(q, _, _)| g.filtered[*q])
-                    .map(|(q, k, sep)| weight(g, irr, &sd, footprint, cfg, (p, q), k, sep))
+                    .map(|(q, k, sep)| weight(g, irr, &sd, footprint, cfg, (p, q), k, sep, step))
                     .sum::<f32>()
         })
         .collect();
@@ -234,7 +250,7 @@ fn pass(
             let ap = g.albedo[p].max(floor);
             let (mut flow, mut keep, mut v) = (Vec3::ZERO, Vec3::ONE, 0.0f32);
             for (q, k, sep) in taps(p, w, h, step).filter(|(q, _, _)| g.filtered[*q]) {
-                let wpq = weight(g, irr, &sd, footprint, cfg, (p, q), k, sep);
+                let wpq = weight(g, irr, &sd, footprint, cfg, (p, q), k, sep, step);
                 let c = wpq / total[p].max(total[q]) * g.albedo[q].max(floor).min(ap) / ap;
                 flow += c * irr[q];
                 keep -= c;

@@ -47,6 +47,7 @@ fn blur(img: &Image) -> Image {
         position: vec![Vec3::ZERO; n],
         depth: vec![1.0; n],
         filtered: vec![true; n],
+        roughness: vec![1.0; n],
     };
     let cam = Camera::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y, 1.0, img.width, img.height);
     denoise(img, &vec![1.0; n], &flat, &cam, &cfg)
