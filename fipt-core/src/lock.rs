@@ -182,6 +182,18 @@ pub fn refuse_nested_run(out: &Path) -> Result<()> {
 
 fn refuse_where(out: &Path, what: &str, refused: impl Fn(Owner, bool) -> bool) -> Result<()> {
     let abs = std::path::absolute(out).map_err(|e| CoreError::io(out, e))?;
+    // `..` taken lexically first (`nx/../R` is R even where `nx` does not exist).
+    let mut lexical = std::path::PathBuf::new();
+    for c in abs.components() {
+        match c {
+            std::path::Component::ParentDir => {
+                lexical.pop();
+            }
+            std::path::Component::CurDir => {}
+            other => lexical.push(other),
+        }
+    }
+    let abs = lexical;
     // Resolve the part that exists, keep the rest as given.
     let mut existing = abs.as_path();
     let mut rest = vec![];
@@ -310,6 +322,7 @@ mod tests {
             run.join("views/val"),
             run.join("new/deeper"),
             d.join("scene/x/../y"),
+            d.join("nx/../run/views"),
         ] {
             let err = refuse_owned_output(&bad, "render", &both)
                 .unwrap_err()

@@ -77,6 +77,17 @@ pub fn stage(
     let name = baker.name().to_string();
     let check = |m: &BakeManifest| mismatch(m, &scene.cache_key, settings, &name);
     if !force {
+        // A finished bake is reused as it is; shard manifests beside it are stale.
+        if let Ok(done) = load_if_current(dir, &scene.cache_key, settings, &name)? {
+            fipt_shading::bake_store::clear_shard_manifests(dir);
+            crate::note!(
+                "reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it",
+                dir.display(),
+                done.0.views,
+                done.0.seconds_total
+            );
+            return Ok(done);
+        }
         let mut part = |k: Shard| stage(scene, baker, settings, dir, false, k).map(|_| ());
         crate::shard::merge(dir, "bake", shard, check, Some(&mut part))?;
         match load_if_current(dir, &scene.cache_key, settings, &name)? {

@@ -278,6 +278,7 @@ pub fn evaluate_scaled(
             if obs_path.is_file() {
                 let o = Image::read_exr(&obs_path)
                     .with_context(|| format!("reading {}", obs_path.display()))?;
+                let o = same_size(o, ds, &obs_path)?;
                 let seen = |i: usize| o.data[i].x >= OBSERVED_MIN;
                 let od: Vec<bool> = (0..n).map(|i| diffuse[i] && seen(i)).collect();
                 let ov: Vec<bool> = (0..n).map(|i| valid[i] && seen(i)).collect();

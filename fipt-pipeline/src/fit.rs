@@ -42,7 +42,11 @@ pub fn run(
     } = parts;
     let t_all = Instant::now();
     let mut stages: Vec<StageReport> = vec![];
-    fipt_core::fsutil::remove_stale_temporaries(&a.out);
+    if a.sharding().shard.is_all() {
+        // Only a plain run (never beside a shard: the locks) may take other processes'
+        // temporaries for a killed run's.
+        fipt_core::fsutil::remove_stale_temporaries(&a.out);
+    }
     let t = Instant::now();
     let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
     stages.push(StageReport::since("load", t));

@@ -388,11 +388,16 @@ fn re_render(
             for p in img.data.iter_mut().chain(raw.data.iter_mut()) {
                 *p *= scene.exposure;
             }
+            let raw_exr = dir.join(format!("{k:03}_render_raw.exr"));
             if cfg.render.denoise {
-                raw.write_exr(
-                    &dir.join(format!("{k:03}_render_raw.exr")),
-                    ExrPrecision::F32,
-                )?;
+                raw.write_exr(&raw_exr, ExrPrecision::F32)?;
+                let png = dir.join("preview").join(format!("{k:03}_render_raw.png"));
+                raw.write_png(&png, 1.0 / scene.exposure)?;
+            } else if raw_exr.is_file() {
+                // Denoising turned off: `_render.exr` is the raw render, a raw file beside it
+                // would be an older render's.
+                std::fs::remove_file(&raw_exr)
+                    .map_err(|e| fipt_core::CoreError::io(&raw_exr, e))?;
             }
             img.write_exr(&exr, ExrPrecision::F32)?;
             if let Some(p) = &mut progress {

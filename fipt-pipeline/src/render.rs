@@ -411,6 +411,9 @@ fn render_views<S: SurfaceModel>(
                 ExrPrecision::F32,
             )?;
             raw.write_png(&out.join(format!("preview/{k:03}_render_raw.png")), 1.0)?;
+        } else {
+            // An older render's raw file would pass for this one's.
+            let _ = std::fs::remove_file(out.join(format!("{k:03}_render_raw.exr")));
         }
         rays += stats.rays;
         nonfinite += stats.nonfinite;

@@ -484,7 +484,11 @@ fn run_locked(
     let mut stages = vec![];
     let mut mark =
         |stage: &'static str, t: std::time::Instant| stages.push(StageReport::since(stage, t));
-    fipt_core::fsutil::remove_stale_temporaries(&a.out);
+    if a.sharding().shard.is_all() {
+        // Only a plain run (never beside a shard: the locks) may take other processes'
+        // temporaries for a killed run's.
+        fipt_core::fsutil::remove_stale_temporaries(&a.out);
+    }
     let t = crate::observe::begin("load");
     let (scene, memory) = load_checked(a, cfg)?;
     mark("load", t);

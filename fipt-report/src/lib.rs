@@ -148,6 +148,15 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
             let render_exr = maps_dir.join(format!("{k:03}_render.exr"));
             let (render, error, psnr) = if render_exr.is_file() {
                 let r = normalised(Image::read_exr(&render_exr)?);
+                if (r.width, r.height) != (input.width, input.height) {
+                    return Err(ReportError::Core(fipt_core::CoreError::invalid(
+                        &render_exr,
+                        format!(
+                            "{}×{} pixels but the view is {}×{}: not this scene's re-render (`fipt run` writes it again)",
+                            r.width, r.height, input.width, input.height
+                        ),
+                    )));
+                }
                 let e = pics.join(format!("error/{}_{k:03}.png", split.name));
                 error_map(&r, &input).write_png(&e, 1.0)?;
                 let p = fipt_core::metrics::srgb_psnr(&r.data, &input.data, None);

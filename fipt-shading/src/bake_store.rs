@@ -496,6 +496,13 @@ pub fn shard_manifest_path(dir: &Path, shard: Shard) -> PathBuf {
     ))
 }
 
+/// Removes every shard manifest in `dir` (a finished stage's are stale).
+pub fn clear_shard_manifests(dir: &Path) {
+    for p in shard_manifests(dir) {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
 /// Every shard manifest in `dir`, of any count and settings.
 fn shard_manifests(dir: &Path) -> Vec<PathBuf> {
     std::fs::read_dir(dir)
@@ -585,7 +592,16 @@ pub fn merge_shards(
     check: impl Fn(&BakeManifest) -> Option<String>,
 ) -> Result<ShardState> {
     let shards = current_shards(dir, &check);
-    let Some(count) = shards.iter().map(|(s, _)| s.count).max() else {
+    let complete =
+        |n: usize| (0..n).all(|k| shards.iter().any(|(s, _)| s.count == n && s.index == k));
+    // A complete set wins over a larger partial one; otherwise the largest count.
+    let counts = shards.iter().map(|(s, _)| s.count);
+    let Some(count) = counts
+        .clone()
+        .filter(|&n| complete(n))
+        .max()
+        .or(counts.max())
+    else {
         return Ok(ShardState::None);
     };
     let mine: Vec<&(Shard, BakeManifest)> =
@@ -614,8 +630,6 @@ pub fn merge_shards(
     write_json_atomic(&dir.join("manifest.json"), &merged)?;
     // Every shard manifest goes: this set's, and any left by a set of another count or of
     // other settings (stale: the stage is now whole).
-    for p in shard_manifests(dir) {
-        let _ = std::fs::remove_file(p);
-    }
+    clear_shard_manifests(dir);
     Ok(ShardState::Merged { count })
 }

@@ -57,19 +57,6 @@ impl Default for DenoiseConfig {
     }
 }
 
-impl DenoiseConfig {
-    /// Range checks, naming the key.
-    pub fn validate(&self) -> Result<(), String> {
-        use fipt_core::range::check;
-        check("denoise.passes", self.passes, 0, 10)?;
-        check("denoise.sigma_normal", self.sigma_normal, 0.0, 1e4)?;
-        check("denoise.sigma_plane", self.sigma_plane, 1e-3, 1e4)?;
-        check("denoise.sigma_luminance", self.sigma_luminance, 1e-3, 1e4)?;
-        check("denoise.guide_spp", self.guide_spp, 1, 1024)?;
-        check("denoise.gloss_reach", self.gloss_reach, 0.0, 1e6)
-    }
-}
-
 /// What the denoiser is guided by, per pixel, averaged over jittered primary rays.
 #[derive(Clone, Debug)]
 pub struct Guides {

@@ -33,6 +33,21 @@ pub struct Transform {
 }
 
 impl Transform {
+    /// Range checks: a finite translation and rotation, a scale in (0, 1e6].
+    pub fn check(&self) -> std::result::Result<(), String> {
+        finite3("translate", self.translate)?;
+        if !self.rotate_deg.iter().all(|r| r.is_finite()) {
+            return Err(format!("`rotate_deg` {:?} is not finite", self.rotate_deg));
+        }
+        let most = fipt_core::range::MAX_EXTENT;
+        match self.scale {
+            Some(k) if !(k > 0.0 && k <= most) => {
+                Err(format!("`scale` {k} must be in (0, {most:e}]"))
+            }
+            _ => Ok(()),
+        }
+    }
+
     pub fn matrix(&self) -> Mat4 {
         let r = self.rotate_deg.map(f32::to_radians);
         Mat4::from_scale_rotation_translation(
@@ -379,7 +394,14 @@ impl LightSpec {
                     return Err("`edge1` and `edge2` span no area".into());
                 }
             }
-            LightSpec::Mesh { radiance, .. } => nonnegative3("radiance", *radiance)?,
+            LightSpec::Mesh {
+                radiance,
+                transform,
+                ..
+            } => {
+                nonnegative3("radiance", *radiance)?;
+                transform.check()?;
+            }
             LightSpec::Point {
                 position,
                 intensity,
@@ -395,6 +417,7 @@ impl LightSpec {
                 beam_width,
             } => {
                 finite3("position", *position)?;
+                finite3("direction", *direction)?;
                 nonnegative3("intensity", *intensity)?;
                 if !(Vec3::from(*direction).length() > 0.0) {
                     return Err("`direction` must be a non-zero vector".into());
