@@ -50,13 +50,14 @@ pub fn run(a: Args) -> Result<()> {
         println!("  {:>10} B  {}", n, f.display());
     }
     println!(
-        "wrote {} files, {:.1} MiB, {} triangles and {} emitters ({:?}) to {}",
+        "wrote {} {} files, {:.1} MiB, to {}: {} surface triangles and {} lights of {} triangles",
         sum.files.len(),
+        a.format,
         total as f64 / (1 << 20) as f64,
+        a.out.display(),
         sum.triangles,
         sum.emitters,
-        a.format,
-        a.out.display()
+        sum.emitter_triangles
     );
     Ok(())
 }

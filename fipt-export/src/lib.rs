@@ -56,6 +56,16 @@ pub enum Format {
     Obj,
 }
 
+impl std::fmt::Display for Format {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Format::Glb => "glb",
+            Format::Mitsuba => "mitsuba",
+            Format::Obj => "obj",
+        })
+    }
+}
+
 impl std::str::FromStr for Format {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
@@ -278,8 +288,11 @@ pub struct ExportSummary {
     pub files: Vec<(PathBuf, u64)>,
     /// Atlas width, height, charts and texel size (None: per-vertex).
     pub atlas: Option<(u32, u32, usize, f32)>,
+    /// Triangles of the reflecting surface.
     pub triangles: usize,
+    /// Lights, and their triangles (written apart from the surface).
     pub emitters: usize,
+    pub emitter_triangles: usize,
 }
 
 /// Exports a scene to `dir` in `format`.
@@ -316,6 +329,9 @@ pub fn export<S: SurfaceModel>(
         atlas: prepared.atlas,
         triangles: prepared.surface.indices.len() / 3,
         emitters: prepared.emitters.len(),
+        emitter_triangles: (prepared.emitters.iter())
+            .map(|e| e.primitive.indices.len() / 3)
+            .sum(),
     })
 }
 

@@ -225,8 +225,13 @@ fn view_block(h: &mut String, v: &ViewPictures) {
     h.push_str("</div>\n");
 }
 
-/// Writes `run/report.html` for the pictures `views` (paths relative to `run`).
-pub fn write_html(run: &Path, views: &[ViewPictures]) -> Result<PathBuf> {
+/// Writes `run/report.html` for the pictures `views` (paths relative to `run`) of the
+/// `splits` (name, number of views).
+pub fn write_html(
+    run: &Path,
+    views: &[ViewPictures],
+    splits: &[(String, usize)],
+) -> Result<PathBuf> {
     let report = read(&run.join("report.json"));
     let metrics = read(&run.join("metrics.json"));
     let mut h = String::new();
@@ -238,6 +243,18 @@ pub fn write_html(run: &Path, views: &[ViewPictures]) -> Result<PathBuf> {
     warnings(&mut h, &report, views);
     metrics_table(&mut h, &metrics);
     h.push_str("<h2>Views</h2>\n<p>Drag a slider to compare the re-render with the input; the error map shows |Δ| of the displayed values ×4 (black → red → yellow → white).</p>\n");
+    let shown: Vec<String> = splits
+        .iter()
+        .map(|(name, total)| {
+            let n = views.iter().filter(|v| &v.split == name).count();
+            format!("{n} of the {total} {} views", esc(name))
+        })
+        .collect();
+    let _ = writeln!(
+        h,
+        "<p>Shown: {} (<code>fipt report RUN --views N</code> shows more).</p>",
+        shown.join(", ")
+    );
     for v in views {
         view_block(&mut h, v);
     }

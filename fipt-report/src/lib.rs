@@ -220,6 +220,11 @@ pub fn write_report(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Path
         sheet::write_sheet(run, &rows, &p)?;
         files.push(p);
     }
-    files.push(write_html(run, &views)?);
+    let splits: Vec<(String, usize)> = ds
+        .splits
+        .iter()
+        .map(|s| (s.name.clone(), s.views.len()))
+        .collect();
+    files.push(write_html(run, &views, &splits)?);
     Ok(files)
 }
