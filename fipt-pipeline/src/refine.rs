@@ -50,23 +50,25 @@ pub fn stage(
     );
     let stats_path = dir.join("refine_stats.json");
     let check = |m: &BakeManifest| keyed_mismatch(m, &scene.cache_key, &name, &key);
+    let reused = |m: BakeManifest, shadings| -> Refined {
+        crate::note!(
+            "reusing the refined shadings in {} (computed in {:.1} s); --force to redo them",
+            dir.display(),
+            m.seconds_total
+        );
+        Refined {
+            shadings,
+            key: key.clone(),
+            stats: read_json(&stats_path).unwrap_or_default(),
+            seconds: m.seconds_total,
+        }
+    };
     if !force {
         // A finished refinement is reused as it is; shard manifests beside it are stale.
         if let Ok((m, shadings)) = load_keyed(dir, &scene.cache_key, &name, &key)? {
             fipt_shading::bake_store::clear_shard_manifests(dir);
             if stats_path.is_file() {
-                crate::note!(
-                    "reusing the refined shadings in {} (computed in {:.1} s); --force to redo them",
-                    dir.display(),
-                    m.seconds_total
-                );
-                let stats = read_json(&stats_path).unwrap_or_default();
-                return Ok(Refined {
-                    shadings,
-                    key,
-                    stats,
-                    seconds: m.seconds_total,
-                });
+                return Ok(reused(m, shadings));
             }
         }
         let mut part = |k: Shard| {
@@ -92,20 +94,7 @@ pub fn stage(
             }
         }
         match load_keyed(dir, &scene.cache_key, &name, &key)? {
-            Ok((m, shadings)) => {
-                crate::note!(
-                    "reusing the refined shadings in {} (computed in {:.1} s); --force to redo them",
-                    dir.display(),
-                    m.seconds_total
-                );
-                let stats = read_json(&stats_path).unwrap_or_default();
-                return Ok(Refined {
-                    shadings,
-                    key,
-                    stats,
-                    seconds: m.seconds_total,
-                });
-            }
+            Ok((m, shadings)) => return Ok(reused(m, shadings)),
             Err(why) if why != "no finished bake found" => crate::note!("refining: {why}"),
             Err(_) => {}
         }
