@@ -108,11 +108,11 @@ pub fn inspect(scene: &Path, policy: BadPixelPolicy) -> Result<SceneSummary> {
             ds.mesh.display()
         );
     }
-    let (exposure_fit, edges) = exposures(&ds, &mesh, policy)?;
+    let (exposure_fit, edges, ldr) = exposures(&ds, &mesh, policy)?;
     warnings.extend(crate::capture::edge_warning(&edges));
     if let Some(f) = exposure_fit
         .as_ref()
-        .filter(|f| f.spread > crate::capture::GAIN_SPREAD_WARN)
+        .filter(|f| f.spread > crate::capture::gain_spread_limit(ldr))
     {
         warnings.push(format!(
             "train: the views' exposures disagree on the surfaces they share: fitted gains spread ×{:.2} over {} surface cells (auto-exposure? `fipt run` divides LDR views by them)",
@@ -144,7 +144,11 @@ fn exposures(
     ds: &Dataset,
     mesh: &Mesh,
     policy: BadPixelPolicy,
-) -> Result<(Option<crate::capture::GainFit>, crate::capture::EdgeCheck)> {
+) -> Result<(
+    Option<crate::capture::GainFit>,
+    crate::capture::EdgeCheck,
+    bool,
+)> {
     let split = ds.train();
     let mut images = vec![];
     for v in &split.views {
@@ -152,7 +156,7 @@ fn exposures(
     }
     let geometry = fipt_geom::Geometry::new(mesh.clone());
     let report = crate::capture::examine(&geometry, &split.views, &mut images, ds.has_ldr_files());
-    Ok((report.exposure_fit, report.edges))
+    Ok((report.exposure_fit, report.edges, report.check.ldr))
 }
 
 /// What a split's images say that a user should know: clamped values, black and saturated

@@ -7,7 +7,7 @@ mod gains;
 
 pub use clipped::{restore_clipped_lights, ClippedLights, CLIPPED_LIGHT_LEVELS};
 pub use edges::{edge_alignment, edge_warning, EdgeCheck, EDGE_OFF_PX};
-pub use gains::{fit_gains, GainFit, GAIN_SPREAD_WARN, MIN_SHARED_CELLS};
+pub use gains::{fit_gains, gain_spread_limit, GainFit, GAIN_SPREAD_WARN, MIN_SHARED_CELLS};
 
 use fipt_core::capture::{clipped_mask, ldr_check, LdrCheck, ViewLdr};
 use fipt_core::dataset::View;
@@ -80,7 +80,7 @@ pub fn examine(
                 f.unfitted
             ));
         }
-        if f.spread > GAIN_SPREAD_WARN {
+        if f.spread > gain_spread_limit(check.ldr) {
             r.warnings.push(format!(
                 "train: the views' exposures disagree on the surfaces they share: fitted gains {:.3} … {:.3} (×{:.2}) over {} surface cells{}",
                 f.gains.iter().cloned().fold(f32::INFINITY, f32::min),
