@@ -435,10 +435,7 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     assert_eq!(m, m2);
     common::recovered::relight_and_novel_views(&dir, &out);
     common::recovered::report_opens_in_a_browser(&out);
-    let leftovers: Vec<_> = walk(&out)
-        .into_iter()
-        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
-        .collect();
+    let leftovers = common::temporaries(&out);
     assert!(leftovers.is_empty(), "{leftovers:?}");
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&out);
@@ -492,10 +489,7 @@ fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
         );
         assert!(a == b, "{f} differs after kill and resume");
     }
-    let leftovers: Vec<_> = walk(&cut)
-        .into_iter()
-        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
-        .collect();
+    let leftovers = common::temporaries(&cut);
     assert!(leftovers.is_empty(), "{leftovers:?}");
     for p in [dir, full, cut] {
         let _ = std::fs::remove_dir_all(p);

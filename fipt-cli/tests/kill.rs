@@ -76,10 +76,7 @@ fn a_run_killed_at_random_moments_of_every_stage_resumes_to_the_same_outputs() {
                 "{f} differs after a kill at {at:.2} s of {length:.2} (seed {seed})"
             );
         }
-        let leftovers: Vec<_> = walk(&out)
-            .into_iter()
-            .filter(|p| p.to_string_lossy().ends_with(".tmp"))
-            .collect();
+        let leftovers = common::temporaries(&out);
         assert!(leftovers.is_empty(), "kill at {at:.2} s: {leftovers:?}");
         let _ = std::fs::remove_dir_all(&out);
     }
@@ -206,10 +203,7 @@ fn a_run_killed_at_seeded_moments_of_every_stage_resumes_to_the_same_results() {
                     "{f} differs after a kill at {at} (seed {seed})"
                 );
             }
-            let leftovers: Vec<_> = walk(&out)
-                .into_iter()
-                .filter(|p| p.to_string_lossy().ends_with(".tmp"))
-                .collect();
+            let leftovers = common::temporaries(&out);
             assert!(leftovers.is_empty(), "kill at {at}: {leftovers:?}");
             let _ = std::fs::remove_dir_all(&out);
             cases += 1;

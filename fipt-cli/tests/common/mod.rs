@@ -111,3 +111,11 @@ pub fn walk(dir: &std::path::Path) -> Vec<PathBuf> {
     }
     out
 }
+
+/// The temporaries (`*.tmp`) a run left under `dir`: none, after any run or kill and resume.
+pub fn temporaries(dir: &std::path::Path) -> Vec<PathBuf> {
+    walk(dir)
+        .into_iter()
+        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
+        .collect()
+}
