@@ -34,6 +34,10 @@ fn interior_mask(part: &[u32], gt: &[Vec3], w: usize, h: usize) -> Vec<bool> {
 }
 
 #[test]
+#[cfg_attr(
+    fipt_no_shared,
+    ignore = "needs ../shared/scenes/studio-mitsuba (or FIPT_SHARED)"
+)]
 fn ground_truth_maps_match_through_our_cameras_and_material_table() {
     let Some(root) = studio_scene() else { return };
     let ds = Dataset::open(&root).expect("the loader reads the Mitsuba scene as it is");
@@ -159,6 +163,10 @@ fn render_against_mitsuba(model: ReflectanceModel) -> Option<(f64, Vec<f64>)> {
 /// 1.2–1.9 % brighter (the rest: Schlick for the exact dielectric Fresnel, see
 /// `fipt_core::reflectance`).
 #[test]
+#[cfg_attr(
+    fipt_no_shared,
+    ignore = "needs ../shared/scenes/studio-mitsuba (or FIPT_SHARED)"
+)]
 fn path_traced_views_come_close_to_mitsuba() {
     let Some((fipt, rel)) = render_against_mitsuba(ReflectanceModel::Fipt) else {
         return;

@@ -125,6 +125,10 @@ fn assert_metals_and_walls(prof: &[RegionProfile]) {
 }
 
 #[test]
+#[cfg_attr(
+    fipt_no_shared,
+    ignore = "needs ../shared/scenes/studio-mitsuba (or FIPT_SHARED)"
+)]
 fn the_loss_minimum_sits_at_the_true_metals_and_walls_and_shows_the_model_mismatch() {
     let Some(prof) = studio_profiles(ReflectanceModel::Fipt) else {
         return;
@@ -143,6 +147,10 @@ fn the_loss_minimum_sits_at_the_true_metals_and_walls_and_shows_the_model_mismat
 /// Under the renderer's own model the glossy box's minimum sits at its true σ (measured 0.28
 /// for 0.3 on the bake; FIPT's model: 0.02), and the metals and walls still hold.
 #[test]
+#[cfg_attr(
+    fipt_no_shared,
+    ignore = "needs ../shared/scenes/studio-mitsuba (or FIPT_SHARED)"
+)]
 fn the_principled_model_removes_the_mismatch_of_the_glossy_box() {
     let Some(prof) = studio_profiles(ReflectanceModel::Principled) else {
         return;

@@ -1,0 +1,21 @@
+//! Marks the tests that need the shared scenes as ignored when they are absent, so that the
+//! test summary counts them as ignored instead of passing them silently.
+use std::path::PathBuf;
+
+fn main() {
+    println!("cargo::rustc-check-cfg=cfg(fipt_no_shared)");
+    println!("cargo::rerun-if-env-changed=FIPT_SHARED");
+    let shared = match std::env::var("FIPT_SHARED") {
+        Ok(p) => PathBuf::from(p),
+        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared"),
+    };
+    let studio = shared.join("scenes/studio-mitsuba/scene.obj");
+    println!("cargo::rerun-if-changed={}", studio.display());
+    if !studio.is_file() {
+        println!("cargo::rustc-cfg=fipt_no_shared");
+        println!(
+            "cargo::warning=no {}: the tests that compare with the Mitsuba-rendered studio are ignored (set FIPT_SHARED to the folder holding scenes/studio-mitsuba)",
+            studio.display()
+        );
+    }
+}
