@@ -99,8 +99,15 @@ fn print_table(m: &serde_json::Value) {
             .map_or("–".to_string(), |x| format!("{x:.p$}"))
     };
     println!(
-        "{:<13} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>13}",
-        "split", "kd dB", "a′ dB", "σ dB", "em. IoU", "em. logL2", "render dB", "metal ≥0.8"
+        "{:<13} {:>9} {:>12} {:>11} {:>11} {:>12} {:>11} {:>13}",
+        "split",
+        "kd dB",
+        "albedo dB",
+        "rough. dB",
+        "light IoU",
+        "light err",
+        "render dB",
+        "metal recall"
     );
     if let Some(o) = m.as_object() {
         for (name, v) in o {
@@ -117,7 +124,7 @@ fn print_table(m: &serde_json::Value) {
                     String::new()
                 };
                 println!(
-                    "{:<13} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>13}",
+                    "{:<13} {:>9} {:>12} {:>11} {:>11} {:>12} {:>11} {:>13}",
                     label,
                     f(x, "kd_psnr", 2),
                     f(x, "albedo_psnr", 2),
@@ -129,11 +136,17 @@ fn print_table(m: &serde_json::Value) {
                 );
             }
         }
+        println!(
+            "albedo: kd + specular reflectance; rough.: roughness σ; light IoU: overlap of the \
+             emitting pixels with the true ones; light err: mean over pixels of (ln(1 + emitted) \
+             − ln(1 + true emitted))²; metal recall: share of true metal pixels found metallic (≥ 0.8), \
+             and of the others wrongly so."
+        );
         for (name, v) in o {
             let c = &v["roughness_constant"];
             if c["roughness_psnr"].is_number() {
                 println!(
-                    "{name}: σ ≡ 1 everywhere would score {} / {} dB σ (mean / median view)",
+                    "{name}: a roughness map of 1 everywhere would score {} / {} dB (mean / median view): the floor a roughness map must beat",
                     f(c, "roughness_psnr", 2),
                     f(c, "roughness_psnr_median", 2)
                 );
