@@ -34,7 +34,7 @@ figure{margin:0}figcaption{font-size:.85em;color:#555;text-align:center}
 .cmp{position:relative;line-height:0}.cmp img{display:block;max-width:none}
 .cmp .top{position:absolute;top:0;left:0;width:50%;overflow:hidden;border-right:2px solid #fff}
 .cmp input{display:block;width:100%;margin:4px 0 0 0}.pair{display:flex;flex-direction:column;gap:2px}
-img{image-rendering:pixelated}";
+img{image-rendering:pixelated}img.sheet{max-width:100%;height:auto;image-rendering:auto}";
 
 const SCRIPT: &str = "window.__errors=[];
 window.addEventListener('error',function(e){window.__errors.push(String(e.message||(e.target&&e.target.src)||'error'));},true);
@@ -48,14 +48,31 @@ fn header(h: &mut String, report: &Value) {
     let s = |k: &str| report[k].as_str().unwrap_or("–").to_string();
     let _ = write!(
         h,
-        "<h1>fipt run: {}</h1>\n<p>preset <b>{}</b>, method <b>{}</b>, reflectance model <b>{}</b>, fipt {} — {} s in all</p>\n",
+        "<h1>fipt run: {}</h1>\n<p>preset <b>{}</b>, method <b>{}</b>, reflectance model <b>{}</b>, fipt {} — {}</p>\n",
         esc(&s("scene")),
         esc(&s("preset")),
         esc(report["settings"]["pipeline"]["method"].as_str().unwrap_or("fipt")),
         esc(report["settings"]["model"]["brdf"].as_str().unwrap_or("–")),
         esc(&s("fipt_version")),
-        num(&report["seconds_total"], 1)
+        time_in_all(report)
     );
+}
+
+/// "N s in all", or for a run that reused finished stages, what they took to compute and
+/// what this run took.
+fn time_in_all(report: &Value) -> String {
+    let reused = report["stages_reused"].as_u64().unwrap_or(0);
+    let this = num(&report["seconds_total"], 1);
+    if reused == 0 {
+        return format!("{this} s in all");
+    }
+    let n = report["stages"].as_array().map_or(0, |a| a.len());
+    match report["seconds_computed_total"].as_f64() {
+        Some(t) => format!(
+            "{t:.1} s of computing; {reused} of the {n} stages were reused from an earlier run of this folder (this run: {this} s)"
+        ),
+        None => format!("{this} s in this run, which reused {reused} of {n} stages of an earlier run"),
+    }
 }
 
 /// `report.json`'s warnings (LDR views, clipped lights, misregistered edges, no light found)
@@ -122,11 +139,20 @@ fn stages_table(h: &mut String, report: &Value) {
         "<h2>Stages</h2>\n<table><tr><th>stage</th><th>seconds</th><th>peak RSS MiB</th></tr>\n",
     );
     for st in stages {
+        let seconds = if st["reused"].as_bool() == Some(true) {
+            format!(
+                "{} (reused: {} s in an earlier run)",
+                num(&st["seconds"], 1),
+                num(&st["computed_seconds"], 1)
+            )
+        } else {
+            num(&st["seconds"], 1)
+        };
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{}</td></tr>",
             esc(st["stage"].as_str().unwrap_or("?")),
-            num(&st["seconds"], 1),
+            seconds,
             num(&st["peak_rss_mib"], 0)
         );
     }
@@ -266,7 +292,7 @@ pub fn write_html(
     for split in ["train", "val"] {
         let s = format!("report/sheet_{split}.png");
         if run.join(&s).is_file() {
-            let _ = writeln!(h, "<h2>Contact sheet ({split})</h2>\n<p>Per view: input | re-render | error | kd | σ | metallic | emission; the row under it: the truth of the maps.</p><img src=\"{s}\" alt=\"contact sheet {split}\">");
+            let _ = writeln!(h, "<h2>Contact sheet ({split})</h2>\n<p>Per view: input | re-render | error | kd | roughness σ | metallic | emission; the row under it: the truth of the maps. Fitted to the window: <a href=\"{s}\">full size</a>.</p><a href=\"{s}\"><img class=\"sheet\" src=\"{s}\" alt=\"contact sheet {split}\"></a>");
         }
     }
     h.push_str("</body></html>\n");

@@ -13,6 +13,7 @@
 //! The page checks itself when it loads: it sets `data-images` (images on the page),
 //! `data-images-bad` (images that did not decode) and `data-errors` (script and load errors)
 //! on `<body>`, which a headless browser's DOM dump reads.
+mod font;
 mod html;
 mod sheet;
 
@@ -36,7 +37,20 @@ pub fn write_strip(pictures: &[PathBuf], path: &Path) -> Result<()> {
     };
     let (w, h) = first.dimensions();
     let n = imgs.len() as u32;
-    sheet::tile(&[imgs], n, w, h, path)
+    // Each column is named by the folder its picture is in (the lights file's stem).
+    let columns: Vec<String> = pictures
+        .iter()
+        .map(|p| {
+            p.parent()
+                .and_then(|d| d.file_name())
+                .map_or(String::new(), |d| d.to_string_lossy().into_owned())
+        })
+        .collect();
+    let labels = sheet::Labels {
+        columns: &columns,
+        rows: &[],
+    };
+    sheet::tile(&[imgs], n, w, h, &labels, path)
 }
 
 /// Errors of report writing.

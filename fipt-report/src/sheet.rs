@@ -1,4 +1,5 @@
 //! Contact sheets: the report's pictures of a split tiled into one PNG.
+use crate::font;
 use crate::{ReportError, Result, ViewPictures, MAPS};
 use image::{Rgb, RgbImage};
 use std::path::Path;
@@ -20,7 +21,10 @@ pub fn write_sheet(run: &Path, rows: &[&ViewPictures], path: &Path) -> Result<()
     })?;
     let (w, h) = first.dimensions();
     let cols = 3 + MAPS.len() as u32;
+    let mut header: Vec<String> = ["input", "re-render", "error"].map(String::from).to_vec();
+    header.extend(MAPS.iter().map(|m| m.0.to_string()));
     let mut lines: Vec<Vec<Option<RgbImage>>> = Vec::new();
+    let mut row_labels: Vec<String> = Vec::new();
     for v in rows {
         let mut line = vec![
             load(run, &Some(v.input.clone())),
@@ -29,25 +33,77 @@ pub fn write_sheet(run: &Path, rows: &[&ViewPictures], path: &Path) -> Result<()
         ];
         line.extend(v.maps.iter().map(|m| load(run, &m.0)));
         lines.push(line);
+        row_labels.push(String::new());
         if v.maps.iter().any(|m| m.1.is_some()) {
             let mut gt = vec![None, None, None];
             gt.extend(v.maps.iter().map(|m| load(run, &m.1)));
             lines.push(gt);
+            row_labels.push(format!("view {} truth:", v.index));
         }
     }
-    tile(&lines, cols, w, h, path)
+    let labels = Labels {
+        columns: &header,
+        rows: &row_labels,
+    };
+    tile(&lines, cols, w, h, &labels, path)
 }
 
-/// Tiles `lines` of pictures of `w`×`h` (None: left empty) into `cols` columns and writes the
-/// PNG (through a temporary file).
-pub fn tile(lines: &[Vec<Option<RgbImage>>], cols: u32, w: u32, h: u32, path: &Path) -> Result<()> {
+/// Words drawn on a sheet: one per column above it, and one per row inside the row's first
+/// cell where that cell is empty (`""`: none).
+pub struct Labels<'a> {
+    pub columns: &'a [String],
+    pub rows: &'a [String],
+}
+
+const INK: Rgb<u8> = Rgb([230, 230, 230]);
+
+/// `text` cut to the characters that fit in `room` pixels at scale 1.
+fn fitted(text: &str, room: u32) -> (String, u32) {
+    match font::fitting_scale(text, room) {
+        Some(s) => (text.to_string(), s),
+        None => (text.chars().take(((room + 1) / 6) as usize).collect(), 1),
+    }
+}
+
+/// Tiles `lines` of pictures of `w`×`h` (None: left empty) into `cols` columns under a row of
+/// column labels and writes the PNG (through a temporary file).
+pub fn tile(
+    lines: &[Vec<Option<RgbImage>>],
+    cols: u32,
+    w: u32,
+    h: u32,
+    labels: &Labels,
+    path: &Path,
+) -> Result<()> {
+    let columns: Vec<(String, u32)> = labels.columns.iter().map(|t| fitted(t, w)).collect();
+    let scale = columns.iter().map(|c| c.1).min().unwrap_or(1);
+    let top = if columns.is_empty() {
+        0
+    } else {
+        font::height(scale) + GAP
+    };
     let width = cols * w + (cols + 1) * GAP;
-    let height = lines.len() as u32 * h + (lines.len() as u32 + 1) * GAP;
+    let height = top + lines.len() as u32 * h + (lines.len() as u32 + 1) * GAP;
     let mut sheet = RgbImage::from_pixel(width, height, Rgb([40, 40, 40]));
+    for (c, (text, _)) in columns.iter().enumerate() {
+        let x = GAP + c as u32 * (w + GAP) + (w.saturating_sub(font::width(text, scale))) / 2;
+        font::draw(&mut sheet, text, x, GAP, scale, INK);
+    }
+    for (r, text) in labels.rows.iter().enumerate() {
+        let empty = lines
+            .get(r)
+            .is_some_and(|l| l.first().is_some_and(|c| c.is_none()));
+        if !text.is_empty() && empty {
+            let (text, s) = fitted(text, w);
+            let y = top + GAP + r as u32 * (h + GAP) + h.saturating_sub(font::height(s)) / 2;
+            let x = GAP + w.saturating_sub(font::width(&text, s)) / 2;
+            font::draw(&mut sheet, &text, x, y, s, INK);
+        }
+    }
     for (r, line) in lines.iter().enumerate() {
         for (c, img) in line.iter().enumerate() {
             if let Some(img) = img {
-                let (x0, y0) = (GAP + c as u32 * (w + GAP), GAP + r as u32 * (h + GAP));
+                let (x0, y0) = (GAP + c as u32 * (w + GAP), top + GAP + r as u32 * (h + GAP));
                 for (x, y, p) in img.enumerate_pixels() {
                     if x < w && y < h {
                         sheet.put_pixel(x0 + x, y0 + y, *p);
