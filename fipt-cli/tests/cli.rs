@@ -403,6 +403,27 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
             && !err.contains("training set"),
         "{err}"
     );
+    // The report keeps what the reused stages took to compute in the first run, and says
+    // they were reused.
+    let again: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let stages = again["stages"].as_array().unwrap();
+    for name in ["bake", "search", "train", "refine", "re-render"] {
+        assert!(
+            stages
+                .iter()
+                .any(|s| s["stage"] == name && s["reused"] == true),
+            "{name} not marked reused: {stages:?}"
+        );
+    }
+    let (first, total) = (
+        report["seconds_total"].as_f64().unwrap(),
+        again["seconds_computed_total"].as_f64().unwrap(),
+    );
+    assert!(
+        total >= 0.5 * first && total > again["seconds_total"].as_f64().unwrap(),
+        "computed {total} s, first run {first} s: {again}"
+    );
     let (ok, stdout, err) = fipt(&["eval", d, o]);
     assert!(ok && stdout.contains("kd dB"), "{stdout}{err}");
     // The search's evidence per part: a row per region with the fitted and the whole-part

@@ -86,6 +86,7 @@ pub fn stage(
                 done.0.views,
                 done.0.seconds_total
             );
+            crate::observe::reused(Some(done.0.seconds_total));
             return Ok(done);
         }
         let mut part = |k: Shard| stage(scene, baker, settings, dir, false, k).map(|_| ());
@@ -98,6 +99,7 @@ pub fn stage(
                     m.views,
                     m.seconds_total
                 );
+                crate::observe::reused(Some(m.seconds_total));
                 return Ok((m, sh));
             }
             Err(why) => crate::note!("baking: {why}"),

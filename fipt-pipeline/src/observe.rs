@@ -75,7 +75,25 @@ pub fn bar(total: u64, what: &str) -> Progress {
 /// moment fault injection counts the stage's moments from ([`fipt_core::chaos`]).
 pub fn begin(stage: &str) -> Instant {
     fipt_core::chaos::stage_started(stage);
+    REUSED.with(|r| r.set(None));
     Instant::now()
+}
+
+thread_local! {
+    /// What the stage begun last on this thread reused: the seconds its result took to compute
+    /// (NaN when not known).
+    static REUSED: std::cell::Cell<Option<f64>> = const { std::cell::Cell::new(None) };
+}
+
+/// The stage under way reuses a finished result, which took `computed_seconds` to compute;
+/// its record in `report.json` says so and keeps that time.
+pub fn reused(computed_seconds: Option<f64>) {
+    REUSED.with(|r| r.set(Some(computed_seconds.unwrap_or(f64::NAN))));
+}
+
+/// What [`reused`] said since the stage began (and forgets it).
+pub(crate) fn take_reused() -> Option<f64> {
+    REUSED.with(|r| r.take())
 }
 
 /// Times a stage and tells the observer when it is done.

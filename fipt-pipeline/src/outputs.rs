@@ -22,10 +22,14 @@ impl StageReport {
         let peak_rss_mib = fipt_core::memory::peak_rss_mib();
         fipt_core::memory::release_free_memory();
         fipt_core::memory::reset_peak_rss();
+        let seconds = t.elapsed().as_secs_f64();
+        let reused = crate::observe::take_reused();
         StageReport {
             stage,
-            seconds: t.elapsed().as_secs_f64(),
+            seconds,
             peak_rss_mib,
+            reused: reused.is_some(),
+            computed_seconds: reused.map_or(Some(seconds), |s| s.is_finite().then_some(s)),
         }
     }
 }
@@ -37,8 +41,20 @@ impl StageReport {
 #[derive(Clone, Debug, Serialize)]
 pub struct StageReport {
     pub stage: &'static str,
+    /// This invocation's time (a fraction of a second for a reused stage).
     pub seconds: f64,
     pub peak_rss_mib: Option<f64>,
+    /// Whether the stage's result came from an earlier run of the folder.
+    pub reused: bool,
+    /// The time the result took to compute: `seconds`, or for a reused stage the earlier
+    /// run's (null when not recorded).
+    pub computed_seconds: Option<f64>,
+}
+
+/// The time all `stages` took to compute, reused ones at their earlier run's time (None when
+/// one of those was not recorded).
+pub(crate) fn computed_total(stages: &[StageReport]) -> Option<f64> {
+    stages.iter().map(|s| s.computed_seconds).sum()
 }
 
 /// Whether the scene has ground truth to evaluate against (`DiffCol/` in a split).
@@ -97,6 +113,8 @@ pub(crate) fn report_header(
     serde_json::json!({
         "stages": stages,
         "seconds_total": t_all.elapsed().as_secs_f64(),
+        "stages_reused": stages.iter().filter(|s| s.reused).count(),
+        "seconds_computed_total": computed_total(stages),
         "fipt_version": env!("CARGO_PKG_VERSION"),
         "status": "complete",
         "scene": a.scene,
@@ -212,6 +230,9 @@ struct RenderProgress {
     /// rendered again (absent in files written before it existed: not checked).
     #[serde(default)]
     hashes: std::collections::BTreeMap<String, String>,
+    /// Seconds the done views took to render (0 in files written before it existed).
+    #[serde(default)]
+    seconds: f64,
 }
 
 impl RenderProgress {
@@ -302,11 +323,14 @@ impl RenderProgress {
         let done = read_json::<RenderProgress>(&out.join("views").join("render.json"))
             .ok()
             .filter(|p| p.key == key)
-            .map_or((vec![], Default::default()), |p| (p.done, p.hashes));
+            .map_or((vec![], Default::default(), 0.0), |p| {
+                (p.done, p.hashes, p.seconds)
+            });
         Some(RenderProgress {
             key,
             done: done.0,
             hashes: done.1,
+            seconds: done.2,
         })
     }
 }
@@ -341,6 +365,7 @@ fn re_render(
         );
     }
     if reused == total {
+        crate::observe::reused(progress.as_ref().map(|p| p.seconds).filter(|&t| t > 0.0));
         return Ok(());
     }
     let views: Vec<_> = scene
@@ -378,6 +403,7 @@ fn re_render(
                 continue;
             }
             let key = ((si as u64) << 32) + v.index as u64;
+            let t_view = std::time::Instant::now();
             let dn = fipt_shading::denoise::DenoiseConfig {
                 passes: if cfg.render.denoise { 5 } else { 0 },
                 ..Default::default()
@@ -405,6 +431,7 @@ fn re_render(
                 p.done.push((s.name.clone(), k));
                 let h = fipt_core::fsutil::hash_files(std::slice::from_ref(&exr))?;
                 p.hashes.insert(format!("{}/{k}", s.name), h);
+                p.seconds += t_view.elapsed().as_secs_f64();
                 write_json_atomic(&progress_path, p)?;
             }
         }

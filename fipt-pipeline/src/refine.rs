@@ -56,6 +56,7 @@ pub fn stage(
             dir.display(),
             m.seconds_total
         );
+        crate::observe::reused(Some(m.seconds_total));
         Refined {
             shadings,
             key: key.clone(),

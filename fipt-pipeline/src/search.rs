@@ -305,6 +305,7 @@ pub fn stage(
                 kept.display(),
                 k.seconds
             );
+            crate::observe::reused(Some(k.seconds));
             let found = Decisions {
                 choices: k.regions.into_iter().map(|r| r.1).collect(),
                 divided: k.divided,

@@ -386,6 +386,7 @@ fn finished(
         m.config.steps,
         m.seconds
     );
+    crate::observe::reused(Some(m.seconds));
     Some((field, m))
 }
 
