@@ -175,6 +175,146 @@ fn mlp_step_ms(
     Ok(median(times) * 1e3)
 }
 
+/// Median and mean seconds of `steps` training steps of `cfg` at batch `batch` (3 steps of
+/// warm-up first).
+fn step_seconds(
+    cfg: &TrainConfig,
+    batch: usize,
+    steps: usize,
+    data: &TrainingSet,
+    bounds: Bounds,
+) -> Result<(f64, f64)> {
+    let mut cfg = cfg.clone();
+    cfg.batch = batch;
+    cfg.steps = steps + 3;
+    let mut t = Trainer::new(cfg, bounds, data.levels)?;
+    for _ in 0..3 {
+        t.step(data)?;
+    }
+    let mut each = Vec::with_capacity(steps);
+    for _ in 0..steps {
+        let t1 = Instant::now();
+        t.step(data)?;
+        each.push(t1.elapsed().as_secs_f64());
+    }
+    let mean = each.iter().sum::<f64>() / steps as f64;
+    Ok((median(each), mean))
+}
+
+/// Least squares of t = a + c·x over the points (x, t), each weighted by 1/t² (relative
+/// errors: the small batches, where the fixed part shows, count as much as the large); (a, c).
+fn fit_line(points: &[(f64, f64)]) -> (f64, f64) {
+    let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(x, y) in points {
+        let w = 1.0 / (y * y).max(1e-12);
+        sw += w;
+        sx += w * x;
+        sy += w * y;
+        sxx += w * x * x;
+        sxy += w * x * y;
+    }
+    let det = sw * sxx - sx * sx;
+    if det.abs() < 1e-300 {
+        return (sy / sw, 0.0);
+    }
+    let c = (sw * sxy - sx * sy) / det;
+    ((sy - c * sx) / sw, c)
+}
+
+/// The batch sweep at the current pool's thread count T: per batch size the median and mean
+/// step, and the fit of t = a + c·B/T.
+fn sweep_at(
+    cfg: &TrainConfig,
+    data: &TrainingSet,
+    bounds: Bounds,
+    quick: bool,
+) -> Result<(Vec<serde_json::Value>, f64, f64)> {
+    let threads = rayon::current_num_threads() as f64;
+    let sizes: &[usize] = if quick {
+        &[1024, 8192, 32768]
+    } else {
+        &[1024, 2048, 4096, 8192, 16384, 32768, 65536]
+    };
+    let mut rows = vec![];
+    let mut points = vec![];
+    for &b in sizes {
+        // About a second of steps each, at least 10.
+        let steps = if quick {
+            6
+        } else {
+            (400_000 / b).clamp(10, 200)
+        };
+        let (med, mean) = step_seconds(cfg, b, steps, data, bounds)?;
+        points.push((b as f64 / threads, med * 1e3));
+        rows.push(serde_json::json!({
+            "threads": threads, "batch": b, "steps": steps, "ms_median": med * 1e3,
+            "ms_mean": mean * 1e3, "mean_over_median": mean / med,
+            "samples_per_second": b as f64 / med,
+        }));
+    }
+    let (a, c) = fit_line(&points);
+    Ok((rows, a, c))
+}
+
+/// The step time against the batch size B, at 1 thread and at this machine's T, each fitted as
+/// t = a + c·B/T (a: what a step costs whatever its batch; c: one sample's cost on one
+/// thread). c grows with the threads (memory and hand-offs shared by more of them): taken as
+/// c(T) = c₁·(1 + k·(T − 1)), with k from the two sweeps, the fit predicts each preset's step
+/// at 16 and 64 threads.
+fn batch_sweep(
+    preset: &str,
+    cfg: &TrainConfig,
+    data: &TrainingSet,
+    bounds: Bounds,
+    quick: bool,
+) -> Result<serde_json::Value> {
+    let threads = rayon::current_num_threads() as f64;
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| BenchError::Invalid(e.to_string()))?;
+    let (mut rows, a1, c1) = one.install(|| sweep_at(cfg, data, bounds, quick))?;
+    let (a, k) = if threads > 1.0 {
+        let (more, a, c) = sweep_at(cfg, data, bounds, quick)?;
+        rows.extend(more);
+        (a, ((c / c1 - 1.0) / (threads - 1.0)).max(0.0))
+    } else {
+        (a1, 0.0)
+    };
+    let b = cfg.batch as f64;
+    let at = |t: f64| {
+        if t <= 1.0 {
+            a1 + c1 * b
+        } else {
+            a + c1 * (1.0 + k * (t - 1.0)) * b / t
+        }
+    };
+    // The same without the growth of c: every thread as fast as one alone.
+    let ideal = |t: f64| a + c1 * b / t;
+    fipt_pipeline::note!(
+        "{preset:>8} batch sweep: 1 thread t = {a1:.2} ms + {c1:.5} ms × B; {threads} threads a = {a:.2} ms, per-sample cost ×{:.2}; batch {}: predicted ×{:.1} at 16 threads against 1 (×{:.1} against 2; ×{:.1} were c constant)",
+        1.0 + k * (threads - 1.0),
+        cfg.batch,
+        at(1.0) / at(16.0),
+        at(2.0) / at(16.0),
+        at(1.0) / ideal(16.0),
+    );
+    Ok(serde_json::json!({
+        "rows": rows,
+        "fit": {
+            "model": "t_ms = a + c1 * (1 + k * (threads - 1)) * batch / threads",
+            "a_ms_1_thread": a1, "c1_ms_per_sample": c1,
+            "threads": threads, "a_ms": a, "k": k,
+        },
+        "preset_batch": cfg.batch,
+        "predicted_ms_per_step": {"1": at(1.0), "2": at(2.0), "16": at(16.0), "64": at(64.0)},
+        "predicted_speedup_16_threads": at(1.0) / at(16.0),
+        "predicted_speedup_64_threads": at(1.0) / at(64.0),
+        "predicted_speedup_2_to_16_threads": at(2.0) / at(16.0),
+        "predicted_speedup_16_threads_if_c_constant": at(1.0) / ideal(16.0),
+    }))
+}
+
 pub fn run(quick: bool, out: &Path) -> Result<()> {
     let steps = if quick { 6 } else { 50 };
     let (data, bounds) = samples(if quick { 300_000 } else { 1_000_000 });
@@ -249,6 +389,10 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
             row["ms_mlp_and_loss"].as_f64().unwrap_or(0.0),
             row["ms_batch_gather"].as_f64().unwrap_or(0.0),
         );
+        let mut row = row;
+        if sizing == "data" {
+            row["batch_sweep"] = batch_sweep(name, &cfg, &data, bounds, quick)?;
+        }
         presets.push(row);
     }
     // Custom op vs plain candle ops, same sizes (balanced), same MLP, same loss.
