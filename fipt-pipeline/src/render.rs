@@ -374,11 +374,17 @@ fn render_views<S: SurfaceModel>(
     out: &Path,
     layout: Layout,
 ) -> Result<Vec<(usize, f64)>> {
+    // Given materials render a scene's ground truth: roulette as late as `fipt synth`'s.
+    let base = if a.materials.is_some() {
+        RenderConfig::ground_truth(a.spp)
+    } else {
+        RenderConfig::default()
+    };
     let cfg = RenderConfig {
         spp: a.spp,
         max_bounces: a.max_bounces,
         seed: a.seed,
-        ..Default::default()
+        ..base
     };
     let total: u64 = views
         .iter()

@@ -391,10 +391,7 @@ impl SynthOptions {
                 val_views: 4,
                 width: 64,
                 height: 48,
-                render: RenderConfig {
-                    spp: 64,
-                    ..Default::default()
-                },
+                render: RenderConfig::ground_truth(64),
                 model: ReflectanceModel::Fipt,
             },
             _ => SynthOptions {
@@ -402,10 +399,7 @@ impl SynthOptions {
                 val_views: 8,
                 width: 240,
                 height: 160,
-                render: RenderConfig {
-                    spp: 128,
-                    ..Default::default()
-                },
+                render: RenderConfig::ground_truth(128),
                 model: ReflectanceModel::Fipt,
             },
         }
