@@ -7,7 +7,6 @@
 //! over; a lock from another host cannot be checked and is refused (the message says how to
 //! remove it). Dropping the lock removes the file.
 use crate::error::{CoreError, Result};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// The lock file's name inside the locked folder.
@@ -74,27 +73,29 @@ impl OutputLock {
         std::fs::create_dir_all(dir).map_err(|e| CoreError::io(dir, e))?;
         let path = dir.join(name);
         let me = format!("pid {}\nhost {}\n{what}\n", std::process::id(), host_name());
+        // The lock appears whole or not at all: written beside it, then linked to its name
+        // (which fails when the name exists). A process killed while creating it leaves no
+        // lock without a holder, only a temporary that the next run sweeps.
+        let tmp = crate::fsutil::temp_path(&path);
+        std::fs::write(&tmp, me.as_bytes()).map_err(|e| CoreError::io(&tmp, e))?;
+        let done = |r: Result<OutputLock>| {
+            let _ = std::fs::remove_file(&tmp);
+            r
+        };
         for _ in 0..2 {
-            match std::fs::OpenOptions::new()
-                .write(true)
-                .create_new(true)
-                .open(&path)
-            {
-                Ok(mut f) => {
-                    f.write_all(me.as_bytes())
-                        .map_err(|e| CoreError::io(&path, e))?;
-                    return Ok(OutputLock { path });
-                }
+            match std::fs::hard_link(&tmp, &path) {
+                Ok(()) => return done(Ok(OutputLock { path })),
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
                     if let Some(holder) = live_holder(&path) {
-                        return Err(in_use(dir, &holder, &path));
+                        return done(Err(in_use(dir, &holder, &path)));
                     }
                     // Its holder is gone: take it over.
                     let _ = std::fs::remove_file(&path);
                 }
-                Err(e) => return Err(CoreError::io(&path, e)),
+                Err(e) => return done(Err(CoreError::io(&path, e))),
             }
         }
+        let _ = std::fs::remove_file(&tmp);
         Err(CoreError::invalid(
             &path,
             "could not take over a stale lock",
@@ -115,7 +116,10 @@ fn live_holder(path: &Path) -> Option<String> {
     };
     let (pid, host) = (field("pid "), field("host "));
     let pid_num = pid.as_deref().and_then(|p| p.parse::<u32>().ok());
-    let stale = host.as_deref() == Some(host_name().as_str()) && pid_num.is_some_and(|p| !alive(p));
+    // A lock without a holder (left by a version that wrote it in place, killed before it
+    // wrote) is stale too: locks are now linked into place whole.
+    let stale = pid_num.is_none()
+        || host.as_deref() == Some(host_name().as_str()) && pid_num.is_some_and(|p| !alive(p));
     (!stale).then(|| {
         format!(
             "pid {}, host {}",
