@@ -55,10 +55,7 @@ fn recover(ids: GtKind, glossy_min: f64) {
         val_views: 1,
         width: 64,
         height: 48,
-        render: RenderConfig {
-            spp: 32,
-            ..Default::default()
-        },
+        render: RenderConfig::ground_truth(32),
         model: Default::default(),
     };
     let scene = build("cornell").unwrap();
