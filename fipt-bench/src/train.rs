@@ -315,6 +315,79 @@ fn batch_sweep(
     }))
 }
 
+/// One preset's steps/s and their split (and, sized on data, its batch sweep).
+fn preset_row(
+    name: &str,
+    sizing: &str,
+    fp: Option<f32>,
+    steps: usize,
+    data: &TrainingSet,
+    bounds: Bounds,
+    quick: bool,
+) -> Result<serde_json::Value> {
+    let mut cfg = TrainConfig::preset(name)
+        .unwrap()
+        .sized_for(data.len(), fp, &bounds);
+    cfg.steps = steps + 3;
+    let mut t = Trainer::new(cfg.clone(), bounds, data.levels)?;
+    for _ in 0..3 {
+        t.step(data)?;
+    }
+    let warm = t.timings;
+    let t0 = Instant::now();
+    let mut each = Vec::with_capacity(steps);
+    for _ in 0..steps {
+        let t1 = Instant::now();
+        t.step(data)?;
+        each.push(t1.elapsed().as_secs_f64());
+    }
+    let secs = t0.elapsed().as_secs_f64();
+    // The median step is robust to the other work of a shared machine.
+    let median = median(each);
+    let tm = t.timings;
+    let grid = (tm.grid_forward - warm.grid_forward)
+        + (tm.grid_backward - warm.grid_backward)
+        + (tm.grid_optimizer - warm.grid_optimizer);
+    let opt = tm.optimizer - warm.optimizer;
+    let total = tm.total() - warm.total();
+    let row = serde_json::json!({
+        "preset": name,
+        "sizing": sizing,
+        "footprint_m": fp,
+        "levels": cfg.field.grid.levels,
+        "per_level_scale": cfg.field.grid.per_level_scale,
+        "log2_table": cfg.field.grid.log2_table,
+        "params": t.field.num_params(),
+        "steps_per_second": steps as f64 / secs,
+        "steps_per_second_median": 1.0 / median,
+        "ms_per_step": ms(secs, steps),
+        "ms_hash_grid": ms(grid, steps),
+        "ms_hash_grid_forward": ms(tm.grid_forward - warm.grid_forward, steps),
+        "ms_hash_grid_backward": ms(tm.grid_backward - warm.grid_backward, steps),
+        "ms_hash_grid_optimizer": ms(tm.grid_optimizer - warm.grid_optimizer, steps),
+        // The tables' Adam step runs inside the backward (booked under the grid), so
+        // the trainer's optimiser time is the MLPs' alone.
+        "ms_mlp_and_loss": ms(total - grid - opt - (tm.batch - warm.batch), steps),
+        "ms_mlp_optimizer": ms(opt, steps),
+        "ms_batch_gather": ms(tm.batch - warm.batch, steps),
+    });
+    fipt_pipeline::note!(
+        "{name:>8} sized {sizing:<12} finest {:>5} cells, 2^{} tables: {:.1} steps/s (median step {:.1}); ms per step: hash grid {:.1}, MLPs and loss {:.1}, batch {:.1}",
+        t.field.grid().levels().last().map_or(0, |l| l.resolution),
+        cfg.field.grid.log2_table,
+        steps as f64 / secs,
+        1.0 / median,
+        row["ms_hash_grid"].as_f64().unwrap_or(0.0),
+        row["ms_mlp_and_loss"].as_f64().unwrap_or(0.0),
+        row["ms_batch_gather"].as_f64().unwrap_or(0.0),
+    );
+    let mut row = row;
+    if sizing == "data" {
+        row["batch_sweep"] = batch_sweep(name, &cfg, data, bounds, quick)?;
+    }
+    Ok(row)
+}
+
 pub fn run(quick: bool, out: &Path) -> Result<()> {
     let steps = if quick { 6 } else { 50 };
     let (data, bounds) = samples(if quick { 300_000 } else { 1_000_000 });
@@ -333,67 +406,7 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
         .into_iter()
         .flat_map(|n| sizings.iter().map(move |s| (n, *s)))
     {
-        let mut cfg = TrainConfig::preset(name)
-            .unwrap()
-            .sized_for(data.len(), fp, &bounds);
-        cfg.steps = steps + 3;
-        let mut t = Trainer::new(cfg.clone(), bounds, data.levels)?;
-        for _ in 0..3 {
-            t.step(&data)?;
-        }
-        let warm = t.timings;
-        let t0 = Instant::now();
-        let mut each = Vec::with_capacity(steps);
-        for _ in 0..steps {
-            let t1 = Instant::now();
-            t.step(&data)?;
-            each.push(t1.elapsed().as_secs_f64());
-        }
-        let secs = t0.elapsed().as_secs_f64();
-        // The median step is robust to the other work of a shared machine.
-        let median = median(each);
-        let tm = t.timings;
-        let grid = (tm.grid_forward - warm.grid_forward)
-            + (tm.grid_backward - warm.grid_backward)
-            + (tm.grid_optimizer - warm.grid_optimizer);
-        let opt = tm.optimizer - warm.optimizer;
-        let total = tm.total() - warm.total();
-        let row = serde_json::json!({
-            "preset": name,
-            "sizing": sizing,
-            "footprint_m": fp,
-            "levels": cfg.field.grid.levels,
-            "per_level_scale": cfg.field.grid.per_level_scale,
-            "log2_table": cfg.field.grid.log2_table,
-            "params": t.field.num_params(),
-            "steps_per_second": steps as f64 / secs,
-            "steps_per_second_median": 1.0 / median,
-            "ms_per_step": ms(secs, steps),
-            "ms_hash_grid": ms(grid, steps),
-            "ms_hash_grid_forward": ms(tm.grid_forward - warm.grid_forward, steps),
-            "ms_hash_grid_backward": ms(tm.grid_backward - warm.grid_backward, steps),
-            "ms_hash_grid_optimizer": ms(tm.grid_optimizer - warm.grid_optimizer, steps),
-            // The tables' Adam step runs inside the backward (booked under the grid), so
-            // the trainer's optimiser time is the MLPs' alone.
-            "ms_mlp_and_loss": ms(total - grid - opt - (tm.batch - warm.batch), steps),
-            "ms_mlp_optimizer": ms(opt, steps),
-            "ms_batch_gather": ms(tm.batch - warm.batch, steps),
-        });
-        fipt_pipeline::note!(
-            "{name:>8} sized {sizing:<12} finest {:>5} cells, 2^{} tables: {:.1} steps/s (median step {:.1}); ms per step: hash grid {:.1}, MLPs and loss {:.1}, batch {:.1}",
-            t.field.grid().levels().last().map_or(0, |l| l.resolution),
-            cfg.field.grid.log2_table,
-            steps as f64 / secs,
-            1.0 / median,
-            row["ms_hash_grid"].as_f64().unwrap_or(0.0),
-            row["ms_mlp_and_loss"].as_f64().unwrap_or(0.0),
-            row["ms_batch_gather"].as_f64().unwrap_or(0.0),
-        );
-        let mut row = row;
-        if sizing == "data" {
-            row["batch_sweep"] = batch_sweep(name, &cfg, &data, bounds, quick)?;
-        }
-        presets.push(row);
+        presets.push(preset_row(name, sizing, fp, steps, &data, bounds, quick)?);
     }
     // Custom op vs plain candle ops, same sizes (balanced), same MLP, same loss.
     let cfg = TrainConfig::default().sized_for(data.len(), None, &bounds);

@@ -165,166 +165,19 @@ impl EmitterExtractor for MaskExtractor {
 
     fn extract(&self, inp: &EmitterInputs) -> Result<Vec<Emitter>> {
         let c = &self.config;
-        let ns = c.samples_per_triangle.max(1);
-        let tri_pts =
-            |t: usize| -> [Vec3; 3] { inp.triangles[t].map(|i| inp.positions[i as usize]) };
-        // 1. Mean α per triangle, in chunks of triangles.
-        let n = inp.triangles.len();
-        let mut alpha = vec![0f32; n];
-        let chunk = (262_144 / ns).max(1);
-        for start in (0..n).step_by(chunk) {
-            let end = (start + chunk).min(n);
-            let mut pts = Vec::with_capacity((end - start) * ns);
-            for t in start..end {
-                let [a, b, cc] = tri_pts(t);
-                let mut r = Pcg32::from_keys(&[c.seed, t as u64, 0xE417]);
-                for _ in 0..ns {
-                    let (u, v) = (r.next_f32(), r.next_f32());
-                    let su = u.sqrt();
-                    pts.push(a * (1.0 - su) + b * (su * (1.0 - v)) + cc * (su * v));
-                }
-            }
-            let al = inp.field.emission_mask(&pts)?;
-            for (k, t) in (start..end).enumerate() {
-                alpha[t] = al[k * ns..(k + 1) * ns].iter().sum::<f32>() / ns as f32;
-            }
-        }
+        // 1. Mean α per triangle.
+        let alpha = mean_alpha(inp, c)?;
         let mut is_emitter: Vec<bool> = alpha.iter().map(|&a| a > c.threshold).collect();
         // 2. Observed pixels per emitter triangle; with `require_unexplained`, drop triangles
         //    whose pixels are mostly within what they could reflect.
-        let mut obs: HashMap<u32, Vec<&PixelHit>> = HashMap::new();
-        let mut votes: HashMap<u32, (usize, usize)> = HashMap::new();
-        for h in inp.pixel_hits {
-            let t = h.triangle;
-            if (t as usize) < n && is_emitter[t as usize] {
-                obs.entry(t).or_default().push(h);
-                if let Some(b) = h.max_reflected {
-                    let v = votes.entry(t).or_default();
-                    v.0 += (luminance(h.radiance) > luminance(b)) as usize;
-                    v.1 += 1;
-                }
-            }
-        }
-        if c.require_unexplained {
-            for (t, (above, total)) in votes {
-                if 2 * above < total {
-                    is_emitter[t as usize] = false;
-                    obs.remove(&t);
-                }
-            }
-        }
-        // 3. Connected groups: emitter triangles sharing a vertex (by position, so that split
-        //    vertices of an OBJ still connect).
-        let key = |p: Vec3| {
-            let q = |x: f32| (x * 1e5).round() as i64;
-            (q(p.x), q(p.y), q(p.z))
-        };
-        let ids: Vec<usize> = (0..n).filter(|&t| is_emitter[t]).collect();
-        let mut parent: Vec<usize> = (0..ids.len()).collect();
-        let mut first: HashMap<(i64, i64, i64), usize> = HashMap::new();
-        for (k, &t) in ids.iter().enumerate() {
-            for p in tri_pts(t) {
-                match first.get(&key(p)) {
-                    Some(&j) => {
-                        let (a, b) = (find(&mut parent, k), find(&mut parent, j));
-                        parent[a.max(b)] = a.min(b);
-                    }
-                    None => {
-                        first.insert(key(p), k);
-                    }
-                }
-            }
-        }
-        let mut groups: Vec<Vec<usize>> = Vec::new();
-        let mut slot: HashMap<usize, usize> = HashMap::new();
-        for k in 0..ids.len() {
-            let r = find(&mut parent, k);
-            let g = *slot.entry(r).or_insert_with(|| {
-                groups.push(vec![]);
-                groups.len() - 1
-            });
-            groups[g].push(ids[k]);
-        }
+        let obs = observed(inp, &mut is_emitter, c.require_unexplained);
+        // 3. Connected groups: emitter triangles sharing a vertex.
+        let groups = connected_groups(inp, &is_emitter);
         // 4. Radiance per triangle: median of its pixels, else of its light's pixels.
-        let channel_median = |ls: &[Vec3]| -> Vec3 {
-            let mut ch: [Vec<f32>; 3] = Default::default();
-            for l in ls {
-                for (i, c) in ch.iter_mut().enumerate() {
-                    c.push(l[i]);
-                }
-            }
-            Vec3::new(median(&mut ch[0]), median(&mut ch[1]), median(&mut ch[2]))
-        };
-        // With `inner_pixels`, each triangle's pixels that lie wholly on a light.
-        let on_light: HashSet<[u32; 3]> = if c.inner_pixels {
-            obs.values().flatten().filter_map(|h| h.at).collect()
-        } else {
-            HashSet::new()
-        };
-        let inner = |h: &PixelHit| {
-            h.at.is_some_and(|[v, x, y]| {
-                (-1i64..=1).all(|dy| {
-                    (-1i64..=1).all(|dx| {
-                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                        nx >= 0 && ny >= 0 && on_light.contains(&[v, nx as u32, ny as u32])
-                    })
-                })
-            })
-        };
-        // Per emitter triangle: (every pixel's radiance, its inner pixels' radiance).
-        let seen: HashMap<u32, (Vec<Vec3>, Vec<Vec3>)> = obs
-            .iter()
-            .map(|(&t, v)| {
-                let all = v.iter().map(|h| h.radiance).collect();
-                let inside = v.iter().filter(|h| inner(h)).map(|h| h.radiance).collect();
-                (t, (all, inside))
-            })
-            .collect();
-        let radiance_of = |t: usize, inner_only: bool| -> &[Vec3] {
-            seen.get(&(t as u32))
-                .map_or(&[], |(all, inside)| if inner_only { inside } else { all })
-        };
+        let seen = seen_radiance(&obs, c.inner_pixels);
         let mut out = Vec::new();
         for g in groups {
-            let all: Vec<Vec3> = g
-                .iter()
-                .flat_map(|&t| radiance_of(t, false))
-                .copied()
-                .collect();
-            if all.is_empty() {
-                continue; // never seen: no radiance to give it
-            }
-            let inside: Vec<Vec3> = g
-                .iter()
-                .flat_map(|&t| radiance_of(t, true))
-                .copied()
-                .collect();
-            let use_inner = c.inner_pixels && !inside.is_empty();
-            let fallback = channel_median(if use_inner { &inside } else { &all });
-            let (mut tris, mut rad) = (vec![], vec![]);
-            for &t in &g {
-                let own = radiance_of(t, use_inner);
-                let l = if own.is_empty() {
-                    fallback
-                } else {
-                    channel_median(own)
-                };
-                if l.max_element() <= 0.0 || !l.is_finite() {
-                    continue;
-                }
-                tris.push(t as u32);
-                rad.push(l);
-            }
-            let pixels = tris.iter().map(|t| obs.get(t).map_or(0, |v| v.len())).sum();
-            let sides = if c.observed_sides {
-                observed_sides(inp, &tris, &obs, fallback)
-            } else {
-                vec![EmitSide::Both; tris.len()]
-            };
-            out.extend(
-                Emitter::from_triangles(inp.positions, inp.triangles, tris, rad, pixels)
-                    .map(|e| e.with_sides(inp.positions, inp.triangles, sides)),
-            );
+            out.extend(group_emitter(inp, c, &g, &obs, &seen));
         }
         out.sort_by(|a, b| {
             let p = |e: &Emitter| e.power.iter().sum::<f32>();
@@ -332,6 +185,198 @@ impl EmitterExtractor for MaskExtractor {
         });
         Ok(out)
     }
+}
+
+fn tri_pts(inp: &EmitterInputs, t: usize) -> [Vec3; 3] {
+    inp.triangles[t].map(|i| inp.positions[i as usize])
+}
+
+/// The emission mask's mean α over `samples_per_triangle` seeded points of each triangle,
+/// queried in chunks of triangles.
+fn mean_alpha(inp: &EmitterInputs, c: &MaskExtractorConfig) -> Result<Vec<f32>> {
+    let ns = c.samples_per_triangle.max(1);
+    let n = inp.triangles.len();
+    let mut alpha = vec![0f32; n];
+    let chunk = (262_144 / ns).max(1);
+    for start in (0..n).step_by(chunk) {
+        let end = (start + chunk).min(n);
+        let mut pts = Vec::with_capacity((end - start) * ns);
+        for t in start..end {
+            let [a, b, cc] = tri_pts(inp, t);
+            let mut r = Pcg32::from_keys(&[c.seed, t as u64, 0xE417]);
+            for _ in 0..ns {
+                let (u, v) = (r.next_f32(), r.next_f32());
+                let su = u.sqrt();
+                pts.push(a * (1.0 - su) + b * (su * (1.0 - v)) + cc * (su * v));
+            }
+        }
+        let al = inp.field.emission_mask(&pts)?;
+        for (k, t) in (start..end).enumerate() {
+            alpha[t] = al[k * ns..(k + 1) * ns].iter().sum::<f32>() / ns as f32;
+        }
+    }
+    Ok(alpha)
+}
+
+/// The pixels that see each emitter triangle. With `require_unexplained`, triangles whose
+/// pixels are mostly within what they could reflect stop being emitters.
+fn observed<'a>(
+    inp: &'a EmitterInputs,
+    is_emitter: &mut [bool],
+    require_unexplained: bool,
+) -> HashMap<u32, Vec<&'a PixelHit>> {
+    let n = is_emitter.len();
+    let mut obs: HashMap<u32, Vec<&PixelHit>> = HashMap::new();
+    let mut votes: HashMap<u32, (usize, usize)> = HashMap::new();
+    for h in inp.pixel_hits {
+        let t = h.triangle;
+        if (t as usize) < n && is_emitter[t as usize] {
+            obs.entry(t).or_default().push(h);
+            if let Some(b) = h.max_reflected {
+                let v = votes.entry(t).or_default();
+                v.0 += (luminance(h.radiance) > luminance(b)) as usize;
+                v.1 += 1;
+            }
+        }
+    }
+    if require_unexplained {
+        for (t, (above, total)) in votes {
+            if 2 * above < total {
+                is_emitter[t as usize] = false;
+                obs.remove(&t);
+            }
+        }
+    }
+    obs
+}
+
+/// The emitter triangles in groups that share a vertex (by position, so that split vertices
+/// of an OBJ still connect).
+fn connected_groups(inp: &EmitterInputs, is_emitter: &[bool]) -> Vec<Vec<usize>> {
+    let key = |p: Vec3| {
+        let q = |x: f32| (x * 1e5).round() as i64;
+        (q(p.x), q(p.y), q(p.z))
+    };
+    let ids: Vec<usize> = (0..is_emitter.len()).filter(|&t| is_emitter[t]).collect();
+    let mut parent: Vec<usize> = (0..ids.len()).collect();
+    let mut first: HashMap<(i64, i64, i64), usize> = HashMap::new();
+    for (k, &t) in ids.iter().enumerate() {
+        for p in tri_pts(inp, t) {
+            match first.get(&key(p)) {
+                Some(&j) => {
+                    let (a, b) = (find(&mut parent, k), find(&mut parent, j));
+                    parent[a.max(b)] = a.min(b);
+                }
+                None => {
+                    first.insert(key(p), k);
+                }
+            }
+        }
+    }
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    let mut slot: HashMap<usize, usize> = HashMap::new();
+    for k in 0..ids.len() {
+        let r = find(&mut parent, k);
+        let g = *slot.entry(r).or_insert_with(|| {
+            groups.push(vec![]);
+            groups.len() - 1
+        });
+        groups[g].push(ids[k]);
+    }
+    groups
+}
+
+/// Per emitter triangle: every pixel's radiance, and (with `inner_pixels`) the radiance of its
+/// pixels that lie wholly on a light.
+fn seen_radiance(
+    obs: &HashMap<u32, Vec<&PixelHit>>,
+    inner_pixels: bool,
+) -> HashMap<u32, (Vec<Vec3>, Vec<Vec3>)> {
+    let on_light: HashSet<[u32; 3]> = if inner_pixels {
+        obs.values().flatten().filter_map(|h| h.at).collect()
+    } else {
+        HashSet::new()
+    };
+    let inner = |h: &PixelHit| {
+        h.at.is_some_and(|[v, x, y]| {
+            (-1i64..=1).all(|dy| {
+                (-1i64..=1).all(|dx| {
+                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                    nx >= 0 && ny >= 0 && on_light.contains(&[v, nx as u32, ny as u32])
+                })
+            })
+        })
+    };
+    obs.iter()
+        .map(|(&t, v)| {
+            let all = v.iter().map(|h| h.radiance).collect();
+            let inside = v.iter().filter(|h| inner(h)).map(|h| h.radiance).collect();
+            (t, (all, inside))
+        })
+        .collect()
+}
+
+/// The per-channel median of `ls`.
+fn channel_median(ls: &[Vec3]) -> Vec3 {
+    let mut ch: [Vec<f32>; 3] = Default::default();
+    for l in ls {
+        for (i, c) in ch.iter_mut().enumerate() {
+            c.push(l[i]);
+        }
+    }
+    Vec3::new(median(&mut ch[0]), median(&mut ch[1]), median(&mut ch[2]))
+}
+
+/// The light of one group: each triangle's radiance (its pixels' median, else the group's),
+/// none when the group was never seen.
+fn group_emitter(
+    inp: &EmitterInputs,
+    c: &MaskExtractorConfig,
+    g: &[usize],
+    obs: &HashMap<u32, Vec<&PixelHit>>,
+    seen: &HashMap<u32, (Vec<Vec3>, Vec<Vec3>)>,
+) -> Option<Emitter> {
+    let radiance_of = |t: usize, inner_only: bool| -> &[Vec3] {
+        seen.get(&(t as u32))
+            .map_or(&[], |(all, inside)| if inner_only { inside } else { all })
+    };
+    let all: Vec<Vec3> = g
+        .iter()
+        .flat_map(|&t| radiance_of(t, false))
+        .copied()
+        .collect();
+    if all.is_empty() {
+        return None; // never seen: no radiance to give it
+    }
+    let inside: Vec<Vec3> = g
+        .iter()
+        .flat_map(|&t| radiance_of(t, true))
+        .copied()
+        .collect();
+    let use_inner = c.inner_pixels && !inside.is_empty();
+    let fallback = channel_median(if use_inner { &inside } else { &all });
+    let (mut tris, mut rad) = (vec![], vec![]);
+    for &t in g {
+        let own = radiance_of(t, use_inner);
+        let l = if own.is_empty() {
+            fallback
+        } else {
+            channel_median(own)
+        };
+        if l.max_element() <= 0.0 || !l.is_finite() {
+            continue;
+        }
+        tris.push(t as u32);
+        rad.push(l);
+    }
+    let pixels = tris.iter().map(|t| obs.get(t).map_or(0, |v| v.len())).sum();
+    let sides = if c.observed_sides {
+        observed_sides(inp, &tris, obs, fallback)
+    } else {
+        vec![EmitSide::Both; tris.len()]
+    };
+    Emitter::from_triangles(inp.positions, inp.triangles, tris, rad, pixels)
+        .map(|e| e.with_sides(inp.positions, inp.triangles, sides))
 }
 
 #[cfg(test)]

@@ -216,15 +216,9 @@ impl Trainer {
         self.step
     }
 
-    /// One optimisation step on a batch drawn from `data`.
-    pub fn step(&mut self, data: &TrainingSet) -> Result<StepLosses> {
-        if data.is_empty() {
-            return Err(NeuralError::config(
-                "training set",
-                "no valid pixels to train on",
-            ));
-        }
-        let t0 = Instant::now();
+    /// The step's batch: `batch` pixels drawn from `data` with the step's own stream, in
+    /// Morton order of their points, and their unit positions.
+    fn draw_batch(&self, data: &TrainingSet) -> (Vec<[f32; 3]>, Arc<LossBatch>) {
         let b = self.config.batch;
         let mut rng = Pcg32::from_keys(&[self.config.seed, self.step as u64, 0xBA7C]);
         let mut idx: Vec<usize> = (0..b)
@@ -258,6 +252,19 @@ impl Trainer {
                 idx.iter().map(|&i| data.target[i]).collect()
             },
         });
+        (unit, batch)
+    }
+
+    /// One optimisation step on a batch drawn from `data`.
+    pub fn step(&mut self, data: &TrainingSet) -> Result<StepLosses> {
+        if data.is_empty() {
+            return Err(NeuralError::config(
+                "training set",
+                "no valid pixels to train on",
+            ));
+        }
+        let t0 = Instant::now();
+        let (unit, batch) = self.draw_batch(data);
         let t1 = Instant::now();
         let cfg = &self.config;
         // The tables' Adam step is taken inside the backward (see `forward_step`).

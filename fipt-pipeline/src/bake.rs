@@ -80,28 +80,12 @@ pub fn stage(
         // A finished bake is reused as it is; shard manifests beside it are stale.
         if let Ok(done) = load_if_current(dir, &scene.cache_key, settings, &name)? {
             fipt_shading::bake_store::clear_shard_manifests(dir);
-            crate::note!(
-                "reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it",
-                dir.display(),
-                done.0.views,
-                done.0.seconds_total
-            );
-            crate::observe::reused(Some(done.0.seconds_total));
-            return Ok(done);
+            return Ok(reusing(dir, done));
         }
         let mut part = |k: Shard| stage(scene, baker, settings, dir, false, k).map(|_| ());
         crate::shard::merge(dir, "bake", shard, check, Some(&mut part))?;
         match load_if_current(dir, &scene.cache_key, settings, &name)? {
-            Ok((m, sh)) => {
-                crate::note!(
-                    "reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it",
-                    dir.display(),
-                    m.views,
-                    m.seconds_total
-                );
-                crate::observe::reused(Some(m.seconds_total));
-                return Ok((m, sh));
-            }
+            Ok(done) => return Ok(reusing(dir, done)),
             Err(why) => crate::note!("baking: {why}"),
         }
     }
@@ -155,10 +139,27 @@ pub fn stage(
         return Err(crate::shard::done(dir, "bake", shard, check).into());
     }
     let stored = StoredShadings::of(dir, &manifest);
-    // The built-in baker's figures in words; any other baker's report as it is.
+    note_stats(&manifest.baker, report, secs);
+    Ok((manifest, stored))
+}
+
+/// A finished bake, reused (and said so).
+fn reusing(dir: &Path, done: (BakeManifest, StoredShadings)) -> (BakeManifest, StoredShadings) {
+    crate::note!(
+        "reusing the bake in {} ({} views, baked in {:.1} s); --force to redo it",
+        dir.display(),
+        done.0.views,
+        done.0.seconds_total
+    );
+    crate::observe::reused(Some(done.0.seconds_total));
+    done
+}
+
+/// The built-in baker's figures in words; any other baker's report as it is.
+fn note_stats(baker: &str, report: serde_json::Value, secs: f64) {
     let Ok(stats) = serde_json::from_value::<BakeStats>(report.clone()) else {
-        crate::note!("{}: {}", manifest.baker, report);
-        return Ok((manifest, stored));
+        crate::note!("{baker}: {report}");
+        return;
     };
     let rays = stats.rays_diffuse + stats.rays_specular;
     crate::note!(
@@ -177,5 +178,4 @@ pub fn stage(
         stats.valid_pixels as f64 / secs,
         rays as f64 / secs / 1e6
     );
-    Ok((manifest, stored))
 }

@@ -176,158 +176,210 @@ pub fn evaluate_scaled(
             continue;
         }
         let dir = out.join("views").join(&s.name);
-        let mut rows = vec![];
-        let (mut kd_all, mut alb_all, mut r_all, mut iou_all, mut log_all, mut render_all) =
-            (vec![], vec![], vec![], vec![], vec![], vec![]);
-        let mut raw_all = vec![];
-        // Metallic, pooled over the split's pixels: [metal pixels, of them predicted ≥ 0.8,
-        // dielectric pixels, of them predicted > 0.1].
-        let mut metal = [0usize; 4];
-        // r_const: σ ≡ 1 (no gloss anywhere) scored the same way, the floor a σ map must beat.
-        let (mut kd_obs, mut r_obs, mut obs_share, mut r_const) = (vec![], vec![], vec![], vec![]);
-        let mut parts = PartScores::default();
-
+        let mut acc = SplitScores::default();
+        let at = SplitAt {
+            ds,
+            split: s,
+            dir: &dir,
+            out,
+            scales,
+            display,
+        };
         for v in &s.views {
-            let k = v.index;
-            let pred = |name: &str| -> Result<Image> {
-                let p = dir.join(format!("{k:03}_{name}.exr"));
-                let img = Image::read_exr(&p)
-                    .with_context(|| format!("reading {} (run `fipt run` first)", p.display()))?;
-                same_size(img, ds, &p)
-            };
-            let gt = |kind: GtKind| -> Result<Option<Image>> {
-                let Some(img) = ds.load_gt(s, kind, k).ok().flatten() else {
-                    return Ok(None);
-                };
-                same_size(img, ds, &s.gt_path(kind, k)).map(Some)
-            };
-            let (Some(kd_gt), Some(r_gt)) = (gt(GtKind::DiffCol)?, gt(GtKind::Roughness)?) else {
-                continue;
-            };
-            let emit_gt = gt(GtKind::Emit)?;
-            let mut kd = pred("kd")?;
-            for p in &mut kd.data {
-                *p *= scales.kd;
-            }
-            let ks = pred("ks")?;
-            let rough = pred("roughness")?;
-            let emis = pred("emission")?;
-            let n = kd.data.len();
-            let is_emit = |i: usize| {
-                emit_gt
-                    .as_ref()
-                    .is_some_and(|e| e.data[i].element_sum() > 0.0)
-            };
-            let valid: Vec<bool> = (0..n)
-                .map(|i| !is_emit(i) && r_gt.data[i].x > 0.0)
-                .collect();
-            // kd over GT-diffuse pixels (method §6): metals' kd is 0 by definition.
-            let m_gt = gt(GtKind::Metallic)?;
-            let diffuse: Vec<bool> = (0..n)
-                .map(|i| valid[i] && m_gt.as_ref().is_none_or(|m| m.data[i].x < 0.5))
-                .collect();
-            let kd_clamped: Vec<Vec3> = kd
-                .data
-                .iter()
-                .map(|v| v.clamp(Vec3::ZERO, Vec3::ONE))
-                .collect();
-            let kd_q8: Vec<Vec3> = kd_gt.data.iter().map(|&v| q8(v)).collect();
-            let kd_p = psnr(&kd_clamped, &kd_q8, Some(&diffuse), 1.0);
-            let alb_p = gt(GtKind::Albedo)?.and_then(|a| {
-                let pa: Vec<Vec3> = kd
-                    .data
-                    .iter()
-                    .zip(&ks.data)
-                    .map(|(a, b)| (*a + *b).clamp(Vec3::ZERO, Vec3::ONE))
-                    .collect();
-                psnr(
-                    &pa,
-                    &a.data.iter().map(|&v| q8(v)).collect::<Vec<_>>(),
-                    Some(&valid),
-                    1.0,
-                )
-            });
-            let m = m_gt.as_ref().map(|_| pred("metallic")).transpose()?;
-            let metallic = m_gt
-                .as_ref()
-                .zip(m.as_ref())
-                .map(|(g, p)| (&p.data[..], &g.data[..]));
-            if let Some((p, g)) = metallic {
-                count_metal(&mut metal, &valid, p, g);
-            }
-            let cl = |v: Vec3| Vec3::splat(v.x.clamp(0.2, 1.0));
-            let r_pred: Vec<Vec3> = rough.data.iter().map(|&v| cl(v)).collect();
-            let r_true: Vec<Vec3> = r_gt.data.iter().map(|&v| cl(q8(v))).collect();
-            let r_p = psnr(&r_pred, &r_true, Some(&valid), 1.0);
-            r_const.push(psnr(&[Vec3::ONE].repeat(n), &r_true, Some(&valid), 1.0));
-            if let Some(ids) = ds.load_ids(s, GtKind::IndexMA, k)? {
-                parts.add(&ViewMaps {
-                    ids: &ids,
-                    valid: &valid,
-                    diffuse: &diffuse,
-                    kd: &kd_clamped,
-                    kd_gt: &kd_q8,
-                    sigma: &r_pred,
-                    sigma_gt: &r_true,
-                    metallic,
-                });
-            }
-            // The same on observed pixels: surface cells that at least OBSERVED_MIN training
-            // pixels saw (`_observed.exr` of `fipt run`).
-            let obs_path = dir.join(format!("{k:03}_observed.exr"));
-            if obs_path.is_file() {
-                let o = Image::read_exr(&obs_path)
-                    .with_context(|| format!("reading {}", obs_path.display()))?;
-                let o = same_size(o, ds, &obs_path)?;
-                let seen = |i: usize| o.data[i].x >= OBSERVED_MIN;
-                let od: Vec<bool> = (0..n).map(|i| diffuse[i] && seen(i)).collect();
-                let ov: Vec<bool> = (0..n).map(|i| valid[i] && seen(i)).collect();
-                kd_obs.push(psnr(&kd_clamped, &kd_q8, Some(&od), 1.0));
-                r_obs.push(psnr(&r_pred, &r_true, Some(&ov), 1.0));
-                let nv = valid.iter().filter(|&&v| v).count();
-                obs_share
-                    .push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
-            }
-            let (iou, log2) = emission_scores(&emis, emit_gt.as_ref());
-            let scale = [display, scales.radiance];
-            let render_p = render_score(ds, v, &dir, scale, &s.name, "render")?;
-            render_all.push(render_p);
-            // The re-render before denoising, where it was kept.
-            let raw_p = render_score(ds, v, &dir, scale, &s.name, "render_raw")?;
-            raw_all.push(raw_p);
-            let log_l2 = log2 / (3 * n) as f64;
-            write_kd_error(out, &s.name, k, &kd, &kd_gt, &valid)?;
-            kd_all.push(kd_p);
-            alb_all.push(alb_p);
-            r_all.push(r_p);
-            iou_all.push(iou);
-            log_all.push(Some(log_l2));
-            rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p, "render_raw_psnr": raw_p}));
+            score_view(&at, v, &mut acc)?;
         }
-        let share = |a: usize, b: usize| (b > 0).then(|| a as f64 / b as f64);
-        let parts_json = (!parts.is_empty()).then(|| parts.to_json(&names));
-        splits.insert(
-            s.name.clone(),
-            serde_json::json!({
-                "observed": {"min_count": OBSERVED_MIN, "kd_psnr": mean(&kd_obs), "kd_psnr_median": median(&kd_obs),
-                             "roughness_psnr": mean(&r_obs), "roughness_psnr_median": median(&r_obs), "share": mean(&obs_share)},
-                "metallic": {"metal_recall": share(metal[1], metal[0]), "false_metal": share(metal[3], metal[2]),
-                             "metal_pixels": metal[0], "dielectric_pixels": metal[2]},
-                "roughness_constant": {"value": 1.0, "roughness_psnr": mean(&r_const), "roughness_psnr_median": median(&r_const)},
-                "mean": {"kd_psnr": mean(&kd_all), "albedo_psnr": mean(&alb_all), "roughness_psnr": mean(&r_all),
-                         "emission_iou": mean(&iou_all), "emission_log_l2": mean(&log_all), "render_psnr": mean(&render_all),
-                         "render_raw_psnr": mean(&raw_all)},
-                "median": {"kd_psnr": median(&kd_all), "albedo_psnr": median(&alb_all), "roughness_psnr": median(&r_all),
-                           "emission_iou": median(&iou_all), "emission_log_l2": median(&log_all), "render_psnr": median(&render_all)},
-                "views": rows,
-                "parts": parts_json,
-                "render_display_scale": display,
-            }),
-        );
+        splits.insert(s.name.clone(), acc.to_json(&names, display));
     }
     let m = serde_json::Value::Object(splits);
     write_json_atomic(&out.join("metrics.json"), &m)?;
     Ok(m)
+}
+
+/// One split's scores as its views add them.
+#[derive(Default)]
+struct SplitScores {
+    rows: Vec<serde_json::Value>,
+    kd: Vec<Option<f64>>,
+    albedo: Vec<Option<f64>>,
+    roughness: Vec<Option<f64>>,
+    iou: Vec<Option<f64>>,
+    log_l2: Vec<Option<f64>>,
+    render: Vec<Option<f64>>,
+    render_raw: Vec<Option<f64>>,
+    /// Metallic, pooled over the split's pixels: [metal pixels, of them predicted ≥ 0.8,
+    /// dielectric pixels, of them predicted > 0.1].
+    metal: [usize; 4],
+    /// The same kd and σ on observed pixels, and their share of the valid ones.
+    kd_observed: Vec<Option<f64>>,
+    roughness_observed: Vec<Option<f64>>,
+    observed_share: Vec<Option<f64>>,
+    /// σ ≡ 1 (no gloss anywhere) scored the same way: the floor a σ map must beat.
+    roughness_constant: Vec<Option<f64>>,
+    parts: PartScores,
+}
+
+impl SplitScores {
+    fn to_json(&self, names: &[String], display: f32) -> serde_json::Value {
+        let share = |a: usize, b: usize| (b > 0).then(|| a as f64 / b as f64);
+        let metal = self.metal;
+        let parts_json = (!self.parts.is_empty()).then(|| self.parts.to_json(names));
+        serde_json::json!({
+            "observed": {"min_count": OBSERVED_MIN, "kd_psnr": mean(&self.kd_observed), "kd_psnr_median": median(&self.kd_observed),
+                         "roughness_psnr": mean(&self.roughness_observed), "roughness_psnr_median": median(&self.roughness_observed), "share": mean(&self.observed_share)},
+            "metallic": {"metal_recall": share(metal[1], metal[0]), "false_metal": share(metal[3], metal[2]),
+                         "metal_pixels": metal[0], "dielectric_pixels": metal[2]},
+            "roughness_constant": {"value": 1.0, "roughness_psnr": mean(&self.roughness_constant), "roughness_psnr_median": median(&self.roughness_constant)},
+            "mean": {"kd_psnr": mean(&self.kd), "albedo_psnr": mean(&self.albedo), "roughness_psnr": mean(&self.roughness),
+                     "emission_iou": mean(&self.iou), "emission_log_l2": mean(&self.log_l2), "render_psnr": mean(&self.render),
+                     "render_raw_psnr": mean(&self.render_raw)},
+            "median": {"kd_psnr": median(&self.kd), "albedo_psnr": median(&self.albedo), "roughness_psnr": median(&self.roughness),
+                       "emission_iou": median(&self.iou), "emission_log_l2": median(&self.log_l2), "render_psnr": median(&self.render)},
+            "views": self.rows,
+            "parts": parts_json,
+            "render_display_scale": display,
+        })
+    }
+}
+
+/// Where a split's views are scored.
+struct SplitAt<'a> {
+    ds: &'a Dataset,
+    split: &'a fipt_core::dataset::Split,
+    dir: &'a Path,
+    out: &'a Path,
+    scales: Scales,
+    display: f32,
+}
+
+/// Scores view `v` of a split into `acc` (views without kd and σ ground truth are skipped).
+fn score_view(at: &SplitAt, v: &fipt_core::dataset::View, acc: &mut SplitScores) -> Result<()> {
+    let (ds, s, dir) = (at.ds, at.split, at.dir);
+    let k = v.index;
+    let pred = |name: &str| -> Result<Image> {
+        let p = dir.join(format!("{k:03}_{name}.exr"));
+        let img = Image::read_exr(&p)
+            .with_context(|| format!("reading {} (run `fipt run` first)", p.display()))?;
+        same_size(img, ds, &p)
+    };
+    let gt = |kind: GtKind| -> Result<Option<Image>> {
+        let Some(img) = ds.load_gt(s, kind, k).ok().flatten() else {
+            return Ok(None);
+        };
+        same_size(img, ds, &s.gt_path(kind, k)).map(Some)
+    };
+    let (Some(kd_gt), Some(r_gt)) = (gt(GtKind::DiffCol)?, gt(GtKind::Roughness)?) else {
+        return Ok(());
+    };
+    let emit_gt = gt(GtKind::Emit)?;
+    let mut kd = pred("kd")?;
+    for p in &mut kd.data {
+        *p *= at.scales.kd;
+    }
+    let ks = pred("ks")?;
+    let rough = pred("roughness")?;
+    let emis = pred("emission")?;
+    let n = kd.data.len();
+    let is_emit = |i: usize| {
+        emit_gt
+            .as_ref()
+            .is_some_and(|e| e.data[i].element_sum() > 0.0)
+    };
+    let valid: Vec<bool> = (0..n)
+        .map(|i| !is_emit(i) && r_gt.data[i].x > 0.0)
+        .collect();
+    // kd over GT-diffuse pixels (method §6): metals' kd is 0 by definition.
+    let m_gt = gt(GtKind::Metallic)?;
+    let diffuse: Vec<bool> = (0..n)
+        .map(|i| valid[i] && m_gt.as_ref().is_none_or(|m| m.data[i].x < 0.5))
+        .collect();
+    let kd_clamped: Vec<Vec3> = kd
+        .data
+        .iter()
+        .map(|v| v.clamp(Vec3::ZERO, Vec3::ONE))
+        .collect();
+    let kd_q8: Vec<Vec3> = kd_gt.data.iter().map(|&v| q8(v)).collect();
+    let kd_p = psnr(&kd_clamped, &kd_q8, Some(&diffuse), 1.0);
+    let alb_p = gt(GtKind::Albedo)?.and_then(|a| albedo_psnr(&kd, &ks, &a, &valid));
+    let m = m_gt.as_ref().map(|_| pred("metallic")).transpose()?;
+    let metallic = m_gt
+        .as_ref()
+        .zip(m.as_ref())
+        .map(|(g, p)| (&p.data[..], &g.data[..]));
+    if let Some((p, g)) = metallic {
+        count_metal(&mut acc.metal, &valid, p, g);
+    }
+    let cl = |v: Vec3| Vec3::splat(v.x.clamp(0.2, 1.0));
+    let r_pred: Vec<Vec3> = rough.data.iter().map(|&v| cl(v)).collect();
+    let r_true: Vec<Vec3> = r_gt.data.iter().map(|&v| cl(q8(v))).collect();
+    let r_p = psnr(&r_pred, &r_true, Some(&valid), 1.0);
+    acc.roughness_constant
+        .push(psnr(&[Vec3::ONE].repeat(n), &r_true, Some(&valid), 1.0));
+    let maps = ViewMaps {
+        ids: &[],
+        valid: &valid,
+        diffuse: &diffuse,
+        kd: &kd_clamped,
+        kd_gt: &kd_q8,
+        sigma: &r_pred,
+        sigma_gt: &r_true,
+        metallic,
+    };
+    if let Some(ids) = ds.load_ids(s, GtKind::IndexMA, k)? {
+        acc.parts.add(&ViewMaps { ids: &ids, ..maps });
+    }
+    score_observed(at, k, &maps, acc)?;
+    let (iou, log2) = emission_scores(&emis, emit_gt.as_ref());
+    let scale = [at.display, at.scales.radiance];
+    let render_p = render_score(ds, v, dir, scale, &s.name, "render")?;
+    // The re-render before denoising, where it was kept.
+    let raw_p = render_score(ds, v, dir, scale, &s.name, "render_raw")?;
+    let log_l2 = log2 / (3 * n) as f64;
+    write_kd_error(at.out, &s.name, k, &kd, &kd_gt, &valid)?;
+    acc.render.push(render_p);
+    acc.render_raw.push(raw_p);
+    acc.kd.push(kd_p);
+    acc.albedo.push(alb_p);
+    acc.roughness.push(r_p);
+    acc.iou.push(iou);
+    acc.log_l2.push(Some(log_l2));
+    acc.rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p, "render_raw_psnr": raw_p}));
+    Ok(())
+}
+
+/// PSNR of kd + ks (clamped to [0, 1]) against the albedo ground truth on the valid pixels.
+fn albedo_psnr(kd: &Image, ks: &Image, truth: &Image, valid: &[bool]) -> Option<f64> {
+    let pa: Vec<Vec3> = kd
+        .data
+        .iter()
+        .zip(&ks.data)
+        .map(|(a, b)| (*a + *b).clamp(Vec3::ZERO, Vec3::ONE))
+        .collect();
+    let q: Vec<Vec3> = truth.data.iter().map(|&v| q8(v)).collect();
+    psnr(&pa, &q, Some(valid), 1.0)
+}
+
+/// kd and σ on observed pixels: surface cells that at least OBSERVED_MIN training pixels saw
+/// (`_observed.exr` of `fipt run`), where the run wrote one.
+fn score_observed(at: &SplitAt, k: usize, maps: &ViewMaps, acc: &mut SplitScores) -> Result<()> {
+    let obs_path = at.dir.join(format!("{k:03}_observed.exr"));
+    if !obs_path.is_file() {
+        return Ok(());
+    }
+    let o =
+        Image::read_exr(&obs_path).with_context(|| format!("reading {}", obs_path.display()))?;
+    let o = same_size(o, at.ds, &obs_path)?;
+    let n = maps.valid.len();
+    let seen = |i: usize| o.data[i].x >= OBSERVED_MIN;
+    let od: Vec<bool> = (0..n).map(|i| maps.diffuse[i] && seen(i)).collect();
+    let ov: Vec<bool> = (0..n).map(|i| maps.valid[i] && seen(i)).collect();
+    acc.kd_observed
+        .push(psnr(maps.kd, maps.kd_gt, Some(&od), 1.0));
+    acc.roughness_observed
+        .push(psnr(maps.sigma, maps.sigma_gt, Some(&ov), 1.0));
+    let nv = maps.valid.iter().filter(|&&v| v).count();
+    acc.observed_share
+        .push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
+    Ok(())
 }
 
 /// Adds a view's metal pixels (true metallic ≥ 0.5) and those predicted ≥ 0.8, and its

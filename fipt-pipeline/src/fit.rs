@@ -27,6 +27,65 @@ pub struct Parts<'a> {
     pub extractor: &'a dyn EmitterExtractor,
 }
 
+/// The part (else semantic) ids of the training views, for a fitter that wants them.
+fn segments_for(
+    scene: &crate::scene::LoadedScene,
+    fitter: &dyn MaterialFitter,
+) -> Result<Option<Vec<Vec<i64>>>> {
+    if !fitter.wants_segments() {
+        return Ok(None);
+    }
+    let split = scene.ds.train();
+    [GtKind::IndexMA, GtKind::Segmentation]
+        .into_iter()
+        .find(|&k| split.has_gt(k))
+        .map(|k| crate::regions::split_ids(scene, k))
+        .transpose()
+}
+
+/// The fitter on the training views (its checkpoints in `OUT/fit/`, cleared by `--force`).
+fn fit_views(
+    a: &RunRequest,
+    cfg: &RunConfig,
+    scene: &crate::scene::LoadedScene,
+    fitter: &dyn MaterialFitter,
+    shadings: Option<&fipt_shading::bake_store::StoredShadings>,
+    segments: Option<&[Vec<i64>]>,
+) -> Result<fipt_core::fit::Fitted> {
+    let (split, mesh) = (scene.ds.train(), &scene.geometry.mesh);
+    let dir = a.out.join("fit");
+    if a.force && dir.exists() {
+        // The fitter's checkpoints: `--force` starts it afresh.
+        std::fs::remove_dir_all(&dir)?;
+    }
+    std::fs::create_dir_all(&dir)?;
+    let st = crate::observe::Stage::start("fit");
+    let pb = crate::observe::bar(1, fitter.name());
+    // A fitter that asks for the shadings gets every view's at once.
+    let all = shadings.map(|s| s.load_all()).transpose()?;
+    let fitted = fitter.fit(
+        &FitInputs {
+            geometry: &scene.geometry,
+            positions: &mesh.positions,
+            triangles: &mesh.triangles,
+            views: &split.views,
+            images: &scene.images,
+            shadings: all.as_deref(),
+            segments,
+            model: cfg.model.brdf,
+            dir: &dir,
+        },
+        &|d, n| {
+            pb.set_length(n as u64);
+            pb.set_position(d as u64);
+        },
+    )?;
+    drop(all);
+    pb.finish_and_clear();
+    st.done();
+    Ok(fitted)
+}
+
 /// Runs `parts.fitter` on the scene of `a` and writes the output contract into `a.out`.
 pub fn run(
     a: &RunRequest,
@@ -67,47 +126,16 @@ pub fn run(
     } else {
         None
     };
-    let segments = if fitter.wants_segments() {
-        let split = scene.ds.train();
-        [GtKind::IndexMA, GtKind::Segmentation]
-            .into_iter()
-            .find(|&k| split.has_gt(k))
-            .map(|k| crate::regions::split_ids(&scene, k))
-            .transpose()?
-    } else {
-        None
-    };
+    let segments = segments_for(&scene, fitter)?;
     let t = Instant::now();
-    let dir = a.out.join("fit");
-    if a.force && dir.exists() {
-        // The fitter's checkpoints: `--force` starts it afresh.
-        std::fs::remove_dir_all(&dir)?;
-    }
-    std::fs::create_dir_all(&dir)?;
-    let st = crate::observe::Stage::start("fit");
-    let pb = crate::observe::bar(1, fitter.name());
-    // A fitter that asks for the shadings gets every view's at once.
-    let all = shadings.as_ref().map(|s| s.load_all()).transpose()?;
-    let fitted = fitter.fit(
-        &FitInputs {
-            geometry: &scene.geometry,
-            positions: &mesh.positions,
-            triangles: &mesh.triangles,
-            views: &split.views,
-            images: &scene.images,
-            shadings: all.as_deref(),
-            segments: segments.as_deref(),
-            model: cfg.model.brdf,
-            dir: &dir,
-        },
-        &|d, n| {
-            pb.set_length(n as u64);
-            pb.set_position(d as u64);
-        },
+    let fitted = fit_views(
+        a,
+        cfg,
+        &scene,
+        fitter,
+        shadings.as_ref(),
+        segments.as_deref(),
     )?;
-    drop(all);
-    pb.finish_and_clear();
-    st.done();
     stages.push(StageReport::since("fit", t));
     let t = Instant::now();
     let field = fitted.field.as_ref();
@@ -129,11 +157,7 @@ pub fn run(
     write_json_atomic(&a.out.join("emitters.json"), &user_emitters)?;
     write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
     stages.push(StageReport::since("emitters", t));
-    let mut warnings = scene.capture.warnings.clone();
-    if let Some(w) = crate::outputs::no_light_warning(&scene, &emitters) {
-        crate::note!("WARNING: {w}");
-        warnings.push(w);
-    }
+    let warnings = crate::outputs::run_warnings(&scene, &emitters);
     let mut mark = |stage: &'static str, t: Instant| stages.push(StageReport::since(stage, t));
     let recovered = crate::outputs::Recovered {
         field,

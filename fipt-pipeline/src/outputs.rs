@@ -66,6 +66,17 @@ pub(crate) fn has_ground_truth(scene: &crate::scene::LoadedScene) -> bool {
         .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol))
 }
 
+/// The scene's capture warnings, and a loud one when no emitter was found in views that have
+/// clipped or very bright regions.
+pub(crate) fn run_warnings(scene: &crate::scene::LoadedScene, emitters: &[Emitter]) -> Vec<String> {
+    let mut warnings = scene.capture.warnings.clone();
+    if let Some(w) = no_light_warning(scene, emitters) {
+        crate::note!("WARNING: {w}");
+        warnings.push(w);
+    }
+    warnings
+}
+
 /// `fipt eval` of the outputs in `out` (the `eval` stage) when the scene has ground truth.
 pub(crate) fn evaluate_if_gt(
     scene: &crate::scene::LoadedScene,
@@ -404,28 +415,14 @@ fn re_render(
             }
             let key = ((si as u64) << 32) + v.index as u64;
             let t_view = std::time::Instant::now();
-            let dn = fipt_shading::denoise::DenoiseConfig {
-                passes: if cfg.render.denoise { 5 } else { 0 },
-                ..Default::default()
+            let at = ReRenderAt {
+                rscene: &rscene,
+                rc: &rc,
+                denoise: cfg.render.denoise,
+                exposure: scene.exposure,
+                dir: &dir,
             };
-            let (mut img, mut raw, _) =
-                fipt_shading::denoise::render_denoised(&rscene, &v.camera, &rc, key, &dn, &|_| {});
-            img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
-            for p in img.data.iter_mut().chain(raw.data.iter_mut()) {
-                *p *= scene.exposure;
-            }
-            let raw_exr = dir.join(format!("{k:03}_render_raw.exr"));
-            if cfg.render.denoise {
-                raw.write_exr(&raw_exr, ExrPrecision::F32)?;
-                let png = dir.join("preview").join(format!("{k:03}_render_raw.png"));
-                raw.write_png(&png, 1.0 / scene.exposure)?;
-            } else if raw_exr.is_file() {
-                // Denoising turned off: `_render.exr` is the raw render, a raw file beside it
-                // would be an older render's.
-                std::fs::remove_file(&raw_exr)
-                    .map_err(|e| fipt_core::CoreError::io(&raw_exr, e))?;
-            }
-            img.write_exr(&exr, ExrPrecision::F32)?;
+            re_render_view(&at, v, key, &exr)?;
             if let Some(p) = &mut progress {
                 p.done.retain(|d| !(d.0 == s.name && d.1 == k));
                 p.done.push((s.name.clone(), k));
@@ -437,6 +434,48 @@ fn re_render(
         }
     }
     pb.finish_and_clear();
+    Ok(())
+}
+
+/// Where and how a run's views are re-rendered.
+struct ReRenderAt<'a, S: fipt_shading::scene::SurfaceModel> {
+    rscene: &'a RenderScene<S>,
+    rc: &'a RenderConfig,
+    denoise: bool,
+    exposure: f32,
+    dir: &'a Path,
+}
+
+/// Renders view `v` (stream `key`), denoised unless switched off, and writes `exr`, the raw
+/// render beside it and their previews.
+fn re_render_view<S: fipt_shading::scene::SurfaceModel>(
+    at: &ReRenderAt<S>,
+    v: &fipt_core::dataset::View,
+    key: u64,
+    exr: &Path,
+) -> Result<()> {
+    let (k, dir) = (v.index, at.dir);
+    let dn = fipt_shading::denoise::DenoiseConfig {
+        passes: if at.denoise { 5 } else { 0 },
+        ..Default::default()
+    };
+    let (mut img, mut raw, _) =
+        fipt_shading::denoise::render_denoised(at.rscene, &v.camera, at.rc, key, &dn, &|_| {});
+    img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
+    for p in img.data.iter_mut().chain(raw.data.iter_mut()) {
+        *p *= at.exposure;
+    }
+    let raw_exr = dir.join(format!("{k:03}_render_raw.exr"));
+    if at.denoise {
+        raw.write_exr(&raw_exr, ExrPrecision::F32)?;
+        let png = dir.join("preview").join(format!("{k:03}_render_raw.png"));
+        raw.write_png(&png, 1.0 / at.exposure)?;
+    } else if raw_exr.is_file() {
+        // Denoising turned off: `_render.exr` is the raw render, a raw file beside it would
+        // be an older render's.
+        std::fs::remove_file(&raw_exr).map_err(|e| fipt_core::CoreError::io(&raw_exr, e))?;
+    }
+    img.write_exr(exr, ExrPrecision::F32)?;
     Ok(())
 }
 

@@ -110,6 +110,43 @@ pub fn stage(
     if !shard.is_all() && !force && shard_done(dir, shard, &check) {
         return Err(crate::shard::done(dir, "refinement", shard, check).into());
     }
+    let job = Job {
+        scene,
+        field,
+        field_id,
+        emitters,
+        refiner,
+        settings,
+        dir,
+    };
+    compute(&job, &name, key, shard)
+}
+
+/// What one refinement computes from.
+struct Job<'a> {
+    scene: &'a LoadedScene,
+    field: &'a dyn MaterialField,
+    field_id: &'a str,
+    emitters: &'a [Emitter],
+    refiner: &'a dyn ShadingRefiner,
+    settings: &'a serde_json::Value,
+    dir: &'a Path,
+}
+
+/// Refines `shard`'s views, each written as soon as it is done, then the manifest (a shard's
+/// ends the process's work on the stage with `shard::done`).
+fn compute(job: &Job, name: &str, key: String, shard: Shard) -> Result<Refined> {
+    let Job {
+        scene,
+        field,
+        field_id,
+        emitters,
+        refiner,
+        settings,
+        dir,
+    } = *job;
+    let stats_path = dir.join("refine_stats.json");
+    let check = |m: &BakeManifest| keyed_mismatch(m, &scene.cache_key, name, &key);
     let split = scene.ds.train();
     let mesh = &scene.geometry.mesh;
     let inputs = RefineInputs {
@@ -140,12 +177,12 @@ pub fn stage(
     )?;
     pb.finish_and_clear();
     let secs = st.done();
-    crate::shard::check_handed_over("refiner", &name, written, split.views.len(), shard)?;
-    print_stats(&name, &stats, secs);
+    crate::shard::check_handed_over("refiner", name, written, split.views.len(), shard)?;
+    print_stats(name, &stats, secs);
     let manifest = BakeManifest {
         hashes: Default::default(),
         version: FORMAT_VERSION,
-        baker: name.clone(),
+        baker: name.to_string(),
         inputs_hash: scene.cache_key.clone(),
         config: serde_json::json!({ "key": key, "settings": settings, "field": field_id }),
         split: split.name.clone(),

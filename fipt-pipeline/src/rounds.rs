@@ -133,6 +133,28 @@ pub(crate) struct Rounds<'a> {
     pub(crate) reports: &'a mut Vec<serde_json::Value>,
 }
 
+/// The rounds the scene needs (`refine_plan`: why none, when none) and, when there are any,
+/// the rounds run; the plan and the number of rounds done.
+pub(crate) fn planned_rounds(
+    ctx: &RoundsContext,
+    st: &mut Rounds,
+    mark: &mut dyn FnMut(&'static str, std::time::Instant),
+) -> Result<(std::result::Result<String, String>, u32)> {
+    let glossy = glossy_fraction(ctx.records, &st.field, ctx.cfg.refine.rough_threshold)?;
+    let plan = refine_plan(ctx.cfg, ctx.emitters, glossy);
+    let done = match &plan {
+        Ok(p) => {
+            crate::note!("refinement: {p}");
+            refinement_rounds(ctx, st, mark)?
+        }
+        Err(why) => {
+            crate::note!("refinement {why}");
+            0
+        }
+    };
+    Ok((plan, done))
+}
+
 /// FIPT's refine → search → train rounds (method §4.5).
 pub(crate) fn refinement_rounds(
     ctx: &RoundsContext,

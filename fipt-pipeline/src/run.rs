@@ -9,7 +9,7 @@ use crate::outputs::{
     write_emitters_obj, write_views, StageReport,
 };
 pub use crate::rounds::RoundsConfig;
-use crate::rounds::{glossy_fraction, refine_plan, refinement_rounds, Rounds, RoundsContext};
+use crate::rounds::{planned_rounds, Rounds, RoundsContext};
 use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;
 use fipt_core::fsutil::write_json_atomic;
@@ -492,105 +492,52 @@ fn run_locked(
     let t = crate::observe::begin("load");
     let (scene, memory) = load_checked(a, cfg)?;
     mark("load", t);
-    let t = crate::observe::begin("bake");
-    let (bake, shadings) = crate::bake::stage(
-        &scene,
-        baker.as_ref(),
-        bake_settings,
-        &a.out.join("bake"),
-        a.force,
-        a.sharding().shard,
-    )?;
-    mark("bake", t);
-    let has_gt = has_ground_truth(&scene);
-    let (records, footprint) = train_hits(&scene);
-    let mut searches = vec![];
-    let t = crate::observe::begin("search");
-    let bake_id = fipt_shading::bake_store::fingerprint(&bake);
-    let on = crate::search::SearchOn {
-        shadings: &shadings,
-        id: &bake_id,
-        force: a.force,
-    };
-    let searched = crate::search::on_bake(&scene, &records, on, &cfg.search, footprint)?;
-    if searched.is_some() {
-        mark("search", t);
-    }
-    // What the closure and the extraction need of the shadings, before the training takes them.
-    let mut closure = bake_closure(&scene, &shadings, has_gt)?;
-    let reflected = crate::outputs::max_reflected(&shadings)?;
-    let t = crate::observe::begin("train");
-    let (mut field, mut train, _) = crate::train::stage(
-        &scene,
-        &bake_id,
-        &shadings,
-        &cfg.train,
-        &a.out.join("train"),
-        a.force,
-        None,
-        searched.as_ref(),
-        !a.sharding().shard.is_all(),
-    )?;
-    mark("train", t);
-    if cfg.search.on_bake {
-        searches.push(serde_json::json!({ "shadings": "bake", "search": &searched }));
-    }
-
+    let mut first = first_round(a, cfg, &scene, baker.as_ref(), bake_settings, &mut mark)?;
+    let (records, footprint, field) = (&first.records, first.footprint, first.field);
     let t = crate::observe::begin("emitters");
-    let emitters = extract_emitters(
+    let reflected = std::mem::take(&mut first.reflected);
+    let found = extract_emitters(
         &scene,
-        &records,
+        records,
         &field,
         Some(&reflected),
         extractor.as_ref(),
-    )?;
+    );
     drop(reflected);
+    let emitters = found?;
     let user_emitters = write_emitters(&a.out, &scene, &emitters)?;
     mark("emitters", t);
-    let mut warnings = scene.capture.warnings.clone();
-    if let Some(w) = crate::outputs::no_light_warning(&scene, &emitters) {
-        crate::note!("WARNING: {w}");
-        warnings.push(w);
-    }
+    let warnings = crate::outputs::run_warnings(&scene, &emitters);
 
     // Refine → train rounds, unless nothing in the scene needs them.
-    let glossy = glossy_fraction(&records, &field, cfg.refine.rough_threshold)?;
-    let refine_plan = refine_plan(cfg, &emitters, glossy);
     let mut rounds = vec![];
-    let mut done_rounds = 0;
-    match &refine_plan {
-        Ok(plan) => {
-            crate::note!("refinement: {plan}");
-            let mut state = Rounds {
-                field,
-                train,
-                searched,
-                searches: &mut searches,
-                closure: &mut closure,
-                reports: &mut rounds,
-            };
-            let ctx = RoundsContext {
-                scene: &scene,
-                cfg,
-                out: &a.out,
-                force: a.force,
-                records: &records,
-                footprint,
-                emitters: &emitters,
-                has_gt,
-                refiner: refiner.as_ref(),
-                refine_settings,
-                sharding: a.sharding(),
-            };
-            done_rounds = refinement_rounds(&ctx, &mut state, &mut mark)?;
-            (field, train) = (state.field, state.train);
-        }
-        Err(why) => crate::note!("refinement {why}"),
-    }
+    let mut state = Rounds {
+        field,
+        train: first.train,
+        searched: first.searched,
+        searches: &mut first.searches,
+        closure: &mut first.closure,
+        reports: &mut rounds,
+    };
+    let ctx = RoundsContext {
+        scene: &scene,
+        cfg,
+        out: &a.out,
+        force: a.force,
+        records,
+        footprint,
+        emitters: &emitters,
+        has_gt: first.has_gt,
+        refiner: refiner.as_ref(),
+        refine_settings,
+        sharding: a.sharding(),
+    };
+    let (refine_plan, done_rounds) = planned_rounds(&ctx, &mut state, &mut mark)?;
+    let (field, train) = (state.field, state.train);
     past_sharded_stages(a)?;
 
     // Observation counts per surface cell (the search's cells: 4 footprints).
-    let points = records.iter().flatten().flatten().map(|r| r.p);
+    let points = first.records.iter().flatten().flatten().map(|r| r.p);
     let observed =
         fipt_shading::search::CellCounts::new(points, cfg.search.cell_footprints * footprint);
     let recovered = crate::outputs::Recovered {
@@ -605,11 +552,11 @@ fn run_locked(
     extend(
         &mut report,
         serde_json::json!({
-            "bake": { "stats": bake.stats, "seconds": bake.seconds_total },
+            "bake": { "stats": first.bake.stats, "seconds": first.bake.seconds_total },
             "train": train,
             "rounds": rounds,
-            "shading_closure": closure,
-            "search": searches,
+            "shading_closure": first.closure,
+            "search": first.searches,
             "emitters": emitters_summary(&user_emitters),
             "exposure_scale": scene.exposure,
             "memory_estimate_gib": fipt_core::memory::gib(memory),
@@ -621,6 +568,86 @@ fn run_locked(
     );
     let field = crate::rounds::train_dir(&a.out, done_rounds).join("field.safetensors");
     RunSummary::write(a, cfg, &scene, &report, stages, emitters.len(), Some(field))
+}
+
+/// What the first round leaves for the rest of a FIPT run.
+struct FirstRound {
+    bake: fipt_shading::bake_store::BakeManifest,
+    records: Vec<Vec<Option<fipt_shading::records::HitPoint>>>,
+    footprint: f32,
+    has_gt: bool,
+    searched: Option<crate::search::Searched>,
+    searches: Vec<serde_json::Value>,
+    closure: Vec<serde_json::Value>,
+    reflected: Vec<Vec<Option<glam::Vec3>>>,
+    field: fipt_neural::field::NeuralField,
+    train: crate::train::TrainManifest,
+}
+
+/// FIPT's first round: the bake, the search on its shadings and the first training.
+fn first_round(
+    a: &RunRequest,
+    cfg: &RunConfig,
+    scene: &crate::scene::LoadedScene,
+    baker: &dyn fipt_core::shading::ShadingBaker,
+    bake_settings: &serde_json::Value,
+    mark: &mut dyn FnMut(&'static str, std::time::Instant),
+) -> Result<FirstRound> {
+    let t = crate::observe::begin("bake");
+    let (bake, shadings) = crate::bake::stage(
+        scene,
+        baker,
+        bake_settings,
+        &a.out.join("bake"),
+        a.force,
+        a.sharding().shard,
+    )?;
+    mark("bake", t);
+    let has_gt = has_ground_truth(scene);
+    let (records, footprint) = train_hits(scene);
+    let mut searches = vec![];
+    let t = crate::observe::begin("search");
+    let bake_id = fipt_shading::bake_store::fingerprint(&bake);
+    let on = crate::search::SearchOn {
+        shadings: &shadings,
+        id: &bake_id,
+        force: a.force,
+    };
+    let searched = crate::search::on_bake(scene, &records, on, &cfg.search, footprint)?;
+    if searched.is_some() {
+        mark("search", t);
+    }
+    // What the closure and the extraction need of the shadings, before the training takes them.
+    let closure = bake_closure(scene, &shadings, has_gt)?;
+    let reflected = crate::outputs::max_reflected(&shadings)?;
+    let t = crate::observe::begin("train");
+    let (field, train, _) = crate::train::stage(
+        scene,
+        &bake_id,
+        &shadings,
+        &cfg.train,
+        &a.out.join("train"),
+        a.force,
+        None,
+        searched.as_ref(),
+        !a.sharding().shard.is_all(),
+    )?;
+    mark("train", t);
+    if cfg.search.on_bake {
+        searches.push(serde_json::json!({ "shadings": "bake", "search": &searched }));
+    }
+    Ok(FirstRound {
+        bake,
+        records,
+        footprint,
+        has_gt,
+        searched,
+        searches,
+        closure,
+        reflected,
+        field,
+        train,
+    })
 }
 
 /// `report.json`'s `components`: what ran, by name and implementation, and what was registered.

@@ -345,7 +345,40 @@ pub fn stage(
         divided,
         cells,
     } = found;
-    let sides = SideLookup::new(&divided, &cells);
+    let (targets, second_sides) = pixel_targets(&regions, records, &choices, &divided, &cells);
+    let glossy = choices.iter().filter(|c| c.roughness.is_some()).count();
+    let metal = choices.iter().filter(|c| c.metallic > Some(0.5)).count();
+    crate::note!(
+        "search: {} regions ({}): {} with a σ target, {} metal, {} divided by colour, in {:.1} s",
+        regions.len(),
+        regions.source,
+        glossy,
+        metal,
+        divided.len(),
+        seconds
+    );
+    Ok(Some(Searched {
+        source: regions.source,
+        regions: regions.labels.iter().copied().zip(choices).collect(),
+        divided,
+        targets,
+        second_sides,
+        seconds,
+    }))
+}
+
+/// Each training pixel's σ and metallic target ([NaN, NaN] where its region has none; None
+/// off the regions): its region's choice, or the side of a divided region it lies on; and the
+/// pixels on second sides (view, pixel, divided region).
+#[allow(clippy::type_complexity)]
+fn pixel_targets(
+    regions: &crate::regions::Regions,
+    records: &[Vec<Option<HitPoint>>],
+    choices: &[RegionChoice],
+    divided: &[Divided],
+    cells: &DividedCells,
+) -> (Vec<Vec<Option<[f32; 2]>>>, Vec<(u32, u32, u32)>) {
+    let sides = SideLookup::new(divided, cells);
     let target = |c: &RegionChoice| {
         [
             c.roughness.unwrap_or(f32::NAN),
@@ -369,25 +402,7 @@ pub fn stage(
                 .collect()
         })
         .collect();
-    let glossy = choices.iter().filter(|c| c.roughness.is_some()).count();
-    let metal = choices.iter().filter(|c| c.metallic > Some(0.5)).count();
-    crate::note!(
-        "search: {} regions ({}): {} with a σ target, {} metal, {} divided by colour, in {:.1} s",
-        regions.len(),
-        regions.source,
-        glossy,
-        metal,
-        divided.len(),
-        seconds
-    );
-    Ok(Some(Searched {
-        source: regions.source,
-        regions: regions.labels.iter().copied().zip(choices).collect(),
-        divided,
-        targets,
-        second_sides,
-        seconds,
-    }))
+    (targets, second_sides)
 }
 
 /// What a search's decisions are a function of.

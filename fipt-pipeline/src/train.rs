@@ -439,7 +439,6 @@ pub fn stage(
     search: Option<&Searched>,
     must_reuse: bool,
 ) -> Result<(NeuralField, TrainManifest, bool)> {
-    let split = scene.ds.train();
     let segments = segment_ids(scene, cfg.segments)?;
     let warm_id = warm.map(|w| w.1);
     let request = request_key(scene, shadings_id, cfg, warm_id, search, segments.as_ref())?;
@@ -449,7 +448,60 @@ pub fn stage(
         }
     }
     let st = Stage::start("training set");
-    let (mut points, footprint) = view_points(&scene.geometry, &split.views);
+    let set = build_set(scene, shadings, cfg, segments.as_ref(), search)?;
+    let cfg = sized_config(cfg, &set, warm.is_some());
+    let mut inputs = format!(
+        "{}+shadings:{shadings_id}+warm:{}",
+        scene.cache_key,
+        warm_id.unwrap_or("none")
+    );
+    if let Some((_, id)) = &segments {
+        inputs += &format!("+segments:{id}");
+    }
+    if let Some(id) = &set.targets_id {
+        inputs += &format!("+targets:{id}");
+    }
+    st.done();
+    // A training finished before manifests held the request key: reused, and its manifest
+    // given the key so that the next run skips the training set.
+    if !force {
+        if let Some((field, mut m)) = finished(dir, |m| m.inputs == inputs && m.config == cfg) {
+            m.request = request;
+            write_json_atomic(&dir.join("manifest.json"), &m)?;
+            return Ok((field, m, false));
+        }
+    }
+    if must_reuse {
+        bail!(
+            "{}: this training round is not done, and a shard run (--shard) does not train (training runs on one machine): run `fipt run` without --shard (with --stop-before refine) once the shards before it are done",
+            dir.display()
+        );
+    }
+    let trainer = trainer_for(&cfg, &set, &inputs, dir, force, warm)?;
+    let (field, manifest) = train_and_record(scene, trainer, &set, cfg, inputs, request, dir)?;
+    Ok((field, manifest, true))
+}
+
+/// The training set of a round: the training views' pixels that hit the mesh, less the clipped
+/// ones off the lights, the bleed beside bright edges and those over the set's limit, with
+/// their shadings, segments and the search's targets.
+struct BuiltSet {
+    data: TrainingSet,
+    bounds: Bounds,
+    footprint: Option<f32>,
+    left_out: usize,
+    lights: usize,
+    targets_id: Option<String>,
+}
+
+fn build_set(
+    scene: &LoadedScene,
+    shadings: &StoredShadings,
+    cfg: &TrainConfig,
+    segments: Option<&(GtKind, String)>,
+    search: Option<&Searched>,
+) -> Result<BuiltSet> {
+    let (mut points, footprint) = view_points(&scene.geometry, &scene.ds.train().views);
     // Clipped pixels off the lights: their radiance is only bounded below.
     for (pts, out) in points.iter_mut().zip(&scene.capture.left_out) {
         for (p, _) in pts.iter_mut().zip(out).filter(|(_, o)| **o) {
@@ -483,82 +535,86 @@ pub fn stage(
             fipt_neural::ops::UNREFLECTABLE
         );
     }
-    let mut data = with_segments(scene, data, segments.as_ref(), search)?;
+    let mut data = with_segments(scene, data, segments, search)?;
     let mut targets_id = None;
     if let Some(t) = search.map(|s| &s.targets[..]) {
         data = data.with_targets(t)?;
         targets_id = Some(targets_fingerprint(&data));
     }
-    let cfg = {
-        let mut sized = cfg.sized_for(data.len(), footprint, &bounds);
-        sized.steps = cfg.capped_steps(data.len(), warm.is_some());
-        if sized.steps < cfg.steps {
-            crate::note!(
-                "training for {} steps instead of {}: at most {} passes over {} pixels from the previous round's field, at least {} steps (train.max_passes, min_steps)",
-                sized.steps,
-                cfg.steps,
-                cfg.max_passes,
-                data.len(),
-                cfg.min_steps
-            );
-        }
-        sized
-    };
-    let mut inputs = format!(
-        "{}+shadings:{shadings_id}+warm:{}",
-        scene.cache_key,
-        warm_id.unwrap_or("none")
-    );
-    if let Some((_, id)) = &segments {
-        inputs += &format!("+segments:{id}");
-    }
-    if let Some(id) = targets_id {
-        inputs += &format!("+targets:{id}");
-    }
-    st.done();
-    // A training finished before manifests held the request key: reused, and its manifest
-    // given the key so that the next run skips the training set.
-    if !force {
-        if let Some((field, mut m)) = finished(dir, |m| m.inputs == inputs && m.config == cfg) {
-            m.request = request;
-            write_json_atomic(&dir.join("manifest.json"), &m)?;
-            return Ok((field, m, false));
-        }
-    }
-    if must_reuse {
-        bail!(
-            "{}: this training round is not done, and a shard run (--shard) does not train (training runs on one machine): run `fipt run` without --shard (with --stop-before refine) once the shards before it are done",
-            dir.display()
+    Ok(BuiltSet {
+        data,
+        bounds,
+        footprint,
+        left_out,
+        lights,
+        targets_id,
+    })
+}
+
+/// The round's settings sized for its set (the grid's finest level from the footprint, the
+/// steps capped for a warm start).
+fn sized_config(cfg: &TrainConfig, set: &BuiltSet, warm: bool) -> TrainConfig {
+    let n = set.data.len();
+    let mut sized = cfg.sized_for(n, set.footprint, &set.bounds);
+    sized.steps = cfg.capped_steps(n, warm);
+    if sized.steps < cfg.steps {
+        crate::note!(
+            "training for {} steps instead of {}: at most {} passes over {} pixels from the previous round's field, at least {} steps (train.max_passes, min_steps)",
+            sized.steps,
+            cfg.steps,
+            cfg.max_passes,
+            n,
+            cfg.min_steps
         );
     }
-    let mut trainer = None;
+    sized
+}
+
+/// The trainer of a round: resumed from its checkpoint, or new (warm-started from the
+/// previous round's field when there is one).
+fn trainer_for(
+    cfg: &TrainConfig,
+    set: &BuiltSet,
+    inputs: &str,
+    dir: &Path,
+    force: bool,
+    warm: Option<(&NeuralField, &str)>,
+) -> Result<Trainer> {
     if !force {
-        match Trainer::resume(&cfg, bounds, data.levels, &inputs, dir)? {
+        match Trainer::resume(cfg, set.bounds, set.data.levels, inputs, dir)? {
             Ok(t) => {
                 crate::note!("resuming from step {} in {}", t.step_count(), dir.display());
-                trainer = Some(t);
+                return Ok(t);
             }
             Err(why) if why != "no checkpoint" => crate::note!("training afresh: {why}"),
             Err(_) => {}
         }
     }
-    let mut trainer = match trainer {
-        Some(t) => t,
-        None => {
-            let mut t = Trainer::new(cfg.clone(), bounds, data.levels)?;
-            t.inputs = inputs.clone();
-            if let Some((field, _)) = warm {
-                t.warm_start(field)?;
-                crate::note!("warm start from the previous round's field");
-            }
-            t
-        }
-    };
+    let mut t = Trainer::new(cfg.clone(), set.bounds, set.data.levels)?;
+    t.inputs = inputs.to_string();
+    if let Some((field, _)) = warm {
+        t.warm_start(field)?;
+        crate::note!("warm start from the previous round's field");
+    }
+    Ok(t)
+}
+
+/// Trains to the end (checkpoints in `dir`) and writes the round's manifest.
+fn train_and_record(
+    scene: &LoadedScene,
+    mut trainer: Trainer,
+    set: &BuiltSet,
+    cfg: TrainConfig,
+    inputs: String,
+    request: String,
+    dir: &Path,
+) -> Result<(NeuralField, TrainManifest)> {
+    let data = &set.data;
     let (pg, pm) = trainer.field.num_params();
     crate::note!(
         "training on {} pixels of {} views: {} hash-table + {} MLP parameters, {} steps of {}",
         data.len(),
-        split.views.len(),
+        scene.ds.train().views.len(),
         pg,
         pm,
         cfg.steps,
@@ -568,7 +624,7 @@ pub fn stage(
     pb.set_position(trainer.step_count() as u64);
     let st = Stage::start("train");
     let first = trainer.step_count();
-    trainer.run(&data, Some(dir), &mut |l| {
+    trainer.run(data, Some(dir), &mut |l| {
         pb.set_position(l.step as u64);
         if l.step % 10 == 0 {
             pb.set_message(&format!("loss {:.4}", l.total));
@@ -580,24 +636,23 @@ pub fn stage(
     let done = (trainer.step_count() - first).max(1);
     let sps = done as f64 / secs.max(1e-9);
     note_training(&t, &trainer.last, done, sps);
-    let l = trainer.last;
     let manifest = TrainManifest {
         inputs,
         request,
         config: cfg,
         pixels: data.len(),
-        pixels_left_out: left_out,
-        pixels_lights: lights,
+        pixels_left_out: set.left_out,
+        pixels_lights: set.lights,
         params_grid: pg,
         params_mlp: pm,
         seconds: secs,
         steps_per_second: sps,
         timings: t,
-        last: l,
+        last: trainer.last,
         field_hash: fipt_core::fsutil::hash_files(&[dir.join(FIELD_FILE)])?,
     };
     write_json_atomic(&dir.join("manifest.json"), &manifest)?;
-    Ok((trainer.field, manifest, true))
+    Ok((trainer.field, manifest))
 }
 
 /// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view,
