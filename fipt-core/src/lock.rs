@@ -73,33 +73,63 @@ impl OutputLock {
         std::fs::create_dir_all(dir).map_err(|e| CoreError::io(dir, e))?;
         let path = dir.join(name);
         let me = format!("pid {}\nhost {}\n{what}\n", std::process::id(), host_name());
-        // The lock appears whole or not at all: written beside it, then linked to its name
-        // (which fails when the name exists). A process killed while creating it leaves no
-        // lock without a holder, only a temporary that the next run sweeps.
-        let tmp = crate::fsutil::temp_path(&path);
-        std::fs::write(&tmp, me.as_bytes()).map_err(|e| CoreError::io(&tmp, e))?;
-        let done = |r: Result<OutputLock>| {
-            let _ = std::fs::remove_file(&tmp);
-            r
-        };
-        for _ in 0..2 {
-            match std::fs::hard_link(&tmp, &path) {
-                Ok(()) => return done(Ok(OutputLock { path })),
+        for _ in 0..3 {
+            match place(&path, &me) {
+                Ok(()) => return Ok(OutputLock { path }),
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    if !path.exists() {
+                        // Released between our attempt and the look: try again, removing nothing.
+                        continue;
+                    }
                     if let Some(holder) = live_holder(&path) {
-                        return done(Err(in_use(dir, &holder, &path)));
+                        return Err(in_use(dir, &holder, &path));
                     }
                     // Its holder is gone: take it over.
                     let _ = std::fs::remove_file(&path);
                 }
-                Err(e) => return done(Err(CoreError::io(&path, e))),
+                // Our temporary swept away by another run's clean-up: try again.
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+                Err(e) => return Err(CoreError::io(&path, e)),
             }
         }
-        let _ = std::fs::remove_file(&tmp);
         Err(CoreError::invalid(
             &path,
             "could not take over a stale lock",
         ))
+    }
+}
+
+/// Creates lock file `path` holding `content`, failing with `AlreadyExists` when it exists.
+/// The file appears whole or not at all: written to a temporary of a name of its own, then
+/// hard-linked to `path`. On a file system without hard links it is created in place (a
+/// process killed then leaves an empty lock, stale once a few seconds old).
+fn place(path: &Path, content: &str) -> std::io::Result<()> {
+    static SEQ: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(format!(".{}.{n}.lock.tmp", std::process::id()));
+    let tmp = path.with_file_name(name);
+    let linked = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&tmp)
+        .and_then(|mut f| std::io::Write::write_all(&mut f, content.as_bytes()))
+        .and_then(|()| std::fs::hard_link(&tmp, path));
+    let _ = std::fs::remove_file(&tmp);
+    match linked {
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::Unsupported | std::io::ErrorKind::PermissionDenied
+            ) =>
+        {
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(path)?;
+            std::io::Write::write_all(&mut f, content.as_bytes())
+        }
+        other => other,
     }
 }
 
@@ -116,9 +146,14 @@ fn live_holder(path: &Path) -> Option<String> {
     };
     let (pid, host) = (field("pid "), field("host "));
     let pid_num = pid.as_deref().and_then(|p| p.parse::<u32>().ok());
-    // A lock without a holder (left by a version that wrote it in place, killed before it
-    // wrote) is stale too: locks are now linked into place whole.
-    let stale = pid_num.is_none()
+    // A lock without a holder (its writer killed before it wrote, where the lock could not be
+    // linked into place whole, or by an older version) is stale once a few seconds old.
+    let old = std::fs::metadata(path)
+        .and_then(|m| m.modified())
+        .ok()
+        .and_then(|t| t.elapsed().ok())
+        .is_some_and(|age| age.as_secs_f64() > 5.0);
+    let stale = (pid_num.is_none() && old)
         || host.as_deref() == Some(host_name().as_str()) && pid_num.is_some_and(|p| !alive(p));
     (!stale).then(|| {
         format!(
