@@ -37,11 +37,12 @@ pub fn write_strip(pictures: &[PathBuf], path: &Path) -> Result<()> {
     };
     let (w, h) = first.dimensions();
     let n = imgs.len() as u32;
-    // Each column is named by the folder its picture is in (the lights file's stem).
+    // Each column is named by the folder of its light set (`<set>/preview/<picture>`).
     let columns: Vec<String> = pictures
         .iter()
         .map(|p| {
-            p.parent()
+            let dir = p.parent().filter(|d| d.ends_with("preview"));
+            (dir.map_or(p.parent(), |d| d.parent()))
                 .and_then(|d| d.file_name())
                 .map_or(String::new(), |d| d.to_string_lossy().into_owned())
         })

@@ -38,7 +38,7 @@ pub fn write_sheet(run: &Path, rows: &[&ViewPictures], path: &Path) -> Result<()
             let mut gt = vec![None, None, None];
             gt.extend(v.maps.iter().map(|m| load(run, &m.1)));
             lines.push(gt);
-            row_labels.push(format!("view {} truth:", v.index));
+            row_labels.push("truth".to_string());
         }
     }
     let labels = Labels {
@@ -57,10 +57,12 @@ pub struct Labels<'a> {
 
 const INK: Rgb<u8> = Rgb([230, 230, 230]);
 
-/// `text` cut to the characters that fit in `room` pixels at scale 1.
-fn fitted(text: &str, room: u32) -> (String, u32) {
+/// `text` cut to the characters that fit in `room` pixels at scale 1; scale 2 only where its
+/// height fits `height` too.
+fn fitted(text: &str, room: u32, height: u32) -> (String, u32) {
     match font::fitting_scale(text, room) {
-        Some(s) => (text.to_string(), s),
+        Some(2) if font::height(2) <= height => (text.to_string(), 2),
+        Some(_) => (text.to_string(), 1),
         None => (text.chars().take(((room + 1) / 6) as usize).collect(), 1),
     }
 }
@@ -75,7 +77,7 @@ pub fn tile(
     labels: &Labels,
     path: &Path,
 ) -> Result<()> {
-    let columns: Vec<(String, u32)> = labels.columns.iter().map(|t| fitted(t, w)).collect();
+    let columns: Vec<(String, u32)> = labels.columns.iter().map(|t| fitted(t, w, h)).collect();
     let scale = columns.iter().map(|c| c.1).min().unwrap_or(1);
     let top = if columns.is_empty() {
         0
@@ -94,7 +96,7 @@ pub fn tile(
             .get(r)
             .is_some_and(|l| l.first().is_some_and(|c| c.is_none()));
         if !text.is_empty() && empty {
-            let (text, s) = fitted(text, w);
+            let (text, s) = fitted(text, w, h);
             let y = top + GAP + r as u32 * (h + GAP) + h.saturating_sub(font::height(s)) / 2;
             let x = GAP + w.saturating_sub(font::width(&text, s)) / 2;
             font::draw(&mut sheet, &text, x, y, s, INK);
@@ -121,4 +123,41 @@ pub fn tile(
         })?;
     fipt_core::fsutil::write_bytes_atomic(path, png.get_ref())?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strip_columns_are_named_by_their_light_set_folder() {
+        let dir = std::env::temp_dir().join(format!("fipt-sheet-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut pictures = vec![];
+        for set in ["lamp", "window"] {
+            let p = dir.join(set).join("preview").join("000_render.png");
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            RgbImage::from_pixel(64, 40, Rgb([0, 0, 0]))
+                .save(&p)
+                .unwrap();
+            pictures.push(p);
+        }
+        let out = dir.join("strip.png");
+        crate::write_strip(&pictures, &out).unwrap();
+        let img = image::open(&out).unwrap().to_rgb8();
+        // A header row of labels above the pictures: 7 px of text (all at scale 1, the only
+        // one at which "window" fits 64 px) and a gap.
+        let top = font::height(1) + GAP;
+        assert_eq!(img.height(), top + 40 + 2 * GAP);
+        let ink_in = |x0: u32, x1: u32| {
+            (x0..x1).any(|x| (GAP..GAP + font::height(2)).any(|y| img.get_pixel(x, y) == &INK))
+        };
+        // Each column has its label: ink over both pictures, none in the gap between them.
+        assert!(ink_in(GAP, GAP + 64) && ink_in(2 * GAP + 64, 2 * GAP + 128));
+        // The label is the set's name: "lamp" is 23 px wide at scale 1, centred.
+        let w = font::width("lamp", 1);
+        let x = GAP + (64 - w) / 2;
+        assert!(ink_in(x, x + w) && !ink_in(GAP, x));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
