@@ -291,6 +291,16 @@ fn batch_sweep(
     };
     // The same without the growth of c: every thread as fast as one alone.
     let ideal = |t: f64| a + c1 * b / t;
+    if threads <= 1.0 {
+        // One thread cannot show how the per-sample cost grows: no prediction.
+        return Ok(serde_json::json!({
+            "rows": rows,
+            "fit": {"model": "t_ms = a + c1 * batch", "a_ms_1_thread": a1, "c1_ms_per_sample": c1},
+            "preset_batch": cfg.batch,
+            "predicted_speedup_16_threads": null,
+            "note": "measured at 1 thread only: run with 2 or more threads for a prediction",
+        }));
+    }
     fipt_pipeline::note!(
         "{preset:>8} batch sweep: 1 thread t = {a1:.2} ms + {c1:.5} ms × B; {threads} threads a = {a:.2} ms, per-sample cost ×{:.2}; batch {}: predicted ×{:.1} at 16 threads against 1 (×{:.1} against 2; ×{:.1} were c constant)",
         1.0 + k * (threads - 1.0),

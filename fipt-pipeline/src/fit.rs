@@ -106,13 +106,13 @@ pub fn run(
         // temporaries for a killed run's.
         fipt_core::fsutil::remove_stale_temporaries(&a.out);
     }
-    let t = Instant::now();
+    let t = crate::observe::begin("load");
     let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
     stages.push(StageReport::since("load", t));
     let split = scene.ds.train();
     let mesh = &scene.geometry.mesh;
     let shadings = if fitter.needs_shadings() {
-        let t = Instant::now();
+        let t = crate::observe::begin("bake");
         let (_, sh) = crate::bake::stage(
             &scene,
             baker,
@@ -127,7 +127,7 @@ pub fn run(
         None
     };
     let segments = segments_for(&scene, fitter)?;
-    let t = Instant::now();
+    let t = crate::observe::begin("fit");
     let fitted = fit_views(
         a,
         cfg,
@@ -137,7 +137,7 @@ pub fn run(
         segments.as_deref(),
     )?;
     stages.push(StageReport::since("fit", t));
-    let t = Instant::now();
+    let t = crate::observe::begin("emitters");
     let field = fitted.field.as_ref();
     let emitters = match fitted.emitters {
         Some(e) => e,

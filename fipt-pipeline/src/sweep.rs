@@ -197,7 +197,10 @@ fn read_row(dir: &Path, name: &str, preset: &str, settings: &str) -> Option<Row>
                 .map(|s| {
                     (
                         s["stage"].as_str().unwrap_or("?").to_string(),
-                        s["seconds"].as_f64().unwrap_or(0.0),
+                        // A reused stage at the time it took to compute (an earlier run's).
+                        (s["computed_seconds"].as_f64())
+                            .or(s["seconds"].as_f64())
+                            .unwrap_or(0.0),
                     )
                 })
                 .collect()
@@ -215,7 +218,7 @@ fn read_row(dir: &Path, name: &str, preset: &str, settings: &str) -> Option<Row>
         name: name.into(),
         preset: preset.into(),
         settings: settings.into(),
-        seconds: report["seconds_total"].as_f64()?,
+        seconds: (report["seconds_computed_total"].as_f64()).or(report["seconds_total"].as_f64())?,
         stages,
         peak_mib: peak,
         kd: m["kd_psnr"].as_f64(),
