@@ -46,6 +46,7 @@ pub mod shard;
 pub mod sweep;
 mod sweep_plot;
 pub mod train;
+pub(crate) mod train_set;
 
 pub use components::Components;
 pub use error::{describe, Context, PipelineError, Result};

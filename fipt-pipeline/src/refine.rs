@@ -136,15 +136,7 @@ struct Job<'a> {
 /// Refines `shard`'s views, each written as soon as it is done, then the manifest (a shard's
 /// ends the process's work on the stage with `shard::done`).
 fn compute(job: &Job, name: &str, key: String, shard: Shard) -> Result<Refined> {
-    let Job {
-        scene,
-        field,
-        field_id,
-        emitters,
-        refiner,
-        settings,
-        dir,
-    } = *job;
+    let (scene, refiner, dir) = (job.scene, job.refiner, job.dir);
     let stats_path = dir.join("refine_stats.json");
     let check = |m: &BakeManifest| keyed_mismatch(m, &scene.cache_key, name, &key);
     let split = scene.ds.train();
@@ -155,8 +147,8 @@ fn compute(job: &Job, name: &str, key: String, shard: Shard) -> Result<Refined> 
         triangles: &mesh.triangles,
         views: &split.views,
         images: &scene.images,
-        field,
-        emitters,
+        field: job.field,
+        emitters: job.emitters,
     };
     let pb = bar(1, "refine");
     let st = Stage::start("refine");
@@ -184,7 +176,7 @@ fn compute(job: &Job, name: &str, key: String, shard: Shard) -> Result<Refined> 
         version: FORMAT_VERSION,
         baker: name.to_string(),
         inputs_hash: scene.cache_key.clone(),
-        config: serde_json::json!({ "key": key, "settings": settings, "field": field_id }),
+        config: serde_json::json!({ "key": key, "settings": job.settings, "field": job.field_id }),
         split: split.name.clone(),
         views: split.views.len(),
         width: scene.ds.width,

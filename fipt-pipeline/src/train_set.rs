@@ -1,0 +1,323 @@
+//! The training set of a round: the training views' pixels that hit the mesh (less the clipped
+//! ones off the lights, the bleed beside bright edges and those over the set's limit) with their
+//! shadings, segments and the search's targets.
+use crate::bail;
+use crate::error::Result;
+use crate::scene::LoadedScene;
+use crate::search::Searched;
+use fipt_core::dataset::{GtKind, View};
+use fipt_core::image::Image;
+use fipt_geom::Geometry;
+use fipt_neural::train::SegmentSource;
+use fipt_neural::{Bounds, TrainConfig, TrainingSet};
+use fipt_shading::bake::primary_records;
+use fipt_shading::bake_store::StoredShadings;
+use glam::Vec3;
+use std::path::PathBuf;
+
+/// Primary hit points of every pixel of `views`, and the median pixel footprint (hit
+/// distance / focal length in pixels).
+pub fn view_points(geometry: &Geometry, views: &[View]) -> (Vec<Vec<Option<Vec3>>>, Option<f32>) {
+    let mut foot = vec![];
+    let pts = views
+        .iter()
+        .map(|v| {
+            let f = v.camera.fx.max(v.camera.fy);
+            primary_records(geometry, v)
+                .iter()
+                .map(|r| {
+                    r.map(|r| {
+                        foot.push(r.hit.t / f);
+                        r.hit.p
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let median = (!foot.is_empty()).then(|| {
+        let n = foot.len() / 2;
+        *foot.select_nth_unstable_by(n, f32::total_cmp).1
+    });
+    (pts, median)
+}
+
+/// Leaves out of `points` the pixels [`fipt_core::image::bleed_mask`] marks (`train.bleed_radius`,
+/// `bleed_contrast`), and says how many.
+pub(crate) fn leave_out_bleed(
+    points: &mut [Vec<Option<Vec3>>],
+    images: &[Image],
+    radius: u32,
+    contrast: f32,
+) {
+    // The floor: 1 % of the median luminance over every training view (a view into a
+    // dark corner has a dark median of its own, and its noise is no edge).
+    let median = fipt_core::image::median_luminance(images);
+    let (mut dropped, mut all) = (0usize, 0usize);
+    for (pts, img) in points.iter_mut().zip(images) {
+        let (r, c) = (radius as usize, contrast);
+        let bleed = fipt_core::image::bleed_mask(img, r, c, 0.01 * median);
+        for (p, b) in pts.iter_mut().zip(bleed) {
+            all += usize::from(p.is_some());
+            if b && p.take().is_some() {
+                dropped += 1;
+            }
+        }
+    }
+    crate::note!(
+        "training set: {dropped} of {all} pixels ({:.2} %) left out within {} px of one {}× brighter (train.bleed_radius, bleed_contrast)",
+        100.0 * dropped as f64 / all.max(1) as f64,
+        radius,
+        contrast
+    );
+}
+
+/// Keeps a uniform random share of `points`' hits, each kept or not from (`seed`, view,
+/// pixel), so that about `limit` remain (`train.set_cap`), and says so. Returns how many it
+/// left out.
+pub(crate) fn keep_at_most(points: &mut [Vec<Option<Vec3>>], limit: usize, seed: u64) -> usize {
+    let all = points.iter().flatten().flatten().count();
+    if all <= limit {
+        return 0;
+    }
+    let share = limit as f64 / all as f64;
+    let mut kept = 0usize;
+    for (v, pts) in points.iter_mut().enumerate() {
+        for (i, p) in pts.iter_mut().enumerate() {
+            if p.is_some() {
+                if fipt_core::rng::pixel_kept(seed, v, i, share) {
+                    kept += 1;
+                } else {
+                    *p = None;
+                }
+            }
+        }
+    }
+    crate::note!(
+        "training set: {kept} of {all} pixels kept ({:.1} %): a round draws at most {limit} (train.set_cap × steps × batch)",
+        100.0 * kept as f64 / all.max(1) as f64
+    );
+    all - kept
+}
+
+/// The ground-truth ids the segment prior reads as `source` asks (`IndexMA/` or
+/// `segmentation/`; None: no prior), with a fingerprint of their files.
+pub(crate) fn segment_ids(
+    scene: &LoadedScene,
+    source: SegmentSource,
+) -> Result<Option<(GtKind, String)>> {
+    let split = scene.ds.train();
+    let has_parts = split.has_gt(GtKind::IndexMA);
+    let has_classes = split.has_gt(GtKind::Segmentation);
+    let kind = match source {
+        SegmentSource::None => return Ok(None),
+        SegmentSource::Auto if has_parts => GtKind::IndexMA,
+        SegmentSource::Auto if has_classes => GtKind::Segmentation,
+        SegmentSource::Auto => {
+            crate::note!(
+                "no part ids (IndexMA/) or classes (segmentation/) in the scene: training without the segment prior"
+            );
+            return Ok(None);
+        }
+        SegmentSource::Parts if has_parts => GtKind::IndexMA,
+        SegmentSource::Semantic if has_classes => GtKind::Segmentation,
+        SegmentSource::Parts => bail!(
+            "train.segments = \"parts\" but {} has no IndexMA/ folder (use \"auto\" or \"none\")",
+            split.dir.display()
+        ),
+        SegmentSource::Semantic => bail!(
+            "train.segments = \"semantic\" but {} has no segmentation/ folder (use \"auto\" or \"none\")",
+            split.dir.display()
+        ),
+    };
+    let files: Vec<PathBuf> = (0..split.views.len())
+        .map(|k| split.gt_path(kind, k))
+        .collect();
+    let hash = fipt_core::fsutil::hash_files(&files)?;
+    Ok(Some((kind, format!("{}:{hash}", kind.folder()))))
+}
+
+/// Attaches the ids `found` by [`segment_ids`] to the training set.
+pub(crate) fn with_segments(
+    scene: &LoadedScene,
+    data: TrainingSet,
+    found: Option<&(GtKind, String)>,
+    search: Option<&Searched>,
+) -> Result<TrainingSet> {
+    let Some((kind, _)) = found else {
+        return Ok(data);
+    };
+    let folder = kind.folder();
+    let mut ids = crate::regions::split_ids(scene, *kind)?;
+    if let Some(sides) = second_sides(search, *kind) {
+        divide_ids(&mut ids, sides);
+    }
+    Ok(if *kind == GtKind::IndexMA {
+        let d = data.with_segments(&ids)?;
+        crate::note!("segment prior on {} parts ({folder}/)", d.segments);
+        d
+    } else {
+        let d = data.with_classes(&ids)?;
+        crate::note!("semantic prior on {} classes ({folder}/)", d.segments);
+        d
+    })
+}
+
+/// Gives the pixels `(view, pixel, k)` on the second side of the k-th region the search divided
+/// by colour a part id of their own (after every id in `ids`).
+pub(crate) fn divide_ids(ids: &mut [Vec<i64>], sides: &[(u32, u32, u32)]) {
+    let base = ids.iter().flatten().copied().max().unwrap_or(0).max(0) + 1;
+    for &(v, i, k) in sides {
+        if let Some(id) = ids
+            .get_mut(v as usize)
+            .and_then(|view| view.get_mut(i as usize))
+        {
+            *id = base + k as i64;
+        }
+    }
+}
+
+/// The search's second sides of divided regions when they split the segment ids: the search's
+/// regions are the scene's parts and so are the segments.
+pub(crate) fn second_sides(search: Option<&Searched>, kind: GtKind) -> Option<&[(u32, u32, u32)]> {
+    search
+        .filter(|s| kind == GtKind::IndexMA && s.source == "parts" && !s.second_sides.is_empty())
+        .map(|s| &s.second_sides[..])
+}
+
+/// A fingerprint of the training set's search targets (part of the training's cache key).
+pub(crate) fn targets_fingerprint(data: &TrainingSet) -> String {
+    let bytes: Vec<u8> = data
+        .target
+        .iter()
+        .flat_map(|t| [t[0].to_le_bytes(), t[1].to_le_bytes()])
+        .flatten()
+        .collect();
+    fipt_core::fsutil::hash_bytes(&bytes)
+}
+
+/// The training set of a round: the training views' pixels that hit the mesh, less the clipped
+/// ones off the lights, the bleed beside bright edges and those over the set's limit, with
+/// their shadings, segments and the search's targets.
+pub(crate) struct BuiltSet {
+    pub(crate) data: TrainingSet,
+    pub(crate) bounds: Bounds,
+    pub(crate) footprint: Option<f32>,
+    pub(crate) left_out: usize,
+    pub(crate) lights: usize,
+    pub(crate) targets_id: Option<String>,
+}
+
+pub(crate) fn build_set(
+    scene: &LoadedScene,
+    shadings: &StoredShadings,
+    cfg: &TrainConfig,
+    segments: Option<&(GtKind, String)>,
+    search: Option<&Searched>,
+) -> Result<BuiltSet> {
+    let (mut points, footprint) = view_points(&scene.geometry, &scene.ds.train().views);
+    // Clipped pixels off the lights: their radiance is only bounded below.
+    for (pts, out) in points.iter_mut().zip(&scene.capture.left_out) {
+        for (p, _) in pts.iter_mut().zip(out).filter(|(_, o)| **o) {
+            *p = None;
+        }
+    }
+    if cfg.bleed_radius > 0 {
+        leave_out_bleed(
+            &mut points,
+            &scene.images,
+            cfg.bleed_radius,
+            cfg.bleed_contrast,
+        );
+    }
+    let left_out = cfg
+        .set_limit()
+        .map_or(0, |limit| keep_at_most(&mut points, limit, cfg.seed));
+    let Some(bounds) = Bounds::around(points.iter().flatten().flatten().copied(), 1.1) else {
+        bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
+    };
+    let data = TrainingSet::from_views(&points, &scene.images, &bounds, |k| {
+        shadings.view(k).map_err(crate::PipelineError::from)
+    })?;
+    drop(points);
+    let lights = data.lights();
+    if !cfg.emitter_material {
+        crate::note!(
+            "training set: {lights} of {} pixels ({:.2} %) are over {}× brighter than any reflection their shadings allow (a light's): they train the emission mask only (train.emitter_material)",
+            data.len(),
+            100.0 * lights as f64 / data.len().max(1) as f64,
+            fipt_neural::ops::UNREFLECTABLE
+        );
+    }
+    let mut data = with_segments(scene, data, segments, search)?;
+    let mut targets_id = None;
+    if let Some(t) = search.map(|s| &s.targets[..]) {
+        data = data.with_targets(t)?;
+        targets_id = Some(targets_fingerprint(&data));
+    }
+    Ok(BuiltSet {
+        data,
+        bounds,
+        footprint,
+        left_out,
+        lights,
+        targets_id,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// A divided region's second side gets a part id after every other; the first side, the
+    /// background (-1) and pixels out of range are left alone.
+    #[test]
+    fn second_sides_become_parts_of_their_own() {
+        let mut ids = vec![vec![0, 3, 3, -1], vec![3, 3, 5, 0]];
+        divide_ids(
+            &mut ids,
+            &[(0, 2, 0), (1, 0, 0), (1, 2, 1), (7, 0, 0), (0, 99, 0)],
+        );
+        assert_eq!(ids, vec![vec![0, 3, 6, -1], vec![6, 3, 7, 0]]);
+    }
+
+    /// The set keeps about `limit` of its hits, the same ones for the same seed, a uniform
+    /// share of every view, and nothing is touched when the hits fit.
+    #[test]
+    fn keep_at_most_keeps_a_seeded_uniform_share() {
+        let view = |n: usize| -> Vec<Option<Vec3>> {
+            (0..n).map(|i| (i % 10 != 0).then_some(Vec3::ONE)).collect()
+        };
+        let points = vec![view(20_000), view(40_000)];
+        let hits = |p: &[Vec<Option<Vec3>>]| -> Vec<usize> {
+            p.iter().map(|v| v.iter().flatten().count()).collect()
+        };
+        let mut a = points.clone();
+        assert_eq!(keep_at_most(&mut a, 60_000, 9), 0);
+        assert_eq!(a, points);
+        let left = keep_at_most(&mut a, 13_500, 9);
+        let kept = hits(&a);
+        assert_eq!(kept.iter().sum::<usize>() + left, 54_000);
+        // Binomial: 13,500 ± 3 standard deviations (about 3·√(13,500·0.75)).
+        assert!(
+            kept.iter().sum::<usize>().abs_diff(13_500) < 310,
+            "{kept:?}"
+        );
+        assert!(
+            kept[0].abs_diff(4_500) < 200 && kept[1].abs_diff(9_000) < 250,
+            "{kept:?}"
+        );
+        // Only hits are kept, and the same seed keeps the same pixels.
+        assert!(a
+            .iter()
+            .flatten()
+            .enumerate()
+            .all(|(i, p)| p.is_none() || i % 10 != 0));
+        let mut b = points.clone();
+        keep_at_most(&mut b, 13_500, 9);
+        assert_eq!(a, b);
+        let mut c = points.clone();
+        keep_at_most(&mut c, 13_500, 10);
+        assert_ne!(a, c);
+    }
+}
