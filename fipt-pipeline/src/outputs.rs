@@ -241,9 +241,10 @@ struct RenderProgress {
     /// rendered again (absent in files written before it existed: not checked).
     #[serde(default)]
     hashes: std::collections::BTreeMap<String, String>,
-    /// Seconds the done views took to render (0 in files written before it existed).
+    /// Seconds each done view took to render, by "split/k" (absent in files written before
+    /// it existed).
     #[serde(default)]
-    seconds: f64,
+    seconds: std::collections::BTreeMap<String, f64>,
 }
 
 impl RenderProgress {
@@ -334,9 +335,7 @@ impl RenderProgress {
         let done = read_json::<RenderProgress>(&out.join("views").join("render.json"))
             .ok()
             .filter(|p| p.key == key)
-            .map_or((vec![], Default::default(), 0.0), |p| {
-                (p.done, p.hashes, p.seconds)
-            });
+            .map_or(Default::default(), |p| (p.done, p.hashes, p.seconds));
         Some(RenderProgress {
             key,
             done: done.0,
@@ -376,7 +375,11 @@ fn re_render(
         );
     }
     if reused == total {
-        crate::observe::reused(progress.as_ref().map(|p| p.seconds).filter(|&t| t > 0.0));
+        // The render time of every view, when each was recorded.
+        let seconds = progress
+            .as_ref()
+            .and_then(|p| (p.seconds.len() == total).then(|| p.seconds.values().sum::<f64>()));
+        crate::observe::reused(seconds);
         return Ok(());
     }
     let views: Vec<_> = scene
@@ -406,6 +409,13 @@ fn re_render(
             seed: cfg.render.seed,
             ..Default::default()
         };
+        let at = ReRenderAt {
+            rscene: &rscene,
+            rc: &rc,
+            denoise: cfg.render.denoise,
+            exposure: scene.exposure,
+            dir: &dir,
+        };
         for v in &s.views {
             let k = v.index;
             let exr = exr_of(&s.name, k);
@@ -415,20 +425,13 @@ fn re_render(
             }
             let key = ((si as u64) << 32) + v.index as u64;
             let t_view = std::time::Instant::now();
-            let at = ReRenderAt {
-                rscene: &rscene,
-                rc: &rc,
-                denoise: cfg.render.denoise,
-                exposure: scene.exposure,
-                dir: &dir,
-            };
             re_render_view(&at, v, key, &exr)?;
             if let Some(p) = &mut progress {
                 p.done.retain(|d| !(d.0 == s.name && d.1 == k));
                 p.done.push((s.name.clone(), k));
                 let h = fipt_core::fsutil::hash_files(std::slice::from_ref(&exr))?;
                 p.hashes.insert(format!("{}/{k}", s.name), h);
-                p.seconds += t_view.elapsed().as_secs_f64();
+                (p.seconds).insert(format!("{}/{k}", s.name), t_view.elapsed().as_secs_f64());
                 write_json_atomic(&progress_path, p)?;
             }
         }
