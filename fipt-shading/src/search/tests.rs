@@ -135,6 +135,31 @@ fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
         choose(&wall, &cfg, false, Some([&wall, &noise])).roughness,
         None
     );
+    // Pose error and pixel noise (a capture): one half barely sees the gloss, its minimum
+    // lies 0.01 % below σ = 1 but where the other half's does (σ 0.5 and 0.6, within
+    // `held_out_band`): it holds out. Half a range apart (0.25 and 0.6) it does not, nor
+    // with the band off.
+    let fine = |c: Vec<f64>| RegionProfile {
+        sigma: vec![0.02, 0.25, 0.5, 0.6, 1.0],
+        ..curve(vec![1.0; 5], c)
+    };
+    let whole = fine(vec![0.2, 0.1003, 0.1000, 0.1001, 0.1010]);
+    let flat = fine(vec![0.2, 0.10012, 0.10011, 0.10010, 0.10011]);
+    let apart = fine(vec![0.2, 0.10010, 0.10011, 0.10012, 0.10013]);
+    assert_eq!(
+        choose(&whole, &cfg, false, Some([&whole, &flat])).roughness,
+        Some(0.6)
+    );
+    let no_band = SearchConfig {
+        held_out_band: 0.0,
+        ..cfg.clone()
+    };
+    for (c, half) in [(&cfg, &apart), (&no_band, &flat)] {
+        assert_eq!(
+            choose(&whole, c, false, Some([&whole, half])).roughness,
+            None
+        );
+    }
     // A lacquer (σ 0.12): the whole's minimum is interior, one half's lies below
     // `interior_sigma` (0.08) but above the mirror end: it holds out. A half whose minimum is
     // the mirror end does not.
