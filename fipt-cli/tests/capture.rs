@@ -246,3 +246,40 @@ fn a_clipped_light_gets_its_radiance_back_from_the_surfaces_it_lights() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn views_off_their_poses_are_shifted_back_onto_the_mesh() {
+    let dir = tmp("degrade-align");
+    let src = cornell(&dir);
+    let copy = dir.join("turned");
+    degrade(
+        &src,
+        &copy,
+        &["--layout", "real", "--pose-noise", "0,1.5", "--seed", "5"],
+    );
+    let cfg = dir.join("run.toml");
+    let mut reports = vec![];
+    for mode in ["off", "auto"] {
+        std::fs::write(&cfg, format!("{TINY}[capture]\nalign_views = \"{mode}\"\n")).unwrap();
+        let out = dir.join(format!("out-{mode}"));
+        run(&copy, &out, &cfg);
+        reports.push(json(&out.join("report.json"))["capture"].clone());
+    }
+    let before = reports[0]["edges"]["median_px"].as_f64().unwrap();
+    assert!(
+        before > 0.75,
+        "the turned copy's edges are off: {before:.2} px"
+    );
+    assert_eq!(
+        reports[0]["alignment"]["views_shifted"],
+        serde_json::json!([])
+    );
+    let a = &reports[1]["alignment"];
+    assert!(!a["views_shifted"].as_array().unwrap().is_empty(), "{a}");
+    let after = a["after"]["median_px"].as_f64().unwrap();
+    assert!(
+        after < 0.5 * before,
+        "shifted views line up: {before:.2} px before, {after:.2} px after"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -670,3 +670,91 @@ mod exposure_tests {
         assert_eq!(median_luminance(&[img]), 1.0);
     }
 }
+
+/// The four source pixels and weights of `out(x, y) = in(x + dx, y + dy)` (bilinear, clamped
+/// at the borders).
+fn bilinear_taps(
+    x: usize,
+    y: usize,
+    (w, h): (usize, usize),
+    (dx, dy): (f32, f32),
+) -> [(usize, f32); 4] {
+    let (sx, sy) = (x as f32 + dx, y as f32 + dy);
+    let (x0, y0) = (sx.floor(), sy.floor());
+    let (fx, fy) = (sx - x0, sy - y0);
+    let cx = |v: f32| (v.max(0.0) as usize).min(w - 1);
+    let cy = |v: f32| (v.max(0.0) as usize).min(h - 1);
+    let (xa, xb, ya, yb) = (cx(x0), cx(x0 + 1.0), cy(y0), cy(y0 + 1.0));
+    [
+        (ya * w + xa, (1.0 - fx) * (1.0 - fy)),
+        (ya * w + xb, fx * (1.0 - fy)),
+        (yb * w + xa, (1.0 - fx) * fy),
+        (yb * w + xb, fx * fy),
+    ]
+}
+
+/// `img` moved so that what it shows at `(x + dx, y + dy)` lands at `(x, y)` (bilinear; the
+/// borders repeat). Lays a view whose content sits `(dx, dy)` pixels off its camera's
+/// geometry back over it.
+pub fn shifted(img: &Image, dx: f32, dy: f32) -> Image {
+    let mut out = Image::new(img.width, img.height);
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let taps = bilinear_taps(x, y, (img.width, img.height), (dx, dy));
+            let v = taps
+                .iter()
+                .filter(|t| t.1 > 0.0)
+                .map(|&(i, t)| img.data[i] * t)
+                .sum();
+            out.set(x, y, v);
+        }
+    }
+    out
+}
+
+/// A pixel mask moved as [`shifted`] moves its image: a pixel is set when any source pixel
+/// that [`shifted`] mixes into it is (a clipped value mixed in is still not a measurement).
+pub fn shifted_mask(mask: &[bool], width: usize, height: usize, dx: f32, dy: f32) -> Vec<bool> {
+    let mut out = vec![false; mask.len()];
+    for y in 0..height {
+        for x in 0..width {
+            let taps = bilinear_taps(x, y, (width, height), (dx, dy));
+            out[y * width + x] = taps.iter().any(|&(i, t)| t > 0.0 && mask[i]);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod shift_tests {
+    use super::*;
+
+    fn ramp(w: usize, h: usize) -> Image {
+        let mut img = Image::new(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                img.set(x, y, Vec3::new(x as f32, y as f32, (x * y) as f32));
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn a_whole_shift_moves_pixels_and_a_half_one_averages_them() {
+        let img = ramp(6, 4);
+        let s = shifted(&img, 1.0, -1.0);
+        assert_eq!(s.get(2, 2), img.get(3, 1));
+        assert_eq!(s.get(5, 0), img.get(5, 0), "borders repeat");
+        let zero = shifted(&img, 0.0, 0.0);
+        assert_eq!(zero, img);
+        // A linear ramp is reproduced exactly inside the image at any sub-pixel shift.
+        let s = shifted(&img, 0.25, 0.5);
+        let v = s.get(2, 1);
+        assert!((v.x - 2.25).abs() < 1e-5 && (v.y - 1.5).abs() < 1e-5, "{v}");
+        let mask: Vec<bool> = (0..24).map(|i| i == 9).collect();
+        let m = shifted_mask(&mask, 6, 4, 0.5, 0.0);
+        let set: Vec<usize> = (0..24).filter(|&i| m[i]).collect();
+        assert_eq!(set, vec![8, 9], "both pixels that mix the masked one in");
+        assert_eq!(shifted_mask(&mask, 6, 4, 0.0, 0.0), mask);
+    }
+}

@@ -107,7 +107,7 @@ pub fn run(
         fipt_core::fsutil::remove_stale_temporaries(&a.out);
     }
     let t = crate::observe::begin("load");
-    let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels, cfg.capture.align_views)?;
     stages.push(StageReport::since("load", t));
     let split = scene.ds.train();
     let mesh = &scene.geometry.mesh;

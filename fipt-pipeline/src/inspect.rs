@@ -155,7 +155,13 @@ fn exposures(
         images.push(ds.load_image(v, policy)?.0);
     }
     let geometry = fipt_geom::Geometry::new(mesh.clone());
-    let report = crate::capture::examine(&geometry, &split.views, &mut images, ds.has_ldr_files());
+    let report = crate::capture::examine(
+        &geometry,
+        &split.views,
+        &mut images,
+        ds.has_ldr_files(),
+        crate::capture::AlignViews::Off,
+    );
     Ok((report.exposure_fit, report.edges, report.check.ldr))
 }
 

@@ -161,6 +161,9 @@ pub struct RunConfig {
     /// Which registered components run (absent: the built-in ones).
     #[serde(default)]
     pub pipeline: PipelineConfig,
+    /// What the run does with views that are captures (`[capture]`).
+    #[serde(default)]
+    pub capture: crate::capture::CaptureConfig,
     /// Settings of registered plug-in components, by name (`[plugins.<name>]`).
     #[serde(default)]
     pub plugins: std::collections::BTreeMap<String, serde_json::Value>,
@@ -336,6 +339,7 @@ impl RunConfig {
                 },
             },
             pipeline: PipelineConfig::default(),
+            capture: Default::default(),
             plugins: Default::default(),
         })
     }
@@ -436,7 +440,7 @@ pub(crate) fn check(
 
 /// The scene, checked for coverage and for the run's memory (the estimate in bytes).
 fn load_checked(a: &RunRequest, cfg: &RunConfig) -> Result<(crate::scene::LoadedScene, u64)> {
-    let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels, cfg.capture.align_views)?;
     crate::scene::check_coverage(&scene)?;
     let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
     let memory = crate::memory::check(pixels, cfg)?;

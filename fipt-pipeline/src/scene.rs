@@ -1,4 +1,5 @@
 //! Loading a scene folder for the stages: dataset, geometry, training images, fingerprint.
+use crate::capture::AlignViews;
 use crate::error::{Context, Result};
 use crate::observe::Stage;
 use fipt_core::dataset::Dataset;
@@ -40,7 +41,9 @@ pub fn inputs_hash(ds: &Dataset) -> Result<String> {
     Ok(fipt_core::fsutil::hash_files(&files)?)
 }
 
-pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
+/// Loads the scene at `root` for the stages; `align` says when views are shifted onto the
+/// mesh (`[capture] align_views`; the stages' caches key on the shifts).
+pub fn load(root: &Path, policy: BadPixelPolicy, align: AlignViews) -> Result<LoadedScene> {
     let st = Stage::start("load scene");
     let ds = Dataset::open(root).with_context(|| format!("opening scene {}", root.display()))?;
     let mesh = Mesh::load(&ds.mesh).context("loading the scene mesh")?;
@@ -66,8 +69,13 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
             img.data.iter_mut().for_each(|p| *p /= e);
         }
     }
-    let mut capture =
-        crate::capture::examine(&geometry, &split.views, &mut images, ds.has_ldr_files());
+    let mut capture = crate::capture::examine(
+        &geometry,
+        &split.views,
+        &mut images,
+        ds.has_ldr_files(),
+        align,
+    );
     capture.exposures_known = ds.capture.exposures.is_some();
     crate::capture::restore_clipped_lights(&geometry, &split.views, &mut images, &mut capture);
     for w in &capture.warnings {
@@ -90,11 +98,12 @@ pub fn load(root: &Path, policy: BadPixelPolicy) -> Result<LoadedScene> {
         crate::note!("warning: the median training pixel is black: most views are dark or black");
     }
     let inputs_hash = inputs_hash(&ds)?;
-    let cache_key = if exposure == 1.0 {
+    let mut cache_key = if exposure == 1.0 {
         inputs_hash.clone()
     } else {
         format!("{inputs_hash}@exposure:{exposure:e}")
     };
+    cache_key += &capture.alignment.cache_tag(&capture.edges);
     st.done();
     Ok(LoadedScene {
         ds,

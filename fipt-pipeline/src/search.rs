@@ -615,7 +615,7 @@ fn empty_profile() -> RegionProfile {
 
 /// The search's cost curves per region on the shadings `a` names.
 pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
-    let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels, Default::default())?;
     let dir = a.out.join(&a.shadings);
     let shadings = match fipt_shading::bake_store::load_for_inputs(&dir, &scene.cache_key)? {
         Ok((_, s)) => s.load_all()?,

@@ -108,7 +108,7 @@ pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
         cfg.steps = s;
     }
     cfg.validate()?;
-    let scene = crate::scene::load(&a.scene, a.bad_pixels)?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels, Default::default())?;
     let bake_dir = a.out.join("bake");
     fipt_core::lock::refuse_nested_run(&a.out)?;
     let _lock = if a.out.is_dir() {

@@ -1,10 +1,12 @@
 //! What a run knows of its views as a capture: whether they are LDR (and which pixels clip),
 //! each view's exposure relative to the others (fitted on the surfaces they share: the mesh
 //! gives exact correspondences), and the warnings a user must read. `report.json`'s `capture`.
+mod align;
 mod clipped;
 mod edges;
 mod gains;
 
+pub use align::{AlignViews, Alignment, CaptureConfig, MIN_SHIFT_PX};
 pub use clipped::{restore_clipped_lights, ClippedLights, CLIPPED_LIGHT_LEVELS};
 pub use edges::{edge_alignment, edge_warning, EdgeCheck, EDGE_OFF_PX};
 pub use gains::{fit_gains, gain_spread_limit, GainFit, GAIN_SPREAD_WARN, MIN_SHARED_CELLS};
@@ -40,17 +42,21 @@ pub struct CaptureReport {
     pub left_out: Vec<Vec<bool>>,
     /// The lights seen only clipped, and the convention their radiance was set by.
     pub clipped_lights: Option<ClippedLights>,
-    /// How the mesh's edges line up with the views'.
+    /// How the mesh's edges line up with the views' (before any alignment).
     pub edges: EdgeCheck,
+    /// The views shifted onto the mesh (`[capture] align_views`).
+    pub alignment: Alignment,
 }
 
 /// Checks the training images, fits their exposures on shared surfaces and, for LDR views,
-/// divides each by its fitted gain. Returns what it found.
+/// divides each by its fitted gain, and shifts the views onto the mesh as `mode` asks.
+/// Returns what it found.
 pub fn examine(
     geometry: &Geometry,
     views: &[View],
     images: &mut [Image],
     files_ldr: bool,
+    mode: AlignViews,
 ) -> CaptureReport {
     let per_view: Vec<(usize, ViewLdr)> = images
         .par_iter()
@@ -102,6 +108,23 @@ pub fn examine(
     r.exposure_fit = fit;
     r.check = check;
     r.edges = edge_alignment(geometry, views, images);
-    r.warnings.extend(edge_warning(&r.edges));
+    let warning = edge_warning(&r.edges);
+    r.alignment = align::align(
+        mode,
+        warning.is_some(),
+        geometry,
+        views,
+        images,
+        &mut r.clipped,
+        &r.edges,
+    );
+    r.warnings.extend(warning.map(|w| match &r.alignment.after {
+        Some(after) => format!(
+            "{w}; {} views shifted onto the mesh by their edges ([capture] align_views): median {:.2} px after",
+            r.alignment.views_shifted.len(),
+            after.median_px
+        ),
+        None => w,
+    }));
     r
 }
