@@ -690,15 +690,19 @@ fn holds_out(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool
     beats_default || agrees(halves, mi, cfg)
 }
 
-/// The `held_out_band` test: both halves' minima interior and within the band.
+/// The `held_out_band` test: both halves' minima interior, more than the band below the
+/// roughest candidate (nearer, they are σ = 1 by the same yardstick: the studio's diffuse
+/// box, σ 1, has halves at 0.96–0.98), and within the band of each other.
 fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
+    let band = cfg.held_out_band;
     let interior = |h: &RegionProfile| {
         let row = h.cost.get(mi)?;
         let b = argmin(row)?;
-        (b > 0 && b + 1 < row.len()).then(|| h.sigma[b])
+        let roughest = *h.sigma.last()?;
+        (b > 0 && h.sigma[b] < roughest - band).then(|| h.sigma[b])
     };
     match (interior(halves[0]), interior(halves[1])) {
-        (Some(a), Some(b)) => cfg.held_out_band > 0.0 && (a - b).abs() <= cfg.held_out_band + 1e-6,
+        (Some(a), Some(b)) => band > 0.0 && (a - b).abs() <= band + 1e-6,
         _ => false,
     }
 }

@@ -160,6 +160,18 @@ fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
             None
         );
     }
+    // Halves that agree within a band of σ = 1 (a diffuse box, σ 1: 0.95 and 0.9) are σ = 1
+    // by the same yardstick: no target.
+    let near_one = |c: Vec<f64>| RegionProfile {
+        sigma: vec![0.02, 0.5, 0.9, 0.95, 1.0],
+        ..curve(vec![1.0; 5], c)
+    };
+    let whole = near_one(vec![0.2, 0.15, 0.1002, 0.1000, 0.1010]);
+    let flat = near_one(vec![0.2, 0.15, 0.10010, 0.10011, 0.10011]);
+    assert_eq!(
+        choose(&whole, &cfg, false, Some([&whole, &flat])).roughness,
+        None
+    );
     // A lacquer (σ 0.12): the whole's minimum is interior, one half's lies below
     // `interior_sigma` (0.08) but above the mirror end: it holds out. A half whose minimum is
     // the mirror end does not.
