@@ -7,7 +7,7 @@ use crate::scene::LoadedScene;
 use crate::search::Searched;
 pub use crate::train_set::view_points;
 use crate::train_set::{build_set, second_sides, segment_ids, BuiltSet};
-use fipt_core::dataset::{GtKind, View};
+use fipt_core::dataset::View;
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, ExrPrecision, Image};
 use fipt_core::shading::ViewShadings;
@@ -170,7 +170,7 @@ fn request_key(
     cfg: &TrainConfig,
     warm: Option<&str>,
     search: Option<&Searched>,
-    segments: Option<&(GtKind, String)>,
+    segments: Option<&(crate::train_set::SegmentKind, String)>,
 ) -> Result<String> {
     let segments = segments.map(|s| match second_sides(search, s.0) {
         Some(sides) => {

@@ -13,6 +13,7 @@ use fipt_neural::{Bounds, TrainConfig, TrainingSet};
 use fipt_shading::bake::primary_records;
 use fipt_shading::bake_store::StoredShadings;
 use glam::Vec3;
+use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// Primary hit points of every pixel of `views`, and the median pixel footprint (hit
@@ -99,33 +100,55 @@ pub(crate) fn keep_at_most(points: &mut [Vec<Option<Vec3>>], limit: usize, seed:
     all - kept
 }
 
-/// The ground-truth ids the segment prior reads as `source` asks (`IndexMA/` or
-/// `segmentation/`; None: no prior), with a fingerprint of their files.
+/// Where the segment prior's ids come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum SegmentKind {
+    /// The scene's part ids (`IndexMA/`).
+    Parts,
+    /// Its semantic classes (`segmentation/`).
+    Classes,
+    /// Smooth connected patches of the mesh (the search's `mesh` regions, 30°).
+    Mesh,
+}
+
+impl SegmentKind {
+    /// The search's name of the same regions (`Searched::source`).
+    fn search_source(self) -> &'static str {
+        match self {
+            SegmentKind::Parts => "parts",
+            SegmentKind::Classes => "semantic",
+            SegmentKind::Mesh => "mesh",
+        }
+    }
+}
+
+/// A mesh patch grows across dihedral angles up to this (the search's `mesh_angle_deg`).
+const MESH_SEGMENT_ANGLE_DEG: f32 = 30.0;
+
+/// The ids the segment prior reads as `source` asks (None: no prior), with a fingerprint.
 pub(crate) fn segment_ids(
     scene: &LoadedScene,
     source: SegmentSource,
-) -> Result<Option<(GtKind, String)>> {
+) -> Result<Option<(SegmentKind, String)>> {
     let split = scene.ds.train();
     let has_parts = split.has_gt(GtKind::IndexMA);
     let has_classes = split.has_gt(GtKind::Segmentation);
     let kind = match source {
         SegmentSource::None => return Ok(None),
-        SegmentSource::Auto if has_parts => GtKind::IndexMA,
-        SegmentSource::Auto if has_classes => GtKind::Segmentation,
-        SegmentSource::Auto => {
-            crate::note!(
-                "no part ids (IndexMA/) or classes (segmentation/) in the scene: training without the segment prior"
-            );
-            return Ok(None);
+        SegmentSource::Auto | SegmentSource::Parts if has_parts => GtKind::IndexMA,
+        SegmentSource::Auto | SegmentSource::Semantic if has_classes => GtKind::Segmentation,
+        SegmentSource::Auto | SegmentSource::Mesh => {
+            return Ok(Some((
+                SegmentKind::Mesh,
+                format!("mesh-patches:{MESH_SEGMENT_ANGLE_DEG}"),
+            )))
         }
-        SegmentSource::Parts if has_parts => GtKind::IndexMA,
-        SegmentSource::Semantic if has_classes => GtKind::Segmentation,
         SegmentSource::Parts => bail!(
-            "train.segments = \"parts\" but {} has no IndexMA/ folder (use \"auto\" or \"none\")",
+            "train.segments = \"parts\" but {} has no IndexMA/ folder (use \"auto\", \"mesh\" or \"none\")",
             split.dir.display()
         ),
         SegmentSource::Semantic => bail!(
-            "train.segments = \"semantic\" but {} has no segmentation/ folder (use \"auto\" or \"none\")",
+            "train.segments = \"semantic\" but {} has no segmentation/ folder (use \"auto\", \"mesh\" or \"none\")",
             split.dir.display()
         ),
     };
@@ -133,31 +156,62 @@ pub(crate) fn segment_ids(
         .map(|k| split.gt_path(kind, k))
         .collect();
     let hash = fipt_core::fsutil::hash_files(&files)?;
-    Ok(Some((kind, format!("{}:{hash}", kind.folder()))))
+    let seg = if kind == GtKind::IndexMA {
+        SegmentKind::Parts
+    } else {
+        SegmentKind::Classes
+    };
+    Ok(Some((seg, format!("{}:{hash}", kind.folder()))))
+}
+
+/// Per training view and pixel, the mesh patch its centre ray hits (−1: none).
+fn mesh_patch_ids(scene: &LoadedScene) -> Vec<Vec<i64>> {
+    let (patch, _) =
+        fipt_geom::patches::smooth_patches(&scene.geometry.mesh, MESH_SEGMENT_ANGLE_DEG);
+    scene
+        .ds
+        .train()
+        .views
+        .par_iter()
+        .map(|view| {
+            fipt_shading::records::hit_points(&scene.geometry, view)
+                .iter()
+                .map(|h| h.map_or(-1, |h| patch[h.tri as usize] as i64))
+                .collect()
+        })
+        .collect()
 }
 
 /// Attaches the ids `found` by [`segment_ids`] to the training set.
 pub(crate) fn with_segments(
     scene: &LoadedScene,
     data: TrainingSet,
-    found: Option<&(GtKind, String)>,
+    found: Option<&(SegmentKind, String)>,
     search: Option<&Searched>,
 ) -> Result<TrainingSet> {
     let Some((kind, _)) = found else {
         return Ok(data);
     };
-    let folder = kind.folder();
-    let mut ids = crate::regions::split_ids(scene, *kind)?;
+    let mut ids = match kind {
+        SegmentKind::Parts => crate::regions::split_ids(scene, GtKind::IndexMA)?,
+        SegmentKind::Classes => crate::regions::split_ids(scene, GtKind::Segmentation)?,
+        SegmentKind::Mesh => mesh_patch_ids(scene),
+    };
     if let Some(sides) = second_sides(search, *kind) {
         divide_ids(&mut ids, sides);
     }
-    Ok(if *kind == GtKind::IndexMA {
-        let d = data.with_segments(&ids)?;
-        crate::note!("segment prior on {} parts ({folder}/)", d.segments);
+    Ok(if *kind == SegmentKind::Classes {
+        let d = data.with_classes(&ids)?;
+        crate::note!("semantic prior on {} classes (segmentation/)", d.segments);
         d
     } else {
-        let d = data.with_classes(&ids)?;
-        crate::note!("semantic prior on {} classes ({folder}/)", d.segments);
+        let d = data.with_segments(&ids)?;
+        let from = if *kind == SegmentKind::Parts {
+            "parts (IndexMA/)"
+        } else {
+            "smooth patches of the mesh"
+        };
+        crate::note!("segment prior on {} {from}", d.segments);
         d
     })
 }
@@ -178,9 +232,16 @@ pub(crate) fn divide_ids(ids: &mut [Vec<i64>], sides: &[(u32, u32, u32)]) {
 
 /// The search's second sides of divided regions when they split the segment ids: the search's
 /// regions are the scene's parts and so are the segments.
-pub(crate) fn second_sides(search: Option<&Searched>, kind: GtKind) -> Option<&[(u32, u32, u32)]> {
+pub(crate) fn second_sides(
+    search: Option<&Searched>,
+    kind: SegmentKind,
+) -> Option<&[(u32, u32, u32)]> {
     search
-        .filter(|s| kind == GtKind::IndexMA && s.source == "parts" && !s.second_sides.is_empty())
+        .filter(|s| {
+            kind != SegmentKind::Classes
+                && s.source == kind.search_source()
+                && !s.second_sides.is_empty()
+        })
         .map(|s| &s.second_sides[..])
 }
 
@@ -211,7 +272,7 @@ pub(crate) fn build_set(
     scene: &LoadedScene,
     shadings: &StoredShadings,
     cfg: &TrainConfig,
-    segments: Option<&(GtKind, String)>,
+    segments: Option<&(SegmentKind, String)>,
     search: Option<&Searched>,
 ) -> Result<BuiltSet> {
     let (mut points, footprint) = view_points(&scene.geometry, &scene.ds.train().views);

@@ -124,6 +124,12 @@ pub struct SearchConfig {
     /// σ = 1) failed the `interior_gain` test and fell to σ ≈ 1 (`docs/captures.md`). 0: off.
     #[serde(default = "default_held_out_band")]
     pub held_out_band: f32,
+    /// A dielectric left without a target whose minimum lies within this distance of the
+    /// roughest candidate gets the roughest as its target, not the training's choice: a
+    /// surface without gloss gives σ no gradient but noise, and the training alone let
+    /// `studio-mitsuba`'s diffuse box (σ 1) drift to 0.91 in capture-like copies. 0: off.
+    #[serde(default = "default_held_out_band")]
+    pub rough_band: f32,
     /// At most this many pixels take part (a uniform random share of them beyond it, the
     /// same for the same views); only they and their shadings are held while the search
     /// runs, 182 bytes each with `principled`. 0: every pixel.
@@ -180,6 +186,7 @@ impl Default for SearchConfig {
             edge_contrast: 4.0,
             held_out: true,
             held_out_band: default_held_out_band(),
+            rough_band: default_held_out_band(),
             max_pixels: default_max_pixels(),
             split: split::SplitConfig::default(),
         }
@@ -203,6 +210,7 @@ impl SearchConfig {
             ("metal_tolerance", self.metal_tolerance, 1e6),
             ("interior_gain", self.interior_gain, 1e6),
             ("held_out_band", self.held_out_band, 1.0),
+            ("rough_band", self.rough_band, 1.0),
             ("edge_contrast", self.edge_contrast, 1e6),
         ];
         for (key, v, hi) in ranges {
@@ -709,7 +717,8 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
 
 /// The decision for one region (see [`SearchConfig`]): metal when its best cost beats the best
 /// dielectric one by `metal_margin`; then the roughest σ within the tolerance of the minimum
-/// for that metallic (none for a dielectric whose answer is the roughest candidate); a
+/// for that metallic (none for a dielectric whose answer is the roughest candidate, unless its
+/// minimum lies within `rough_band` of it: then the roughest); a
 /// dielectric whose minimum is interior, beats σ = 1 by `interior_gain` and holds out takes the
 /// `interior_tolerance` rule instead (with `interior_always` off, only when the first rule
 /// left it at σ = 1). No target on too few pixels.
@@ -796,8 +805,12 @@ pub fn choose(
         si =
             roughest_within((gain * cfg.interior_tolerance as f64).min(cfg.metal_tolerance as f64));
     }
+    let rough = !metal
+        && si + 1 == n
+        && cfg.rough_band > 0.0
+        && p.sigma[b] >= p.sigma[n - 1] - cfg.rough_band - 1e-6;
     RegionChoice {
-        roughness: (metal || si + 1 < n).then_some(p.sigma[si]),
+        roughness: (metal || si + 1 < n || rough).then_some(p.sigma[si]),
         metallic: Some(p.metallic[mi]),
         ..fallback
     }

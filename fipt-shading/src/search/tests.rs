@@ -87,9 +87,15 @@ fn the_fitted_profile_is_zero_at_the_truth_and_the_choice_finds_it() {
         };
         let c = choose(p, &cfg, false, None);
         assert_eq!(c.metallic, Some(m));
-        // A dielectric at σ = 1 gets no σ target (the training decides); the others theirs.
+        // Each its own σ; a dielectric at σ = 1 by `rough_band` (without it, none: the
+        // training decides).
+        assert_eq!(c.roughness, Some(sigma), "({sigma}, {m})");
+        let no_band = SearchConfig {
+            rough_band: 0.0,
+            ..cfg.clone()
+        };
         assert_eq!(
-            c.roughness,
+            choose(p, &no_band, false, None).roughness,
             (sigma < 1.0).then_some(sigma),
             "({sigma}, {m})"
         );
@@ -161,7 +167,7 @@ fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
         );
     }
     // Halves that agree within a band of σ = 1 (a diffuse box, σ 1: 0.95 and 0.9) are σ = 1
-    // by the same yardstick: no target.
+    // by the same yardstick: no interior target, but σ = 1 by `rough_band` (none without).
     let near_one = |c: Vec<f64>| RegionProfile {
         sigma: vec![0.02, 0.5, 0.9, 0.95, 1.0],
         ..curve(vec![1.0; 5], c)
@@ -170,6 +176,14 @@ fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
     let flat = near_one(vec![0.2, 0.15, 0.10010, 0.10011, 0.10011]);
     assert_eq!(
         choose(&whole, &cfg, false, Some([&whole, &flat])).roughness,
+        Some(1.0)
+    );
+    let no_rough = SearchConfig {
+        rough_band: 0.0,
+        ..cfg.clone()
+    };
+    assert_eq!(
+        choose(&whole, &no_rough, false, Some([&whole, &flat])).roughness,
         None
     );
     // A lacquer (σ 0.12): the whole's minimum is interior, one half's lies below
