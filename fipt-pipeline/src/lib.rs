@@ -40,6 +40,7 @@ pub mod render;
 pub mod report;
 pub mod rounds;
 pub mod run;
+pub mod run_config;
 pub mod scene;
 pub mod search;
 pub mod shard;

@@ -1,0 +1,152 @@
+//! The decision for one region from its cost profile: metal or not, and which σ (the rules of
+//! [`SearchConfig`]: tolerances, the interior rule, held-out halves, the bands).
+use super::{RegionChoice, RegionProfile, SearchConfig};
+
+/// Index of the smallest finite value (None when there is none).
+pub(super) fn argmin(v: &[f64]) -> Option<usize> {
+    v.iter()
+        .enumerate()
+        .filter(|(_, c)| c.is_finite())
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(i, _)| i)
+}
+
+/// Whether the σ each half's profile prefers (at metallic candidate `mi`) is an interior one
+/// that beats σ = 1 by `interior_gain` on the other half, or (`held_out_band`) both halves
+/// prefer interior σ within the band of each other.
+fn holds_out(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
+    let best = |h: &RegionProfile| h.cost.get(mi).and_then(|row| argmin(row));
+    let beats_default = (0..2).all(|h| {
+        let (fit, test) = (halves[h], halves[1 - h]);
+        let (Some(b), Some(other)) = (best(fit), test.cost.get(mi)) else {
+            return false;
+        };
+        let n = other.len();
+        // A half's minimum must not lie at the mirror end; it may lie below `interior_sigma`
+        // (the whole's minimum is held to that): halves are noisier, and a lacquer at σ 0.12
+        // has halves at 0.08 and 0.14 (`docs/bedroom-mitsuba.md`).
+        b > 0
+            && other[b].is_finite()
+            && other[b] > 0.0
+            && other[n - 1] / other[b] - 1.0 >= cfg.interior_gain as f64
+    });
+    beats_default || agrees(halves, mi, cfg)
+}
+
+/// The `held_out_band` test: both halves' minima interior, more than the band below the
+/// roughest candidate (nearer, they are σ = 1 by the same yardstick: the studio's diffuse
+/// box, σ 1, has halves at 0.96–0.98), and within the band of each other.
+fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
+    let band = cfg.held_out_band;
+    let interior = |h: &RegionProfile| {
+        let row = h.cost.get(mi)?;
+        let b = argmin(row)?;
+        let roughest = *h.sigma.last()?;
+        (b > 0 && h.sigma[b] < roughest - band).then(|| h.sigma[b])
+    };
+    match (interior(halves[0]), interior(halves[1])) {
+        (Some(a), Some(b)) => band > 0.0 && (a - b).abs() <= band + 1e-6,
+        _ => false,
+    }
+}
+
+/// The decision for one region (see [`SearchConfig`]): metal when its best cost beats the best
+/// dielectric one by `metal_margin`; then the roughest σ within the tolerance of the minimum
+/// for that metallic (none for a dielectric whose answer is the roughest candidate, unless its
+/// minimum lies within `rough_band` of it: then the roughest); a
+/// dielectric whose minimum is interior, beats σ = 1 by `interior_gain` and holds out takes the
+/// `interior_tolerance` rule instead (with `interior_always` off, only when the first rule
+/// left it at σ = 1). No target on too few pixels.
+///
+/// `was_metal`: the previous search (on earlier shadings) called this region metal; it stays
+/// metal unless the dielectric answer beats it by `metal_margin` (hysteresis: the margin is
+/// needed to switch either way, so that a small region's decision does not flip on noise).
+///
+/// `halves`: the same region profiled on each half of the views, for `held_out`.
+pub fn choose(
+    p: &RegionProfile,
+    cfg: &SearchConfig,
+    was_metal: bool,
+    halves: Option<[&RegionProfile; 2]>,
+) -> RegionChoice {
+    let best: Vec<Option<usize>> = p.cost.iter().map(|c| argmin(c)).collect();
+    let best_cost: Vec<f64> = best
+        .iter()
+        .zip(&p.cost)
+        .map(|(b, c)| b.map_or(f64::NAN, |i| c[i]))
+        .collect();
+    let argmin_sigma: Vec<f32> = best
+        .iter()
+        .map(|b| b.map_or(f32::NAN, |i| p.sigma[i]))
+        .collect();
+    let dielectric = p.metallic.iter().position(|&m| m == 0.0);
+    let default_cost = dielectric
+        .and_then(|d| p.cost[d].last().copied())
+        .unwrap_or(f64::NAN);
+    let fallback = RegionChoice {
+        region: p.region,
+        pixels: p.pixels,
+        roughness: None,
+        metallic: None,
+        best_cost: best_cost.clone(),
+        argmin_sigma: argmin_sigma.clone(),
+        default_cost,
+    };
+    if p.pixels < cfg.min_pixels || p.sigma.is_empty() {
+        return fallback;
+    }
+    // The metallic candidate: the dielectric one unless another beats it by the margin.
+    let mut mi = dielectric.unwrap_or(0);
+    if was_metal {
+        if let Some(k) = p.metallic.iter().position(|&m| m == 1.0) {
+            if best_cost[k].is_finite()
+                && best_cost[mi] >= best_cost[k] * (1.0 - cfg.metal_margin as f64)
+            {
+                mi = k;
+            }
+        }
+    }
+    for (k, &c) in best_cost.iter().enumerate() {
+        let base = best_cost[mi];
+        if c.is_finite() && (!base.is_finite() || c < base * (1.0 - cfg.metal_margin as f64)) {
+            mi = k;
+        }
+    }
+    let Some(b) = best[mi] else {
+        return fallback;
+    };
+    let metal = p.metallic[mi] > 0.5;
+    let tol = if metal {
+        cfg.metal_tolerance
+    } else {
+        cfg.dielectric_tolerance
+    };
+    let roughest_within = |tol: f64| {
+        let limit = p.cost[mi][b] * (1.0 + tol);
+        (b..p.sigma.len())
+            .rev()
+            .find(|&s| p.cost[mi][s] <= limit)
+            .unwrap_or(b)
+    };
+    let n = p.sigma.len();
+    let mut si = roughest_within(tol as f64);
+    let gain = p.cost[mi][n - 1] / p.cost[mi][b] - 1.0;
+    if !metal
+        && (si + 1 == n || cfg.interior_always)
+        && p.sigma[b] >= cfg.interior_sigma
+        && gain >= cfg.interior_gain as f64
+        && (!cfg.held_out || halves.is_some_and(|h| holds_out(h, mi, cfg)))
+    {
+        si =
+            roughest_within((gain * cfg.interior_tolerance as f64).min(cfg.metal_tolerance as f64));
+    }
+    let rough = !metal
+        && si + 1 == n
+        && cfg.rough_band > 0.0
+        && p.sigma[b] >= p.sigma[n - 1] - cfg.rough_band - 1e-6;
+    RegionChoice {
+        roughness: (metal || si + 1 < n || rough).then_some(p.sigma[si]),
+        metallic: Some(p.metallic[mi]),
+        ..fallback
+    }
+}
