@@ -10,13 +10,38 @@ pub fn luminance(c: Rgb) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
-/// sRGB opto-electronic transfer function of one linear value (no clamp above 1).
+/// Where the sRGB curve's linear segment ends (linear value).
+pub const SRGB_KNEE: f32 = 0.003_130_8;
+
+/// sRGB opto-electronic transfer function of one linear value (no clamp above 1; negative
+/// values give 0).
 #[inline]
 pub fn srgb_oetf(x: f32) -> f32 {
-    if x <= 0.0031308 {
+    if x <= SRGB_KNEE {
         12.92 * x.max(0.0)
     } else {
+        srgb_oetf_extended(x)
+    }
+}
+
+/// The sRGB OETF continued linearly below 0 (12.92·x), as the training loss compares values:
+/// a negative prediction keeps a gradient.
+#[inline]
+pub fn srgb_oetf_extended(x: f32) -> f32 {
+    if x <= SRGB_KNEE {
+        12.92 * x
+    } else {
         1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Derivative of [`srgb_oetf_extended`].
+#[inline]
+pub fn srgb_oetf_grad(x: f32) -> f32 {
+    if x <= SRGB_KNEE {
+        12.92
+    } else {
+        1.055 / 2.4 * x.powf(1.0 / 2.4 - 1.0)
     }
 }
 

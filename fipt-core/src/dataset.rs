@@ -17,7 +17,6 @@ use glam::{Mat4, Vec3};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-pub use crate::view_stats::{hdr_stats, HdrStats};
 
 /// Which of the two reference layouts a scene folder follows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]

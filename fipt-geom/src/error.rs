@@ -19,3 +19,11 @@ pub enum GeomError {
 }
 
 pub type Result<T, E = GeomError> = std::result::Result<T, E>;
+
+/// A parse error in `path`.
+pub(crate) fn parse_err(path: &std::path::Path, message: impl Into<String>) -> GeomError {
+    GeomError::Parse {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}

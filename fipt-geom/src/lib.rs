@@ -19,11 +19,13 @@ pub mod bvh;
 pub mod error;
 pub mod geometry;
 pub mod glb;
+mod load;
 pub mod mesh;
 pub mod nearest;
 pub mod patches;
 mod ply;
 pub mod sampling;
+pub mod shapes;
 mod scan;
 
 pub use bvh::{hit_point, offset_ray_origin, shading_normal, BuildQuality, Bvh, Hit};

@@ -2,7 +2,8 @@
 //! `vertex_indices` (or `vertex_index`) lists, polygons fanned into triangles; other elements
 //! and properties are read past.
 use crate::error::{GeomError, Result};
-use crate::mesh::{fan, parse_err, Mesh};
+use crate::error::parse_err;
+use crate::mesh::{fan, Mesh};
 use glam::Vec3;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;

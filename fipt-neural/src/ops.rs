@@ -6,7 +6,8 @@
 //! * [`LevelWeights`]: the hat-function weights of piecewise-linear interpolation over the
 //!   roughness levels, so that `Σ_l w_l(σ)·Ls[l]` equals
 //!   [`fipt_core::shading::lerp_levels`] and is differentiable in σ.
-use crate::train::ImageLoss;
+pub use crate::image_loss::SLOPE_LOSS_CLIP;
+use crate::image_loss::{slope_term, srgb_term, ImageLoss};
 use candle_core::{CpuStorage, CustomOp1, Layout, Shape, Tensor};
 use fipt_core::reflectance::DIELECTRIC_F0;
 use fipt_core::shading::{level_segment, NUM_LEVELS};
@@ -27,27 +28,9 @@ pub(crate) fn contiguous<'a>(
     }
 }
 
-const SRGB_KNEE: f32 = 0.003_130_8;
-
-/// sRGB OETF of a linear value (no clamp).
-#[inline]
-pub fn srgb_oetf(x: f32) -> f32 {
-    if x <= SRGB_KNEE {
-        12.92 * x
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// Derivative of [`srgb_oetf`].
-#[inline]
-pub fn srgb_oetf_grad(x: f32) -> f32 {
-    if x <= SRGB_KNEE {
-        12.92
-    } else {
-        1.055 / 2.4 * x.powf(1.0 / 2.4 - 1.0)
-    }
-}
+/// sRGB OETF of a linear value, continued linearly below 0 (no clamp).
+pub use fipt_core::color::srgb_oetf_extended as srgb_oetf;
+pub use fipt_core::color::srgb_oetf_grad;
 
 /// The sRGB OETF as a differentiable op.
 #[derive(Clone, Copy, Debug)]
@@ -302,14 +285,6 @@ fn sign(x: f32) -> f32 {
     }
 }
 
-/// Within this error (in sRGB units) [`ImageLoss::SrgbSlope`] linearises the sRGB curve at
-/// the prediction; beyond it the error is the sRGB difference, as [`ImageLoss::Srgb`]. The
-/// linearised error of a pixel far from its prediction (a light or a highlight the field does
-/// not yet explain) is not bounded as the sRGB difference is: unbounded, it outweighed the
-/// rest of the batch (`studio-mitsuba`: −2 dB of kd); bounded by a Huber loss, it no longer
-/// pulled the emission mask over small lights (`room` at 80×60 lost its bulb).
-pub const SLOPE_LOSS_CLIP: f32 = 0.1;
-
 /// How many times brighter than the brightest reflection its shadings allow (kd = ks = 1 at the
 /// roughness level that reflects most) a pixel must be to count as a light's
 /// ([`FactorizedLoss::emitter_material`]).
@@ -330,26 +305,6 @@ pub fn unreflectable(
     };
     let bound = ld.iter().sum::<f32>() + most(ls0) + most(ls1);
     gt.iter().sum::<f32>() > UNREFLECTABLE * bound
-}
-
-/// The pixel's [`ImageLoss::Srgb`] term, the squared sRGB difference, and its derivative in
-/// the prediction `p`.
-#[inline]
-fn srgb_term(p: f32, g: f32) -> (f32, f32) {
-    let e = srgb_oetf(p) - srgb_oetf(g);
-    (e * e, 2.0 * e * srgb_oetf_grad(p))
-}
-
-/// The pixel's [`ImageLoss::SrgbSlope`] term and its derivative in the prediction `p`.
-#[inline]
-fn slope_term(p: f32, g: f32) -> (f32, f32) {
-    let w = srgb_oetf_grad(p.max(0.0));
-    let e = w * (p - g);
-    if e.abs() <= SLOPE_LOSS_CLIP {
-        (e * e, 2.0 * e * w)
-    } else {
-        srgb_term(p, g)
-    }
 }
 
 /// Per-pixel terms: (Σ_c e_c², α, prior) and the gradient of each term w.r.t. the 6 inputs.

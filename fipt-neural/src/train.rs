@@ -32,7 +32,8 @@ mod config;
 mod set;
 use candle_loss::reflected;
 pub use candle_loss::{candle_ops_loss, LossWeights};
-pub use config::{ImageLoss, LrDecay, PriorNorm, SegmentSource, SemanticPrior, TrainConfig};
+pub use crate::image_loss::ImageLoss;
+pub use config::{LrDecay, PriorNorm, SegmentSource, SemanticPrior, TrainConfig};
 pub use set::TrainingSet;
 
 /// Losses of one step.

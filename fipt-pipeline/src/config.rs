@@ -160,7 +160,7 @@ mod tests {
     /// Every stage knows every preset name, and an unknown one names the valid ones.
     #[test]
     fn every_stage_knows_every_preset() {
-        use crate::run::RunConfig;
+        use crate::run_config::RunConfig;
         use fipt_neural::TrainConfig;
         use fipt_shading::refine::RefineConfig;
         for name in PRESETS.split(", ") {

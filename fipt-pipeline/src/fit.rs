@@ -7,7 +7,9 @@ use crate::outputs::{
     emitters_summary, evaluate_if_gt, extend, extract_emitters, report_header, write_emitters_obj,
     write_views, StageReport,
 };
-use crate::run::{RunConfig, RunRequest, RunSummary};
+use crate::outputs::RunSummary;
+use crate::request::RunRequest;
+use crate::run_config::RunConfig;
 use crate::Components;
 use fipt_core::dataset::GtKind;
 use fipt_core::emitter::EmitterExtractor;

@@ -2,9 +2,11 @@
 //! per split the views' HDR range and how much of each view the mesh covers, the ground truth
 //! present, and warnings (degenerate triangles, views that see nothing, bad pixels, black or
 //! saturated views). A scene no camera ray hits is an error.
+pub use crate::capture::ldr_warnings;
 use crate::bail;
 use crate::error::{Context, Result};
-use fipt_core::dataset::{hdr_stats, Dataset, HdrStats, Layout};
+use fipt_core::dataset::{Dataset, Layout};
+use fipt_core::view_stats::{hdr_stats, HdrStats};
 use fipt_core::image::BadPixelPolicy;
 use fipt_geom::{view_coverage, BuildQuality, Bvh, Mesh};
 use glam::Vec3;
@@ -191,28 +193,3 @@ fn image_warnings(split: &str, stats: &HdrStats) -> Vec<String> {
     w
 }
 
-/// What a split's LDR evidence means for a run, in words and numbers (empty for HDR views).
-pub fn ldr_warnings(split: &str, c: &fipt_core::capture::LdrCheck) -> Vec<String> {
-    if !c.ldr {
-        return vec![];
-    }
-    let mut w = vec![format!(
-        "{split}: the views are LOW DYNAMIC RANGE ({}): radiance above the clip level is lost",
-        c.evidence.join("; ")
-    )];
-    if !c.clipped_views.is_empty() {
-        let worst = c.clipped_views.iter().fold(
-            (0usize, 0f64),
-            |a, &(k, s)| if s > a.1 { (k, s) } else { a },
-        );
-        w.push(format!(
-            "{split}: {} of the views clip ({:.2} % of all pixels at the clip level; most in view {}: {:.2} %): \
-             lights and highlights there are lower bounds, and a light seen only clipped has an unknown radiance",
-            c.clipped_views.len(),
-            100.0 * c.clipped_share,
-            worst.0,
-            100.0 * worst.1
-        ));
-    }
-    w
-}

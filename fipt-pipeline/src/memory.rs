@@ -7,7 +7,7 @@
 //! warned about.
 use crate::bail;
 use crate::error::Result;
-use crate::run::RunConfig;
+use crate::run_config::RunConfig;
 use fipt_core::memory::{available_bytes, gib};
 use fipt_core::shading::NUM_LEVELS;
 

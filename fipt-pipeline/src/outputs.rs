@@ -2,7 +2,8 @@
 //! (JSON, OBJ), per-view maps and path-traced re-renders.
 use crate::error::Result;
 use crate::observe::Stage;
-use crate::run::{RunConfig, RunRequest};
+use crate::request::RunRequest;
+use crate::run_config::RunConfig;
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::fsutil::{read_json, write_bytes_atomic, write_json_atomic};
 use fipt_core::image::ExrPrecision;
@@ -12,7 +13,7 @@ use fipt_shading::scene::Scene as RenderScene;
 use glam::Vec3;
 use serde::Serialize;
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 impl StageReport {
     /// The stage `stage` that started at `t`, ending now; the heap's free pages go back to the
@@ -569,4 +570,61 @@ pub(crate) fn write_emitters_obj(
     }
     write_bytes_atomic(path, s.as_bytes())?;
     Ok(())
+}
+
+/// How a run ended without an error.
+pub enum RunOutcome {
+    /// Every stage is done.
+    Finished(RunSummary),
+    /// A shard run (or `stop_before_refine`) stopped where asked; the message says what is left.
+    Stopped(String),
+}
+
+/// What a finished run wrote and how long each stage took.
+pub struct RunSummary {
+    pub method: String,
+    pub stages: Vec<StageReport>,
+    pub seconds: f64,
+    pub out: PathBuf,
+    /// The lights extracted.
+    pub lights: usize,
+    /// The final material field's checkpoint (FIPT's rounds).
+    pub field: Option<PathBuf>,
+    /// `metrics.json` when the scene has ground truth.
+    pub metrics: Option<serde_json::Value>,
+    /// `report.html`, when it was written.
+    pub pictures: Option<PathBuf>,
+    /// `report.json`'s warnings (the capture's, a run that found no light).
+    pub warnings: Vec<String>,
+}
+
+impl RunSummary {
+    /// Writes `report` as `report.json`, then the pictures, and sums the run up.
+    pub(crate) fn write(
+        a: &RunRequest,
+        cfg: &RunConfig,
+        scene: &crate::scene::LoadedScene,
+        report: &serde_json::Value,
+        stages: Vec<StageReport>,
+        lights: usize,
+        field: Option<PathBuf>,
+    ) -> Result<Self> {
+        write_json_atomic(&a.out.join("report.json"), report)?;
+        Ok(RunSummary {
+            method: cfg.pipeline.method.clone(),
+            seconds: report["seconds_total"].as_f64().unwrap_or(0.0),
+            stages,
+            out: a.out.clone(),
+            lights,
+            field,
+            pictures: crate::report::write_or_warn(&a.out, &scene.ds),
+            metrics: Some(report["metrics"].clone()).filter(|m| !m.is_null()),
+            warnings: report["warnings"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter_map(|w| w.as_str().map(str::to_string))
+                .collect(),
+        })
+    }
 }

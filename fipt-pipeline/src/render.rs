@@ -133,8 +133,7 @@ pub(crate) fn check_spp(spp: u32) -> Result<()> {
     Ok(())
 }
 
-/// The most samples per pixel of a render (and of `[render] spp`).
-pub const MAX_SPP: u32 = 65_536;
+pub use crate::run_config::MAX_SPP;
 
 /// The most paths one render may trace (spp × pixels × views × lights sets): about 14 hours
 /// at the 2 M paths/s of 2 cores.

@@ -2,13 +2,14 @@
 //! plan (whether they run and why), the loop, and the extra round that lets small scenes
 //! settle.
 use crate::error::Result;
-use crate::run::RunConfig;
+pub use crate::run_config::RoundsConfig;
+use crate::run_config::RunConfig;
 use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;
 use fipt_core::shading::ShadingRefiner;
 use fipt_shading::records::HitPoint;
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
+
 use std::path::{Path, PathBuf};
 
 /// The folder of the training after `round` refinements: `train`, then `train1`, `train2`, …
@@ -16,53 +17,6 @@ pub fn train_dir(out: &Path, round: u32) -> PathBuf {
     match round {
         0 => out.join("train"),
         r => out.join(format!("train{r}")),
-    }
-}
-
-/// The refine → train rounds after the first training round.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RoundsConfig {
-    /// Number of refine → train rounds (the reference: 2; 0 = the initial bake only).
-    pub refinements: u32,
-    /// Start each later training round from the previous round's field (the reference
-    /// starts afresh).
-    pub warm_start: bool,
-    /// `train.roughness_prior` (the σ pull) in the training rounds after a refinement; absent:
-    /// as in `[train]`. 0 in `balanced` and `fast`: the first round needs the pull (σ would
-    /// absorb the one-bounce bake's noise and make most of the room "glossy", so that path
-    /// growing costs 8×), the refined shadings are clean enough for σ to follow the
-    /// highlights, from a warm start at σ ≈ 1.
-    #[serde(default)]
-    pub roughness_prior: Option<f32>,
-    /// Up to `settle_rounds` further rounds after the planned ones, each while more than
-    /// `settle_share` of the last refinement's secondary rays met surfaces whose light the
-    /// field's materials decide (paths grown through glossy surfaces or rough ones no view
-    /// saw). There the refined Ld carries the last round's albedo error back into the next
-    /// round: on the default `cornell` (12 views of 64×48) 35 % of the rays, and one round
-    /// leaves kd 10 % low; `room` and `studio-mitsuba` have 5–7 %. 0 rounds: off.
-    #[serde(default)]
-    pub settle_share: f32,
-    #[serde(default)]
-    pub settle_rounds: u32,
-}
-
-impl RoundsConfig {
-    /// Range checks, with the key and the allowed range in the message.
-    pub fn validate(&self) -> Result<(), String> {
-        if !(0.0..=1.0).contains(&self.settle_share) {
-            return Err(format!(
-                "rounds.settle_share = {} (use [0, 1])",
-                self.settle_share
-            ));
-        }
-        if self.settle_rounds > 4 || self.refinements > 16 {
-            return Err(format!(
-                "rounds.refinements = {}, rounds.settle_rounds = {} (use at most 16 and 4)",
-                self.refinements, self.settle_rounds
-            ));
-        }
-        Ok(())
     }
 }
 

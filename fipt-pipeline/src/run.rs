@@ -10,135 +10,17 @@ use crate::outputs::{
 };
 pub use crate::rounds::RoundsConfig;
 use crate::rounds::{planned_rounds, Rounds, RoundsContext};
+pub use crate::outputs::{RunOutcome, RunSummary};
+pub use crate::request::{lock, RunRequest};
 pub use crate::run_config::{ModelConfig, PipelineConfig, ReRenderConfig, RunConfig};
-use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;
 use fipt_core::fsutil::write_json_atomic;
-use fipt_core::image::BadPixelPolicy;
-use fipt_core::shading::Shard;
 use fipt_shading::records::hit_points;
-use std::path::{Path, PathBuf};
-
-/// What `fipt run` is asked to do.
-#[derive(Clone, Debug)]
-pub struct RunRequest {
-    /// Scene folder (either layout).
-    pub scene: PathBuf,
-    /// Output folder (created; finished stages inside are reused).
-    pub out: PathBuf,
-    /// Settings preset: paper, balanced, fast, reference.
-    pub preset: String,
-    /// A TOML or JSON file laid over the preset ([`RunConfig`]'s sections).
-    pub config: Option<PathBuf>,
-    /// The method, over `[pipeline] method`.
-    pub method: Option<String>,
-    /// What to do with NaN/Inf/negative pixels.
-    pub bad_pixels: BadPixelPolicy,
-    /// Redo every stage.
-    pub force: bool,
-    /// The views of the next sharded stage that is not done to compute (then stop); all: an
-    /// ordinary run.
-    pub shard: Shard,
-    /// Stop before the refinement when it is not done (a job array computes its shards).
-    pub stop_before_refine: bool,
-}
-
-impl RunRequest {
-    /// An ordinary run of `scene` into `out` with `preset`.
-    pub fn new(scene: impl Into<PathBuf>, out: impl Into<PathBuf>, preset: &str) -> Self {
-        RunRequest {
-            scene: scene.into(),
-            out: out.into(),
-            preset: preset.to_string(),
-            config: None,
-            method: None,
-            bad_pixels: BadPixelPolicy::Reject,
-            force: false,
-            shard: Shard::ALL,
-            stop_before_refine: false,
-        }
-    }
-
-    /// The sharding of this run's stages.
-    pub fn sharding(&self) -> Sharding {
-        Sharding {
-            shard: self.shard,
-            stop_before_refine: self.stop_before_refine,
-        }
-    }
-}
-
-/// How a run ended without an error.
-pub enum RunOutcome {
-    /// Every stage is done.
-    Finished(RunSummary),
-    /// A shard run (or `stop_before_refine`) stopped where asked; the message says what is left.
-    Stopped(String),
-}
-
-/// What a finished run wrote and how long each stage took.
-pub struct RunSummary {
-    pub method: String,
-    pub stages: Vec<StageReport>,
-    pub seconds: f64,
-    pub out: PathBuf,
-    /// The lights extracted.
-    pub lights: usize,
-    /// The final material field's checkpoint (FIPT's rounds).
-    pub field: Option<PathBuf>,
-    /// `metrics.json` when the scene has ground truth.
-    pub metrics: Option<serde_json::Value>,
-    /// `report.html`, when it was written.
-    pub pictures: Option<PathBuf>,
-    /// `report.json`'s warnings (the capture's, a run that found no light).
-    pub warnings: Vec<String>,
-}
-
-impl RunSummary {
-    /// Writes `report` as `report.json`, then the pictures, and sums the run up.
-    pub(crate) fn write(
-        a: &RunRequest,
-        cfg: &RunConfig,
-        scene: &crate::scene::LoadedScene,
-        report: &serde_json::Value,
-        stages: Vec<StageReport>,
-        lights: usize,
-        field: Option<PathBuf>,
-    ) -> Result<Self> {
-        write_json_atomic(&a.out.join("report.json"), report)?;
-        Ok(RunSummary {
-            method: cfg.pipeline.method.clone(),
-            seconds: report["seconds_total"].as_f64().unwrap_or(0.0),
-            stages,
-            out: a.out.clone(),
-            lights,
-            field,
-            pictures: crate::report::write_or_warn(&a.out, &scene.ds),
-            metrics: Some(report["metrics"].clone()).filter(|m| !m.is_null()),
-            warnings: report["warnings"]
-                .as_array()
-                .into_iter()
-                .flatten()
-                .filter_map(|w| w.as_str().map(str::to_string))
-                .collect(),
-        })
-    }
-}
-
-/// The output folder's lock: the whole folder for an unsharded run; a shard's own lock for a
-/// shard, so that the tasks of a job array write their views side by side.
-pub fn lock(out: &Path, shard: Shard, what: &str) -> Result<fipt_core::lock::OutputLock> {
-    Ok(if shard.is_all() {
-        fipt_core::lock::OutputLock::acquire(out, what)?
-    } else {
-        let what = format!("{what} --shard {shard}");
-        fipt_core::lock::OutputLock::acquire_shard(out, shard.index, shard.count, &what)?
-    })
-}
+use std::path::Path;
 
 /// `fipt run`: the configured method's stages, each reused when done, into `a.out`.
 pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome> {
-    crate::sweep::die_with_parent();
+    crate::parent::die_with_parent();
     let mut cfg: RunConfig =
         crate::config::load_preset(&a.preset, RunConfig::preset, a.config.as_deref())?;
     if let Some(m) = &a.method {

@@ -640,7 +640,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
         .iter()
         .map(|v| fipt_shading::records::hit_points(&scene.geometry, v))
         .collect();
-    let (_, footprint) = crate::train::view_points(&scene.geometry, &split.views);
+    let (_, footprint) = fipt_shading::records::view_points(&scene.geometry, &split.views);
     let Some(Prepared {
         regions,
         pixels,

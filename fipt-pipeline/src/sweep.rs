@@ -158,21 +158,7 @@ fn overrides_toml(overrides: &[(String, toml::Value)]) -> String {
     toml::to_string(&root).unwrap_or_default()
 }
 
-/// One measured point.
-#[derive(Clone, Debug)]
-pub struct Row {
-    pub name: String,
-    pub preset: String,
-    pub settings: String,
-    pub seconds: f64,
-    pub stages: Vec<(String, f64)>,
-    pub peak_mib: f64,
-    pub kd: Option<f64>,
-    pub sigma: Option<f64>,
-    pub render: Option<f64>,
-    pub metal_recall: Option<f64>,
-    pub iou: Option<f64>,
-}
+pub use crate::sweep_plot::Row;
 
 fn read_row(dir: &Path, name: &str, preset: &str, settings: &str) -> Option<Row> {
     let report: serde_json::Value =
@@ -270,32 +256,7 @@ fn csv(rows: &[Row]) -> String {
     out
 }
 
-/// The environment variable naming the process a `fipt run` ends with.
-pub const PARENT_ENV: &str = "FIPT_PARENT_PID";
-
-/// When [`PARENT_ENV`] names this process's parent, watches it from a thread and ends this
-/// process (as a kill would: finished stages stay, the rest resumes) once the parent is gone.
-pub fn die_with_parent() {
-    #[cfg(unix)]
-    {
-        let Some(parent) = std::env::var(PARENT_ENV)
-            .ok()
-            .and_then(|p| p.parse::<u32>().ok())
-        else {
-            return;
-        };
-        if std::os::unix::process::parent_id() != parent {
-            std::process::exit(137);
-        }
-        std::thread::spawn(move || loop {
-            std::thread::sleep(std::time::Duration::from_millis(200));
-            if std::os::unix::process::parent_id() != parent {
-                crate::note!("the parent process {parent} is gone: stopping");
-                std::process::exit(137);
-            }
-        });
-    }
-}
+pub use crate::parent::{die_with_parent, PARENT_ENV};
 
 /// Runs every point not finished before (a point is kept when its settings file and its
 /// complete report are there), then writes `sweep.csv` and `sweep.svg` into `a.out`.

@@ -1,8 +1,23 @@
 //! The sweep's plot as SVG (text stays text, no font or plotting dependency): kd, σ and
 //! re-render PSNR against wall time, one panel each, the Pareto front (no faster point is as
 //! accurate) as a line, the presets as filled squares, other points as circles.
-use crate::sweep::Row;
 use std::fmt::Write;
+
+/// One measured point.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub name: String,
+    pub preset: String,
+    pub settings: String,
+    pub seconds: f64,
+    pub stages: Vec<(String, f64)>,
+    pub peak_mib: f64,
+    pub kd: Option<f64>,
+    pub sigma: Option<f64>,
+    pub render: Option<f64>,
+    pub metal_recall: Option<f64>,
+    pub iou: Option<f64>,
+}
 
 const W: f64 = 360.0;
 const H: f64 = 260.0;

@@ -5,7 +5,7 @@ use crate::error::{Context, Result};
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
 use crate::search::Searched;
-pub use crate::train_set::view_points;
+pub use fipt_shading::records::view_points;
 use crate::train_set::{build_set, second_sides, segment_ids, BuiltSet};
 use fipt_core::dataset::View;
 use fipt_core::fsutil::{read_json, write_json_atomic};

@@ -5,42 +5,14 @@ use crate::bail;
 use crate::error::Result;
 use crate::scene::LoadedScene;
 use crate::search::Searched;
-use fipt_core::dataset::{GtKind, View};
+use fipt_core::dataset::GtKind;
 use fipt_core::image::Image;
-use fipt_geom::Geometry;
 use fipt_neural::train::SegmentSource;
 use fipt_neural::{Bounds, TrainConfig, TrainingSet};
-use fipt_shading::bake::primary_records;
 use fipt_shading::bake_store::StoredShadings;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::path::PathBuf;
-
-/// Primary hit points of every pixel of `views`, and the median pixel footprint (hit
-/// distance / focal length in pixels).
-pub fn view_points(geometry: &Geometry, views: &[View]) -> (Vec<Vec<Option<Vec3>>>, Option<f32>) {
-    let mut foot = vec![];
-    let pts = views
-        .iter()
-        .map(|v| {
-            let f = v.camera.fx.max(v.camera.fy);
-            primary_records(geometry, v)
-                .iter()
-                .map(|r| {
-                    r.map(|r| {
-                        foot.push(r.hit.t / f);
-                        r.hit.p
-                    })
-                })
-                .collect()
-        })
-        .collect();
-    let median = (!foot.is_empty()).then(|| {
-        let n = foot.len() / 2;
-        *foot.select_nth_unstable_by(n, f32::total_cmp).1
-    });
-    (pts, median)
-}
 
 /// Leaves out of `points` the pixels [`fipt_core::image::bleed_mask`] marks (`train.bleed_radius`,
 /// `bleed_contrast`), and says how many.
@@ -275,7 +247,7 @@ pub(crate) fn build_set(
     segments: Option<&(SegmentKind, String)>,
     search: Option<&Searched>,
 ) -> Result<BuiltSet> {
-    let (mut points, footprint) = view_points(&scene.geometry, &scene.ds.train().views);
+    let (mut points, footprint) = fipt_shading::records::view_points(&scene.geometry, &scene.ds.train().views);
     // Clipped pixels off the lights: their radiance is only bounded below.
     for (pts, out) in points.iter_mut().zip(&scene.capture.left_out) {
         for (p, _) in pts.iter_mut().zip(out).filter(|(_, o)| **o) {

@@ -11,7 +11,7 @@
 pub use crate::diffuse::{
     diffuse_moments, diffuse_shading, CellShading, DiffuseCell, DiffuseCells, DiffuseMoments,
 };
-use crate::incident::{power_heuristic, IncidentLight, Incoming};
+use crate::incident::{IncidentLight, Incoming};
 pub(crate) use crate::passes::{
     check_counts, diffuse_per_pixel, slf_and_cells, specular_mixture_view, SpecularSettings,
 };
@@ -20,31 +20,24 @@ pub use crate::records::{
     HitsSummary, PixelRecord,
 };
 use crate::slf::{Cube, SlfBuilder, SurfaceLightField};
+use crate::specular::{reflect_about, sample_ggx_h};
+pub use crate::specular::specular_shading_mixture;
+pub use crate::stream::{SampleStream, SamplerKind};
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
 use fipt_core::dataset::View;
 use fipt_core::image::Image;
-use fipt_core::reflectance::{ggx_d, schlick_weight, ReflectanceModel};
+use fipt_core::reflectance::{schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
     Progress, RayQuery, Reported, ShadingBaker, Shard, ViewShadings, ViewSink, DEFAULT_LEVELS,
     NUM_LEVELS,
 };
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
-
-/// How sample directions are drawn.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SamplerKind {
-    /// Independent uniform random numbers (the reference).
-    Independent,
-    /// R2 rank-1 lattice with a per-pixel random shift (lower variance).
-    Stratified,
-}
 
 /// How the specular shadings at the roughness levels are estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -217,43 +210,6 @@ impl IncidentLight for SlfLight<'_> {
     }
 }
 
-/// Sample points in [0,1)² for `n` samples.
-pub struct SampleStream {
-    kind: SamplerKind,
-    rng: Pcg32,
-    shift: Vec2,
-    k: u32,
-}
-
-const R2_A1: f64 = 0.754_877_666_246_692_7; // 1/g, g = plastic number
-const R2_A2: f64 = 0.569_840_290_998_053_3; // 1/g²
-
-impl SampleStream {
-    pub fn new(kind: SamplerKind, keys: &[u64]) -> Self {
-        let mut rng = Pcg32::from_keys(keys);
-        let shift = rng.next_2d();
-        SampleStream {
-            kind,
-            rng,
-            shift,
-            k: 0,
-        }
-    }
-    #[inline]
-    pub fn next(&mut self) -> Vec2 {
-        match self.kind {
-            SamplerKind::Independent => self.rng.next_2d(),
-            SamplerKind::Stratified => {
-                let k = self.k as f64;
-                self.k += 1;
-                let u = (self.shift.x as f64 + k * R2_A1).fract() as f32;
-                let v = (self.shift.y as f64 + k * R2_A2).fract() as f32;
-                Vec2::new(u.min(0.999_999_94), v.min(0.999_999_94))
-            }
-        }
-    }
-}
-
 /// Ls0 and Ls1 at roughness `sigma` by GGX half-vector sampling:
 /// weight = Li·F_k·G·(ωo·h)/((n·h)(n·ωo)), F0 = 1 − (1−ωo·h)⁵, F1 = (1−ωo·h)⁵.
 #[allow(clippy::too_many_arguments)]
@@ -312,146 +268,12 @@ fn reflected_li(
     (li != Vec3::ZERO).then_some((wi, voh, li))
 }
 
-/// Reflects `wo` about the half vector `h` (local frame): (local ωi, ωo·h, world ωi), or None
-/// when ωi leaves below the shading or geometric surface.
-#[inline]
-fn reflect_about(frame: &Frame, ng: Vec3, wo: Vec3, h: Vec3) -> Option<(Vec3, f32, Vec3)> {
-    let voh = wo.dot(h);
-    if voh <= 0.0 {
-        return None;
-    }
-    let wi = 2.0 * voh * h - wo;
-    if wi.z <= 0.0 {
-        return None;
-    }
-    let wi_w = frame.to_world(wi);
-    (wi_w.dot(ng) > 0.0).then_some((wi, voh, wi_w))
-}
-
-/// Sample a GGX half vector (local frame) for α from `u` (stable tan² form).
-#[inline]
-fn sample_ggx_h(alpha: f32, u: Vec2) -> Vec3 {
-    let tan2 = alpha * alpha * u.x / (1.0 - u.x).max(f32::MIN_POSITIVE);
-    let ct = 1.0 / (1.0 + tan2).sqrt();
-    let st = (tan2.sqrt() * ct).min(1.0);
-    let phi = std::f32::consts::TAU * u.y;
-    Vec3::new(st * phi.cos(), st * phi.sin(), ct)
-}
-
-/// Ls0/Ls1 at every level at once: `counts[k]` samples from level k's GGX lobe, each sample
-/// weighted for every level l by the balance heuristic over the level lobes,
-/// Li·D_l·G_l·F·(ωo·h) / ((n·ωo)(n·h)·Σ_k counts_k·D_k(h)); with emitters, `n_light` emitter
-/// samples more, the two techniques (GGX mixture, emitters) combined by the power heuristic.
-#[allow(clippy::too_many_arguments)]
-pub fn specular_shading_mixture<L: IncidentLight>(
-    light: &L,
-    geometry: &dyn RayQuery,
-    p: Vec3,
-    ng: Vec3,
-    ns: Vec3,
-    wo_world: Vec3,
-    levels: &[f32; NUM_LEVELS],
-    counts: &[u32; NUM_LEVELS],
-    n_light: u32,
-    streams: &mut [SampleStream; NUM_LEVELS],
-    rng: &mut Pcg32,
-    model: ReflectanceModel,
-) -> ([Rgb; NUM_LEVELS], [Rgb; NUM_LEVELS]) {
-    let mut s0 = [Vec3::ZERO; NUM_LEVELS];
-    let mut s1 = [Vec3::ZERO; NUM_LEVELS];
-    let n_light = if light.has_emitters() { n_light } else { 0 };
-    let frame = Frame::from_normal(ns);
-    let mut wo = frame.to_local(wo_world);
-    if wo.z < 1e-4 {
-        wo = Vec3::new(wo.x, wo.y, 1e-4).normalize();
-    }
-    let origin = geometry.offset(p, ng);
-    let alphas: [f32; NUM_LEVELS] = std::array::from_fn(|l| levels[l] * levels[l]);
-    let g1o = model.g1_levels(wo.z, levels);
-    let nl = n_light as f32;
-    let n_brdf = counts.iter().sum::<u32>().max(1) as f32;
-    // Adds `li`·(the per-level integrand at wi/h)·`scale` where scale = w/(n·pdf) of the
-    // technique; `q` = Σ_k counts_k·pdf_k(ωi) is the GGX mixture's n·pdf in solid angle.
-    let mut add = |wi: Vec3, voh: f32, d: &[f32; NUM_LEVELS], li: Rgb, scale: f32| {
-        let m = schlick_weight(voh);
-        let common = scale / (4.0 * wo.z);
-        let g1i = model.g1_levels(wi.z, levels);
-        for l in 0..NUM_LEVELS {
-            let w = d[l] * g1i[l] * g1o[l] * common;
-            s0[l] += li * (w * (1.0 - m));
-            s1[l] += li * (w * m);
-        }
-    };
-    let mixture_pdf = |h: Vec3, voh: f32| -> ([f32; NUM_LEVELS], f32) {
-        let d: [f32; NUM_LEVELS] = std::array::from_fn(|l| ggx_d(h, alphas[l]));
-        let q: f32 = (0..NUM_LEVELS)
-            .map(|l| counts[l] as f32 * d[l])
-            .sum::<f32>()
-            * h.z
-            / (4.0 * voh);
-        (d, q)
-    };
-    for k in 0..NUM_LEVELS {
-        for _ in 0..counts[k] {
-            let h = sample_ggx_h(alphas[k], streams[k].next());
-            let Some((wi, voh, wi_w)) = reflect_about(&frame, ng, wo, h) else {
-                continue;
-            };
-            let li = match light.incoming(origin, wi_w, rng) {
-                Incoming::Miss => continue,
-                Incoming::Radiance(l) => (l, 0.0),
-                Incoming::Emitter { le, light_pdf } => (le, light_pdf),
-            };
-            if li.0 == Vec3::ZERO {
-                continue;
-            }
-            let (d, q) = mixture_pdf(h, voh);
-            if !(q > 0.0) {
-                continue;
-            }
-            let w = if n_light > 0 && li.1 > 0.0 {
-                power_heuristic(q / n_brdf, li.1)
-            } else {
-                1.0
-            };
-            add(wi, voh, &d, li.0, w / q);
-        }
-    }
-    for _ in 0..n_light {
-        let Some(ls) = light.sample_emitter(origin, rng) else {
-            continue;
-        };
-        let wi = frame.to_local(ls.wi);
-        if wi.z <= 0.0 || ls.wi.dot(ng) <= 0.0 {
-            continue;
-        }
-        let h = (wi + wo).normalize();
-        let voh = wo.dot(h);
-        if !(voh > 0.0) || h.z <= 0.0 {
-            continue;
-        }
-        let (d, q) = mixture_pdf(h, voh);
-        let w = power_heuristic(ls.pdf, q / n_brdf);
-        add(wi, voh, &d, ls.le, w / (nl * ls.pdf));
-    }
-    (s0, s1)
-}
-
 /// The FIPT initial baker (SLF incident light), with the switches of [`BakeConfig`], for the
 /// shadings of a [`ReflectanceModel`].
 #[derive(Clone, Debug, Default)]
 pub struct FactorizedBaker {
     pub config: BakeConfig,
     pub model: ReflectanceModel,
-}
-
-pub(crate) fn median(mut v: Vec<f32>) -> Option<f32> {
-    if v.is_empty() {
-        return None;
-    }
-    let k = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-    Some(*m)
 }
 
 impl FactorizedBaker {

@@ -44,6 +44,8 @@ pub mod scene;
 pub mod scene_edits;
 pub mod search;
 pub mod slf;
+pub mod specular;
+pub mod stream;
 pub mod synth;
 
 pub use error::{Result, ShadingError};

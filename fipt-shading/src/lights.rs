@@ -562,10 +562,10 @@ impl DeltaLight {
     }
 }
 
-/// A sphere of 20·4^n triangles ([`crate::synth::icosphere_mesh`]) wound outwards, with
+/// A sphere of 20·4^n triangles ([`fipt_geom::shapes::icosphere_mesh`]) wound outwards, with
 /// outward vertex normals.
 pub fn icosphere(center: Vec3, radius: f32, subdivisions: u32) -> Mesh {
-    let mut m = crate::synth::icosphere_mesh(center, radius, subdivisions);
+    let mut m = fipt_geom::shapes::icosphere_mesh(center, radius, subdivisions);
     for t in 0..m.triangles.len() {
         let [a, b, c] = m.vertices(t);
         if (b - a).cross(c - a).dot((a + b + c) / 3.0 - center) < 0.0 {

@@ -1,7 +1,8 @@
 //! The passes over the training views that the bake and the refinement share: the SLF and the
 //! diffuse cache's cells built one view at a time, and one view's per-pixel diffuse and
 //! specular shadings.
-use crate::bake::{specular_shading_mixture, SampleStream, SamplerKind};
+use crate::specular::specular_shading_mixture;
+use crate::stream::{SampleStream, SamplerKind};
 use crate::diffuse::{DiffuseCells, DiffuseMoments};
 use crate::incident::IncidentLight;
 use crate::records::{primary_records, PixelRecord};

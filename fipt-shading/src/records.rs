@@ -1,6 +1,5 @@
 //! The training pixels' primary hits and what is sized from them: every stage that computes
 //! shadings per pixel (the bake, the refinement, the search) starts from these.
-use crate::bake::median;
 use fipt_core::dataset::View;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::{RayQuery, Shard, SurfaceHit, ViewShadings, NUM_LEVELS};
@@ -88,6 +87,32 @@ pub fn primary_records(geometry: &dyn RayQuery, view: &View) -> Vec<Option<Pixel
             })
         })
         .collect()
+}
+
+/// Primary hit points of every pixel of `views`, and the median pixel footprint (hit
+/// distance / focal length in pixels).
+pub fn view_points(geometry: &dyn RayQuery, views: &[View]) -> (Vec<Vec<Option<Vec3>>>, Option<f32>) {
+    let mut foot = vec![];
+    let pts = views
+        .iter()
+        .map(|v| {
+            let f = v.camera.fx.max(v.camera.fy);
+            primary_records(geometry, v)
+                .iter()
+                .map(|r| {
+                    r.map(|r| {
+                        foot.push(r.hit.t / f);
+                        r.hit.p
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let median = (!foot.is_empty()).then(|| {
+        let n = foot.len() / 2;
+        *foot.select_nth_unstable_by(n, f32::total_cmp).1
+    });
+    (pts, median)
 }
 
 /// All-zero shadings of `model` for `views`, valid where the pixel-centre ray hit the mesh.
@@ -195,3 +220,14 @@ pub fn empty_view_shadings(
     }
     s
 }
+
+/// The median of `v` (None when empty).
+pub(crate) fn median(mut v: Vec<f32>) -> Option<f32> {
+    if v.is_empty() {
+        return None;
+    }
+    let k = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    Some(*m)
+}
+

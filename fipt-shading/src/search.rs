@@ -502,12 +502,7 @@ pub fn on_region_edge(
 
 #[inline]
 fn oetf_grad(x: f32) -> f32 {
-    let x = x.max(1e-3);
-    if x <= 0.0031308 {
-        12.92
-    } else {
-        1.055 / 2.4 * x.powf(1.0 / 2.4 - 1.0)
-    }
+    fipt_core::color::srgb_oetf_grad(x.max(1e-3))
 }
 
 /// (b, c) of the linear model `a·b + c` at (σ, m) for one pixel.

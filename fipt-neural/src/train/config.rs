@@ -512,17 +512,6 @@ pub enum SegmentSource {
     None,
 }
 
-/// The per-pixel error of the training loss ([`TrainConfig::image_loss`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ImageLoss {
-    /// (oetf(p) − oetf(g))²: the reference.
-    #[default]
-    Srgb,
-    /// (oetf′(p)·(p − g))², oetf′(p) held constant: unbiased under zero-mean noise in g.
-    SrgbSlope,
-}
-
 /// Norm of the roughness/metallic prior.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

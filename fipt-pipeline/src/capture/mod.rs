@@ -65,7 +65,7 @@ pub fn examine(
         .collect();
     let check = ldr_check(&per_view, files_ldr);
     let mut r = CaptureReport {
-        warnings: crate::inspect::ldr_warnings("train", &check),
+        warnings: ldr_warnings("train", &check),
         ..Default::default()
     };
     if check.ldr {
@@ -127,4 +127,30 @@ pub fn examine(
         None => w,
     }));
     r
+}
+
+/// What a split's LDR evidence means for a run, in words and numbers (empty for HDR views).
+pub fn ldr_warnings(split: &str, c: &fipt_core::capture::LdrCheck) -> Vec<String> {
+    if !c.ldr {
+        return vec![];
+    }
+    let mut w = vec![format!(
+        "{split}: the views are LOW DYNAMIC RANGE ({}): radiance above the clip level is lost",
+        c.evidence.join("; ")
+    )];
+    if !c.clipped_views.is_empty() {
+        let worst = c.clipped_views.iter().fold(
+            (0usize, 0f64),
+            |a, &(k, s)| if s > a.1 { (k, s) } else { a },
+        );
+        w.push(format!(
+            "{split}: {} of the views clip ({:.2} % of all pixels at the clip level; most in view {}: {:.2} %): \
+             lights and highlights there are lower bounds, and a light seen only clipped has an unknown radiance",
+            c.clipped_views.len(),
+            100.0 * c.clipped_share,
+            worst.0,
+            100.0 * worst.1
+        ));
+    }
+    w
 }
