@@ -49,48 +49,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
         "raw incoherent closest-hit on this scene: {raw:.2} Mrays/s ({} rays)",
         inc.len()
     );
-    let base = BakeConfig::default();
-    let configs: Vec<(&str, BakeConfig)> = vec![
-        ("default", base.clone()),
-        (
-            "per_pixel_ld",
-            BakeConfig {
-                diffuse_cache: false,
-                ..base.clone()
-            },
-        ),
-        (
-            "per_pixel_ld_seed1",
-            BakeConfig {
-                diffuse_cache: false,
-                seed: 1,
-                ..base.clone()
-            },
-        ),
-        (
-            "independent_sampler",
-            BakeConfig {
-                sampler: SamplerKind::Independent,
-                ..base.clone()
-            },
-        ),
-        (
-            "per_level_specular",
-            BakeConfig {
-                specular_estimator: SpecularEstimator::PerLevel,
-                ..base.clone()
-            },
-        ),
-        (
-            "strict_slf",
-            BakeConfig {
-                slf_fallback_levels: 0,
-                ..base.clone()
-            },
-        ),
-        ("reference", BakeConfig::reference()),
-        ("fast", BakeConfig::fast()),
-    ];
+    let configs = bench_configs();
     let mut rows = Vec::new();
     let mut results: Vec<(String, Vec<ViewShadings>, BakeStats, f64)> = Vec::new();
     for (name, cfg) in configs {
@@ -136,4 +95,51 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
     });
     fipt_core::fsutil::write_json_atomic(out, &report)?;
     Ok(())
+}
+
+/// The bake settings the benchmark compares: the default, one switch off at a time, and the
+/// `reference` and `fast` presets.
+fn bench_configs() -> Vec<(&'static str, BakeConfig)> {
+    let base = BakeConfig::default();
+    vec![
+        ("default", base.clone()),
+        (
+            "per_pixel_ld",
+            BakeConfig {
+                diffuse_cache: false,
+                ..base.clone()
+            },
+        ),
+        (
+            "per_pixel_ld_seed1",
+            BakeConfig {
+                diffuse_cache: false,
+                seed: 1,
+                ..base.clone()
+            },
+        ),
+        (
+            "independent_sampler",
+            BakeConfig {
+                sampler: SamplerKind::Independent,
+                ..base.clone()
+            },
+        ),
+        (
+            "per_level_specular",
+            BakeConfig {
+                specular_estimator: SpecularEstimator::PerLevel,
+                ..base.clone()
+            },
+        ),
+        (
+            "strict_slf",
+            BakeConfig {
+                slf_fallback_levels: 0,
+                ..base.clone()
+            },
+        ),
+        ("reference", BakeConfig::reference()),
+        ("fast", BakeConfig::fast()),
+    ]
 }

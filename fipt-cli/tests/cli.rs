@@ -269,6 +269,32 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     let c = cfg.to_str().unwrap();
     let (ok, stdout, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
     assert!(ok, "{stdout}{err}");
+    check_layout(&out);
+    let m = check_light_and_accuracy(&out);
+    let report = check_stages_and_rounds(&out, &m);
+    check_rerun_reuses(d, o, c, &report);
+    let (ok, stdout, err) = fipt(&["eval", d, o]);
+    assert!(ok && stdout.contains("kd dB"), "{stdout}{err}");
+    check_profile(d, o);
+    // Against another scene, eval refuses (the report's inputs fingerprint differs).
+    let other = tmp("run-other-scene");
+    synth_cornell(other.to_str().unwrap(), [2, 1, 16, 12, 4]);
+    let (ok, _, err) = fipt(&["eval", other.to_str().unwrap(), o]);
+    assert!(!ok && err.contains("another scene"), "{err}");
+    let _ = std::fs::remove_dir_all(&other);
+    let m2: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(m, m2);
+    common::recovered::relight_and_novel_views(&dir, &out);
+    common::recovered::report_opens_in_a_browser(&out);
+    let leftovers = common::temporaries(&out);
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The layout other tools read: the run's files and every view's maps.
+fn check_layout(out: &std::path::Path) {
     // The layout other tools read.
     for f in [
         "report.json",
@@ -297,6 +323,11 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
             );
         }
     }
+}
+
+/// One light (the ceiling quad: 2 triangles, 0.25 m², radiance (17, 12, 4)) and the accuracy
+/// floors; returns `metrics.json`.
+fn check_light_and_accuracy(out: &std::path::Path) -> serde_json::Value {
     // One light: the ceiling quad (2 triangles, 0.25 m², radiance (17, 12, 4)).
     let e: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("emitters.json")).unwrap()).unwrap();
@@ -333,6 +364,12 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
             "{split}: kd {kd:.2} dB (floor {kd_floor}), σ {sigma:.2} dB (σ ≡ 1 scores {constant:.2})"
         );
     }
+    m
+}
+
+/// The stages in order, the settling round, the refinement's closure gain, the re-renders;
+/// returns `report.json`.
+fn check_stages_and_rounds(out: &std::path::Path, m: &serde_json::Value) -> serde_json::Value {
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     let stages: Vec<&str> = report["stages"]
@@ -391,6 +428,13 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
     assert!(out.join("views/val/000_render.exr").is_file());
     let rp = m["val"]["mean"]["render_psnr"].as_f64().unwrap();
     assert!(rp.is_finite() && rp > 10.0, "re-render PSNR {rp}");
+    report
+}
+
+/// Re-running reuses every stage without building a training set, and the report keeps the
+/// first run's times.
+fn check_rerun_reuses(d: &str, o: &str, c: &str, report: &serde_json::Value) {
+    let out = std::path::Path::new(o);
     // Re-running reuses the bake, the searches, the field and the re-renders, without building
     // a training set; `fipt eval` alone reproduces the metrics.
     let (ok, _, err) = fipt(&["run", d, "--out", o, "--config", c, "--preset", "fast"]);
@@ -424,8 +468,11 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
         total >= 0.5 * first && total > again["seconds_total"].as_f64().unwrap(),
         "computed {total} s, first run {first} s: {again}"
     );
-    let (ok, stdout, err) = fipt(&["eval", d, o]);
-    assert!(ok && stdout.contains("kd dB"), "{stdout}{err}");
+}
+
+/// `fipt profile`: a row per region with the fitted and the whole-part base colour's costs,
+/// finite.
+fn check_profile(d: &str, o: &str) {
     // The search's evidence per part: a row per region with the fitted and the whole-part
     // base colour's costs, finite.
     let (ok, stdout, err) = fipt(&["profile", d, o, "--shadings", "refine1"]);
@@ -445,21 +492,6 @@ fn run_then_eval_finds_the_light_meets_accuracy_floors_and_writes_the_layout() {
             "{stdout}"
         );
     }
-    // Against another scene, eval refuses (the report's inputs fingerprint differs).
-    let other = tmp("run-other-scene");
-    synth_cornell(other.to_str().unwrap(), [2, 1, 16, 12, 4]);
-    let (ok, _, err) = fipt(&["eval", other.to_str().unwrap(), o]);
-    assert!(!ok && err.contains("another scene"), "{err}");
-    let _ = std::fs::remove_dir_all(&other);
-    let m2: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
-    assert_eq!(m, m2);
-    common::recovered::relight_and_novel_views(&dir, &out);
-    common::recovered::report_opens_in_a_browser(&out);
-    let leftovers = common::temporaries(&out);
-    assert!(leftovers.is_empty(), "{leftovers:?}");
-    let _ = std::fs::remove_dir_all(&dir);
-    let _ = std::fs::remove_dir_all(&out);
 }
 
 #[test]

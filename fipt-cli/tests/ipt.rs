@@ -57,6 +57,41 @@ fn ipt_runs_through_fipt_run_and_is_evaluated() {
         run_args(args, &c)
     };
     run(&[]).unwrap();
+    check_ipt_outputs(&out);
+    // Run again: the finished fit is reused; --force starts it afresh.
+    run(&[]).unwrap();
+    assert_eq!(
+        read_json(&out.join("report.json"))["fit"]["resumed_at_step"],
+        300
+    );
+    run(&["--force"]).unwrap();
+    assert_eq!(
+        read_json(&out.join("report.json"))["fit"]["resumed_at_step"],
+        0
+    );
+    // A misspelt method names the registered ones.
+    let other = dir.join("other");
+    let misspelt = [
+        "fipt",
+        "run",
+        &s(&scene),
+        "--out",
+        &s(&other),
+        "--method",
+        "ipr",
+    ];
+    let err = format!("{:#}", run_args(misspelt, &c).unwrap_err());
+    assert!(err.contains("ipr") && err.contains("ipt"), "{err}");
+    // A bad setting names its key.
+    std::fs::write(&cfg, "[plugins.ipt]\niterations = 0\n").unwrap();
+    let err = format!("{:#}", run(&["--force"]).unwrap_err());
+    assert!(err.contains("iterations"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The run's layout, the report's method, field and fit, the emitters the method found, and
+/// the metrics.
+fn check_ipt_outputs(out: &std::path::Path) {
     for f in [
         "report.json",
         "emitters.json",
@@ -87,33 +122,4 @@ fn ipt_runs_through_fipt_run_and_is_evaluated() {
         metrics["val"]["mean"]["kd_psnr"].as_f64().is_some(),
         "{metrics}"
     );
-    // Run again: the finished fit is reused; --force starts it afresh.
-    run(&[]).unwrap();
-    assert_eq!(
-        read_json(&out.join("report.json"))["fit"]["resumed_at_step"],
-        300
-    );
-    run(&["--force"]).unwrap();
-    assert_eq!(
-        read_json(&out.join("report.json"))["fit"]["resumed_at_step"],
-        0
-    );
-    // A misspelt method names the registered ones.
-    let other = dir.join("other");
-    let misspelt = [
-        "fipt",
-        "run",
-        &s(&scene),
-        "--out",
-        &s(&other),
-        "--method",
-        "ipr",
-    ];
-    let err = format!("{:#}", run_args(misspelt, &c).unwrap_err());
-    assert!(err.contains("ipr") && err.contains("ipt"), "{err}");
-    // A bad setting names its key.
-    std::fs::write(&cfg, "[plugins.ipt]\niterations = 0\n").unwrap();
-    let err = format!("{:#}", run(&["--force"]).unwrap_err());
-    assert!(err.contains("iterations"), "{err}");
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -132,16 +132,7 @@ fn a_run_killed_at_seeded_moments_of_every_stage_resumes_to_the_same_results() {
         String::from_utf8_lossy(&out.stderr)
     );
     let reference = results(&full);
-    // The moments of each stage occurrence, in run order.
-    let mut stages: Vec<(String, Vec<u64>)> = vec![];
-    for line in std::fs::read_to_string(&log).unwrap().lines() {
-        let (stage, n) = line.rsplit_once(' ').unwrap();
-        let n: u64 = n.parse().unwrap();
-        match stages.last_mut() {
-            Some((s, seen)) if s == stage => seen.push(n),
-            _ => stages.push((stage.to_string(), vec![n])),
-        }
-    }
+    let stages = stage_moments(&log);
     let names: Vec<&str> = stages
         .iter()
         .map(|s| s.0.split('#').next().unwrap())
@@ -217,4 +208,18 @@ fn a_run_killed_at_seeded_moments_of_every_stage_resumes_to_the_same_results() {
     for p in [dir, full] {
         let _ = std::fs::remove_dir_all(p);
     }
+}
+
+/// The moments of each stage occurrence in the chaos log `log`, in run order.
+fn stage_moments(log: &std::path::Path) -> Vec<(String, Vec<u64>)> {
+    let mut stages: Vec<(String, Vec<u64>)> = vec![];
+    for line in std::fs::read_to_string(log).unwrap().lines() {
+        let (stage, n) = line.rsplit_once(' ').unwrap();
+        let n: u64 = n.parse().unwrap();
+        match stages.last_mut() {
+            Some((s, seen)) if s == stage => seen.push(n),
+            _ => stages.push((stage.to_string(), vec![n])),
+        }
+    }
+    stages
 }

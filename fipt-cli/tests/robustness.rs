@@ -121,22 +121,7 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
 
     let out = tmp("rb-folders-out");
     let o = out.to_str().unwrap();
-    for (spp, key) in [("4000000000", "--spp"), ("0", "--spp")] {
-        refused(
-            &["render", r, "--cameras", &cams, "--out", o, "--spp", spp],
-            &[key, "use [1, 65536]"],
-        );
-    }
-    for (opt, v) in [
-        ("--texel", "0"),
-        ("--texel", "nan"),
-        ("--max-atlas", "1000000"),
-    ] {
-        refused(
-            &["export", r, "--format", "obj", "--out", o, opt, v],
-            &[opt],
-        );
-    }
+    options_out_of_range_are_refused(r, &cams, o);
     // Settings out of range: refused by key before the run folder is touched.
     for (toml, key) in [
         (
@@ -194,6 +179,26 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
     }
     for p in [f.scene, f.run, out] {
         let _ = std::fs::remove_dir_all(p);
+    }
+}
+
+/// `--spp`, `--texel` and `--max-atlas` out of range are refused, naming the option.
+fn options_out_of_range_are_refused(r: &str, cams: &str, o: &str) {
+    for (spp, key) in [("4000000000", "--spp"), ("0", "--spp")] {
+        refused(
+            &["render", r, "--cameras", cams, "--out", o, "--spp", spp],
+            &[key, "use [1, 65536]"],
+        );
+    }
+    for (opt, v) in [
+        ("--texel", "0"),
+        ("--texel", "nan"),
+        ("--max-atlas", "1000000"),
+    ] {
+        refused(
+            &["export", r, "--format", "obj", "--out", o, opt, v],
+            &[opt],
+        );
     }
 }
 

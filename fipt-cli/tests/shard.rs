@@ -79,23 +79,7 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
         !err.lines().any(|l| l.starts_with("bake ")),
         "baked again: {err}"
     );
-    // While a shard works in the folder (its lock held by a live process: this test), a plain
-    // run is refused before it touches anything.
-    let shard_lock = sharded.join(".fipt.shard-1-of-3.lock");
-    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
-    let me = format!(
-        "pid {}\nhost {}\nfipt run --shard 1/3\n",
-        std::process::id(),
-        host.trim()
-    );
-    std::fs::write(&shard_lock, me).unwrap();
-    let (ok, _, err) = run(&sharded, &[]);
-    assert!(
-        !ok && err.contains("in use") && err.contains(".fipt.shard-1-of-3.lock"),
-        "{err}"
-    );
-    assert!(!sharded.join("report.json").exists() && !sharded.join(".fipt.lock").exists());
-    std::fs::remove_file(&shard_lock).unwrap();
+    a_plain_run_waits_for_a_live_shard(&sharded, &run);
     // A plain run computes the missing shard itself (the two done are kept), merges, and
     // clears the stale set of 2; it trains round 1 and stops before the refinement.
     let (ok, out, err) = run(&sharded, &["--stop-before", "refine"]);
@@ -135,6 +119,35 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
     assert!(ok, "{err}");
     assert_eq!(status(&sharded), "complete");
 
+    assert_same_outputs(&whole, &sharded);
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// While a shard works in the folder (its lock held by a live process: this test), a plain run
+/// is refused before it touches anything.
+fn a_plain_run_waits_for_a_live_shard(
+    sharded: &Path,
+    run: &dyn Fn(&Path, &[&str]) -> (bool, String, String),
+) {
+    let shard_lock = sharded.join(".fipt.shard-1-of-3.lock");
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+    let me = format!(
+        "pid {}\nhost {}\nfipt run --shard 1/3\n",
+        std::process::id(),
+        host.trim()
+    );
+    std::fs::write(&shard_lock, me).unwrap();
+    let (ok, _, err) = run(sharded, &[]);
+    assert!(
+        !ok && err.contains("in use") && err.contains(".fipt.shard-1-of-3.lock"),
+        "{err}"
+    );
+    assert!(!sharded.join("report.json").exists() && !sharded.join(".fipt.lock").exists());
+    std::fs::remove_file(&shard_lock).unwrap();
+}
+
+/// The sharded run's shadings, maps and emitters are the unsharded run's, bit for bit.
+fn assert_same_outputs(whole: &Path, sharded: &Path) {
     for stage in ["bake/train", "refine1/train"] {
         let (a, b) = (
             fsh_files(&whole.join(stage)),
@@ -157,7 +170,6 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
             "{f} differs"
         );
     }
-    let _ = std::fs::remove_dir_all(&root);
 }
 
 /// A stand-in for `sbatch` that runs each job at once (an array's tasks last first), logs

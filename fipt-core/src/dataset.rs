@@ -17,7 +17,6 @@ use glam::{Mat4, Vec3};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-
 /// Which of the two reference layouts a scene folder follows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]

@@ -167,32 +167,11 @@ impl Image {
     /// broadcast to grey. Half, float and uint samples are accepted.
     pub fn read_exr(path: &Path) -> Result<Image> {
         use exr::prelude::*;
-        let size = std::fs::metadata(path)
-            .map_err(|e| CoreError::io(path, e))?
-            .len();
+        let size = exr_size_checked(path)?;
         let broken = |what: String| CoreError::Exr {
             path: path.to_path_buf(),
             message: what,
         };
-        if size == 0 {
-            return Err(broken(
-                "the file is empty (0 bytes): an interrupted copy or render? write it again".into(),
-            ));
-        }
-        // The reader allocates what the header declares: a corrupt size would ask for
-        // gigabytes. Real files carry at least a byte per ~2000 pixels (even a constant image).
-        if let Ok(meta) = exr::meta::MetaData::read_from_file(path, false) {
-            let limit = (16u64 << 20) + size * 2048;
-            for h in meta.headers.iter() {
-                let px = h.layer_size.0 as u64 * h.layer_size.1 as u64;
-                if px > limit {
-                    return Err(broken(format!(
-                        "the header declares {}x{} pixels in a {size}-byte file: corrupt",
-                        h.layer_size.0, h.layer_size.1
-                    )));
-                }
-            }
-        }
         let img = read()
             .no_deep_data()
             .largest_resolution_level()
@@ -378,6 +357,38 @@ impl Image {
             1.0
         }
     }
+}
+
+/// The size of the EXR file at `path`, after refusing an empty file and a header that declares
+/// far more pixels than the file could hold.
+fn exr_size_checked(path: &Path) -> Result<u64> {
+    let size = std::fs::metadata(path)
+        .map_err(|e| CoreError::io(path, e))?
+        .len();
+    let broken = |what: String| CoreError::Exr {
+        path: path.to_path_buf(),
+        message: what,
+    };
+    if size == 0 {
+        return Err(broken(
+            "the file is empty (0 bytes): an interrupted copy or render? write it again".into(),
+        ));
+    }
+    // The reader allocates what the header declares: a corrupt size would ask for
+    // gigabytes. Real files carry at least a byte per ~2000 pixels (even a constant image).
+    if let Ok(meta) = exr::meta::MetaData::read_from_file(path, false) {
+        let limit = (16u64 << 20) + size * 2048;
+        for h in meta.headers.iter() {
+            let px = h.layer_size.0 as u64 * h.layer_size.1 as u64;
+            if px > limit {
+                return Err(broken(format!(
+                    "the header declares {}x{} pixels in a {size}-byte file: corrupt",
+                    h.layer_size.0, h.layer_size.1
+                )));
+            }
+        }
+    }
+    Ok(size)
 }
 
 #[cfg(test)]

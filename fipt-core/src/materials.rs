@@ -283,70 +283,11 @@ impl SceneMaterials {
     /// v along −z (the floor quad's uv in the studio scene), scaled by `uv_scale`. Anything
     /// else is an error naming the object.
     pub fn from_scene_parts(v: &serde_json::Value, path: &Path) -> Result<Self> {
+        let rd = PartsReader { path };
         let bad = |m: String| CoreError::invalid(path, m);
         let objects = v["objects"]
             .as_array()
             .ok_or_else(|| bad("`objects` is not a list".into()))?;
-        let arr3 = |x: &serde_json::Value, what: &str| -> Result<[f32; 3]> {
-            let a = x
-                .as_array()
-                .filter(|a| a.len() == 3)
-                .ok_or_else(|| bad(format!("{what} is not a 3-vector")))?;
-            let mut out = [0.0; 3];
-            for (o, e) in out.iter_mut().zip(a) {
-                *o = e
-                    .as_f64()
-                    .ok_or_else(|| bad(format!("{what} holds a non-number")))?
-                    as f32;
-            }
-            Ok(out)
-        };
-        // A colour or a scalar: a number stands for its grey.
-        let value = |x: &serde_json::Value, what: &str| -> Result<[f32; 3]> {
-            match x.as_f64() {
-                Some(v) => Ok([v as f32; 3]),
-                None => arr3(x, what),
-            }
-        };
-        // A parameter: a constant, or a checker over the object's bounding box.
-        // A missing parameter takes `default`, or is an error where there is none.
-        let param = |o: &serde_json::Value, key: &str, default: Option<f32>| -> Result<Texture> {
-            let x = &o[key];
-            let what = format!("object {}: {key}", o["name"].as_str().unwrap_or("?"));
-            if x.is_null() {
-                return default
-                    .map(Texture::Scalar)
-                    .ok_or_else(|| bad(format!("{what} is missing")));
-            }
-            if let Some(v) = x.as_f64() {
-                return Ok(Texture::Scalar(v as f32));
-            }
-            if x.is_array() {
-                return Ok(Texture::Rgb(arr3(x, &what)?));
-            }
-            if x["type"].as_str() != Some("checker") {
-                return Err(bad(format!(
-                    "{what} is {x}: expected a number, an RGB triple or a checker"
-                )));
-            }
-            let lo = arr3(&o["bbox"][0], &format!("{what}: the object's bbox[0]"))?;
-            let hi = arr3(&o["bbox"][1], &format!("{what}: the object's bbox[1]"))?;
-            let scale = |i: usize| x["uv_scale"][i].as_f64().map(|v| v as f32);
-            let (Some(su), Some(sv)) = (scale(0), scale(1)) else {
-                return Err(bad(format!(
-                    "{what}: a checker needs uv_scale = [u, v] (numbers)"
-                )));
-            };
-            let ex = (hi[0] - lo[0]).max(1e-9);
-            let ez = (hi[2] - lo[2]).max(1e-9);
-            Ok(Texture::Pattern(Pattern::Checker {
-                color0: value(&x["color0"], &format!("{what}.color0"))?,
-                color1: value(&x["color1"], &format!("{what}.color1"))?,
-                origin: [lo[0], lo[1], hi[2]],
-                u_axis: [su / ex, 0.0, 0.0],
-                v_axis: [0.0, 0.0, -sv / ez],
-            }))
-        };
         // Emitters are one-sided where the table's conventions say so (Mitsuba's area lights).
         let one_sided = v["gt_conventions"]["emitters"]
             .as_str()
@@ -366,13 +307,13 @@ impl SceneMaterials {
             let mat = match o["type"].as_str() {
                 Some("emitter") => MaterialDesc::Emitter {
                     name,
-                    radiance: arr3(&o["radiance"], "radiance")?,
+                    radiance: rd.arr3(&o["radiance"], "radiance")?,
                     one_sided,
                 },
                 Some("principled") => MaterialDesc::Principled {
-                    base_color: param(o, "base_color", None)?,
-                    roughness: param(o, "roughness", Some(1.0))?,
-                    metallic: param(o, "metallic", Some(0.0))?,
+                    base_color: rd.param(o, "base_color", None)?,
+                    roughness: rd.param(o, "roughness", Some(1.0))?,
+                    metallic: rd.param(o, "metallic", Some(0.0))?,
                     name,
                 },
                 other => return Err(bad(format!("object {name}: unknown type {other:?}"))),
@@ -390,6 +331,80 @@ impl SceneMaterials {
             faces,
             note: format!("imported from {}", path.display()),
         })
+    }
+}
+
+/// Reads the values of a `scene_parts.json` table, errors naming its file.
+struct PartsReader<'a> {
+    path: &'a Path,
+}
+
+impl PartsReader<'_> {
+    fn bad(&self, m: String) -> CoreError {
+        CoreError::invalid(self.path, m)
+    }
+
+    fn arr3(&self, x: &serde_json::Value, what: &str) -> Result<[f32; 3]> {
+        let a = x
+            .as_array()
+            .filter(|a| a.len() == 3)
+            .ok_or_else(|| self.bad(format!("{what} is not a 3-vector")))?;
+        let mut out = [0.0; 3];
+        for (o, e) in out.iter_mut().zip(a) {
+            *o = e
+                .as_f64()
+                .ok_or_else(|| self.bad(format!("{what} holds a non-number")))?
+                as f32;
+        }
+        Ok(out)
+    }
+
+    /// A colour or a scalar: a number stands for its grey.
+    fn value(&self, x: &serde_json::Value, what: &str) -> Result<[f32; 3]> {
+        match x.as_f64() {
+            Some(v) => Ok([v as f32; 3]),
+            None => self.arr3(x, what),
+        }
+    }
+
+    /// A parameter: a constant, or a checker over the object's bounding box. A missing
+    /// parameter takes `default`, or is an error where there is none.
+    fn param(&self, o: &serde_json::Value, key: &str, default: Option<f32>) -> Result<Texture> {
+        let x = &o[key];
+        let what = format!("object {}: {key}", o["name"].as_str().unwrap_or("?"));
+        if x.is_null() {
+            return default
+                .map(Texture::Scalar)
+                .ok_or_else(|| self.bad(format!("{what} is missing")));
+        }
+        if let Some(v) = x.as_f64() {
+            return Ok(Texture::Scalar(v as f32));
+        }
+        if x.is_array() {
+            return Ok(Texture::Rgb(self.arr3(x, &what)?));
+        }
+        if x["type"].as_str() != Some("checker") {
+            return Err(self.bad(format!(
+                "{what} is {x}: expected a number, an RGB triple or a checker"
+            )));
+        }
+        let lo = self.arr3(&o["bbox"][0], &format!("{what}: the object's bbox[0]"))?;
+        let hi = self.arr3(&o["bbox"][1], &format!("{what}: the object's bbox[1]"))?;
+        let scale = |i: usize| x["uv_scale"][i].as_f64().map(|v| v as f32);
+        let (Some(su), Some(sv)) = (scale(0), scale(1)) else {
+            return Err(self.bad(format!(
+                "{what}: a checker needs uv_scale = [u, v] (numbers)"
+            )));
+        };
+        let ex = (hi[0] - lo[0]).max(1e-9);
+        let ez = (hi[2] - lo[2]).max(1e-9);
+        Ok(Texture::Pattern(Pattern::Checker {
+            color0: self.value(&x["color0"], &format!("{what}.color0"))?,
+            color1: self.value(&x["color1"], &format!("{what}.color1"))?,
+            origin: [lo[0], lo[1], hi[2]],
+            u_axis: [su / ex, 0.0, 0.0],
+            v_axis: [0.0, 0.0, -sv / ez],
+        }))
     }
 }
 

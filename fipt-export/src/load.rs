@@ -177,20 +177,7 @@ pub fn load_glb(path: &Path) -> Result<(Mesh, GlbSurfaces)> {
             let col: Option<Vec<Rgb>> = r
                 .read_colors(0)
                 .map(|c| c.into_rgb_f32().map(Vec3::from).collect());
-            let extra = |name: &str| -> Option<Vec<f32>> {
-                let acc = prim
-                    .attributes()
-                    .find(|(s, _)| matches!(s, gltf::Semantic::Extras(n) if n == name))?;
-                let view = acc.1.view()?;
-                let buf = &buffers[view.buffer().index()];
-                let start = view.offset() + acc.1.offset();
-                Some(
-                    buf[start..start + 4 * acc.1.count()]
-                        .chunks(4)
-                        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-                        .collect(),
-                )
-            };
+            let extra = |name: &str| extra_attribute(&prim, &buffers, name);
             let (rough, metal) = (extra("ROUGHNESS"), extra("METALLIC"));
             let mat = prim.material();
             let strength = mat.emissive_strength().unwrap_or(1.0);
@@ -232,14 +219,7 @@ pub fn load_glb(path: &Path) -> Result<(Mesh, GlbSurfaces)> {
         }
     }
     let mesh = Mesh::from_triangles(positions, Some(normals), tris);
-    if mesh.dropped_degenerate > 0 {
-        // Keep the per-triangle sources aligned with the mesh's triangles.
-        source = mesh
-            .face_ids
-            .iter()
-            .map(|&f| source[f as usize].clone())
-            .collect();
-    }
+    let source = aligned_sources(&mesh, source);
     let corners = (0..mesh.triangles.len())
         .map(|t| mesh.vertices(t))
         .collect();
@@ -252,4 +232,35 @@ pub fn load_glb(path: &Path) -> Result<(Mesh, GlbSurfaces)> {
             metallic_roughness,
         },
     ))
+}
+
+/// The per-triangle sources of the file's triangles kept by the mesh (degenerate ones dropped).
+fn aligned_sources(mesh: &Mesh, source: Vec<Source>) -> Vec<Source> {
+    if mesh.dropped_degenerate == 0 {
+        return source;
+    }
+    mesh.face_ids
+        .iter()
+        .map(|&f| source[f as usize].clone())
+        .collect()
+}
+
+/// A primitive's custom per-vertex f32 attribute `name` (e.g. `_ROUGHNESS`), if present.
+fn extra_attribute(
+    prim: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    name: &str,
+) -> Option<Vec<f32>> {
+    let acc = prim
+        .attributes()
+        .find(|(s, _)| matches!(s, gltf::Semantic::Extras(n) if n == name))?;
+    let view = acc.1.view()?;
+    let buf = &buffers[view.buffer().index()];
+    let start = view.offset() + acc.1.offset();
+    Some(
+        buf[start..start + 4 * acc.1.count()]
+            .chunks(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect(),
+    )
 }

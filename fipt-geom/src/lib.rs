@@ -25,8 +25,8 @@ pub mod nearest;
 pub mod patches;
 mod ply;
 pub mod sampling;
-pub mod shapes;
 mod scan;
+pub mod shapes;
 
 pub use bvh::{hit_point, offset_ray_origin, shading_normal, BuildQuality, Bvh, Hit};
 pub use error::{GeomError, Result};

@@ -1,6 +1,6 @@
 //! Reading a mesh file by its extension: OBJ (tobj), glTF/GLB (gltf), PLY (`ply.rs`).
-use crate::error::{GeomError, Result};
 use crate::error::parse_err;
+use crate::error::{GeomError, Result};
 use crate::mesh::Mesh;
 use glam::{Mat3, Mat4, Vec3};
 use std::path::Path;
@@ -38,7 +38,6 @@ impl Mesh {
         Ok(mesh)
     }
 }
-
 
 fn load_obj(path: &Path) -> Result<Mesh> {
     let opts = tobj::LoadOptions {

@@ -1,8 +1,8 @@
 //! The PLY reader: ASCII, binary little- and big-endian; `vertex` x y z [nx ny nz] and `face`
 //! `vertex_indices` (or `vertex_index`) lists, polygons fanned into triangles; other elements
 //! and properties are read past.
-use crate::error::{GeomError, Result};
 use crate::error::parse_err;
+use crate::error::{GeomError, Result};
 use crate::mesh::{fan, Mesh};
 use glam::Vec3;
 use std::io::{BufRead, BufReader, Read};

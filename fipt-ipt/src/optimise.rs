@@ -220,8 +220,6 @@ pub fn run(
     let max_rel = cfg.max_relative_residual;
     let batch = cfg.batch as usize;
     let until = until.min(cfg.iterations);
-    let total_area: f32 = (0..p.mesh.triangles.len()).map(|t| p.mesh.area(t)).sum();
-    let lum_w = [Vec3::X, Vec3::Y, Vec3::Z].map(luminance);
     let share = group_shares(p);
     let mut lights = LightSampler::new(p.mesh, &state.params);
     while state.iteration < until {
@@ -281,41 +279,8 @@ pub fn run(
                 (grad, loss)
             })
             .collect();
-        let mut g = vec![0f32; state.params.len()];
-        let mut loss = 0f64;
-        for (pairs, l) in chunks {
-            loss += l;
-            for (i, v) in pairs {
-                g[i as usize] += v;
-            }
-        }
-        for (t, _) in p.may_emit.iter().enumerate().filter(|(_, &e)| !e) {
-            let i = state.params.emission_index(t as u32);
-            g[i..i + 3].fill(0.0);
-        }
-        // The L1 prior on emission, relative to what each slot shows:
-        // λ Σ_s (A_s/A) lum(Le_s) / (observed_s + ε).
-        if cfg.emission_prior > 0.0 {
-            let s = cfg.emission_prior / total_area.max(1e-20);
-            for slot in 0..state.params.slots as u32 {
-                if !p.may_emit[slot as usize] {
-                    continue;
-                }
-                let le = state.params.emission(slot);
-                let i = state.params.emission_index(slot);
-                let area = p.mesh.area(slot as usize / 2);
-                let a = area * s / (luminance(p.observed[slot as usize]) + eps);
-                for c in 0..3 {
-                    g[i + c] += a * lum_w[c] * le[c];
-                }
-            }
-        }
-        // The L1 prior on metallic: λ Σ_g share_g m_g (m ≥ 0).
-        if cfg.metallic_prior > 0.0 {
-            for (group, &sh) in share.iter().enumerate() {
-                g[Params::metallic_index(group as u32)] += cfg.metallic_prior * sh;
-            }
-        }
+        let (mut g, loss) = sum_chunks(chunks, state.params.len());
+        add_priors(p, cfg, &state.params, &share, eps, &mut g);
         let frac = it as f32 / cfg.iterations.max(1) as f32;
         let lr = cfg.learning_rate * cfg.final_rate_ratio.powf(frac);
         state
@@ -333,4 +298,57 @@ pub fn run(
         progress(state.iteration as usize, cfg.iterations as usize);
     }
     Ok(())
+}
+
+/// The gradient over `n` parameters and the loss, summed over the batch's chunks in order.
+fn sum_chunks(chunks: Vec<(Vec<(u32, f32)>, f64)>, n: usize) -> (Vec<f32>, f64) {
+    let mut g = vec![0f32; n];
+    let mut loss = 0f64;
+    for (pairs, l) in chunks {
+        loss += l;
+        for (i, v) in pairs {
+            g[i as usize] += v;
+        }
+    }
+    (g, loss)
+}
+
+/// Adds the priors' gradients to `g` and zeroes the emission of slots that may not emit.
+fn add_priors(
+    p: &Problem,
+    cfg: &IptConfig,
+    params: &Params,
+    share: &[f32],
+    eps: f32,
+    g: &mut [f32],
+) {
+    let total_area: f32 = (0..p.mesh.triangles.len()).map(|t| p.mesh.area(t)).sum();
+    let lum_w = [Vec3::X, Vec3::Y, Vec3::Z].map(luminance);
+    for (t, _) in p.may_emit.iter().enumerate().filter(|(_, &e)| !e) {
+        let i = params.emission_index(t as u32);
+        g[i..i + 3].fill(0.0);
+    }
+    // The L1 prior on emission, relative to what each slot shows:
+    // λ Σ_s (A_s/A) lum(Le_s) / (observed_s + ε).
+    if cfg.emission_prior > 0.0 {
+        let s = cfg.emission_prior / total_area.max(1e-20);
+        for slot in 0..params.slots as u32 {
+            if !p.may_emit[slot as usize] {
+                continue;
+            }
+            let le = params.emission(slot);
+            let i = params.emission_index(slot);
+            let area = p.mesh.area(slot as usize / 2);
+            let a = area * s / (luminance(p.observed[slot as usize]) + eps);
+            for c in 0..3 {
+                g[i + c] += a * lum_w[c] * le[c];
+            }
+        }
+    }
+    // The L1 prior on metallic: λ Σ_g share_g m_g (m ≥ 0).
+    if cfg.metallic_prior > 0.0 {
+        for (group, &sh) in share.iter().enumerate() {
+            g[Params::metallic_index(group as u32)] += cfg.metallic_prior * sh;
+        }
+    }
 }

@@ -166,37 +166,15 @@ pub fn trace(
         }
         let p_out = scene.geometry.offset(hit.p, ng);
         // Next-event estimation.
-        if let Some(ls) = scene.lights.sample(rng.next_f32(), rng.next_2d()) {
-            let d = ls.p - p_out;
-            let dist2 = d.length_squared();
-            let dist = dist2.sqrt();
-            let wi_w = d / dist.max(1e-20);
-            let cos_l = ls.n.dot(wi_w).abs();
-            let wi = frame.to_local(wi_w);
-            // The sampled side must face the point.
-            let facing = params.slot(ls.tri, ls.n.dot(wi_w) < 0.0) == ls.slot;
-            if dist > 0.0
-                && cos_l > 0.0
-                && facing
-                && wi.z > 0.0
-                && wi_w.dot(ng) > 0.0
-                && ls.tri != hit.tri
-            {
-                let lb = b.lobes(wo, wi);
-                if lb.iter().any(|&x| x != 0.0)
-                    && !scene.geometry.occluded(p_out, wi_w, dist * (1.0 - 1e-4))
-                {
-                    let light_pdf = ls.pdf_area * dist2 / cos_l;
-                    let scale = power_heuristic(light_pdf, b.pdf(wo, wi)) / light_pdf;
-                    l += beta * factor(&b, &lb) * params.emission(ls.slot) * scale;
-                    v.nee = Some(Nee {
-                        light: ls.slot,
-                        wi,
-                        scale,
-                    });
-                }
-            }
-        }
+        let at = Shading {
+            brdf: &b,
+            frame: &frame,
+            tri: hit.tri,
+            p_out,
+            ng,
+            wo,
+        };
+        v.nee = next_event(scene, params, &at, beta, rng, &mut l);
         // Continue by sampling the BRDF.
         let Some(s) = b.sample(wo, rng.next_f32(), rng.next_2d()) else {
             path.push(v);
@@ -227,6 +205,66 @@ pub fn trace(
         dir = wi_w;
     }
     l
+}
+
+/// A path vertex as next-event estimation sees it.
+struct Shading<'a> {
+    brdf: &'a MicrofacetBrdf,
+    frame: &'a Frame,
+    /// The triangle hit (a light sample on it is refused).
+    tri: u32,
+    /// The point, offset off the surface.
+    p_out: Vec3,
+    /// The geometric normal towards the viewer.
+    ng: Vec3,
+    /// The direction to the viewer, local frame.
+    wo: Vec3,
+}
+
+/// Adds to `l` one emitter sample's light at `at`, times `beta`, weighted by the power
+/// heuristic against the BRDF; returns what the gradient needs of it (None: nothing arrived).
+#[inline]
+fn next_event(
+    scene: &TraceScene,
+    params: &Params,
+    at: &Shading,
+    beta: Rgb,
+    rng: &mut Pcg32,
+    l: &mut Rgb,
+) -> Option<Nee> {
+    let Shading {
+        brdf: b,
+        frame,
+        tri,
+        p_out,
+        ng,
+        wo,
+    } = *at;
+    let ls = scene.lights.sample(rng.next_f32(), rng.next_2d())?;
+    let d = ls.p - p_out;
+    let dist2 = d.length_squared();
+    let dist = dist2.sqrt();
+    let wi_w = d / dist.max(1e-20);
+    let cos_l = ls.n.dot(wi_w).abs();
+    let wi = frame.to_local(wi_w);
+    // The sampled side must face the point.
+    let facing = params.slot(ls.tri, ls.n.dot(wi_w) < 0.0) == ls.slot;
+    if !(dist > 0.0 && cos_l > 0.0 && facing && wi.z > 0.0 && wi_w.dot(ng) > 0.0 && ls.tri != tri) {
+        return None;
+    }
+    let lb = b.lobes(wo, wi);
+    if !(lb.iter().any(|&x| x != 0.0) && !scene.geometry.occluded(p_out, wi_w, dist * (1.0 - 1e-4)))
+    {
+        return None;
+    }
+    let light_pdf = ls.pdf_area * dist2 / cos_l;
+    let scale = power_heuristic(light_pdf, b.pdf(wo, wi)) / light_pdf;
+    *l += beta * factor(b, &lb) * params.emission(ls.slot) * scale;
+    Some(Nee {
+        light: ls.slot,
+        wi,
+        scale,
+    })
 }
 
 /// What vertex `v` shows by itself (its emission and its next-event term) and its BRDF

@@ -15,28 +15,7 @@ fn check(model: ReflectanceModel) {
     let tri_group = fx.table.tri_material.clone();
     let groups = *tri_group.iter().max().unwrap() as usize + 1;
     let nt = mesh.triangles.len();
-    let mut params = Params::new(groups, nt, 0.5, 0.5, 0.05, false);
-    let mut rng = Pcg32::new(11, 0);
-    for g in 0..groups as u32 {
-        let i = Params::albedo_index(g);
-        for c in 0..3 {
-            params.x[i + c] = 0.2 + 0.6 * rng.next_f32();
-        }
-        params.x[Params::roughness_index(g)] = 0.15 + 0.7 * rng.next_f32();
-        params.x[Params::metallic_index(g)] = 0.2 + 0.5 * rng.next_f32();
-    }
-    for slot in 0..2 * nt as u32 {
-        let i = params.emission_index(slot);
-        let bright = fx.emission(slot / 2) != Vec3::ZERO;
-        for c in 0..3 {
-            let le = if bright {
-                5.0 + 5.0 * rng.next_f32()
-            } else {
-                0.01 + 0.1 * rng.next_f32()
-            };
-            params.x[i + c] = le.ln();
-        }
-    }
+    let params = random_params(groups, nt, &|t| fx.emission(t) != Vec3::ZERO);
     let lights = LightSampler::new(mesh, &params);
     let scene = TraceScene {
         geometry: &fx.geometry,
@@ -118,6 +97,34 @@ fn check(model: ReflectanceModel) {
         );
     }
     eprintln!("{model:?}: worst relative error {worst:.2e} over {checked:?}");
+}
+
+/// Random parameters: albedo, roughness and metallic per group, and per triangle side an
+/// emission (bright on triangles `emits` accepts, faint elsewhere).
+fn random_params(groups: usize, nt: usize, emits: &dyn Fn(u32) -> bool) -> Params {
+    let mut params = Params::new(groups, nt, 0.5, 0.5, 0.05, false);
+    let mut rng = Pcg32::new(11, 0);
+    for g in 0..groups as u32 {
+        let i = Params::albedo_index(g);
+        for c in 0..3 {
+            params.x[i + c] = 0.2 + 0.6 * rng.next_f32();
+        }
+        params.x[Params::roughness_index(g)] = 0.15 + 0.7 * rng.next_f32();
+        params.x[Params::metallic_index(g)] = 0.2 + 0.5 * rng.next_f32();
+    }
+    for slot in 0..2 * nt as u32 {
+        let i = params.emission_index(slot);
+        let bright = emits(slot / 2);
+        for c in 0..3 {
+            let le = if bright {
+                5.0 + 5.0 * rng.next_f32()
+            } else {
+                0.01 + 0.1 * rng.next_f32()
+            };
+            params.x[i + c] = le.ln();
+        }
+    }
+    params
 }
 
 trait Lights {

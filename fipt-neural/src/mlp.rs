@@ -449,14 +449,7 @@ impl CustomOp2 for MlpOp {
                 (dp, cur)
             })
             .collect();
-        let mut dx = Vec::with_capacity(if want_dx { n * d_in } else { 0 });
-        let mut dp = vec![0f32; p.len()];
-        for (part, dx_rows) in &partial {
-            for (d, &v) in dp.iter_mut().zip(part) {
-                *d += v;
-            }
-            dx.extend_from_slice(dx_rows);
-        }
+        let (dp, dx) = sum_blocks(&partial, p.len(), if want_dx { n * d_in } else { 0 });
         let dp = Tensor::from_vec(dp, arg2.shape(), arg2.device())?;
         let dx = if want_dx {
             Some(Tensor::from_vec(dx, arg1.shape(), arg1.device())?)
@@ -465,4 +458,22 @@ impl CustomOp2 for MlpOp {
         };
         Ok((dx, Some(dp)))
     }
+}
+
+/// The blocks' parameter gradients summed in block order (the same for any thread count), and
+/// their rows of dx concatenated (`dx_len` values; 0 when dx is not wanted).
+fn sum_blocks(
+    partial: &[(Vec<f32>, Vec<f32>)],
+    p_len: usize,
+    dx_len: usize,
+) -> (Vec<f32>, Vec<f32>) {
+    let mut dx = Vec::with_capacity(dx_len);
+    let mut dp = vec![0f32; p_len];
+    for (part, dx_rows) in partial {
+        for (d, &v) in dp.iter_mut().zip(part) {
+            *d += v;
+        }
+        dx.extend_from_slice(dx_rows);
+    }
+    (dp, dx)
 }

@@ -30,9 +30,9 @@ use std::time::Instant;
 mod candle_loss;
 mod config;
 mod set;
+pub use crate::image_loss::ImageLoss;
 use candle_loss::reflected;
 pub use candle_loss::{candle_ops_loss, LossWeights};
-pub use crate::image_loss::ImageLoss;
 pub use config::{LrDecay, PriorNorm, SegmentSource, SemanticPrior, TrainConfig};
 pub use set::TrainingSet;
 

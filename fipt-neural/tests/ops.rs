@@ -109,15 +109,69 @@ fn positional_encoding_layout() {
 
 #[test]
 fn fused_loss_matches_candle_ops_in_value_and_gradient() {
-    use fipt_neural::field::FieldOutput;
-    use fipt_neural::ops::NO_SEGMENT;
-    use fipt_neural::ops::{FactorizedLoss, LossBatch};
-    use fipt_neural::train::{candle_ops_loss, ImageLoss, LossWeights, PriorNorm};
+    use fipt_neural::train::{ImageLoss, PriorNorm};
     let n = 300;
-    let dev = Device::Cpu;
+    let (batch, x) = random_loss_batch(n);
+    let [unsegmented, segmented, semantic, targeted, poly] = loss_batch_variants(batch);
+    let (srgb, slope) = (ImageLoss::Srgb, ImageLoss::SrgbSlope);
+    // Last: whether a light's pixels ([`fipt_neural::ops::unreflectable`]) train the material.
+    let lights = (0..n)
+        .filter(|&j| {
+            let b = &unsegmented;
+            fipt_neural::ops::unreflectable(b.ld[j], &b.ls0[j], &b.ls1[j], b.gt[j])
+        })
+        .count();
+    assert!(
+        lights > 10 && lights < n - 10,
+        "{lights} of {n} pixels are a light's: both kinds must be tested"
+    );
+    for (norm, l1, ml1, batch, rp, image_loss, em) in [
+        (PriorNorm::L2Roughness, false, true, &poly, 0.0, srgb, false),
+        (PriorNorm::L2Roughness, false, true, &poly, 0.0, slope, true),
+        (PriorNorm::L2, false, false, &unsegmented, 1.0, srgb, true),
+        (PriorNorm::L2, false, false, &unsegmented, 1.0, srgb, false),
+        (PriorNorm::L1, true, true, &unsegmented, 1.0, slope, false),
+        (PriorNorm::L1, true, true, &segmented, 0.35, srgb, true),
+        (PriorNorm::L2, false, false, &segmented, 0.0, srgb, false),
+        (
+            PriorNorm::L2Roughness,
+            false,
+            true,
+            &segmented,
+            0.7,
+            slope,
+            true,
+        ),
+        (
+            PriorNorm::L2Roughness,
+            false,
+            true,
+            &semantic,
+            0.7,
+            srgb,
+            false,
+        ),
+        (
+            PriorNorm::L2Roughness,
+            false,
+            true,
+            &targeted,
+            0.0,
+            srgb,
+            true,
+        ),
+        (PriorNorm::L1, true, true, &targeted, 1.0, slope, false),
+    ] {
+        fused_matches_candle(&x, batch, (norm, l1, ml1, rp, image_loss, em));
+    }
+}
+
+/// `n` random pixels for the loss: HDR values from 1e-6 to 1e3, every seventh pixel a light's,
+/// σ across all segments and both clamps, α in [0, 1); and the field's outputs, 6 per pixel.
+fn random_loss_batch(n: usize) -> (fipt_neural::ops::LossBatch, Vec<f32>) {
     let mut r = Pcg32::new(8, 9);
     let mut u = |lo: f32, hi: f32| lo + (hi - lo) * r.next_f32();
-    let mut batch = LossBatch::default();
+    let mut batch = fipt_neural::ops::LossBatch::default();
     let mut x = vec![];
     for j in 0..n {
         // HDR values from 1e-6 to 1e3, σ across all segments and both clamps, α in [0, 1).
@@ -160,6 +214,16 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
             u(0.0, 0.99),
         ]);
     }
+    (batch, x)
+}
+
+/// The batch without segments, with 7 segments, with semantic partners, with search targets,
+/// and with the principled model's diffuse σ polynomial (and targets).
+fn loss_batch_variants(
+    mut batch: fipt_neural::ops::LossBatch,
+) -> [std::sync::Arc<fipt_neural::ops::LossBatch>; 5] {
+    use fipt_neural::ops::NO_SEGMENT;
+    let n = batch.gt.len();
     let unsegmented = std::sync::Arc::new(batch.clone());
     // 7 segments of uneven sizes, and pixels of none.
     batch.segment = (0..n)
@@ -220,148 +284,127 @@ fn fused_loss_matches_candle_ops_in_value_and_gradient() {
         .collect();
     let poly = std::sync::Arc::new(poly);
     let targeted = std::sync::Arc::new(targeted);
-    let (srgb, slope) = (ImageLoss::Srgb, ImageLoss::SrgbSlope);
-    // Last: whether a light's pixels ([`fipt_neural::ops::unreflectable`]) train the material.
-    let lights = (0..n)
-        .filter(|&j| {
-            let b = &unsegmented;
-            fipt_neural::ops::unreflectable(b.ld[j], &b.ls0[j], &b.ls1[j], b.gt[j])
-        })
-        .count();
-    assert!(
-        lights > 10 && lights < n - 10,
-        "{lights} of {n} pixels are a light's: both kinds must be tested"
-    );
-    for (norm, l1, ml1, batch, rp, image_loss, em) in [
-        (PriorNorm::L2Roughness, false, true, &poly, 0.0, srgb, false),
-        (PriorNorm::L2Roughness, false, true, &poly, 0.0, slope, true),
-        (PriorNorm::L2, false, false, &unsegmented, 1.0, srgb, true),
-        (PriorNorm::L2, false, false, &unsegmented, 1.0, srgb, false),
-        (PriorNorm::L1, true, true, &unsegmented, 1.0, slope, false),
-        (PriorNorm::L1, true, true, &segmented, 0.35, srgb, true),
-        (PriorNorm::L2, false, false, &segmented, 0.0, srgb, false),
-        (
-            PriorNorm::L2Roughness,
-            false,
-            true,
-            &segmented,
-            0.7,
-            slope,
-            true,
-        ),
-        (
-            PriorNorm::L2Roughness,
-            false,
-            true,
-            &semantic,
-            0.7,
-            srgb,
-            false,
-        ),
-        (
-            PriorNorm::L2Roughness,
-            false,
-            true,
-            &targeted,
-            0.0,
-            srgb,
-            true,
-        ),
-        (PriorNorm::L1, true, true, &targeted, 1.0, slope, false),
-    ] {
-        let var = |c: usize, w: usize| {
-            let v: Vec<f32> = (0..n)
-                .flat_map(|j| x[6 * j + c..6 * j + c + w].to_vec())
-                .collect();
-            Var::from_tensor(&Tensor::from_vec(v, (n, w), &dev).unwrap()).unwrap()
-        };
-        let vars = [var(0, 3), var(3, 1), var(4, 1), var(5, 1)];
-        let out = FieldOutput {
-            albedo: vars[0].as_tensor().clone(),
-            roughness: vars[1].as_tensor().clone(),
-            metallic: vars[2].as_tensor().clone(),
-            alpha: vars[3].as_tensor().clone(),
-        };
-        let fused = out
-            .packed()
-            .unwrap()
-            .apply_op1(FactorizedLoss {
-                batch: batch.clone(),
-                levels: DEFAULT_LEVELS,
-                mask_weight: 0.7,
-                prior_weight: 0.3,
-                prior_l1: l1,
-                metallic_l1: ml1,
-                segment_weight: 0.4,
-                roughness_prior_scale: rp,
-                target_weight: 0.25,
-                image_loss,
-                emitter_material: em,
-                cache: Default::default(),
-            })
-            .unwrap();
-        let weights = LossWeights {
-            mask: 0.7,
-            prior: 0.3,
-            prior_norm: norm,
-            roughness_prior: rp,
-            segment: 0.4,
-            target: 0.25,
+    [unsegmented, segmented, semantic, targeted, poly]
+}
+
+/// The fused loss against the candle-ops reference on one batch and one set of switches: the
+/// five terms and the total's gradient in every input agree to 1e-4.
+fn fused_matches_candle(
+    x: &[f32],
+    batch: &std::sync::Arc<fipt_neural::ops::LossBatch>,
+    case: (
+        fipt_neural::train::PriorNorm,
+        bool,
+        bool,
+        f32,
+        fipt_neural::train::ImageLoss,
+        bool,
+    ),
+) {
+    use fipt_neural::field::FieldOutput;
+    use fipt_neural::ops::FactorizedLoss;
+    use fipt_neural::train::{candle_ops_loss, LossWeights};
+    let (norm, l1, ml1, rp, image_loss, em) = case;
+    let n = batch.gt.len();
+    let dev = Device::Cpu;
+    let var = |c: usize, w: usize| {
+        let v: Vec<f32> = (0..n)
+            .flat_map(|j| x[6 * j + c..6 * j + c + w].to_vec())
+            .collect();
+        Var::from_tensor(&Tensor::from_vec(v, (n, w), &dev).unwrap()).unwrap()
+    };
+    let vars = [var(0, 3), var(3, 1), var(4, 1), var(5, 1)];
+    let out = FieldOutput {
+        albedo: vars[0].as_tensor().clone(),
+        roughness: vars[1].as_tensor().clone(),
+        metallic: vars[2].as_tensor().clone(),
+        alpha: vars[3].as_tensor().clone(),
+    };
+    let fused = out
+        .packed()
+        .unwrap()
+        .apply_op1(FactorizedLoss {
+            batch: batch.clone(),
+            levels: DEFAULT_LEVELS,
+            mask_weight: 0.7,
+            prior_weight: 0.3,
+            prior_l1: l1,
+            metallic_l1: ml1,
+            segment_weight: 0.4,
+            roughness_prior_scale: rp,
+            target_weight: 0.25,
             image_loss,
             emitter_material: em,
-        };
-        let plain = candle_ops_loss(&out, batch, DEFAULT_LEVELS, weights).unwrap();
-        let (fv, pv) = (
-            fused.to_vec1::<f32>().unwrap(),
-            plain.to_vec1::<f32>().unwrap(),
+            cache: Default::default(),
+        })
+        .unwrap();
+    let weights = LossWeights {
+        mask: 0.7,
+        prior: 0.3,
+        prior_norm: norm,
+        roughness_prior: rp,
+        segment: 0.4,
+        target: 0.25,
+        image_loss,
+        emitter_material: em,
+    };
+    let plain = candle_ops_loss(&out, batch, DEFAULT_LEVELS, weights).unwrap();
+    let (fv, pv) = (
+        fused.to_vec1::<f32>().unwrap(),
+        plain.to_vec1::<f32>().unwrap(),
+    );
+    // The segment term is 0 exactly without segments, and counts with them.
+    assert_eq!(
+        batch.segment.is_empty(),
+        fv[4] == 0.0,
+        "segment term {}",
+        fv[4]
+    );
+    for k in 0..5 {
+        assert!(
+            (fv[k] - pv[k]).abs() <= 1e-4 * pv[k].abs().max(1e-3),
+            "{norm:?} term {k}: {} vs {}",
+            fv[k],
+            pv[k]
         );
-        // The segment term is 0 exactly without segments, and counts with them.
-        assert_eq!(
-            batch.segment.is_empty(),
-            fv[4] == 0.0,
-            "segment term {}",
-            fv[4]
-        );
-        for k in 0..5 {
+    }
+    assert_same_gradients(&fused, &plain, &vars, &format!("{norm:?}"));
+}
+
+/// The total's (term 0's) gradient in every input agrees between the two losses to 1e-4 of
+/// the largest.
+fn assert_same_gradients(fused: &Tensor, plain: &Tensor, vars: &[Var], what: &str) {
+    // Gradients of the total (term 0).
+    let grads = |t: &Tensor| {
+        t.narrow(0, 0, 1)
+            .unwrap()
+            .sum_all()
+            .unwrap()
+            .backward()
+            .unwrap()
+    };
+    let (gf, gp) = (grads(fused), grads(plain));
+    for (vi, v) in vars.iter().enumerate() {
+        let a = gf
+            .get(v.as_tensor())
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1::<f32>()
+            .unwrap();
+        let b = gp
+            .get(v.as_tensor())
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1::<f32>()
+            .unwrap();
+        let scale = b.iter().fold(0f32, |m, x| m.max(x.abs()));
+        for (k, (p, q)) in a.iter().zip(&b).enumerate() {
             assert!(
-                (fv[k] - pv[k]).abs() <= 1e-4 * pv[k].abs().max(1e-3),
-                "{norm:?} term {k}: {} vs {}",
-                fv[k],
-                pv[k]
+                (p - q).abs() <= 1e-4 * scale + 1e-9,
+                "{what} input {vi} element {k}: fused {p} vs candle {q}"
             );
-        }
-        // Gradients of the total (term 0).
-        let grads = |t: &Tensor| {
-            t.narrow(0, 0, 1)
-                .unwrap()
-                .sum_all()
-                .unwrap()
-                .backward()
-                .unwrap()
-        };
-        let (gf, gp) = (grads(&fused), grads(&plain));
-        for (vi, v) in vars.iter().enumerate() {
-            let a = gf
-                .get(v.as_tensor())
-                .unwrap()
-                .flatten_all()
-                .unwrap()
-                .to_vec1::<f32>()
-                .unwrap();
-            let b = gp
-                .get(v.as_tensor())
-                .unwrap()
-                .flatten_all()
-                .unwrap()
-                .to_vec1::<f32>()
-                .unwrap();
-            let scale = b.iter().fold(0f32, |m, x| m.max(x.abs()));
-            for (k, (p, q)) in a.iter().zip(&b).enumerate() {
-                assert!(
-                    (p - q).abs() <= 1e-4 * scale + 1e-9,
-                    "{norm:?} input {vi} element {k}: fused {p} vs candle {q}"
-                );
-            }
         }
     }
 }
@@ -395,11 +438,10 @@ fn image_term_only(
 /// the clip) both are the sRGB difference.
 #[test]
 fn slope_weighted_loss_is_unbiased_under_zero_mean_noise() {
-    use fipt_neural::ops::LossBatch;
     use fipt_neural::train::ImageLoss;
     let n = 2000;
     let (kd, ld) = (0.5f32, 0.8f32);
-    let mut batch = LossBatch::default();
+    let mut batch = fipt_neural::ops::LossBatch::default();
     for j in 0..n {
         // Symmetric noise: each pair of pixels averages to the noise-free value exactly.
         let k = (j / 2) as f32 / (n / 2) as f32;
@@ -465,9 +507,8 @@ fn slope_weighted_loss_is_unbiased_under_zero_mean_noise() {
 /// gradient and everything at the wall pixel are unchanged.
 #[test]
 fn emitter_pixels_train_the_mask_only_unless_asked() {
-    use fipt_neural::ops::LossBatch;
     use fipt_neural::train::ImageLoss;
-    let mut batch = LossBatch::default();
+    let mut batch = fipt_neural::ops::LossBatch::default();
     for gt in [0.3f32, 9.0] {
         batch.ld.push([0.6; 3]);
         batch

@@ -2,12 +2,12 @@
 //! per split the views' HDR range and how much of each view the mesh covers, the ground truth
 //! present, and warnings (degenerate triangles, views that see nothing, bad pixels, black or
 //! saturated views). A scene no camera ray hits is an error.
-pub use crate::capture::ldr_warnings;
 use crate::bail;
+pub use crate::capture::ldr_warnings;
 use crate::error::{Context, Result};
 use fipt_core::dataset::{Dataset, Layout};
-use fipt_core::view_stats::{hdr_stats, HdrStats};
 use fipt_core::image::BadPixelPolicy;
+use fipt_core::view_stats::{hdr_stats, HdrStats};
 use fipt_geom::{view_coverage, BuildQuality, Bvh, Mesh};
 use glam::Vec3;
 use serde::Serialize;
@@ -192,4 +192,3 @@ fn image_warnings(split: &str, stats: &HdrStats) -> Vec<String> {
     }
     w
 }
-

@@ -20,8 +20,8 @@ pub use crate::records::{
     HitsSummary, PixelRecord,
 };
 use crate::slf::{Cube, SlfBuilder, SurfaceLightField};
-use crate::specular::{reflect_about, sample_ggx_h};
 pub use crate::specular::specular_shading_mixture;
+use crate::specular::{reflect_about, sample_ggx_h};
 pub use crate::stream::{SampleStream, SamplerKind};
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
@@ -386,40 +386,10 @@ impl FactorizedBaker {
             geometry,
             slf: &slf,
         };
-        let total_work = stats.valid_pixels * 2;
-        let done = AtomicUsize::new(0);
-        let tick = |n: usize| {
-            let d = done.fetch_add(n, Ordering::Relaxed) + n;
-            progress(d, total_work);
-        };
-        let seed = cfg.seed;
-        let full = model.diffuse_depends_on_roughness();
         let t = Instant::now();
         let cached = cfg.diffuse_cache.then(|| {
             stats.cache_cell = cell;
-            let needed = cells.used();
-            stats.cache_entries = needed.iter().filter(|&&n| n).count();
-            stats.rays_diffuse = stats.cache_entries as u64 * cfg.diffuse_samples as u64;
-            cells.integrate(model, |k, c| {
-                if !needed[k] {
-                    return DiffuseMoments::default();
-                }
-                let mut st =
-                    SampleStream::new(cfg.sampler, &[seed, 0xD1FF, c.tri as u64, k as u64]);
-                let mut rng = Pcg32::new(0, 0);
-                diffuse_moments(
-                    &light,
-                    geometry,
-                    c.p,
-                    c.ng,
-                    c.ns,
-                    cfg.diffuse_samples,
-                    0,
-                    &mut st,
-                    &mut rng,
-                    full,
-                )
-            })
+            self.diffuse_cache(&light, &cells, &mut stats)
         });
         if !cfg.diffuse_cache {
             stats.rays_diffuse = stats.valid_pixels as u64 * cfg.diffuse_samples as u64;
@@ -427,38 +397,105 @@ impl FactorizedBaker {
         stats.seconds_diffuse = t.elapsed().as_secs_f64();
         let spec_per_pixel: u32 = cfg.specular_samples.iter().sum();
         stats.rays_specular = stats.valid_pixels as u64 * spec_per_pixel as u64;
-        // The shadings, one view at a time.
+        let cached = cached.as_ref().map(|c| (&cells, c));
+        let pass = (views, &selected[..], cached);
+        self.shade_views(&light, pass, &mut stats, progress, sink)?;
+        Ok((stats, Some(slf)))
+    }
+
+    /// The diffuse moments at a point under the SLF, the sample stream keyed by `key`.
+    fn diffuse_at(
+        &self,
+        light: &SlfLight,
+        key: &[u64],
+        p: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+    ) -> DiffuseMoments {
+        let cfg = &self.config;
+        let mut st = SampleStream::new(cfg.sampler, key);
+        let mut rng = Pcg32::new(0, 0);
+        let full = self.model.diffuse_depends_on_roughness();
+        let n = cfg.diffuse_samples;
+        diffuse_moments(
+            light,
+            light.geometry,
+            p,
+            ng,
+            ns,
+            n,
+            0,
+            &mut st,
+            &mut rng,
+            full,
+        )
+    }
+
+    /// Ld of every diffuse cache cell a view uses.
+    fn diffuse_cache(
+        &self,
+        light: &SlfLight,
+        cells: &DiffuseCells,
+        stats: &mut BakeStats,
+    ) -> CellShading {
+        let cfg = &self.config;
+        let needed = cells.used();
+        stats.cache_entries = needed.iter().filter(|&&n| n).count();
+        stats.rays_diffuse = stats.cache_entries as u64 * cfg.diffuse_samples as u64;
+        cells.integrate(self.model, |k, c| {
+            if !needed[k] {
+                return DiffuseMoments::default();
+            }
+            let key = [cfg.seed, 0xD1FF, c.tri as u64, k as u64];
+            self.diffuse_at(light, &key, c.p, c.ng, c.ns)
+        })
+    }
+
+    /// The shadings of the selected `views` (`pass`: the views, which are selected, the cache's
+    /// cells and their Ld if cached), one view at a time, each handed to `sink`.
+    fn shade_views(
+        &self,
+        light: &SlfLight,
+        pass: (&[View], &[bool], Option<(&DiffuseCells, &CellShading)>),
+        stats: &mut BakeStats,
+        progress: Progress,
+        sink: ViewSink,
+    ) -> fipt_core::Result<()> {
+        let (views, selected, cached) = pass;
+        let (cfg, model, geometry) = (&self.config, self.model, light.geometry);
+        let total_work = stats.valid_pixels * 2;
+        let done = AtomicUsize::new(0);
+        let tick = |n: usize| {
+            let d = done.fetch_add(n, Ordering::Relaxed) + n;
+            progress(d, total_work);
+        };
         for (vi, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
             let r = primary_records(geometry, v);
             let hit = r.iter().flatten().count();
             let mut s = empty_view_shadings(v, &r, cfg.levels, model);
             let t = Instant::now();
-            match &cached {
-                Some(shading) => cells.scatter_view(shading, model, &r, &mut s),
+            match cached {
+                Some((cells, shading)) => cells.scatter_view(shading, model, &r, &mut s),
                 None => diffuse_per_pixel(
                     model,
                     &r,
                     &mut s,
                     |_| false,
                     |i, rec| {
-                        let key = [seed, 0xD1FF, vi as u64, i as u64];
-                        let mut st = SampleStream::new(cfg.sampler, &key);
-                        let (n, rng) = (cfg.diffuse_samples, &mut Pcg32::new(0, 0));
-                        diffuse_moments(
-                            &light, geometry, rec.hit.p, rec.ng, rec.ns, n, 0, &mut st, rng, full,
-                        )
+                        let key = [cfg.seed, 0xD1FF, vi as u64, i as u64];
+                        self.diffuse_at(light, &key, rec.hit.p, rec.ng, rec.ns)
                     },
                 ),
             }
             tick(hit);
             stats.seconds_diffuse += t.elapsed().as_secs_f64();
             let t = Instant::now();
-            self.specular_view(&light, geometry, vi, &r, &mut s);
+            self.specular_view(light, geometry, vi, &r, &mut s);
             tick(hit);
             stats.seconds_specular += t.elapsed().as_secs_f64();
             sink(vi, s)?;
         }
-        Ok((stats, Some(slf)))
+        Ok(())
     }
 
     /// Ls0 and Ls1 of one view's pixels, each pixel's sample streams keyed by its view and

@@ -12,10 +12,10 @@
 //! Σ L·F_i, Σ L·F_i·ωi, Σ L·F_i·ωi ωiᵀ, Σ L·(1 − F_i/2)) give Ld0, Ld1 and Ld2 exactly for any
 //! ωo ([`DiffuseMoments::shading`]), and the diffuse cache (one integral per surface cell, shared
 //! by every pixel of every view that sees it) serves both models.
-use crate::records::PixelRecord;
-use crate::stream::SampleStream;
 use crate::brdf::sample_cosine_hemisphere;
 use crate::incident::{power_heuristic, IncidentLight, Incoming};
+use crate::records::PixelRecord;
+use crate::stream::SampleStream;
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
 use fipt_core::reflectance::{schlick_weight, ReflectanceModel};

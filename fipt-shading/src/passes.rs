@@ -1,12 +1,12 @@
 //! The passes over the training views that the bake and the refinement share: the SLF and the
 //! diffuse cache's cells built one view at a time, and one view's per-pixel diffuse and
 //! specular shadings.
-use crate::specular::specular_shading_mixture;
-use crate::stream::{SampleStream, SamplerKind};
 use crate::diffuse::{DiffuseCells, DiffuseMoments};
 use crate::incident::IncidentLight;
 use crate::records::{primary_records, PixelRecord};
 use crate::slf::{SlfBuilder, SurfaceLightField};
+use crate::specular::specular_shading_mixture;
+use crate::stream::{SampleStream, SamplerKind};
 use fipt_core::color::Rgb;
 use fipt_core::dataset::View;
 use fipt_core::image::Image;

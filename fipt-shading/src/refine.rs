@@ -18,8 +18,8 @@
 //!   the observed surface.
 use crate::bake::{
     check_counts, diffuse_moments, diffuse_per_pixel, empty_view_shadings, primary_records,
-    slf_and_cells, specular_mixture_view, DiffuseCells, DiffuseMoments, HitsSummary, PixelRecord,
-    SampleStream, SamplerKind, SpecularSettings,
+    slf_and_cells, specular_mixture_view, CellShading, DiffuseCells, DiffuseMoments, HitsSummary,
+    PixelRecord, SampleStream, SamplerKind, SpecularSettings,
 };
 use crate::brdf::MicrofacetBrdf;
 use crate::field_surfaces::FieldSurfaces;
@@ -28,6 +28,7 @@ use crate::scene::SurfaceModel;
 use crate::slf::{SlfBuilder, SurfaceLightField};
 use fipt_core::brdf::{Brdf, Frame};
 use fipt_core::color::Rgb;
+use fipt_core::dataset::View;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
@@ -575,21 +576,8 @@ impl PathGrownRefiner {
         );
         stats.pixels = hit;
         stats.slf_margin_pixels = bled;
-        let hits = |f: &mut dyn FnMut(Vec3, u32)| {
-            for v in views {
-                for r in primary_records(geometry, v).iter().flatten() {
-                    f(r.hit.p, r.hit.tri);
-                }
-            }
-        };
-        let surfaces = FieldSurfaces::build_from(
-            inputs.field,
-            &mesh,
-            inputs.emitters,
-            &hits,
-            footprint * cfg.material_cell_scale,
-        )?
-        .with_model(model);
+        let surfaces = material_surfaces(inputs, &mesh, footprint * cfg.material_cell_scale)?
+            .with_model(model);
         stats.material_voxels = surfaces.voxels();
         let light = GrownLight::new(
             geometry,
@@ -601,43 +589,102 @@ impl PathGrownRefiner {
         );
         stats.emitter_triangles = light.lights.as_ref().map_or(0, |l| l.len());
         stats.seconds_setup = t.elapsed().as_secs_f64();
-        let is_emitter = |r: &PixelRecord| surfaces.emission(r.hit.tri) != Vec3::ZERO;
-        let total = stats.pixels * 2;
-        let done = AtomicUsize::new(0);
-        let tick = |n: usize| progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
-
+        let pass = ViewPass {
+            cfg,
+            model,
+            geometry,
+            light: &light,
+            surfaces: &surfaces,
+        };
         // Ld: per cache cell, or per pixel.
         let t = Instant::now();
-        let seed = cfg.seed;
-        let full = model.diffuse_depends_on_roughness();
-        let moments_at = |key: &[u64], p: Vec3, ng: Vec3, ns: Vec3| {
-            let mut st = SampleStream::new(cfg.sampler, key);
-            let mut rng = Pcg32::from_keys(&[key, &[0x9A7]].concat());
-            diffuse_moments(
-                &light,
-                geometry,
-                p,
-                ng,
-                ns,
-                cfg.diffuse_samples,
-                cfg.light_samples,
-                &mut st,
-                &mut rng,
-                full,
-            )
-        };
-        let cached = cfg.diffuse_cache.then(|| {
-            let needed = cells.used();
-            stats.cache_entries = needed.iter().filter(|&&n| n).count();
-            cells.integrate(model, |k, c| {
-                if !needed[k] || surfaces.emission(c.tri) != Vec3::ZERO {
-                    return DiffuseMoments::default();
-                }
-                moments_at(&[seed, 0xD1FF, c.tri as u64, k as u64], c.p, c.ng, c.ns)
-            })
-        });
+        let cached = cfg.diffuse_cache.then(|| pass.cache(&cells, &mut stats));
         stats.seconds_diffuse = t.elapsed().as_secs_f64();
+        let total = stats.pixels * 2;
+        let cached = cached.as_ref().map(|c| (&cells, c));
+        pass.shade_views(views, &selected, cached, total, &mut stats, progress, sink)?;
+        stats.take_counters(&light.counters);
+        Ok(stats)
+    }
+}
 
+/// The field's materials per surface cell of `cell` metres around every view's primary hits.
+fn material_surfaces(
+    inputs: &RefineInputs,
+    mesh: &Mesh,
+    cell: f32,
+) -> fipt_core::Result<FieldSurfaces> {
+    let (geometry, views) = (inputs.geometry, inputs.views);
+    let hits = |f: &mut dyn FnMut(Vec3, u32)| {
+        for v in views {
+            for r in primary_records(geometry, v).iter().flatten() {
+                f(r.hit.p, r.hit.tri);
+            }
+        }
+    };
+    FieldSurfaces::build_from(inputs.field, mesh, inputs.emitters, &hits, cell)
+}
+
+/// What the refinement's per-pixel passes share once its light is set up.
+struct ViewPass<'a> {
+    cfg: &'a RefineConfig,
+    model: ReflectanceModel,
+    geometry: &'a dyn RayQuery,
+    light: &'a GrownLight<'a>,
+    surfaces: &'a FieldSurfaces,
+}
+
+impl ViewPass<'_> {
+    /// The diffuse moments at a point, its sample streams keyed by `key`.
+    fn moments(&self, key: &[u64], p: Vec3, ng: Vec3, ns: Vec3) -> DiffuseMoments {
+        let cfg = self.cfg;
+        let mut st = SampleStream::new(cfg.sampler, key);
+        let mut rng = Pcg32::from_keys(&[key, &[0x9A7]].concat());
+        diffuse_moments(
+            self.light,
+            self.geometry,
+            p,
+            ng,
+            ns,
+            cfg.diffuse_samples,
+            cfg.light_samples,
+            &mut st,
+            &mut rng,
+            self.model.diffuse_depends_on_roughness(),
+        )
+    }
+
+    /// Ld of every diffuse cache cell a view uses (emitting cells keep 0).
+    fn cache(&self, cells: &DiffuseCells, stats: &mut RefineStats) -> CellShading {
+        let needed = cells.used();
+        stats.cache_entries = needed.iter().filter(|&&n| n).count();
+        let seed = self.cfg.seed;
+        cells.integrate(self.model, |k, c| {
+            if !needed[k] || self.surfaces.emission(c.tri) != Vec3::ZERO {
+                return DiffuseMoments::default();
+            }
+            self.moments(&[seed, 0xD1FF, c.tri as u64, k as u64], c.p, c.ng, c.ns)
+        })
+    }
+
+    /// Each selected view's shadings, handed to `sink` in view order: Ld from the cache's
+    /// cells (or per pixel without it), Ls0/Ls1 per pixel (emitter pixels keep 0: the mask
+    /// explains them).
+    #[allow(clippy::too_many_arguments)]
+    fn shade_views(
+        &self,
+        views: &[View],
+        selected: &[bool],
+        cached: Option<(&DiffuseCells, &CellShading)>,
+        total: usize,
+        stats: &mut RefineStats,
+        progress: Progress,
+        sink: ViewSink,
+    ) -> fipt_core::Result<()> {
+        let (cfg, model, seed) = (self.cfg, self.model, self.cfg.seed);
+        let is_emitter = |r: &PixelRecord| self.surfaces.emission(r.hit.tri) != Vec3::ZERO;
+        let done = AtomicUsize::new(0);
+        let tick = |n: usize| progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
         let set = SpecularSettings {
             levels: &cfg.levels,
             counts: &cfg.specular_samples,
@@ -647,28 +694,26 @@ impl PathGrownRefiner {
             model,
         };
         for (vi, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
-            let r = primary_records(geometry, v);
+            let r = primary_records(self.geometry, v);
             let hit = r.iter().flatten().count();
             let mut s = empty_view_shadings(v, &r, cfg.levels, model);
             let t = Instant::now();
-            match &cached {
-                Some(shading) => cells.scatter_view(shading, model, &r, &mut s),
+            match cached {
+                Some((cells, shading)) => cells.scatter_view(shading, model, &r, &mut s),
                 None => diffuse_per_pixel(model, &r, &mut s, is_emitter, |i, rec| {
                     let key = [seed, 0xD1FF, vi as u64, i as u64];
-                    moments_at(&key, rec.hit.p, rec.ng, rec.ns)
+                    self.moments(&key, rec.hit.p, rec.ng, rec.ns)
                 }),
             }
             tick(hit);
             stats.seconds_diffuse += t.elapsed().as_secs_f64();
-            // Ls0/Ls1 per pixel (emitter pixels keep 0: the mask explains them).
             let t = Instant::now();
-            specular_mixture_view(&light, geometry, &set, vi, &r, &mut s, &is_emitter);
+            specular_mixture_view(self.light, self.geometry, &set, vi, &r, &mut s, &is_emitter);
             tick(hit);
             stats.seconds_specular += t.elapsed().as_secs_f64();
             sink(vi, s)?;
         }
-        stats.take_counters(&light.counters);
-        Ok(stats)
+        Ok(())
     }
 }
 

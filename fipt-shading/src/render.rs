@@ -133,50 +133,15 @@ pub fn trace_path<S: SurfaceModel>(
             break;
         }
         let p_out = scene.bvh.offset(p, ng);
-        // Next-event estimation.
-        if let Some(lights) = &scene.lights {
-            let ls = lights.sample(&scene.mesh, rng.next_f32(), rng.next_2d());
-            let d = ls.p - p_out;
-            let dist2 = d.length_squared();
-            let dist = dist2.sqrt();
-            if dist > 0.0 {
-                let wi_w = d / dist;
-                let cos_l = ls.n.dot(wi_w).abs();
-                let wi = frame.to_local(wi_w);
-                let faces = scene.surfaces.emit_side(ls.tri).emits_towards(ls.n, -wi_w);
-                if cos_l > 0.0 && faces && wi.z > 0.0 && wi_w.dot(ng) > 0.0 {
-                    let f = brdf.eval(wo, wi);
-                    if f != Vec3::ZERO {
-                        rays += 1;
-                        if !scene.bvh.occluded(p_out, wi_w, dist * (1.0 - 1e-4)) {
-                            let light_pdf = ls.pdf_area * dist2 / cos_l;
-                            let w = power_heuristic(light_pdf, brdf.pdf(wo, wi));
-                            l += beta * f * scene.surfaces.emission(ls.tri) * (w / light_pdf);
-                        }
-                    }
-                }
-            }
-        }
-        for dl in &scene.delta_lights {
-            let d = dl.position - p_out;
-            let dist2 = d.length_squared();
-            if dist2 <= 0.0 {
-                continue;
-            }
-            let dist = dist2.sqrt();
-            let wi_w = d / dist;
-            let wi = frame.to_local(wi_w);
-            let i = dl.intensity_towards(-wi_w);
-            if wi.z > 0.0 && wi_w.dot(ng) > 0.0 && i != Vec3::ZERO {
-                let f = brdf.eval(wo, wi);
-                if f != Vec3::ZERO {
-                    rays += 1;
-                    if !scene.bvh.occluded(p_out, wi_w, dist * (1.0 - 1e-4)) {
-                        l += beta * f * i / dist2;
-                    }
-                }
-            }
-        }
+        // Next-event estimation: the emitting triangles (MIS with the BRDF), the point lights.
+        let at = ShadingPoint {
+            brdf: &brdf,
+            frame: &frame,
+            p_out,
+            ng,
+            wo,
+        };
+        rays += next_event(scene, &at, beta, rng, &mut l);
         // Continue the path by sampling the BRDF.
         let Some(s) = brdf.sample(wo, rng.next_f32(), rng.next_2d()) else {
             break;
@@ -199,6 +164,83 @@ pub fn trace_path<S: SurfaceModel>(
         dir = wi_w;
     }
     (l, rays)
+}
+
+/// A path vertex as next-event estimation sees it.
+struct ShadingPoint<'a> {
+    brdf: &'a crate::brdf::BrdfModel,
+    frame: &'a Frame,
+    /// The point, offset off the surface.
+    p_out: Vec3,
+    /// The geometric normal towards the viewer.
+    ng: Vec3,
+    /// The direction to the viewer, local frame.
+    wo: Vec3,
+}
+
+/// Adds to `l` the light arriving at `at` straight from the lights, times `beta`: one sample
+/// of the emitting triangles weighted by the power heuristic against the BRDF, and every point
+/// light; returns the shadow rays traced.
+#[inline]
+fn next_event<S: SurfaceModel>(
+    scene: &Scene<S>,
+    at: &ShadingPoint,
+    beta: Rgb,
+    rng: &mut Pcg32,
+    l: &mut Rgb,
+) -> u32 {
+    let ShadingPoint {
+        brdf,
+        frame,
+        p_out,
+        ng,
+        wo,
+    } = *at;
+    let mut rays = 0u32;
+    if let Some(lights) = &scene.lights {
+        let ls = lights.sample(&scene.mesh, rng.next_f32(), rng.next_2d());
+        let d = ls.p - p_out;
+        let dist2 = d.length_squared();
+        let dist = dist2.sqrt();
+        if dist > 0.0 {
+            let wi_w = d / dist;
+            let cos_l = ls.n.dot(wi_w).abs();
+            let wi = frame.to_local(wi_w);
+            let faces = scene.surfaces.emit_side(ls.tri).emits_towards(ls.n, -wi_w);
+            if cos_l > 0.0 && faces && wi.z > 0.0 && wi_w.dot(ng) > 0.0 {
+                let f = brdf.eval(wo, wi);
+                if f != Vec3::ZERO {
+                    rays += 1;
+                    if !scene.bvh.occluded(p_out, wi_w, dist * (1.0 - 1e-4)) {
+                        let light_pdf = ls.pdf_area * dist2 / cos_l;
+                        let w = power_heuristic(light_pdf, brdf.pdf(wo, wi));
+                        *l += beta * f * scene.surfaces.emission(ls.tri) * (w / light_pdf);
+                    }
+                }
+            }
+        }
+    }
+    for dl in &scene.delta_lights {
+        let d = dl.position - p_out;
+        let dist2 = d.length_squared();
+        if dist2 <= 0.0 {
+            continue;
+        }
+        let dist = dist2.sqrt();
+        let wi_w = d / dist;
+        let wi = frame.to_local(wi_w);
+        let i = dl.intensity_towards(-wi_w);
+        if wi.z > 0.0 && wi_w.dot(ng) > 0.0 && i != Vec3::ZERO {
+            let f = brdf.eval(wo, wi);
+            if f != Vec3::ZERO {
+                rays += 1;
+                if !scene.bvh.occluded(p_out, wi_w, dist * (1.0 - 1e-4)) {
+                    *l += beta * f * i / dist2;
+                }
+            }
+        }
+    }
+    rays
 }
 
 /// Tiles of an image, row-major.

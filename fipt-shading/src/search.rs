@@ -557,18 +557,13 @@ fn sq_err(pred: Rgb, gt: Rgb) -> f64 {
     e(pred.x, gt.x) + e(pred.y, gt.y) + e(pred.z, gt.z)
 }
 
-/// The cost curves of every region over the candidates `sigma` × `metallic`. Regions are
-/// `0..regions`; a region without pixels gets an empty profile (`pixels` 0, costs NaN).
-pub fn profile(
+/// The pixels' indices grouped by region, then by cell, and each region's cells as ranges of
+/// that order.
+#[allow(clippy::type_complexity)]
+fn cell_spans(
     pixels: &[SearchPixel],
-    shadings: &[ViewShadings],
-    images: &[Image],
     regions: usize,
-    sigma: &[f32],
-    metallic: &[f32],
-    albedo: Albedo,
-) -> Vec<RegionProfile> {
-    // Pixel indices grouped by region, then by cell.
+) -> (Vec<usize>, Vec<Vec<std::ops::Range<usize>>>) {
     let mut order: Vec<usize> = (0..pixels.len()).collect();
     order.sort_unstable_by_key(|&j| (pixels[j].region, pixels[j].cell, j));
     let mut spans: Vec<Vec<std::ops::Range<usize>>> = vec![vec![]; regions];
@@ -584,6 +579,21 @@ pub fn profile(
         }
         s = e;
     }
+    (order, spans)
+}
+
+/// The cost curves of every region over the candidates `sigma` × `metallic`. Regions are
+/// `0..regions`; a region without pixels gets an empty profile (`pixels` 0, costs NaN).
+pub fn profile(
+    pixels: &[SearchPixel],
+    shadings: &[ViewShadings],
+    images: &[Image],
+    regions: usize,
+    sigma: &[f32],
+    metallic: &[f32],
+    albedo: Albedo,
+) -> Vec<RegionProfile> {
+    let (order, spans) = cell_spans(pixels, regions);
     let candidates: Vec<(usize, usize, usize)> = (0..regions)
         .flat_map(|r| {
             (0..metallic.len()).flat_map(move |mi| (0..sigma.len()).map(move |si| (r, mi, si)))

@@ -12,7 +12,12 @@ use glam::{Vec2, Vec3};
 /// Reflects `wo` about the half vector `h` (local frame): (local ωi, ωo·h, world ωi), or None
 /// when ωi leaves below the shading or geometric surface.
 #[inline]
-pub(crate) fn reflect_about(frame: &Frame, ng: Vec3, wo: Vec3, h: Vec3) -> Option<(Vec3, f32, Vec3)> {
+pub(crate) fn reflect_about(
+    frame: &Frame,
+    ng: Vec3,
+    wo: Vec3,
+    h: Vec3,
+) -> Option<(Vec3, f32, Vec3)> {
     let voh = wo.dot(h);
     if voh <= 0.0 {
         return None;

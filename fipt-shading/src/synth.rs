@@ -8,8 +8,6 @@
 //!
 //! Everything is generated from a seed; cameras stand inside the room, outside every object,
 //! looking at varied targets (some at the emitters).
-pub use fipt_geom::shapes::icosphere_mesh;
-use fipt_geom::shapes::icosphere_into as icosphere;
 use crate::error::{Result, ShadingError};
 use crate::render::{render, render_aovs, Aovs, RenderConfig, RenderStats};
 use crate::scene::{Scene, TableSurfaces};
@@ -19,6 +17,8 @@ use fipt_core::image::{ExrPrecision, Image};
 use fipt_core::materials::{FaceRange, MaterialDesc, Pattern, SceneMaterials, Texture};
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
+use fipt_geom::shapes::icosphere_into as icosphere;
+pub use fipt_geom::shapes::icosphere_mesh;
 use fipt_geom::Mesh;
 use glam::{Vec2, Vec3};
 
@@ -211,7 +211,6 @@ fn boxed(
         }
     }
 }
-
 
 fn principled(name: &str, base: Texture, rough: Texture, metal: f32) -> MaterialDesc {
     MaterialDesc::Principled {

@@ -342,29 +342,9 @@ fn closure(ds: &Dataset, shadings: &[ViewShadings], images: &[fipt_core::image::
 fn refined_shadings_raise_the_closure_psnr() {
     let dir = std::env::temp_dir().join(format!("fipt-refine-closure-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let opts = SynthOptions {
-        train_views: 24,
-        val_views: 1,
-        width: 64,
-        height: 48,
-        render: RenderConfig {
-            spp: 256,
-            ..Default::default()
-        },
-        model: Default::default(),
-    };
+    let (ds, mesh, geo, images) = cornell_views(&dir);
     let scene = build("cornell").unwrap();
-    write_dataset(scene, &dir, &opts, &|_, _| {}).unwrap();
-    let scene = build("cornell").unwrap();
-    let ds = Dataset::open(&dir).unwrap();
-    let mesh = Mesh::load(&ds.mesh).unwrap();
-    let geo = Geometry::new(mesh.clone());
     let split = ds.train();
-    let images: Vec<_> = split
-        .views
-        .iter()
-        .map(|v| ds.load_image(v, BadPixelPolicy::Reject).unwrap().0)
-        .collect();
     let table = fipt_shading::scene::TableSurfaces::new(
         scene.materials.clone(),
         &mesh,
@@ -376,24 +356,7 @@ fn refined_shadings_raise_the_closure_psnr() {
         tri_material: table.tri_material.clone(),
         materials: scene.materials.clone(),
     };
-    let mut emitter = Emitter {
-        triangles: vec![],
-        radiance: vec![],
-        area: 0.0,
-        mean_radiance: [0.0; 3],
-        power: [0.0; 3],
-        centroid: [0.0; 3],
-        pixels: 0,
-        sides: Vec::new(),
-    };
-    for t in 0..mesh.triangles.len() as u32 {
-        use fipt_shading::scene::SurfaceModel;
-        let le = table.emission(t);
-        if le != Vec3::ZERO {
-            emitter.triangles.push(t);
-            emitter.radiance.push(le.to_array());
-        }
-    }
+    let emitter = table_emitter(&table, &mesh);
     assert_eq!(emitter.triangles.len(), 2, "cornell has one quad light");
     let (bake, _, _) = FactorizedBaker::new(BakeConfig::default()).bake_detailed(
         &geo,
@@ -465,4 +428,55 @@ fn refined_shadings_raise_the_closure_psnr() {
         "refinement should raise the closure: {c_bake:.2} → {c_ref:.2} dB"
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The cornell scene rendered into `dir` (24 views of 64×48 at 256 spp), opened: the dataset,
+/// its mesh and geometry, the training images.
+fn cornell_views(dir: &std::path::Path) -> (Dataset, Mesh, Geometry, Vec<fipt_core::image::Image>) {
+    let opts = SynthOptions {
+        train_views: 24,
+        val_views: 1,
+        width: 64,
+        height: 48,
+        render: RenderConfig {
+            spp: 256,
+            ..Default::default()
+        },
+        model: Default::default(),
+    };
+    let scene = build("cornell").unwrap();
+    write_dataset(scene, dir, &opts, &|_, _| {}).unwrap();
+    let ds = Dataset::open(&dir).unwrap();
+    let mesh = Mesh::load(&ds.mesh).unwrap();
+    let geo = Geometry::new(mesh.clone());
+    let split = ds.train().clone();
+    let images: Vec<_> = split
+        .views
+        .iter()
+        .map(|v| ds.load_image(v, BadPixelPolicy::Reject).unwrap().0)
+        .collect();
+    (ds, mesh, geo, images)
+}
+
+/// The emitter of a material table's emitting triangles.
+fn table_emitter(table: &fipt_shading::scene::TableSurfaces, mesh: &Mesh) -> Emitter {
+    let mut emitter = Emitter {
+        triangles: vec![],
+        radiance: vec![],
+        area: 0.0,
+        mean_radiance: [0.0; 3],
+        power: [0.0; 3],
+        centroid: [0.0; 3],
+        pixels: 0,
+        sides: Vec::new(),
+    };
+    for t in 0..mesh.triangles.len() as u32 {
+        use fipt_shading::scene::SurfaceModel;
+        let le = table.emission(t);
+        if le != Vec3::ZERO {
+            emitter.triangles.push(t);
+            emitter.radiance.push(le.to_array());
+        }
+    }
+    emitter
 }

@@ -146,24 +146,7 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
         .data
         .iter()
         .all(|p| p.is_finite() && p.min_element() >= 0.0));
-    // A pose that is not a rotation, and one that is a reflection (another convention).
-    for (name, scale, needle) in [
-        ("shear", [1.3f32, 1.0, 1.0], "rigid"),
-        ("flip", [-1.0, 1.0, 1.0], "reflection"),
-    ] {
-        let d = fresh(name);
-        let tf = d.join("train/transforms.json");
-        let mut v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&tf).unwrap()).unwrap();
-        for r in 0..3 {
-            for c in 0..3 {
-                let x = v["frames"][1]["transform_matrix"][r][c].as_f64().unwrap();
-                v["frames"][1]["transform_matrix"][r][c] = serde_json::json!(x * scale[c] as f64);
-            }
-        }
-        std::fs::write(&tf, serde_json::to_string(&v).unwrap()).unwrap();
-        expect_err(&d, &["transforms.json", "frame 1", needle]);
-    }
+    non_rigid_poses_are_refused(&fresh);
     // No mesh, or not a scene at all.
     let d = fresh("nomesh");
     std::fs::remove_file(d.join("scene.obj")).unwrap();
@@ -207,6 +190,28 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
         .ok();
     }
     std::fs::remove_dir_all(&base).ok();
+}
+
+/// A pose that is not a rotation, and one that is a reflection (another convention), are
+/// refused naming the frame.
+fn non_rigid_poses_are_refused(fresh: &dyn Fn(&str) -> std::path::PathBuf) {
+    for (name, scale, needle) in [
+        ("shear", [1.3f32, 1.0, 1.0], "rigid"),
+        ("flip", [-1.0, 1.0, 1.0], "reflection"),
+    ] {
+        let d = fresh(name);
+        let tf = d.join("train/transforms.json");
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&tf).unwrap()).unwrap();
+        for r in 0..3 {
+            for c in 0..3 {
+                let x = v["frames"][1]["transform_matrix"][r][c].as_f64().unwrap();
+                v["frames"][1]["transform_matrix"][r][c] = serde_json::json!(x * scale[c] as f64);
+            }
+        }
+        std::fs::write(&tf, serde_json::to_string(&v).unwrap()).unwrap();
+        expect_err(&d, &["transforms.json", "frame 1", needle]);
+    }
 }
 
 /// The real layout (cam.txt + K_list.txt, OpenCV convention) of the same physical cameras

@@ -57,22 +57,7 @@ fn the_plugged_extractor_finds_the_light_through_fipt_run() {
         &c,
     )
     .unwrap();
-    let e: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("emitters.json")).unwrap()).unwrap();
-    let lights = e.as_array().unwrap();
-    assert_eq!(lights.len(), 1, "{e}");
-    assert_eq!(lights[0]["triangles"].as_array().unwrap().len(), 2, "{e}");
-    for (ch, want) in [17.0, 12.0, 4.0].iter().enumerate() {
-        let got = lights[0]["mean_radiance"][ch].as_f64().unwrap();
-        assert!((got - want).abs() < 0.05 * want, "radiance {got} vs {want}");
-    }
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
-    assert_eq!(report["components"]["extractor"]["name"], "brightest");
-    assert_eq!(
-        report["components"]["extractor"]["implementation"],
-        "brightest-pixels"
-    );
+    check_light_and_report(&out);
     // A misspelt plug-in setting fails before any work, naming the key.
     std::fs::write(
         &cfg,
@@ -109,4 +94,25 @@ fn the_plugged_extractor_finds_the_light_through_fipt_run() {
     .unwrap_err();
     assert!(format!("{err:#}").contains("not registered"), "{err:#}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The one light (the ceiling quad's 2 triangles, radiance (17, 12, 4)) and the report's
+/// extractor.
+fn check_light_and_report(out: &std::path::Path) {
+    let e: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("emitters.json")).unwrap()).unwrap();
+    let lights = e.as_array().unwrap();
+    assert_eq!(lights.len(), 1, "{e}");
+    assert_eq!(lights[0]["triangles"].as_array().unwrap().len(), 2, "{e}");
+    for (ch, want) in [17.0, 12.0, 4.0].iter().enumerate() {
+        let got = lights[0]["mean_radiance"][ch].as_f64().unwrap();
+        assert!((got - want).abs() < 0.05 * want, "radiance {got} vs {want}");
+    }
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["components"]["extractor"]["name"], "brightest");
+    assert_eq!(
+        report["components"]["extractor"]["implementation"],
+        "brightest-pixels"
+    );
 }

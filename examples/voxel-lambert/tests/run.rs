@@ -56,6 +56,29 @@ fn the_plugged_method_runs_through_fipt_run_and_is_evaluated() {
         &c,
     )
     .unwrap();
+    check_outputs(&out);
+    // An unknown method names the registered ones.
+    std::fs::write(&cfg, "[pipeline]\nmethod = \"nerf\"\n").unwrap();
+    let err = run_args(
+        [
+            "fipt",
+            "run",
+            &s(&scene),
+            "--out",
+            &s(&dir.join("x")),
+            "--config",
+            &s(&cfg),
+        ],
+        &c,
+    )
+    .unwrap_err();
+    assert!(format!("{err:#}").contains("voxel-lambert"), "{err:#}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The run's layout, its report (method, field, stages), the light found from the fitted mask,
+/// and the accuracy floors.
+fn check_outputs(out: &std::path::Path) {
     for f in [
         "report.json",
         "emitters.json",
@@ -114,21 +137,4 @@ fn the_plugged_method_runs_through_fipt_run_and_is_evaluated() {
     eprintln!("voxel-lambert on cornell: train kd {kd:.2} dB, emitter IoU {iou:.2}");
     // Measured: kd 14.35 dB (FIPT on this scene: ~20), IoU 0.44 (the false ceiling triangle).
     assert!(kd >= 12.0 && iou >= 0.3, "kd {kd:.2} dB, IoU {iou:.2}");
-    // An unknown method names the registered ones.
-    std::fs::write(&cfg, "[pipeline]\nmethod = \"nerf\"\n").unwrap();
-    let err = run_args(
-        [
-            "fipt",
-            "run",
-            &s(&scene),
-            "--out",
-            &s(&dir.join("x")),
-            "--config",
-            &s(&cfg),
-        ],
-        &c,
-    )
-    .unwrap_err();
-    assert!(format!("{err:#}").contains("voxel-lambert"), "{err:#}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -64,13 +64,10 @@ pub fn candle_ops_loss(
 ) -> Result<Tensor> {
     let LossWeights {
         mask: mask_weight,
-        prior: prior_weight,
-        prior_norm,
-        roughness_prior,
         segment: segment_weight,
-        target: target_weight,
         image_loss,
         emitter_material,
+        ..
     } = weights;
     let dev = out.albedo.device();
     let b = batch.gt.len();
@@ -126,64 +123,9 @@ pub fn candle_ops_loss(
         };
         let keep = out.alpha.affine(-1.0, 1.0)?;
         let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha)?)?;
-        let image = match image_loss {
-            ImageLoss::Srgb => (pred.apply_op1(SrgbOetf)? - gt_oetf)?.sqr()?.mean_all()?,
-            ImageLoss::SrgbSlope => {
-                // Where the slope-weighted error is within the clip: that error, the slope
-                // held constant; elsewhere the sRGB difference.
-                let pv = pred.flatten_all()?.to_vec1::<f32>()?;
-                let gv = flat3(&batch.gt);
-                let (w, near): (Vec<f32>, Vec<f32>) = pv
-                    .iter()
-                    .zip(&gv)
-                    .map(|(&p, &g)| {
-                        let w = crate::ops::srgb_oetf_grad(p.max(0.0));
-                        let near = (w * (p - g)).abs() <= crate::ops::SLOPE_LOSS_CLIP;
-                        (w, f32::from(u8::from(near)))
-                    })
-                    .unzip();
-                let t = |v: Vec<f32>| Tensor::from_vec(v, (b, 3), dev);
-                let near = t(near)?;
-                let lin = ((&pred - &gt)? * t(w)?)?;
-                let srgb = (pred.apply_op1(SrgbOetf)? - gt_oetf)?;
-                let e = ((lin * &near)? + (srgb * near.affine(-1.0, 1.0)?)?)?;
-                e.sqr()?.mean_all()?
-            }
-        };
+        let image = image_term(&pred, &gt, gt_oetf, batch, image_loss)?;
         let mask = out.alpha.mean_all()?;
-        let dr = out.roughness.affine(1.0, -1.0)?;
-        let k = roughness_prior as f64;
-        // Per pixel and part: the search's target pull where there is one, the default prior
-        // elsewhere.
-        let part = |c: usize| -> candle_core::Result<(Tensor, Tensor)> {
-            let t: Vec<f32> = (0..b)
-                .map(|j| batch.target.get(j).map_or(f32::NAN, |t| t[c]))
-                .collect();
-            let has: Vec<f32> = t.iter().map(|v| u8::from(v.is_finite()) as f32).collect();
-            let t: Vec<f32> = t
-                .iter()
-                .map(|v| if v.is_finite() { *v } else { 0.0 })
-                .collect();
-            Ok((
-                Tensor::from_vec(has, (b, 1), dev)?,
-                Tensor::from_vec(t, (b, 1), dev)?,
-            ))
-        };
-        let ((hs, ts), (hm, tm)) = (part(0)?, part(1)?);
-        let pull = (((&out.roughness - ts)?.sqr()? * &hs)?
-            + ((&out.metallic - tm)?.sqr()? * &hm)?)?
-            .mean_all()?;
-        let (ns, nm) = (hs.affine(-1.0, 1.0)?, hm.affine(-1.0, 1.0)?);
-        let ps = match prior_norm {
-            PriorNorm::L1 => (dr.abs()? * &ns)?.mean_all()?,
-            PriorNorm::L2 | PriorNorm::L2Roughness => (dr.sqr()? * &ns)?.mean_all()?,
-        };
-        let pm = match prior_norm {
-            PriorNorm::L2 => (out.metallic.sqr()? * &nm)?.mean_all()?,
-            PriorNorm::L1 | PriorNorm::L2Roughness => (&out.metallic * &nm)?.mean_all()?,
-        };
-        let prior = ((ps.affine(k, 0.0)? + pm)?.affine(prior_weight as f64, 0.0)?
-            + pull.affine(target_weight as f64, 0.0)?)?;
+        let prior = prior_term(out, batch, &weights)?;
         let segment = if batch.segment.is_empty() {
             Tensor::zeros((), candle_core::DType::F32, dev)?
         } else if let Some(sem) = &batch.semantic {
@@ -196,6 +138,87 @@ pub fn candle_ops_loss(
         Tensor::stack(&[total, image, mask, prior, segment], 0)
     })();
     r.ctx("candle-ops loss")
+}
+
+/// The image term: the mean squared sRGB error of `pred` against `gt`, or its slope-weighted
+/// form ([`ImageLoss`]).
+fn image_term(
+    pred: &Tensor,
+    gt: &Tensor,
+    gt_oetf: Tensor,
+    batch: &LossBatch,
+    image_loss: ImageLoss,
+) -> candle_core::Result<Tensor> {
+    let (b, dev) = (batch.gt.len(), pred.device());
+    Ok(match image_loss {
+        ImageLoss::Srgb => (pred.apply_op1(SrgbOetf)? - gt_oetf)?.sqr()?.mean_all()?,
+        ImageLoss::SrgbSlope => {
+            // Where the slope-weighted error is within the clip: that error, the slope
+            // held constant; elsewhere the sRGB difference.
+            let pv = pred.flatten_all()?.to_vec1::<f32>()?;
+            let gv: Vec<f32> = batch.gt.iter().flatten().copied().collect();
+            let (w, near): (Vec<f32>, Vec<f32>) = pv
+                .iter()
+                .zip(&gv)
+                .map(|(&p, &g)| {
+                    let w = crate::ops::srgb_oetf_grad(p.max(0.0));
+                    let near = (w * (p - g)).abs() <= crate::ops::SLOPE_LOSS_CLIP;
+                    (w, f32::from(u8::from(near)))
+                })
+                .unzip();
+            let t = |v: Vec<f32>| Tensor::from_vec(v, (b, 3), dev);
+            let near = t(near)?;
+            let lin = ((pred - gt)? * t(w)?)?;
+            let srgb = (pred.apply_op1(SrgbOetf)? - gt_oetf)?;
+            let e = ((lin * &near)? + (srgb * near.affine(-1.0, 1.0)?)?)?;
+            e.sqr()?.mean_all()?
+        }
+    })
+}
+
+/// The prior: per pixel and part, the search's target pull where there is one, the default
+/// σ/metallic prior elsewhere, weighted.
+fn prior_term(
+    out: &crate::field::FieldOutput,
+    batch: &LossBatch,
+    weights: &LossWeights,
+) -> candle_core::Result<Tensor> {
+    let (b, dev) = (batch.gt.len(), out.albedo.device());
+    let (prior_weight, prior_norm) = (weights.prior, weights.prior_norm);
+    let (roughness_prior, target_weight) = (weights.roughness_prior, weights.target);
+    let dr = out.roughness.affine(1.0, -1.0)?;
+    let k = roughness_prior as f64;
+    // Per pixel and part: the search's target pull where there is one, the default prior
+    // elsewhere.
+    let part = |c: usize| -> candle_core::Result<(Tensor, Tensor)> {
+        let t: Vec<f32> = (0..b)
+            .map(|j| batch.target.get(j).map_or(f32::NAN, |t| t[c]))
+            .collect();
+        let has: Vec<f32> = t.iter().map(|v| u8::from(v.is_finite()) as f32).collect();
+        let t: Vec<f32> = t
+            .iter()
+            .map(|v| if v.is_finite() { *v } else { 0.0 })
+            .collect();
+        Ok((
+            Tensor::from_vec(has, (b, 1), dev)?,
+            Tensor::from_vec(t, (b, 1), dev)?,
+        ))
+    };
+    let ((hs, ts), (hm, tm)) = (part(0)?, part(1)?);
+    let pull = (((&out.roughness - ts)?.sqr()? * &hs)? + ((&out.metallic - tm)?.sqr()? * &hm)?)?
+        .mean_all()?;
+    let (ns, nm) = (hs.affine(-1.0, 1.0)?, hm.affine(-1.0, 1.0)?);
+    let ps = match prior_norm {
+        PriorNorm::L1 => (dr.abs()? * &ns)?.mean_all()?,
+        PriorNorm::L2 | PriorNorm::L2Roughness => (dr.sqr()? * &ns)?.mean_all()?,
+    };
+    let pm = match prior_norm {
+        PriorNorm::L2 => (out.metallic.sqr()? * &nm)?.mean_all()?,
+        PriorNorm::L1 | PriorNorm::L2Roughness => (&out.metallic * &nm)?.mean_all()?,
+    };
+    let prior = ((ps.affine(k, 0.0)? + pm)?.affine(prior_weight as f64, 0.0)?
+        + pull.affine(target_weight as f64, 0.0)?)?;
+    Ok(prior)
 }
 
 /// The semantic smoothness term: |σ − bilateral mean of σ over its partners| (and of m),

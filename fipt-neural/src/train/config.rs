@@ -363,6 +363,11 @@ impl TrainConfig {
                 ),
             ));
         }
+        self.validate_weights()
+    }
+
+    /// The segment prior's and the loss's weights and widths, and the learning rate.
+    fn validate_weights(&self) -> Result<()> {
         let sp = &self.semantic;
         if sp.partners == 0 || sp.partners > 4096 {
             return Err(NeuralError::config(

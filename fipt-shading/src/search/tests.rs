@@ -115,7 +115,7 @@ fn curve(metal: Vec<f64>, dielectric: Vec<f64>) -> RegionProfile {
 }
 
 #[test]
-fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
+fn the_choice_needs_its_margins_and_both_halves_of_the_views() {
     let cfg = SearchConfig::default();
     // A mirror-end dielectric minimum 13 % below σ = 1 (the studio's diffuse box): no σ.
     let p = curve(vec![1.0; 5], vec![0.100, 0.110, 0.120, 0.118, 0.113]);
@@ -141,6 +141,11 @@ fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
         choose(&wall, &cfg, false, Some([&wall, &noise])).roughness,
         None
     );
+}
+
+#[test]
+fn a_capture_half_holds_out_within_the_band_and_near_one_means_one() {
+    let cfg = SearchConfig::default();
     // Pose error and pixel noise (a capture): one half barely sees the gloss, its minimum
     // lies 0.01 % below σ = 1 but where the other half's does (σ 0.5 and 0.6, within
     // `held_out_band`): it holds out. Half a range apart (0.25 and 0.6) it does not, nor
@@ -186,6 +191,12 @@ fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
         choose(&whole, &no_rough, false, Some([&whole, &flat])).roughness,
         None
     );
+}
+
+#[test]
+fn a_lacquer_half_holds_out_and_the_held_out_check_decides() {
+    let cfg = SearchConfig::default();
+    let wall = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1001, 0.1004, 0.1010]);
     // A lacquer (σ 0.12): the whole's minimum is interior, one half's lies below
     // `interior_sigma` (0.08) but above the mirror end: it holds out. A half whose minimum is
     // the mirror end does not.
@@ -221,6 +232,11 @@ fn the_choice_needs_its_margins_and_keeps_a_metal_by_hysteresis() {
         ..trusting
     };
     assert_eq!(choose(&wall, &old, false, None).roughness, None);
+}
+
+#[test]
+fn a_strong_minimum_is_kept_and_a_metal_by_hysteresis() {
+    let cfg = SearchConfig::default();
     // A strong minimum at the mirror end: the roughest within 25 %.
     let p = curve(vec![1.0; 5], vec![0.100, 0.120, 0.200, 0.300, 0.300]);
     assert_eq!(choose(&p, &cfg, false, None).roughness, Some(0.25));
