@@ -169,8 +169,25 @@ pub struct EmitterInputs<'a> {
     pub positions: &'a [Vec3],
     pub triangles: &'a [[u32; 3]],
     pub field: &'a dyn MaterialField,
-    /// Every training pixel whose centre ray hits the mesh.
-    pub pixel_hits: &'a [PixelHit],
+    /// Every training pixel whose centre ray hits the mesh, visited in view and pixel order.
+    pub pixel_hits: &'a dyn PixelHits,
+}
+
+/// The training pixels whose centre ray hits the mesh, visited in view and pixel order. A
+/// source may build them one view at a time (the pipeline's does), so that a scene of any size
+/// never holds them all: an extractor keeps what it needs of them.
+pub trait PixelHits {
+    /// Calls `f` with every pixel hit, in order.
+    fn visit(&self, f: &mut dyn FnMut(&PixelHit)) -> Result<()>;
+}
+
+impl PixelHits for Vec<PixelHit> {
+    fn visit(&self, f: &mut dyn FnMut(&PixelHit)) -> Result<()> {
+        for h in self {
+            f(h);
+        }
+        Ok(())
+    }
 }
 
 /// A training pixel as emitter extraction sees it.

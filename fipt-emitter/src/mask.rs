@@ -100,7 +100,7 @@ fn median(v: &mut [f32]) -> f32 {
 fn observed_sides(
     inp: &EmitterInputs,
     tris: &[u32],
-    obs: &HashMap<u32, Vec<&PixelHit>>,
+    obs: &HashMap<u32, Vec<PixelHit>>,
     light: Vec3,
 ) -> Vec<EmitSide> {
     let geo = |t: u32| {
@@ -170,7 +170,7 @@ impl EmitterExtractor for MaskExtractor {
         let mut is_emitter: Vec<bool> = alpha.iter().map(|&a| a > c.threshold).collect();
         // 2. Observed pixels per emitter triangle; with `require_unexplained`, drop triangles
         //    whose pixels are mostly within what they could reflect.
-        let obs = observed(inp, &mut is_emitter, c.require_unexplained);
+        let obs = observed(inp, &mut is_emitter, c.require_unexplained)?;
         // 3. Connected groups: emitter triangles sharing a vertex.
         let groups = connected_groups(inp, &is_emitter);
         // 4. Radiance per triangle: median of its pixels, else of its light's pixels.
@@ -220,25 +220,25 @@ fn mean_alpha(inp: &EmitterInputs, c: &MaskExtractorConfig) -> Result<Vec<f32>> 
 
 /// The pixels that see each emitter triangle. With `require_unexplained`, triangles whose
 /// pixels are mostly within what they could reflect stop being emitters.
-fn observed<'a>(
-    inp: &'a EmitterInputs,
+fn observed(
+    inp: &EmitterInputs,
     is_emitter: &mut [bool],
     require_unexplained: bool,
-) -> HashMap<u32, Vec<&'a PixelHit>> {
+) -> Result<HashMap<u32, Vec<PixelHit>>> {
     let n = is_emitter.len();
-    let mut obs: HashMap<u32, Vec<&PixelHit>> = HashMap::new();
+    let mut obs: HashMap<u32, Vec<PixelHit>> = HashMap::new();
     let mut votes: HashMap<u32, (usize, usize)> = HashMap::new();
-    for h in inp.pixel_hits {
+    inp.pixel_hits.visit(&mut |h| {
         let t = h.triangle;
         if (t as usize) < n && is_emitter[t as usize] {
-            obs.entry(t).or_default().push(h);
+            obs.entry(t).or_default().push(*h);
             if let Some(b) = h.max_reflected {
                 let v = votes.entry(t).or_default();
                 v.0 += (luminance(h.radiance) > luminance(b)) as usize;
                 v.1 += 1;
             }
         }
-    }
+    })?;
     if require_unexplained {
         for (t, (above, total)) in votes {
             if 2 * above < total {
@@ -247,7 +247,7 @@ fn observed<'a>(
             }
         }
     }
-    obs
+    Ok(obs)
 }
 
 /// The emitter triangles in groups that share a vertex (by position, so that split vertices
@@ -289,7 +289,7 @@ fn connected_groups(inp: &EmitterInputs, is_emitter: &[bool]) -> Vec<Vec<usize>>
 /// Per emitter triangle: every pixel's radiance, and (with `inner_pixels`) the radiance of its
 /// pixels that lie wholly on a light.
 fn seen_radiance(
-    obs: &HashMap<u32, Vec<&PixelHit>>,
+    obs: &HashMap<u32, Vec<PixelHit>>,
     inner_pixels: bool,
 ) -> HashMap<u32, (Vec<Vec3>, Vec<Vec3>)> {
     let on_light: HashSet<[u32; 3]> = if inner_pixels {
@@ -333,7 +333,7 @@ fn group_emitter(
     inp: &EmitterInputs,
     c: &MaskExtractorConfig,
     g: &[usize],
-    obs: &HashMap<u32, Vec<&PixelHit>>,
+    obs: &HashMap<u32, Vec<PixelHit>>,
     seen: &HashMap<u32, (Vec<Vec3>, Vec<Vec3>)>,
 ) -> Option<Emitter> {
     let radiance_of = |t: usize, inner_only: bool| -> &[Vec3] {
@@ -423,7 +423,7 @@ mod tests {
         positions: &'a [Vec3],
         triangles: &'a [[u32; 3]],
         field: &'a dyn MaterialField,
-        pixel_hits: &'a [PixelHit],
+        pixel_hits: &'a Vec<PixelHit>,
     ) -> EmitterInputs<'a> {
         EmitterInputs {
             positions,
@@ -638,9 +638,9 @@ mod tests {
             ..pixel(0, Vec3::splat(5.0), None)
         };
         let field = BoxMask(Vec3::ZERO, Vec3::ZERO);
-        let hits = [seen];
+        let hits = vec![seen];
         let inp = inputs(&pos, &tris, &field, &hits);
-        let obs = HashMap::from([(0u32, vec![&hits[0]])]);
+        let obs = HashMap::from([(0u32, vec![hits[0]])]);
         let sides = observed_sides(&inp, &[0, 1, 2], &obs, Vec3::splat(5.0));
         assert_eq!(
             sides,

@@ -3,11 +3,11 @@
 //! run's extractor on the fitted field) → maps → re-renders → report (→ eval), with the outputs
 //! of every method in the same places.
 use crate::error::Result;
+use crate::outputs::RunSummary;
 use crate::outputs::{
     emitters_summary, evaluate_if_gt, extend, extract_emitters, report_header, write_emitters_obj,
     write_views, StageReport,
 };
-use crate::outputs::RunSummary;
 use crate::request::RunRequest;
 use crate::run_config::RunConfig;
 use crate::Components;
@@ -111,7 +111,6 @@ pub fn run(
     let t = crate::observe::begin("load");
     let scene = crate::scene::load(&a.scene, a.bad_pixels, cfg.capture.align_views)?;
     stages.push(StageReport::since("load", t));
-    let split = scene.ds.train();
     let mesh = &scene.geometry.mesh;
     let shadings = if fitter.needs_shadings() {
         let t = crate::observe::begin("bake");
@@ -143,17 +142,7 @@ pub fn run(
     let field = fitted.field.as_ref();
     let emitters = match fitted.emitters {
         Some(e) => e,
-        None => {
-            let records: Vec<_> = split
-                .views
-                .iter()
-                .map(|v| hit_points(&scene.geometry, v))
-                .collect();
-            let reflected = (shadings.as_ref())
-                .map(|s| crate::outputs::max_reflected(s))
-                .transpose()?;
-            extract_emitters(&scene, &records, field, reflected.as_deref(), extractor)?
-        }
+        None => extract_from_field(&scene, field, shadings.as_ref(), extractor)?,
     };
     let user_emitters: Vec<_> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();
     write_json_atomic(&a.out.join("emitters.json"), &user_emitters)?;
@@ -169,12 +158,65 @@ pub fn run(
     write_views(&scene, cfg, &a.out, recovered, None, &mut mark)?;
     let metrics = evaluate_if_gt(&scene, &a.out, &mut mark)?;
     let mut report = report_header(a, &scene, cfg, &stages, t_all);
+    let what = FitRun {
+        cfg,
+        components,
+        fitter,
+        extractor,
+        field,
+        baked: shadings.is_some(),
+        exposure: scene.exposure,
+    };
     extend(
         &mut report,
+        what.report(fitted.report, &emitters, &user_emitters, metrics, warnings),
+    );
+    RunSummary::write(a, cfg, &scene, &report, stages, emitters.len(), None)
+}
+
+/// The run's extractor on the fitted field's emission mask (for a fitter without emitters of its
+/// own), with each pixel's bound on reflected light when the bake ran.
+fn extract_from_field(
+    scene: &crate::scene::LoadedScene,
+    field: &dyn fipt_core::field::MaterialField,
+    shadings: Option<&fipt_shading::bake_store::StoredShadings>,
+    extractor: &dyn EmitterExtractor,
+) -> Result<Vec<fipt_core::emitter::Emitter>> {
+    let records: Vec<_> = (scene.ds.train().views.iter())
+        .map(|v| hit_points(&scene.geometry, v))
+        .collect();
+    let shadings = shadings.map(|s| s as &dyn fipt_shading::bake_store::ShadingViews);
+    extract_emitters(scene, &records, field, shadings, extractor)
+}
+
+/// What a fitter's run reports beyond the common header.
+struct FitRun<'a> {
+    cfg: &'a RunConfig,
+    components: &'a Components,
+    fitter: &'a dyn MaterialFitter,
+    extractor: &'a dyn EmitterExtractor,
+    field: &'a dyn fipt_core::field::MaterialField,
+    baked: bool,
+    exposure: f32,
+}
+
+impl FitRun<'_> {
+    /// `report.json`'s fit, emitters, components, modeled, metrics and warnings.
+    fn report(
+        &self,
+        fit: serde_json::Value,
+        emitters: &[fipt_core::emitter::Emitter],
+        user_emitters: &[fipt_core::emitter::Emitter],
+        metrics: Option<serde_json::Value>,
+        warnings: Vec<String>,
+    ) -> serde_json::Value {
+        let (cfg, shadings) = (self.cfg, self.baked.then_some(()));
+        let (fitter, extractor, field) = (self.fitter, self.extractor, self.field);
+        let components = self.components;
         serde_json::json!({
-            "fit": fitted.report,
-            "emitters": emitters_summary(&user_emitters),
-            "exposure_scale": scene.exposure,
+            "fit": fit,
+            "emitters": emitters_summary(user_emitters),
+            "exposure_scale": self.exposure,
             "components": {
                 "reflectance_model": cfg.model.brdf,
                 "method": { "name": cfg.pipeline.method, "implementation": fitter.name() },
@@ -192,7 +234,6 @@ pub fn run(
             },
             "metrics": metrics,
             "warnings": warnings,
-        }),
-    );
-    RunSummary::write(a, cfg, &scene, &report, stages, emitters.len(), None)
+        })
+    }
 }

@@ -16,10 +16,14 @@ pub fn estimate(pixels: u64, cfg: &RunConfig) -> Vec<(&'static str, u64)> {
     let poly = cfg.model.brdf.diffuse_depends_on_roughness() as u64;
     // Ld, Ld1/Ld2 for principled, Ls0 and Ls1 at every level.
     let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
-    // The search's copy adds the valid flag; the training set the image value, the position,
-    // the Morton code, the origin, the segment and the search target, on at most
-    // `train.set_cap · steps · batch` pixels.
-    let search = pixels * (shadings + 1);
+    // The search's copy adds the valid flag, on at most `search.max_pixels` pixels; the
+    // training set the image value, the position, the Morton code, the origin, the segment
+    // and the search target, on at most `train.set_cap · steps · batch` pixels.
+    let searched = match cfg.search.max_pixels {
+        0 => pixels,
+        m => pixels.min(m as u64),
+    };
+    let search = searched * (shadings + 1);
     let kept = cfg
         .train
         .set_limit()
@@ -77,5 +81,43 @@ pub fn check_bytes(what: &str, bytes: u64) -> Result<()> {
             gib(avail)
         ),
         _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(parts: &[(&'static str, u64)], name: &str) -> u64 {
+        parts.iter().find(|p| p.0 == name).unwrap().1
+    }
+
+    /// A scene of the reference's size (200 views of 640×480): the search and the training set
+    /// are bounded by their caps, not by the pixels; without the caps they grow with them.
+    #[test]
+    fn the_caps_bound_the_estimate_of_a_large_scene() {
+        let pixels = 200 * 640 * 480;
+        let cfg = RunConfig::preset("fast").unwrap();
+        let capped = part(&estimate(pixels, &cfg), "training set or search");
+        let set = cfg.train.set_limit().unwrap() as u64;
+        let searched = cfg.search.max_pixels as u64;
+        assert!(set < pixels && searched < pixels);
+        // Per pixel: the search's shadings and valid flag; the training set's 52 bytes more.
+        let poly = cfg.model.brdf.diffuse_depends_on_roughness() as u64;
+        let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
+        assert_eq!(
+            capped,
+            (searched * (shadings + 1)).max(set * (shadings + 52))
+        );
+        let mut open = cfg.clone();
+        open.search.max_pixels = 0;
+        open.train.set_cap = 0.0;
+        let uncapped = part(&estimate(pixels, &open), "training set or search");
+        assert_eq!(uncapped, pixels * (shadings + 52));
+        assert!(capped * 5 < uncapped, "{capped} vs {uncapped}");
+        assert_eq!(
+            part(&estimate(pixels, &cfg), "hits and images"),
+            pixels * 44
+        );
     }
 }

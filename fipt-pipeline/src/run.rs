@@ -8,10 +8,10 @@ use crate::outputs::{
     emitters_summary, evaluate_if_gt, extend, extract_emitters, has_ground_truth, report_header,
     write_emitters_obj, write_views, StageReport,
 };
-pub use crate::rounds::RoundsConfig;
-use crate::rounds::{planned_rounds, Rounds, RoundsContext};
 pub use crate::outputs::{RunOutcome, RunSummary};
 pub use crate::request::{lock, RunRequest};
+pub use crate::rounds::RoundsConfig;
+use crate::rounds::{planned_rounds, Rounds, RoundsContext};
 pub use crate::run_config::{ModelConfig, PipelineConfig, ReRenderConfig, RunConfig};
 use fipt_core::emitter::Emitter;
 use fipt_core::fsutil::write_json_atomic;
@@ -172,16 +172,13 @@ fn run_locked(
     let mut first = first_round(a, cfg, &scene, baker.as_ref(), bake_settings, &mut mark)?;
     let (records, footprint, field) = (&first.records, first.footprint, first.field);
     let t = crate::observe::begin("emitters");
-    let reflected = std::mem::take(&mut first.reflected);
-    let found = extract_emitters(
+    let emitters = extract_emitters(
         &scene,
         records,
         &field,
-        Some(&reflected),
+        Some(&first.shadings),
         extractor.as_ref(),
-    );
-    drop(reflected);
-    let emitters = found?;
+    )?;
     let user_emitters = write_emitters(&a.out, &scene, &emitters)?;
     mark("emitters", t);
     let warnings = crate::outputs::run_warnings(&scene, &emitters);
@@ -256,7 +253,8 @@ struct FirstRound {
     searched: Option<crate::search::Searched>,
     searches: Vec<serde_json::Value>,
     closure: Vec<serde_json::Value>,
-    reflected: Vec<Vec<Option<glam::Vec3>>>,
+    /// The initial shadings on disk, for the extraction's bound on reflected light.
+    shadings: fipt_shading::bake_store::StoredShadings,
     field: fipt_neural::field::NeuralField,
     train: crate::train::TrainManifest,
 }
@@ -294,9 +292,8 @@ fn first_round(
     if searched.is_some() {
         mark("search", t);
     }
-    // What the closure and the extraction need of the shadings, before the training takes them.
+    // The closure of the shadings with the true materials (with ground truth).
     let closure = bake_closure(scene, &shadings, has_gt)?;
-    let reflected = crate::outputs::max_reflected(&shadings)?;
     let t = crate::observe::begin("train");
     let (field, train, _) = crate::train::stage(
         scene,
@@ -321,7 +318,7 @@ fn first_round(
         searched,
         searches,
         closure,
-        reflected,
+        shadings,
         field,
         train,
     })
@@ -369,9 +366,7 @@ fn train_hits(
         .iter()
         .map(|v| hit_points(&scene.geometry, v))
         .collect();
-    let footprint = crate::train::view_points(&scene.geometry, views)
-        .1
-        .unwrap_or(0.01);
+    let footprint = fipt_shading::records::view_footprint(&scene.geometry, views).unwrap_or(0.01);
     (records, footprint)
 }
 

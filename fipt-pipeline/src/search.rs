@@ -614,7 +614,54 @@ fn empty_profile() -> RegionProfile {
 }
 
 /// The search's cost curves per region on the shadings `a` names.
-pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
+/// The regions' profiles with the ground truth's base colour (kd for dielectrics, ks for
+/// metals; None without ground truth), and with one fitted base colour per region.
+fn reference_profiles(
+    scene: &LoadedScene,
+    pixels: &[SearchPixel],
+    shadings: &[ViewShadings],
+    n: usize,
+    grid: &[f32],
+    cfg: &SearchConfig,
+) -> Result<(Option<Vec<RegionProfile>>, Vec<RegionProfile>)> {
+    let given = if let Some(base) = true_base_colours(&scene.ds, scene.ds.train(), pixels)? {
+        let metal_grid = [0.0, 0.25, 0.5, 0.75, 1.0];
+        Some(profile(
+            pixels,
+            shadings,
+            &scene.images,
+            n,
+            grid,
+            &metal_grid,
+            Albedo::Given(&base),
+        ))
+    } else {
+        None
+    };
+    // One base colour per region: every pixel of a region in one cell.
+    let per_part: Vec<SearchPixel> = pixels
+        .iter()
+        .map(|p| SearchPixel {
+            cell: p.region,
+            ..*p
+        })
+        .collect();
+    let part = profile(
+        &per_part,
+        shadings,
+        &scene.images,
+        n,
+        grid,
+        &cfg.metallic,
+        Albedo::Fitted,
+    );
+    Ok((given, part))
+}
+
+/// `fipt profile`'s scene, stored shadings and search settings.
+fn profile_inputs(
+    a: &ProfileRequest,
+) -> Result<(crate::scene::LoadedScene, Vec<ViewShadings>, SearchConfig)> {
     let scene = crate::scene::load(&a.scene, a.bad_pixels, Default::default())?;
     let dir = a.out.join(&a.shadings);
     let shadings = match fipt_shading::bake_store::load_for_inputs(&dir, &scene.cache_key)? {
@@ -634,13 +681,18 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
     };
     cfg.validate()
         .map_err(crate::error::PipelineError::invalid)?;
+    Ok((scene, shadings, cfg))
+}
+
+pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
+    let (scene, shadings, cfg) = profile_inputs(a)?;
     let split = scene.ds.train();
     let records: Vec<_> = split
         .views
         .iter()
         .map(|v| fipt_shading::records::hit_points(&scene.geometry, v))
         .collect();
-    let (_, footprint) = fipt_shading::records::view_points(&scene.geometry, &split.views);
+    let footprint = fipt_shading::records::view_footprint(&scene.geometry, &split.views);
     let Some(Prepared {
         regions,
         pixels,
@@ -684,38 +736,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
         &cfg.split,
         &choose_one,
     );
-    // The ground truth's base colour: kd for dielectrics, ks for metals.
-    let given = if let Some(base) = true_base_colours(&scene.ds, split, &pixels)? {
-        let metal_grid = [0.0, 0.25, 0.5, 0.75, 1.0];
-        Some(profile(
-            &pixels,
-            &shadings,
-            &scene.images,
-            n,
-            &grid,
-            &metal_grid,
-            Albedo::Given(&base),
-        ))
-    } else {
-        None
-    };
-    // One base colour per region: every pixel of a region in one cell.
-    let per_part: Vec<SearchPixel> = pixels
-        .iter()
-        .map(|p| SearchPixel {
-            cell: p.region,
-            ..*p
-        })
-        .collect();
-    let mut part = profile(
-        &per_part,
-        &shadings,
-        &scene.images,
-        n,
-        &grid,
-        &cfg.metallic,
-        Albedo::Fitted,
-    );
+    let (given, mut part) = reference_profiles(&scene, &pixels, &shadings, n, &grid, &cfg)?;
     let mut rows = vec![];
     for (r, f) in fitted.into_iter().enumerate() {
         let held = halves.as_ref().map(|h| [&h[0][r], &h[1][r]]);

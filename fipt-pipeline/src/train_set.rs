@@ -6,7 +6,6 @@ use crate::error::Result;
 use crate::scene::LoadedScene;
 use crate::search::Searched;
 use fipt_core::dataset::GtKind;
-use fipt_core::image::Image;
 use fipt_neural::train::SegmentSource;
 use fipt_neural::{Bounds, TrainConfig, TrainingSet};
 use fipt_shading::bake_store::StoredShadings;
@@ -14,62 +13,125 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::path::PathBuf;
 
-/// Leaves out of `points` the pixels [`fipt_core::image::bleed_mask`] marks (`train.bleed_radius`,
-/// `bleed_contrast`), and says how many.
-pub(crate) fn leave_out_bleed(
-    points: &mut [Vec<Option<Vec3>>],
-    images: &[Image],
-    radius: u32,
-    contrast: f32,
-) {
-    // The floor: 1 % of the median luminance over every training view (a view into a
-    // dark corner has a dark median of its own, and its noise is no edge).
-    let median = fipt_core::image::median_luminance(images);
-    let (mut dropped, mut all) = (0usize, 0usize);
-    for (pts, img) in points.iter_mut().zip(images) {
-        let (r, c) = (radius as usize, contrast);
-        let bleed = fipt_core::image::bleed_mask(img, r, c, 0.01 * median);
-        for (p, b) in pts.iter_mut().zip(bleed) {
-            all += usize::from(p.is_some());
-            if b && p.take().is_some() {
-                dropped += 1;
-            }
+/// Leaves out of one view's points (view `v`) those outside the uniform random `share` kept
+/// from (`seed`, view, pixel).
+fn keep_share(pts: &mut [Option<Vec3>], v: usize, seed: u64, share: f64) {
+    for (i, p) in pts.iter_mut().enumerate() {
+        if p.is_some() && !fipt_core::rng::pixel_kept(seed, v, i, share) {
+            *p = None;
         }
     }
-    crate::note!(
-        "training set: {dropped} of {all} pixels ({:.2} %) left out within {} px of one {}× brighter (train.bleed_radius, bleed_contrast)",
-        100.0 * dropped as f64 / all.max(1) as f64,
-        radius,
-        contrast
-    );
 }
 
-/// Keeps a uniform random share of `points`' hits, each kept or not from (`seed`, view,
-/// pixel), so that about `limit` remain (`train.set_cap`), and says so. Returns how many it
-/// left out.
-pub(crate) fn keep_at_most(points: &mut [Vec<Option<Vec3>>], limit: usize, seed: u64) -> usize {
+/// [`keep_share`] over every view, the share set so that about `limit` hits remain; returns
+/// how many it left out (what [`SetPoints::limit`] does one view at a time).
+#[cfg(test)]
+fn keep_at_most(points: &mut [Vec<Option<Vec3>>], limit: usize, seed: u64) -> usize {
     let all = points.iter().flatten().flatten().count();
     if all <= limit {
         return 0;
     }
-    let share = limit as f64 / all as f64;
-    let mut kept = 0usize;
     for (v, pts) in points.iter_mut().enumerate() {
-        for (i, p) in pts.iter_mut().enumerate() {
-            if p.is_some() {
-                if fipt_core::rng::pixel_kept(seed, v, i, share) {
-                    kept += 1;
-                } else {
+        keep_share(pts, v, seed, limit as f64 / all as f64);
+    }
+    all - points.iter().flatten().flatten().count()
+}
+
+/// Each training view's points for the set, made one view at a time (the primary hits traced
+/// again): none where a clipped pixel lies off the lights, beside a bright edge
+/// ([`fipt_core::image::bleed_mask`]: `train.bleed_radius`, `bleed_contrast`), or outside the
+/// uniform share [`SetPoints::limit`] keeps. Only one view's points are held at a time.
+struct SetPoints<'a> {
+    scene: &'a LoadedScene,
+    /// (radius, contrast, floor: 1 % of the median luminance over every training view, so
+    /// that a view into a dark corner, whose noise is no edge, keeps its pixels).
+    bleed: Option<(usize, f32, f32)>,
+    /// The share kept from (seed, view, pixel), when the hits exceed the set's limit.
+    keep: Option<(u64, f64)>,
+    /// The hits left after the masks, over every view.
+    hits: usize,
+}
+
+impl<'a> SetPoints<'a> {
+    fn new(scene: &'a LoadedScene, cfg: &TrainConfig) -> Self {
+        let bleed = (cfg.bleed_radius > 0).then(|| {
+            let median = fipt_core::image::median_luminance(&scene.images);
+            (cfg.bleed_radius as usize, cfg.bleed_contrast, 0.01 * median)
+        });
+        let mut pick = SetPoints {
+            scene,
+            bleed,
+            keep: None,
+            hits: 0,
+        };
+        let (mut dropped, mut all) = (0usize, 0usize);
+        for v in 0..scene.images.len() {
+            let (kept, hit) = pick.masked(v);
+            (dropped, all) = (dropped + hit - kept, all + hit);
+        }
+        pick.hits = all - dropped;
+        if let Some((radius, contrast, _)) = bleed {
+            crate::note!(
+                "training set: {dropped} of {all} pixels ({:.2} %) left out within {radius} px of one {contrast}× brighter (train.bleed_radius, bleed_contrast)",
+                100.0 * dropped as f64 / all.max(1) as f64,
+            );
+        }
+        pick
+    }
+
+    /// View `v`'s hits left after the clipped and bleed masks, and before the bleed mask.
+    fn masked(&self, v: usize) -> (usize, usize) {
+        let mut hit = 0;
+        let pts = self.unkept(v, &mut |before| hit += usize::from(before));
+        (pts.iter().flatten().count(), hit)
+    }
+
+    /// Keeps a uniform random share of the hits, each kept or not from (`seed`, view, pixel),
+    /// so that about `limit` remain (`train.set_cap`); returns the hits before the share when
+    /// there is one.
+    fn limit(&mut self, limit: Option<usize>, seed: u64) -> Option<usize> {
+        let all = self.hits;
+        let limit = limit.filter(|&l| all > l)?;
+        self.keep = Some((seed, limit as f64 / all as f64));
+        Some(all)
+    }
+
+    /// View `v`'s points after the masks, before the share; `seen` is told of every pixel
+    /// whether it hit the mesh and was not clipped.
+    fn unkept(&self, v: usize, seen: &mut dyn FnMut(bool)) -> Vec<Option<Vec3>> {
+        let scene = self.scene;
+        let view = &scene.ds.train().views[v];
+        let records = fipt_shading::records::primary_records(&scene.geometry, view);
+        let mut pts: Vec<Option<Vec3>> = records.iter().map(|r| r.map(|r| r.hit.p)).collect();
+        drop(records);
+        // Clipped pixels off the lights: their radiance is only bounded below.
+        if let Some(out) = scene.capture.left_out.get(v) {
+            for (p, _) in pts.iter_mut().zip(out).filter(|(_, o)| **o) {
+                *p = None;
+            }
+        }
+        for p in &pts {
+            seen(p.is_some());
+        }
+        if let Some((radius, contrast, floor)) = self.bleed {
+            let bleed = fipt_core::image::bleed_mask(&scene.images[v], radius, contrast, floor);
+            for (p, b) in pts.iter_mut().zip(bleed) {
+                if b {
                     *p = None;
                 }
             }
         }
+        pts
     }
-    crate::note!(
-        "training set: {kept} of {all} pixels kept ({:.1} %): a round draws at most {limit} (train.set_cap × steps × batch)",
-        100.0 * kept as f64 / all.max(1) as f64
-    );
-    all - kept
+
+    /// View `v`'s points for the set.
+    fn view(&self, v: usize) -> Vec<Option<Vec3>> {
+        let mut pts = self.unkept(v, &mut |_| {});
+        if let Some((seed, share)) = self.keep {
+            keep_share(&mut pts, v, seed, share);
+        }
+        pts
+    }
 }
 
 /// Where the segment prior's ids come from.
@@ -247,31 +309,40 @@ pub(crate) fn build_set(
     segments: Option<&(SegmentKind, String)>,
     search: Option<&Searched>,
 ) -> Result<BuiltSet> {
-    let (mut points, footprint) = fipt_shading::records::view_points(&scene.geometry, &scene.ds.train().views);
-    // Clipped pixels off the lights: their radiance is only bounded below.
-    for (pts, out) in points.iter_mut().zip(&scene.capture.left_out) {
-        for (p, _) in pts.iter_mut().zip(out).filter(|(_, o)| **o) {
-            *p = None;
+    let footprint = fipt_shading::records::view_footprint(&scene.geometry, &scene.ds.train().views);
+    let mut pick = SetPoints::new(scene, cfg);
+    let before = pick.limit(cfg.set_limit(), cfg.seed);
+    // The box of the kept points (as `Bounds::around` takes it: finite points), and their
+    // count (the set's arrays are reserved once).
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let mut hits = 0usize;
+    for v in 0..scene.images.len() {
+        for p in pick.view(v).into_iter().flatten() {
+            hits += 1;
+            if p.is_finite() {
+                (lo, hi) = (lo.min(p), hi.max(p));
+            }
         }
     }
-    if cfg.bleed_radius > 0 {
-        leave_out_bleed(
-            &mut points,
-            &scene.images,
-            cfg.bleed_radius,
-            cfg.bleed_contrast,
+    let left_out = before.map_or(0, |all| {
+        crate::note!(
+            "training set: {hits} of {all} pixels kept ({:.1} %): a round draws at most {} (train.set_cap × steps × batch)",
+            100.0 * hits as f64 / all.max(1) as f64,
+            cfg.set_limit().unwrap_or(0)
         );
-    }
-    let left_out = cfg
-        .set_limit()
-        .map_or(0, |limit| keep_at_most(&mut points, limit, cfg.seed));
-    let Some(bounds) = Bounds::around(points.iter().flatten().flatten().copied(), 1.1) else {
+        all - hits
+    });
+    let Some(bounds) = Bounds::around([lo, hi], 1.1) else {
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
-    let data = TrainingSet::from_views(&points, &scene.images, &bounds, |k| {
-        shadings.view(k).map_err(crate::PipelineError::from)
-    })?;
-    drop(points);
+    let views = scene.images.len();
+    let data = TrainingSet::from_view_points(
+        (views, hits),
+        |v| Ok::<_, crate::PipelineError>(pick.view(v)),
+        &scene.images,
+        &bounds,
+        |k| shadings.view(k).map_err(crate::PipelineError::from),
+    )?;
     let lights = data.lights();
     if !cfg.emitter_material {
         crate::note!(

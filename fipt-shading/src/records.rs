@@ -89,9 +89,31 @@ pub fn primary_records(geometry: &dyn RayQuery, view: &View) -> Vec<Option<Pixel
         .collect()
 }
 
+/// The median pixel footprint of `views`' primary hits (hit distance / focal length in pixels),
+/// the one [`view_points`] returns, without keeping the points: one view's hits at a time.
+pub fn view_footprint(geometry: &dyn RayQuery, views: &[View]) -> Option<f32> {
+    let mut foot = vec![];
+    for v in views {
+        let f = v.camera.fx.max(v.camera.fy);
+        foot.extend(
+            primary_records(geometry, v)
+                .iter()
+                .flatten()
+                .map(|r| r.hit.t / f),
+        );
+    }
+    (!foot.is_empty()).then(|| {
+        let n = foot.len() / 2;
+        *foot.select_nth_unstable_by(n, f32::total_cmp).1
+    })
+}
+
 /// Primary hit points of every pixel of `views`, and the median pixel footprint (hit
 /// distance / focal length in pixels).
-pub fn view_points(geometry: &dyn RayQuery, views: &[View]) -> (Vec<Vec<Option<Vec3>>>, Option<f32>) {
+pub fn view_points(
+    geometry: &dyn RayQuery,
+    views: &[View],
+) -> (Vec<Vec<Option<Vec3>>>, Option<f32>) {
     let mut foot = vec![];
     let pts = views
         .iter()
@@ -230,4 +252,3 @@ pub(crate) fn median(mut v: Vec<f32>) -> Option<f32> {
     let (_, m, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
     Some(*m)
 }
-

@@ -54,14 +54,14 @@ impl EmitterExtractor for BrightestExtractor {
     fn extract(&self, inp: &EmitterInputs) -> fipt_core::Result<Vec<Emitter>> {
         // Observations per triangle; a pixel that could be reflected light does not count.
         let mut obs: HashMap<u32, Vec<Vec3>> = HashMap::new();
-        for h in inp.pixel_hits {
+        inp.pixel_hits.visit(&mut |h| {
             let reflectable = h
                 .max_reflected
                 .is_some_and(|m| luminance(h.radiance) <= luminance(m));
             if !reflectable {
                 obs.entry(h.triangle).or_default().push(h.radiance);
             }
-        }
+        })?;
         let mut lit: Vec<(u32, Vec3, usize)> = obs
             .into_iter()
             .filter_map(|(t, ls)| {

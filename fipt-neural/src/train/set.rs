@@ -79,9 +79,30 @@ impl TrainingSet {
         points: &[Vec<Option<Vec3>>],
         images: &[Image],
         bounds: &Bounds,
+        shading: impl FnMut(usize) -> std::result::Result<ViewShadings, E>,
+    ) -> std::result::Result<Self, E> {
+        let hits = points.iter().flatten().flatten().count();
+        Self::from_view_points(
+            (points.len(), hits),
+            |v| Ok(points[v].clone()),
+            images,
+            bounds,
+            shading,
+        )
+    }
+
+    /// [`TrainingSet::from_views`] with each view's points also made on demand, by
+    /// `points(v)` in view order, so that no more than one view's points are held; `counts`
+    /// is (views, hits over all views: the arrays are reserved once, so that growing never
+    /// holds two copies).
+    pub fn from_view_points<E: From<NeuralError>>(
+        counts: (usize, usize),
+        mut points: impl FnMut(usize) -> std::result::Result<Vec<Option<Vec3>>, E>,
+        images: &[Image],
+        bounds: &Bounds,
         mut shading: impl FnMut(usize) -> std::result::Result<ViewShadings, E>,
     ) -> std::result::Result<Self, E> {
-        let views = points.len();
+        let (views, hits) = counts;
         if images.len() != views {
             return Err(NeuralError::config(
                 "training set",
@@ -107,11 +128,10 @@ impl TrainingSet {
             semantic: false,
             target: vec![],
         };
-        // At most every hit pixel: reserved once, so that growing never holds two copies.
-        let hits = points.iter().flatten().flatten().count();
         set.reserve(hits);
         let mut poly = false;
-        for (v, (pts, img)) in points.iter().zip(images).enumerate() {
+        for (v, img) in images.iter().enumerate() {
+            let pts = points(v)?;
             let sh = shading(v)?;
             if v == 0 {
                 (set.levels, poly) = (sh.levels, !sh.ld_poly.is_empty());
@@ -119,7 +139,7 @@ impl TrainingSet {
             if v == 0 && poly {
                 set.ld_poly.reserve(hits);
             }
-            set.push_view(v, pts, &sh, img, bounds, poly)?;
+            set.push_view(v, &pts, &sh, img, bounds, poly)?;
         }
         Ok(set)
     }

@@ -2,6 +2,7 @@
 use fipt_core::color::luminance;
 use fipt_core::dataset::View;
 use fipt_core::image::Image;
+use fipt_core::shading::RayQuery;
 use fipt_geom::Geometry;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -144,31 +145,33 @@ fn shared_cells(
     // 8-bit values under 16 steps carry a quantisation error over 3 %: not used.
     let ldr_floor = clip_level.map_or(0.0, |l| l * fipt_core::color::srgb_eotf(16.0 / 255.0));
     let b = geometry.mesh.bounds();
-    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
+    // Cells of 3 pixel footprints (the median over every 16th pixel), at least 1/CELLS of the
+    // bounds: every cell gathers several pixels of each view that sees it. Each view's hits are
+    // traced where they are used and dropped after: no view's hits outlive its pass.
+    let mut foot: Vec<f32> = views
         .par_iter()
-        .map(|view| fipt_shading::records::hit_points(geometry, view))
-        .collect();
-    // Cells of 3 pixel footprints (the median), at least 1/CELLS of the bounds: every cell
-    // gathers several pixels of each view that sees it.
-    let mut foot: Vec<f32> = hits
-        .iter()
-        .zip(views)
-        .flat_map(|(h, view)| {
-            h.iter()
+        .flat_map_iter(|view| {
+            let cam = &view.camera;
+            (0..cam.width * cam.height)
                 .step_by(16)
-                .flatten()
-                .map(move |h| (h.p - view.camera.origin).length() / view.camera.fx)
+                .filter_map(move |i| {
+                    let (o, d) = cam.pixel_center_ray(i % cam.width, i / cam.width);
+                    geometry
+                        .intersect(o, d)
+                        .map(|hit| (hit.p - cam.origin).length() / cam.fx)
+                })
         })
         .collect();
     let cell = (3.0 * fipt_core::image::median(&mut foot))
         .max((b.max - b.min).max_element() / CELLS)
         .max(1e-6);
     // Per view: cell → (sum of log luminance, count).
-    let per_view: Vec<HashMap<(i32, i32, i32), (f64, u32)>> = hits
+    let per_view: Vec<HashMap<(i32, i32, i32), (f64, u32)>> = views
         .par_iter()
         .zip(images)
         .enumerate()
-        .map(|(v, (hits, img))| {
+        .map(|(v, (view, img))| {
+            let hits = fipt_shading::records::hit_points(geometry, view);
             let mut m: HashMap<(i32, i32, i32), (f64, u32)> = HashMap::new();
             let floor = 1e-3
                 * fipt_core::image::median(
