@@ -384,21 +384,12 @@ fn assert_same_gradients(fused: &Tensor, plain: &Tensor, vars: &[Var], what: &st
             .unwrap()
     };
     let (gf, gp) = (grads(fused), grads(plain));
+    let values = |g: &candle_core::backprop::GradStore, v: &Var| {
+        let t = g.get(v.as_tensor()).unwrap();
+        t.flatten_all().unwrap().to_vec1::<f32>().unwrap()
+    };
     for (vi, v) in vars.iter().enumerate() {
-        let a = gf
-            .get(v.as_tensor())
-            .unwrap()
-            .flatten_all()
-            .unwrap()
-            .to_vec1::<f32>()
-            .unwrap();
-        let b = gp
-            .get(v.as_tensor())
-            .unwrap()
-            .flatten_all()
-            .unwrap()
-            .to_vec1::<f32>()
-            .unwrap();
+        let (a, b) = (values(&gf, v), values(&gp, v));
         let scale = b.iter().fold(0f32, |m, x| m.max(x.abs()));
         for (k, (p, q)) in a.iter().zip(&b).enumerate() {
             assert!(
