@@ -210,7 +210,7 @@ impl FitRun<'_> {
         metrics: Option<serde_json::Value>,
         warnings: Vec<String>,
     ) -> serde_json::Value {
-        let (cfg, shadings) = (self.cfg, self.baked.then_some(()));
+        let cfg = self.cfg;
         let (fitter, extractor, field) = (self.fitter, self.extractor, self.field);
         let components = self.components;
         serde_json::json!({
@@ -229,7 +229,7 @@ impl FitRun<'_> {
                 "material_field": format!("fitted by method `{}`", cfg.pipeline.method),
                 "emitters": emitters.len(),
                 "emitters_doubtful": crate::outputs::doubtful_emitters(&emitters),
-                "initial_bake": if shadings.is_some() { "baked for the fitter" } else { "skipped (the fitter does not use shadings)" },
+                "initial_bake": if self.baked { "baked for the fitter" } else { "skipped (the fitter does not use shadings)" },
                 "search_and_refinement": "skipped (FIPT's rounds; this run's method replaces them)",
             },
             "metrics": metrics,

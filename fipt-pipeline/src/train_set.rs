@@ -50,6 +50,9 @@ struct SetPoints<'a> {
     keep: Option<(u64, f64)>,
     /// The hits left after the masks, over every view.
     hits: usize,
+    /// The median pixel footprint of every view's hits, as
+    /// [`fipt_shading::records::view_footprint`] finds it, from the same pass.
+    footprint: Option<f32>,
 }
 
 impl<'a> SetPoints<'a> {
@@ -63,13 +66,15 @@ impl<'a> SetPoints<'a> {
             bleed,
             keep: None,
             hits: 0,
+            footprint: None,
         };
-        let (mut dropped, mut all) = (0usize, 0usize);
+        let (mut dropped, mut all, mut foot) = (0usize, 0usize, vec![]);
         for v in 0..scene.images.len() {
-            let (kept, hit) = pick.masked(v);
+            let (kept, hit) = pick.masked(v, &mut foot);
             (dropped, all) = (dropped + hit - kept, all + hit);
         }
         pick.hits = all - dropped;
+        pick.footprint = fipt_shading::records::median(foot);
         if let Some((radius, contrast, _)) = bleed {
             crate::note!(
                 "training set: {dropped} of {all} pixels ({:.2} %) left out within {radius} px of one {contrast}× brighter (train.bleed_radius, bleed_contrast)",
@@ -79,10 +84,11 @@ impl<'a> SetPoints<'a> {
         pick
     }
 
-    /// View `v`'s hits left after the clipped and bleed masks, and before the bleed mask.
-    fn masked(&self, v: usize) -> (usize, usize) {
+    /// View `v`'s hits left after the clipped and bleed masks, and before the bleed mask;
+    /// appends the footprints of all its hits to `foot`.
+    fn masked(&self, v: usize, foot: &mut Vec<f32>) -> (usize, usize) {
         let mut hit = 0;
-        let pts = self.unkept(v, &mut |before| hit += usize::from(before));
+        let pts = self.unkept(v, Some(foot), &mut |before| hit += usize::from(before));
         (pts.iter().flatten().count(), hit)
     }
 
@@ -97,11 +103,19 @@ impl<'a> SetPoints<'a> {
     }
 
     /// View `v`'s points after the masks, before the share; `seen` is told of every pixel
-    /// whether it hit the mesh and was not clipped.
-    fn unkept(&self, v: usize, seen: &mut dyn FnMut(bool)) -> Vec<Option<Vec3>> {
+    /// whether it hit the mesh and was not clipped; `foot` gets the footprints of its hits.
+    fn unkept(
+        &self,
+        v: usize,
+        foot: Option<&mut Vec<f32>>,
+        seen: &mut dyn FnMut(bool),
+    ) -> Vec<Option<Vec3>> {
         let scene = self.scene;
         let view = &scene.ds.train().views[v];
         let records = fipt_shading::records::primary_records(&scene.geometry, view);
+        if let Some(foot) = foot {
+            fipt_shading::records::push_footprints(view, &records, foot);
+        }
         let mut pts: Vec<Option<Vec3>> = records.iter().map(|r| r.map(|r| r.hit.p)).collect();
         drop(records);
         // Clipped pixels off the lights: their radiance is only bounded below.
@@ -126,7 +140,7 @@ impl<'a> SetPoints<'a> {
 
     /// View `v`'s points for the set.
     fn view(&self, v: usize) -> Vec<Option<Vec3>> {
-        let mut pts = self.unkept(v, &mut |_| {});
+        let mut pts = self.unkept(v, None, &mut |_| {});
         if let Some((seed, share)) = self.keep {
             keep_share(&mut pts, v, seed, share);
         }
@@ -309,8 +323,8 @@ pub(crate) fn build_set(
     segments: Option<&(SegmentKind, String)>,
     search: Option<&Searched>,
 ) -> Result<BuiltSet> {
-    let footprint = fipt_shading::records::view_footprint(&scene.geometry, &scene.ds.train().views);
     let mut pick = SetPoints::new(scene, cfg);
+    let footprint = pick.footprint;
     let before = pick.limit(cfg.set_limit(), cfg.seed);
     // The box of the kept points (as `Bounds::around` takes it: finite points), and their
     // count (the set's arrays are reserved once).

@@ -94,18 +94,16 @@ pub fn primary_records(geometry: &dyn RayQuery, view: &View) -> Vec<Option<Pixel
 pub fn view_footprint(geometry: &dyn RayQuery, views: &[View]) -> Option<f32> {
     let mut foot = vec![];
     for v in views {
-        let f = v.camera.fx.max(v.camera.fy);
-        foot.extend(
-            primary_records(geometry, v)
-                .iter()
-                .flatten()
-                .map(|r| r.hit.t / f),
-        );
+        push_footprints(v, &primary_records(geometry, v), &mut foot);
     }
-    (!foot.is_empty()).then(|| {
-        let n = foot.len() / 2;
-        *foot.select_nth_unstable_by(n, f32::total_cmp).1
-    })
+    median(foot)
+}
+
+/// Appends the footprint (hit distance / the larger focal length in pixels) of each hit of
+/// one view's primary `records`: what [`view_footprint`] takes the median of.
+pub fn push_footprints(view: &View, records: &[Option<PixelRecord>], foot: &mut Vec<f32>) {
+    let f = view.camera.fx.max(view.camera.fy);
+    foot.extend(records.iter().flatten().map(|r| r.hit.t / f));
 }
 
 /// Primary hit points of every pixel of `views`, and the median pixel footprint (hit
@@ -130,11 +128,7 @@ pub fn view_points(
                 .collect()
         })
         .collect();
-    let median = (!foot.is_empty()).then(|| {
-        let n = foot.len() / 2;
-        *foot.select_nth_unstable_by(n, f32::total_cmp).1
-    });
-    (pts, median)
+    (pts, median(foot))
 }
 
 /// All-zero shadings of `model` for `views`, valid where the pixel-centre ray hit the mesh.
@@ -244,7 +238,7 @@ pub fn empty_view_shadings(
 }
 
 /// The median of `v` (None when empty).
-pub(crate) fn median(mut v: Vec<f32>) -> Option<f32> {
+pub fn median(mut v: Vec<f32>) -> Option<f32> {
     if v.is_empty() {
         return None;
     }
