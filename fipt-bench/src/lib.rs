@@ -12,6 +12,7 @@
 mod bake;
 mod rays;
 mod train;
+pub use train::profile_steps;
 
 use std::path::PathBuf;
 

@@ -11,6 +11,7 @@ use fipt_core::shading::{ViewShadings, DEFAULT_LEVELS, NUM_LEVELS};
 use fipt_neural::hashgrid::{AdamConfig, HashGrid, HashGridOp};
 use fipt_neural::mlp::Mlp;
 use fipt_neural::plain::PlainEncoding;
+use fipt_neural::train::TrainTimings;
 use fipt_neural::{Bounds, TrainConfig, Trainer, TrainingSet};
 use glam::Vec3;
 use std::path::Path;
@@ -176,14 +177,15 @@ fn mlp_step_ms(
 }
 
 /// Median and mean seconds of `steps` training steps of `cfg` at batch `batch` (3 steps of
-/// warm-up first).
+/// warm-up first), and the mean split of a step in ms (batch, hash grid forward / backward
+/// with its Adam, MLPs and loss, MLP optimiser).
 fn step_seconds(
     cfg: &TrainConfig,
     batch: usize,
     steps: usize,
     data: &TrainingSet,
     bounds: Bounds,
-) -> Result<(f64, f64)> {
+) -> Result<(f64, f64, serde_json::Value)> {
     let mut cfg = cfg.clone();
     cfg.batch = batch;
     cfg.steps = steps + 3;
@@ -191,6 +193,7 @@ fn step_seconds(
     for _ in 0..3 {
         t.step(data)?;
     }
+    let warm = t.timings;
     let mut each = Vec::with_capacity(steps);
     for _ in 0..steps {
         let t1 = Instant::now();
@@ -198,7 +201,22 @@ fn step_seconds(
         each.push(t1.elapsed().as_secs_f64());
     }
     let mean = each.iter().sum::<f64>() / steps as f64;
-    Ok((median(each), mean))
+    let split = step_split(&t.timings, &warm, steps);
+    Ok((median(each), mean, split))
+}
+
+/// The mean split of the steps between two timing snapshots, in ms per step.
+fn step_split(tm: &TrainTimings, warm: &TrainTimings, steps: usize) -> serde_json::Value {
+    let grid_fwd = tm.grid_forward - warm.grid_forward;
+    let grid_bwd = (tm.grid_backward - warm.grid_backward) + (tm.grid_optimizer - warm.grid_optimizer);
+    let batch = tm.batch - warm.batch;
+    let opt = tm.optimizer - warm.optimizer;
+    let rest = tm.total() - warm.total() - grid_fwd - grid_bwd - batch - opt;
+    serde_json::json!({
+        "batch": ms(batch, steps), "grid_forward": ms(grid_fwd, steps),
+        "grid_backward_and_adam": ms(grid_bwd, steps), "mlps_and_loss": ms(rest, steps),
+        "mlp_optimizer": ms(opt, steps),
+    })
 }
 
 /// Least squares of t = a + c·x over the points (x, t), each weighted by 1/t² (relative
@@ -244,12 +262,12 @@ fn sweep_at(
         } else {
             (400_000 / b).clamp(10, 200)
         };
-        let (med, mean) = step_seconds(cfg, b, steps, data, bounds)?;
+        let (med, mean, split) = step_seconds(cfg, b, steps, data, bounds)?;
         points.push((b as f64 / threads, med * 1e3));
         rows.push(serde_json::json!({
             "threads": threads, "batch": b, "steps": steps, "ms_median": med * 1e3,
             "ms_mean": mean * 1e3, "mean_over_median": mean / med,
-            "samples_per_second": b as f64 / med,
+            "samples_per_second": b as f64 / med, "ms_split_mean": split,
         }));
     }
     let (a, c) = fit_line(&points);
@@ -469,4 +487,18 @@ pub fn run(quick: bool, out: &Path) -> Result<()> {
     });
     write_json_atomic(out, &report)?;
     Ok(())
+}
+
+/// `steps` training steps of `preset` (sized on the benchmark's samples) at batch `batch` in
+/// the current thread pool, nothing else: a target for a profiler
+/// (`cargo run --release -p fipt-bench --example train_steps -- balanced 65536 40`). Returns
+/// the median step in ms and its split (as in the batch sweep's rows).
+pub fn profile_steps(preset: &str, batch: usize, steps: usize) -> Result<(f64, serde_json::Value)> {
+    let (data, bounds) = samples(1_000_000);
+    let footprint = (165.5 / data.len() as f32).sqrt();
+    let cfg = TrainConfig::preset(preset)
+        .ok_or_else(|| BenchError::Invalid(format!("no preset {preset}")))?
+        .sized_for(data.len(), Some(footprint), &bounds);
+    let (median, _, split) = step_seconds(&cfg, batch, steps, &data, bounds)?;
+    Ok((median * 1e3, split))
 }

@@ -2,6 +2,7 @@
 //! emission mask: positional encoding + MLP → α = 1 − exp(−relu(m)).
 use crate::error::{CandleContext, NeuralError, Result};
 use crate::hashgrid::{AdamConfig, HashGrid, HashGridConfig, HashGridOp};
+use crate::head::{self, head_candle, FieldHead, HeadConfig};
 use crate::mlp::Mlp;
 use crate::ops::positional_encoding;
 use candle_core::{DType, Device, Module, Tensor, Var};
@@ -113,34 +114,64 @@ impl FieldConfig {
 /// name the field's API uses.
 pub use fipt_core::cube::Cube as Bounds;
 
-/// Outputs of a forward pass, each `[n, k]`.
+/// Outputs of a forward pass: one packed `[n, 6]` tensor (albedo, σ, metallic, α), and its
+/// columns as contiguous `[n, k]` copies on demand.
 pub struct FieldOutput {
-    pub albedo: Tensor,
-    /// σ = 0.02 + 0.98·s.
-    pub roughness: Tensor,
-    pub metallic: Tensor,
-    /// α ∈ [0, 1).
-    pub alpha: Tensor,
+    packed: Tensor,
 }
 
 impl FieldOutput {
+    /// From the packed `[n, 6]` head (albedo, σ, metallic, α).
+    pub fn from_packed(packed: Tensor) -> candle_core::Result<Self> {
+        Ok(FieldOutput { packed })
+    }
+    fn columns(&self, start: usize, len: usize) -> candle_core::Result<Tensor> {
+        self.packed.narrow(1, start, len)?.contiguous()
+    }
+    pub fn device(&self) -> &Device {
+        self.packed.device()
+    }
+    /// `[n, 3]`.
+    pub fn albedo(&self) -> candle_core::Result<Tensor> {
+        self.columns(0, 3)
+    }
+    /// σ = 0.02 + 0.98·s, `[n, 1]`.
+    pub fn roughness(&self) -> candle_core::Result<Tensor> {
+        self.columns(3, 1)
+    }
+    /// `[n, 1]`.
+    pub fn metallic(&self) -> candle_core::Result<Tensor> {
+        self.columns(4, 1)
+    }
+    /// α ∈ [0, 1), `[n, 1]`.
+    pub fn alpha(&self) -> candle_core::Result<Tensor> {
+        self.columns(5, 1)
+    }
+    /// From the four parts (`[n, 3]`, `[n, 1]` × 3), packed by a concatenation.
+    pub fn new(
+        albedo: &Tensor,
+        roughness: &Tensor,
+        metallic: &Tensor,
+        alpha: &Tensor,
+    ) -> candle_core::Result<Self> {
+        Self::from_packed(Tensor::cat(&[albedo, roughness, metallic, alpha], 1)?)
+    }
     /// `[n, 6]`: albedo, σ, metallic, α (the input of [`crate::ops::FactorizedLoss`]).
     pub fn packed(&self) -> candle_core::Result<Tensor> {
-        Tensor::cat(
-            &[&self.albedo, &self.roughness, &self.metallic, &self.alpha],
-            1,
-        )
+        Ok(self.packed.clone())
     }
     /// kd = a·(1 − m).
     pub fn kd(&self) -> candle_core::Result<Tensor> {
-        self.albedo.broadcast_mul(&self.metallic.affine(-1.0, 1.0)?)
+        self.albedo()?
+            .broadcast_mul(&self.metallic()?.affine(-1.0, 1.0)?)
     }
     /// ks = 0.04·(1 − m) + a·m ([`fipt_core::reflectance::metallic_workflow`]).
     pub fn ks(&self) -> candle_core::Result<Tensor> {
         let f0 = fipt_core::reflectance::DIELECTRIC_F0 as f64;
-        self.albedo
-            .broadcast_mul(&self.metallic)?
-            .broadcast_add(&self.metallic.affine(-f0, f0)?)
+        let metallic = self.metallic()?;
+        self.albedo()?
+            .broadcast_mul(&metallic)?
+            .broadcast_add(&metallic.affine(-f0, f0)?)
     }
 }
 
@@ -335,31 +366,37 @@ impl NeuralField {
         &self,
         unit: &[[f32; 3]],
         grid: GridGrad,
-        leak: Option<&[bool]>,
+        leak_at: Option<&[bool]>,
     ) -> Result<FieldOutput> {
-        let (albedo, roughness, metallic) = self.material_forward(unit, grid, leak)?;
-        Ok(FieldOutput {
-            albedo,
-            roughness,
-            metallic,
-            alpha: self.mask_forward(unit, grid.records())?,
-        })
+        let h = self.material_forward(unit, grid)?;
+        let m = self.mask_forward(unit, grid.records())?;
+        let leak = self.config.roughness_leak;
+        let leak = leak_at
+            .filter(|l| grid.records() && leak > 0.0 && l.iter().any(|&b| b))
+            .map(|at| Arc::new(at.iter().map(|&b| if b { leak } else { 0.0 }).collect()));
+        let cfg = HeadConfig {
+            gain: self.config.roughness_gain,
+            leak,
+            softplus: self.config.mask_activation == MaskActivation::Softplus,
+        };
+        let packed = if self.device.is_cpu() {
+            h.apply_op2(&m, FieldHead(cfg))
+        } else {
+            head_candle(&h, &m, &cfg)
+        };
+        packed
+            .and_then(FieldOutput::from_packed)
+            .ctx("field head")
     }
 
-    /// Hash grid + material MLP: (albedo `[n, 3]`, σ `[n, 1]`, metallic `[n, 1]`).
-    fn material_forward(
-        &self,
-        unit: &[[f32; 3]],
-        grid: GridGrad,
-        leak_at: Option<&[bool]>,
-    ) -> Result<(Tensor, Tensor, Tensor)> {
+    /// Hash grid + material MLP: the MLP's raw outputs `[n, 5]` (see [`crate::head`]).
+    fn material_forward(&self, unit: &[[f32; 3]], grid: GridGrad) -> Result<Tensor> {
         let n = unit.len();
         let op = match grid {
             GridGrad::None => None,
             GridGrad::Accumulate => Some(HashGridOp::new(self.grid.clone())),
             GridGrad::Step(cfg) => Some(HashGridOp::stepping(self.grid.clone(), cfg)),
         };
-        let record = grid.records();
         let enc = if let Some(op) = op {
             let flat: Vec<f32> = unit.iter().flatten().copied().collect();
             let pts = Tensor::from_vec(flat, (n, 3), &self.device).ctx("points")?;
@@ -374,46 +411,15 @@ impl NeuralField {
             )
             .ctx("hash grid")?
         };
-        let h = if record {
+        if grid.records() {
             self.mlp.forward(&enc)
         } else {
             self.mlp.forward_inference(&enc)
         }
-        .ctx("material MLP")?;
-        let s = candle_nn::ops::sigmoid(&h).ctx("sigmoid")?;
-        let albedo = s.narrow(1, 0, 3).ctx("albedo")?;
-        let gain = self.config.roughness_gain as f64;
-        let leak = self.config.roughness_leak as f64;
-        let leak_at = leak_at.filter(|l| record && leak > 0.0 && l.iter().any(|&b| b));
-        let roughness = if gain == 1.0 && leak_at.is_none() {
-            s.narrow(1, 3, 1)
-        } else {
-            let x = h
-                .narrow(1, 3, 1)
-                .and_then(|r| r.affine(gain, 0.0))
-                .ctx("roughness")?;
-            let r = candle_nn::ops::sigmoid(&x);
-            if let Some(at) = leak_at {
-                // + leak·x − detach(leak·x) at the chosen points: exactly 0 in the forward,
-                // slope `leak` in the backward.
-                let w: Vec<f32> = at
-                    .iter()
-                    .map(|&b| if b { leak as f32 } else { 0.0 })
-                    .collect();
-                let w = Tensor::from_vec(w, (n, 1), &self.device).ctx("roughness leak")?;
-                let l = (&x * &w).ctx("roughness leak")?;
-                r.and_then(|r| r + (&l - l.detach())?)
-            } else {
-                r
-            }
-        }
-        .and_then(|r| r.affine(1.0 - MIN_ROUGHNESS as f64, MIN_ROUGHNESS as f64))
-        .ctx("roughness")?;
-        let metallic = s.narrow(1, 4, 1).ctx("metallic")?;
-        Ok((albedo, roughness, metallic))
+        .ctx("material MLP")
     }
 
-    /// Positional encoding + mask MLP: α `[n, 1]`; `record`: for a backward.
+    /// Positional encoding + mask MLP: its raw output m `[n, 1]`; `record`: for a backward.
     fn mask_forward(&self, unit: &[[f32; 3]], record: bool) -> Result<Tensor> {
         let n = unit.len();
         let signed: Vec<[f32; 3]> = unit
@@ -423,27 +429,12 @@ impl NeuralField {
         let pe = positional_encoding(&signed, self.config.mask_frequencies);
         let pe = Tensor::from_vec(pe, (n, 3 + 6 * self.config.mask_frequencies), &self.device)
             .ctx("positional encoding")?;
-        let m = if record {
+        if record {
             self.mask.forward(&pe)
         } else {
             self.mask.forward_inference(&pe)
         }
-        .ctx("mask MLP")?;
-        let act = match self.config.mask_activation {
-            MaskActivation::Relu => m.relu(),
-            // softplus(x) = relu(x) + ln(1 + exp(−|x|)), stable for any x.
-            MaskActivation::Softplus => m
-                .abs()
-                .and_then(|a| a.neg())
-                .and_then(|a| a.exp())
-                .and_then(|e| e.affine(1.0, 1.0))
-                .and_then(|e| e.log())
-                .and_then(|l| l + m.relu()?),
-        };
-        act.and_then(|r| r.neg())
-            .and_then(|r| r.exp())
-            .and_then(|r| r.affine(-1.0, 1.0))
-            .ctx("mask")
+        .ctx("mask MLP")
     }
 
     /// Materials at world points, in chunks, without recording gradients (the mask MLP is not
@@ -451,15 +442,13 @@ impl NeuralField {
     pub fn query_materials(&self, points: &[Vec3]) -> Result<Vec<Material>> {
         let mut mats = Vec::with_capacity(points.len());
         for chunk in points.chunks(65_536) {
-            let (albedo, roughness, metallic) =
-                self.material_forward(&self.to_unit(chunk), GridGrad::None, None)?;
-            let flat = |t: &Tensor| t.flatten_all().and_then(|t| t.to_vec1::<f32>());
-            let (a, r, m) = (flat(&albedo), flat(&roughness), flat(&metallic));
-            let (a, r, m) = (a.ctx("albedo")?, r.ctx("roughness")?, m.ctx("metallic")?);
-            mats.extend((0..chunk.len()).map(|i| Material {
-                albedo: Vec3::new(a[3 * i], a[3 * i + 1], a[3 * i + 2]),
-                roughness: r[i],
-                metallic: m[i],
+            let h = self.material_forward(&self.to_unit(chunk), GridGrad::None)?;
+            let h = h.flatten_all().and_then(|t| t.to_vec1::<f32>());
+            let out = head::materials(&h.ctx("material MLP")?, self.config.roughness_gain);
+            mats.extend(out.chunks_exact(head::MATERIAL_OUTPUTS).map(|o| Material {
+                albedo: Vec3::new(o[0], o[1], o[2]),
+                roughness: o[3],
+                metallic: o[4],
             }));
         }
         Ok(mats)
@@ -469,12 +458,10 @@ impl NeuralField {
     pub fn query_mask(&self, points: &[Vec3]) -> Result<Vec<f32>> {
         let mut alphas = Vec::with_capacity(points.len());
         for chunk in points.chunks(65_536) {
-            let al = self.mask_forward(&self.to_unit(chunk), false)?;
-            alphas.extend(
-                al.flatten_all()
-                    .and_then(|t| t.to_vec1::<f32>())
-                    .ctx("alpha")?,
-            );
+            let m = self.mask_forward(&self.to_unit(chunk), false)?;
+            let m = m.flatten_all().and_then(|t| t.to_vec1::<f32>());
+            let softplus = self.config.mask_activation == MaskActivation::Softplus;
+            alphas.extend(head::alphas(&m.ctx("mask MLP")?, softplus));
         }
         Ok(alphas)
     }

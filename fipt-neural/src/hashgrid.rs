@@ -395,7 +395,7 @@ impl HashGrid {
     pub fn encode(&self, points: &[[f32; 3]]) -> Vec<f32> {
         let d = self.output_dim();
         let f = self.config.features;
-        let mut out = vec![0f32; points.len() * d];
+        let mut out = crate::ops::zeros_par(points.len() * d);
         let tables = self.tables.read().unwrap();
         let rec = &tables.rec;
         // Level by level over a block of points, the records of the next points prefetched.

@@ -20,6 +20,7 @@ pub mod adam;
 pub mod error;
 pub mod field;
 pub mod hashgrid;
+pub mod head;
 pub mod image_loss;
 pub mod mlp;
 pub mod ops;

@@ -12,7 +12,7 @@
 //! the optimiser see an ordinary `[input, params] → output` op. Layer `i` occupies
 //! `W_i` (`[out, in]`, row-major, `y = x·Wᵀ + b` as candle's `Linear`) then `b_i` (`[out]`).
 use crate::error::{CandleContext, Result};
-use crate::ops::contiguous;
+use crate::ops::{contiguous, storage_f32, zeros_par};
 use candle_core::{CpuStorage, CustomOp2, Layout, Module, Shape, Tensor, Var};
 use candle_nn::VarBuilder;
 use rayon::prelude::*;
@@ -340,14 +340,14 @@ impl CustomOp2 for MlpOp {
         }
         let n = x.len() / d_in;
         let widths = &self.dims[1..self.dims.len() - 1];
-        let mut out = vec![0f32; n * d_out];
+        let mut out = zeros_par(n * d_out);
         // The stash is kept block-major (each block's hidden layers together), so that a block
         // owns one contiguous slice; at least one value per row, so that a network without
         // hidden layers still splits into the same blocks.
         let per_row: usize = widths.iter().sum::<usize>().max(1);
         match &self.stash {
             Some(keep) => {
-                let mut stash = vec![0f32; n * per_row];
+                let mut stash = zeros_par(n * per_row);
                 self.forward_keeping(p, x, &mut out, &mut stash, per_row);
                 *keep.lock().unwrap() = stash;
             }
@@ -371,9 +371,14 @@ impl CustomOp2 for MlpOp {
         _res: &Tensor,
         grad_res: &Tensor,
     ) -> candle_core::Result<(Option<Tensor>, Option<Tensor>)> {
-        let x = arg1.flatten_all()?.to_vec1::<f32>()?;
-        let p = arg2.to_vec1::<f32>()?;
-        let g = grad_res.flatten_all()?.to_vec1::<f32>()?;
+        // Read in place: a copy here was a serial pass over the batch's inputs.
+        let (x, p, g) = (arg1.contiguous()?, arg2.contiguous()?, grad_res.contiguous()?);
+        let (xs, xl) = x.storage_and_layout();
+        let (ps, pl) = p.storage_and_layout();
+        let (gs, gl) = g.storage_and_layout();
+        let x = storage_f32(&xs, xl, "fused-mlp input")?;
+        let p = storage_f32(&ps, pl, "fused-mlp parameters")?;
+        let g = storage_f32(&gs, gl, "fused-mlp gradient")?;
         let layers = &self.layers;
         let (d_in, d_out) = (self.dims[0], *self.dims.last().unwrap());
         let n = x.len() / d_in;
@@ -387,7 +392,7 @@ impl CustomOp2 for MlpOp {
             // No forward recorded for this input (the op was not run through `cpu_fwd`):
             // recompute the activations.
             stash = vec![0f32; n * per_row];
-            self.forward_keeping(&p, &x, &mut vec![0f32; n * d_out], &mut stash, per_row);
+            self.forward_keeping(p, x, &mut vec![0f32; n * d_out], &mut stash, per_row);
         }
         let want_dx = arg1.track_op();
         // Per block: its share of the parameter gradient, and its rows of dx.
@@ -460,20 +465,33 @@ impl CustomOp2 for MlpOp {
     }
 }
 
-/// The blocks' parameter gradients summed in block order (the same for any thread count), and
-/// their rows of dx concatenated (`dx_len` values; 0 when dx is not wanted).
+/// The blocks' parameter gradients summed in block order (each parameter's sum the same for
+/// any thread count; the parameters in parallel chunks), and their rows of dx concatenated
+/// (`dx_len` values; 0 when dx is not wanted), block by block in parallel.
 fn sum_blocks(
     partial: &[(Vec<f32>, Vec<f32>)],
     p_len: usize,
     dx_len: usize,
 ) -> (Vec<f32>, Vec<f32>) {
-    let mut dx = Vec::with_capacity(dx_len);
+    const CHUNK: usize = 512;
     let mut dp = vec![0f32; p_len];
-    for (part, dx_rows) in partial {
-        for (d, &v) in dp.iter_mut().zip(part) {
-            *d += v;
+    dp.par_chunks_mut(CHUNK).enumerate().for_each(|(c, d)| {
+        for (part, _) in partial {
+            for (d, &v) in d.iter_mut().zip(&part[c * CHUNK..]) {
+                *d += v;
+            }
         }
-        dx.extend_from_slice(dx_rows);
+    });
+    let mut dx = zeros_par(dx_len);
+    if dx_len > 0 {
+        let mut rest = &mut dx[..];
+        let mut parts = Vec::with_capacity(partial.len());
+        for (_, rows) in partial {
+            let (head, tail) = rest.split_at_mut(rows.len());
+            parts.push((head, rows));
+            rest = tail;
+        }
+        parts.into_par_iter().for_each(|(d, rows)| d.copy_from_slice(rows));
     }
     (dp, dx)
 }

@@ -28,6 +28,32 @@ pub(crate) fn contiguous<'a>(
     }
 }
 
+/// `len` zeros, written by the pool's threads. A per-step buffer from `vec![0.0; len]` is
+/// zeroed by the calling thread alone (the allocator reuses memory, so calloc must clear
+/// it): serial work in every training step.
+pub fn zeros_par(len: usize) -> Vec<f32> {
+    use rayon::prelude::*;
+    if len < 1 << 16 {
+        return vec![0.0; len];
+    }
+    let mut v = Vec::with_capacity(len);
+    v.par_extend(rayon::iter::repeat_n(0f32, len));
+    v
+}
+
+/// The f32 values of a contiguous tensor's storage (read in place, without the copy of
+/// `to_vec1`); CPU only.
+pub(crate) fn storage_f32<'a>(
+    s: &'a candle_core::Storage,
+    l: &Layout,
+    name: &str,
+) -> candle_core::Result<&'a [f32]> {
+    match s {
+        candle_core::Storage::Cpu(c) => contiguous(c, l, name),
+        _ => candle_core::bail!("{name}: expects a CPU tensor"),
+    }
+}
+
 /// sRGB OETF of a linear value, continued linearly below 0 (no clamp).
 pub use fipt_core::color::srgb_oetf_extended as srgb_oetf;
 pub use fipt_core::color::srgb_oetf_grad;
@@ -124,7 +150,7 @@ impl CustomOp1 for LevelWeights {
 pub fn positional_encoding(points: &[[f32; 3]], frequencies: usize) -> Vec<f32> {
     use rayon::prelude::*;
     let d = 3 + 6 * frequencies;
-    let mut out = vec![0f32; points.len() * d];
+    let mut out = zeros_par(points.len() * d);
     // In parallel: 60 sin/cos per point are ~2.5 ms of a training step on one core.
     out.par_chunks_mut(d * 512)
         .zip(points.par_chunks(512))
@@ -706,7 +732,7 @@ impl CustomOp1 for FactorizedLoss {
             Some(PriorTerms::Semantic(t)) => (None, Some(self.semantic_grad(&x, t))),
             None => (None, None),
         };
-        let mut out = vec![0f32; x.len()];
+        let mut out = zeros_par(x.len());
         out.par_chunks_mut(6 * 256)
             .enumerate()
             .for_each(|(ci, rows)| {

@@ -220,23 +220,31 @@ impl Trainer {
     /// The step's batch: `batch` pixels drawn from `data` with the step's own stream, in
     /// Morton order of their points, and their unit positions.
     fn draw_batch(&self, data: &TrainingSet) -> (Vec<[f32; 3]>, Arc<LossBatch>) {
+        use rayon::prelude::*;
         let b = self.config.batch;
         let mut rng = Pcg32::from_keys(&[self.config.seed, self.step as u64, 0xBA7C]);
-        let mut idx: Vec<usize> = (0..b)
+        let idx: Vec<usize> = (0..b)
             .map(|_| ((rng.next_u32() as u64 * data.len() as u64) >> 32) as usize)
             .collect();
-        idx.sort_unstable_by_key(|&i| (data.morton[i], i));
-        let unit: Vec<[f32; 3]> = idx.iter().map(|&i| data.unit[i]).collect();
+        // Sorted by (Morton code, row): the keys gathered first, so that the comparisons read
+        // memory in order. Equal keys are the same row drawn twice.
+        let mut keyed: Vec<(u64, usize)> = idx.par_iter().map(|&i| (data.morton[i], i)).collect();
+        keyed.par_sort_unstable();
+        let idx: Vec<usize> = keyed.par_iter().map(|k| k.1).collect();
+        // The gathers in parallel (random reads: many in flight); collect keeps the order.
+        fn gather<T: Copy + Send + Sync>(idx: &[usize], from: &[T]) -> Vec<T> {
+            if from.is_empty() {
+                return vec![];
+            }
+            idx.par_iter().map(|&i| from[i]).collect()
+        }
+        let unit = gather(&idx, &data.unit);
         let batch = Arc::new(LossBatch {
-            ld: idx.iter().map(|&i| data.ld[i]).collect(),
-            ld_poly: if data.ld_poly.is_empty() {
-                vec![]
-            } else {
-                idx.iter().map(|&i| data.ld_poly[i]).collect()
-            },
-            ls0: idx.iter().map(|&i| data.ls0[i]).collect(),
-            ls1: idx.iter().map(|&i| data.ls1[i]).collect(),
-            gt: idx.iter().map(|&i| data.gt[i]).collect(),
+            ld: gather(&idx, &data.ld),
+            ld_poly: gather(&idx, &data.ld_poly),
+            ls0: gather(&idx, &data.ls0),
+            ls1: gather(&idx, &data.ls1),
+            gt: gather(&idx, &data.gt),
             segment: if self.config.segments == SegmentSource::None {
                 vec![]
             } else {
@@ -247,11 +255,7 @@ impl Trainer {
             segments: data.segments,
             semantic: (data.semantic && self.config.segments != SegmentSource::None)
                 .then(|| self.partners(data, &idx, &unit)),
-            target: if data.target.is_empty() {
-                vec![]
-            } else {
-                idx.iter().map(|&i| data.target[i]).collect()
-            },
+            target: gather(&idx, &data.target),
         });
         (unit, batch)
     }
@@ -575,7 +579,7 @@ pub fn render_factorized(
         )?;
         Ok((
             render.to_vec2::<f32>()?,
-            out.alpha.squeeze(D::Minus1)?.to_vec1::<f32>()?,
+            out.alpha()?.squeeze(D::Minus1)?.to_vec1::<f32>()?,
         ))
     })();
     let (render, alpha) = r.ctx("re-rendering")?;

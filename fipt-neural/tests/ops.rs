@@ -314,12 +314,8 @@ fn fused_matches_candle(
         Var::from_tensor(&Tensor::from_vec(v, (n, w), &dev).unwrap()).unwrap()
     };
     let vars = [var(0, 3), var(3, 1), var(4, 1), var(5, 1)];
-    let out = FieldOutput {
-        albedo: vars[0].as_tensor().clone(),
-        roughness: vars[1].as_tensor().clone(),
-        metallic: vars[2].as_tensor().clone(),
-        alpha: vars[3].as_tensor().clone(),
-    };
+    let t = |i: usize| vars[i].as_tensor();
+    let out = FieldOutput::new(t(0), t(1), t(2), t(3)).unwrap();
     let fused = out
         .packed()
         .unwrap()

@@ -9,7 +9,7 @@ fn reflected_specular(
     levels: [f32; NUM_LEVELS],
 ) -> candle_core::Result<Tensor> {
     let w = out
-        .roughness
+        .roughness()?
         .apply_op1(LevelWeights(levels))?
         .unsqueeze(2)?;
     ls.broadcast_mul(&w)?.sum(1)
@@ -30,7 +30,7 @@ pub(super) fn reflected(
     let ld = match poly {
         None => ld.clone(),
         Some((p1, p2)) => {
-            let s = &out.roughness;
+            let s = &out.roughness()?;
             (ld + p1.broadcast_mul(s)?)?.add(&p2.broadcast_mul(&s.sqr()?)?)?
         }
     };
@@ -69,7 +69,7 @@ pub fn candle_ops_loss(
         emitter_material,
         ..
     } = weights;
-    let dev = out.albedo.device();
+    let dev = out.device();
     let b = batch.gt.len();
     let r: candle_core::Result<Tensor> = (|| {
         let flat3 = |v: &[[f32; 3]]| v.iter().flatten().copied().collect::<Vec<_>>();
@@ -121,10 +121,10 @@ pub fn candle_ops_loss(
             let apart = at.affine(-1.0, 1.0)?;
             (render.broadcast_mul(&apart)? + render.detach().broadcast_mul(&at)?)?
         };
-        let keep = out.alpha.affine(-1.0, 1.0)?;
-        let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha)?)?;
+        let keep = out.alpha()?.affine(-1.0, 1.0)?;
+        let pred = (render.broadcast_mul(&keep)? + gt.broadcast_mul(&out.alpha()?)?)?;
         let image = image_term(&pred, &gt, gt_oetf, batch, image_loss)?;
-        let mask = out.alpha.mean_all()?;
+        let mask = out.alpha()?.mean_all()?;
         let prior = prior_term(out, batch, &weights)?;
         let segment = if batch.segment.is_empty() {
             Tensor::zeros((), candle_core::DType::F32, dev)?
@@ -183,10 +183,10 @@ fn prior_term(
     batch: &LossBatch,
     weights: &LossWeights,
 ) -> candle_core::Result<Tensor> {
-    let (b, dev) = (batch.gt.len(), out.albedo.device());
+    let (b, dev) = (batch.gt.len(), out.device());
     let (prior_weight, prior_norm) = (weights.prior, weights.prior_norm);
     let (roughness_prior, target_weight) = (weights.roughness_prior, weights.target);
-    let dr = out.roughness.affine(1.0, -1.0)?;
+    let dr = out.roughness()?.affine(1.0, -1.0)?;
     let k = roughness_prior as f64;
     // Per pixel and part: the search's target pull where there is one, the default prior
     // elsewhere.
@@ -205,7 +205,7 @@ fn prior_term(
         ))
     };
     let ((hs, ts), (hm, tm)) = (part(0)?, part(1)?);
-    let pull = (((&out.roughness - ts)?.sqr()? * &hs)? + ((&out.metallic - tm)?.sqr()? * &hm)?)?
+    let pull = (((&out.roughness()? - ts)?.sqr()? * &hs)? + ((&out.metallic()? - tm)?.sqr()? * &hm)?)?
         .mean_all()?;
     let (ns, nm) = (hs.affine(-1.0, 1.0)?, hm.affine(-1.0, 1.0)?);
     let ps = match prior_norm {
@@ -213,8 +213,8 @@ fn prior_term(
         PriorNorm::L2 | PriorNorm::L2Roughness => (dr.sqr()? * &ns)?.mean_all()?,
     };
     let pm = match prior_norm {
-        PriorNorm::L2 => (out.metallic.sqr()? * &nm)?.mean_all()?,
-        PriorNorm::L1 | PriorNorm::L2Roughness => (&out.metallic * &nm)?.mean_all()?,
+        PriorNorm::L2 => (out.metallic()?.sqr()? * &nm)?.mean_all()?,
+        PriorNorm::L1 | PriorNorm::L2Roughness => (&out.metallic()? * &nm)?.mean_all()?,
     };
     let prior = ((ps.affine(k, 0.0)? + pm)?.affine(prior_weight as f64, 0.0)?
         + pull.affine(target_weight as f64, 0.0)?)?;
@@ -230,10 +230,10 @@ fn semantic_segment_term(
     batch: &LossBatch,
     sem: &SemanticPartners,
 ) -> candle_core::Result<Tensor> {
-    let dev = out.albedo.device();
+    let dev = out.device();
     let b = batch.gt.len();
     let k = sem.k;
-    let albedo = out.albedo.to_vec2::<f32>()?;
+    let albedo = out.albedo()?.to_vec2::<f32>()?;
     let mut count = vec![0f32; batch.segments];
     for &s in &batch.segment {
         if s != NO_SEGMENT {
@@ -270,8 +270,8 @@ fn semantic_segment_term(
         let partners = v.squeeze(1)?.index_select(&idx, 0)?.reshape((b, k))?;
         (partners * &w)?.sum_keepdim(1)? + (v * &own)?
     };
-    let ds = (mean(&out.roughness)? - &out.roughness)?.abs()?;
-    let dm = (mean(&out.metallic)? - &out.metallic)?.abs()?;
+    let ds = (mean(&out.roughness()?)? - &out.roughness()?)?.abs()?;
+    let dm = (mean(&out.metallic()?)? - &out.metallic()?)?.abs()?;
     ((ds + dm)? * inv)?.sum_all()
 }
 
@@ -283,7 +283,7 @@ fn region_segment_term(
     (ls0, ls1): (&Tensor, &Tensor),
     levels: [f32; NUM_LEVELS],
 ) -> candle_core::Result<Tensor> {
-    let dev = out.albedo.device();
+    let dev = out.device();
     let b = batch.gt.len();
     let k = batch.segments;
     let ids: Vec<u32> = batch
@@ -306,7 +306,7 @@ fn region_segment_term(
         let sums = zeros.index_add(&ids, &(v * &w)?, 0)?;
         (sums / &total_w)?.index_select(&ids, 0)
     };
-    let ds = (&out.roughness - seg_mean(&out.roughness)?)?.abs()?;
-    let dm = (&out.metallic - seg_mean(&out.metallic)?)?.abs()?;
+    let ds = (&out.roughness()? - seg_mean(&out.roughness()?)?)?.abs()?;
+    let dm = (&out.metallic()? - seg_mean(&out.metallic()?)?)?.abs()?;
     ((ds + dm)? * keep)?.mean_all()
 }
