@@ -16,7 +16,8 @@ pub struct Args {
     /// Settings preset: paper or balanced (the reference's sample counts), fast, reference (its estimators too).
     #[arg(long, default_value = "balanced")]
     preset: String,
-    /// A TOML or JSON file of bake settings laid over the preset.
+    /// A TOML or JSON file of bake settings laid over the preset, or a run config: then its
+    /// `[pipeline] baker` bakes, with that baker's section (as `fipt run` would).
     #[arg(long)]
     config: Option<PathBuf>,
     /// What to do with NaN/Inf/negative pixels.

@@ -41,16 +41,27 @@ pub enum BakeOutcome {
     Stopped(String),
 }
 
-/// The bake alone (`fipt bake`), with the built-in baker.
+/// The baker `fipt bake` uses and its settings, as `fipt run` would choose them: from a run
+/// config (a file with a `[pipeline]` table), its `baker` with that baker's section (`[bake]`
+/// for `slf`, else `[plugins.<name>]`); otherwise the built-in `slf` with the file's bake
+/// settings (a plain bake config, or a run config's `[bake]`) over the preset's.
+pub fn chosen_baker(preset: &str, file: Option<&Path>) -> Result<(String, serde_json::Value)> {
+    if let Some(path) = file.filter(|p| crate::config::has_table(p, "pipeline").unwrap_or(false)) {
+        let cfg = crate::config::load_preset(preset, crate::run::RunConfig::preset, Some(path))?;
+        return Ok((cfg.pipeline.baker.clone(), cfg.baker_settings()?));
+    }
+    let cfg: BakeConfig =
+        crate::config::load_preset_section(preset, BakeConfig::preset, file, "bake")?;
+    Ok((
+        crate::components::SLF_BAKER.to_string(),
+        serde_json::to_value(&cfg)?,
+    ))
+}
+
+/// The bake alone (`fipt bake`), with the baker a run would use ([`chosen_baker`]).
 pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeOutcome> {
-    let cfg: BakeConfig = crate::config::load_preset_section(
-        &a.preset,
-        BakeConfig::preset,
-        a.config.as_deref(),
-        "bake",
-    )?;
-    let settings = serde_json::to_value(&cfg)?;
-    let baker = components.baker(crate::components::SLF_BAKER, &settings, a.brdf)?;
+    let (name, settings) = chosen_baker(&a.preset, a.config.as_deref())?;
+    let baker = components.baker(&name, &settings, a.brdf)?;
     fipt_core::lock::refuse_nested_run(&a.out)?;
     let _lock = crate::request::lock(&a.out, a.shard, "fipt bake")?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels, Default::default())?;

@@ -77,6 +77,22 @@ fn load_with<T: Serialize + DeserializeOwned>(
     load_text(preset, &text, path, section)
 }
 
+/// Whether the config `path` (TOML, or JSON for `.json`) has a top-level table `key`.
+pub fn has_table(path: &Path, key: &str) -> Result<bool> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    Ok(parse(&text, path)?.get(key).is_some_and(|t| t.is_object()))
+}
+
+/// The text of a config as a value (TOML, or JSON for `.json`; `path` names it in errors).
+fn parse(text: &str, path: &Path) -> Result<serde_json::Value> {
+    Ok(if path.extension().is_some_and(|e| e == "json") {
+        serde_json::from_str(text).with_context(|| format!("{}: invalid JSON", path.display()))?
+    } else {
+        toml::from_str(text).with_context(|| format!("{}: invalid TOML", path.display()))?
+    })
+}
+
 /// [`load`] from the text of a config (`path` names it in errors and says whether it is JSON).
 pub fn load_text<T: Serialize + DeserializeOwned>(
     preset: T,
@@ -84,11 +100,7 @@ pub fn load_text<T: Serialize + DeserializeOwned>(
     path: &Path,
     section: Option<&str>,
 ) -> Result<T> {
-    let over: serde_json::Value = if path.extension().is_some_and(|e| e == "json") {
-        serde_json::from_str(text).with_context(|| format!("{}: invalid JSON", path.display()))?
-    } else {
-        toml::from_str(text).with_context(|| format!("{}: invalid TOML", path.display()))?
-    };
+    let over = parse(text, path)?;
     let over = match section.and_then(|k| over.get(k)) {
         Some(table) if table.is_object() => table.clone(),
         _ => over,
@@ -138,6 +150,30 @@ mod tests {
         let c: BakeConfig =
             load_preset_section("fast", BakeConfig::preset, Some(&p), "bake").unwrap();
         assert_eq!(c.diffuse_samples, 48);
+        // `fipt bake` chooses the baker as `fipt run` does: `slf` with `[bake]` without a
+        // `[pipeline]` table, else the table's baker with its own section.
+        let (name, settings) = crate::bake::chosen_baker("fast", Some(&p)).unwrap();
+        assert_eq!((name.as_str(), settings["diffuse_samples"].as_u64()), ("slf", Some(48)));
+        std::fs::write(
+            &p,
+            "[pipeline]\nbaker = \"mine\"\n[plugins.mine]\nrays = 3\n[bake]\ndiffuse_samples = 48\n",
+        )
+        .unwrap();
+        let (name, settings) = crate::bake::chosen_baker("fast", Some(&p)).unwrap();
+        assert_eq!((name.as_str(), &settings), ("mine", &serde_json::json!({"rays": 3})));
+        let err = crate::Components::builtin()
+            .baker(&name, &settings, Default::default())
+            .err()
+            .unwrap();
+        assert!(err.to_string().contains("baker = \"mine\" is not registered"), "{err}");
+        std::fs::write(&p, "[pipeline]\nbaker = \"slf\"\n[bake]\ndiffuse_samples = 40\n").unwrap();
+        let (name, settings) = crate::bake::chosen_baker("fast", Some(&p)).unwrap();
+        assert_eq!((name.as_str(), settings["diffuse_samples"].as_u64()), ("slf", Some(40)));
+        assert_eq!(
+            settings["specular_samples"],
+            serde_json::json!(BakeConfig::fast().specular_samples),
+            "the preset's bake settings under the file's"
+        );
         // A value of the wrong type names its key.
         std::fs::write(&p, "[bake]\ndiffuse_samples = \"many\"\n").unwrap();
         let err = format!(
