@@ -104,6 +104,16 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
     assert!(left.is_empty(), "stale shard manifests left: {left:?}");
 
     assert_eq!(status(&sharded), "stopped");
+    // The stopped run's report keeps the stages it went through, with their peak memory.
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sharded.join("report.json")).unwrap())
+            .unwrap();
+    let stages: Vec<&str> = r["stages"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|s| s["stage"].as_str()).collect())
+        .unwrap_or_default();
+    assert_eq!(stages, ["load", "bake", "search", "train", "emitters"], "{r}");
+    assert!(r["stages"][0]["peak_rss_mib"].as_f64().is_some(), "{r}");
     // The refinement's shards; the last one merges.
     for k in ["1/3", "2/3", "0/3"] {
         let (ok, out, err) = run(&sharded, &["--shard", k]);

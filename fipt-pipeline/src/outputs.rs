@@ -101,6 +101,18 @@ pub(crate) fn mark_status(
     status: &str,
     error: Option<String>,
 ) -> Result<()> {
+    mark_status_after(out, scene, status, error, &[])
+}
+
+/// [`mark_status`] with the stages done so far (a run stopped where asked keeps their times
+/// and peak memory).
+pub(crate) fn mark_status_after(
+    out: &Path,
+    scene: &Path,
+    status: &str,
+    error: Option<String>,
+    stages: &[StageReport],
+) -> Result<()> {
     let mut r = serde_json::json!({
         "fipt_version": env!("CARGO_PKG_VERSION"),
         "status": status,
@@ -108,6 +120,9 @@ pub(crate) fn mark_status(
     });
     if let Some(e) = error {
         r["error"] = serde_json::json!(e);
+    }
+    if !stages.is_empty() {
+        r["stages"] = serde_json::json!(stages);
     }
     fipt_core::fsutil::write_json_atomic(&out.join("report.json"), &r)?;
     Ok(())

@@ -55,7 +55,7 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
                 bake_settings: &bake_settings,
                 extractor: extractor.as_ref(),
             };
-            crate::fit::run(a, &cfg, components, parts)
+            crate::fit::run(a, &cfg, components, parts).map(RunOutcome::Finished)
         }
         Ok(None) => {
             let settings = [&bake_settings, &refine_settings];
@@ -71,7 +71,7 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
             status("failed", Some(crate::describe(&e)))?;
             Err(e)
         }
-        Ok(summary) => Ok(RunOutcome::Finished(summary)),
+        Ok(outcome) => Ok(outcome),
     }
 }
 
@@ -156,7 +156,7 @@ fn run_locked(
     baker: Box<dyn fipt_core::shading::ShadingBaker>,
     refiner: Box<dyn fipt_core::shading::ShadingRefiner>,
     [bake_settings, refine_settings]: [&serde_json::Value; 2],
-) -> Result<RunSummary> {
+) -> Result<RunOutcome> {
     let t_all = std::time::Instant::now();
     let mut stages = vec![];
     let mut mark =
@@ -206,9 +206,18 @@ fn run_locked(
         refine_settings,
         sharding: a.sharding(),
     };
-    let (refine_plan, done_rounds) = planned_rounds(&ctx, &mut state, &mut mark)?;
+    let planned = planned_rounds(&ctx, &mut state, &mut mark)
+        .and_then(|p| past_sharded_stages(a).map(|_| p));
+    let (refine_plan, done_rounds) = match planned {
+        // `--stop-before refine`: report.json keeps the stages done (their times and peaks).
+        Err(e) if e.is_stopped() && a.sharding().shard.is_all() => {
+            let why = e.to_string();
+            crate::outputs::mark_status_after(&a.out, &a.scene, "stopped", Some(why.clone()), &stages)?;
+            return Ok(RunOutcome::Stopped(why));
+        }
+        p => p?,
+    };
     let (field, train) = (state.field, state.train);
-    past_sharded_stages(a)?;
 
     // Observation counts per surface cell (the search's cells: 4 footprints).
     let points = first.records.iter().flatten().flatten().map(|r| r.p);
@@ -242,6 +251,7 @@ fn run_locked(
     );
     let field = crate::rounds::train_dir(&a.out, done_rounds).join("field.safetensors");
     RunSummary::write(a, cfg, &scene, &report, stages, emitters.len(), Some(field))
+        .map(RunOutcome::Finished)
 }
 
 /// What the first round leaves for the rest of a FIPT run.
