@@ -53,15 +53,18 @@ impl PrimaryHit for HitPoint {
 
 /// The point and triangle of every pixel centre's primary hit of a view.
 pub fn hit_points(geometry: &dyn RayQuery, view: &View) -> Vec<Option<HitPoint>> {
-    primary_records(geometry, view)
-        .into_iter()
-        .map(|r| {
-            r.map(|r| HitPoint {
-                p: r.hit.p,
-                tri: r.hit.tri,
-            })
+    // A new allocation of the hits' size: `into_iter().map().collect()` would reuse the
+    // records' buffer in place, and a whole run's hits then kept the records' size (about
+    // 5× theirs: several GiB at 200 views of 640 × 480).
+    let records = primary_records(geometry, view);
+    let mut hits = Vec::with_capacity(records.len());
+    hits.extend(records.iter().map(|r| {
+        r.as_ref().map(|r| HitPoint {
+            p: r.hit.p,
+            tri: r.hit.tri,
         })
-        .collect()
+    }));
+    hits
 }
 
 /// Primary hits of every pixel centre of a view.
