@@ -93,19 +93,28 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
 }
 
 /// FNV-1a 64, the fingerprint hash of stage inputs.
-struct Fnv(u64);
+/// FNV-1a 64, fed piece by piece: `Fnv::new()`, `feed` in order, then `hex` is
+/// [`hash_bytes`] of the pieces concatenated (without holding them together).
+pub struct Fnv(u64);
+
+impl Default for Fnv {
+    fn default() -> Self {
+        Self::new()
+    }
+}
 
 impl Fnv {
-    fn new() -> Self {
+    pub fn new() -> Self {
         Fnv(0xcbf2_9ce4_8422_2325)
     }
-    fn feed(&mut self, bytes: &[u8]) {
+    pub fn feed(&mut self, bytes: &[u8]) {
         for &b in bytes {
             self.0 ^= b as u64;
             self.0 = self.0.wrapping_mul(0x0000_0100_0000_01B3);
         }
     }
-    fn hex(&self) -> String {
+    /// The hash as 16 hex digits.
+    pub fn hex(&self) -> String {
         format!("{:016x}", self.0)
     }
 }

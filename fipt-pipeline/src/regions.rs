@@ -25,9 +25,16 @@ impl Regions {
 
 /// The id maps (`IndexMA/` or `segmentation/`) of every training view, in view order.
 pub fn split_ids(scene: &LoadedScene, kind: GtKind) -> Result<Vec<Vec<i64>>> {
+    let all: Vec<usize> = (0..scene.ds.train().views.len()).collect();
+    view_ids(scene, kind, &all)
+}
+
+/// The id maps of the training views `views`, in their order (read in parallel).
+fn view_ids(scene: &LoadedScene, kind: GtKind, views: &[usize]) -> Result<Vec<Vec<i64>>> {
     let split = scene.ds.train();
-    (0..split.views.len())
-        .into_par_iter()
+    views
+        .par_iter()
+        .copied()
         .map(|k| {
             scene
                 .ds
@@ -82,18 +89,23 @@ pub fn load(
             source: "mesh",
         }));
     };
-    let raw = split_ids(scene, kind)?;
+    // Numbered densely in order of first appearance, a few views at a time (every view's
+    // ids at once took 8 bytes a pixel). An id's number is fixed when it first appears, so
+    // a view's ids are final once the views before it are numbered.
+    let split = scene.ds.train();
     let mut dense: BTreeMap<i64, u32> = BTreeMap::new();
-    for &id in raw.iter().flatten() {
-        if id >= 0 {
-            let next = dense.len() as u32;
-            dense.entry(id).or_insert(next);
+    let mut ids = Vec::with_capacity(split.views.len());
+    let all: Vec<usize> = (0..split.views.len()).collect();
+    for chunk in all.chunks(rayon::current_num_threads().max(1) * 2) {
+        let raw = view_ids(scene, kind, chunk)?;
+        for view in raw {
+            for &id in view.iter().filter(|&&id| id >= 0) {
+                let next = dense.len() as u32;
+                dense.entry(id).or_insert(next);
+            }
+            ids.push(view.iter().map(|id| dense.get(id).copied()).collect());
         }
     }
-    let ids = raw
-        .iter()
-        .map(|v| v.iter().map(|id| dense.get(id).copied()).collect())
-        .collect();
     let mut labels = vec![0; dense.len()];
     for (&id, &d) in &dense {
         labels[d as usize] = id;

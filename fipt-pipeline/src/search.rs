@@ -30,12 +30,32 @@ pub struct Searched {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub divided: Vec<Divided>,
     #[serde(skip)]
-    pub targets: Vec<Vec<Option<[f32; 2]>>>,
+    pub targets: PixelTargets,
     /// The training pixels (view, pixel) on the second side of divided region k: the segment
     /// prior treats each side as a part of its own.
     #[serde(skip)]
     pub second_sides: Vec<(u32, u32, u32)>,
     pub seconds: f64,
+}
+
+/// Each training pixel's search target (σ*, m*; NaN where its region has none), as an index
+/// into the few distinct targets: 4 bytes a pixel where an `Option<[f32; 2]>` took 12.
+pub struct PixelTargets {
+    /// The regions' choices in region order, then each divided region's two sides.
+    pub table: Vec<[f32; 2]>,
+    /// `index[v][i]`: the entry of pixel `i` of view `v`; [`PixelTargets::NONE`] off the
+    /// regions.
+    pub index: Vec<Vec<u32>>,
+}
+
+impl PixelTargets {
+    pub const NONE: u32 = u32::MAX;
+
+    /// Pixel `i` of view `v`: its target, None off the regions; None outside the views.
+    pub fn get(&self, v: usize, i: usize) -> Option<Option<[f32; 2]>> {
+        let k = *self.index.get(v)?.get(i)?;
+        Some((k != Self::NONE).then(|| self.table[k as usize]))
+    }
 }
 
 /// The search's regions, pixels and σ candidates for one set of shadings.
@@ -150,11 +170,14 @@ fn compact_inputs(
         rule(v, i, h).filter(|_| fipt_core::rng::pixel_kept(SEARCH_SEED, v, i, share))
     };
     let (mut keyed, mut shadings, mut images) = (vec![], vec![], vec![]);
+    // One buffer for every view's file, and only the kept pixels decoded: a whole view
+    // decoded and freed each time left the heap fragmented (GiBs resident at 200 views).
+    let mut buf = vec![];
     for (v, recs) in records.iter().enumerate() {
-        let sh = stored.view(v)?;
-        let mine = view_pixels(v, recs, &sh.valid, &keep);
+        let file = stored.read_view(v, &mut buf)?;
+        let mine = view_pixels(v, recs, &file.valid(), &keep);
         let idx: Vec<u32> = mine.iter().map(|k| k.1).collect();
-        shadings.push(sh.select(&idx));
+        shadings.push(file.select(&idx));
         let data = idx
             .iter()
             .map(|&i| scene.images[v].data[i as usize])
@@ -367,7 +390,7 @@ pub fn stage(
     }))
 }
 
-/// Each training pixel's σ and metallic target ([NaN, NaN] where its region has none; None
+/// Each training pixel's σ and metallic target ([NaN, NaN] where its region has none; none
 /// off the regions): its region's choice, or the side of a divided region it lies on; and the
 /// pixels on second sides (view, pixel, divided region).
 #[allow(clippy::type_complexity)]
@@ -377,7 +400,7 @@ fn pixel_targets(
     choices: &[RegionChoice],
     divided: &[Divided],
     cells: &DividedCells,
-) -> (Vec<Vec<Option<[f32; 2]>>>, Vec<(u32, u32, u32)>) {
+) -> (PixelTargets, Vec<(u32, u32, u32)>) {
     let sides = SideLookup::new(divided, cells);
     let target = |c: &RegionChoice| {
         [
@@ -385,24 +408,30 @@ fn pixel_targets(
             c.metallic.unwrap_or(f32::NAN),
         ]
     };
+    let table = (choices.iter().map(target))
+        .chain(divided.iter().flat_map(|d| d.sides.iter().map(target)))
+        .collect();
+    let first_side = choices.len() as u32;
     let mut second_sides = vec![];
-    let targets = (regions.ids.iter().zip(records).enumerate())
+    let index = (regions.ids.iter().zip(records).enumerate())
         .map(|(v, (ids, recs))| {
             (ids.iter().zip(recs).enumerate())
                 .map(|(i, (r, h))| {
-                    let r = (*r)?;
+                    let Some(r) = *r else {
+                        return PixelTargets::NONE;
+                    };
                     let Some((k, side)) = h.and_then(|h| sides.side(r, h.point())) else {
-                        return Some(target(&choices[r as usize]));
+                        return r;
                     };
                     if side == 1 {
                         second_sides.push((v as u32, i as u32, k as u32));
                     }
-                    Some(target(&divided[k].sides[side as usize]))
+                    first_side + 2 * k as u32 + side as u32
                 })
                 .collect()
         })
         .collect();
-    (targets, second_sides)
+    (PixelTargets { table, index }, second_sides)
 }
 
 /// What a search's decisions are a function of.
@@ -414,13 +443,17 @@ fn search_key(
     when: When,
     regions: &Regions,
 ) -> Result<String> {
-    let ids: Vec<u8> = regions
-        .ids
-        .iter()
-        .flatten()
-        .flat_map(|r| r.map_or(u32::MAX, |r| r).to_le_bytes())
-        .chain(regions.labels.iter().flat_map(|l| l.to_le_bytes()))
-        .collect();
+    // Hashed piece by piece (the bytes of every pixel's id together took 4 bytes a pixel).
+    let mut ids = fipt_core::fsutil::Fnv::new();
+    for view in &regions.ids {
+        let bytes: Vec<u8> = (view.iter())
+            .flat_map(|r| r.map_or(u32::MAX, |r| r).to_le_bytes())
+            .collect();
+        ids.feed(&bytes);
+    }
+    for l in &regions.labels {
+        ids.feed(&l.to_le_bytes());
+    }
     let previous = previous
         .map(|p| serde_json::to_value(&p.regions))
         .transpose()?;
@@ -435,7 +468,7 @@ fn search_key(
         on.id,
         fipt_core::fsutil::hash_json(&settings),
         regions.source,
-        fipt_core::fsutil::hash_bytes(&ids)
+        ids.hex()
     ))
 }
 

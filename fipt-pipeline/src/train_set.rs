@@ -368,8 +368,8 @@ pub(crate) fn build_set(
     }
     let mut data = with_segments(scene, data, segments, search)?;
     let mut targets_id = None;
-    if let Some(t) = search.map(|s| &s.targets[..]) {
-        data = data.with_targets(t)?;
+    if let Some(t) = search.map(|s| &s.targets) {
+        data = data.with_targets_by(|v, i| t.get(v, i))?;
         targets_id = Some(targets_fingerprint(&data));
     }
     Ok(BuiltSet {

@@ -128,6 +128,76 @@ fn damaged(path: &Path, m: &str) -> CoreError {
     )
 }
 
+/// One view's stored shadings as read from its file, checked; pixels are decoded on demand.
+pub struct ViewFile<'b> {
+    bytes: &'b [u8],
+    width: usize,
+    height: usize,
+    levels: [f32; NUM_LEVELS],
+    poly: bool,
+    n: usize,
+}
+
+impl<'b> ViewFile<'b> {
+    fn new(bytes: &'b [u8], path: &Path) -> Result<Self> {
+        let (width, height, poly, n, expected) = header(bytes, path)?;
+        if bytes.len() != expected {
+            return Err(damaged(
+                path,
+                &format!("{} bytes, expected {expected} (truncated?)", bytes.len()),
+            ));
+        }
+        let mut levels = [0.0; NUM_LEVELS];
+        for (l, c) in levels.iter_mut().zip(bytes[24..].chunks_exact(4)) {
+            *l = f32::from_le_bytes(c.try_into().unwrap());
+        }
+        Ok(ViewFile { bytes, width, height, levels, poly, n })
+    }
+
+    /// (width, height) of the view.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// Whether each pixel's shadings are valid.
+    pub fn valid(&self) -> Vec<bool> {
+        let off = 24 + 4 * NUM_LEVELS;
+        self.bytes[off..off + self.n].iter().map(|&b| b != 0).collect()
+    }
+
+    /// The pixels `idx` alone, as [`ViewShadings::select`] gives them from the decoded view.
+    pub fn select(&self, idx: &[u32]) -> ViewShadings {
+        let b = self.bytes;
+        let f = |off: usize| f32::from_le_bytes(b[off..off + 4].try_into().unwrap());
+        let vec3 = |off: usize| Vec3::new(f(off), f(off + 4), f(off + 8));
+        let valid_at = 24 + 4 * NUM_LEVELS;
+        let ld_at = valid_at + self.n;
+        let poly_at = ld_at + 12 * self.n;
+        let ls0_at = poly_at + if self.poly { 24 * self.n } else { 0 };
+        let ls1_at = ls0_at + 12 * NUM_LEVELS * self.n;
+        let px = idx.iter().map(|&i| i as usize);
+        let levels = |at: usize, i: usize| -> [Vec3; NUM_LEVELS] {
+            std::array::from_fn(|l| vec3(at + 12 * (NUM_LEVELS * i + l)))
+        };
+        ViewShadings {
+            width: idx.len(),
+            height: 1,
+            levels: self.levels,
+            ld: px.clone().map(|i| vec3(ld_at + 12 * i)).collect(),
+            ld_poly: if self.poly {
+                px.clone()
+                    .map(|i| [vec3(poly_at + 24 * i), vec3(poly_at + 24 * i + 12)])
+                    .collect()
+            } else {
+                vec![]
+            },
+            ls0: px.clone().map(|i| levels(ls0_at, i)).collect(),
+            ls1: px.clone().map(|i| levels(ls1_at, i)).collect(),
+            valid: px.map(|i| b[valid_at + i] != 0).collect(),
+        }
+    }
+}
+
 /// Decodes one view's shadings; `path` names the file in errors.
 pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
     let (w, h, poly, n, expected) = header(bytes, path)?;
@@ -291,6 +361,18 @@ impl StoredShadings {
         let p = view_path(&self.dir, &self.split, k);
         let bytes = std::fs::read(&p).map_err(|e| CoreError::io(&p, e))?;
         decode(&bytes, &p)
+    }
+
+    /// View `k`'s file read into `buf` (its memory reused from view to view), to select
+    /// pixels from without decoding the whole view ([`ViewFile`]).
+    pub fn read_view<'b>(&self, k: usize, buf: &'b mut Vec<u8>) -> Result<ViewFile<'b>> {
+        use std::io::Read;
+        let p = view_path(&self.dir, &self.split, k);
+        buf.clear();
+        std::fs::File::open(&p)
+            .and_then(|mut f| f.read_to_end(buf))
+            .map_err(|e| CoreError::io(&p, e))?;
+        ViewFile::new(buf, &p)
     }
 
     /// Every view's shadings, in order.
@@ -478,6 +560,16 @@ mod tests {
         let bp = encode(&p);
         assert_eq!(bp.len(), b.len() + 15 * 24);
         assert_eq!(decode(&bp, Path::new("x.fsh")).unwrap(), p);
+        // Pixels selected from the file equal the same pixels of the decoded view.
+        for (bytes, view) in [(&b, &s), (&bp, &p)] {
+            let file = ViewFile::new(bytes, Path::new("x.fsh")).unwrap();
+            assert_eq!(file.valid(), view.valid);
+            assert_eq!(file.size(), (5, 3));
+            let idx = [14, 0, 7, 7, 3];
+            assert_eq!(file.select(&idx), view.select(&idx));
+            assert_eq!(file.select(&[]), view.select(&[]));
+        }
+        assert!(ViewFile::new(&b[..b.len() - 1], Path::new("x.fsh")).is_err());
         let err = decode(&b[..b.len() - 4], Path::new("v/003.fsh"))
             .unwrap_err()
             .to_string();

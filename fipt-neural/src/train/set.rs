@@ -239,12 +239,19 @@ impl TrainingSet {
 
     /// Attaches the material search's targets: `targets[v][i]` is (σ*, m*) of pixel `i` of view
     /// `v`, None where the search has none (the default prior applies there).
-    pub fn with_targets(mut self, targets: &[Vec<Option<[f32; 2]>>]) -> Result<Self> {
+    pub fn with_targets(self, targets: &[Vec<Option<[f32; 2]>>]) -> Result<Self> {
+        self.with_targets_by(|v, i| targets.get(v).and_then(|view| view.get(i)).copied())
+    }
+
+    /// [`TrainingSet::with_targets`] with the targets looked up: `target(v, i)` is pixel `i` of
+    /// view `v`'s (σ*, m*) or None, and None itself outside the views.
+    pub fn with_targets_by(
+        mut self,
+        target: impl Fn(usize, usize) -> Option<Option<[f32; 2]>>,
+    ) -> Result<Self> {
         let mut out = Vec::with_capacity(self.len());
         for &(v, i) in &self.origin {
-            let t = targets
-                .get(v as usize)
-                .and_then(|view| view.get(i as usize))
+            let t = target(v as usize, i as usize)
                 .ok_or_else(|| {
                     NeuralError::config(
                         "targets",
