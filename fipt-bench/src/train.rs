@@ -208,7 +208,8 @@ fn step_seconds(
 /// The mean split of the steps between two timing snapshots, in ms per step.
 fn step_split(tm: &TrainTimings, warm: &TrainTimings, steps: usize) -> serde_json::Value {
     let grid_fwd = tm.grid_forward - warm.grid_forward;
-    let grid_bwd = (tm.grid_backward - warm.grid_backward) + (tm.grid_optimizer - warm.grid_optimizer);
+    let grid_bwd =
+        (tm.grid_backward - warm.grid_backward) + (tm.grid_optimizer - warm.grid_optimizer);
     let batch = tm.batch - warm.batch;
     let opt = tm.optimizer - warm.optimizer;
     let rest = tm.total() - warm.total() - grid_fwd - grid_bwd - batch - opt;

@@ -112,7 +112,11 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
         .as_array()
         .map(|a| a.iter().filter_map(|s| s["stage"].as_str()).collect())
         .unwrap_or_default();
-    assert_eq!(stages, ["load", "bake", "search", "train", "emitters"], "{r}");
+    assert_eq!(
+        stages,
+        ["load", "bake", "search", "train", "emitters"],
+        "{r}"
+    );
     assert!(r["stages"][0]["peak_rss_mib"].as_f64().is_some(), "{r}");
     // The refinement's shards; the last one merges.
     for k in ["1/3", "2/3", "0/3"] {

@@ -384,9 +384,7 @@ impl NeuralField {
         } else {
             head_candle(&h, &m, &cfg)
         };
-        packed
-            .and_then(FieldOutput::from_packed)
-            .ctx("field head")
+        packed.and_then(FieldOutput::from_packed).ctx("field head")
     }
 
     /// Hash grid + material MLP: the MLP's raw outputs `[n, 5]` (see [`crate::head`]).

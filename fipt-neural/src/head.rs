@@ -13,7 +13,7 @@
 //! each a serial pass on the CPU: at batch 65,536 (`balanced`) the MLPs-and-loss part of a step
 //! took 106 ms on one thread and 88 ms on two with them, 60 ms on two with this op
 //! (`docs/training-speed.md`).
-use crate::ops::{contiguous, storage_f32, zeros_par};
+use crate::ops::{contiguous, with_cpu_f32, zeros_par};
 use candle_core::{CpuStorage, CustomOp2, Layout, Shape, Tensor};
 use fipt_core::materials::MIN_ROUGHNESS;
 use rayon::prelude::*;
@@ -174,29 +174,31 @@ impl CustomOp2 for FieldHead {
         _res: &Tensor,
         grad: &Tensor,
     ) -> candle_core::Result<(Option<Tensor>, Option<Tensor>)> {
-        let (h, m, g) = (arg1.contiguous()?, arg2.contiguous()?, grad.contiguous()?);
-        let (hs, hl) = h.storage_and_layout();
-        let (ms, ml) = m.storage_and_layout();
-        let (gs, gl) = g.storage_and_layout();
-        let h_v = storage_f32(&hs, hl, "field head (material)")?;
-        let m_v = storage_f32(&ms, ml, "field head (mask)")?;
-        let g_v = storage_f32(&gs, gl, "field head (gradient)")?;
-        let n = m_v.len();
-        let cfg = &self.0;
-        let mut dh = zeros_par(n * MATERIAL_OUTPUTS);
-        let mut dm = zeros_par(n);
-        dh.par_chunks_mut(ROWS * MATERIAL_OUTPUTS)
-            .zip(dm.par_chunks_mut(ROWS))
-            .enumerate()
-            .for_each(|(k, (dh, dm))| {
-                for (i, (d, dmi)) in dh.chunks_exact_mut(MATERIAL_OUTPUTS).zip(dm).enumerate() {
-                    let j = k * ROWS + i;
-                    let hj = &h_v[j * MATERIAL_OUTPUTS..(j + 1) * MATERIAL_OUTPUTS];
-                    let gj = &g_v[j * PACKED..(j + 1) * PACKED];
-                    material_grad(hj, gj, cfg.gain, self.leak_at(j), d);
-                    *dmi = mask_grad(m_v[j], gj[5], cfg.softplus);
-                }
-            });
+        let names = [
+            "field head (material)",
+            "field head (mask)",
+            "field head (gradient)",
+        ];
+        let (dh, dm) = with_cpu_f32([arg1, arg2, grad], names, |[h_v, m_v, g_v]| {
+            let n = m_v.len();
+            let cfg = &self.0;
+            let mut dh = zeros_par(n * MATERIAL_OUTPUTS);
+            let mut dm = zeros_par(n);
+            dh.par_chunks_mut(ROWS * MATERIAL_OUTPUTS)
+                .zip(dm.par_chunks_mut(ROWS))
+                .enumerate()
+                .for_each(|(k, (dh, dm))| {
+                    let rows = dh.chunks_exact_mut(MATERIAL_OUTPUTS).zip(dm).enumerate();
+                    for (i, (d, dmi)) in rows {
+                        let j = k * ROWS + i;
+                        let hj = &h_v[j * MATERIAL_OUTPUTS..(j + 1) * MATERIAL_OUTPUTS];
+                        let gj = &g_v[j * PACKED..(j + 1) * PACKED];
+                        material_grad(hj, gj, cfg.gain, self.leak_at(j), d);
+                        *dmi = mask_grad(m_v[j], gj[5], cfg.softplus);
+                    }
+                });
+            (dh, dm)
+        })?;
         let dh = Tensor::from_vec(dh, arg1.shape(), arg1.device())?;
         let dm = Tensor::from_vec(dm, arg2.shape(), arg2.device())?;
         Ok((Some(dh), Some(dm)))

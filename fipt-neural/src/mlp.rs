@@ -12,7 +12,7 @@
 //! the optimiser see an ordinary `[input, params] → output` op. Layer `i` occupies
 //! `W_i` (`[out, in]`, row-major, `y = x·Wᵀ + b` as candle's `Linear`) then `b_i` (`[out]`).
 use crate::error::{CandleContext, Result};
-use crate::ops::{contiguous, storage_f32, zeros_par};
+use crate::ops::{contiguous, with_cpu_f32, zeros_par};
 use candle_core::{CpuStorage, CustomOp2, Layout, Module, Shape, Tensor, Var};
 use candle_nn::VarBuilder;
 use rayon::prelude::*;
@@ -372,13 +372,29 @@ impl CustomOp2 for MlpOp {
         grad_res: &Tensor,
     ) -> candle_core::Result<(Option<Tensor>, Option<Tensor>)> {
         // Read in place: a copy here was a serial pass over the batch's inputs.
-        let (x, p, g) = (arg1.contiguous()?, arg2.contiguous()?, grad_res.contiguous()?);
-        let (xs, xl) = x.storage_and_layout();
-        let (ps, pl) = p.storage_and_layout();
-        let (gs, gl) = g.storage_and_layout();
-        let x = storage_f32(&xs, xl, "fused-mlp input")?;
-        let p = storage_f32(&ps, pl, "fused-mlp parameters")?;
-        let g = storage_f32(&gs, gl, "fused-mlp gradient")?;
+        let want_dx = arg1.track_op();
+        let names = [
+            "fused-mlp input",
+            "fused-mlp parameters",
+            "fused-mlp gradient",
+        ];
+        let (dp, dx) = with_cpu_f32([arg1, arg2, grad_res], names, |[x, p, g]| {
+            self.grads(x, p, g, want_dx)
+        })?;
+        let dp = Tensor::from_vec(dp, arg2.shape(), arg2.device())?;
+        let dx = if want_dx {
+            Some(Tensor::from_vec(dx, arg1.shape(), arg1.device())?)
+        } else {
+            None
+        };
+        Ok((dx, Some(dp)))
+    }
+}
+
+impl MlpOp {
+    /// (d loss / d parameters, d loss / d input, empty unless `want_dx`) from the input `x`,
+    /// the packed parameters `p` and the output's gradient `g`.
+    fn grads(&self, x: &[f32], p: &[f32], g: &[f32], want_dx: bool) -> (Vec<f32>, Vec<f32>) {
         let layers = &self.layers;
         let (d_in, d_out) = (self.dims[0], *self.dims.last().unwrap());
         let n = x.len() / d_in;
@@ -394,7 +410,6 @@ impl CustomOp2 for MlpOp {
             stash = vec![0f32; n * per_row];
             self.forward_keeping(p, x, &mut vec![0f32; n * d_out], &mut stash, per_row);
         }
-        let want_dx = arg1.track_op();
         // Per block: its share of the parameter gradient, and its rows of dx.
         let partial: Vec<(Vec<f32>, Vec<f32>)> = stash
             .par_chunks(BLOCK * per_row)
@@ -454,14 +469,7 @@ impl CustomOp2 for MlpOp {
                 (dp, cur)
             })
             .collect();
-        let (dp, dx) = sum_blocks(&partial, p.len(), if want_dx { n * d_in } else { 0 });
-        let dp = Tensor::from_vec(dp, arg2.shape(), arg2.device())?;
-        let dx = if want_dx {
-            Some(Tensor::from_vec(dx, arg1.shape(), arg1.device())?)
-        } else {
-            None
-        };
-        Ok((dx, Some(dp)))
+        sum_blocks(&partial, p.len(), if want_dx { n * d_in } else { 0 })
     }
 }
 
@@ -491,7 +499,9 @@ fn sum_blocks(
             parts.push((head, rows));
             rest = tail;
         }
-        parts.into_par_iter().for_each(|(d, rows)| d.copy_from_slice(rows));
+        parts
+            .into_par_iter()
+            .for_each(|(d, rows)| d.copy_from_slice(rows));
     }
     (dp, dx)
 }

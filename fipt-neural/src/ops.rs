@@ -54,6 +54,25 @@ pub(crate) fn storage_f32<'a>(
     }
 }
 
+/// Calls `f` with the f32 values of `tensors` (made contiguous, read in place; CPU only),
+/// `names` saying which in errors.
+pub(crate) fn with_cpu_f32<const N: usize, R>(
+    tensors: [&candle_core::Tensor; N],
+    names: [&str; N],
+    f: impl FnOnce([&[f32]; N]) -> R,
+) -> candle_core::Result<R> {
+    let owned = tensors
+        .iter()
+        .map(|t| t.contiguous())
+        .collect::<candle_core::Result<Vec<_>>>()?;
+    let guards: Vec<_> = owned.iter().map(|t| t.storage_and_layout()).collect();
+    let mut slices: [&[f32]; N] = [&[]; N];
+    for ((slot, (storage, layout)), name) in slices.iter_mut().zip(&guards).zip(names) {
+        *slot = storage_f32(storage, layout, name)?;
+    }
+    Ok(f(slices))
+}
+
 /// sRGB OETF of a linear value, continued linearly below 0 (no clamp).
 pub use fipt_core::color::srgb_oetf_extended as srgb_oetf;
 pub use fipt_core::color::srgb_oetf_grad;

@@ -30,7 +30,8 @@ fn run(cfg: &HeadConfig, fused: bool, (h, m, g): &(Vec<f32>, Vec<f32>, Vec<f32>)
     let hv = Var::from_tensor(&Tensor::from_vec(h.clone(), (n, 5), &dev).unwrap()).unwrap();
     let mv = Var::from_tensor(&Tensor::from_vec(m.clone(), (n, 1), &dev).unwrap()).unwrap();
     let out = if fused {
-        hv.as_tensor().apply_op2(mv.as_tensor(), FieldHead(cfg.clone()))
+        hv.as_tensor()
+            .apply_op2(mv.as_tensor(), FieldHead(cfg.clone()))
     } else {
         head_candle(hv.as_tensor(), mv.as_tensor(), cfg)
     }
@@ -46,12 +47,20 @@ fn run(cfg: &HeadConfig, fused: bool, (h, m, g): &(Vec<f32>, Vec<f32>, Vec<f32>)
 }
 
 fn configs(n: usize) -> Vec<HeadConfig> {
-    let leak: Arc<Vec<f32>> = Arc::new((0..n).map(|i| if i % 3 == 0 { 0.02 } else { 0.0 }).collect());
+    let leak: Arc<Vec<f32>> = Arc::new(
+        (0..n)
+            .map(|i| if i % 3 == 0 { 0.02 } else { 0.0 })
+            .collect(),
+    );
     let mut out = vec![];
     for gain in [1.0, 10.0] {
         for leak in [None, Some(leak.clone())] {
             for softplus in [false, true] {
-                out.push(HeadConfig { gain, leak: leak.clone(), softplus });
+                out.push(HeadConfig {
+                    gain,
+                    leak: leak.clone(),
+                    softplus,
+                });
             }
         }
     }
@@ -94,8 +103,15 @@ fn query_head_equals_the_training_op() {
 fn head_ranges_and_slopes() {
     // σ spans [MIN_ROUGHNESS, 1], α [0, 1); α's slope is positive for softplus at any m and
     // zero for relu below 0; the leak keeps σ's logit slope ≥ gain·leak where σ saturates.
-    let cfg = HeadConfig { gain: 10.0, leak: Some(Arc::new(vec![0.02; 4])), softplus: true };
-    let h = vec![-30.0, 0.0, 30.0, 30.0, 0.0, 30.0, 0.0, -30.0, -30.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.1, 1.0];
+    let cfg = HeadConfig {
+        gain: 10.0,
+        leak: Some(Arc::new(vec![0.02; 4])),
+        softplus: true,
+    };
+    let h = vec![
+        -30.0, 0.0, 30.0, 30.0, 0.0, 30.0, 0.0, -30.0, -30.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+        1.0, 1.0, 0.1, 1.0,
+    ];
     let m = vec![-40.0, -1.0, 0.0, 40.0];
     let mut g = vec![0.0; 4 * PACKED];
     for j in 0..4 {
@@ -105,14 +121,28 @@ fn head_ranges_and_slopes() {
     let [out, dh, dm] = run(&cfg, true, &(h, m.clone(), g.clone()));
     for j in 0..4 {
         let sigma = out[j * PACKED + 3];
-        assert!((fipt_core::materials::MIN_ROUGHNESS..=1.0).contains(&sigma), "σ {sigma}");
+        assert!(
+            (fipt_core::materials::MIN_ROUGHNESS..=1.0).contains(&sigma),
+            "σ {sigma}"
+        );
         let alpha = out[j * PACKED + 5];
-        assert!((0.0..1.0).contains(&alpha) || (alpha == 1.0 && m[j] >= 40.0), "α {alpha}");
-        assert!(dh[j * 5 + 3] >= 10.0 * 0.02 * 0.98 * 0.999, "σ slope {} at row {j}", dh[j * 5 + 3]);
+        assert!(
+            (0.0..1.0).contains(&alpha) || (alpha == 1.0 && m[j] >= 40.0),
+            "α {alpha}"
+        );
+        assert!(
+            dh[j * 5 + 3] >= 10.0 * 0.02 * 0.98 * 0.999,
+            "σ slope {} at row {j}",
+            dh[j * 5 + 3]
+        );
         assert!(dm[j] >= 0.0, "α slope {} at m = {}", dm[j], m[j]);
     }
     assert!(dm[0] > 0.0, "softplus keeps a gradient at m = −40");
-    let relu = HeadConfig { softplus: false, leak: None, ..cfg };
+    let relu = HeadConfig {
+        softplus: false,
+        leak: None,
+        ..cfg
+    };
     let [_, _, dm] = run(&relu, true, &(vec![0.0; 20], m, g));
     assert_eq!(dm[0], 0.0);
     assert_eq!(dm[1], 0.0);

@@ -153,22 +153,39 @@ mod tests {
         // `fipt bake` chooses the baker as `fipt run` does: `slf` with `[bake]` without a
         // `[pipeline]` table, else the table's baker with its own section.
         let (name, settings) = crate::bake::chosen_baker("fast", Some(&p)).unwrap();
-        assert_eq!((name.as_str(), settings["diffuse_samples"].as_u64()), ("slf", Some(48)));
+        assert_eq!(
+            (name.as_str(), settings["diffuse_samples"].as_u64()),
+            ("slf", Some(48))
+        );
         std::fs::write(
             &p,
             "[pipeline]\nbaker = \"mine\"\n[plugins.mine]\nrays = 3\n[bake]\ndiffuse_samples = 48\n",
         )
         .unwrap();
         let (name, settings) = crate::bake::chosen_baker("fast", Some(&p)).unwrap();
-        assert_eq!((name.as_str(), &settings), ("mine", &serde_json::json!({"rays": 3})));
+        assert_eq!(
+            (name.as_str(), &settings),
+            ("mine", &serde_json::json!({"rays": 3}))
+        );
         let err = crate::Components::builtin()
             .baker(&name, &settings, Default::default())
             .err()
             .unwrap();
-        assert!(err.to_string().contains("baker = \"mine\" is not registered"), "{err}");
-        std::fs::write(&p, "[pipeline]\nbaker = \"slf\"\n[bake]\ndiffuse_samples = 40\n").unwrap();
+        assert!(
+            err.to_string()
+                .contains("baker = \"mine\" is not registered"),
+            "{err}"
+        );
+        std::fs::write(
+            &p,
+            "[pipeline]\nbaker = \"slf\"\n[bake]\ndiffuse_samples = 40\n",
+        )
+        .unwrap();
         let (name, settings) = crate::bake::chosen_baker("fast", Some(&p)).unwrap();
-        assert_eq!((name.as_str(), settings["diffuse_samples"].as_u64()), ("slf", Some(40)));
+        assert_eq!(
+            (name.as_str(), settings["diffuse_samples"].as_u64()),
+            ("slf", Some(40))
+        );
         assert_eq!(
             settings["specular_samples"],
             serde_json::json!(BakeConfig::fast().specular_samples),

@@ -206,13 +206,19 @@ fn run_locked(
         refine_settings,
         sharding: a.sharding(),
     };
-    let planned = planned_rounds(&ctx, &mut state, &mut mark)
-        .and_then(|p| past_sharded_stages(a).map(|_| p));
+    let planned =
+        planned_rounds(&ctx, &mut state, &mut mark).and_then(|p| past_sharded_stages(a).map(|_| p));
     let (refine_plan, done_rounds) = match planned {
         // `--stop-before refine`: report.json keeps the stages done (their times and peaks).
         Err(e) if e.is_stopped() && a.sharding().shard.is_all() => {
             let why = e.to_string();
-            crate::outputs::mark_status_after(&a.out, &a.scene, "stopped", Some(why.clone()), &stages)?;
+            crate::outputs::mark_status_after(
+                &a.out,
+                &a.scene,
+                "stopped",
+                Some(why.clone()),
+                &stages,
+            )?;
             return Ok(RunOutcome::Stopped(why));
         }
         p => p?,

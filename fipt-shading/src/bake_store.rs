@@ -151,7 +151,14 @@ impl<'b> ViewFile<'b> {
         for (l, c) in levels.iter_mut().zip(bytes[24..].chunks_exact(4)) {
             *l = f32::from_le_bytes(c.try_into().unwrap());
         }
-        Ok(ViewFile { bytes, width, height, levels, poly, n })
+        Ok(ViewFile {
+            bytes,
+            width,
+            height,
+            levels,
+            poly,
+            n,
+        })
     }
 
     /// (width, height) of the view.
@@ -162,7 +169,10 @@ impl<'b> ViewFile<'b> {
     /// Whether each pixel's shadings are valid.
     pub fn valid(&self) -> Vec<bool> {
         let off = 24 + 4 * NUM_LEVELS;
-        self.bytes[off..off + self.n].iter().map(|&b| b != 0).collect()
+        self.bytes[off..off + self.n]
+            .iter()
+            .map(|&b| b != 0)
+            .collect()
     }
 
     /// The pixels `idx` alone, as [`ViewShadings::select`] gives them from the decoded view.

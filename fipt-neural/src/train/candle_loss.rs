@@ -205,7 +205,8 @@ fn prior_term(
         ))
     };
     let ((hs, ts), (hm, tm)) = (part(0)?, part(1)?);
-    let pull = (((&out.roughness()? - ts)?.sqr()? * &hs)? + ((&out.metallic()? - tm)?.sqr()? * &hm)?)?
+    let pull = (((&out.roughness()? - ts)?.sqr()? * &hs)?
+        + ((&out.metallic()? - tm)?.sqr()? * &hm)?)?
         .mean_all()?;
     let (ns, nm) = (hs.affine(-1.0, 1.0)?, hm.affine(-1.0, 1.0)?);
     let ps = match prior_norm {
