@@ -29,8 +29,9 @@ pub fn estimate(pixels: u64, cfg: &RunConfig) -> Vec<(&'static str, u64)> {
         .set_limit()
         .map_or(pixels, |l| pixels.min(l as u64));
     let training = kept * (shadings + 12 + 12 + 8 + 8 + 4 + 8);
-    // Held through the run: the hit point and triangle, the image value, the search target.
-    let held = 20 + 12 + 12;
+    // Held through the run: the hit point and triangle, the image value, the search target
+    // (an index into the distinct targets).
+    let held = 20 + 12 + 4;
     let g = &cfg.train.field.grid;
     // Parameters and two Adam moments, f32.
     let tables = g.levels as u64 * (1u64 << g.log2_table) * g.features as u64 * 4 * 3;
@@ -117,7 +118,7 @@ mod tests {
         assert!(capped * 5 < uncapped, "{capped} vs {uncapped}");
         assert_eq!(
             part(&estimate(pixels, &cfg), "hits and images"),
-            pixels * 44
+            pixels * 36
         );
     }
 }
