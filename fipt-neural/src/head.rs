@@ -107,12 +107,13 @@ fn mask_grad(m: f32, g: f32, softplus: bool) -> f32 {
     g_act * relu + (-(g_e * e)) * abs
 }
 
-/// d loss / d h of one row's material columns from d loss / d out (`g[0..5]`).
+/// d loss / d h of one row's material columns from d loss / d out (`g[0..5]`); `out` is the
+/// row the forward gave (albedo and metallic are the sigmoids themselves, as candle's sigmoid
+/// reads its output in the backward; σ's sigmoid is recomputed from `h`).
 #[inline]
-fn material_grad(h: &[f32], g: &[f32], gain: f32, w: Option<f32>, dh: &mut [f32]) {
+fn material_grad(h: &[f32], out: &[f32], g: &[f32], gain: f32, w: Option<f32>, dh: &mut [f32]) {
     for c in [0, 1, 2, 4] {
-        let s = sigmoid(h[c]);
-        dh[c] = g[c] * slope(s);
+        dh[c] = g[c] * slope(out[c]);
     }
     let (_, r) = sigma_logit(h[3], gain);
     let g_r = g[3] * sigma_scale() + 0.0;
@@ -171,15 +172,17 @@ impl CustomOp2 for FieldHead {
         &self,
         arg1: &Tensor,
         arg2: &Tensor,
-        _res: &Tensor,
+        res: &Tensor,
         grad: &Tensor,
     ) -> candle_core::Result<(Option<Tensor>, Option<Tensor>)> {
         let names = [
             "field head (material)",
             "field head (mask)",
+            "field head (output)",
             "field head (gradient)",
         ];
-        let (dh, dm) = with_cpu_f32([arg1, arg2, grad], names, |[h_v, m_v, g_v]| {
+        let tensors = [arg1, arg2, res, grad];
+        let (dh, dm) = with_cpu_f32(tensors, names, |[h_v, m_v, o_v, g_v]| {
             let n = m_v.len();
             let cfg = &self.0;
             let mut dh = zeros_par(n * MATERIAL_OUTPUTS);
@@ -192,8 +195,8 @@ impl CustomOp2 for FieldHead {
                     for (i, (d, dmi)) in rows {
                         let j = k * ROWS + i;
                         let hj = &h_v[j * MATERIAL_OUTPUTS..(j + 1) * MATERIAL_OUTPUTS];
-                        let gj = &g_v[j * PACKED..(j + 1) * PACKED];
-                        material_grad(hj, gj, cfg.gain, self.leak_at(j), d);
+                        let (oj, gj) = (&o_v[j * PACKED..], &g_v[j * PACKED..(j + 1) * PACKED]);
+                        material_grad(hj, oj, gj, cfg.gain, self.leak_at(j), d);
                         *dmi = mask_grad(m_v[j], gj[5], cfg.softplus);
                     }
                 });
