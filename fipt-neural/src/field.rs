@@ -122,8 +122,8 @@ pub struct FieldOutput {
 
 impl FieldOutput {
     /// From the packed `[n, 6]` head (albedo, σ, metallic, α).
-    pub fn from_packed(packed: Tensor) -> candle_core::Result<Self> {
-        Ok(FieldOutput { packed })
+    pub fn from_packed(packed: Tensor) -> Self {
+        FieldOutput { packed }
     }
     fn columns(&self, start: usize, len: usize) -> candle_core::Result<Tensor> {
         self.packed.narrow(1, start, len)?.contiguous()
@@ -154,7 +154,10 @@ impl FieldOutput {
         metallic: &Tensor,
         alpha: &Tensor,
     ) -> candle_core::Result<Self> {
-        Self::from_packed(Tensor::cat(&[albedo, roughness, metallic, alpha], 1)?)
+        Ok(Self::from_packed(Tensor::cat(
+            &[albedo, roughness, metallic, alpha],
+            1,
+        )?))
     }
     /// `[n, 6]`: albedo, σ, metallic, α (the input of [`crate::ops::FactorizedLoss`]).
     pub fn packed(&self) -> candle_core::Result<Tensor> {
@@ -384,7 +387,7 @@ impl NeuralField {
         } else {
             head_candle(&h, &m, &cfg)
         };
-        packed.and_then(FieldOutput::from_packed).ctx("field head")
+        packed.map(FieldOutput::from_packed).ctx("field head")
     }
 
     /// Hash grid + material MLP: the MLP's raw outputs `[n, 5]` (see [`crate::head`]).
