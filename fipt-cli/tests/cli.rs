@@ -399,17 +399,17 @@ fn check_stages_and_rounds(out: &std::path::Path, m: &serde_json::Value) -> serd
     );
     // The second round is the settling one: a third of the refinement's secondary rays met
     // surfaces no view saw here.
-    let settle = &report["rounds"][0]["settle"];
+    let settle = &report["fit"]["rounds"][0]["settle"];
     assert_eq!(settle["another_round"], true, "{settle}");
     assert!(
         settle["field_lit_share"].as_f64().unwrap() > 0.15,
         "{settle}"
     );
-    assert_eq!(report["rounds"][1]["settle"]["another_round"], false);
+    assert_eq!(report["fit"]["rounds"][1]["settle"]["another_round"], false);
     assert!(out.join("train2/field.safetensors").is_file());
     // The refinement explains the views better than the initial bake (closure with the
     // ground-truth materials), and the report says what was modeled.
-    let closure = report["shading_closure"].as_array().unwrap();
+    let closure = report["fit"]["shading_closure"].as_array().unwrap();
     let (c0, c1) = (
         closure[0]["psnr_db"].as_f64().unwrap(),
         closure[1]["psnr_db"].as_f64().unwrap(),

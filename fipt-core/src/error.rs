@@ -43,6 +43,10 @@ pub enum CoreError {
         x: usize,
         y: usize,
     },
+    /// A method's (or another component's) own error, carried through the contract whole: the
+    /// host may look inside (`fipt run` recovers its own errors from FIPT's method so).
+    #[error(transparent)]
+    Component(Box<dyn std::error::Error + Send + Sync>),
     /// A failure inside a pluggable model (material field, optimiser backend).
     #[error("{context}: {message}")]
     Model { context: String, message: String },

@@ -1,16 +1,65 @@
 //! The material-fitter contract: a method that turns the observations of a scene into a
-//! [`MaterialField`] (and, when it estimates them, the emitters), in place of FIPT's
-//! bake → train → refine rounds. `fipt run` chooses one by name (`[pipeline] method`); the maps,
-//! emitters, re-renders, report and evaluation after it are the same for every method.
+//! [`MaterialField`] (and, when it estimates them, the emitters). `fipt run` chooses one by name
+//! (`[pipeline] method`), FIPT's own bake → train → refine rounds included; the maps, emitters,
+//! re-renders, report and evaluation after it are the same for every method.
 use crate::dataset::View;
-use crate::emitter::Emitter;
+use crate::emitter::{Emitter, EmitterExtractor};
 use crate::error::Result;
 use crate::field::MaterialField;
 use crate::image::Image;
 use crate::reflectance::ReflectanceModel;
-use crate::shading::{Progress, RayQuery, ViewShadings};
+use crate::shading::{Progress, RayQuery, ShadingBaker, ShadingRefiner, Shard, ViewShadings};
 use glam::Vec3;
-use std::path::Path;
+use std::any::Any;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The run's other components, for a method that composes them (FIPT's rounds bake, refine and
+/// find the emitters through these); a method that needs none of them ignores them.
+#[derive(Clone, Copy)]
+pub struct FitParts<'a> {
+    /// `[pipeline] baker`, built from its settings (also handed over, for the bake's cache).
+    pub baker: &'a dyn ShadingBaker,
+    pub bake_settings: &'a serde_json::Value,
+    /// `[pipeline] refiner` and its settings.
+    pub refiner: &'a dyn ShadingRefiner,
+    pub refine_settings: &'a serde_json::Value,
+    /// `[pipeline] extractor`.
+    pub extractor: &'a dyn EmitterExtractor,
+}
+
+/// Reports a stage of the method's own as done: its name and when it began (its time and peak
+/// memory then go in `report.json`'s `stages`).
+pub type StageDone<'a> = &'a (dyn Fn(&'static str, Instant) + Sync);
+
+/// The run around a fit: its folder, what the user asked of it, and the host's own context.
+pub struct FitRun<'a> {
+    /// The run's output folder (the method's own folder, [`FitInputs::dir`], is inside it).
+    pub out: &'a Path,
+    /// `--force`: recompute what an earlier run of the folder left, rather than reuse it.
+    pub force: bool,
+    /// The views this process computes of a sharded stage ([`Shard::ALL`]: every view).
+    pub shard: Shard,
+    /// Where the method reports its stages; None: the fit is one stage, `fit`.
+    pub stage_done: Option<StageDone<'a>>,
+    /// The host's own context, for a method built against that host (under `fipt run`:
+    /// `fipt_pipeline::fipt::Host`, the loaded scene with the run's config and request); None
+    /// from other hosts. A method from outside reads the typed fields of [`FitInputs`].
+    pub host: Option<&'a (dyn Any + Sync)>,
+}
+
+impl<'a> FitRun<'a> {
+    /// A plain run in `out`: reuse allowed, every view, one stage, no host context.
+    pub fn new(out: &'a Path) -> Self {
+        FitRun {
+            out,
+            force: false,
+            shard: Shard::ALL,
+            stage_done: None,
+            host: None,
+        }
+    }
+}
 
 /// What a fitter works from.
 pub struct FitInputs<'a> {
@@ -31,6 +80,10 @@ pub struct FitInputs<'a> {
     pub model: ReflectanceModel,
     /// A folder of the fitter's own (checkpoints, resume); it exists.
     pub dir: &'a Path,
+    /// The run's baker, refiner and extractor; None outside a run (a test of the method alone).
+    pub parts: Option<FitParts<'a>>,
+    /// The run around the fit.
+    pub run: FitRun<'a>,
 }
 
 /// What a fitter returns.
@@ -39,8 +92,34 @@ pub struct Fitted {
     /// The emitters, when the method estimates them; None: the run's emitter extractor finds
     /// them from the field's emission mask.
     pub emitters: Option<Vec<Emitter>>,
-    /// Anything the method reports (steps, losses, timings), written to `report.json`.
+    /// Anything the method reports (steps, losses, timings): `report.json`'s `fit`.
     pub report: serde_json::Value,
+    /// What the method modelled and skipped, and why (an object merged into `report.json`'s
+    /// `modeled`); None: "fitted by method `name`".
+    pub modeled: Option<serde_json::Value>,
+    /// An id of the fitted field (e.g. its checkpoint's fingerprint): re-renders an earlier
+    /// run of the folder made from the same id are reused. None: always re-rendered.
+    pub id: Option<String>,
+    /// The file the field is stored in, when the method writes one (`fipt run`'s summary).
+    pub field_file: Option<PathBuf>,
+}
+
+impl Fitted {
+    /// A fitted field with its emitters (None: the run's extractor finds them) and report.
+    pub fn new(
+        field: Box<dyn MaterialField>,
+        emitters: Option<Vec<Emitter>>,
+        report: serde_json::Value,
+    ) -> Self {
+        Fitted {
+            field,
+            emitters,
+            report,
+            modeled: None,
+            id: None,
+            field_file: None,
+        }
+    }
 }
 
 /// A method that fits a material field to the training views.

@@ -369,10 +369,6 @@ impl MaterialFitter for Ipt {
             group_materials,
             emitting,
         };
-        Ok(Fitted {
-            field: Box::new(field),
-            emitters: Some(emitters),
-            report,
-        })
+        Ok(Fitted::new(Box::new(field), Some(emitters), report))
     }
 }

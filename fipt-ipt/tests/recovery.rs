@@ -39,6 +39,8 @@ fn inputs<'a>(fx: &'a common::Fixture, dir: &'a std::path::Path) -> FitInputs<'a
         segments: Some(&fx.parts),
         model: ReflectanceModel::Fipt,
         dir,
+        parts: None,
+        run: fipt_core::fit::FitRun::new(dir),
     }
 }
 

@@ -47,7 +47,8 @@ pub enum BakeOutcome {
 /// settings (a plain bake config, or a run config's `[bake]`) over the preset's.
 pub fn chosen_baker(preset: &str, file: Option<&Path>) -> Result<(String, serde_json::Value)> {
     if let Some(path) = file.filter(|p| crate::config::has_table(p, "pipeline").unwrap_or(false)) {
-        let cfg = crate::config::load_preset(preset, crate::run::RunConfig::preset, Some(path))?;
+        let cfg =
+            crate::config::load_preset(preset, crate::run_config::RunConfig::preset, Some(path))?;
         return Ok((cfg.pipeline.baker.clone(), cfg.baker_settings()?));
     }
     let cfg: BakeConfig =

@@ -66,7 +66,7 @@ pub const MASK_EXTRACTOR: &str = "mask";
 /// The inverse-path-tracing baseline's name (crate `fipt-ipt`).
 pub const IPT_METHOD: &str = "ipt";
 
-/// The built-in method's name (FIPT's rounds, not a registered fitter).
+/// FIPT's method's name (`fipt_method::Fipt`, registered by [`Components::builtin`]).
 pub const FIPT_METHOD: &str = "fipt";
 
 impl Components {
@@ -98,6 +98,16 @@ impl Components {
                 Ok(Box::new(
                     fipt_shading::refine::PathGrownRefiner::new(config).with_model(model),
                 ))
+            }),
+        )
+        .with_fitter(
+            FIPT_METHOD,
+            "bake, search, train, emitters, refine rounds (settings: [bake], [search], [train], [rounds], [refine], [emitters])",
+            Box::new(|v, _preset| {
+                if v.as_object().is_some_and(|o| !o.is_empty()) {
+                    bail!("[plugins.fipt]: FIPT's settings are the run config's [bake], [search], [train], [rounds], [refine] and [emitters] tables; move them there");
+                }
+                Ok(Box::new(crate::fipt_method::Fipt))
             }),
         )
         .with_fitter(
@@ -140,9 +150,8 @@ impl Components {
         self
     }
 
-    /// Registers (or replaces) the method `name` (not `fipt`, the built-in one).
+    /// Registers (or replaces) the method `name`.
     pub fn with_fitter(mut self, name: &str, description: &str, factory: FitterFactory) -> Self {
-        assert_ne!(name, FIPT_METHOD, "`fipt` is the built-in method");
         self.fitters.insert(
             name.to_string(),
             Entry {
@@ -153,24 +162,19 @@ impl Components {
         self
     }
 
-    /// The names of the methods: `fipt` and the registered fitters.
+    /// The names of the registered methods.
     pub fn method_names(&self) -> Vec<&str> {
-        std::iter::once(FIPT_METHOD)
-            .chain(self.fitters.keys().map(|k| k.as_str()))
-            .collect()
+        self.fitters.keys().map(|k| k.as_str()).collect()
     }
 
-    /// The fitter of method `name` built from `settings` for `preset`; None for `fipt`, the
-    /// built-in method; an unknown name lists the registered ones.
+    /// The fitter of method `name` built from `settings` for `preset`; an unknown name lists
+    /// the registered ones.
     pub fn fitter(
         &self,
         name: &str,
         settings: &serde_json::Value,
         preset: &str,
-    ) -> Result<Option<Box<dyn MaterialFitter>>> {
-        if name == FIPT_METHOD {
-            return Ok(None);
-        }
+    ) -> Result<Box<dyn MaterialFitter>> {
         let Some(e) = self.fitters.get(name) else {
             bail!(
                 "[pipeline] method = \"{name}\" is not registered (this binary has: {})",
@@ -178,7 +182,6 @@ impl Components {
             );
         };
         (e.factory)(settings, preset)
-            .map(Some)
             .map_err(|err| crate::err!("settings of method `{name}`: {err:#}"))
     }
 
@@ -263,14 +266,11 @@ impl Components {
             .refiners
             .iter()
             .map(|(k, e)| format!("refiner `{k}`: {}", e.description));
-        std::iter::once(format!(
-            "method `{FIPT_METHOD}`: bake, search, train, emitters, refine rounds (built in)"
-        ))
-        .chain(methods)
-        .chain(bakers)
-        .chain(refiners)
-        .chain(extractors)
-        .collect()
+        methods
+            .chain(bakers)
+            .chain(refiners)
+            .chain(extractors)
+            .collect()
     }
 
     /// The extractor `name` built from `settings`; an unknown name lists the registered ones.

@@ -1,39 +1,76 @@
-//! `fipt run` with a registered method (`[pipeline] method`, a [`MaterialFitter`]) in place of
-//! FIPT's rounds: (bake, when the fitter asks for it) → fit → emitters (the fitter's, or the
-//! run's extractor on the fitted field) → maps → re-renders → report (→ eval), with the outputs
-//! of every method in the same places.
-use crate::error::Result;
-use crate::outputs::RunSummary;
+//! `fipt run`'s one path, for every method (`[pipeline] method`, a [`MaterialFitter`]; FIPT's
+//! rounds are the built-in `fipt`): load → (bake, when the fitter asks for it) → fit →
+//! emitters (the fitter's, or the run's extractor on the fitted field) → maps → re-renders →
+//! report (→ eval), with the outputs of every method in the same places.
+use crate::error::{PipelineError, Result};
 use crate::outputs::{
     emitters_summary, evaluate_if_gt, extend, extract_emitters, report_header, write_emitters_obj,
-    write_views, StageReport,
+    write_views, RunOutcome, RunSummary, StageReport,
 };
 use crate::request::RunRequest;
 use crate::run_config::RunConfig;
+use crate::scene::LoadedScene;
 use crate::Components;
 use fipt_core::dataset::GtKind;
-use fipt_core::emitter::EmitterExtractor;
-use fipt_core::fit::{FitInputs, MaterialFitter};
+use fipt_core::emitter::{Emitter, EmitterExtractor};
+use fipt_core::fit::{FitInputs, FitParts, FitRun, Fitted, MaterialFitter};
 use fipt_core::fsutil::write_json_atomic;
-use fipt_core::shading::ShadingBaker;
-use fipt_shading::records::hit_points;
+use fipt_shading::records::{hit_points, HitPoint};
+use std::sync::{Mutex, OnceLock};
 use std::time::Instant;
 
-/// The components a fitted run uses.
+/// The components a run uses.
 pub struct Parts<'a> {
     pub fitter: &'a dyn MaterialFitter,
-    /// The baker (and its settings) for a fitter that needs shadings.
-    pub baker: &'a dyn ShadingBaker,
-    pub bake_settings: &'a serde_json::Value,
-    /// The emitter extractor, for a fitter that returns no emitters.
-    pub extractor: &'a dyn EmitterExtractor,
+    /// The baker, refiner and extractor (with their settings), handed to the fitter.
+    pub parts: FitParts<'a>,
+}
+
+/// The training views' primary hits and their median pixel footprint.
+pub type TrainHits = (Vec<Vec<Option<HitPoint>>>, f32);
+
+/// What `fipt run` hands a method built into it ([`FitRun::host`]): the loaded scene, the run's
+/// config and request, and the training views' primary hits, computed once for whoever needs
+/// them first (FIPT's search and extraction, the run's extractor, the `observed` maps).
+pub struct Host {
+    pub scene: LoadedScene,
+    pub cfg: RunConfig,
+    pub request: RunRequest,
+    hits: OnceLock<TrainHits>,
+}
+
+impl Host {
+    /// The host of a fit's inputs, when it runs under `fipt run`.
+    pub fn of<'a>(inputs: &FitInputs<'a>) -> Option<&'a Host> {
+        let host: &'a dyn std::any::Any = inputs.run.host?;
+        host.downcast_ref::<Host>()
+    }
+
+    /// The training views' primary hits and their median pixel footprint.
+    pub fn hits(&self) -> &TrainHits {
+        self.hits.get_or_init(|| {
+            let views = &self.scene.ds.train().views;
+            let geometry = &self.scene.geometry;
+            let records = views.iter().map(|v| hit_points(geometry, v)).collect();
+            let footprint = fipt_shading::records::view_footprint(geometry, views).unwrap_or(0.01);
+            (records, footprint)
+        })
+    }
+}
+
+/// A method's error back as the run's own (FIPT's stops and settings errors stay what they are).
+fn from_method(e: fipt_core::CoreError) -> PipelineError {
+    match e {
+        fipt_core::CoreError::Component(b) => match b.downcast::<PipelineError>() {
+            Ok(p) => *p,
+            Err(b) => PipelineError::Component(b),
+        },
+        e => e.into(),
+    }
 }
 
 /// The part (else semantic) ids of the training views, for a fitter that wants them.
-fn segments_for(
-    scene: &crate::scene::LoadedScene,
-    fitter: &dyn MaterialFitter,
-) -> Result<Option<Vec<Vec<i64>>>> {
+fn segments_for(scene: &LoadedScene, fitter: &dyn MaterialFitter) -> Result<Option<Vec<Vec<i64>>>> {
     if !fitter.wants_segments() {
         return Ok(None);
     }
@@ -45,27 +82,46 @@ fn segments_for(
         .transpose()
 }
 
-/// The fitter on the training views (its checkpoints in `OUT/fit/`, cleared by `--force`).
+/// The stages reported so far, shared with the fitter's [`FitRun::stage_done`].
+struct Stages(Mutex<Vec<StageReport>>);
+
+impl Stages {
+    fn mark(&self, stage: &'static str, t: Instant) {
+        let mut s = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        s.push(StageReport::since(stage, t));
+    }
+    fn take(&self) -> Vec<StageReport> {
+        std::mem::take(&mut *self.0.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+    fn has(&self, stage: &str) -> bool {
+        let s = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        s.iter().any(|r| r.stage == stage)
+    }
+    fn len(&self) -> usize {
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+}
+
+/// The fitter on the training views (its own folder `OUT/fit/`, cleared by `--force`).
 fn fit_views(
-    a: &RunRequest,
-    cfg: &RunConfig,
-    scene: &crate::scene::LoadedScene,
-    fitter: &dyn MaterialFitter,
+    host: &Host,
+    parts: &Parts,
     shadings: Option<&fipt_shading::bake_store::StoredShadings>,
     segments: Option<&[Vec<i64>]>,
-) -> Result<fipt_core::fit::Fitted> {
+    stages: &Stages,
+) -> Result<Fitted> {
+    let (a, cfg, scene) = (&host.request, &host.cfg, &host.scene);
     let (split, mesh) = (scene.ds.train(), &scene.geometry.mesh);
     let dir = a.out.join("fit");
     if a.force && dir.exists() {
-        // The fitter's checkpoints: `--force` starts it afresh.
         std::fs::remove_dir_all(&dir)?;
     }
     std::fs::create_dir_all(&dir)?;
-    let st = crate::observe::Stage::start("fit");
-    let pb = crate::observe::bar(1, fitter.name());
     // A fitter that asks for the shadings gets every view's at once.
     let all = shadings.map(|s| s.load_all()).transpose()?;
-    let fitted = fitter.fit(
+    let (pb, name) = (OnceLock::new(), parts.fitter.name().to_string());
+    let mark = |stage: &'static str, t: Instant| stages.mark(stage, t);
+    let fitted = parts.fitter.fit(
         &FitInputs {
             geometry: &scene.geometry,
             positions: &mesh.positions,
@@ -76,16 +132,47 @@ fn fit_views(
             segments,
             model: cfg.model.brdf,
             dir: &dir,
+            parts: Some(parts.parts),
+            run: FitRun {
+                out: &a.out,
+                force: a.force,
+                shard: a.sharding().shard,
+                stage_done: Some(&mark),
+                host: Some(host),
+            },
         },
+        // The bar appears with the fitter's first progress (FIPT's stages have bars of their own).
         &|d, n| {
-            pb.set_length(n as u64);
-            pb.set_position(d as u64);
+            let bar = pb.get_or_init(|| crate::observe::bar(n as u64, &name));
+            bar.set_length(n as u64);
+            bar.set_position(d as u64);
         },
-    )?;
-    drop(all);
-    pb.finish_and_clear();
-    st.done();
-    Ok(fitted)
+    );
+    if let Some(bar) = pb.get() {
+        bar.finish_and_clear();
+    }
+    fitted.map_err(from_method)
+}
+
+/// The scene, checked for coverage and, with the emission-mask extractor, for the mask's queries.
+fn load_checked(a: &RunRequest, cfg: &RunConfig) -> Result<LoadedScene> {
+    let scene = crate::scene::load(&a.scene, a.bad_pixels, cfg.capture.align_views)?;
+    crate::scene::check_coverage(&scene)?;
+    if cfg.pipeline.extractor == crate::components::MASK_EXTRACTOR {
+        // The emission mask is queried at every sample of every triangle: about 10 M queries
+        // a second on 2 cores.
+        let triangles = scene.geometry.mesh.triangles.len() as f64;
+        let factors = [
+            (
+                "emitters.samples_per_triangle",
+                cfg.emitters.samples_per_triangle as f64,
+            ),
+            ("triangles", triangles),
+        ];
+        fipt_core::range::product("the emission mask's queries", &factors, 1e10, "queries")
+            .map_err(PipelineError::invalid)?;
+    }
+    Ok(scene)
 }
 
 /// Runs `parts.fitter` on the scene of `a` and writes the output contract into `a.out`.
@@ -94,103 +181,151 @@ pub fn run(
     cfg: &RunConfig,
     components: &Components,
     parts: Parts,
-) -> Result<RunSummary> {
-    let Parts {
-        fitter,
-        baker,
-        bake_settings,
-        extractor,
-    } = parts;
+) -> Result<RunOutcome> {
     let t_all = Instant::now();
-    let mut stages: Vec<StageReport> = vec![];
+    let stages = Stages(Mutex::new(vec![]));
     if a.sharding().shard.is_all() {
         // Only a plain run (never beside a shard: the locks) may take other processes'
         // temporaries for a killed run's.
         fipt_core::fsutil::remove_stale_temporaries(&a.out);
     }
     let t = crate::observe::begin("load");
-    let scene = crate::scene::load(&a.scene, a.bad_pixels, cfg.capture.align_views)?;
-    stages.push(StageReport::since("load", t));
-    let mesh = &scene.geometry.mesh;
+    let host = Host {
+        scene: load_checked(a, cfg)?,
+        cfg: cfg.clone(),
+        request: a.clone(),
+        hits: OnceLock::new(),
+    };
+    stages.mark("load", t);
+    let fitter = parts.fitter;
+    let (scene, p) = (&host.scene, &parts.parts);
     let shadings = if fitter.needs_shadings() {
         let t = crate::observe::begin("bake");
-        let (_, sh) = crate::bake::stage(
-            &scene,
-            baker,
-            bake_settings,
-            &a.out.join("bake"),
-            a.force,
-            a.shard,
-        )?;
-        stages.push(StageReport::since("bake", t));
-        Some(sh)
+        let bake = &a.out.join("bake");
+        let sh = crate::bake::stage(scene, p.baker, p.bake_settings, bake, a.force, a.shard)?;
+        stages.mark("bake", t);
+        Some(sh.1)
     } else {
         None
     };
-    let segments = segments_for(&scene, fitter)?;
-    let t = crate::observe::begin("fit");
-    let fitted = fit_views(
-        a,
-        cfg,
-        &scene,
-        fitter,
+    let segments = segments_for(scene, fitter)?;
+    let (t, before) = (crate::observe::begin("fit"), stages.len());
+    let st = crate::observe::Stage::start("fit");
+    let fitted = match fit_views(
+        &host,
+        &parts,
         shadings.as_ref(),
         segments.as_deref(),
-    )?;
-    stages.push(StageReport::since("fit", t));
-    let t = crate::observe::begin("emitters");
-    let field = fitted.field.as_ref();
-    let emitters = match fitted.emitters {
-        Some(e) => e,
-        None => extract_from_field(&scene, field, shadings.as_ref(), extractor)?,
+        &stages,
+    ) {
+        // `--stop-before refine`: report.json keeps the stages done (their times and peaks).
+        Err(e) if e.is_stopped() && a.sharding().shard.is_all() => {
+            let why = e.to_string();
+            let done = stages.take();
+            crate::outputs::mark_status_after(
+                &a.out,
+                &a.scene,
+                "stopped",
+                Some(why.clone()),
+                &done,
+            )?;
+            return Ok(RunOutcome::Stopped(why));
+        }
+        f => f?,
     };
-    let user_emitters: Vec<_> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();
-    write_json_atomic(&a.out.join("emitters.json"), &user_emitters)?;
-    write_emitters_obj(&a.out.join("emitters.obj"), mesh, &emitters)?;
-    stages.push(StageReport::since("emitters", t));
-    let warnings = crate::outputs::run_warnings(&scene, &emitters);
-    let mut mark = |stage: &'static str, t: Instant| stages.push(StageReport::since(stage, t));
+    // A fitter that reports no stages of its own is one stage.
+    if stages.len() == before {
+        st.done();
+        stages.mark("fit", t);
+    }
+    let t = crate::observe::begin("emitters");
+    let Fitted {
+        field,
+        emitters,
+        report: fit_report,
+        modeled,
+        id,
+        field_file,
+    } = fitted;
+    let field = field.as_ref();
+    let emitters = match emitters {
+        Some(e) => e,
+        None => {
+            let shadings = shadings
+                .as_ref()
+                .map(|s| s as &dyn fipt_shading::bake_store::ShadingViews);
+            extract_emitters(scene, &host.hits().0, field, shadings, p.extractor)?
+        }
+    };
+    let user_emitters = write_emitters(a, scene, &emitters)?;
+    if !stages.has("emitters") {
+        stages.mark("emitters", t);
+    }
+    let warnings = crate::outputs::run_warnings(scene, &emitters);
+    let observed = observed_cells(&host);
+    let mut mark = |stage: &'static str, t: Instant| stages.mark(stage, t);
     let recovered = crate::outputs::Recovered {
         field,
         emitters: &emitters,
-        id: None,
+        id,
     };
-    write_views(&scene, cfg, &a.out, recovered, None, &mut mark)?;
-    let metrics = evaluate_if_gt(&scene, &a.out, &mut mark)?;
-    let mut report = report_header(a, &scene, cfg, &stages, t_all);
-    let what = FitRun {
+    write_views(scene, cfg, &a.out, recovered, Some(&observed), &mut mark)?;
+    let metrics = evaluate_if_gt(scene, &a.out, &mut mark)?;
+    let stages = stages.take();
+    let mut report = report_header(a, scene, cfg, &stages, t_all);
+    let what = Ran {
         cfg,
         components,
         fitter,
-        extractor,
+        extractor: p.extractor,
         field,
         baked: shadings.is_some(),
         exposure: scene.exposure,
     };
+    let lights = emitters.len();
+    let own = [fit_report, modeled.unwrap_or_else(|| what.modeled())];
     extend(
         &mut report,
-        what.report(fitted.report, &emitters, &user_emitters, metrics, warnings),
+        what.report(own, &emitters, &user_emitters, metrics, warnings),
     );
-    RunSummary::write(a, cfg, &scene, &report, stages, emitters.len(), None)
+    RunSummary::write(a, cfg, scene, &report, stages, lights, field_file).map(RunOutcome::Finished)
 }
 
-/// The run's extractor on the fitted field's emission mask (for a fitter without emitters of its
-/// own), with each pixel's bound on reflected light when the bake ran.
-fn extract_from_field(
-    scene: &crate::scene::LoadedScene,
-    field: &dyn fipt_core::field::MaterialField,
-    shadings: Option<&fipt_shading::bake_store::StoredShadings>,
-    extractor: &dyn EmitterExtractor,
-) -> Result<Vec<fipt_core::emitter::Emitter>> {
-    let records: Vec<_> = (scene.ds.train().views.iter())
-        .map(|v| hit_points(&scene.geometry, v))
-        .collect();
-    let shadings = shadings.map(|s| s as &dyn fipt_shading::bake_store::ShadingViews);
-    extract_emitters(scene, &records, field, shadings, extractor)
+/// Observation counts per surface cell of the search (`search.cell_footprints` footprints),
+/// over the training views' hits: the `observed` maps.
+fn observed_cells(host: &Host) -> fipt_shading::search::CellCounts {
+    let (records, footprint) = host.hits();
+    let points = records.iter().flatten().flatten().map(|r| r.p);
+    fipt_shading::search::CellCounts::new(points, host.cfg.search.cell_footprints * footprint)
 }
 
-/// What a fitter's run reports beyond the common header.
-struct FitRun<'a> {
+/// Writes `emitters.json` (at the views' own scale; the stages work at the normalised one) and
+/// `emitters.obj`, prints the lights; returns them at the views' scale.
+fn write_emitters(
+    a: &RunRequest,
+    scene: &LoadedScene,
+    emitters: &[Emitter],
+) -> Result<Vec<Emitter>> {
+    let st = crate::observe::Stage::start("emitters");
+    let user: Vec<Emitter> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();
+    write_json_atomic(&a.out.join("emitters.json"), &user)?;
+    write_emitters_obj(&a.out.join("emitters.obj"), &scene.geometry.mesh, emitters)?;
+    st.done();
+    for (i, e) in user.iter().enumerate() {
+        crate::note!(
+            "light {i}: {} triangles, area {:.4} m², radiance {:.2?}, power {:.1?} W, {} pixels",
+            e.triangles.len(),
+            e.area,
+            e.mean_radiance,
+            e.power,
+            e.pixels
+        );
+    }
+    Ok(user)
+}
+
+/// What a run reports beyond the common header.
+struct Ran<'a> {
     cfg: &'a RunConfig,
     components: &'a Components,
     fitter: &'a dyn MaterialFitter,
@@ -200,19 +335,35 @@ struct FitRun<'a> {
     exposure: f32,
 }
 
-impl FitRun<'_> {
-    /// `report.json`'s fit, emitters, components, modeled, metrics and warnings.
+impl Ran<'_> {
+    /// What `modeled` says of a method that says nothing of its own.
+    fn modeled(&self) -> serde_json::Value {
+        serde_json::json!({
+            "material_field": format!("fitted by method `{}`", self.cfg.pipeline.method),
+            "initial_bake": if self.baked { "baked for the fitter" } else { "skipped (the fitter does not use shadings)" },
+            "search_and_refinement": "skipped (FIPT's rounds; this run's method replaces them)",
+        })
+    }
+
+    /// `report.json`'s fit, emitters, components, modeled, metrics and warnings, with the
+    /// method's own report and `modeled`.
     fn report(
         &self,
-        fit: serde_json::Value,
-        emitters: &[fipt_core::emitter::Emitter],
-        user_emitters: &[fipt_core::emitter::Emitter],
+        [fit, own]: [serde_json::Value; 2],
+        emitters: &[Emitter],
+        user_emitters: &[Emitter],
         metrics: Option<serde_json::Value>,
         warnings: Vec<String>,
     ) -> serde_json::Value {
         let cfg = self.cfg;
         let (fitter, extractor, field) = (self.fitter, self.extractor, self.field);
-        let components = self.components;
+        let mut modeled = serde_json::json!({
+            "reflectance_model": cfg.model.brdf,
+            "emitters": emitters.len(),
+            "emitters_doubtful": crate::outputs::doubtful_emitters(emitters),
+            "re_render": self.re_render(),
+        });
+        extend(&mut modeled, own);
         serde_json::json!({
             "fit": fit,
             "emitters": emitters_summary(user_emitters),
@@ -222,18 +373,24 @@ impl FitRun<'_> {
                 "method": { "name": cfg.pipeline.method, "implementation": fitter.name() },
                 "extractor": { "name": cfg.pipeline.extractor, "implementation": extractor.name() },
                 "material_field": field.name(),
-                "registered": components.describe(),
+                "registered": self.components.describe(),
             },
-            "modeled": {
-                "reflectance_model": cfg.model.brdf,
-                "material_field": format!("fitted by method `{}`", cfg.pipeline.method),
-                "emitters": emitters.len(),
-                "emitters_doubtful": crate::outputs::doubtful_emitters(&emitters),
-                "initial_bake": if self.baked { "baked for the fitter" } else { "skipped (the fitter does not use shadings)" },
-                "search_and_refinement": "skipped (FIPT's rounds; this run's method replaces them)",
-            },
+            "modeled": modeled,
             "metrics": metrics,
             "warnings": warnings,
         })
+    }
+
+    /// How the views are re-rendered.
+    fn re_render(&self) -> String {
+        let r = &self.cfg.render;
+        if r.spp == 0 {
+            return "skipped (render.spp = 0)".to_string();
+        }
+        let other = if r.val_spp > 0 { r.val_spp } else { r.spp };
+        format!(
+            "path traced at {} spp (other splits: {other}) from the field (voxel cache) and the extracted emitters",
+            r.spp
+        )
     }
 }

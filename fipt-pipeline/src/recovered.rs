@@ -123,9 +123,11 @@ impl RunOutput {
         })
     }
 
-    /// The folder of the final material field: `train{r}` after r refinement rounds.
+    /// The folder of the final material field: `train{r}` after r refinement rounds (the
+    /// method's report, `fit.rounds`; top-level `rounds` in runs made before FIPT was a method).
     pub fn field_dir(&self) -> PathBuf {
-        let rounds = self.report["rounds"].as_array().map_or(0, Vec::len);
+        let (fit, old) = (&self.report["fit"]["rounds"], &self.report["rounds"]);
+        let rounds = fit.as_array().or(old.as_array()).map_or(0, Vec::len);
         crate::rounds::train_dir(&self.dir, rounds as u32)
     }
 

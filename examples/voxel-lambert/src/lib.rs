@@ -163,11 +163,7 @@ impl MaterialFitter for VoxelLambert {
             "pixels": hits.len(),
             "seconds": t.elapsed().as_secs_f64(),
         });
-        Ok(Fitted {
-            field: Box::new(field),
-            emitters: None,
-            report,
-        })
+        Ok(Fitted::new(Box::new(field), None, report))
     }
 }
 

@@ -1,0 +1,275 @@
+//! FIPT (method §4) as the built-in method `fipt`, a [`MaterialFitter`] like any other: the bake
+//! (through the run's baker), the material search on its shadings and the first training; the
+//! emitters (through the run's extractor); then the refine → search → train rounds (through the
+//! run's refiner) that the scene needs. Its stages reuse what an earlier run of the folder
+//! computed (`OUT/bake`, `OUT/train*`, `OUT/refine*`) and report their times one by one.
+use crate::error::{PipelineError, Result};
+use crate::fit::Host;
+use crate::outputs::{extract_emitters, has_ground_truth};
+use crate::rounds::{planned_rounds, Rounds, RoundsContext};
+use crate::run_config::RunConfig;
+use fipt_core::fit::{FitInputs, FitParts, Fitted, MaterialFitter};
+use fipt_core::shading::Progress;
+use std::time::Instant;
+
+/// FIPT's rounds. Its settings are the run config's `[bake]` (for the `slf` baker), `[search]`,
+/// `[train]`, `[rounds]`, `[refine]` and `[emitters]`; it runs under `fipt run` only.
+pub struct Fipt;
+
+impl MaterialFitter for Fipt {
+    fn name(&self) -> &str {
+        crate::components::FIPT_METHOD
+    }
+
+    /// FIPT bakes through the run's baker itself, and reads the shadings a view at a time.
+    fn needs_shadings(&self) -> bool {
+        false
+    }
+
+    fn fit(&self, inputs: &FitInputs, _progress: Progress) -> fipt_core::Result<Fitted> {
+        let method = || {
+            let host = Host::of(inputs).ok_or_else(|| {
+                crate::err!(
+                    "method `fipt` runs under `fipt run` (it reads the run's scene and settings)"
+                )
+            })?;
+            let parts = inputs.parts.ok_or_else(|| {
+                crate::err!("method `fipt` needs the run's baker, refiner and extractor")
+            })?;
+            let mark = |stage: &'static str, t: Instant| {
+                if let Some(done) = inputs.run.stage_done {
+                    done(stage, t)
+                }
+            };
+            fit_rounds(host, parts, &mark)
+        };
+        method().map_err(|e| fipt_core::CoreError::Component(Box::new(e)))
+    }
+}
+
+/// The bake, the first round, the emitters and the refinement rounds.
+fn fit_rounds(
+    host: &Host,
+    parts: FitParts,
+    mark: &dyn Fn(&'static str, Instant),
+) -> Result<Fitted> {
+    let (a, cfg, scene) = (&host.request, &host.cfg, &host.scene);
+    let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
+    let memory = crate::memory::check(pixels, cfg)?;
+    let mut first = first_round(host, parts, mark)?;
+    let (records, footprint) = host.hits();
+    let t = crate::observe::begin("emitters");
+    let emitters = extract_emitters(
+        scene,
+        records,
+        &first.field,
+        Some(&first.shadings),
+        parts.extractor,
+    )?;
+    mark("emitters", t);
+
+    // Refine → train rounds, unless nothing in the scene needs them.
+    let mut rounds = vec![];
+    let mut state = Rounds {
+        field: first.field,
+        train: first.train,
+        searched: first.searched,
+        searches: &mut first.searches,
+        closure: &mut first.closure,
+        reports: &mut rounds,
+    };
+    let ctx = RoundsContext {
+        scene,
+        cfg,
+        out: &a.out,
+        force: a.force,
+        records,
+        footprint: *footprint,
+        emitters: &emitters,
+        has_gt: first.has_gt,
+        refiner: parts.refiner,
+        refine_settings: parts.refine_settings,
+        sharding: a.sharding(),
+    };
+    let mut mark_mut = |stage: &'static str, t: Instant| mark(stage, t);
+    let (refine_plan, done_rounds) = planned_rounds(&ctx, &mut state, &mut mark_mut)?;
+    past_sharded_stages(host)?;
+    let (field, train) = (state.field, state.train);
+    let report = serde_json::json!({
+        "bake": { "stats": first.bake.stats, "seconds": first.bake.seconds_total },
+        "train": train,
+        "rounds": rounds,
+        "shading_closure": first.closure,
+        "search": first.searches,
+        "memory_estimate_gib": fipt_core::memory::gib(memory),
+    });
+    let mut fitted = Fitted::new(Box::new(field), Some(emitters), report);
+    fitted.modeled = Some(modeled(cfg, &refine_plan, &train));
+    fitted.id = (!a.force).then(|| train.fingerprint());
+    let dir = crate::rounds::train_dir(&a.out, done_rounds);
+    fitted.field_file = Some(dir.join("field.safetensors"));
+    Ok(fitted)
+}
+
+/// A shard run stops once the sharded stages are behind it.
+fn past_sharded_stages(host: &Host) -> Result<()> {
+    let shard = host.request.sharding().shard;
+    if shard.is_all() {
+        return Ok(());
+    }
+    Err(PipelineError::Stopped(format!(
+        "shard {shard}: every sharded stage in {} is done; the rest (maps, re-renders) runs without --shard",
+        host.request.out.display()
+    )))
+}
+
+/// What the first round leaves for the rest of a FIPT run.
+struct FirstRound {
+    bake: fipt_shading::bake_store::BakeManifest,
+    has_gt: bool,
+    searched: Option<crate::search::Searched>,
+    searches: Vec<serde_json::Value>,
+    closure: Vec<serde_json::Value>,
+    /// The initial shadings on disk, for the extraction's bound on reflected light.
+    shadings: fipt_shading::bake_store::StoredShadings,
+    field: fipt_neural::field::NeuralField,
+    train: crate::train::TrainManifest,
+}
+
+/// FIPT's first round: the bake, the search on its shadings and the first training.
+fn first_round(
+    host: &Host,
+    parts: FitParts,
+    mark: &dyn Fn(&'static str, Instant),
+) -> Result<FirstRound> {
+    let (a, cfg, scene) = (&host.request, &host.cfg, &host.scene);
+    let t = crate::observe::begin("bake");
+    let (bake, shadings) = crate::bake::stage(
+        scene,
+        parts.baker,
+        parts.bake_settings,
+        &a.out.join("bake"),
+        a.force,
+        a.sharding().shard,
+    )?;
+    mark("bake", t);
+    let has_gt = has_ground_truth(scene);
+    let (records, footprint) = host.hits();
+    let mut searches = vec![];
+    let t = crate::observe::begin("search");
+    let bake_id = fipt_shading::bake_store::fingerprint(&bake);
+    let on = crate::search::SearchOn {
+        shadings: &shadings,
+        id: &bake_id,
+        force: a.force,
+    };
+    let searched = crate::search::on_bake(scene, records, on, &cfg.search, *footprint)?;
+    if searched.is_some() {
+        mark("search", t);
+    }
+    // The closure of the shadings with the true materials (with ground truth).
+    let closure = bake_closure(scene, &shadings, has_gt)?;
+    let t = crate::observe::begin("train");
+    let (field, train, _) = crate::train::stage(
+        scene,
+        &bake_id,
+        &shadings,
+        &cfg.train,
+        &a.out.join("train"),
+        a.force,
+        None,
+        searched.as_ref(),
+        !a.sharding().shard.is_all(),
+    )?;
+    mark("train", t);
+    if cfg.search.on_bake {
+        searches.push(serde_json::json!({ "shadings": "bake", "search": &searched }));
+    }
+    Ok(FirstRound {
+        bake,
+        has_gt,
+        searched,
+        searches,
+        closure,
+        shadings,
+        field,
+        train,
+    })
+}
+
+/// The closure of the bake's shadings with the true materials (empty without ground truth).
+fn bake_closure(
+    scene: &crate::scene::LoadedScene,
+    shadings: &fipt_shading::bake_store::StoredShadings,
+    has_gt: bool,
+) -> Result<Vec<serde_json::Value>> {
+    Ok(if has_gt {
+        vec![serde_json::json!({
+            "shadings": "bake",
+            "psnr_db": crate::eval::closure_psnr(scene, shadings)?,
+        })]
+    } else {
+        vec![]
+    })
+}
+
+/// What `report.json`'s `modeled` says of FIPT's parts, and why.
+fn modeled(
+    cfg: &RunConfig,
+    refine_plan: &Result<String, String>,
+    train: &crate::train::TrainManifest,
+) -> serde_json::Value {
+    let search = if cfg.search.enabled {
+        format!(
+            "per region ({:?}) on {}: σ over {} values, metallic over {:?}, pulled towards with weight {}",
+            cfg.search.regions,
+            if cfg.search.on_bake { "the bake and each refinement" } else { "each refinement (none without one)" },
+            cfg.search.roughness_steps,
+            cfg.search.metallic,
+            cfg.train.target_weight
+        )
+    } else {
+        "skipped (search.enabled = false)".to_string()
+    };
+    serde_json::json!({
+        "material_field": true,
+        "material_search": search,
+        "emission_mask": true,
+        "path_grown_refinement": match refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
+        "training": training(cfg, train),
+        "hash_table_log2": train.config.field.grid.log2_table,
+    })
+}
+
+/// What the last training round did, against what was asked.
+fn training(cfg: &RunConfig, train: &crate::train::TrainManifest) -> String {
+    let t = &train.config;
+    let passes = (t.steps * t.batch) as f64 / train.pixels.max(1) as f64;
+    let mut training = format!(
+        "the last round: {} steps of {} pixels over {} training pixels ({passes:.1} passes)",
+        t.steps, t.batch, train.pixels
+    );
+    if t.steps < cfg.train.steps {
+        training += &format!(
+            "; {} steps asked, capped at {} passes and at least {} steps in the rounds from a previous round's field (train.max_passes, min_steps)",
+            cfg.train.steps, t.max_passes, t.min_steps
+        );
+    }
+    if train.pixels_left_out > 0 {
+        training += &format!(
+            "; {} more hit pixels left out at random: a round draws no more than {} (train.set_cap)",
+            train.pixels_left_out,
+            cfg.train.set_limit().unwrap_or(0)
+        );
+    }
+    if train.pixels_lights > 0 {
+        training += &format!(
+            "; {} pixels ({:.2} %) over {}× brighter than any reflection their shadings allow (a light's) train {} (train.emitter_material)",
+            train.pixels_lights,
+            100.0 * train.pixels_lights as f64 / train.pixels.max(1) as f64,
+            fipt_neural::ops::UNREFLECTABLE,
+            if t.emitter_material { "the material and the emission mask" } else { "the emission mask only" }
+        );
+    }
+    training
+}
