@@ -14,7 +14,7 @@
 //!   formula they decide: metallic workflow, masking, diffuse lobe, the factorised image;
 //! * [`emitter::EmitterExtractor`]: which triangles emit, grouped into lights;
 //! * [`field::MaterialField`]: the BRDF field and emission mask contract;
-//! * [`fit::MaterialFitter`]: a method that fits a field to the views (FIPT's rounds or a plug-in);
+//! * [`fit::MaterialFitter`]: a method that fits a field to the views (FIPT's rounds are one, registered as `fipt`);
 //! * [`shading`]: the factorised shading model, [`shading::RayQuery`] and the
 //!   [`shading::ShadingBaker`] and [`shading::ShadingRefiner`] contracts;
 //! * [`rng::Pcg32`], [`metrics`], atomic file writing in [`fsutil`], the output folder's lock
