@@ -1,7 +1,7 @@
 //! The `fipt` command-line tool as a library: argument parsing and printing over fipt-pipeline
 //! (the stages, their order, caching and the registry of components, `Components`, that
-//! `fipt run` composes by name). The `fipt` binary is
-//! `main_with(Components::builtin())`; a crate that brings its own component (an emitter
+//! `fipt run` composes by name). The `fipt` binary is `main_with(components())`: the
+//! pipeline's built-ins with the IPT baseline registered by its crate; a crate that brings its own component (an emitter
 //! extractor, …) builds its own binary the same way with the component registered, and every
 //! subcommand, preset and file layout stays as it is (see `examples/brightest-emitters`).
 mod bake;
@@ -23,6 +23,13 @@ mod train;
 
 pub use clap::{Parser, Subcommand};
 pub use fipt_pipeline::{describe, Components};
+
+/// The `fipt` binary's components: the pipeline's built-ins (`fipt`, `slf`, `path-grown`,
+/// `mask`) and the inverse-path-tracing baseline `ipt`, registered by `fipt-ipt` as a plug-in
+/// from outside registers its own.
+pub fn components() -> Components {
+    fipt_ipt::register(Components::builtin())
+}
 
 #[derive(Parser)]
 #[command(

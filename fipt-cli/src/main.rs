@@ -29,7 +29,7 @@ fn main() {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    std::process::exit(fipt_cli::main_with(fipt_cli::Components::builtin()));
+    std::process::exit(fipt_cli::main_with(fipt_cli::components()));
 }
 
 #[cfg(test)]

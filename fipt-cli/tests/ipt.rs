@@ -1,7 +1,7 @@
 //! `fipt run --method ipt`: the inverse-path-tracing baseline runs through the same pipeline
 //! and writes the same output contract as FIPT (maps, re-renders, its own emitters,
 //! `report.json`, `metrics.json`); a finished fit is reused, `--force` redoes it.
-use fipt_cli::{run_args, Components};
+use fipt_cli::run_args;
 
 fn read_json(p: &std::path::Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
@@ -12,7 +12,7 @@ fn ipt_runs_through_fipt_run_and_is_evaluated() {
     let dir = std::env::temp_dir().join(format!("fipt-ipt-run-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let (scene, out) = (dir.join("scene"), dir.join("out"));
-    let c = Components::builtin();
+    let c = fipt_cli::components();
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
     let synth = [
         "fipt",

@@ -103,21 +103,7 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
         .collect();
     assert!(left.is_empty(), "stale shard manifests left: {left:?}");
 
-    assert_eq!(status(&sharded), "stopped");
-    // The stopped run's report keeps the stages it went through, with their peak memory.
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(sharded.join("report.json")).unwrap())
-            .unwrap();
-    let stages: Vec<&str> = r["stages"]
-        .as_array()
-        .map(|a| a.iter().filter_map(|s| s["stage"].as_str()).collect())
-        .unwrap_or_default();
-    assert_eq!(
-        stages,
-        ["load", "bake", "search", "train", "emitters"],
-        "{r}"
-    );
-    assert!(r["stages"][0]["peak_rss_mib"].as_f64().is_some(), "{r}");
+    a_stopped_run_keeps_its_stages(&sharded);
     // The refinement's shards; the last one merges.
     for k in ["1/3", "2/3", "0/3"] {
         let (ok, out, err) = run(&sharded, &["--shard", k]);
@@ -135,6 +121,24 @@ fn shards_run_one_after_another_give_the_unsharded_shadings_bit_for_bit() {
 
     assert_same_outputs(&whole, &sharded);
     let _ = std::fs::remove_dir_all(&root);
+}
+
+/// A run stopped before the refinement: its report keeps the stages it went through, with their
+/// peak memory.
+fn a_stopped_run_keeps_its_stages(out: &Path) {
+    assert_eq!(status(out), "stopped");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let stages: Vec<&str> = r["stages"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|s| s["stage"].as_str()).collect())
+        .unwrap_or_default();
+    assert_eq!(
+        stages,
+        ["load", "bake", "search", "train", "emitters"],
+        "{r}"
+    );
+    assert!(r["stages"][0]["peak_rss_mib"].as_f64().is_some(), "{r}");
 }
 
 /// While a shard works in the folder (its lock held by a live process: this test), a plain run

@@ -18,12 +18,39 @@
 //!   `emitter_share` of the radiance observed on them, grouped by shared edges, in groups that
 //!   outshine the views' median `emitter_contrast` times), so the run's maps, re-renders,
 //!   report and evaluation are those of every method.
+//!
+//! It plugs into `fipt run` as any method from outside does: [`register`] adds it to a
+//! `Components` (the `fipt` binary's are `fipt_cli::components()`).
 pub mod config;
 pub mod field;
 pub mod lights;
 pub mod optimise;
 pub mod params;
 pub mod tracer;
+
+/// The method's name in `[pipeline] method` (and `fipt run --method`).
+pub const NAME: &str = "ipt";
+
+/// `components` with the `ipt` method registered; its settings are `[plugins.ipt]`, laid over
+/// the preset's ([`IptConfig::preset`]).
+pub fn register(components: fipt_pipeline::Components) -> fipt_pipeline::Components {
+    use fipt_pipeline::error::PipelineError;
+    components.with_fitter(
+        NAME,
+        "inverse path tracing: materials per part (or triangle) and emission per triangle optimised jointly through a differentiable path tracer (settings: [plugins.ipt], defaults per preset)",
+        Box::new(|v, preset| {
+            let base = IptConfig::preset(preset).ok_or_else(|| {
+                PipelineError::invalid(format!(
+                    "unknown preset `{preset}` (use one of {})",
+                    fipt_pipeline::config::PRESETS
+                ))
+            })?;
+            let config: IptConfig = fipt_pipeline::config::lay_over(base, v.clone())?;
+            config.validate().map_err(PipelineError::invalid)?;
+            Ok(Box::new(Ipt { config }))
+        }),
+    )
+}
 
 pub use config::{IptConfig, Segments};
 use fipt_core::color::{luminance, Rgb};

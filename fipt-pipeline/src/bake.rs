@@ -54,7 +54,7 @@ pub fn chosen_baker(preset: &str, file: Option<&Path>) -> Result<(String, serde_
     let cfg: BakeConfig =
         crate::config::load_preset_section(preset, BakeConfig::preset, file, "bake")?;
     Ok((
-        crate::components::SLF_BAKER.to_string(),
+        crate::names::SLF_BAKER.to_string(),
         serde_json::to_value(&cfg)?,
     ))
 }

@@ -5,10 +5,9 @@
 //!
 //! | kind | chosen by | built in |
 //! |---|---|---|
-//! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | `fipt`: bake → search → train → emitters → (refine → search → train) × rounds |
+//! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | `fipt`: bake → search → train → emitters → (refine → search → train) × rounds (`fipt_method::Fipt`); `ipt` is registered by crate `fipt-ipt` (`fipt_ipt::register`), as any method from outside |
 //! | shading baker (`fipt_core::shading::ShadingBaker`), in `fipt`'s rounds | `[pipeline] baker` | `slf`: the surface-light-field bake, settings `[bake]` |
 //! | shading refiner (`fipt_core::shading::ShadingRefiner`), in `fipt`'s rounds | `[pipeline] refiner` | `path-grown`: the path-grown refinement, settings `[refine]` |
-//! | | | `ipt` (crate `fipt-ipt`): inverse path tracing, settings `[plugins.ipt]` |
 //! | emitter extractor (`fipt_core::emitter::EmitterExtractor`) | `[pipeline] extractor` | `mask`: the emission-mask extractor, settings `[emitters]` |
 //! | reflectance model (closed set, `fipt_core::reflectance`) | `[model] brdf` | `principled`, `fipt` |
 //!
@@ -54,20 +53,7 @@ pub struct Components {
     refiners: BTreeMap<String, Entry<RefinerFactory>>,
 }
 
-/// The built-in shading baker's name.
-pub const SLF_BAKER: &str = "slf";
-
-/// The built-in shading refiner's name.
-pub const PATH_GROWN_REFINER: &str = "path-grown";
-
-/// The built-in emitter extractor's name.
-pub const MASK_EXTRACTOR: &str = "mask";
-
-/// The inverse-path-tracing baseline's name (crate `fipt-ipt`).
-pub const IPT_METHOD: &str = "ipt";
-
-/// FIPT's method's name (`fipt_method::Fipt`, registered by [`Components::builtin`]).
-pub const FIPT_METHOD: &str = "fipt";
+pub use crate::names::{FIPT_METHOD, MASK_EXTRACTOR, PATH_GROWN_REFINER, SLF_BAKER};
 
 impl Components {
     /// The components of the `fipt` binary.
@@ -108,18 +94,6 @@ impl Components {
                     bail!("[plugins.fipt]: FIPT's settings are the run config's [bake], [search], [train], [rounds], [refine] and [emitters] tables; move them there");
                 }
                 Ok(Box::new(crate::fipt_method::Fipt))
-            }),
-        )
-        .with_fitter(
-            IPT_METHOD,
-            "inverse path tracing: materials per part (or triangle) and emission per triangle optimised jointly through a differentiable path tracer (settings: [plugins.ipt], defaults per preset)",
-            Box::new(|v, preset| {
-                let base = fipt_ipt::IptConfig::preset(preset).ok_or_else(|| {
-                    crate::err!("unknown preset `{preset}` (use one of {})", crate::config::PRESETS)
-                })?;
-                let config: fipt_ipt::IptConfig = crate::config::lay_over(base, v.clone())?;
-                config.validate().map_err(crate::error::PipelineError::invalid)?;
-                Ok(Box::new(fipt_ipt::Ipt { config }))
             }),
         )
         .with_extractor(

@@ -18,7 +18,7 @@ pub struct Fipt;
 
 impl MaterialFitter for Fipt {
     fn name(&self) -> &str {
-        crate::components::FIPT_METHOD
+        crate::names::FIPT_METHOD
     }
 
     /// FIPT bakes through the run's baker itself, and reads the shadings a view at a time.

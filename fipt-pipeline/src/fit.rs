@@ -158,7 +158,7 @@ fn fit_views(
 fn load_checked(a: &RunRequest, cfg: &RunConfig) -> Result<LoadedScene> {
     let scene = crate::scene::load(&a.scene, a.bad_pixels, cfg.capture.align_views)?;
     crate::scene::check_coverage(&scene)?;
-    if cfg.pipeline.extractor == crate::components::MASK_EXTRACTOR {
+    if cfg.pipeline.extractor == crate::names::MASK_EXTRACTOR {
         // The emission mask is queried at every sample of every triangle: about 10 M queries
         // a second on 2 cores.
         let triangles = scene.geometry.mesh.triangles.len() as f64;
@@ -197,48 +197,12 @@ pub fn run(
         hits: OnceLock::new(),
     };
     stages.mark("load", t);
-    let fitter = parts.fitter;
     let (scene, p) = (&host.scene, &parts.parts);
-    let shadings = if fitter.needs_shadings() {
-        let t = crate::observe::begin("bake");
-        let bake = &a.out.join("bake");
-        let sh = crate::bake::stage(scene, p.baker, p.bake_settings, bake, a.force, a.shard)?;
-        stages.mark("bake", t);
-        Some(sh.1)
-    } else {
-        None
+    let shadings = bake_for(&host, &parts, &stages)?;
+    let fitted = match fit_stage(&host, &parts, shadings.as_ref(), &stages)? {
+        Ok(f) => f,
+        Err(why) => return Ok(RunOutcome::Stopped(why)),
     };
-    let segments = segments_for(scene, fitter)?;
-    let (t, before) = (crate::observe::begin("fit"), stages.len());
-    let st = crate::observe::Stage::start("fit");
-    let fitted = match fit_views(
-        &host,
-        &parts,
-        shadings.as_ref(),
-        segments.as_deref(),
-        &stages,
-    ) {
-        // `--stop-before refine`: report.json keeps the stages done (their times and peaks).
-        Err(e) if e.is_stopped() && a.sharding().shard.is_all() => {
-            let why = e.to_string();
-            let done = stages.take();
-            crate::outputs::mark_status_after(
-                &a.out,
-                &a.scene,
-                "stopped",
-                Some(why.clone()),
-                &done,
-            )?;
-            return Ok(RunOutcome::Stopped(why));
-        }
-        f => f?,
-    };
-    // A fitter that reports no stages of its own is one stage.
-    if stages.len() == before {
-        st.done();
-        stages.mark("fit", t);
-    }
-    let t = crate::observe::begin("emitters");
     let Fitted {
         field,
         emitters,
@@ -248,19 +212,9 @@ pub fn run(
         field_file,
     } = fitted;
     let field = field.as_ref();
-    let emitters = match emitters {
-        Some(e) => e,
-        None => {
-            let shadings = shadings
-                .as_ref()
-                .map(|s| s as &dyn fipt_shading::bake_store::ShadingViews);
-            extract_emitters(scene, &host.hits().0, field, shadings, p.extractor)?
-        }
-    };
-    let user_emitters = write_emitters(a, scene, &emitters)?;
-    if !stages.has("emitters") {
-        stages.mark("emitters", t);
-    }
+    let shadings_for = shadings.as_ref().map(|s| s as _);
+    let (emitters, user_emitters) =
+        emitters_stage(&host, p.extractor, field, emitters, shadings_for, &stages)?;
     let warnings = crate::outputs::run_warnings(scene, &emitters);
     let observed = observed_cells(&host);
     let mut mark = |stage: &'static str, t: Instant| stages.mark(stage, t);
@@ -276,7 +230,7 @@ pub fn run(
     let what = Ran {
         cfg,
         components,
-        fitter,
+        fitter: parts.fitter,
         extractor: p.extractor,
         field,
         baked: shadings.is_some(),
@@ -289,6 +243,84 @@ pub fn run(
         what.report(own, &emitters, &user_emitters, metrics, warnings),
     );
     RunSummary::write(a, cfg, scene, &report, stages, lights, field_file).map(RunOutcome::Finished)
+}
+
+/// The bake, for a fitter that asks for the shadings.
+fn bake_for(
+    host: &Host,
+    parts: &Parts,
+    stages: &Stages,
+) -> Result<Option<fipt_shading::bake_store::StoredShadings>> {
+    if !parts.fitter.needs_shadings() {
+        return Ok(None);
+    }
+    let (a, p) = (&host.request, &parts.parts);
+    let t = crate::observe::begin("bake");
+    let bake = &a.out.join("bake");
+    let sh = crate::bake::stage(
+        &host.scene,
+        p.baker,
+        p.bake_settings,
+        bake,
+        a.force,
+        a.shard,
+    )?;
+    stages.mark("bake", t);
+    Ok(Some(sh.1))
+}
+
+/// The fit, one stage or the fitter's own; Ok(Err(why)) when it stopped where asked
+/// (`--stop-before refine`: report.json then keeps the stages done, their times and peaks).
+fn fit_stage(
+    host: &Host,
+    parts: &Parts,
+    shadings: Option<&fipt_shading::bake_store::StoredShadings>,
+    stages: &Stages,
+) -> Result<std::result::Result<Fitted, String>> {
+    let a = &host.request;
+    let segments = segments_for(&host.scene, parts.fitter)?;
+    let (t, before) = (crate::observe::begin("fit"), stages.len());
+    let st = crate::observe::Stage::start("fit");
+    let fitted = match fit_views(host, parts, shadings, segments.as_deref(), stages) {
+        Err(e) if e.is_stopped() && a.sharding().shard.is_all() => {
+            let why = e.to_string();
+            let done = stages.take();
+            let status = Some(why.clone());
+            crate::outputs::mark_status_after(&a.out, &a.scene, "stopped", status, &done)?;
+            return Ok(Err(why));
+        }
+        f => f?,
+    };
+    // A fitter that reports no stages of its own is one stage.
+    if stages.len() == before {
+        st.done();
+        stages.mark("fit", t);
+    }
+    Ok(Ok(fitted))
+}
+
+/// The fitter's emitters, or the run's extractor on the fitted field; `emitters.json` and
+/// `.obj` written. The emitters at the normalised scale and at the views' own.
+fn emitters_stage(
+    host: &Host,
+    extractor: &dyn EmitterExtractor,
+    field: &dyn fipt_core::field::MaterialField,
+    emitters: Option<Vec<Emitter>>,
+    shadings: Option<&dyn fipt_shading::bake_store::ShadingViews>,
+    stages: &Stages,
+) -> Result<(Vec<Emitter>, Vec<Emitter>)> {
+    let (a, scene) = (&host.request, &host.scene);
+    let t = crate::observe::begin("emitters");
+    let emitters = match emitters {
+        Some(e) => e,
+        None => extract_emitters(scene, &host.hits().0, field, shadings, extractor)?,
+    };
+    let user_emitters = write_emitters(a, scene, &emitters)?;
+    // FIPT extracts its emitters inside its fit, and reports that stage itself.
+    if !stages.has("emitters") {
+        stages.mark("emitters", t);
+    }
+    Ok((emitters, user_emitters))
 }
 
 /// Observation counts per surface cell of the search (`search.cell_footprints` footprints),

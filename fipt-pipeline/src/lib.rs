@@ -32,6 +32,7 @@ pub mod fit;
 pub mod inspect;
 pub mod light_scale;
 pub mod memory;
+pub mod names;
 pub mod observe;
 pub mod outputs;
 mod parent;

@@ -57,10 +57,10 @@ pub struct PipelineConfig {
 impl Default for PipelineConfig {
     fn default() -> Self {
         PipelineConfig {
-            method: crate::components::FIPT_METHOD.to_string(),
-            baker: crate::components::SLF_BAKER.to_string(),
-            refiner: crate::components::PATH_GROWN_REFINER.to_string(),
-            extractor: crate::components::MASK_EXTRACTOR.to_string(),
+            method: crate::names::FIPT_METHOD.to_string(),
+            baker: crate::names::SLF_BAKER.to_string(),
+            refiner: crate::names::PATH_GROWN_REFINER.to_string(),
+            extractor: crate::names::MASK_EXTRACTOR.to_string(),
         }
     }
 }
@@ -70,7 +70,7 @@ impl RunConfig {
     /// `[plugins.<name>]`.
     pub(crate) fn extractor_settings(&self) -> Result<serde_json::Value> {
         let name = &self.pipeline.extractor;
-        Ok(if name == crate::components::MASK_EXTRACTOR {
+        Ok(if name == crate::names::MASK_EXTRACTOR {
             serde_json::to_value(&self.emitters)?
         } else {
             self.plugin_settings(name)
@@ -81,7 +81,7 @@ impl RunConfig {
     /// `[plugins.<name>]`.
     pub(crate) fn baker_settings(&self) -> Result<serde_json::Value> {
         let name = &self.pipeline.baker;
-        Ok(if name == crate::components::SLF_BAKER {
+        Ok(if name == crate::names::SLF_BAKER {
             serde_json::to_value(&self.bake)?
         } else {
             self.plugin_settings(name)
@@ -92,7 +92,7 @@ impl RunConfig {
     /// `[plugins.<name>]`.
     pub(crate) fn refiner_settings(&self) -> Result<serde_json::Value> {
         let name = &self.pipeline.refiner;
-        Ok(if name == crate::components::PATH_GROWN_REFINER {
+        Ok(if name == crate::names::PATH_GROWN_REFINER {
             serde_json::to_value(&self.refine)?
         } else {
             self.plugin_settings(name)

@@ -1,0 +1,14 @@
+//! The names of the built-in components, as `[pipeline]` chooses them (a leaf module: the run
+//! config's defaults and the registry both read it).
+
+/// The built-in shading baker's name.
+pub const SLF_BAKER: &str = "slf";
+
+/// The built-in shading refiner's name.
+pub const PATH_GROWN_REFINER: &str = "path-grown";
+
+/// The built-in emitter extractor's name.
+pub const MASK_EXTRACTOR: &str = "mask";
+
+/// FIPT's method's name (`fipt_method::Fipt`, registered by `Components::builtin`).
+pub const FIPT_METHOD: &str = "fipt";
