@@ -151,6 +151,33 @@ pub fn metallic_workflow_derivatives(a: Rgb, m: f32) -> ((f32, f32), (Rgb, Rgb))
     ((1.0 - m, m), (-a, a - Vec3::splat(DIELECTRIC_F0)))
 }
 
+/// One channel of [`metallic_workflow`]: (kd, ks) of base colour `a` and metallic `m` (the
+/// fused loss's per-channel form; the same expression, the same bits).
+#[inline]
+pub fn metallic_workflow_channel(a: f32, m: f32) -> (f32, f32) {
+    (a * (1.0 - m), DIELECTRIC_F0 * (1.0 - m) + a * m)
+}
+
+/// One channel of [`metallic_workflow_derivatives`]: ((∂kd/∂a, ∂ks/∂a), (∂kd/∂m, ∂ks/∂m)).
+#[inline]
+pub fn metallic_workflow_channel_derivatives(a: f32, m: f32) -> ((f32, f32), (f32, f32)) {
+    ((1.0 - m, m), (-a, a - DIELECTRIC_F0))
+}
+
+/// The factorised image of the metallic workflow as a linear function of the base colour a at
+/// (σ, m), from shadings taken at σ: I = a·b + c with b = (1 − m)·Ld + m·Ls0 (= ∂I/∂a) and
+/// c = 0.04·(1 − m)·Ls0 + Ls1. For one channel (`f32`) or three (`Rgb`).
+#[inline]
+pub fn image_linear_in_base_color<T>(ld: T, ls0: T, ls1: T, m: f32) -> (T, T)
+where
+    T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
+    (
+        ld * (1.0 - m) + ls0 * m,
+        ls0 * (DIELECTRIC_F0 * (1.0 - m)) + ls1,
+    )
+}
+
 /// The base colour of the metallic workflow back from (kd, ks, m): kd / (1 − m), or ks for a
 /// metal (m ≈ 1), where kd carries nothing.
 #[inline]
@@ -218,6 +245,44 @@ pub fn image(kd: Rgb, ks: Rgb, ld: Rgb, ls0: Rgb, ls1: Rgb) -> Rgb {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The per-channel forms (the fused loss's) give the bits of the colour forms, and the
+    /// image's linear form in the base colour is the image of the metallic workflow, with
+    /// ∂I/∂a and ∂I/∂m the derivatives' chain.
+    #[test]
+    fn the_image_model_in_its_three_forms_agrees() {
+        let mut rng = crate::rng::Pcg32::new(7, 1);
+        for _ in 0..1000 {
+            let mut v = || rng.next_f32();
+            let (a, m) = (Vec3::new(v(), v(), v()), v());
+            let (ld, s0, s1) = (
+                Vec3::new(v(), v(), v()) * 5.0,
+                Vec3::splat(v()),
+                Vec3::splat(v()),
+            );
+            let (kd, ks) = metallic_workflow(a, m);
+            let ((dkd_da, dks_da), (dkd_dm, dks_dm)) = metallic_workflow_derivatives(a, m);
+            for c in 0..3 {
+                let (kdc, ksc) = metallic_workflow_channel(a[c], m);
+                assert_eq!(
+                    (kdc.to_bits(), ksc.to_bits()),
+                    (kd[c].to_bits(), ks[c].to_bits())
+                );
+                let ((da0, da1), (dm0, dm1)) = metallic_workflow_channel_derivatives(a[c], m);
+                assert_eq!([da0, da1, dm0, dm1], [dkd_da, dks_da, dkd_dm[c], dks_dm[c]]);
+                let (b, k) = image_linear_in_base_color(ld[c], s0[c], s1[c], m);
+                let (bv, kv) = image_linear_in_base_color(ld, s0, s1, m);
+                assert_eq!(
+                    (b.to_bits(), k.to_bits()),
+                    (bv[c].to_bits(), kv[c].to_bits())
+                );
+                assert_eq!(b, da0 * ld[c] + da1 * s0[c]);
+            }
+            let (b, k) = image_linear_in_base_color(ld, s0, s1, m);
+            let i = image(kd, ks, ld, s0, s1);
+            assert!((a * b + k - i).abs().max_element() < 1e-5 * (1.0 + i.max_element()));
+        }
+    }
 
     /// Burley's factor written out as in the Disney notes, against the basis.
     #[test]

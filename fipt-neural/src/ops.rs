@@ -9,7 +9,9 @@
 pub use crate::image_loss::SLOPE_LOSS_CLIP;
 use crate::image_loss::{slope_term, srgb_term, ImageLoss};
 use candle_core::{CpuStorage, CustomOp1, Layout, Shape, Tensor};
-use fipt_core::reflectance::DIELECTRIC_F0;
+use fipt_core::reflectance::{
+    image_linear_in_base_color, metallic_workflow_channel, metallic_workflow_channel_derivatives,
+};
 use fipt_core::shading::{level_segment, NUM_LEVELS};
 
 /// The f32 values of a contiguous CPU tensor; `name` says which in errors.
@@ -387,8 +389,7 @@ impl FactorizedLoss {
         for c in 0..3 {
             let s0 = s0l[i][c] * (1.0 - t) + s0l[i + 1][c] * t;
             let s1 = s1l[i][c] * (1.0 - t) + s1l[i + 1][c] * t;
-            let kd = a[c] * (1.0 - m);
-            let ks = DIELECTRIC_F0 * (1.0 - m) + a[c] * m;
+            let (kd, ks) = metallic_workflow_channel(a[c], m);
             let r = kd * ld[c] + ks * s0 + s1;
             let p = (1.0 - alpha) * r + alpha * g[c];
             // The pixel's term and its derivative in P, then the chain to the inputs.
@@ -398,10 +399,12 @@ impl FactorizedLoss {
             };
             sq += term;
             let dr = dp * material;
-            d[c] += dr * ((1.0 - m) * ld[c] + m * s0);
+            // ∂I/∂a (the image is linear in a), then ∂I/∂σ, ∂I/∂m.
+            d[c] += dr * image_linear_in_base_color(ld[c], s0, s1, m).0;
             d[3] += dr * (ks * (s0l[i + 1][c] - s0l[i][c]) + (s1l[i + 1][c] - s1l[i][c])) * dt
                 + dr * kd * dld[c];
-            d[4] += dr * (-a[c] * ld[c] + (a[c] - DIELECTRIC_F0) * s0);
+            let (_, (dkd_dm, dks_dm)) = metallic_workflow_channel_derivatives(a[c], m);
+            d[4] += dr * (dkd_dm * ld[c] + dks_dm * s0);
             d[5] += dp * (g[c] - r);
         }
         // Each part: the search's target pull where it has one, the default prior elsewhere.
@@ -456,7 +459,7 @@ impl FactorizedLoss {
         for c in 0..3 {
             let s0 = b.ls0[j][i][c] * (1.0 - t) + b.ls0[j][i + 1][c] * t;
             let s1 = b.ls1[j][i][c] * (1.0 - t) + b.ls1[j][i + 1][c] * t;
-            let ks = DIELECTRIC_F0 * (1.0 - m) + x[c] * m;
+            let (_, ks) = metallic_workflow_channel(x[c], m);
             sum += ks * s0 + s1;
         }
         let w = sum / 3.0;

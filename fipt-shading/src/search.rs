@@ -26,8 +26,6 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
-use fipt_core::reflectance::DIELECTRIC_F0 as F0_DIELECTRIC;
-
 /// Settings of the search (`[search]` in a run config).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -511,10 +509,7 @@ fn linear_terms(sh: &ViewShadings, i: usize, sigma: f32, m: f32) -> (Rgb, Rgb) {
     let (k, t) = level_segment(&sh.levels, sigma);
     let s0 = sh.ls0[i][k] * (1.0 - t) + sh.ls0[i][k + 1] * t;
     let s1 = sh.ls1[i][k] * (1.0 - t) + sh.ls1[i][k + 1] * t;
-    (
-        sh.diffuse(i, sigma) * (1.0 - m) + s0 * m,
-        s0 * (F0_DIELECTRIC * (1.0 - m)) + s1,
-    )
+    fipt_core::reflectance::image_linear_in_base_color(sh.diffuse(i, sigma), s0, s1, m)
 }
 
 /// The weighted least-squares base colour of `a·b + c` over a set of pixels at one (σ, m):
