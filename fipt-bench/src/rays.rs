@@ -9,7 +9,7 @@ use fipt_geom::{hit_point, shading_normal, BuildQuality, Bvh, Mesh};
 use fipt_shading::brdf::sample_cosine_hemisphere;
 use fipt_shading::render::{render, RenderConfig};
 use fipt_shading::scene::{Scene, TableSurfaces};
-use fipt_shading::synth::{self, icosphere_mesh};
+use fipt_synth::icosphere_mesh;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde_json::json;
@@ -131,7 +131,7 @@ fn rays_section(
 /// The rays suite: the room and a ~1M-triangle mesh, then the path tracer on the room.
 pub fn run(quick: bool, reps: usize, out: &std::path::Path) -> Result<()> {
     let (w, h, nviews) = if quick { (120, 80, 2) } else { (480, 320, 8) };
-    let room = synth::room();
+    let room = fipt_synth::room();
     let bvh = Bvh::build(&room.mesh, BuildQuality::Medium);
     let cams = room.cameras(nviews, 1, w, h, &bvh);
     let room_json = rays_section("room", &room.mesh, &cams, reps);

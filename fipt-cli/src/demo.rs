@@ -4,7 +4,7 @@
 use crate::progress::bar;
 use anyhow::Result;
 use fipt_pipeline::run::{RunOutcome, RunRequest};
-use fipt_shading::synth::{build, write_dataset, SynthOptions};
+use fipt_synth::{build, write_dataset, SynthOptions};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

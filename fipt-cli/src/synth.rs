@@ -1,7 +1,7 @@
 //! `fipt synth <name> --out DIR`.
 use crate::progress::{bar, Stage};
 use anyhow::{bail, Context, Result};
-use fipt_shading::synth::{build, write_dataset, SynthOptions, SCENES};
+use fipt_synth::{build, write_dataset, SynthOptions, SCENES};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

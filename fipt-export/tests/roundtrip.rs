@@ -59,7 +59,7 @@ fn tmp(name: &str) -> PathBuf {
 
 /// The cornell room (5 planar walls, blocks, a ceiling light).
 fn scene() -> (Mesh, Vec<Emitter>) {
-    let s = fipt_shading::synth::cornell();
+    let s = fipt_synth::cornell();
     let surf = fipt_shading::scene::TableSurfaces::new(
         s.materials.clone(),
         &s.mesh,
@@ -77,7 +77,7 @@ fn scene() -> (Mesh, Vec<Emitter>) {
         .with_sides(&s.mesh.positions, &s.mesh.triangles, sides);
     let mut mesh = s.mesh;
     // A sphere of triangles a few texels across: each its own chart.
-    mesh.append(&fipt_shading::synth::icosphere_mesh(
+    mesh.append(&fipt_synth::icosphere_mesh(
         Vec3::new(0.4, 1.2, 0.3),
         0.15,
         2,
@@ -237,7 +237,7 @@ fn an_exported_glb_renders_like_the_scene_it_came_from() {
     use fipt_core::camera::Camera;
     use fipt_shading::render::{render, render_aovs, RenderConfig};
     use fipt_shading::scene::{Scene, TableSurfaces};
-    let s = fipt_shading::synth::cornell();
+    let s = fipt_synth::cornell();
     let (_, emitters) = scene();
     let mesh = s.mesh.clone();
     let truth = TableSurfaces::new(s.materials.clone(), &mesh, std::path::Path::new("gt")).unwrap();

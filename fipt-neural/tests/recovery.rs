@@ -21,7 +21,7 @@ use fipt_geom::{Geometry, Mesh};
 use fipt_neural::{Bounds, LrDecay, TrainConfig, Trainer, TrainingSet};
 use fipt_shading::bake::{primary_records, BakeConfig, FactorizedBaker};
 use fipt_shading::render::RenderConfig;
-use fipt_shading::synth::{build, write_dataset, SynthOptions};
+use fipt_synth::{build, write_dataset, SynthOptions};
 use glam::Vec3;
 
 #[global_allocator]

@@ -16,7 +16,7 @@ use fipt_shading::relight::apply_lights;
 use fipt_shading::render::{render_aovs, RenderConfig};
 use fipt_shading::scene::{Scene, SurfaceModel, TableSurfaces};
 use fipt_shading::scene_edits::{apply_edits, EditsFile, OBJECT_PART};
-use fipt_shading::synth::write_view;
+use fipt_synth::write_view;
 use std::path::{Path, PathBuf};
 
 /// `fipt render`: what to render, from which cameras, under which lights and edits.

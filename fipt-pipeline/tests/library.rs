@@ -3,7 +3,7 @@
 use fipt_pipeline::observe::{Observer, ProgressSink};
 use fipt_pipeline::run::{run, RunOutcome, RunRequest};
 use fipt_pipeline::Components;
-use fipt_shading::synth::{build, write_dataset, SynthOptions};
+use fipt_synth::{build, write_dataset, SynthOptions};
 use std::sync::Mutex;
 
 /// Everything the pipeline said: notes, finished stages, progress indicators opened.

@@ -13,7 +13,6 @@
 //! * [`refine`]: the path-grown refinement behind [`fipt_core::shading::ShadingRefiner`];
 //! * [`lights`] and [`edit`]: lights added for relighting (`lights.json`: spheres, quads,
 //!   meshes, point and spot lights) and edits of a scene's surfaces and emitters;
-//! * [`synth`]: procedural scenes with exact ground truth in the reference layout.
 //!
 //! ```
 //! use fipt_core::brdf::Brdf;
@@ -46,6 +45,5 @@ pub mod search;
 pub mod slf;
 pub mod specular;
 pub mod stream;
-pub mod synth;
 
 pub use error::{Result, ShadingError};

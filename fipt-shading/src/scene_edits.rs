@@ -349,7 +349,7 @@ mod tests {
     use crate::scene::TableSurfaces;
 
     fn cornell() -> (Mesh, EditedSurfaces<TableSurfaces>) {
-        let s = crate::synth::cornell();
+        let s = fipt_synth::cornell();
         let t = TableSurfaces::new(s.materials, &s.mesh, Path::new("gt")).unwrap();
         let e = EditedSurfaces::new(t, &s.mesh);
         (s.mesh, e)

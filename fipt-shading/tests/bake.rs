@@ -15,7 +15,7 @@ use fipt_shading::brdf::ladder::albedo_quadrature as quadrature;
 use fipt_shading::brdf::MicrofacetBrdf;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::slf::{Cube, SlfBuilder};
-use fipt_shading::synth::{build, icosphere_mesh, write_dataset, SynthOptions};
+use fipt_synth::{build, icosphere_mesh, write_dataset, SynthOptions};
 use glam::Vec3;
 
 /// Inside a closed sphere whose every SLF voxel holds L, for both reflectance models: Ld = L

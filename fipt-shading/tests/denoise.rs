@@ -11,7 +11,7 @@ use fipt_shading::scene::{Scene, TableSurfaces};
 use glam::Vec3;
 
 fn room(n: usize) -> (Scene<TableSurfaces>, Vec<Camera>) {
-    let s = fipt_shading::synth::build("room").unwrap();
+    let s = fipt_synth::build("room").unwrap();
     let bvh = fipt_geom::Bvh::build(&s.mesh, fipt_geom::BuildQuality::Medium);
     let cams = s.cameras(n, 3, 64, 48, &bvh);
     let surfaces = TableSurfaces::new(s.materials, &s.mesh, std::path::Path::new("room")).unwrap();

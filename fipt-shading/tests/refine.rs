@@ -17,7 +17,7 @@ use fipt_shading::field_surfaces::FieldSurfaces;
 use fipt_shading::refine::{GrownLight, PathGrownRefiner, RefineConfig};
 use fipt_shading::render::RenderConfig;
 use fipt_shading::slf::{Cube, SlfBuilder};
-use fipt_shading::synth::{build, write_dataset, SynthOptions};
+use fipt_synth::{build, write_dataset, SynthOptions};
 use glam::Vec3;
 use std::f32::consts::PI;
 

@@ -4,7 +4,7 @@
 use fipt_core::camera::Camera;
 use fipt_shading::render::{render, render_aovs, RenderConfig};
 use fipt_shading::scene::{LambertSurfaces, Scene};
-use fipt_shading::synth::icosphere_mesh;
+use fipt_synth::icosphere_mesh;
 use glam::Vec3;
 
 fn furnace(rho: f32, le: f32) -> Scene<LambertSurfaces> {

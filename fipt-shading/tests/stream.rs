@@ -11,7 +11,7 @@ use fipt_core::CoreError;
 use fipt_geom::{Geometry, Mesh};
 use fipt_shading::bake::{BakeConfig, FactorizedBaker};
 use fipt_shading::render::RenderConfig;
-use fipt_shading::synth::{build, write_dataset, SynthOptions};
+use fipt_synth::{build, write_dataset, SynthOptions};
 
 fn scene(name: &str) -> (Geometry, Vec<View>, Vec<Image>) {
     let dir = std::env::temp_dir().join(format!("fipt-stream-{name}-{}", std::process::id()));

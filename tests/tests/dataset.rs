@@ -6,7 +6,7 @@ use fipt_core::image::{BadPixelPolicy, ExrPrecision, Image};
 use fipt_core::materials::SceneMaterials;
 use fipt_geom::Mesh;
 use fipt_shading::render::RenderConfig;
-use fipt_shading::synth::{build, write_dataset, SynthOptions};
+use fipt_synth::{build, write_dataset, SynthOptions};
 use fipt_tests::temp_dir;
 use glam::Vec3;
 use std::path::Path;

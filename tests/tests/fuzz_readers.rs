@@ -57,7 +57,7 @@ fn make_seeds() -> Vec<(&'static str, Vec<u8>)> {
         *p = Vec3::splat(i as f32 * 0.1);
     }
     img.write_exr(&d.join("a.exr"), ExrPrecision::F16).unwrap();
-    let mesh = fipt_shading::synth::icosphere_mesh(Vec3::ZERO, 1.0, 0);
+    let mesh = fipt_synth::icosphere_mesh(Vec3::ZERO, 1.0, 0);
     mesh.write_obj(&d.join("a.obj"), "seed").unwrap();
     mesh.write_ply(&d.join("a.ply")).unwrap();
     let cams = vec![fipt_core::camera::Camera::look_at(

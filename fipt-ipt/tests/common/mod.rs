@@ -7,7 +7,7 @@ use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Geometry;
 use fipt_shading::render::{render, render_aovs, RenderConfig};
 use fipt_shading::scene::{Scene, SurfaceModel, TableSurfaces};
-use fipt_shading::synth::SynthScene;
+use fipt_synth::SynthScene;
 use std::path::PathBuf;
 
 pub struct Fixture {
@@ -22,7 +22,7 @@ pub struct Fixture {
 
 /// `cornell` seen by `n` cameras of `w`×`h` at `spp`, rendered with `model`.
 pub fn cornell(n: usize, w: usize, h: usize, spp: u32, model: ReflectanceModel) -> Fixture {
-    let synth = fipt_shading::synth::build("cornell").unwrap();
+    let synth = fipt_synth::build("cornell").unwrap();
     let mut table = TableSurfaces::new(
         synth.materials.clone(),
         &synth.mesh,

@@ -1,6 +1,6 @@
 //! The procedural scenes' subdivision (for scaling measurements): the same surfaces and
 //! materials with 4^K times the triangles.
-use fipt_shading::synth::build;
+use fipt_synth::build;
 
 #[test]
 fn subdivision_keeps_area_materials_and_orientation() {

@@ -1,4 +1,6 @@
-//! Procedural indoor scenes with exact ground truth, written in the reference synthetic layout.
+//! `fipt-synth`: procedural indoor scenes with exact ground truth, rendered by fipt-shading's
+//! path tracer and written in the reference synthetic layout. It owns the scenes' geometry,
+//! materials and cameras; it imports the renderer, never the pipeline.
 //!
 //! * `cornell`: a tiny box room, one ceiling emitter, two diffuse blocks and one glossy block
 //!   (tests);
@@ -8,9 +10,6 @@
 //!
 //! Everything is generated from a seed; cameras stand inside the room, outside every object,
 //! looking at varied targets (some at the emitters).
-use crate::error::{Result, ShadingError};
-use crate::render::{render, render_aovs, Aovs, RenderConfig, RenderStats};
-use crate::scene::{Scene, TableSurfaces};
 use fipt_core::camera::Camera;
 use fipt_core::dataset::{image_file_name, write_transforms, GtKind};
 use fipt_core::image::{ExrPrecision, Image};
@@ -20,6 +19,9 @@ use fipt_core::rng::Pcg32;
 use fipt_geom::shapes::icosphere_into as icosphere;
 pub use fipt_geom::shapes::icosphere_mesh;
 use fipt_geom::Mesh;
+use fipt_shading::error::{Result, ShadingError};
+use fipt_shading::render::{render, render_aovs, Aovs, RenderConfig, RenderStats};
+use fipt_shading::scene::{Scene, TableSurfaces};
 use glam::{Vec2, Vec3};
 
 mod cornell;
