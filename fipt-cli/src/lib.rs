@@ -125,7 +125,7 @@ fn dispatch(cli: Cli, components: &Components) -> anyhow::Result<()> {
         Command::Report(a) => report::run(a),
         Command::Sweep(a) => sweep::run(a, components),
         Command::Bake(a) => bake::run(a, components),
-        Command::Train(a) => train::run(a),
+        Command::Train(a) => train::run(a, components),
         Command::Run(a) => run::run(a, components),
         Command::Eval(a) => eval::run(a),
         Command::Demo(a) => demo::run(a, components),

@@ -15,7 +15,9 @@ pub struct Args {
     /// Settings preset: paper (the reference's sizes and 10k steps), balanced, fast, reference.
     #[arg(long, default_value = "balanced")]
     preset: String,
-    /// A TOML or JSON file of training settings laid over the preset.
+    /// A TOML or JSON file of training settings laid over the preset: a training config, or a
+    /// run config (its `[train]`; with a `[pipeline]` table, OUT/bake must be the bake of its
+    /// `baker` and settings, and its `method` FIPT's).
     #[arg(long)]
     config: Option<PathBuf>,
     /// Override the number of steps.
@@ -29,16 +31,19 @@ pub struct Args {
     force: bool,
 }
 
-pub fn run(a: Args) -> Result<()> {
-    let dir = fipt_pipeline::train::train_only(TrainRequest {
-        scene: a.scene,
-        out: a.out,
-        preset: a.preset,
-        config: a.config,
-        steps: a.steps,
-        bad_pixels: a.bad_pixels.into(),
-        force: a.force,
-    })?;
+pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
+    let dir = fipt_pipeline::train::train_only(
+        TrainRequest {
+            scene: a.scene,
+            out: a.out,
+            preset: a.preset,
+            config: a.config,
+            steps: a.steps,
+            bad_pixels: a.bad_pixels.into(),
+            force: a.force,
+        },
+        components,
+    )?;
     println!("wrote {}", dir.display());
     Ok(())
 }

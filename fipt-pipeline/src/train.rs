@@ -14,7 +14,7 @@ use fipt_geom::Geometry;
 use fipt_neural::train::{render_factorized, StepLosses, TrainTimings};
 use fipt_neural::{NeuralField, TrainConfig, Trainer};
 use fipt_shading::bake::primary_records;
-use fipt_shading::bake_store::{fingerprint, load_for_inputs, StoredShadings};
+use fipt_shading::bake_store::{fingerprint, load_for_inputs, load_if_current, StoredShadings};
 pub use fipt_shading::records::view_points;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -96,8 +96,10 @@ impl TrainManifest {
     }
 }
 
-/// The training alone (`fipt train`); returns the folder written.
-pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
+/// The training alone (`fipt train`); returns the folder written. With a run config, the bake
+/// must be the one its `[pipeline] baker` and settings make ([`crate::bake::run_baker`]).
+pub fn train_only(a: TrainRequest, components: &crate::Components) -> Result<PathBuf> {
+    let wanted = crate::bake::run_baker(&a.preset, a.config.as_deref(), components)?;
     let mut cfg: TrainConfig = crate::config::load_preset_section(
         &a.preset,
         TrainConfig::preset,
@@ -116,13 +118,20 @@ pub fn train_only(a: TrainRequest) -> Result<PathBuf> {
     } else {
         None // no bake there: the error below says what to run first
     };
-    let (bake, stored) = match load_for_inputs(&bake_dir, &scene.cache_key)? {
+    let loaded = match &wanted {
+        Some((name, settings)) => load_if_current(&bake_dir, &scene.cache_key, settings, name)?,
+        None => load_for_inputs(&bake_dir, &scene.cache_key)?,
+    };
+    let (bake, stored) = match loaded {
         Ok(x) => x,
         Err(why) => bail!(
-            "{}: {why}; run `fipt bake {} --out {}` first",
+            "{}: {why}; run `fipt bake {} --out {}{}` first",
             bake_dir.display(),
             a.scene.display(),
-            a.out.display()
+            a.out.display(),
+            a.config
+                .as_ref()
+                .map_or(String::new(), |c| format!(" --config {}", c.display()))
         ),
     };
     let dir = a.out.join("train");
