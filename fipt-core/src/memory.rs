@@ -40,10 +40,25 @@ fn status_mib(key: &str) -> Option<f64> {
     Some(kb / 1024.0)
 }
 
-/// Hands the heap's free pages back to the system (glibc's `malloc_trim`), so that the resident
+/// The program's own allocator's release ([`set_release_hook`]).
+static RELEASE_HOOK: std::sync::OnceLock<fn()> = std::sync::OnceLock::new();
+
+/// Registers what [`release_free_memory`] calls to make the program's allocator return its free
+/// pages (the `fipt` binary's mimalloc, which otherwise keeps them: see its `main.rs`). Once per
+/// process; a second call is ignored.
+pub fn set_release_hook(release: fn()) {
+    let _ = RELEASE_HOOK.set(release);
+}
+
+/// Hands the heap's free pages back to the system (glibc's `malloc_trim`, and the hook of the
+/// program's allocator when one is registered with [`set_release_hook`]), so that the resident
 /// size follows the memory in use: after a stage frees its data, the next stage's peak starts
-/// from what is live, and other processes get the memory back. Elsewhere a no-op.
+/// from what is live, and other processes get the memory back. Without a hook, memory of an
+/// allocator other than glibc's stays where it is.
 pub fn release_free_memory() {
+    if let Some(release) = RELEASE_HOOK.get() {
+        release();
+    }
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
         extern "C" {
