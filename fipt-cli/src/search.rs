@@ -32,7 +32,7 @@ pub struct Args {
 }
 
 /// The lowest cost over σ at the `mi`-th metallic candidate (NaN when there is none).
-fn part_best(p: &fipt_shading::search::RegionProfile, mi: usize) -> f64 {
+fn part_best(p: &fipt_search::RegionProfile, mi: usize) -> f64 {
     p.cost.get(mi).map_or(f64::NAN, |c| {
         c.iter()
             .copied()

@@ -325,10 +325,10 @@ fn emitters_stage(
 
 /// Observation counts per surface cell of the search (`search.cell_footprints` footprints),
 /// over the training views' hits: the `observed` maps.
-fn observed_cells(host: &Host) -> fipt_shading::search::CellCounts {
+fn observed_cells(host: &Host) -> fipt_search::CellCounts {
     let (records, footprint) = host.hits();
     let points = records.iter().flatten().flatten().map(|r| r.p);
-    fipt_shading::search::CellCounts::new(points, host.cfg.search.cell_footprints * footprint)
+    fipt_search::CellCounts::new(points, host.cfg.search.cell_footprints * footprint)
 }
 
 /// Writes `emitters.json` (at the views' own scale; the stages work at the normalised one) and

@@ -291,7 +291,7 @@ pub(crate) fn write_views(
     cfg: &RunConfig,
     out: &Path,
     recovered: Recovered,
-    observed: Option<&fipt_shading::search::CellCounts>,
+    observed: Option<&fipt_search::CellCounts>,
     mark: &mut dyn FnMut(&'static str, std::time::Instant),
 ) -> Result<()> {
     let Recovered {

@@ -4,8 +4,8 @@ use crate::bail;
 use crate::error::{Context, Result};
 use crate::scene::LoadedScene;
 use fipt_core::dataset::GtKind;
+use fipt_search::RegionSource;
 use fipt_shading::records::HitPoint;
-use fipt_shading::search::RegionSource;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 

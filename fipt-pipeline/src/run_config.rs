@@ -4,9 +4,9 @@ use crate::error::Result;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_emitter::MaskExtractorConfig;
 use fipt_neural::TrainConfig;
+use fipt_search::SearchConfig;
 use fipt_shading::bake::BakeConfig;
 use fipt_shading::refine::RefineConfig;
-use fipt_shading::search::SearchConfig;
 use serde::{Deserialize, Serialize};
 
 /// All settings of a run.

@@ -10,13 +10,13 @@ use fipt_core::color::luminance;
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, Image};
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
-use fipt_shading::bake_store::StoredShadings;
-use fipt_shading::records::{HitPoint, PrimaryHit};
-use fipt_shading::search::split::{colour_split, ColourSplit};
-use fipt_shading::search::{
+use fipt_search::split::{colour_split, ColourSplit};
+use fipt_search::{
     choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, view_pixels,
     with_cells_keyed, Albedo, RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
 };
+use fipt_shading::bake_store::StoredShadings;
+use fipt_shading::records::{HitPoint, PrimaryHit};
 use serde::Serialize;
 use std::path::PathBuf;
 

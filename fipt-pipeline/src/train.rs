@@ -438,7 +438,7 @@ pub fn export_views(
     views: &[View],
     factorized: Option<(&NeuralField, &[ViewShadings], &[Image])>,
     emission: Option<&HashMap<u32, Vec3>>,
-    observed: Option<&fipt_shading::search::CellCounts>,
+    observed: Option<&fipt_search::CellCounts>,
     radiance_scale: f32,
     dir: &Path,
 ) -> Result<()> {

@@ -41,7 +41,6 @@ pub mod relight;
 pub mod render;
 pub mod scene;
 pub mod scene_edits;
-pub mod search;
 pub mod slf;
 pub mod specular;
 pub mod stream;

@@ -15,8 +15,8 @@ use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::{Geometry, Mesh};
+use fipt_search::{gather_pixels, profile, sigma_grid, Albedo, RegionProfile};
 use fipt_shading::bake::{primary_records, BakeConfig, FactorizedBaker};
-use fipt_shading::search::{gather_pixels, profile, sigma_grid, Albedo, RegionProfile};
 use fipt_tests::studio_scene;
 
 /// One level spacing of the bake's roughness levels.
@@ -67,7 +67,7 @@ fn studio_profiles(model: ReflectanceModel) -> Option<Vec<RegionProfile>> {
         let id = ids[v][i];
         (0..regions as i64).contains(&id).then_some(id as u32)
     });
-    let base = fipt_shading::search::true_base_colours(&ds, split, &pixels)
+    let base = fipt_search::true_base_colours(&ds, split, &pixels)
         .unwrap()
         .expect("studio-mitsuba has DiffCol, Specular and Metallic");
     let grid = sigma_grid(0.02, 1.0, 50);

@@ -23,7 +23,7 @@ fn scene(sigma: f32, m: f32) -> (Vec<SearchPixel>, Vec<ViewShadings>, Vec<Image>
 /// Views rendered by the factorised model at metallic `m`, `material(cell)` giving each
 /// cell's base colour and σ: random shadings per pixel (from `rng`), 8 views × 64 pixels, 16
 /// cells of 32 pixels each, one region.
-pub(in crate::search) fn rendered(
+pub(crate) fn rendered(
     rng: &mut Pcg32,
     m: f32,
     material: &dyn Fn(u32) -> (Rgb, f32),

@@ -1,4 +1,6 @@
-//! Material search over the factorised shadings: per region, the image loss as a function of
+//! `fipt-search`: FIPT's material search over the factorised shadings (the algorithm; the run's
+//! stage around it, with its caches and regions, is `fipt_pipeline::search`). It imports the
+//! shadings' types and the primary hits, never the pipeline: per region, the image loss as a function of
 //! roughness σ and metallic m, and the (σ, m) it prefers.
 //!
 //! For a fixed (σ, m) the factorised image is linear in the base colour a:
@@ -16,11 +18,11 @@
 //! well the shadings explain the views at the true materials); [`choose`] turns a curve into a
 //! decision. The residual is the training's: squared difference of sRGB-encoded values (no
 //! clamp), averaged over pixels and channels.
-use crate::records::PrimaryHit;
 use fipt_core::color::{srgb_oetf, Rgb};
 use fipt_core::dataset::{Dataset, GtKind, Split};
 use fipt_core::image::Image;
 use fipt_core::shading::{level_segment, ViewShadings};
+use fipt_shading::records::PrimaryHit;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
