@@ -6,6 +6,7 @@ use candle_core::{DType, Device, Module, Tensor, Var};
 use candle_nn::{Optimizer, VarBuilder, VarMap};
 use fipt_core::fsutil::write_json_atomic;
 use fipt_core::image::Image;
+use fipt_core::presets::Presets;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{ViewShadings, DEFAULT_LEVELS, NUM_LEVELS};
 use fipt_neural::hashgrid::{AdamConfig, HashGrid, HashGridOp};

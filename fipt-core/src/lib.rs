@@ -45,6 +45,7 @@ pub mod lock;
 pub mod materials;
 pub mod memory;
 pub mod metrics;
+pub mod presets;
 pub mod range;
 pub mod reflectance;
 pub mod rng;

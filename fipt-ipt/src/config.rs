@@ -124,16 +124,6 @@ impl IptConfig {
         }
     }
 
-    /// The preset `name` (`reference` is `paper`: the reference never had an IPT).
-    pub fn preset(name: &str) -> Option<Self> {
-        match name {
-            "fast" => Some(Self::fast()),
-            "balanced" => Some(Self::balanced()),
-            "paper" | "reference" => Some(Self::paper()),
-            _ => None,
-        }
-    }
-
     /// Range checks, naming the key.
     pub fn validate(&self) -> Result<(), String> {
         let bad = |k: &str, why: &str| Err(format!("[plugins.ipt] {k}: {why}"));
@@ -186,5 +176,18 @@ impl IptConfig {
             );
         }
         Ok(())
+    }
+}
+
+/// `reference` is `paper`: the reference never had an IPT.
+impl fipt_core::presets::Presets for IptConfig {
+    fn paper() -> Self {
+        IptConfig::paper()
+    }
+    fn balanced() -> Self {
+        IptConfig::balanced()
+    }
+    fn fast() -> Self {
+        IptConfig::fast()
     }
 }

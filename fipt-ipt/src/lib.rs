@@ -57,6 +57,7 @@ use fipt_core::color::{luminance, Rgb};
 use fipt_core::emitter::{EmitSide, Emitter};
 use fipt_core::field::Material;
 use fipt_core::fit::{FitInputs, Fitted, MaterialFitter};
+use fipt_core::presets::Presets;
 use fipt_core::shading::Progress;
 use fipt_core::CoreError;
 use fipt_geom::Mesh;

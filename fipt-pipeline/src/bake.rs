@@ -4,6 +4,7 @@ use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::image::Image;
+use fipt_core::presets::Presets;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::ShadingBaker;
 use fipt_core::shading::Shard;

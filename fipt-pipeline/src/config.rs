@@ -125,6 +125,7 @@ pub fn load_text<T: Serialize + DeserializeOwned>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fipt_core::presets::Presets;
     use fipt_shading::bake::BakeConfig;
 
     #[test]

@@ -1,6 +1,7 @@
 //! The settings of a run (`RunConfig`: every stage's section, the components, the model, the
 //! capture handling), typed once with `deny_unknown_fields`, and the presets' values.
 use crate::error::Result;
+use fipt_core::presets::Presets;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_emitter::MaskExtractorConfig;
 use fipt_neural::TrainConfig;

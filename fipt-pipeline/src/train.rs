@@ -9,6 +9,7 @@ use crate::train_set::{build_set, second_sides, segment_ids, BuiltSet};
 use fipt_core::dataset::View;
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, ExrPrecision, Image};
+use fipt_core::presets::Presets;
 use fipt_core::shading::ViewShadings;
 use fipt_geom::Geometry;
 use fipt_neural::train::{render_factorized, StepLosses, TrainTimings};

@@ -118,16 +118,6 @@ impl BakeConfig {
             ..Default::default()
         }
     }
-    /// Looks a preset up by name.
-    pub fn preset(name: &str) -> Option<Self> {
-        match name {
-            "paper" => Some(Self::paper()),
-            "reference" => Some(Self::reference()),
-            "balanced" | "default" => Some(Self::default()),
-            "fast" => Some(Self::fast()),
-            _ => None,
-        }
-    }
 
     /// Refuses settings that would exhaust the machine or mean nothing, naming the key.
     pub fn validate(&self) -> Result<(), String> {
@@ -595,5 +585,20 @@ impl ShadingBaker for FactorizedBaker {
         check_counts("bake", views, images)?;
         let (stats, _) = self.bake_streamed(geometry, views, images, shard, progress, sink)?;
         Ok(serde_json::to_value(stats).unwrap_or_default())
+    }
+}
+
+impl fipt_core::presets::Presets for BakeConfig {
+    fn paper() -> Self {
+        BakeConfig::paper()
+    }
+    fn reference() -> Self {
+        BakeConfig::reference()
+    }
+    fn balanced() -> Self {
+        BakeConfig::default()
+    }
+    fn fast() -> Self {
+        BakeConfig::fast()
     }
 }

@@ -144,16 +144,6 @@ impl RefineConfig {
             ..Default::default()
         }
     }
-    /// Looks a preset up by name.
-    pub fn preset(name: &str) -> Option<Self> {
-        match name {
-            "paper" => Some(Self::paper()),
-            "reference" => Some(Self::reference()),
-            "balanced" | "default" => Some(Self::balanced()),
-            "fast" => Some(Self::fast()),
-            _ => None,
-        }
-    }
 
     /// Refuses settings that would exhaust the machine or mean nothing, naming the key.
     pub fn validate(&self) -> Result<(), String> {
@@ -752,5 +742,20 @@ impl ShadingRefiner for PathGrownRefiner {
     ) -> fipt_core::Result<serde_json::Value> {
         let stats = self.refine_streamed(inputs, shard, progress, sink)?;
         Ok(serde_json::to_value(stats).unwrap_or_default())
+    }
+}
+
+impl fipt_core::presets::Presets for RefineConfig {
+    fn paper() -> Self {
+        RefineConfig::paper()
+    }
+    fn reference() -> Self {
+        RefineConfig::reference()
+    }
+    fn balanced() -> Self {
+        RefineConfig::balanced()
+    }
+    fn fast() -> Self {
+        RefineConfig::fast()
     }
 }

@@ -240,16 +240,6 @@ impl TrainConfig {
             ..Self::default()
         }
     }
-    /// A named preset: `paper`, `balanced` (or `default`), `fast`, `reference`.
-    pub fn preset(name: &str) -> Option<Self> {
-        match name {
-            "paper" => Some(Self::paper()),
-            "reference" => Some(Self::reference()),
-            "balanced" | "default" => Some(Self::default()),
-            "fast" => Some(Self::fast()),
-            _ => None,
-        }
-    }
     /// These settings with the hash tables no larger than the data can fill: per level at
     /// most `2^ceil(log2(4·pixels))` entries (at least 2^14), when `table_from_data` is set.
     ///
@@ -571,5 +561,20 @@ mod tests {
             .validate()
             .is_err());
         }
+    }
+}
+
+impl fipt_core::presets::Presets for TrainConfig {
+    fn paper() -> Self {
+        TrainConfig::paper()
+    }
+    fn reference() -> Self {
+        TrainConfig::reference()
+    }
+    fn balanced() -> Self {
+        TrainConfig::default()
+    }
+    fn fast() -> Self {
+        TrainConfig::fast()
     }
 }
