@@ -151,6 +151,9 @@ fn fit_views(
     if let Some(bar) = pb.get() {
         bar.finish_and_clear();
     }
+    // A method that kept nothing there (FIPT keeps its stages at the top of OUT) leaves no
+    // empty folder behind.
+    let _ = std::fs::remove_dir(&dir);
     fitted.map_err(from_method)
 }
 
