@@ -37,6 +37,7 @@ pub mod cube;
 pub mod dataset;
 pub mod emitter;
 pub mod error;
+pub mod external_model;
 pub mod field;
 pub mod fit;
 pub mod fsutil;

@@ -25,8 +25,9 @@
 //! The masking is Smith's separable form as in Mitsuba (glTF's viewers use the
 //! height-correlated one; the two differ by < 2 % below σ = 0.5).
 use crate::color::Rgb;
+pub use crate::external_model::{ExternalModel, ReflectanceFormulas};
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::f32::consts::PI;
 
 /// F0 of a dielectric: 0.08·specular with specular = 0.5.
@@ -35,33 +36,77 @@ pub const DIELECTRIC_F0: f32 = 0.04;
 /// Lowest roughness the parametrisation reaches (σ = 0.02 + 0.98·s).
 pub const MIN_ROUGHNESS: f32 = 0.02;
 
-/// The reflectance model of a run (`[model] brdf`): a closed set, dispatched per ray by a match.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+/// The reflectance model of a run (`[model] brdf`): the built-in models, dispatched per ray by a
+/// match, and the external ones a crate registers ([`ReflectanceModel::register`]), one virtual
+/// call per evaluation. Serialised as its name.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum ReflectanceModel {
     /// FIPT's model: Lambert + GGX with Schlick-GGX masking.
     #[default]
     Fipt,
     /// The principled / glTF metallic-roughness model: Burley + GGX with Smith masking.
     Principled,
+    /// A model from a crate of its own ([`ReflectanceFormulas`]).
+    External(ExternalModel),
 }
 
 impl ReflectanceModel {
-    /// Every model, for help texts and reports.
+    /// The built-in models.
     pub const ALL: [ReflectanceModel; 2] = [ReflectanceModel::Fipt, ReflectanceModel::Principled];
 
-    /// The config name (`fipt`, `principled`).
+    /// Makes the external `model` known to this process, so `[model] brdf = "<name>"` (and
+    /// `--brdf`) find it; the same object again is a no-op. Refuses a built-in's name, a name
+    /// taken by another object, and names that are not lower-case letters, digits, `-`, `_`.
+    pub fn register(model: &'static dyn ReflectanceFormulas) -> Result<ReflectanceModel, String> {
+        let builtin = ReflectanceModel::ALL.map(|m| m.name());
+        crate::external_model::register(model, &builtin).map(ReflectanceModel::External)
+    }
+
+    /// The built-in models and the registered external ones, for help texts and lookups.
+    pub fn known() -> Vec<ReflectanceModel> {
+        let external = crate::external_model::registered().into_iter();
+        ReflectanceModel::ALL
+            .into_iter()
+            .chain(external.map(ReflectanceModel::External))
+            .collect()
+    }
+
+    /// The config name (`fipt`, `principled`, or the external model's).
     pub fn name(self) -> &'static str {
         match self {
             ReflectanceModel::Fipt => "fipt",
             ReflectanceModel::Principled => "principled",
+            ReflectanceModel::External(m) => m.formulas().name(),
         }
+    }
+
+    /// A component's name for this model: `base` under FIPT's model (the method's), else
+    /// `base/<model>` (`fipt-slf/principled`); interned, so a component can return `&str`.
+    pub fn component_name(self, base: &'static str) -> &'static str {
+        use std::collections::HashMap;
+        use std::sync::Mutex;
+        type Names = Mutex<HashMap<(&'static str, &'static str), &'static str>>;
+        static NAMES: std::sync::OnceLock<Names> = std::sync::OnceLock::new();
+        if self == ReflectanceModel::Fipt {
+            return base;
+        }
+        let mut names = NAMES
+            .get_or_init(Default::default)
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        names
+            .entry((base, self.name()))
+            .or_insert_with(|| Box::leak(format!("{base}/{}", self.name()).into_boxed_str()))
     }
 
     /// Whether the diffuse lobe depends on σ (then shadings carry Ld1 and Ld2).
     #[inline]
     pub fn diffuse_depends_on_roughness(self) -> bool {
-        matches!(self, ReflectanceModel::Principled)
+        match self {
+            ReflectanceModel::Fipt => false,
+            ReflectanceModel::Principled => true,
+            ReflectanceModel::External(m) => m.formulas().diffuse_depends_on_roughness(),
+        }
     }
 
     /// Smith masking G1 for one direction at cosine `cos` (> 0) and roughness σ.
@@ -82,6 +127,7 @@ impl ReflectanceModel {
                 let t = a2 * (1.0 - c2);
                 2.0 * cos / (cos + (c2 + t).sqrt())
             }
+            ReflectanceModel::External(m) => m.formulas().g1(cos, sigma),
         }
     }
 
@@ -96,6 +142,11 @@ impl ReflectanceModel {
             }),
             ReflectanceModel::Principled => {
                 std::array::from_fn(|l| ReflectanceModel::Principled.g1(cos, sigmas[l]))
+            }
+            ReflectanceModel::External(m) => {
+                let mut out = [0.0; N];
+                m.formulas().g1_each(cos, sigmas, &mut out);
+                out
             }
         }
     }
@@ -115,6 +166,7 @@ impl ReflectanceModel {
                     r * r * fo * fi,
                 ]
             }
+            ReflectanceModel::External(m) => m.formulas().diffuse_basis(cos_o, cos_i, io),
         }
     }
 }
@@ -128,10 +180,57 @@ impl std::fmt::Display for ReflectanceModel {
 impl std::str::FromStr for ReflectanceModel {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        ReflectanceModel::ALL
-            .into_iter()
+        let known = ReflectanceModel::known();
+        known
+            .iter()
+            .copied()
             .find(|m| m.name() == s)
-            .ok_or_else(|| format!("unknown reflectance model `{s}` (use fipt or principled)"))
+            .ok_or_else(|| {
+                let names: Vec<&str> = known.iter().map(|m| m.name()).collect();
+                format!(
+                    "unknown reflectance model `{s}` (this binary has: {})",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
+impl Serialize for ReflectanceModel {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for ReflectanceModel {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        name.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+/// The built-in `principled` model through the external path ([`ReflectanceFormulas`]),
+/// registered as `principled-via-trait`: the same formulas, so its results are the enum's to
+/// the bit, and its speed against the enum's is the cost of the trait (`fipt bench --suite
+/// bake`). Also a template for a model of one's own.
+pub struct PrincipledViaTrait;
+
+impl ReflectanceFormulas for PrincipledViaTrait {
+    fn name(&self) -> &'static str {
+        "principled-via-trait"
+    }
+    fn description(&self) -> &'static str {
+        "the built-in principled model called through the external-model trait (for measuring its cost)"
+    }
+    fn diffuse_depends_on_roughness(&self) -> bool {
+        true
+    }
+    #[inline]
+    fn g1(&self, cos: f32, sigma: f32) -> f32 {
+        ReflectanceModel::Principled.g1(cos, sigma)
+    }
+    #[inline]
+    fn diffuse_basis(&self, cos_o: f32, cos_i: f32, io: f32) -> [f32; 3] {
+        ReflectanceModel::Principled.diffuse_basis(cos_o, cos_i, io)
     }
 }
 
@@ -281,6 +380,91 @@ mod tests {
             let (b, k) = image_linear_in_base_color(ld, s0, s1, m);
             let i = image(kd, ks, ld, s0, s1);
             assert!((a * b + k - i).abs().max_element() < 1e-5 * (1.0 + i.max_element()));
+        }
+    }
+
+    /// An external model is found by name, serialised as its name, and computes what its
+    /// formulas say; the registry refuses built-in and taken names.
+    #[test]
+    fn external_models_register_and_dispatch() {
+        struct Other;
+        impl ReflectanceFormulas for Other {
+            fn name(&self) -> &'static str {
+                "principled-via-trait"
+            }
+            fn description(&self) -> &'static str {
+                ""
+            }
+            fn diffuse_depends_on_roughness(&self) -> bool {
+                false
+            }
+            fn g1(&self, _: f32, _: f32) -> f32 {
+                1.0
+            }
+            fn diffuse_basis(&self, _: f32, _: f32, _: f32) -> [f32; 3] {
+                [1.0, 0.0, 0.0]
+            }
+        }
+        struct Named(&'static str);
+        impl ReflectanceFormulas for Named {
+            fn name(&self) -> &'static str {
+                self.0
+            }
+            fn description(&self) -> &'static str {
+                ""
+            }
+            fn diffuse_depends_on_roughness(&self) -> bool {
+                false
+            }
+            fn g1(&self, _: f32, _: f32) -> f32 {
+                1.0
+            }
+            fn diffuse_basis(&self, _: f32, _: f32, _: f32) -> [f32; 3] {
+                [1.0, 0.0, 0.0]
+            }
+        }
+        static VIA: PrincipledViaTrait = PrincipledViaTrait;
+        let m = ReflectanceModel::register(&VIA).unwrap();
+        assert_eq!(ReflectanceModel::register(&VIA).unwrap(), m, "idempotent");
+        assert!(ReflectanceModel::register(&Other)
+            .unwrap_err()
+            .contains("already registered"));
+        static FIPT: Named = Named("fipt");
+        static BAD: Named = Named("Oren Nayar");
+        assert!(ReflectanceModel::register(&FIPT)
+            .unwrap_err()
+            .contains("built in"));
+        assert!(ReflectanceModel::register(&BAD).is_err());
+        assert_eq!("principled-via-trait".parse::<ReflectanceModel>(), Ok(m));
+        assert_eq!(
+            serde_json::to_string(&m).unwrap(),
+            "\"principled-via-trait\""
+        );
+        let back: ReflectanceModel = serde_json::from_str("\"principled-via-trait\"").unwrap();
+        assert_eq!(back, m);
+        assert!("nope"
+            .parse::<ReflectanceModel>()
+            .unwrap_err()
+            .contains("principled-via-trait"));
+        assert!(m.diffuse_depends_on_roughness());
+        assert_eq!(
+            m.component_name("fipt-slf"),
+            "fipt-slf/principled-via-trait"
+        );
+        assert_eq!(
+            ReflectanceModel::Fipt.component_name("fipt-slf"),
+            "fipt-slf"
+        );
+        // The same formulas through the trait give the enum's bits.
+        let p = ReflectanceModel::Principled;
+        let mut rng = crate::rng::Pcg32::new(3, 1);
+        for _ in 0..1000 {
+            let (co, ci, s) = (rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let io = 2.0 * rng.next_f32() - 1.0;
+            assert_eq!(m.g1(co, s).to_bits(), p.g1(co, s).to_bits());
+            assert_eq!(m.diffuse_basis(co, ci, io), p.diffuse_basis(co, ci, io));
+            let l = [0.02, s, 1.0];
+            assert_eq!(m.g1_levels(co, &l), p.g1_levels(co, &l));
         }
     }
 

@@ -9,7 +9,7 @@
 //! | shading baker (`fipt_core::shading::ShadingBaker`), in `fipt`'s rounds | `[pipeline] baker` | `slf`: the surface-light-field bake, settings `[bake]` |
 //! | shading refiner (`fipt_core::shading::ShadingRefiner`), in `fipt`'s rounds | `[pipeline] refiner` | `path-grown`: the path-grown refinement, settings `[refine]` |
 //! | emitter extractor (`fipt_core::emitter::EmitterExtractor`) | `[pipeline] extractor` | `mask`: the emission-mask extractor, settings `[emitters]` |
-//! | reflectance model (closed set, `fipt_core::reflectance`) | `[model] brdf` | `principled`, `fipt` |
+//! | reflectance model (`fipt_core::reflectance::ReflectanceFormulas`; built-ins a closed enum) | `[model] brdf`, `--brdf` | `principled`, `fipt` |
 //!
 //! A registered component's settings are the run config's `[plugins.<name>]` table, passed to
 //! its factory as JSON (the factory validates them and names the bad key).
@@ -17,7 +17,7 @@ use crate::bail;
 use crate::error::Result;
 use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::MaterialFitter;
-use fipt_core::reflectance::ReflectanceModel;
+use fipt_core::reflectance::{ReflectanceFormulas, ReflectanceModel};
 use fipt_core::shading::{ShadingBaker, ShadingRefiner};
 use std::collections::BTreeMap;
 
@@ -217,6 +217,20 @@ impl Components {
             .map_err(|err| crate::err!("settings of refiner `{name}`: {err:#}"))
     }
 
+    /// Registers the external reflectance model `model` (process-wide: `[model] brdf` and
+    /// `--brdf` are parsed before a run picks its components). Every baker, refiner and
+    /// renderer takes it as they take the built-in models.
+    ///
+    /// # Panics
+    /// If the model's name is a built-in model's, is taken by another object, or is not
+    /// lower-case letters, digits, `-` and `_`: a mistake in the binary, not in a user's input.
+    pub fn with_reflectance(self, model: &'static dyn ReflectanceFormulas) -> Self {
+        if let Err(e) = ReflectanceModel::register(model) {
+            panic!("Components::with_reflectance: {e}");
+        }
+        self
+    }
+
     /// The names of the registered extractors.
     pub fn extractor_names(&self) -> Vec<&str> {
         self.extractors.keys().map(|k| k.as_str()).collect()
@@ -240,10 +254,17 @@ impl Components {
             .refiners
             .iter()
             .map(|(k, e)| format!("refiner `{k}`: {}", e.description));
+        let models = ReflectanceModel::known().into_iter().map(|m| match m {
+            ReflectanceModel::External(e) => {
+                format!("reflectance model `{m}`: {}", e.formulas().description())
+            }
+            _ => format!("reflectance model `{m}`: built in"),
+        });
         methods
             .chain(bakers)
             .chain(refiners)
             .chain(extractors)
+            .chain(models)
             .collect()
     }
 

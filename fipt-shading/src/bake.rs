@@ -9,7 +9,8 @@
 //! * **Low-discrepancy sampling** (`sampler = "stratified"`): a rank-1 lattice (R2 sequence)
 //!   with a random shift per pixel and term, instead of independent random numbers.
 pub use crate::diffuse::{
-    diffuse_moments, diffuse_shading, CellShading, DiffuseCell, DiffuseCells, DiffuseMoments,
+    diffuse_direct, diffuse_moments, diffuse_shading, moments_express, CellShading, DiffuseCell,
+    DiffuseCells, DiffuseMoments,
 };
 use crate::incident::{IncidentLight, Incoming};
 pub(crate) use crate::passes::{
@@ -336,6 +337,8 @@ impl FactorizedBaker {
         sink: ViewSink,
     ) -> fipt_core::Result<(BakeStats, Option<SurfaceLightField>)> {
         let cfg = &self.config;
+        // The cache holds moments, which express the built-in lobes only.
+        let use_cache = cfg.diffuse_cache && moments_express(self.model);
         let mut stats = BakeStats::default();
         let t = Instant::now();
         let summary = HitsSummary::of(geometry, views, 1.1);
@@ -364,7 +367,7 @@ impl FactorizedBaker {
             images,
             SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels),
             DiffuseCells::new(cube.min, cell),
-            cfg.diffuse_cache,
+            use_cache,
             &selected,
             |_| true,
             0,
@@ -377,11 +380,11 @@ impl FactorizedBaker {
             slf: &slf,
         };
         let t = Instant::now();
-        let cached = cfg.diffuse_cache.then(|| {
+        let cached = use_cache.then(|| {
             stats.cache_cell = cell;
             self.diffuse_cache(&light, &cells, &mut stats)
         });
-        if !cfg.diffuse_cache {
+        if !use_cache {
             stats.rays_diffuse = stats.valid_pixels as u64 * cfg.diffuse_samples as u64;
         }
         stats.seconds_diffuse = t.elapsed().as_secs_f64();
@@ -418,6 +421,33 @@ impl FactorizedBaker {
             &mut st,
             &mut rng,
             full,
+        )
+    }
+
+    /// (Ld0, [Ld1, Ld2]) at one pixel under the SLF, the sample stream keyed by `key`: from the
+    /// moments where they express the model, else by the model's basis for the pixel's ωo.
+    fn pixel_ld(&self, light: &SlfLight, key: &[u64], rec: &PixelRecord) -> (Rgb, [Rgb; 2]) {
+        let model = self.model;
+        if moments_express(model) {
+            return self
+                .diffuse_at(light, key, rec.hit.p, rec.ng, rec.ns)
+                .shading(model, rec.wo, rec.ns);
+        }
+        let cfg = &self.config;
+        let mut st = SampleStream::new(cfg.sampler, key);
+        let mut rng = Pcg32::new(0, 0);
+        let at = (rec.hit.p, rec.ng, rec.ns);
+        let n = cfg.diffuse_samples;
+        diffuse_direct(
+            light,
+            light.geometry,
+            at,
+            rec.wo,
+            model,
+            n,
+            0,
+            &mut st,
+            &mut rng,
         )
     }
 
@@ -467,14 +497,10 @@ impl FactorizedBaker {
             match cached {
                 Some((cells, shading)) => cells.scatter_view(shading, model, &r, &mut s),
                 None => diffuse_per_pixel(
-                    model,
                     &r,
                     &mut s,
                     |_| false,
-                    |i, rec| {
-                        let key = [cfg.seed, 0xD1FF, vi as u64, i as u64];
-                        self.diffuse_at(light, &key, rec.hit.p, rec.ng, rec.ns)
-                    },
+                    |i, rec| self.pixel_ld(light, &[cfg.seed, 0xD1FF, vi as u64, i as u64], rec),
                 ),
             }
             tick(hit);
@@ -542,10 +568,7 @@ impl FactorizedBaker {
 
 impl ShadingBaker for FactorizedBaker {
     fn name(&self) -> &str {
-        match self.model {
-            ReflectanceModel::Fipt => "fipt-slf",
-            ReflectanceModel::Principled => "fipt-slf/principled",
-        }
+        self.model.component_name("fipt-slf")
     }
     fn bake(
         &self,

@@ -118,6 +118,66 @@ impl DiffuseMoments {
     }
 }
 
+/// What an estimate of the diffuse shading sums per incident sample (radiance × estimator
+/// weight `l` from world direction `wi` at cosine `cos` to the shading normal).
+trait DiffuseSum: Default {
+    fn add(&mut self, wi: Vec3, cos: f32, l: Rgb);
+    fn scale(&mut self, s: f32);
+    fn accumulate(&mut self, o: &Self);
+}
+
+/// The moments, all of them when `FULL`, else m0 alone (Lambert's sum compiles to a plain sum).
+#[derive(Default)]
+struct Moments<const FULL: bool>(DiffuseMoments);
+
+impl<const FULL: bool> DiffuseSum for Moments<FULL> {
+    #[inline]
+    fn add(&mut self, wi: Vec3, cos: f32, l: Rgb) {
+        self.0.add(wi, cos, l, FULL)
+    }
+    fn scale(&mut self, s: f32) {
+        self.0.scale(s)
+    }
+    fn accumulate(&mut self, o: &Self) {
+        self.0.accumulate(&o.0)
+    }
+}
+
+/// The model's diffuse basis summed directly for one view direction: what a lobe the moments
+/// do not express (an external model's) needs, per pixel.
+#[derive(Default)]
+struct Direct {
+    model: ReflectanceModel,
+    wo: Vec3,
+    cos_o: f32,
+    sum: [Rgb; 3],
+}
+
+impl DiffuseSum for Direct {
+    #[inline]
+    fn add(&mut self, wi: Vec3, cos: f32, l: Rgb) {
+        let b = self.model.diffuse_basis(self.cos_o, cos, wi.dot(self.wo));
+        for (s, b) in self.sum.iter_mut().zip(b) {
+            *s += l * b;
+        }
+    }
+    fn scale(&mut self, s: f32) {
+        self.sum.iter_mut().for_each(|v| *v *= s);
+    }
+    fn accumulate(&mut self, o: &Self) {
+        for (s, v) in self.sum.iter_mut().zip(o.sum) {
+            *s += v;
+        }
+    }
+}
+
+/// Whether [`DiffuseMoments`] (and so the diffuse cache, one integral per surface cell for every
+/// view) express `model`'s diffuse lobe: Lambert's and Burley's do; an external model's is
+/// integrated per pixel for its own view direction ([`diffuse_direct`]).
+pub fn moments_express(model: ReflectanceModel) -> bool {
+    !matches!(model, ReflectanceModel::External(_))
+}
+
 /// Ld at a surface point: (1/π)∫ Li cos dω by `n` cosine samples (weight = Li) and, when the
 /// light has emitters, `n_light` emitter samples, combined by the power heuristic. `rng` drives
 /// the emitter samples and any path continuation.
@@ -133,7 +193,19 @@ pub fn diffuse_shading<L: IncidentLight>(
     stream: &mut SampleStream,
     rng: &mut Pcg32,
 ) -> Rgb {
-    moments::<L, false>(light, geometry, p, ng, ns, n, n_light, stream, rng).m0
+    let at = (p, ng, ns);
+    estimate(
+        light,
+        geometry,
+        at,
+        n,
+        n_light,
+        stream,
+        rng,
+        Moments::<false>::default,
+    )
+    .0
+    .m0
 }
 
 /// The [`DiffuseMoments`] at a surface point, by the estimator of [`diffuse_shading`] (the same
@@ -151,28 +223,76 @@ pub fn diffuse_moments<L: IncidentLight>(
     rng: &mut Pcg32,
     full: bool,
 ) -> DiffuseMoments {
+    let at = (p, ng, ns);
     if full {
-        moments::<L, true>(light, geometry, p, ng, ns, n, n_light, stream, rng)
+        estimate(
+            light,
+            geometry,
+            at,
+            n,
+            n_light,
+            stream,
+            rng,
+            Moments::<true>::default,
+        )
+        .0
     } else {
-        moments::<L, false>(light, geometry, p, ng, ns, n, n_light, stream, rng)
+        estimate(
+            light,
+            geometry,
+            at,
+            n,
+            n_light,
+            stream,
+            rng,
+            Moments::<false>::default,
+        )
+        .0
     }
 }
 
-/// [`diffuse_moments`], monomorphised on `FULL` (Lambert's m0 alone compiles to a plain sum).
+/// (Ld0, [Ld1, Ld2]) of `model` at a surface point seen from `wo` (world, unit), by the
+/// estimator of [`diffuse_shading`] (the same samples), summing the model's diffuse basis
+/// directly: for lobes [`moments_express`] refuses.
 #[allow(clippy::too_many_arguments)]
-fn moments<L: IncidentLight, const FULL: bool>(
+pub fn diffuse_direct<L: IncidentLight>(
     light: &L,
     geometry: &dyn RayQuery,
-    p: Vec3,
-    ng: Vec3,
-    ns: Vec3,
+    (p, ng, ns): (Vec3, Vec3, Vec3),
+    wo: Vec3,
+    model: ReflectanceModel,
     n: u32,
     n_light: u32,
     stream: &mut SampleStream,
     rng: &mut Pcg32,
-) -> DiffuseMoments {
+) -> (Rgb, [Rgb; 2]) {
+    let cos_o = wo.dot(ns).max(1e-6);
+    let empty = || Direct {
+        model,
+        wo,
+        cos_o,
+        sum: [Vec3::ZERO; 3],
+    };
+    let d = estimate(light, geometry, (p, ng, ns), n, n_light, stream, rng, empty);
+    (d.sum[0], [d.sum[1], d.sum[2]])
+}
+
+/// The estimator of the diffuse shading at `at` = (p, ng, ns): `n` cosine samples and `n_light`
+/// emitter samples combined by the power heuristic, each technique's sum scaled by its count;
+/// `empty()` starts a sum.
+#[allow(clippy::too_many_arguments)]
+fn estimate<L: IncidentLight, S: DiffuseSum>(
+    light: &L,
+    geometry: &dyn RayQuery,
+    (p, ng, ns): (Vec3, Vec3, Vec3),
+    n: u32,
+    n_light: u32,
+    stream: &mut SampleStream,
+    rng: &mut Pcg32,
+    empty: impl Fn() -> S,
+) -> S {
     let n_light = if light.has_emitters() { n_light } else { 0 };
-    let mut sum = DiffuseMoments::default();
+    let mut sum = empty();
     if n == 0 && n_light == 0 {
         return sum;
     }
@@ -182,7 +302,7 @@ fn moments<L: IncidentLight, const FULL: bool>(
     // n·pdf: the cosine technique's many samples reach a small lamp in a random number of
     // hits, which the lamp's own samples do not suffer from.
     if n > 0 {
-        let mut s = DiffuseMoments::default();
+        let mut s = empty();
         for _ in 0..n {
             let wl = sample_cosine_hemisphere(stream.next());
             let wi = frame.to_world(wl);
@@ -198,13 +318,13 @@ fn moments<L: IncidentLight, const FULL: bool>(
                 }
                 Incoming::Emitter { le, .. } => le,
             };
-            s.add(wi, wl.z, l, FULL);
+            s.add(wi, wl.z, l);
         }
         s.scale(1.0 / n as f32);
         sum.accumulate(&s);
     }
     if n_light > 0 {
-        let mut s = DiffuseMoments::default();
+        let mut s = empty();
         for _ in 0..n_light {
             let Some(ls) = light.sample_emitter(origin, rng) else {
                 continue;
@@ -216,7 +336,7 @@ fn moments<L: IncidentLight, const FULL: bool>(
             let p_cos = cos * FRAC_1_PI;
             // f·cos/p = Le·(cos/π)/pdf.
             let l = ls.le * (p_cos / ls.pdf * power_heuristic(ls.pdf, p_cos));
-            s.add(ls.wi, cos, l, FULL);
+            s.add(ls.wi, cos, l);
         }
         s.scale(1.0 / n_light as f32);
         sum.accumulate(&s);

@@ -1,7 +1,7 @@
 //! The passes over the training views that the bake and the refinement share: the SLF and the
 //! diffuse cache's cells built one view at a time, and one view's per-pixel diffuse and
 //! specular shadings.
-use crate::diffuse::{DiffuseCells, DiffuseMoments};
+use crate::diffuse::DiffuseCells;
 use crate::incident::IncidentLight;
 use crate::records::{primary_records, PixelRecord};
 use crate::slf::{SlfBuilder, SurfaceLightField};
@@ -124,20 +124,19 @@ pub(crate) fn check_counts(stage: &str, views: &[View], images: &[Image]) -> fip
     Ok(())
 }
 
-/// Ld per pixel of one view (no cache): `moments_at(pixel, record)` integrates one pixel;
-/// the pixels `skip` accepts keep 0.
+/// Ld per pixel of one view (no cache): `ld_at(pixel, record)` gives one pixel's
+/// (Ld0, [Ld1, Ld2]); the pixels `skip` accepts keep 0.
 pub(crate) fn diffuse_per_pixel(
-    model: ReflectanceModel,
     r: &[Option<PixelRecord>],
     s: &mut ViewShadings,
     skip: impl Fn(&PixelRecord) -> bool + Sync,
-    moments_at: impl Fn(usize, &PixelRecord) -> DiffuseMoments + Sync,
+    ld_at: impl Fn(usize, &PixelRecord) -> (Rgb, [Rgb; 2]) + Sync,
 ) {
     let computed: Vec<(Rgb, [Rgb; 2])> = (0..s.ld.len())
         .into_par_iter()
         .map(|i| match r[i].filter(|r| !skip(r)) {
             None => (Vec3::ZERO, [Vec3::ZERO; 2]),
-            Some(rec) => moments_at(i, &rec).shading(model, rec.wo, rec.ns),
+            Some(rec) => ld_at(i, &rec),
         })
         .collect();
     for (i, (l0, lp)) in computed.into_iter().enumerate() {

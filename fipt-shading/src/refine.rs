@@ -17,9 +17,10 @@
 //! * The field is not evaluated per path vertex: [`FieldSurfaces`] caches it on a voxel grid of
 //!   the observed surface.
 use crate::bake::{
-    check_counts, diffuse_moments, diffuse_per_pixel, empty_view_shadings, primary_records,
-    slf_and_cells, specular_mixture_view, CellShading, DiffuseCells, DiffuseMoments, HitsSummary,
-    PixelRecord, SampleStream, SamplerKind, SpecularSettings,
+    check_counts, diffuse_direct, diffuse_moments, diffuse_per_pixel, empty_view_shadings,
+    moments_express, primary_records, slf_and_cells, specular_mixture_view, CellShading,
+    DiffuseCells, DiffuseMoments, HitsSummary, PixelRecord, SampleStream, SamplerKind,
+    SpecularSettings,
 };
 use crate::brdf::MicrofacetBrdf;
 use crate::field_surfaces::FieldSurfaces;
@@ -553,13 +554,15 @@ impl PathGrownRefiner {
         // would otherwise lend the light's radiance to the surface beside it, which the
         // emitters' own sampling already counts. The diffuse cache's cells beside it.
         let emitting = emitting_triangles(mesh.triangles.len(), inputs.emitters);
+        // The cache holds moments, which express the built-in lobes only.
+        let use_cache = cfg.diffuse_cache && moments_express(model);
         let (slf, cells, _, hit, bled) = slf_and_cells(
             geometry,
             views,
             images,
             SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels),
             DiffuseCells::new(cube.min, footprint * cfg.cache_cell_scale.max(1e-3)),
-            cfg.diffuse_cache,
+            use_cache,
             &selected,
             |r| !emitting[r.hit.tri as usize],
             cfg.slf_light_margin as usize,
@@ -588,7 +591,7 @@ impl PathGrownRefiner {
         };
         // Ld: per cache cell, or per pixel.
         let t = Instant::now();
-        let cached = cfg.diffuse_cache.then(|| pass.cache(&cells, &mut stats));
+        let cached = use_cache.then(|| pass.cache(&cells, &mut stats));
         stats.seconds_diffuse = t.elapsed().as_secs_f64();
         let total = stats.pixels * 2;
         let cached = cached.as_ref().map(|c| (&cells, c));
@@ -644,6 +647,33 @@ impl ViewPass<'_> {
         )
     }
 
+    /// (Ld0, [Ld1, Ld2]) at one pixel, its sample streams keyed by `key`: from the moments
+    /// where they express the model, else by the model's basis for the pixel's ωo.
+    fn pixel_ld(&self, key: &[u64], rec: &PixelRecord) -> (Rgb, [Rgb; 2]) {
+        let model = self.model;
+        if moments_express(model) {
+            return self
+                .moments(key, rec.hit.p, rec.ng, rec.ns)
+                .shading(model, rec.wo, rec.ns);
+        }
+        let cfg = self.cfg;
+        let mut st = SampleStream::new(cfg.sampler, key);
+        let mut rng = Pcg32::from_keys(&[key, &[0x9A7]].concat());
+        let at = (rec.hit.p, rec.ng, rec.ns);
+        let (n, n_light) = (cfg.diffuse_samples, cfg.light_samples);
+        diffuse_direct(
+            self.light,
+            self.geometry,
+            at,
+            rec.wo,
+            model,
+            n,
+            n_light,
+            &mut st,
+            &mut rng,
+        )
+    }
+
     /// Ld of every diffuse cache cell a view uses (emitting cells keep 0).
     fn cache(&self, cells: &DiffuseCells, stats: &mut RefineStats) -> CellShading {
         let needed = cells.used();
@@ -690,9 +720,8 @@ impl ViewPass<'_> {
             let t = Instant::now();
             match cached {
                 Some((cells, shading)) => cells.scatter_view(shading, model, &r, &mut s),
-                None => diffuse_per_pixel(model, &r, &mut s, is_emitter, |i, rec| {
-                    let key = [seed, 0xD1FF, vi as u64, i as u64];
-                    self.moments(&key, rec.hit.p, rec.ng, rec.ns)
+                None => diffuse_per_pixel(&r, &mut s, is_emitter, |i, rec| {
+                    self.pixel_ld(&[seed, 0xD1FF, vi as u64, i as u64], rec)
                 }),
             }
             tick(hit);
@@ -709,10 +738,7 @@ impl ViewPass<'_> {
 
 impl ShadingRefiner for PathGrownRefiner {
     fn name(&self) -> &str {
-        match self.model {
-            ReflectanceModel::Fipt => "fipt-path-grown",
-            ReflectanceModel::Principled => "fipt-path-grown/principled",
-        }
+        self.model.component_name("fipt-path-grown")
     }
     fn refine(
         &self,
