@@ -175,7 +175,20 @@ fn load_checked(a: &RunRequest, cfg: &RunConfig) -> Result<LoadedScene> {
         fipt_core::range::product("the emission mask's queries", &factors, 1e10, "queries")
             .map_err(PipelineError::invalid)?;
     }
+    if let Some(off) = diffuse_cache_off(cfg) {
+        crate::note!("{off}");
+    }
     Ok(scene)
+}
+
+/// Why the diffuse cache is off for this run's reflectance model, if it is.
+fn diffuse_cache_off(cfg: &RunConfig) -> Option<String> {
+    let model = cfg.model.brdf;
+    (!fipt_shading::bake::moments_express(model)).then(|| {
+        format!(
+            "diffuse cache off: its moments express the built-in lobes only, so `{model}`'s diffuse shading is integrated per pixel for each view direction (slower bake and refinement)"
+        )
+    })
 }
 
 /// Runs `parts.fitter` on the scene of `a` and writes the output contract into `a.out`.
@@ -399,6 +412,9 @@ impl Ran<'_> {
             "re_render": self.re_render(),
         });
         extend(&mut modeled, own);
+        if let Some(off) = diffuse_cache_off(cfg) {
+            modeled["diffuse_cache"] = off.into();
+        }
         serde_json::json!({
             "fit": fit,
             "emitters": emitters_summary(user_emitters),

@@ -69,6 +69,10 @@ fn the_external_model_runs_through_fipt_run_and_recovers_its_albedo() {
     let (kd_on, report) = run(&c, &dir, &scene, "oren-nayar");
     assert_eq!(report["components"]["reflectance_model"], "oren-nayar");
     assert_eq!(report["modeled"]["reflectance_model"], "oren-nayar");
+    let cache = report["modeled"]["diffuse_cache"]
+        .as_str()
+        .unwrap_or_default();
+    assert!(cache.starts_with("diffuse cache off"), "{report}");
     let registered = report["components"]["registered"].to_string();
     assert!(
         registered.contains("reflectance model `oren-nayar`"),
