@@ -3,12 +3,12 @@
 //! sampler, specular estimator, SLF fallback) with their accuracy.
 use crate::rays::{make_rays, throughput};
 use crate::{BenchError, Result};
+use fipt_bake::bake::{BakeConfig, BakeStats, FactorizedBaker, SamplerKind, SpecularEstimator};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::memory::peak_rss_mib;
 use fipt_core::metrics::{psnr, srgb_psnr};
 use fipt_core::reflectance::{PrincipledViaTrait, ReflectanceModel};
 use fipt_core::shading::ViewShadings;
-use fipt_shading::bake::{BakeConfig, BakeStats, FactorizedBaker, SamplerKind, SpecularEstimator};
 use glam::Vec3;
 use serde_json::json;
 use std::path::Path;

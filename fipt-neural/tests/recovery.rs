@@ -12,6 +12,7 @@
 //! with these settings (42.6 dB starting from σ = 0.51 instead of 0.98); 2.5 dB with any σ
 //! pull in the prior (even the reference's 5e-4); starting from 0.51, 17 dB without the
 //! segment prior and 14 dB with σ's logit gain at 4 instead of 10.
+use fipt_bake::bake::{primary_records, BakeConfig, FactorizedBaker};
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::field::MaterialField;
 use fipt_core::image::{BadPixelPolicy, Image};
@@ -19,7 +20,6 @@ use fipt_core::metrics::psnr;
 use fipt_core::shading::{lerp_levels, ViewShadings};
 use fipt_geom::{Geometry, Mesh};
 use fipt_neural::{Bounds, LrDecay, TrainConfig, Trainer, TrainingSet};
-use fipt_shading::bake::{primary_records, BakeConfig, FactorizedBaker};
 use fipt_shading::render::RenderConfig;
 use fipt_synth::{build, write_dataset, SynthOptions};
 use glam::Vec3;

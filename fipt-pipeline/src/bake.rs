@@ -2,17 +2,17 @@
 use crate::error::Result;
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
+use fipt_bake::bake::{BakeConfig, BakeStats};
+use fipt_bake::bake_store::{
+    begin, finish, load_if_current, mismatch, shard_done, write_view, BakeManifest, StoredShadings,
+    FORMAT_VERSION,
+};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::image::Image;
 use fipt_core::presets::Presets;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::ShadingBaker;
 use fipt_core::shading::Shard;
-use fipt_shading::bake::{BakeConfig, BakeStats};
-use fipt_shading::bake_store::{
-    begin, finish, load_if_current, mismatch, shard_done, write_view, BakeManifest, StoredShadings,
-    FORMAT_VERSION,
-};
 use std::path::{Path, PathBuf};
 
 /// `fipt bake`: the bake alone, into `out/bake/`.
@@ -119,7 +119,7 @@ pub fn stage(
     if !force {
         // A finished bake is reused as it is; shard manifests beside it are stale.
         if let Ok(done) = load_if_current(dir, &scene.cache_key, settings, &name)? {
-            fipt_shading::bake_store::clear_shard_manifests(dir);
+            fipt_bake::bake_store::clear_shard_manifests(dir);
             return Ok(reusing(dir, done));
         }
         let mut part = |k: Shard| stage(scene, baker, settings, dir, false, k).map(|_| ());

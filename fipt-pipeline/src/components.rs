@@ -68,10 +68,10 @@ impl Components {
             SLF_BAKER,
             "the surface light field of the views and the factorised shadings (settings: [bake])",
             Box::new(|v, model| {
-                let config: fipt_shading::bake::BakeConfig = serde_json::from_value(v.clone())?;
+                let config: fipt_bake::bake::BakeConfig = serde_json::from_value(v.clone())?;
                 config.validate().map_err(crate::error::PipelineError::invalid)?;
                 Ok(Box::new(
-                    fipt_shading::bake::FactorizedBaker::new(config).with_model(model),
+                    fipt_bake::bake::FactorizedBaker::new(config).with_model(model),
                 ))
             }),
         )
@@ -79,10 +79,10 @@ impl Components {
             PATH_GROWN_REFINER,
             "paths grown through glossy surfaces, the SLF at rough ones, emitter sampling (settings: [refine])",
             Box::new(|v, model| {
-                let config: fipt_shading::refine::RefineConfig = serde_json::from_value(v.clone())?;
+                let config: fipt_bake::refine::RefineConfig = serde_json::from_value(v.clone())?;
                 config.validate().map_err(crate::error::PipelineError::invalid)?;
                 Ok(Box::new(
-                    fipt_shading::refine::PathGrownRefiner::new(config).with_model(model),
+                    fipt_bake::refine::PathGrownRefiner::new(config).with_model(model),
                 ))
             }),
         )

@@ -125,8 +125,8 @@ pub fn load_text<T: Serialize + DeserializeOwned>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fipt_bake::bake::BakeConfig;
     use fipt_core::presets::Presets;
-    use fipt_shading::bake::BakeConfig;
 
     #[test]
     fn file_keys_override_the_preset_and_unknown_keys_fail() {
@@ -141,7 +141,7 @@ mod tests {
             BakeConfig::fast().specular_samples,
             "preset kept for absent keys"
         );
-        assert_eq!(c.sampler, fipt_shading::bake::SamplerKind::Independent);
+        assert_eq!(c.sampler, fipt_bake::bake::SamplerKind::Independent);
         // A run config's [bake] section serves `fipt bake` too.
         std::fs::write(
             &p,
@@ -230,8 +230,8 @@ mod tests {
     #[test]
     fn every_stage_knows_every_preset() {
         use crate::run_config::RunConfig;
+        use fipt_bake::refine::RefineConfig;
         use fipt_neural::TrainConfig;
-        use fipt_shading::refine::RefineConfig;
         for name in PRESETS.split(", ") {
             assert!(BakeConfig::preset(name).is_some(), "bake: {name}");
             assert_eq!(

@@ -475,7 +475,7 @@ pub fn evaluate_run(scene: &Path, out: &Path) -> Result<serde_json::Value> {
 /// the renderer's noise.
 pub fn closure_psnr(
     scene: &crate::scene::LoadedScene,
-    sh: &dyn fipt_shading::bake_store::ShadingViews,
+    sh: &dyn fipt_bake::bake_store::ShadingViews,
 ) -> Result<Option<f64>> {
     let ds = &scene.ds;
     let split = ds.train();

@@ -125,13 +125,13 @@ fn past_sharded_stages(host: &Host) -> Result<()> {
 
 /// What the first round leaves for the rest of a FIPT run.
 struct FirstRound {
-    bake: fipt_shading::bake_store::BakeManifest,
+    bake: fipt_bake::bake_store::BakeManifest,
     has_gt: bool,
     searched: Option<crate::search::Searched>,
     searches: Vec<serde_json::Value>,
     closure: Vec<serde_json::Value>,
     /// The initial shadings on disk, for the extraction's bound on reflected light.
-    shadings: fipt_shading::bake_store::StoredShadings,
+    shadings: fipt_bake::bake_store::StoredShadings,
     field: fipt_neural::field::NeuralField,
     train: crate::train::TrainManifest,
 }
@@ -157,7 +157,7 @@ fn first_round(
     let (records, footprint) = host.hits();
     let mut searches = vec![];
     let t = crate::observe::begin("search");
-    let bake_id = fipt_shading::bake_store::fingerprint(&bake);
+    let bake_id = fipt_bake::bake_store::fingerprint(&bake);
     let on = crate::search::SearchOn {
         shadings: &shadings,
         id: &bake_id,
@@ -200,7 +200,7 @@ fn first_round(
 /// The closure of the bake's shadings with the true materials (empty without ground truth).
 fn bake_closure(
     scene: &crate::scene::LoadedScene,
-    shadings: &fipt_shading::bake_store::StoredShadings,
+    shadings: &fipt_bake::bake_store::StoredShadings,
     has_gt: bool,
 ) -> Result<Vec<serde_json::Value>> {
     Ok(if has_gt {

@@ -106,7 +106,7 @@ impl Stages {
 fn fit_views(
     host: &Host,
     parts: &Parts,
-    shadings: Option<&fipt_shading::bake_store::StoredShadings>,
+    shadings: Option<&fipt_bake::bake_store::StoredShadings>,
     segments: Option<&[Vec<i64>]>,
     stages: &Stages,
 ) -> Result<Fitted> {
@@ -184,7 +184,7 @@ fn load_checked(a: &RunRequest, cfg: &RunConfig) -> Result<LoadedScene> {
 /// Why the diffuse cache is off for this run's reflectance model, if it is.
 fn diffuse_cache_off(cfg: &RunConfig) -> Option<String> {
     let model = cfg.model.brdf;
-    (!fipt_shading::bake::moments_express(model)).then(|| {
+    (!fipt_bake::bake::moments_express(model)).then(|| {
         format!(
             "diffuse cache off: its moments express the built-in lobes only, so `{model}`'s diffuse shading is integrated per pixel for each view direction (slower bake and refinement)"
         )
@@ -266,7 +266,7 @@ fn bake_for(
     host: &Host,
     parts: &Parts,
     stages: &Stages,
-) -> Result<Option<fipt_shading::bake_store::StoredShadings>> {
+) -> Result<Option<fipt_bake::bake_store::StoredShadings>> {
     if !parts.fitter.needs_shadings() {
         return Ok(None);
     }
@@ -290,7 +290,7 @@ fn bake_for(
 fn fit_stage(
     host: &Host,
     parts: &Parts,
-    shadings: Option<&fipt_shading::bake_store::StoredShadings>,
+    shadings: Option<&fipt_bake::bake_store::StoredShadings>,
     stages: &Stages,
 ) -> Result<std::result::Result<Fitted, String>> {
     let a = &host.request;
@@ -322,7 +322,7 @@ fn emitters_stage(
     extractor: &dyn EmitterExtractor,
     field: &dyn fipt_core::field::MaterialField,
     emitters: Option<Vec<Emitter>>,
-    shadings: Option<&dyn fipt_shading::bake_store::ShadingViews>,
+    shadings: Option<&dyn fipt_bake::bake_store::ShadingViews>,
     stages: &Stages,
 ) -> Result<(Vec<Emitter>, Vec<Emitter>)> {
     let (a, scene) = (&host.request, &host.scene);

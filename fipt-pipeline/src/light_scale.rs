@@ -9,13 +9,13 @@
 //! facing it, shadowed). The estimate is the guess that makes log kd flattest inside the
 //! mesh's smooth patches, searched one light at a time over a log grid. Its curve says how
 //! well the views pin it: a flat one leaves the convention in place, and the report says so.
+use fipt_bake::slf::SlfBuilder;
 use fipt_core::color::luminance;
 use fipt_core::cube::Cube;
 use fipt_core::dataset::View;
 use fipt_core::image::Image;
 use fipt_core::rng::Pcg32;
 use fipt_geom::{offset_ray_origin, Geometry, TriangleSampler};
-use fipt_shading::slf::SlfBuilder;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -107,7 +107,7 @@ pub fn estimate(
 /// What a sample is measured against: the scene, its lights and its patches.
 struct Surfaces<'a> {
     geometry: &'a Geometry,
-    slf: &'a fipt_shading::slf::SurfaceLightField,
+    slf: &'a fipt_bake::slf::SurfaceLightField,
     is_light: &'a std::collections::HashSet<u32>,
     side: &'a HashMap<u32, f32>,
     samplers: &'a [TriangleSampler],
@@ -223,7 +223,7 @@ fn light_sides(
 /// A(x): the mean radiance the SLF gives over cosine-distributed directions (lights count 0).
 fn gather(
     geometry: &Geometry,
-    slf: &fipt_shading::slf::SurfaceLightField,
+    slf: &fipt_bake::slf::SurfaceLightField,
     is_light: &std::collections::HashSet<u32>,
     o: Vec3,
     n: Vec3,

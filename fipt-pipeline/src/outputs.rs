@@ -516,7 +516,7 @@ pub(crate) fn extract_emitters(
     scene: &crate::scene::LoadedScene,
     records: &[Vec<Option<HitPoint>>],
     field: &dyn fipt_core::field::MaterialField,
-    shadings: Option<&dyn fipt_shading::bake_store::ShadingViews>,
+    shadings: Option<&dyn fipt_bake::bake_store::ShadingViews>,
     extractor: &dyn EmitterExtractor,
 ) -> Result<Vec<Emitter>> {
     let mesh = &scene.geometry.mesh;
@@ -539,7 +539,7 @@ struct TrainingHits<'a> {
     scene: &'a crate::scene::LoadedScene,
     records: &'a [Vec<Option<HitPoint>>],
     /// The initial shadings, for each pixel's bound on reflected light.
-    shadings: Option<&'a dyn fipt_shading::bake_store::ShadingViews>,
+    shadings: Option<&'a dyn fipt_bake::bake_store::ShadingViews>,
 }
 
 impl PixelHits for TrainingHits<'_> {

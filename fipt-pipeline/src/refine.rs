@@ -5,16 +5,16 @@ use crate::error::{PipelineError, Result};
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
 use crate::shard::Sharding;
+use fipt_bake::bake_store::{
+    begin, finish, keyed_mismatch, load_keyed, shard_done, write_view, BakeManifest,
+    StoredShadings, FORMAT_VERSION,
+};
+use fipt_bake::refine::RefineStats;
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{hash_bytes, read_json, write_json_atomic};
 use fipt_core::shading::Shard;
 use fipt_core::shading::{RefineInputs, ShadingRefiner};
-use fipt_shading::bake_store::{
-    begin, finish, keyed_mismatch, load_keyed, shard_done, write_view, BakeManifest,
-    StoredShadings, FORMAT_VERSION,
-};
-use fipt_shading::refine::RefineStats;
 use std::path::Path;
 
 /// A finished refinement: its shadings (on disk), their fingerprint and what the rays met.
@@ -67,7 +67,7 @@ pub fn stage(
     if !force {
         // A finished refinement is reused as it is; shard manifests beside it are stale.
         if let Ok((m, shadings)) = load_keyed(dir, &scene.cache_key, &name, &key)? {
-            fipt_shading::bake_store::clear_shard_manifests(dir);
+            fipt_bake::bake_store::clear_shard_manifests(dir);
             if stats_path.is_file() {
                 return Ok(reused(m, shadings));
             }

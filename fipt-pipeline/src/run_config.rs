@@ -1,13 +1,13 @@
 //! The settings of a run (`RunConfig`: every stage's section, the components, the model, the
 //! capture handling), typed once with `deny_unknown_fields`, and the presets' values.
 use crate::error::Result;
+use fipt_bake::bake::BakeConfig;
+use fipt_bake::refine::RefineConfig;
 use fipt_core::presets::Presets;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_emitter::MaskExtractorConfig;
 use fipt_neural::TrainConfig;
 use fipt_search::SearchConfig;
-use fipt_shading::bake::BakeConfig;
-use fipt_shading::refine::RefineConfig;
 use serde::{Deserialize, Serialize};
 
 /// All settings of a run.

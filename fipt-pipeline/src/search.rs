@@ -6,6 +6,7 @@ use crate::divided::{choose_regions, Divided, DividedCells, SideLookup};
 use crate::error::Result;
 use crate::regions::Regions;
 use crate::scene::LoadedScene;
+use fipt_bake::bake_store::StoredShadings;
 use fipt_core::color::luminance;
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, Image};
@@ -15,7 +16,6 @@ use fipt_search::{
     choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, view_pixels,
     with_cells_keyed, Albedo, RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
 };
-use fipt_shading::bake_store::StoredShadings;
 use fipt_shading::records::{HitPoint, PrimaryHit};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -697,7 +697,7 @@ fn profile_inputs(
 ) -> Result<(crate::scene::LoadedScene, Vec<ViewShadings>, SearchConfig)> {
     let scene = crate::scene::load(&a.scene, a.bad_pixels, Default::default())?;
     let dir = a.out.join(&a.shadings);
-    let shadings = match fipt_shading::bake_store::load_for_inputs(&dir, &scene.cache_key)? {
+    let shadings = match fipt_bake::bake_store::load_for_inputs(&dir, &scene.cache_key)? {
         Ok((_, s)) => s.load_all()?,
         Err(why) => bail!(
             "{}: {why} (run `fipt run` or `fipt bake` first)",

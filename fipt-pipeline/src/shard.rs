@@ -5,8 +5,8 @@
 //! run on one machine. `scripts/slurm/fipt-sharded.sh` drives it.
 use crate::bail;
 use crate::error::{PipelineError, Result};
+use fipt_bake::bake_store::{merge_shards, BakeManifest, ShardState};
 use fipt_core::shading::Shard;
-use fipt_shading::bake_store::{merge_shards, BakeManifest, ShardState};
 use std::path::Path;
 
 /// Refuses a per-view stage whose component (`what` `name`) handed over `written` views when

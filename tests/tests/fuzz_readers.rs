@@ -87,7 +87,7 @@ fn make_seeds() -> Vec<(&'static str, Vec<u8>)> {
     .unwrap();
     let sh =
         fipt_core::shading::ViewShadings::zeros_for(6, 4, fipt_core::shading::DEFAULT_LEVELS, true);
-    let fsh = fipt_shading::bake_store::encode(&sh);
+    let fsh = fipt_bake::bake_store::encode(&sh);
     let cam = b"1\n0 0 1\n0 0 0\n0 1 0\n".to_vec();
     let k = b"1\n5 0 3\n0 5 2\n0 0 1\n".to_vec();
     let read = |f: &str| std::fs::read(d.join(f)).unwrap();
@@ -112,7 +112,7 @@ fn read(kind: &str, bytes: &[u8], d: &Path) -> bool {
         "exr" => Image::read_exr(&path).is_ok(),
         "obj" | "ply" | "glb" => Mesh::load(&path).is_ok(),
         "json" => fipt_core::dataset::read_transforms(&path, Some((6, 4))).is_ok(),
-        "fsh" => fipt_shading::bake_store::decode(bytes, &path).is_ok(),
+        "fsh" => fipt_bake::bake_store::decode(bytes, &path).is_ok(),
         "cam" => {
             let k = d.join("K_list.txt");
             std::fs::write(&k, b"1\n5 0 3\n0 5 2\n0 0 1\n").unwrap();

@@ -11,12 +11,12 @@
 //! `principled` model (the renderer's) removes the mismatch: the glossy box's minimum moves to
 //! its true σ on the bake (the diffuse box and the floor reach theirs after one refinement,
 //! which needs a trained field: `docs/reflectance-models.md`).
+use fipt_bake::bake::{primary_records, BakeConfig, FactorizedBaker};
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::{Geometry, Mesh};
 use fipt_search::{gather_pixels, profile, sigma_grid, Albedo, RegionProfile};
-use fipt_shading::bake::{primary_records, BakeConfig, FactorizedBaker};
 use fipt_tests::studio_scene;
 
 /// One level spacing of the bake's roughness levels.

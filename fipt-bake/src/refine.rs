@@ -22,10 +22,6 @@ use crate::bake::{
     DiffuseCells, DiffuseMoments, HitsSummary, PixelRecord, SampleStream, SamplerKind,
     SpecularSettings,
 };
-use crate::brdf::MicrofacetBrdf;
-use crate::field_surfaces::FieldSurfaces;
-use crate::incident::{power_heuristic, IncidentLight, Incoming, LightSample};
-use crate::scene::SurfaceModel;
 use crate::slf::{SlfBuilder, SurfaceLightField};
 use fipt_core::brdf::{Brdf, Frame};
 use fipt_core::color::Rgb;
@@ -38,6 +34,10 @@ use fipt_core::shading::{
 };
 use fipt_core::CoreError;
 use fipt_geom::{Mesh, TriangleSampler};
+use fipt_shading::brdf::MicrofacetBrdf;
+use fipt_shading::field_surfaces::FieldSurfaces;
+use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming, LightSample};
+use fipt_shading::scene::SurfaceModel;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -276,7 +276,7 @@ impl<'a> GrownLight<'a> {
         max_bounces: u32,
     ) -> Self {
         let (lights, light_pdf_area) =
-            crate::scene::emitter_sampler(mesh, |t| surfaces.emission(t));
+            fipt_shading::scene::emitter_sampler(mesh, |t| surfaces.emission(t));
         GrownLight {
             geometry,
             slf,

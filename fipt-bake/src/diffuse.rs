@@ -12,15 +12,15 @@
 //! Σ L·F_i, Σ L·F_i·ωi, Σ L·F_i·ωi ωiᵀ, Σ L·(1 − F_i/2)) give Ld0, Ld1 and Ld2 exactly for any
 //! ωo ([`DiffuseMoments::shading`]), and the diffuse cache (one integral per surface cell, shared
 //! by every pixel of every view that sees it) serves both models.
-use crate::brdf::sample_cosine_hemisphere;
-use crate::incident::{power_heuristic, IncidentLight, Incoming};
-use crate::records::PixelRecord;
 use crate::stream::SampleStream;
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
 use fipt_core::reflectance::{schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, ViewShadings};
+use fipt_shading::brdf::sample_cosine_hemisphere;
+use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming};
+use fipt_shading::records::PixelRecord;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::collections::HashMap;

@@ -2,8 +2,6 @@
 //! diffuse cache's cells built one view at a time, and one view's per-pixel diffuse and
 //! specular shadings.
 use crate::diffuse::DiffuseCells;
-use crate::incident::IncidentLight;
-use crate::records::{primary_records, PixelRecord};
 use crate::slf::{SlfBuilder, SurfaceLightField};
 use crate::specular::specular_shading_mixture;
 use crate::stream::{SampleStream, SamplerKind};
@@ -13,6 +11,8 @@ use fipt_core::image::Image;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, ViewShadings, NUM_LEVELS};
+use fipt_shading::incident::IncidentLight;
+use fipt_shading::records::{primary_records, PixelRecord};
 use glam::Vec3;
 use rayon::prelude::*;
 

@@ -1,4 +1,9 @@
 //! The initial bake: known incident light, and the closure test on a generated scene.
+use fipt_bake::bake::{
+    diffuse_direct, diffuse_moments, diffuse_shading, moments_express, specular_shading,
+    specular_shading_mixture, BakeConfig, FactorizedBaker, SampleStream, SamplerKind, SlfLight,
+};
+use fipt_bake::slf::{Cube, SlfBuilder};
 use fipt_core::brdf::Brdf;
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::image::BadPixelPolicy;
@@ -7,14 +12,9 @@ use fipt_core::reflectance::{PrincipledViaTrait, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, DEFAULT_LEVELS};
 use fipt_geom::{Geometry, Mesh, TriangleSampler};
-use fipt_shading::bake::{
-    diffuse_direct, diffuse_moments, diffuse_shading, moments_express, specular_shading,
-    specular_shading_mixture, BakeConfig, FactorizedBaker, SampleStream, SamplerKind, SlfLight,
-};
 use fipt_shading::brdf::ladder::albedo_quadrature as quadrature;
 use fipt_shading::brdf::MicrofacetBrdf;
 use fipt_shading::render::RenderConfig;
-use fipt_shading::slf::{Cube, SlfBuilder};
 use fipt_synth::{build, icosphere_mesh, write_dataset, SynthOptions};
 use glam::Vec3;
 
@@ -77,20 +77,7 @@ fn uniform_light_case(model: ReflectanceModel) {
         let (l0, [l1, l2]) = if moments_express(model) {
             moments.shading(model, wo, n)
         } else {
-            let mut st = SampleStream::new(SamplerKind::Stratified, &[1]);
-            let at = (hit.p, n, n);
-            let direct = diffuse_direct(&light, &geo, at, wo, model, 4096, 0, &mut st, &mut rng);
-            let (m0, [m1, m2]) = moments.shading(ReflectanceModel::Principled, wo, n);
-            for (d, m) in [direct.0, direct.1[0], direct.1[1]]
-                .into_iter()
-                .zip([m0, m1, m2])
-            {
-                assert!(
-                    (d - m).abs().max_element() < 1e-5 * l.max_element(),
-                    "{d} vs {m}"
-                );
-            }
-            direct
+            direct_as_moments(&light, &geo, (hit.p, n), wo, model, &moments, l)
         };
         for sigma in [0.02f32, 0.5, 1.0] {
             let got = (l0 + l1 * sigma + l2 * sigma * sigma) / l;
@@ -284,4 +271,31 @@ fn closure_with_ground_truth_materials_reproduces_the_views() {
         report[1].1
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// An external model's Ld summed from its basis at `wo`, checked against the moments of
+/// `principled` (the same samples: the model must be `principled` through the trait).
+fn direct_as_moments(
+    light: &SlfLight,
+    geo: &Geometry,
+    (p, n): (Vec3, Vec3),
+    wo: Vec3,
+    model: ReflectanceModel,
+    moments: &fipt_bake::diffuse::DiffuseMoments,
+    l: Vec3,
+) -> (Vec3, [Vec3; 2]) {
+    let mut st = SampleStream::new(SamplerKind::Stratified, &[1]);
+    let mut rng = Pcg32::new(1, 1);
+    let direct = diffuse_direct(light, geo, (p, n, n), wo, model, 4096, 0, &mut st, &mut rng);
+    let (m0, [m1, m2]) = moments.shading(ReflectanceModel::Principled, wo, n);
+    for (d, m) in [direct.0, direct.1[0], direct.1[1]]
+        .into_iter()
+        .zip([m0, m1, m2])
+    {
+        assert!(
+            (d - m).abs().max_element() < 1e-5 * l.max_element(),
+            "{d} vs {m}"
+        );
+    }
+    direct
 }

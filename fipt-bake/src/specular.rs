@@ -1,12 +1,12 @@
 //! The specular shadings Ls0/Ls1 at every roughness level from one set of GGX samples
 //! (multi-sample MIS over the level lobes), and the half-vector helpers the bake shares.
-use crate::incident::{power_heuristic, IncidentLight, Incoming};
 use crate::stream::SampleStream;
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
 use fipt_core::reflectance::{ggx_d, schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, NUM_LEVELS};
+use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming};
 use glam::{Vec2, Vec3};
 
 /// Reflects `wo` about the half vector `h` (local frame): (local ωi, ωo·h, world ωi), or None

@@ -1,6 +1,7 @@
 //! The bake hands its views over one at a time (`ShadingBaker::bake_into`): each view once, in
 //! order, equal bit for bit to the views of a whole bake, a shard's views only, and a sink's
 //! error stops the bake.
+use fipt_bake::bake::{BakeConfig, FactorizedBaker};
 use fipt_core::dataset::{Dataset, View};
 use fipt_core::image::{BadPixelPolicy, Image};
 use fipt_core::reflectance::ReflectanceModel;
@@ -9,7 +10,6 @@ use fipt_core::shading::{
 };
 use fipt_core::CoreError;
 use fipt_geom::{Geometry, Mesh};
-use fipt_shading::bake::{BakeConfig, FactorizedBaker};
 use fipt_shading::render::RenderConfig;
 use fipt_synth::{build, write_dataset, SynthOptions};
 

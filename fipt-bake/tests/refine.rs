@@ -1,6 +1,12 @@
 //! The path-grown refinement: next-event estimation against an analytic form factor, MIS
 //! against plain BRDF sampling, and the closure test: ground-truth materials through the
 //! refined shadings reproduce the views better than through the initial bake.
+use fipt_bake::bake::{
+    diffuse_shading, specular_shading_mixture, BakeConfig, FactorizedBaker, SampleStream,
+    SamplerKind,
+};
+use fipt_bake::refine::{GrownLight, PathGrownRefiner, RefineConfig};
+use fipt_bake::slf::{Cube, SlfBuilder};
 use fipt_core::dataset::{Dataset, GtKind};
 use fipt_core::emitter::{EmitSide, Emitter};
 use fipt_core::field::{Material, MaterialField};
@@ -9,14 +15,8 @@ use fipt_core::metrics::srgb_psnr;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RefineInputs, ShadingRefiner, ViewShadings, DEFAULT_LEVELS};
 use fipt_geom::{Geometry, Mesh};
-use fipt_shading::bake::{
-    diffuse_shading, specular_shading_mixture, BakeConfig, FactorizedBaker, SampleStream,
-    SamplerKind,
-};
 use fipt_shading::field_surfaces::FieldSurfaces;
-use fipt_shading::refine::{GrownLight, PathGrownRefiner, RefineConfig};
 use fipt_shading::render::RenderConfig;
-use fipt_shading::slf::{Cube, SlfBuilder};
 use fipt_synth::{build, write_dataset, SynthOptions};
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -75,7 +75,7 @@ struct LampScene {
     mesh: Mesh,
     geo: Geometry,
     surfaces: FieldSurfaces,
-    slf: fipt_shading::slf::SurfaceLightField,
+    slf: fipt_bake::slf::SurfaceLightField,
 }
 
 impl LampScene {

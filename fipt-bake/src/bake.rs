@@ -12,13 +12,8 @@ pub use crate::diffuse::{
     diffuse_direct, diffuse_moments, diffuse_shading, moments_express, CellShading, DiffuseCell,
     DiffuseCells, DiffuseMoments,
 };
-use crate::incident::{IncidentLight, Incoming};
 pub(crate) use crate::passes::{
     check_counts, diffuse_per_pixel, slf_and_cells, specular_mixture_view, SpecularSettings,
-};
-pub use crate::records::{
-    empty_shadings, empty_shadings_of, empty_view_shadings, median_footprint, primary_records,
-    HitsSummary, PixelRecord,
 };
 use crate::slf::{Cube, SlfBuilder, SurfaceLightField};
 pub use crate::specular::specular_shading_mixture;
@@ -33,6 +28,11 @@ use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
     Progress, RayQuery, Reported, ShadingBaker, Shard, ViewShadings, ViewSink, DEFAULT_LEVELS,
     NUM_LEVELS,
+};
+use fipt_shading::incident::{IncidentLight, Incoming};
+pub use fipt_shading::records::{
+    empty_shadings, empty_shadings_of, empty_view_shadings, median_footprint, primary_records,
+    HitsSummary, PixelRecord,
 };
 use glam::Vec3;
 use rayon::prelude::*;
