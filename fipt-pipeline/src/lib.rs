@@ -22,7 +22,6 @@ pub mod capture;
 pub mod components;
 pub mod config;
 pub mod degrade;
-mod divided;
 pub mod error;
 pub mod eval;
 pub mod eval_at;

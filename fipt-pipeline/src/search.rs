@@ -2,7 +2,6 @@
 //! curves per region for `fipt profile` (with the ground truth's base colour beside the fitted
 //! one when the scene has it).
 use crate::bail;
-use crate::divided::{choose_regions, Divided, DividedCells, SideLookup};
 use crate::error::Result;
 use crate::regions::Regions;
 use crate::scene::LoadedScene;
@@ -11,6 +10,7 @@ use fipt_core::color::luminance;
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, Image};
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+use fipt_search::divided::{choose_regions, Divided, DividedCells, SideLookup};
 use fipt_search::split::{colour_split, ColourSplit};
 use fipt_search::{
     choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, view_pixels,

@@ -673,6 +673,7 @@ mod choice;
 use choice::argmin;
 pub use choice::choose;
 
+pub mod divided;
 pub mod split;
 
 #[cfg(test)]

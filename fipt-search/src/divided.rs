@@ -1,7 +1,7 @@
-//! Regions divided by colour (`[search.split]`, see `fipt_search::split`): each
+//! Regions divided by colour (`[search.split]`, see [`crate::split`]): each
 //! side's decision, the whole region's, and the side of a training pixel.
-use fipt_search::split::{merged, sides_differ, ColourSplit, SplitConfig};
-use fipt_search::{voxel, RegionChoice, RegionProfile};
+use crate::split::{merged, sides_differ, ColourSplit, SplitConfig};
+use crate::{voxel, RegionChoice, RegionProfile};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -108,7 +108,7 @@ impl SideLookup {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fipt_search::{choose, SearchConfig};
+    use crate::{choose, SearchConfig};
 
     /// A dielectric curve over σ ∈ {0.2, …, 1.0} with its minimum (1.0) at `min_at`, 0.5 higher per step away.
     fn curve(region: u32, min_at: usize) -> RegionProfile {
