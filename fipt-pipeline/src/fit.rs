@@ -15,7 +15,7 @@ use fipt_core::dataset::GtKind;
 use fipt_core::emitter::{Emitter, EmitterExtractor};
 use fipt_core::fit::{FitInputs, FitParts, FitRun, Fitted, MaterialFitter};
 use fipt_core::fsutil::write_json_atomic;
-use fipt_shading::records::{hit_points, HitPoint};
+use fipt_shading::records::{hit_points_and_footprint, HitPoint};
 use std::sync::{Mutex, OnceLock};
 use std::time::Instant;
 
@@ -51,9 +51,8 @@ impl Host {
         self.hits.get_or_init(|| {
             let views = &self.scene.ds.train().views;
             let geometry = &self.scene.geometry;
-            let records = views.iter().map(|v| hit_points(geometry, v)).collect();
-            let footprint = fipt_shading::records::view_footprint(geometry, views).unwrap_or(0.01);
-            (records, footprint)
+            let (records, footprint) = hit_points_and_footprint(geometry, views);
+            (records, footprint.unwrap_or(0.01))
         })
     }
 }

@@ -720,12 +720,8 @@ fn profile_inputs(
 pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
     let (scene, shadings, cfg) = profile_inputs(a)?;
     let split = scene.ds.train();
-    let records: Vec<_> = split
-        .views
-        .iter()
-        .map(|v| fipt_shading::records::hit_points(&scene.geometry, v))
-        .collect();
-    let footprint = fipt_shading::records::view_footprint(&scene.geometry, &split.views);
+    let (records, footprint) =
+        fipt_shading::records::hit_points_and_footprint(&scene.geometry, &split.views);
     let Some(Prepared {
         regions,
         pixels,

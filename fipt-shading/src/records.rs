@@ -56,7 +56,11 @@ pub fn hit_points(geometry: &dyn RayQuery, view: &View) -> Vec<Option<HitPoint>>
     // A new allocation of the hits' size: `into_iter().map().collect()` would reuse the
     // records' buffer in place, and a whole run's hits then kept the records' size (about
     // 5× theirs: several GiB at 200 views of 640 × 480).
-    let records = primary_records(geometry, view);
+    points_of(&primary_records(geometry, view))
+}
+
+/// The hit points of one view's primary `records`, in an allocation of their own size.
+fn points_of(records: &[Option<PixelRecord>]) -> Vec<Option<HitPoint>> {
     let mut hits = Vec::with_capacity(records.len());
     hits.extend(records.iter().map(|r| {
         r.as_ref().map(|r| HitPoint {
@@ -65,6 +69,24 @@ pub fn hit_points(geometry: &dyn RayQuery, view: &View) -> Vec<Option<HitPoint>>
         })
     }));
     hits
+}
+
+/// [`hit_points`] of every view and their median pixel footprint ([`view_footprint`]), each
+/// view traced once for both.
+pub fn hit_points_and_footprint(
+    geometry: &dyn RayQuery,
+    views: &[View],
+) -> (Vec<Vec<Option<HitPoint>>>, Option<f32>) {
+    let mut foot = vec![];
+    let hits = views
+        .iter()
+        .map(|v| {
+            let records = primary_records(geometry, v);
+            push_footprints(v, &records, &mut foot);
+            points_of(&records)
+        })
+        .collect();
+    (hits, median(foot))
 }
 
 /// Primary hits of every pixel centre of a view.
