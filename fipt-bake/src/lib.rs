@@ -13,9 +13,10 @@
 //! * [`bake_store`]: shadings on disk, one file per view, read back view by view;
 //! * [`limits`]: the settings' bounds.
 //!
-//! It owns the shading estimators and their storage. It uses the renderer's pieces from
-//! `fipt-shading` (BRDFs, the incident-light contract, primary hits, the field cached on a
-//! voxel grid) and must never import the pipeline, the neural field, the search or a method:
+//! It owns the shading estimators and their storage. It uses meshes and emitter sampling from
+//! `fipt-geom` and the renderer's pieces from `fipt-shading` (BRDFs, the incident-light
+//! contract, primary hits, `SurfaceModel` and its emitter sampler, the field cached on a voxel
+//! grid) and must never import the pipeline, the neural field, the search or a method:
 //! it sees the field only as a [`fipt_core::field::MaterialField`].
 pub mod bake;
 pub mod bake_store;

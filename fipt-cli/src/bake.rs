@@ -27,7 +27,7 @@ pub struct Args {
     #[arg(long)]
     force: bool,
     /// The reflectance model whose shadings are baked: principled (as `fipt run`'s presets) or
-    /// fipt (as `--preset reference`).
+    /// fipt (as `--preset reference`), or one the binary registers.
     #[arg(long, default_value = "principled")]
     brdf: ReflectanceModel,
     /// Bake only the views k with k mod N = K (a task of a job array); the shard that finds

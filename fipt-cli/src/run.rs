@@ -23,7 +23,8 @@ pub struct Args {
     /// registers; emitter extractors (`[pipeline] extractor = "…"`): mask (built in) and those
     /// the binary registers (report.json lists them). Reflectance models
     /// (`[model] brdf = "…"`): principled (Burley + GGX: Mitsuba 3's `principled`, Blender, glTF;
-    /// every preset but reference) or fipt (Lambert + GGX, the method's; reference).
+    /// every preset but reference), fipt (Lambert + GGX, the method's; reference), or one the
+    /// binary registers (`examples/oren-nayar`).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// The method, over `[pipeline] method`: fipt (built in), ipt (inverse path tracing, the

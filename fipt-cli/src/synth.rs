@@ -30,7 +30,8 @@ pub struct Args {
     /// Write into a non-empty folder (files of the same name are replaced).
     #[arg(long)]
     force: bool,
-    /// The reflectance model the views are rendered with: fipt or principled.
+    /// The reflectance model the views are rendered with: fipt, principled, or one the binary
+    /// registers.
     #[arg(long, default_value = "fipt")]
     brdf: fipt_core::reflectance::ReflectanceModel,
     /// Split every triangle into four this many times (the same scene with 4^K times the

@@ -90,13 +90,18 @@ impl ReflectanceModel {
         if self == ReflectanceModel::Fipt {
             return base;
         }
+        // An external model's stored shadings are keyed by its formulas too.
+        let tag = match self {
+            ReflectanceModel::External(m) => format!("{}#{:08x}", self.name(), m.fingerprint()),
+            _ => self.name().to_string(),
+        };
         let mut names = NAMES
             .get_or_init(Default::default)
             .lock()
             .unwrap_or_else(|e| e.into_inner());
         names
             .entry((base, self.name()))
-            .or_insert_with(|| Box::leak(format!("{base}/{}", self.name()).into_boxed_str()))
+            .or_insert_with(|| Box::leak(format!("{base}/{tag}").into_boxed_str()))
     }
 
     /// Whether the diffuse lobe depends on σ (then shadings carry Ld1 and Ld2).
@@ -428,7 +433,7 @@ mod tests {
         assert_eq!(ReflectanceModel::register(&VIA).unwrap(), m, "idempotent");
         assert!(ReflectanceModel::register(&Other)
             .unwrap_err()
-            .contains("already registered"));
+            .contains("other formulas"));
         static FIPT: Named = Named("fipt");
         static BAD: Named = Named("Oren Nayar");
         assert!(ReflectanceModel::register(&FIPT)
@@ -447,10 +452,35 @@ mod tests {
             .unwrap_err()
             .contains("principled-via-trait"));
         assert!(m.diffuse_depends_on_roughness());
+        let ReflectanceModel::External(e) = m else {
+            panic!("{m:?}")
+        };
         assert_eq!(
             m.component_name("fipt-slf"),
-            "fipt-slf/principled-via-trait"
+            format!("fipt-slf/principled-via-trait#{:08x}", e.fingerprint())
         );
+        // The contract is checked at registration.
+        struct Bright;
+        impl ReflectanceFormulas for Bright {
+            fn name(&self) -> &'static str {
+                "bright"
+            }
+            fn description(&self) -> &'static str {
+                ""
+            }
+            fn diffuse_depends_on_roughness(&self) -> bool {
+                false
+            }
+            fn g1(&self, _: f32, _: f32) -> f32 {
+                1.0
+            }
+            fn diffuse_basis(&self, _: f32, _: f32, _: f32) -> [f32; 3] {
+                [1.0, 0.5, 0.0]
+            }
+        }
+        static BRIGHT: Bright = Bright;
+        let err = ReflectanceModel::register(&BRIGHT).unwrap_err();
+        assert!(err.contains("diffuse_depends_on_roughness"), "{err}");
         assert_eq!(
             ReflectanceModel::Fipt.component_name("fipt-slf"),
             "fipt-slf"

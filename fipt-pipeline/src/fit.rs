@@ -174,16 +174,21 @@ fn load_checked(a: &RunRequest, cfg: &RunConfig) -> Result<LoadedScene> {
         fipt_core::range::product("the emission mask's queries", &factors, 1e10, "queries")
             .map_err(PipelineError::invalid)?;
     }
-    if let Some(off) = diffuse_cache_off(cfg) {
+    if let Some(off) = diffuse_cache_off(cfg, false) {
         crate::note!("{off}");
     }
     Ok(scene)
 }
 
-/// Why the diffuse cache is off for this run's reflectance model, if it is.
-fn diffuse_cache_off(cfg: &RunConfig) -> Option<String> {
-    let model = cfg.model.brdf;
-    (!fipt_bake::bake::moments_express(model)).then(|| {
+/// Why the diffuse cache is off for this run's reflectance model, if it is and the run's
+/// shadings come from the built-in bake (`baked`: the method asked for one) or, under FIPT, the
+/// built-in refinement.
+fn diffuse_cache_off(cfg: &RunConfig, baked: bool) -> Option<String> {
+    let (model, p) = (cfg.model.brdf, &cfg.pipeline);
+    let fipt = p.method == crate::names::FIPT_METHOD;
+    let slf = p.baker == crate::names::SLF_BAKER && (baked || fipt);
+    let grown = fipt && p.refiner == crate::names::PATH_GROWN_REFINER;
+    (!fipt_bake::bake::moments_express(model) && (slf || grown)).then(|| {
         format!(
             "diffuse cache off: its moments express the built-in lobes only, so `{model}`'s diffuse shading is integrated per pixel for each view direction (slower bake and refinement)"
         )
@@ -411,7 +416,7 @@ impl Ran<'_> {
             "re_render": self.re_render(),
         });
         extend(&mut modeled, own);
-        if let Some(off) = diffuse_cache_off(cfg) {
+        if let Some(off) = diffuse_cache_off(cfg, self.baked) {
             modeled["diffuse_cache"] = off.into();
         }
         serde_json::json!({

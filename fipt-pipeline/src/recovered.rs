@@ -107,8 +107,15 @@ impl RunOutput {
                 scene.display()
             );
         }
-        let model = serde_json::from_value(report["settings"]["model"]["brdf"].clone())
-            .unwrap_or(ReflectanceModel::Fipt);
+        let model = match report["settings"]["model"]["brdf"].as_str() {
+            None => ReflectanceModel::Fipt,
+            Some(name) => name.parse::<ReflectanceModel>().map_err(|e| {
+                crate::err!(
+                    "{}: the run was made under reflectance model `{name}`: {e}; use the binary that registers it (as the run did)",
+                    dir.display()
+                )
+            })?,
+        };
         let method = report["settings"]["pipeline"]["method"]
             .as_str()
             .unwrap_or("fipt")

@@ -16,7 +16,8 @@
 //! * [`denoise`]: the re-renders' denoiser.
 //!
 //! The bake and the refinement are in `fipt-bake`, the procedural scenes in `fipt-synth`. This
-//! crate must never import those, the pipeline, the neural field or the search.
+//! crate must never import those (outside its tests, which render `fipt-synth`'s scenes), the
+//! pipeline, the neural field or the search.
 //!
 //! ```
 //! use fipt_core::brdf::Brdf;
