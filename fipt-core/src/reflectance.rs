@@ -388,54 +388,40 @@ mod tests {
         }
     }
 
+    /// A test model: G1 ≡ 1, a constant diffuse basis, σ-independent by its own account.
+    struct Fixed(&'static str, [f32; 3]);
+
+    impl ReflectanceFormulas for Fixed {
+        fn name(&self) -> &'static str {
+            self.0
+        }
+        fn description(&self) -> &'static str {
+            ""
+        }
+        fn diffuse_depends_on_roughness(&self) -> bool {
+            false
+        }
+        fn g1(&self, _: f32, _: f32) -> f32 {
+            1.0
+        }
+        fn diffuse_basis(&self, _: f32, _: f32, _: f32) -> [f32; 3] {
+            self.1
+        }
+    }
+
     /// An external model is found by name, serialised as its name, and computes what its
     /// formulas say; the registry refuses built-in and taken names.
     #[test]
     fn external_models_register_and_dispatch() {
-        struct Other;
-        impl ReflectanceFormulas for Other {
-            fn name(&self) -> &'static str {
-                "principled-via-trait"
-            }
-            fn description(&self) -> &'static str {
-                ""
-            }
-            fn diffuse_depends_on_roughness(&self) -> bool {
-                false
-            }
-            fn g1(&self, _: f32, _: f32) -> f32 {
-                1.0
-            }
-            fn diffuse_basis(&self, _: f32, _: f32, _: f32) -> [f32; 3] {
-                [1.0, 0.0, 0.0]
-            }
-        }
-        struct Named(&'static str);
-        impl ReflectanceFormulas for Named {
-            fn name(&self) -> &'static str {
-                self.0
-            }
-            fn description(&self) -> &'static str {
-                ""
-            }
-            fn diffuse_depends_on_roughness(&self) -> bool {
-                false
-            }
-            fn g1(&self, _: f32, _: f32) -> f32 {
-                1.0
-            }
-            fn diffuse_basis(&self, _: f32, _: f32, _: f32) -> [f32; 3] {
-                [1.0, 0.0, 0.0]
-            }
-        }
         static VIA: PrincipledViaTrait = PrincipledViaTrait;
         let m = ReflectanceModel::register(&VIA).unwrap();
         assert_eq!(ReflectanceModel::register(&VIA).unwrap(), m, "idempotent");
-        assert!(ReflectanceModel::register(&Other)
+        static OTHER: Fixed = Fixed("principled-via-trait", [1.0, 0.0, 0.0]);
+        assert!(ReflectanceModel::register(&OTHER)
             .unwrap_err()
             .contains("other formulas"));
-        static FIPT: Named = Named("fipt");
-        static BAD: Named = Named("Oren Nayar");
+        static FIPT: Fixed = Fixed("fipt", [1.0, 0.0, 0.0]);
+        static BAD: Fixed = Fixed("Oren Nayar", [1.0, 0.0, 0.0]);
         assert!(ReflectanceModel::register(&FIPT)
             .unwrap_err()
             .contains("built in"));
@@ -460,25 +446,7 @@ mod tests {
             format!("fipt-slf/principled-via-trait#{:08x}", e.fingerprint())
         );
         // The contract is checked at registration.
-        struct Bright;
-        impl ReflectanceFormulas for Bright {
-            fn name(&self) -> &'static str {
-                "bright"
-            }
-            fn description(&self) -> &'static str {
-                ""
-            }
-            fn diffuse_depends_on_roughness(&self) -> bool {
-                false
-            }
-            fn g1(&self, _: f32, _: f32) -> f32 {
-                1.0
-            }
-            fn diffuse_basis(&self, _: f32, _: f32, _: f32) -> [f32; 3] {
-                [1.0, 0.5, 0.0]
-            }
-        }
-        static BRIGHT: Bright = Bright;
+        static BRIGHT: Fixed = Fixed("bright", [1.0, 0.5, 0.0]);
         let err = ReflectanceModel::register(&BRIGHT).unwrap_err();
         assert!(err.contains("diffuse_depends_on_roughness"), "{err}");
         assert_eq!(
