@@ -193,19 +193,7 @@ pub fn diffuse_shading<L: IncidentLight>(
     stream: &mut SampleStream,
     rng: &mut Pcg32,
 ) -> Rgb {
-    let at = (p, ng, ns);
-    estimate(
-        light,
-        geometry,
-        at,
-        n,
-        n_light,
-        stream,
-        rng,
-        Moments::<false>::default,
-    )
-    .0
-    .m0
+    diffuse_moments(light, geometry, p, ng, ns, n, n_light, stream, rng, false).m0
 }
 
 /// The [`DiffuseMoments`] at a surface point, by the estimator of [`diffuse_shading`] (the same
