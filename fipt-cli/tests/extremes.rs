@@ -38,13 +38,10 @@ fn image_scale_does_not_change_the_answer() {
     std::fs::write(&cfg, small_run_config("fipt", 32)).unwrap();
     let mut results = Vec::new();
     for k in [1.0f32, 1e5, 1e-6] {
-        let scene = if k == 1.0 {
-            base.clone()
-        } else {
-            tmp(&format!("scale-{k:e}"))
-        };
+        let scaled = (k != 1.0).then(|| tmp(&format!("scale-{k:e}")));
+        let scene: &std::path::Path = scaled.as_deref().unwrap_or(&base);
         if k != 1.0 {
-            scaled_copy(&base, &scene, k);
+            scaled_copy(&base, scene, k);
         }
         let out = tmp(&format!("scale-out-{k:e}"));
         let (ok, stdout, err) = fipt(&[
@@ -91,7 +88,7 @@ fn image_scale_does_not_change_the_answer() {
 fn extreme_scene(
     name: &str,
     edit: impl Fn(&mut serde_json::Value, &mut fipt_geom::Mesh, &mut Vec<fipt_core::camera::Camera>),
-) -> std::path::PathBuf {
+) -> common::Scratch {
     let dir = tmp(&format!("extreme-{name}"));
     let d = dir.to_str().unwrap();
     synth_cornell(d, [10, 2, 40, 30, 4]);

@@ -52,9 +52,9 @@ fn final_train(run: &Path) -> String {
 }
 
 struct Fixture {
-    scene: PathBuf,
+    scene: common::Scratch,
     cfg: PathBuf,
-    run: PathBuf,
+    run: common::Scratch,
 }
 
 impl Fixture {

@@ -37,8 +37,11 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// The fuzz files' folder, under cargo's scratch folder for integration tests (`target/tmp`,
+/// not the system's temporary folder, which the files outlived).
 fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fipt-fuzz-{}", std::process::id()));
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("fipt-fuzz-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
 }

@@ -31,10 +31,38 @@ pub fn run(scene: &std::path::Path, out: &std::path::Path, cfg: &std::path::Path
     stdout
 }
 
-pub fn tmp(name: &str) -> PathBuf {
+/// A scratch folder, emptied when made and removed when dropped, unless the test is failing
+/// (then it stays, for a look, and its path is printed).
+pub struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for Scratch {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("kept for a look: {}", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+/// `$TMPDIR/fipt-cli-PID-name`, empty (nothing is there yet).
+pub fn tmp(name: &str) -> Scratch {
     let d = std::env::temp_dir().join(format!("fipt-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
-    d
+    Scratch(d)
 }
 
 /// The cut-down run config of the e2e runs: `model`, `diffuse` samples in the bake and the
@@ -53,7 +81,7 @@ pub fn small_run_config(model: &str, diffuse: u32) -> String {
 /// A 3-view cornell at 24×16 and a run config small enough to run in seconds, with a
 /// checkpoint every 50 of `steps` training steps: for kill-and-resume tests. Returns the scene
 /// folder and the config file.
-pub fn tiny_resumable_scene(name: &str, steps: u32) -> (PathBuf, PathBuf) {
+pub fn tiny_resumable_scene(name: &str, steps: u32) -> (Scratch, PathBuf) {
     let dir = tmp(name);
     synth_cornell(dir.to_str().unwrap(), [3, 1, 24, 16, 8]);
     let cfg = dir.join("run.toml");
