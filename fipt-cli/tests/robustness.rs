@@ -121,6 +121,9 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
 
     let out = tmp("rb-folders-out");
     let o = out.to_str().unwrap();
+    // The bad settings and lights files, in a folder of their own (removed with it).
+    let files = tmp("rb-folders-files");
+    std::fs::create_dir_all(&files).unwrap();
     options_out_of_range_are_refused(r, &cams, o);
     // Settings out of range: refused by key before the run folder is touched.
     for (toml, key) in [
@@ -131,7 +134,7 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
         ("[render]\nspp = 4000000000\n", "render.spp"),
         ("[train]\nsteps = 0\n", "steps = 0"),
     ] {
-        let cfg = out.with_extension("toml");
+        let cfg = files.join("bad.toml");
         std::fs::write(&cfg, toml).unwrap();
         let fresh = tmp("rb-folders-fresh");
         let s = f.scene.to_str().unwrap();
@@ -160,7 +163,7 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
             &["encloses camera"][..],
         ),
     ] {
-        let p = out.with_extension("lights.json");
+        let p = files.join("bad.lights.json");
         std::fs::write(&p, light).unwrap();
         let l = p.to_str().unwrap();
         let args = [
