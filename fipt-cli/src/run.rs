@@ -119,4 +119,7 @@ fn print_stages(stages: &[StageReport]) {
                 .map_or("–".to_string(), |m| format!("{m:.0}"))
         );
     }
+    if let Some(most) = StageReport::run_peak(stages) {
+        println!("{:<10} {:>9} {:>14.0}", "peak", "", most);
+    }
 }

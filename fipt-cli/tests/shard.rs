@@ -139,6 +139,14 @@ fn a_stopped_run_keeps_its_stages(out: &Path) {
         "{r}"
     );
     assert!(r["stages"][0]["peak_rss_mib"].as_f64().is_some(), "{r}");
+    // The run's peak is the largest of its stages'.
+    let most = r["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|s| s["peak_rss_mib"].as_f64())
+        .fold(0.0, f64::max);
+    assert_eq!(r["peak_rss_mib"].as_f64(), Some(most), "{r}");
 }
 
 /// While a shard works in the folder (its lock held by a live process: this test), a plain run

@@ -33,6 +33,16 @@ impl StageReport {
             computed_seconds: reused.map_or(Some(seconds), |s| s.is_finite().then_some(s)),
         }
     }
+
+    /// The run's peak RSS: the largest of its stages' (`report.json`'s `peak_rss_mib`). Each
+    /// stage resets the kernel's high-water mark, so `/usr/bin/time` shows only the last
+    /// stage's.
+    pub fn run_peak(stages: &[StageReport]) -> Option<f64> {
+        stages
+            .iter()
+            .filter_map(|s| s.peak_rss_mib)
+            .reduce(f64::max)
+    }
 }
 
 /// A stage's wall time and the process's peak memory while it ran (since the stage before it
@@ -123,13 +133,15 @@ pub(crate) fn mark_status_after(
     }
     if !stages.is_empty() {
         r["stages"] = serde_json::json!(stages);
+        r["peak_rss_mib"] = serde_json::json!(StageReport::run_peak(stages));
     }
     fipt_core::fsutil::write_json_atomic(&out.join("report.json"), &r)?;
     Ok(())
 }
 
 /// The part of `report.json` every method writes: version, scene, preset, settings, the size of
-/// the inputs, the stages' times and the whole run's.
+/// the inputs, the stages' times and the whole run's, and the run's peak RSS
+/// ([`StageReport::run_peak`]).
 pub(crate) fn report_header(
     a: &RunRequest,
     scene: &crate::scene::LoadedScene,
@@ -142,6 +154,7 @@ pub(crate) fn report_header(
         "seconds_total": t_all.elapsed().as_secs_f64(),
         "stages_reused": stages.iter().filter(|s| s.reused).count(),
         "seconds_computed_total": computed_total(stages),
+        "peak_rss_mib": StageReport::run_peak(stages),
         "fipt_version": env!("CARGO_PKG_VERSION"),
         "status": "complete",
         "scene": a.scene,
