@@ -36,7 +36,7 @@ enum Fit {
     Off,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
     if let Some(cams) = &a.cameras_from {
         use fipt_pipeline::eval_at::{evaluate_at, render_dir, EvalAtRequest, FitScales};
         let same = |p: &PathBuf| p.canonicalize().ok();
@@ -47,18 +47,21 @@ pub fn run(a: Args) -> Result<()> {
                 a.scene.display()
             );
         }
-        let m = evaluate_at(&EvalAtRequest {
-            truth: a.scene.clone(),
-            out: a.out.clone(),
-            split: a.split,
-            spp: a.spp,
-            seed: a.seed,
-            fit: match a.fit_scales {
-                Fit::Auto => FitScales::Auto,
-                Fit::On => FitScales::On,
-                Fit::Off => FitScales::Off,
+        let m = evaluate_at(
+            &EvalAtRequest {
+                truth: a.scene.clone(),
+                out: a.out.clone(),
+                split: a.split,
+                spp: a.spp,
+                seed: a.seed,
+                fit: match a.fit_scales {
+                    Fit::Auto => FitScales::Auto,
+                    Fit::On => FitScales::On,
+                    Fit::Off => FitScales::Off,
+                },
             },
-        })?;
+            components,
+        )?;
         print_metrics(&m);
         for (name, v) in m.as_object().into_iter().flatten() {
             let c = &v["cameras_from"];

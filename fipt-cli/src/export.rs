@@ -28,16 +28,19 @@ pub struct Args {
     per_vertex: bool,
 }
 
-pub fn run(a: Args) -> Result<()> {
-    let sum = export_run(&ExportRequest {
-        run: a.run,
-        scene: a.scene,
-        format: a.format,
-        out: a.out.clone(),
-        texel: a.texel,
-        max_atlas: a.max_atlas,
-        per_vertex: a.per_vertex,
-    })?;
+pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
+    let sum = export_run(
+        &ExportRequest {
+            run: a.run,
+            scene: a.scene,
+            format: a.format,
+            out: a.out.clone(),
+            texel: a.texel,
+            max_atlas: a.max_atlas,
+            per_vertex: a.per_vertex,
+        },
+        components,
+    )?;
     match sum.atlas {
         Some((w, h, charts, s)) => println!(
             "atlas {w}×{h} texels, {charts} charts, texel {:.1} mm",

@@ -64,29 +64,32 @@ pub struct Args {
     denoise: String,
 }
 
-pub fn run(a: Args) -> Result<()> {
-    let summary = render_request(&RenderRequest {
-        source: a.source,
-        materials: a.materials,
-        scene: a.scene,
-        cameras: a.cameras,
-        out: a.out,
-        size: a.size.map(|s| (s[0], s[1])),
-        spp: a.spp,
-        max_bounces: a.max_bounces,
-        seed: a.seed,
-        views: a.views,
-        brdf: a.brdf,
-        lights: a.lights,
-        emitters: a.emitters,
-        edits: a.edits,
-        reference: a.reference,
-        denoise: match a.denoise.as_str() {
-            "on" => Some(true),
-            "off" => Some(false),
-            _ => None,
+pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
+    let summary = render_request(
+        &RenderRequest {
+            source: a.source,
+            materials: a.materials,
+            scene: a.scene,
+            cameras: a.cameras,
+            out: a.out,
+            size: a.size.map(|s| (s[0], s[1])),
+            spp: a.spp,
+            max_bounces: a.max_bounces,
+            seed: a.seed,
+            views: a.views,
+            brdf: a.brdf,
+            lights: a.lights,
+            emitters: a.emitters,
+            edits: a.edits,
+            reference: a.reference,
+            denoise: match a.denoise.as_str() {
+                "on" => Some(true),
+                "off" => Some(false),
+                _ => None,
+            },
         },
-    })?;
+        components,
+    )?;
     for (out, psnr) in &summary.outputs {
         if !psnr.is_empty() {
             println!("{:>5} {:>12}", "view", "sRGB PSNR dB");

@@ -43,6 +43,10 @@ pub enum CoreError {
         x: usize,
         y: usize,
     },
+    /// Bad settings or inputs of a computation (no file involved); the message says what to
+    /// change.
+    #[error("{what}: {message}")]
+    Config { what: String, message: String },
     /// A method's (or another component's) own error, carried through the contract whole: the
     /// host may look inside (`fipt run` recovers its own errors from FIPT's method so).
     #[error(transparent)]
@@ -69,6 +73,13 @@ impl CoreError {
         CoreError::Io {
             path: path.into(),
             source,
+        }
+    }
+    /// A [`CoreError::Config`] error.
+    pub fn config(what: impl Into<String>, message: impl Into<String>) -> Self {
+        CoreError::Config {
+            what: what.into(),
+            message: message.into(),
         }
     }
     /// An invalid-input error naming the file.

@@ -40,6 +40,11 @@ pub trait MaterialField: Send + Sync {
     fn materials(&self, points: &[Vec3]) -> Result<Vec<Material>>;
     /// Emission mask α ∈ [0, 1] at `points`.
     fn emission_mask(&self, points: &[Vec3]) -> Result<Vec<f32>>;
+    /// The field as its own type, for a component that can do more with a field of its own
+    /// kind (a trainer warm-starting from its previous round's field). None by default.
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
 }
 
 #[cfg(test)]

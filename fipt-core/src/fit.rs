@@ -26,7 +26,15 @@ pub struct FitParts<'a> {
     pub refine_settings: &'a serde_json::Value,
     /// `[pipeline] extractor`.
     pub extractor: &'a dyn EmitterExtractor,
+    /// `[pipeline] trainer`: builds the trainer from settings; `train_settings` are the
+    /// configured ones (a method may change them for a round and build another trainer).
+    pub trainer: MakeTrainer<'a>,
+    pub train_settings: &'a serde_json::Value,
 }
+
+/// Builds the run's field trainer from its settings.
+pub type MakeTrainer<'a> =
+    &'a (dyn Fn(&serde_json::Value) -> Result<Box<dyn crate::trainer::FieldTrainer>> + Sync);
 
 /// Reports a stage of the method's own as done: its name and when it began (its time and peak
 /// memory then go in `report.json`'s `stages`).

@@ -14,6 +14,8 @@
 //!   formula they decide: metallic workflow, masking, diffuse lobe, the factorised image;
 //! * [`emitter::EmitterExtractor`]: which triangles emit, grouped into lights;
 //! * [`field::MaterialField`]: the BRDF field and emission mask contract;
+//! * [`trainer::FieldTrainer`]: fits a field to a [`training_set::TrainingSet`] (FIPT's
+//!   training rounds call it; the hash-grid trainer of `fipt-neural` is the built-in one);
 //! * [`fit::MaterialFitter`]: a method that fits a field to the views (FIPT's rounds are one, registered as `fipt`);
 //! * [`shading`]: the factorised shading model, [`shading::RayQuery`] and the
 //!   [`shading::ShadingBaker`] and [`shading::ShadingRefiner`] contracts;
@@ -51,6 +53,8 @@ pub mod range;
 pub mod reflectance;
 pub mod rng;
 pub mod shading;
+pub mod trainer;
+pub mod training_set;
 pub mod view_stats;
 
 pub use error::{CoreError, Result};

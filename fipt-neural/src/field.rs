@@ -483,4 +483,7 @@ impl MaterialField for NeuralField {
     fn emission_mask(&self, points: &[Vec3]) -> fipt_core::Result<Vec<f32>> {
         Ok(self.query_mask(points)?)
     }
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
 }

@@ -26,8 +26,10 @@ pub mod mlp;
 pub mod ops;
 pub mod plain;
 pub mod train;
+pub mod trainer;
 
 pub use error::{NeuralError, Result};
 pub use field::{Bounds, FieldConfig, NeuralField};
 pub use hashgrid::{AdamConfig, HashGrid, HashGridConfig};
 pub use train::{LrDecay, PriorNorm, TrainConfig, Trainer, TrainingSet};
+pub use trainer::HashGridTrainer;

@@ -245,8 +245,7 @@ pub struct SemanticPartners {
 /// values. Not differentiated (a constant of each step).
 pub const SEGMENT_WEIGHT_FLOOR: f32 = 1e-4;
 
-/// The segment id of a pixel that belongs to no segment.
-pub const NO_SEGMENT: u32 = u32::MAX;
+pub use fipt_core::training_set::NO_SEGMENT;
 
 /// The whole training loss of method §4.3 fused into one op (the per-pixel shading
 /// composition, sRGB OETF, MSE, mask sparsity and the roughness/metallic prior), instead of
@@ -332,27 +331,7 @@ fn sign(x: f32) -> f32 {
     }
 }
 
-/// How many times brighter than the brightest reflection its shadings allow (kd = ks = 1 at the
-/// roughness level that reflects most) a pixel must be to count as a light's
-/// ([`FactorizedLoss::emitter_material`]).
-pub const UNREFLECTABLE: f32 = 4.0;
-
-/// Whether a pixel is more than [`UNREFLECTABLE`] times brighter (summed over channels) than
-/// any material could make it under its shadings: a light's pixel, which no albedo explains.
-pub fn unreflectable(
-    ld: [f32; 3],
-    ls0: &[[f32; 3]; NUM_LEVELS],
-    ls1: &[[f32; 3]; NUM_LEVELS],
-    gt: [f32; 3],
-) -> bool {
-    let most = |ls: &[[f32; 3]; NUM_LEVELS]| {
-        ls.iter()
-            .map(|l| l.iter().sum::<f32>())
-            .fold(0f32, f32::max)
-    };
-    let bound = ld.iter().sum::<f32>() + most(ls0) + most(ls1);
-    gt.iter().sum::<f32>() > UNREFLECTABLE * bound
-}
+pub use fipt_core::training_set::{unreflectable, UNREFLECTABLE};
 
 /// Per-pixel terms: (Σ_c e_c², α, prior) and the gradient of each term w.r.t. the 6 inputs.
 struct PixelTerms {

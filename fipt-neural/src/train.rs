@@ -29,12 +29,11 @@ use std::time::Instant;
 
 mod candle_loss;
 mod config;
-mod set;
 pub use crate::image_loss::ImageLoss;
 use candle_loss::reflected;
 pub use candle_loss::{candle_ops_loss, LossWeights};
 pub use config::{LrDecay, PriorNorm, SegmentSource, SemanticPrior, TrainConfig};
-pub use set::TrainingSet;
+pub use fipt_core::training_set::TrainingSet;
 
 /// Losses of one step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -8,6 +8,7 @@
 //! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | `fipt`: bake → search → train → emitters → (refine → search → train) × rounds (`fipt_method::Fipt`); `ipt` is registered by crate `fipt-ipt` (`fipt_ipt::register`), as any method from outside |
 //! | shading baker (`fipt_core::shading::ShadingBaker`), in `fipt`'s rounds | `[pipeline] baker` | `slf`: the surface-light-field bake, settings `[bake]` |
 //! | shading refiner (`fipt_core::shading::ShadingRefiner`), in `fipt`'s rounds | `[pipeline] refiner` | `path-grown`: the path-grown refinement, settings `[refine]` |
+//! | field trainer (`fipt_core::trainer::FieldTrainer`), in `fipt`'s rounds | `[pipeline] trainer` | `hash-grid`: the hash-grid + MLP field (`fipt_neural::HashGridTrainer`), settings `[train]` |
 //! | emitter extractor (`fipt_core::emitter::EmitterExtractor`) | `[pipeline] extractor` | `mask`: the emission-mask extractor, settings `[emitters]` |
 //! | reflectance model (`fipt_core::reflectance::ReflectanceFormulas`; built-ins a closed enum) | `[model] brdf`, `--brdf` | `principled`, `fipt` |
 //!
@@ -19,6 +20,7 @@ use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::MaterialFitter;
 use fipt_core::reflectance::{ReflectanceFormulas, ReflectanceModel};
 use fipt_core::shading::{ShadingBaker, ShadingRefiner};
+use fipt_core::trainer::FieldTrainer;
 use std::collections::BTreeMap;
 
 /// Builds a shading baker from its settings, for the run's reflectance model.
@@ -30,6 +32,11 @@ pub type BakerFactory = Box<
 pub type RefinerFactory = Box<
     dyn Fn(&serde_json::Value, ReflectanceModel) -> Result<Box<dyn ShadingRefiner>> + Send + Sync,
 >;
+
+/// Builds a field trainer from its settings (FIPT builds one per round: a round may change
+/// them, see `rounds.roughness_prior`).
+pub type TrainerFactory =
+    Box<dyn Fn(&serde_json::Value) -> Result<Box<dyn FieldTrainer>> + Send + Sync>;
 
 /// Builds an extractor from its settings.
 pub type ExtractorFactory =
@@ -51,9 +58,12 @@ pub struct Components {
     fitters: BTreeMap<String, Entry<FitterFactory>>,
     bakers: BTreeMap<String, Entry<BakerFactory>>,
     refiners: BTreeMap<String, Entry<RefinerFactory>>,
+    trainers: BTreeMap<String, Entry<TrainerFactory>>,
 }
 
-pub use crate::names::{FIPT_METHOD, MASK_EXTRACTOR, PATH_GROWN_REFINER, SLF_BAKER};
+pub use crate::names::{
+    FIPT_METHOD, HASH_GRID_TRAINER, MASK_EXTRACTOR, PATH_GROWN_REFINER, SLF_BAKER,
+};
 
 impl Components {
     /// The components of the `fipt` binary.
@@ -63,6 +73,7 @@ impl Components {
             fitters: BTreeMap::new(),
             bakers: BTreeMap::new(),
             refiners: BTreeMap::new(),
+            trainers: BTreeMap::new(),
         }
         .with_baker(
             SLF_BAKER,
@@ -84,6 +95,14 @@ impl Components {
                 Ok(Box::new(
                     fipt_bake::refine::PathGrownRefiner::new(config).with_model(model),
                 ))
+            }),
+        )
+        .with_trainer(
+            HASH_GRID_TRAINER,
+            "a multiresolution hash grid and MLPs trained with the factorised image loss, checkpointed and resumed (settings: [train])",
+            Box::new(|v| {
+                let config: fipt_neural::TrainConfig = serde_json::from_value(v.clone())?;
+                Ok(Box::new(fipt_neural::HashGridTrainer::new(config)?))
             }),
         )
         .with_fitter(
@@ -183,6 +202,33 @@ impl Components {
         self
     }
 
+    /// Registers (or replaces) the field trainer `name`.
+    pub fn with_trainer(mut self, name: &str, description: &str, factory: TrainerFactory) -> Self {
+        self.trainers.insert(
+            name.to_string(),
+            Entry {
+                description: description.to_string(),
+                factory,
+            },
+        );
+        self
+    }
+
+    /// The trainer `name` built from `settings`; an unknown name lists the registered ones.
+    pub fn trainer(
+        &self,
+        name: &str,
+        settings: &serde_json::Value,
+    ) -> Result<Box<dyn FieldTrainer>> {
+        let Some(e) = self.trainers.get(name) else {
+            bail!(
+                "[pipeline] trainer = \"{name}\" is not registered (this binary has: {})",
+                self.trainers.keys().cloned().collect::<Vec<_>>().join(", ")
+            );
+        };
+        (e.factory)(settings).map_err(|err| crate::err!("settings of trainer `{name}`: {err:#}"))
+    }
+
     /// The baker `name` built from `settings` for `model`.
     pub fn baker(
         &self,
@@ -254,6 +300,10 @@ impl Components {
             .refiners
             .iter()
             .map(|(k, e)| format!("refiner `{k}`: {}", e.description));
+        let trainers = self
+            .trainers
+            .iter()
+            .map(|(k, e)| format!("trainer `{k}`: {}", e.description));
         let models = ReflectanceModel::known().into_iter().map(|m| match m {
             ReflectanceModel::External(e) => {
                 format!("reflectance model `{m}`: {}", e.formulas().description())
@@ -263,6 +313,7 @@ impl Components {
         methods
             .chain(bakers)
             .chain(refiners)
+            .chain(trainers)
             .chain(extractors)
             .chain(models)
             .collect()

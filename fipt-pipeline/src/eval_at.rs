@@ -43,7 +43,7 @@ pub fn render_dir(out: &Path) -> PathBuf {
 
 /// Renders the run at `truth`'s cameras and scores it; returns (and writes into
 /// [`render_dir`]) `metrics.json`.
-pub fn evaluate_at(a: &EvalAtRequest) -> Result<serde_json::Value> {
+pub fn evaluate_at(a: &EvalAtRequest, components: &crate::Components) -> Result<serde_json::Value> {
     let ds =
         Dataset::open(&a.truth).with_context(|| format!("opening scene {}", a.truth.display()))?;
     let split = pick_split(&ds, a.split.as_deref())?.clone();
@@ -52,24 +52,27 @@ pub fn evaluate_at(a: &EvalAtRequest) -> Result<serde_json::Value> {
     // Writes into the run folder: under its lock, as `fipt run` does.
     let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt eval --cameras-from")?;
     crate::render::check_spp(a.spp)?;
-    render_unchecked(&RenderRequest {
-        source: a.out.clone(),
-        materials: None,
-        scene: None,
-        cameras: split.cameras_file.clone(),
-        out: views_dir.clone(),
-        size: Some((ds.width, ds.height)),
-        spp: a.spp,
-        max_bounces: 5,
-        seed: a.seed,
-        views: None,
-        brdf: None,
-        lights: vec![],
-        emitters: None,
-        edits: None,
-        reference: None,
-        denoise: Some(true),
-    })?;
+    render_unchecked(
+        &RenderRequest {
+            source: a.out.clone(),
+            materials: None,
+            scene: None,
+            cameras: split.cameras_file.clone(),
+            out: views_dir.clone(),
+            size: Some((ds.width, ds.height)),
+            spp: a.spp,
+            max_bounces: 5,
+            seed: a.seed,
+            views: None,
+            brdf: None,
+            lights: vec![],
+            emitters: None,
+            edits: None,
+            reference: None,
+            denoise: Some(true),
+        },
+        components,
+    )?;
     let report: serde_json::Value =
         fipt_core::fsutil::read_json(&a.out.join("report.json")).unwrap_or_default();
     let ldr = report["capture"]["ldr"].as_bool().unwrap_or(false);

@@ -62,7 +62,7 @@ fn fit_rounds(
     let emitters = extract_emitters(
         scene,
         records,
-        &first.field,
+        first.field.as_ref(),
         Some(&first.shadings),
         parts.extractor,
     )?;
@@ -89,6 +89,8 @@ fn fit_rounds(
         has_gt: first.has_gt,
         refiner: parts.refiner,
         refine_settings: parts.refine_settings,
+        trainer: parts.trainer,
+        train_settings: parts.train_settings,
         sharding: a.sharding(),
     };
     let mut mark_mut = |stage: &'static str, t: Instant| mark(stage, t);
@@ -103,11 +105,11 @@ fn fit_rounds(
         "search": first.searches,
         "memory_estimate_gib": fipt_core::memory::gib(memory),
     });
-    let mut fitted = Fitted::new(Box::new(field), Some(emitters), report);
+    let mut fitted = Fitted::new(field, Some(emitters), report);
     fitted.modeled = Some(modeled(cfg, &refine_plan, &train));
     fitted.id = (!a.force).then(|| train.fingerprint());
     let dir = crate::rounds::train_dir(&a.out, done_rounds);
-    fitted.field_file = Some(dir.join("field.safetensors"));
+    fitted.field_file = train.field_files.first().map(|f| dir.join(f));
     Ok(fitted)
 }
 
@@ -132,7 +134,7 @@ struct FirstRound {
     closure: Vec<serde_json::Value>,
     /// The initial shadings on disk, for the extraction's bound on reflected light.
     shadings: fipt_bake::bake_store::StoredShadings,
-    field: fipt_neural::field::NeuralField,
+    field: Box<dyn fipt_core::field::MaterialField>,
     train: crate::train::TrainManifest,
 }
 
@@ -170,17 +172,19 @@ fn first_round(
     // The closure of the shadings with the true materials (with ground truth).
     let closure = bake_closure(scene, &shadings, has_gt)?;
     let t = crate::observe::begin("train");
-    let (field, train, _) = crate::train::stage(
+    let trainer = (parts.trainer)(parts.train_settings)?;
+    let on = crate::train::TrainOn {
         scene,
-        &bake_id,
-        &shadings,
-        &cfg.train,
-        &a.out.join("train"),
-        a.force,
-        None,
-        searched.as_ref(),
-        !a.sharding().shard.is_all(),
-    )?;
+        shadings: &shadings,
+        shadings_id: &bake_id,
+        set: &cfg.train,
+        trainer: trainer.as_ref(),
+        settings: parts.train_settings,
+        search: searched.as_ref(),
+    };
+    let must_reuse = !a.sharding().shard.is_all();
+    let (field, train, _) =
+        crate::train::stage(&on, &a.out.join("train"), a.force, None, must_reuse)?;
     mark("train", t);
     if cfg.search.on_bake {
         searches.push(serde_json::json!({ "shadings": "bake", "search": &searched }));
@@ -237,22 +241,32 @@ fn modeled(
         "emission_mask": true,
         "path_grown_refinement": match refine_plan { Ok(p) => p.clone(), Err(why) => why.clone() },
         "training": training(cfg, train),
-        "hash_table_log2": train.config.field.grid.log2_table,
+        "hash_table_log2": train.config.pointer("/field/grid/log2_table"),
     })
 }
 
-/// What the last training round did, against what was asked.
+/// What the last training round did, against what was asked (the trainer's `steps`, `batch`,
+/// `max_passes`, `min_steps` and `emitter_material` settings, where it has them).
 fn training(cfg: &RunConfig, train: &crate::train::TrainManifest) -> String {
     let t = &train.config;
-    let passes = (t.steps * t.batch) as f64 / train.pixels.max(1) as f64;
-    let mut training = format!(
-        "the last round: {} steps of {} pixels over {} training pixels ({passes:.1} passes)",
-        t.steps, t.batch, train.pixels
-    );
-    if t.steps < cfg.train.steps {
+    let num = |k: &str| t.get(k).and_then(|v| v.as_f64());
+    let mut training = match (num("steps"), num("batch")) {
+        (Some(steps), Some(batch)) => format!(
+            "the last round: {steps} steps of {batch} pixels over {} training pixels ({:.1} passes)",
+            train.pixels,
+            steps * batch / train.pixels.max(1) as f64
+        ),
+        _ => format!(
+            "the last round: trainer `{}` over {} training pixels",
+            train.trainer, train.pixels
+        ),
+    };
+    if num("steps").is_some_and(|s| s < cfg.train.steps as f64) {
         training += &format!(
             "; {} steps asked, capped at {} passes and at least {} steps in the rounds from a previous round's field (train.max_passes, min_steps)",
-            cfg.train.steps, t.max_passes, t.min_steps
+            cfg.train.steps,
+            num("max_passes").unwrap_or(0.0),
+            num("min_steps").unwrap_or(0.0)
         );
     }
     if train.pixels_left_out > 0 {
@@ -263,12 +277,13 @@ fn training(cfg: &RunConfig, train: &crate::train::TrainManifest) -> String {
         );
     }
     if train.pixels_lights > 0 {
+        let material = t.get("emitter_material").and_then(|v| v.as_bool());
         training += &format!(
             "; {} pixels ({:.2} %) over {}× brighter than any reflection their shadings allow (a light's) train {} (train.emitter_material)",
             train.pixels_lights,
             100.0 * train.pixels_lights as f64 / train.pixels.max(1) as f64,
-            fipt_neural::ops::UNREFLECTABLE,
-            if t.emitter_material { "the material and the emission mask" } else { "the emission mask only" }
+            fipt_core::training_set::UNREFLECTABLE,
+            if material.unwrap_or(true) { "the material and the emission mask" } else { "the emission mask only" }
         );
     }
     training

@@ -12,3 +12,6 @@ pub const MASK_EXTRACTOR: &str = "mask";
 
 /// FIPT's method's name (`fipt_method::Fipt`, registered by `Components::builtin`).
 pub const FIPT_METHOD: &str = "fipt";
+
+/// The built-in field trainer's name (`fipt_neural::HashGridTrainer`).
+pub const HASH_GRID_TRAINER: &str = "hash-grid";

@@ -138,11 +138,12 @@ impl RunOutput {
         crate::rounds::train_dir(&self.dir, rounds as u32)
     }
 
-    /// Loads the recovered material field (runs of the `fipt` method).
-    pub fn field(&self) -> Result<Box<dyn MaterialField>> {
+    /// Loads the recovered material field (runs of the `fipt` method), through the trainer
+    /// that trained it (its round's manifest names it; `components` must have it).
+    pub fn field(&self, components: &crate::Components) -> Result<Box<dyn MaterialField>> {
         if self.method != "fipt" {
             bail!(
-                "{}: the material field of method `{}` cannot be reloaded; only `fipt` runs' fields (trainN/field.safetensors) can",
+                "{}: the material field of method `{}` cannot be reloaded; only `fipt` runs' fields (trainN/) can",
                 self.dir.display(),
                 self.method
             );
@@ -154,9 +155,14 @@ impl RunOutput {
                 self.dir.display()
             );
         }
-        let (field, _) = fipt_neural::train::load_field(&dir)
-            .with_context(|| format!("loading the material field from {}", dir.display()))?;
-        Ok(Box::new(field))
+        let manifest: crate::train::TrainManifest =
+            fipt_core::fsutil::read_json(&dir.join("manifest.json"))
+                .with_context(|| format!("reading the training round in {}", dir.display()))?;
+        let trainer = (components.trainer(&manifest.trainer, &manifest.config))
+            .with_context(|| format!("the trainer of {}", dir.display()))?;
+        trainer
+            .load(&dir)
+            .with_context(|| format!("loading the material field from {}", dir.display()))
     }
 
     /// The scene's dataset and geometry; warns when its inputs changed since the run.
@@ -197,7 +203,10 @@ pub struct ExportRequest {
 }
 
 /// Writes the recovered scene of a run for other tools (glTF, Mitsuba 3, OBJ + MTL).
-pub fn export_run(a: &ExportRequest) -> Result<fipt_export::ExportSummary> {
+pub fn export_run(
+    a: &ExportRequest,
+    components: &crate::Components,
+) -> Result<fipt_export::ExportSummary> {
     use fipt_core::lock::{refuse_owned_output, Owner};
     refuse_owned_output(&a.out, "export", &[Owner::Run, Owner::Scene])?;
     let checked = fipt_export::ExportOptions {
@@ -215,7 +224,7 @@ pub fn export_run(a: &ExportRequest) -> Result<fipt_export::ExportSummary> {
     let st = crate::observe::Stage::start("load");
     let run = RunOutput::open(&a.run, a.scene.as_deref())?;
     let (ds, geometry) = run.open_scene()?;
-    let field = run.field()?;
+    let field = run.field(components)?;
     let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
     let surfaces = surfaces(&geometry, &views, field.as_ref(), &run.emitters, run.model)?;
     st.done();

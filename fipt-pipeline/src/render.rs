@@ -102,7 +102,7 @@ fn mesh_of(source: &Path) -> Result<PathBuf> {
 /// Renders what `a` asks for. Its output folder may not be, or lie inside, a run folder (only
 /// `fipt run` writes there) nor, for a recovered scene, a scene folder (a mesh rendered with
 /// --materials writes a scene's split in the dataset layout).
-pub fn render_request(a: &RenderRequest) -> Result<RenderSummary> {
+pub fn render_request(a: &RenderRequest, components: &crate::Components) -> Result<RenderSummary> {
     use fipt_core::lock::{refuse_owned_output, Owner};
     let refused: &[Owner] = if a.materials.is_some() {
         &[Owner::Run]
@@ -111,7 +111,7 @@ pub fn render_request(a: &RenderRequest) -> Result<RenderSummary> {
     };
     refuse_owned_output(&a.out, "render", refused)?;
     check_sizes(a)?;
-    render_unchecked(a)
+    render_unchecked(a, components)
 }
 
 /// The ranges of a render's options (the product with the cameras is checked in
@@ -141,7 +141,10 @@ pub const MAX_PATHS: f64 = 1e11;
 
 /// [`render_request`] into a folder the caller holds (`fipt eval` renders into its run's
 /// `eval/` under the run's lock).
-pub(crate) fn render_unchecked(a: &RenderRequest) -> Result<RenderSummary> {
+pub(crate) fn render_unchecked(
+    a: &RenderRequest,
+    components: &crate::Components,
+) -> Result<RenderSummary> {
     let size = a.size;
     if let Some(table) = &a.materials {
         let st = Stage::start("load");
@@ -181,7 +184,7 @@ pub(crate) fn render_unchecked(a: &RenderRequest) -> Result<RenderSummary> {
     let st = Stage::start("load");
     let run = RunOutput::open(&a.source, a.scene.as_deref())?;
     let (ds, geometry) = run.open_scene()?;
-    let field = run.field()?;
+    let field = run.field(components)?;
     let cams = read_cameras(&a.cameras, size.or(Some((ds.width, ds.height))))?;
     let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
     let model = a.brdf.unwrap_or(run.model);

@@ -73,13 +73,15 @@ pub(crate) struct RoundsContext<'a> {
     pub(crate) has_gt: bool,
     pub(crate) refiner: &'a dyn ShadingRefiner,
     pub(crate) refine_settings: &'a serde_json::Value,
+    pub(crate) trainer: fipt_core::fit::MakeTrainer<'a>,
+    pub(crate) train_settings: &'a serde_json::Value,
     pub(crate) sharding: Sharding,
 }
 
 /// What the refinement rounds update: the field and its manifest, the search's last answer, and
 /// the report's lists.
 pub(crate) struct Rounds<'a> {
-    pub(crate) field: fipt_neural::field::NeuralField,
+    pub(crate) field: Box<dyn fipt_core::field::MaterialField>,
     pub(crate) train: crate::train::TrainManifest,
     pub(crate) searched: Option<crate::search::Searched>,
     pub(crate) searches: &'a mut Vec<serde_json::Value>,
@@ -94,7 +96,11 @@ pub(crate) fn planned_rounds(
     st: &mut Rounds,
     mark: &mut dyn FnMut(&'static str, std::time::Instant),
 ) -> Result<(std::result::Result<String, String>, u32)> {
-    let glossy = glossy_fraction(ctx.records, &st.field, ctx.cfg.refine.rough_threshold)?;
+    let glossy = glossy_fraction(
+        ctx.records,
+        st.field.as_ref(),
+        ctx.cfg.refine.rough_threshold,
+    )?;
     let plan = refine_plan(ctx.cfg, ctx.emitters, glossy);
     let done = match &plan {
         Ok(p) => {
@@ -123,7 +129,7 @@ pub(crate) fn refinement_rounds(
         let t = crate::observe::begin("refine");
         let refined = crate::refine::stage(
             ctx.scene,
-            &st.field,
+            st.field.as_ref(),
             &st.train.fingerprint(),
             ctx.emitters,
             ctx.refiner,
@@ -164,26 +170,21 @@ pub(crate) fn refinement_rounds(
         }
         let t = crate::observe::begin("train");
         let prev_id = st.train.fingerprint();
-        let mut round_cfg = cfg.train.clone();
-        // With search targets, the regions without a σ target keep the σ pull: the search
-        // found no gloss there, and a free σ drifts towards the targets' values through the
-        // shared network (on `cornell-metal` without segments the walls went to σ ≈ 0.4).
-        if let (Some(p), None) = (cfg.rounds.roughness_prior, &st.searched) {
-            round_cfg.roughness_prior = p;
-        }
-        let (f, m, _) = crate::train::stage(
-            ctx.scene,
-            &refined.key,
-            &refined.shadings,
-            &round_cfg,
-            &train_dir(ctx.out, r),
-            ctx.force,
-            cfg.rounds
-                .warm_start
-                .then_some((&st.field, prev_id.as_str())),
-            st.searched.as_ref(),
-            !ctx.sharding.shard.is_all(),
-        )?;
+        let settings = round_settings(ctx, st.searched.is_some());
+        let trainer = (ctx.trainer)(&settings)?;
+        let on = crate::train::TrainOn {
+            scene: ctx.scene,
+            shadings: &refined.shadings,
+            shadings_id: &refined.key,
+            set: &cfg.train,
+            trainer: trainer.as_ref(),
+            settings: &settings,
+            search: st.searched.as_ref(),
+        };
+        let warm = (cfg.rounds.warm_start).then_some((st.field.as_ref(), prev_id.as_str()));
+        let must_reuse = !ctx.sharding.shard.is_all();
+        let (f, m, _) =
+            crate::train::stage(&on, &train_dir(ctx.out, r), ctx.force, warm, must_reuse)?;
         mark("train", t);
         st.searches
             .push(serde_json::json!({ "shadings": format!("refine{r}"), "search": &st.searched }));
@@ -198,6 +199,23 @@ pub(crate) fn refinement_rounds(
         st.train = m;
     }
     Ok(r)
+}
+
+/// The trainer's settings for a round after a refinement. Without search targets, the regions
+/// without a σ target keep the σ pull: the search found no gloss there, and a free σ drifts
+/// towards the targets' values through the shared network (on `cornell-metal` without segments
+/// the walls went to σ ≈ 0.4). So `rounds.roughness_prior` replaces the trainer's
+/// `roughness_prior` setting then (a trainer without that setting keeps its own).
+fn round_settings(ctx: &RoundsContext, searched: bool) -> serde_json::Value {
+    let mut settings = ctx.train_settings.clone();
+    if let (Some(p), false) = (ctx.cfg.rounds.roughness_prior, searched) {
+        if let Some(o) = settings.as_object_mut() {
+            if o.contains_key("roughness_prior") {
+                o.insert("roughness_prior".into(), serde_json::json!(p));
+            }
+        }
+    }
+    settings
 }
 
 /// After round `r`: whether one more round runs (`last` raised), and why, for the report.

@@ -22,7 +22,12 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
         refiner,
         bake_settings,
         refine_settings,
+        train_settings,
     } = check(&cfg, &a.preset, components)?;
+    let make_trainer = |v: &serde_json::Value| {
+        (components.trainer(&cfg.pipeline.trainer, v))
+            .map_err(|e| fipt_core::CoreError::Component(Box::new(e)))
+    };
     fipt_core::lock::refuse_nested_run(&a.out)?;
     // One run per output folder at a time (one per shard for shard runs).
     let _lock = lock(&a.out, a.sharding().shard, "fipt run")?;
@@ -47,6 +52,8 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
                     refiner: refiner.as_ref(),
                     refine_settings: &refine_settings,
                     extractor: extractor.as_ref(),
+                    trainer: &make_trainer,
+                    train_settings: &train_settings,
                 },
             };
             crate::fit::run(a, &cfg, components, parts)
@@ -71,6 +78,7 @@ pub(crate) struct Checked {
     refiner: Box<dyn fipt_core::shading::ShadingRefiner>,
     bake_settings: serde_json::Value,
     refine_settings: serde_json::Value,
+    train_settings: serde_json::Value,
 }
 
 /// Every setting of `cfg` in its range and every component it names built (a misspelt name or
@@ -89,6 +97,8 @@ pub(crate) fn check(
     let baker = components.baker(&cfg.pipeline.baker, &bake_settings, cfg.model.brdf)?;
     let refine_settings = cfg.refiner_settings()?;
     let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
+    let train_settings = cfg.trainer_settings()?;
+    components.trainer(&cfg.pipeline.trainer, &train_settings)?;
     let method = &cfg.pipeline.method;
     components.fitter(method, &cfg.plugin_settings(method), preset)?;
     Ok(Checked {
@@ -97,5 +107,6 @@ pub(crate) fn check(
         refiner,
         bake_settings,
         refine_settings,
+        train_settings,
     })
 }

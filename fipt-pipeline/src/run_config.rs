@@ -53,6 +53,10 @@ pub struct PipelineConfig {
     /// The emitter extractor: `mask` (built in, settings `[emitters]`) or a plug-in's name
     /// (settings `[plugins.<name>]`).
     pub extractor: String,
+    /// The field trainer of `fipt`'s rounds: `hash-grid` (built in, settings `[train]`) or a
+    /// plug-in's name (settings `[plugins.<name>]`; `[train]` still chooses the training
+    /// set's pixels, segments and targets).
+    pub trainer: String,
 }
 
 impl Default for PipelineConfig {
@@ -62,6 +66,7 @@ impl Default for PipelineConfig {
             baker: crate::names::SLF_BAKER.to_string(),
             refiner: crate::names::PATH_GROWN_REFINER.to_string(),
             extractor: crate::names::MASK_EXTRACTOR.to_string(),
+            trainer: crate::names::HASH_GRID_TRAINER.to_string(),
         }
     }
 }
@@ -95,6 +100,17 @@ impl RunConfig {
         let name = &self.pipeline.refiner;
         Ok(if name == crate::names::PATH_GROWN_REFINER {
             serde_json::to_value(&self.refine)?
+        } else {
+            self.plugin_settings(name)
+        })
+    }
+
+    /// The settings of the configured trainer: `[train]` for the built-in one, else
+    /// `[plugins.<name>]`.
+    pub(crate) fn trainer_settings(&self) -> Result<serde_json::Value> {
+        let name = &self.pipeline.trainer;
+        Ok(if name == crate::names::HASH_GRID_TRAINER {
+            serde_json::to_value(&self.train)?
         } else {
             self.plugin_settings(name)
         })

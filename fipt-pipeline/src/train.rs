@@ -3,19 +3,22 @@
 use crate::bail;
 use crate::error::{Context, Result};
 use crate::observe::{bar, Stage};
+use crate::run_config::RunConfig;
 use crate::scene::LoadedScene;
 use crate::search::Searched;
 use crate::train_set::{build_set, second_sides, segment_ids, BuiltSet};
 use fipt_bake::bake::primary_records;
 use fipt_bake::bake_store::{fingerprint, load_for_inputs, load_if_current, StoredShadings};
 use fipt_core::dataset::View;
+use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, ExrPrecision, Image};
 use fipt_core::presets::Presets;
 use fipt_core::shading::ViewShadings;
+use fipt_core::trainer::{FieldTrainer, TrainRound};
 use fipt_geom::Geometry;
-use fipt_neural::train::{render_factorized, StepLosses, TrainTimings};
-use fipt_neural::{NeuralField, TrainConfig, Trainer};
+use fipt_neural::train::render_factorized;
+use fipt_neural::{NeuralField, TrainConfig};
 pub use fipt_shading::records::view_points;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -41,64 +44,112 @@ pub struct TrainRequest {
 
 /// What a finished training stage wrote, read back by later runs (written last).
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct TrainManifest {
     pub inputs: String,
     /// [`request_key`]: what decided this training before its set was built (empty in
     /// manifests written before it existed).
     #[serde(default)]
     pub request: String,
-    pub config: TrainConfig,
+    /// The trainer (`[pipeline] trainer`; `hash-grid` in manifests written before trainers
+    /// were chosen by name).
+    #[serde(default = "hash_grid")]
+    pub trainer: String,
+    /// The settings the training ran with, as the trainer sized them for the set.
+    pub config: serde_json::Value,
     pub pixels: usize,
     /// Hit pixels that `train.set_cap` left out of the training set.
     #[serde(default)]
     pub pixels_left_out: usize,
-    /// Training pixels over [`fipt_neural::ops::UNREFLECTABLE`]× brighter than any reflection
-    /// their shadings allow (a light's); with `emitter_material = false` they train the
-    /// emission mask only.
+    /// Training pixels over [`fipt_core::training_set::UNREFLECTABLE`]× brighter than any
+    /// reflection their shadings allow (a light's); with `emitter_material = false` they train
+    /// the emission mask only.
     #[serde(default)]
     pub pixels_lights: usize,
-    pub params_grid: usize,
-    pub params_mlp: usize,
     pub seconds: f64,
-    pub steps_per_second: f64,
-    pub timings: TrainTimings,
-    pub last: StepLosses,
-    /// `field.safetensors`' content hash when the training finished, checked before the field
+    /// What the trainer said it did (the hash-grid trainer: parameters, steps/s, timings,
+    /// last losses).
+    #[serde(default)]
+    pub report: serde_json::Value,
+    /// The files of the round's folder that hold the field.
+    #[serde(default = "field_files")]
+    pub field_files: Vec<String>,
+    /// The content hash of `field_files` when the training finished, checked before the field
     /// is reused or rendered (empty in manifests written before it existed: not checked).
     #[serde(default)]
     pub field_hash: String,
+}
+
+fn hash_grid() -> String {
+    crate::names::HASH_GRID_TRAINER.to_string()
+}
+
+fn field_files() -> Vec<String> {
+    vec![FIELD_FILE.to_string()]
 }
 
 /// Why the field in `dir` is not the one its training wrote (None when it is, or when its
 /// manifest records no hash).
 pub fn field_changed(dir: &Path) -> Option<String> {
     let m = read_json::<TrainManifest>(&dir.join("manifest.json")).ok()?;
-    let path = dir.join(FIELD_FILE);
-    let now = fipt_core::fsutil::hash_files(&[path.clone()]).unwrap_or_else(|e| e.to_string());
+    let files: Vec<PathBuf> = m.field_files.iter().map(|f| dir.join(f)).collect();
+    let now = fipt_core::fsutil::hash_files(&files).unwrap_or_else(|e| e.to_string());
     (!m.field_hash.is_empty() && now != m.field_hash).then(|| {
         format!(
             "{} was changed after its training wrote it (content hash {now}, recorded {})",
-            path.display(),
+            files.first().map_or(dir, |f| f.as_path()).display(),
             m.field_hash
         )
     })
 }
 
-/// The trained field's file in a training folder.
-pub const FIELD_FILE: &str = "field.safetensors";
+/// The hash-grid trainer's field file in a training folder.
+pub use fipt_neural::trainer::FIELD_FILE;
 
 impl TrainManifest {
-    /// What the trained field is a function of: its inputs and settings (training is
-    /// deterministic). Later stages key on it.
+    /// What the trained field is a function of: its inputs, trainer and settings (training
+    /// is deterministic). Later stages key on it.
     pub fn fingerprint(&self) -> String {
         let cfg = serde_json::to_string(&self.config).unwrap_or_default();
-        fipt_core::fsutil::hash_bytes(format!("{}|{cfg}", self.inputs).as_bytes())
+        fipt_core::fsutil::hash_bytes(format!("{}|{}|{cfg}", self.inputs, self.trainer).as_bytes())
     }
 }
 
+/// The trainer `fipt train` uses, with its settings: `[pipeline] trainer` when the config file
+/// has a `[pipeline]` table (its settings as `fipt run` takes them), else the built-in one with
+/// `set`'s settings. `steps` overrides the trainer's `steps` setting.
+fn chosen_trainer(
+    a: &TrainRequest,
+    set: &TrainConfig,
+    components: &crate::Components,
+) -> Result<(Box<dyn FieldTrainer>, serde_json::Value)> {
+    let file = a.config.as_deref();
+    let with_pipeline = file.filter(|p| crate::config::has_table(p, "pipeline").unwrap_or(false));
+    let (name, mut settings) = match with_pipeline {
+        Some(path) => {
+            let cfg = crate::config::load_preset(&a.preset, RunConfig::preset, Some(path))?;
+            (cfg.pipeline.trainer.clone(), cfg.trainer_settings()?)
+        }
+        None => (
+            crate::names::HASH_GRID_TRAINER.to_string(),
+            serde_json::to_value(set)?,
+        ),
+    };
+    if let Some(steps) = a.steps {
+        match settings.as_object_mut().filter(|o| o.contains_key("steps")) {
+            Some(o) => {
+                o.insert("steps".into(), steps.into());
+            }
+            None => bail!(
+                "--steps: trainer `{name}` has no `steps` setting; set its own in [plugins.{name}]"
+            ),
+        }
+    }
+    Ok((components.trainer(&name, &settings)?, settings))
+}
+
 /// The training alone (`fipt train`); returns the folder written. With a run config, the bake
-/// must be the one its `[pipeline] baker` and settings make ([`crate::bake::run_baker`]).
+/// must be the one its `[pipeline] baker` and settings make ([`crate::bake::run_baker`]), and
+/// the trainer is its `[pipeline] trainer`.
 pub fn train_only(a: TrainRequest, components: &crate::Components) -> Result<PathBuf> {
     let wanted = crate::bake::run_baker(&a.preset, a.config.as_deref(), components)?;
     let mut cfg: TrainConfig = crate::config::load_preset_section(
@@ -111,6 +162,7 @@ pub fn train_only(a: TrainRequest, components: &crate::Components) -> Result<Pat
         cfg.steps = s;
     }
     cfg.validate()?;
+    let (trainer, settings) = chosen_trainer(&a, &cfg, components)?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels, Default::default())?;
     let bake_dir = a.out.join("bake");
     fipt_core::lock::refuse_nested_run(&a.out)?;
@@ -136,52 +188,86 @@ pub fn train_only(a: TrainRequest, components: &crate::Components) -> Result<Pat
         ),
     };
     let dir = a.out.join("train");
-    let (field, m, fresh) = stage(
-        &scene,
-        &fingerprint(&bake),
-        &stored,
-        &cfg,
-        &dir,
-        a.force,
-        None,
-        None,
-        false,
-    )?;
+    let on = TrainOn {
+        scene: &scene,
+        shadings: &stored,
+        shadings_id: &fingerprint(&bake),
+        set: &cfg,
+        trainer: trainer.as_ref(),
+        settings: &settings,
+        search: None,
+    };
+    let (field, _, fresh) = stage(&on, &dir, a.force, None, false)?;
     if fresh || !dir.join("views").is_dir() {
-        // The maps' predicted renders read the shadings.
-        let shadings = stored.load_all()?;
-        let st = Stage::start("export maps");
-        let split = scene.ds.train();
-        for s in &scene.ds.splits {
-            let train = s.name == split.name;
-            export_views(
-                &field,
-                &scene.geometry,
-                &s.views,
-                train.then_some((&field, &shadings[..], &scene.images[..])),
-                None,
-                None,
-                scene.exposure,
-                &dir.join("views").join(&s.name),
-            )?;
-        }
-        st.done();
+        export_train_views(&scene, field.as_ref(), &stored, &dir)?;
     }
-    let _ = m;
     Ok(dir)
 }
 
-/// What decides a training before its set is built: the inputs, the shadings, the warm start,
-/// the settings as given, the search's targets and the segment ids. A finished training with
-/// the same key is reused without building the training set (a resumed run skips it).
-fn request_key(
+/// `fipt train`'s per-view maps; on the training views also the field's factorised re-render
+/// when the field is the hash-grid trainer's (it reads the shadings).
+fn export_train_views(
     scene: &LoadedScene,
-    shadings_id: &str,
-    cfg: &TrainConfig,
+    field: &dyn MaterialField,
+    stored: &StoredShadings,
+    dir: &Path,
+) -> Result<()> {
+    let neural = field.as_any().and_then(|f| f.downcast_ref::<NeuralField>());
+    let shadings = match neural {
+        Some(_) => stored.load_all()?,
+        None => {
+            crate::note!(
+                "no factorised re-renders (_render.exr): the field is not the hash-grid trainer's"
+            );
+            vec![]
+        }
+    };
+    let st = Stage::start("export maps");
+    let split = scene.ds.train();
+    for s in &scene.ds.splits {
+        let train = s.name == split.name;
+        export_views(
+            field,
+            &scene.geometry,
+            &s.views,
+            neural
+                .filter(|_| train)
+                .map(|f| (f, &shadings[..], &scene.images[..])),
+            None,
+            None,
+            scene.exposure,
+            &dir.join("views").join(&s.name),
+        )?;
+    }
+    st.done();
+    Ok(())
+}
+
+/// What a training round is given.
+pub(crate) struct TrainOn<'a> {
+    pub(crate) scene: &'a LoadedScene,
+    /// The shadings, and their fingerprint.
+    pub(crate) shadings: &'a StoredShadings,
+    pub(crate) shadings_id: &'a str,
+    /// `[train]`: which pixels, segments and targets the training set holds.
+    pub(crate) set: &'a TrainConfig,
+    /// The trainer, and the settings it was built from.
+    pub(crate) trainer: &'a dyn FieldTrainer,
+    pub(crate) settings: &'a serde_json::Value,
+    /// The search's answer, whose targets the set carries.
+    pub(crate) search: Option<&'a Searched>,
+}
+
+/// What decides a training before its set is built: the inputs, the shadings, the warm start,
+/// the trainer and its settings as given, the search's targets and the segment ids. A finished
+/// training with the same key is reused without building the training set (a resumed run
+/// skips it).
+fn request_key(
+    on: &TrainOn,
     warm: Option<&str>,
-    search: Option<&Searched>,
     segments: Option<&(crate::train_set::SegmentKind, String)>,
-) -> Result<String> {
+) -> String {
+    let search = on.search;
     let segments = segments.map(|s| match second_sides(search, s.0) {
         Some(sides) => {
             let bytes: Vec<u8> = (sides.iter())
@@ -207,23 +293,26 @@ fn request_key(
         }
         h.hex()
     });
-    Ok(format!(
-        "{}|{shadings_id}|{}|{}|{}|{}",
-        scene.cache_key,
+    format!(
+        "{}|{}|{}|{}:{}|{}|{}",
+        on.scene.cache_key,
+        on.shadings_id,
         warm.unwrap_or("none"),
-        fipt_core::fsutil::hash_json(&serde_json::to_value(cfg)?),
+        on.trainer.name(),
+        fipt_core::fsutil::hash_json(on.settings),
         targets.as_deref().unwrap_or("none"),
         segments.as_deref().unwrap_or("none")
-    ))
+    )
 }
 
-/// A finished training in `dir` whose manifest `fits`, with its field.
+/// A finished training in `dir` whose manifest `fits`, with its field (loaded by `trainer`).
 fn finished(
     dir: &Path,
+    trainer: &dyn FieldTrainer,
     fits: impl Fn(&TrainManifest) -> bool,
-) -> Option<(NeuralField, TrainManifest)> {
+) -> Option<(Box<dyn MaterialField>, TrainManifest)> {
     let m = read_json::<TrainManifest>(&dir.join("manifest.json")).ok()?;
-    if !fits(&m) {
+    if !fits(&m) || m.trainer != trainer.name() {
         return None;
     }
     if let Some(why) = field_changed(dir) {
@@ -233,84 +322,34 @@ fn finished(
         let _ = std::fs::remove_file(dir.join("manifest.json"));
         return None;
     }
-    let (field, _) = fipt_neural::train::load_field(dir).ok()?;
+    let field = trainer.load(dir).ok()?;
     crate::note!(
-        "reusing the trained field in {} ({} steps in {:.1} s); --force to redo it",
+        "reusing the trained field in {} ({:.1} s of training); --force to redo it",
         dir.display(),
-        m.config.steps,
         m.seconds
     );
     crate::observe::reused(Some(m.seconds));
     Some((field, m))
 }
 
-/// Per-step timings and the final losses of a training, printed.
-fn note_training(t: &TrainTimings, l: &StepLosses, done: usize, sps: f64) {
-    let ms = |x: f64| x / done as f64 * 1e3;
-    crate::note!(
-        "{sps:.1} steps/s; per step: batch {:.1} ms, forward {:.1} ms (hash grid {:.1}), backward {:.1} ms (hash grid {:.1}, with its Adam update {:.1}), MLP optimiser {:.1} ms",
-        ms(t.batch),
-        ms(t.forward),
-        ms(t.grid_forward),
-        ms(t.backward),
-        ms(t.grid_backward + t.grid_optimizer),
-        ms(t.grid_optimizer),
-        ms(t.optimizer),
-    );
-    crate::note!(
-        "final losses: total {:.5}, image {:.5}, mask {:.5}, prior {:.5}",
-        l.total,
-        l.image,
-        l.mask,
-        l.prior
-    );
-}
-
 /// The training stage: reuses a finished run in `dir` (same inputs and settings) unless
-/// `force`, resumes an interrupted one, or trains afresh (from `warm`'s field, identified by
-/// its fingerprint, when given). `shadings_id` fingerprints the shadings, which are freed
-/// once the training set holds them (they do not stay beside it through the training). Returns the
-/// field, the manifest and whether training ran now.
-pub fn stage(
-    scene: &LoadedScene,
-    shadings_id: &str,
-    shadings: &StoredShadings,
-    cfg: &TrainConfig,
+/// `force`, or has the trainer train (resuming an interrupted training, or from `warm`'s field,
+/// identified by its fingerprint, when given). The shadings are freed once the training set
+/// holds them (they do not stay beside it through the training). Returns the field, the
+/// manifest and whether training ran now.
+pub(crate) fn stage(
+    on: &TrainOn,
     dir: &Path,
     force: bool,
-    warm: Option<(&NeuralField, &str)>,
-    search: Option<&Searched>,
+    warm: Option<(&dyn MaterialField, &str)>,
     must_reuse: bool,
-) -> Result<(NeuralField, TrainManifest, bool)> {
-    let segments = segment_ids(scene, cfg.segments)?;
+) -> Result<(Box<dyn MaterialField>, TrainManifest, bool)> {
+    let scene = on.scene;
+    let segments = segment_ids(scene, on.set.segments)?;
     let warm_id = warm.map(|w| w.1);
-    let request = request_key(scene, shadings_id, cfg, warm_id, search, segments.as_ref())?;
+    let request = request_key(on, warm_id, segments.as_ref());
     if !force {
-        if let Some((field, m)) = finished(dir, |m| m.request == request) {
-            return Ok((field, m, false));
-        }
-    }
-    let st = Stage::start("training set");
-    let set = build_set(scene, shadings, cfg, segments.as_ref(), search)?;
-    let cfg = sized_config(cfg, &set, warm.is_some());
-    let mut inputs = format!(
-        "{}+shadings:{shadings_id}+warm:{}",
-        scene.cache_key,
-        warm_id.unwrap_or("none")
-    );
-    if let Some((_, id)) = &segments {
-        inputs += &format!("+segments:{id}");
-    }
-    if let Some(id) = &set.targets_id {
-        inputs += &format!("+targets:{id}");
-    }
-    st.done();
-    // A training finished before manifests held the request key: reused, and its manifest
-    // given the key so that the next run skips the training set.
-    if !force {
-        if let Some((field, mut m)) = finished(dir, |m| m.inputs == inputs && m.config == cfg) {
-            m.request = request;
-            write_json_atomic(&dir.join("manifest.json"), &m)?;
+        if let Some((field, m)) = finished(dir, on.trainer, |m| m.request == request) {
             return Ok((field, m, false));
         }
     }
@@ -320,113 +359,76 @@ pub fn stage(
             dir.display()
         );
     }
-    let trainer = trainer_for(&cfg, &set, &inputs, dir, force, warm)?;
-    let (field, manifest) = train_and_record(scene, trainer, &set, cfg, inputs, request, dir)?;
+    let st = Stage::start("training set");
+    let set = build_set(scene, on.shadings, on.set, segments.as_ref(), on.search)?;
+    let mut inputs = format!(
+        "{}+shadings:{}+warm:{}",
+        scene.cache_key,
+        on.shadings_id,
+        warm_id.unwrap_or("none")
+    );
+    if let Some((_, id)) = &segments {
+        inputs += &format!("+segments:{id}");
+    }
+    if let Some(id) = &set.targets_id {
+        inputs += &format!("+targets:{id}");
+    }
+    st.done();
+    let (field, manifest) = train_and_record(on, &set, inputs, request, dir, force, warm)?;
     Ok((field, manifest, true))
 }
 
-/// The round's settings sized for its set (the grid's finest level from the footprint, the
-/// steps capped for a warm start).
-fn sized_config(cfg: &TrainConfig, set: &BuiltSet, warm: bool) -> TrainConfig {
-    let n = set.data.len();
-    let mut sized = cfg.sized_for(n, set.footprint, &set.bounds);
-    sized.steps = cfg.capped_steps(n, warm);
-    if sized.steps < cfg.steps {
-        crate::note!(
-            "training for {} steps instead of {}: at most {} passes over {} pixels from the previous round's field, at least {} steps (train.max_passes, min_steps)",
-            sized.steps,
-            cfg.steps,
-            cfg.max_passes,
-            n,
-            cfg.min_steps
-        );
-    }
-    sized
-}
-
-/// The trainer of a round: resumed from its checkpoint, or new (warm-started from the
-/// previous round's field when there is one).
-fn trainer_for(
-    cfg: &TrainConfig,
-    set: &BuiltSet,
-    inputs: &str,
-    dir: &Path,
-    force: bool,
-    warm: Option<(&NeuralField, &str)>,
-) -> Result<Trainer> {
-    if !force {
-        match Trainer::resume(cfg, set.bounds, set.data.levels, inputs, dir)? {
-            Ok(t) => {
-                crate::note!("resuming from step {} in {}", t.step_count(), dir.display());
-                return Ok(t);
-            }
-            Err(why) if why != "no checkpoint" => crate::note!("training afresh: {why}"),
-            Err(_) => {}
-        }
-    }
-    let mut t = Trainer::new(cfg.clone(), set.bounds, set.data.levels)?;
-    t.inputs = inputs.to_string();
-    if let Some((field, _)) = warm {
-        t.warm_start(field)?;
-        crate::note!("warm start from the previous round's field");
-    }
-    Ok(t)
-}
-
-/// Trains to the end (checkpoints in `dir`) and writes the round's manifest.
+/// Has the trainer train on the set (checkpoints in `dir`) and writes the round's manifest.
 fn train_and_record(
-    scene: &LoadedScene,
-    mut trainer: Trainer,
+    on: &TrainOn,
     set: &BuiltSet,
-    cfg: TrainConfig,
     inputs: String,
     request: String,
     dir: &Path,
-) -> Result<(NeuralField, TrainManifest)> {
-    let data = &set.data;
-    let (pg, pm) = trainer.field.num_params();
-    crate::note!(
-        "training on {} pixels of {} views: {} hash-table + {} MLP parameters, {} steps of {}",
-        data.len(),
-        scene.ds.train().views.len(),
-        pg,
-        pm,
-        cfg.steps,
-        cfg.batch
-    );
-    let pb = bar(cfg.steps as u64, "train");
-    pb.set_position(trainer.step_count() as u64);
+    force: bool,
+    warm: Option<(&dyn MaterialField, &str)>,
+) -> Result<(Box<dyn MaterialField>, TrainManifest)> {
+    let note = |s: &str| crate::note!("{s}");
+    let round = TrainRound {
+        dir,
+        inputs: &inputs,
+        resume: !force,
+        warm: warm.map(|w| w.0),
+        note: &note,
+    };
+    let mut pb = None;
     let st = Stage::start("train");
-    let first = trainer.step_count();
-    trainer.run(data, Some(dir), &mut |l| {
-        pb.set_position(l.step as u64);
-        if l.step % 10 == 0 {
-            pb.set_message(&format!("loss {:.4}", l.total));
-        }
-    })?;
-    pb.finish_and_clear();
+    let trained = on
+        .trainer
+        .train(&set.data, &round, &mut |step, steps, loss| {
+            let pb = pb.get_or_insert_with(|| bar(steps as u64, "train"));
+            pb.set_position(step as u64);
+            if step % 10 == 0 {
+                pb.set_message(&format!("loss {loss:.4}"));
+            }
+        })?;
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
     let secs = st.done();
-    let t = trainer.timings;
-    let done = (trainer.step_count() - first).max(1);
-    let sps = done as f64 / secs.max(1e-9);
-    note_training(&t, &trainer.last, done, sps);
+    let files: Vec<PathBuf> = trained.files.iter().map(|f| dir.join(f)).collect();
     let manifest = TrainManifest {
         inputs,
         request,
-        config: cfg,
-        pixels: data.len(),
+        trainer: on.trainer.name().to_string(),
+        config: trained.settings,
+        pixels: set.data.len(),
         pixels_left_out: set.left_out,
         pixels_lights: set.lights,
-        params_grid: pg,
-        params_mlp: pm,
         seconds: secs,
-        steps_per_second: sps,
-        timings: t,
-        last: trainer.last,
-        field_hash: fipt_core::fsutil::hash_files(&[dir.join(FIELD_FILE)])?,
+        report: trained.report,
+        field_files: (trained.files.iter())
+            .map(|f| f.to_string_lossy().into_owned())
+            .collect(),
+        field_hash: fipt_core::fsutil::hash_files(&files)?,
     };
     write_json_atomic(&dir.join("manifest.json"), &manifest)?;
-    Ok((trainer.field, manifest))
+    Ok((trained.field, manifest))
 }
 
 /// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view,
@@ -434,7 +436,7 @@ fn train_and_record(
 /// `_render.exr` where shadings exist: the trained model's prediction
 /// (1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT.
 pub fn export_views(
-    field: &dyn fipt_core::field::MaterialField,
+    field: &dyn MaterialField,
     geometry: &Geometry,
     views: &[View],
     factorized: Option<(&NeuralField, &[ViewShadings], &[Image])>,

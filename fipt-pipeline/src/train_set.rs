@@ -309,8 +309,6 @@ pub(crate) fn targets_fingerprint(data: &TrainingSet) -> String {
 /// their shadings, segments and the search's targets.
 pub(crate) struct BuiltSet {
     pub(crate) data: TrainingSet,
-    pub(crate) bounds: Bounds,
-    pub(crate) footprint: Option<f32>,
     pub(crate) left_out: usize,
     pub(crate) lights: usize,
     pub(crate) targets_id: Option<String>,
@@ -350,20 +348,21 @@ pub(crate) fn build_set(
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
     let views = scene.images.len();
-    let data = TrainingSet::from_view_points(
+    let mut data = TrainingSet::from_view_points(
         (views, hits),
         |v| Ok::<_, crate::PipelineError>(pick.view(v)),
         &scene.images,
         &bounds,
         |k| shadings.view(k).map_err(crate::PipelineError::from),
     )?;
+    data.footprint = footprint;
     let lights = data.lights();
     if !cfg.emitter_material {
         crate::note!(
             "training set: {lights} of {} pixels ({:.2} %) are over {}× brighter than any reflection their shadings allow (a light's): they train the emission mask only (train.emitter_material)",
             data.len(),
             100.0 * lights as f64 / data.len().max(1) as f64,
-            fipt_neural::ops::UNREFLECTABLE
+            fipt_core::training_set::UNREFLECTABLE
         );
     }
     let mut data = with_segments(scene, data, segments, search)?;
@@ -374,8 +373,6 @@ pub(crate) fn build_set(
     }
     Ok(BuiltSet {
         data,
-        bounds,
-        footprint,
         left_out,
         lights,
         targets_id,

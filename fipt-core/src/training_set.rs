@@ -1,14 +1,43 @@
-//! The training pixels: every training pixel's shadings, image value and position, gathered
-//! view by view, with the segment ids and the search's targets attached.
-use crate::error::{NeuralError, Result};
-use crate::field::Bounds;
-use crate::ops::NO_SEGMENT;
-use fipt_core::image::Image;
-use fipt_core::shading::{ViewShadings, NUM_LEVELS};
+//! The training pixels a [`crate::trainer::FieldTrainer`] fits a field to: every training
+//! pixel's shadings, image value and position, gathered view by view, with the segment ids and
+//! the search's targets attached. Plain data: a method builds it, a trainer reads it.
+use crate::cube::Cube;
+use crate::error::{CoreError, Result};
+use crate::image::Image;
+use crate::shading::{ViewShadings, NUM_LEVELS};
 use glam::Vec3;
+
+/// The segment id of a sample in no segment.
+pub const NO_SEGMENT: u32 = u32::MAX;
+
+/// How many times brighter than the brightest reflection its shadings allow (kd = ks = 1 at the
+/// roughness level that reflects most) a pixel must be to count as a light's.
+pub const UNREFLECTABLE: f32 = 4.0;
+
+/// Whether a pixel is more than [`UNREFLECTABLE`] times brighter (summed over channels) than
+/// any material could make it under its shadings: a light's pixel, which no albedo explains.
+pub fn unreflectable(
+    ld: [f32; 3],
+    ls0: &[[f32; 3]; NUM_LEVELS],
+    ls1: &[[f32; 3]; NUM_LEVELS],
+    gt: [f32; 3],
+) -> bool {
+    let most = |ls: &[[f32; 3]; NUM_LEVELS]| {
+        ls.iter()
+            .map(|l| l.iter().sum::<f32>())
+            .fold(0f32, f32::max)
+    };
+    let bound = ld.iter().sum::<f32>() + most(ls0) + most(ls1);
+    gt.iter().sum::<f32>() > UNREFLECTABLE * bound
+}
 
 /// The training pixels, structure of arrays.
 pub struct TrainingSet {
+    /// The box the positions are relative to ([`Cube::unit`]).
+    pub bounds: Cube,
+    /// The world size of a pixel's footprint on the surface (the median over the views), when
+    /// the builder knows it: a trainer may size its finest detail by it.
+    pub footprint: Option<f32>,
     pub levels: [f32; NUM_LEVELS],
     /// Unit-cube positions of the primary hits.
     pub unit: Vec<[f32; 3]>,
@@ -56,10 +85,10 @@ impl TrainingSet {
         points: &[Vec<Option<Vec3>>],
         shadings: &[ViewShadings],
         images: &[Image],
-        bounds: &Bounds,
+        bounds: &Cube,
     ) -> Result<Self> {
         if points.len() != shadings.len() || images.len() != shadings.len() {
-            return Err(NeuralError::config(
+            return Err(CoreError::config(
                 "training set",
                 format!(
                     "{} point sets, {} shadings, {} images: one of each per view is needed",
@@ -75,10 +104,10 @@ impl TrainingSet {
     /// [`TrainingSet::new`] with each view's shadings asked of `shading(v)` in view order and
     /// let go after its pixels are gathered (the set then never sits beside every view's
     /// shadings). `shading`'s errors pass through.
-    pub fn from_views<E: From<NeuralError>>(
+    pub fn from_views<E: From<CoreError>>(
         points: &[Vec<Option<Vec3>>],
         images: &[Image],
-        bounds: &Bounds,
+        bounds: &Cube,
         shading: impl FnMut(usize) -> std::result::Result<ViewShadings, E>,
     ) -> std::result::Result<Self, E> {
         let hits = points.iter().flatten().flatten().count();
@@ -95,16 +124,16 @@ impl TrainingSet {
     /// `points(v)` in view order, so that no more than one view's points are held; `counts`
     /// is (views, hits over all views: the arrays are reserved once, so that growing never
     /// holds two copies).
-    pub fn from_view_points<E: From<NeuralError>>(
+    pub fn from_view_points<E: From<CoreError>>(
         counts: (usize, usize),
         mut points: impl FnMut(usize) -> std::result::Result<Vec<Option<Vec3>>, E>,
         images: &[Image],
-        bounds: &Bounds,
+        bounds: &Cube,
         mut shading: impl FnMut(usize) -> std::result::Result<ViewShadings, E>,
     ) -> std::result::Result<Self, E> {
         let (views, hits) = counts;
         if images.len() != views {
-            return Err(NeuralError::config(
+            return Err(CoreError::config(
                 "training set",
                 format!(
                     "{views} point sets, {} images: one of each per view is needed",
@@ -114,7 +143,9 @@ impl TrainingSet {
             .into());
         }
         let mut set = TrainingSet {
-            levels: fipt_core::shading::DEFAULT_LEVELS,
+            bounds: *bounds,
+            footprint: None,
+            levels: crate::shading::DEFAULT_LEVELS,
             unit: vec![],
             ld: vec![],
             ld_poly: vec![],
@@ -161,18 +192,18 @@ impl TrainingSet {
         pts: &[Option<Vec3>],
         sh: &ViewShadings,
         img: &Image,
-        bounds: &Bounds,
+        bounds: &Cube,
         poly: bool,
     ) -> Result<()> {
         let n = sh.width * sh.height;
         if poly == sh.ld_poly.is_empty() {
-            return Err(NeuralError::config(
+            return Err(CoreError::config(
                 "training set",
                 format!("view {v}: shadings of two reflectance models are mixed"),
             ));
         }
         if pts.len() != n || img.data.len() != n || sh.levels != self.levels {
-            return Err(NeuralError::config(
+            return Err(CoreError::config(
                 "training set",
                 format!(
                     "view {v}: sizes or roughness levels differ between shadings, hits and image"
@@ -205,7 +236,7 @@ impl TrainingSet {
         let mut dense: std::collections::BTreeMap<i64, u32> = Default::default();
         for (v, view) in ids.iter().enumerate() {
             if view.len() != ids.first().map_or(0, |f| f.len()) {
-                return Err(NeuralError::config(
+                return Err(CoreError::config(
                     "segments",
                     format!("view {v} has {} ids, view 0 {}", view.len(), ids[0].len()),
                 ));
@@ -218,7 +249,7 @@ impl TrainingSet {
                 .and_then(|view| view.get(i as usize))
                 .copied()
                 .ok_or_else(|| {
-                    NeuralError::config(
+                    CoreError::config(
                         "segments",
                         format!(
                             "no id for pixel {i} of view {v}: one id per pixel of every view is needed"
@@ -253,7 +284,7 @@ impl TrainingSet {
         for &(v, i) in &self.origin {
             let t = target(v as usize, i as usize)
                 .ok_or_else(|| {
-                    NeuralError::config(
+                    CoreError::config(
                         "targets",
                         format!("no target entry for pixel {i} of view {v}: one per pixel of every view is needed"),
                     )
@@ -277,13 +308,10 @@ impl TrainingSet {
     pub fn is_empty(&self) -> bool {
         self.unit.is_empty()
     }
-    /// How many samples are a light's ([`crate::ops::unreflectable`]): with
-    /// `train.emitter_material` off they train the mask only.
+    /// How many samples are a light's ([`unreflectable`]).
     pub fn lights(&self) -> usize {
         (0..self.len())
-            .filter(|&j| {
-                crate::ops::unreflectable(self.ld[j], &self.ls0[j], &self.ls1[j], self.gt[j])
-            })
+            .filter(|&j| unreflectable(self.ld[j], &self.ls0[j], &self.ls1[j], self.gt[j]))
             .count()
     }
 }
