@@ -16,6 +16,10 @@
 //! [plugins.voxel-lambert]
 //! cell_footprints = 4.0
 //! ```
+//!
+//! The same table is also a field trainer (`fipt_core::trainer::FieldTrainer`), registered as
+//! `voxel-table` ([`trainer::VoxelTrainer`]): FIPT's rounds then bake, search, refine and
+//! extract as usual, and fit this table where they would train the neural field.
 use fipt_core::color::{luminance, Rgb};
 use fipt_core::field::{Material, MaterialField};
 use fipt_core::fit::{FitInputs, Fitted, MaterialFitter};
@@ -24,6 +28,8 @@ use fipt_pipeline::Components;
 use glam::Vec3;
 use serde::Deserialize;
 use std::collections::HashMap;
+
+pub mod trainer;
 
 /// `[plugins.voxel-lambert]`.
 #[derive(Clone, Debug, Deserialize)]
@@ -53,16 +59,76 @@ pub struct VoxelLambert {
 type Key = (i32, i32, i32);
 
 /// The fitted field: a voxel table, the mean albedo off the table.
+#[derive(serde::Serialize, Deserialize)]
 pub struct VoxelField {
+    /// The voxels' edge, in world units, or in the unit cube of `frame` when it is given.
     cell: f32,
+    /// The cube whose unit coordinates the voxels are laid in (the trainer's: the training
+    /// set's positions are unit-cube ones); None: world coordinates.
+    frame: Option<fipt_core::cube::Cube>,
+    #[serde(with = "voxel_list")]
     voxels: HashMap<Key, (Rgb, f32)>,
     fallback: Rgb,
 }
 
+/// The voxel table as a list of (key, albedo, mask) in JSON.
+mod voxel_list {
+    use super::{Key, Rgb};
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use std::collections::HashMap;
+    pub fn serialize<S: Serializer>(v: &HashMap<Key, (Rgb, f32)>, s: S) -> Result<S::Ok, S::Error> {
+        let mut list: Vec<_> = v.iter().map(|(k, (a, m))| (*k, a.to_array(), *m)).collect();
+        list.sort_by_key(|e| e.0);
+        list.serialize(s)
+    }
+    pub fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<HashMap<Key, (Rgb, f32)>, D::Error> {
+        let list: Vec<(Key, [f32; 3], f32)> = Vec::deserialize(d)?;
+        Ok(list
+            .into_iter()
+            .map(|(k, a, m)| (k, (Rgb::from(a), m)))
+            .collect())
+    }
+}
+
+fn key_of(q: Vec3, cell: f32) -> Key {
+    let q = (q / cell).floor();
+    (q.x as i32, q.y as i32, q.z as i32)
+}
+
 impl VoxelField {
     fn key(&self, p: Vec3) -> Key {
-        let q = (p / self.cell).floor();
-        (q.x as i32, q.y as i32, q.z as i32)
+        match &self.frame {
+            Some(c) => key_of(Vec3::from(c.unit(p)), self.cell),
+            None => key_of(p, self.cell),
+        }
+    }
+
+    /// The table of the voxels' sums (the fallback: their mean albedo).
+    fn from_sums(
+        cell: f32,
+        frame: Option<fipt_core::cube::Cube>,
+        sums: &HashMap<Key, Sums>,
+    ) -> Self {
+        let mut field = VoxelField {
+            cell,
+            frame,
+            voxels: HashMap::new(),
+            fallback: Vec3::splat(0.5),
+        };
+        let mut mean = Vec3::ZERO;
+        for (key, s) in sums {
+            let kd = (s.il / s.ll.max(Vec3::splat(1e-12))).clamp(Vec3::ZERO, Vec3::ONE);
+            field
+                .voxels
+                .insert(*key, (kd, s.emitting as f32 / s.n as f32));
+            mean += kd;
+        }
+        if !sums.is_empty() {
+            field.fallback = mean / sums.len() as f32;
+        }
+        field
     }
 }
 
@@ -96,6 +162,17 @@ struct Sums {
     n: u32,
 }
 
+impl Sums {
+    /// One pixel: its radiance `img`, its diffuse shading at σ = 1 `ld`, and the luminance of the
+    /// most a white surface could reflect there.
+    fn add(&mut self, img: Rgb, ld: Rgb, reflectable: f32, emit_ratio: f32) {
+        self.il += img * ld;
+        self.ll += ld * ld;
+        self.emitting += u32::from(luminance(img) > emit_ratio * reflectable);
+        self.n += 1;
+    }
+}
+
 impl MaterialFitter for VoxelLambert {
     fn name(&self) -> &str {
         "voxel-lambert"
@@ -124,38 +201,20 @@ impl MaterialFitter for VoxelLambert {
         foot.sort_by(|a, b| a.total_cmp(b));
         let cell = foot.get(foot.len() / 2).copied().unwrap_or(0.01).max(1e-6)
             * self.config.cell_footprints;
-        let mut field = VoxelField {
-            cell,
-            voxels: HashMap::new(),
-            fallback: Vec3::splat(0.5),
-        };
         let mut sums: HashMap<Key, Sums> = HashMap::new();
         for (k, &(v, i, p)) in hits.iter().enumerate() {
             let sh = &shadings[v];
             let img = inp.images[v].data[i];
             let ld = sh.diffuse(i, 1.0);
             let max = |x: &[Rgb; NUM_LEVELS]| x.iter().fold(Vec3::ZERO, |a, b| a.max(*b));
-            let s = sums.entry(field.key(p)).or_default();
-            s.il += img * ld;
-            s.ll += ld * ld;
             let reflectable = luminance(ld + max(&sh.ls0[i]) + max(&sh.ls1[i]));
-            s.emitting += u32::from(luminance(img) > self.config.emit_ratio * reflectable);
-            s.n += 1;
+            let s = sums.entry(key_of(p, cell)).or_default();
+            s.add(img, ld, reflectable, self.config.emit_ratio);
             if k % 65_536 == 0 {
                 progress(k, hits.len());
             }
         }
-        let mut mean = Vec3::ZERO;
-        for (key, s) in &sums {
-            let kd = (s.il / s.ll.max(Vec3::splat(1e-12))).clamp(Vec3::ZERO, Vec3::ONE);
-            field
-                .voxels
-                .insert(*key, (kd, s.emitting as f32 / s.n as f32));
-            mean += kd;
-        }
-        if !sums.is_empty() {
-            field.fallback = mean / sums.len() as f32;
-        }
+        let field = VoxelField::from_sums(cell, None, &sums);
         progress(hits.len(), hits.len());
         let report = serde_json::json!({
             "voxels": field.voxels.len(),
@@ -167,14 +226,23 @@ impl MaterialFitter for VoxelLambert {
     }
 }
 
-/// `components` with the `voxel-lambert` method registered.
+/// `components` with the `voxel-lambert` method and the `voxel-table` trainer registered.
 pub fn register(components: Components) -> Components {
-    components.with_fitter(
-        "voxel-lambert",
-        "Lambertian albedo per voxel by least squares on the bake (a baseline; settings: [plugins.voxel-lambert])",
-        Box::new(|v, _preset| {
-            let config: VoxelLambertConfig = serde_json::from_value(v.clone())?;
-            Ok(Box::new(VoxelLambert { config }))
-        }),
-    )
+    components
+        .with_fitter(
+            "voxel-lambert",
+            "Lambertian albedo per voxel by least squares on the bake (a baseline; settings: [plugins.voxel-lambert])",
+            Box::new(|v, _preset| {
+                let config: VoxelLambertConfig = serde_json::from_value(v.clone())?;
+                Ok(Box::new(VoxelLambert { config }))
+            }),
+        )
+        .with_trainer(
+            trainer::NAME,
+            "the voxel-lambert table fitted in FIPT's rounds in place of the neural field (settings: [plugins.voxel-table])",
+            Box::new(|v| {
+                let config: VoxelLambertConfig = serde_json::from_value(v.clone())?;
+                Ok(Box::new(trainer::VoxelTrainer { config }))
+            }),
+        )
 }
