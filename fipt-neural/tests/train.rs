@@ -319,3 +319,85 @@ fn warm_start_continues_from_the_previous_field() {
     let mut o = Trainer::new(other, bounds, set.levels).unwrap();
     assert!(o.warm_start(&a.field).is_err());
 }
+
+/// The hash-grid trainer through the `FieldTrainer` contract: a training equals the
+/// `Trainer`'s of the same settings, the field reloads from the round's folder with the same
+/// answers, a second call resumes the finished checkpoint without a step, and a warm start
+/// from a field of another kind is refused with its name.
+#[test]
+fn hash_grid_trainer_keeps_the_contract() {
+    use fipt_core::trainer::{FieldTrainer, TrainRound};
+    use fipt_neural::HashGridTrainer;
+    let (set, bounds) = data();
+    let dir = std::env::temp_dir().join(format!("fipt-hash-grid-trainer-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let trainer = HashGridTrainer::new(config()).unwrap();
+    let notes = std::sync::Mutex::new(Vec::<String>::new());
+    let note = |s: &str| notes.lock().unwrap().push(s.to_string());
+    let round = TrainRound {
+        dir: &dir,
+        inputs: "set-1",
+        resume: true,
+        warm: None,
+        note: &note,
+    };
+    let mut steps = vec![];
+    let trained = trainer
+        .train(&set, &round, &mut |k, n, _| steps.push((k, n)))
+        .unwrap();
+    assert_eq!(steps.first(), Some(&(1, 40)));
+    assert_eq!(steps.last(), Some(&(40, 40)));
+    let pts: Vec<Vec3> = (0..50).map(|i| Vec3::splat(i as f32 * 0.06)).collect();
+    let answers = |f: &dyn MaterialField| {
+        let m = f.materials(&pts).unwrap();
+        (m, f.emission_mask(&pts).unwrap())
+    };
+    let mut direct = Trainer::new(config(), bounds, set.levels).unwrap();
+    direct.run(&set, None, &mut |_| {}).unwrap();
+    assert_eq!(answers(trained.field.as_ref()), answers(&direct.field));
+    assert_eq!(
+        trained.files,
+        [std::path::PathBuf::from("field.safetensors")]
+    );
+    assert_eq!(trained.settings["steps"], 40);
+    let loaded = trainer.load(&dir).unwrap();
+    assert_eq!(answers(loaded.as_ref()), answers(&direct.field));
+    let mut again = 0;
+    let resumed = trainer
+        .train(&set, &round, &mut |_, _, _| again += 1)
+        .unwrap();
+    assert_eq!(again, 0, "a finished checkpoint resumes with no step left");
+    assert_eq!(answers(resumed.field.as_ref()), answers(&direct.field));
+    assert!(notes
+        .lock()
+        .unwrap()
+        .iter()
+        .any(|n| n.starts_with("resuming from step 40")));
+
+    struct Grey;
+    impl MaterialField for Grey {
+        fn name(&self) -> &str {
+            "grey"
+        }
+        fn materials(&self, p: &[Vec3]) -> fipt_core::Result<Vec<fipt_core::field::Material>> {
+            let m = fipt_core::field::Material {
+                albedo: Vec3::splat(0.5),
+                roughness: 1.0,
+                metallic: 0.0,
+            };
+            Ok(vec![m; p.len()])
+        }
+        fn emission_mask(&self, p: &[Vec3]) -> fipt_core::Result<Vec<f32>> {
+            Ok(vec![0.0; p.len()])
+        }
+    }
+    let warm = TrainRound {
+        resume: false,
+        warm: Some(&Grey),
+        ..round
+    };
+    let err = trainer.train(&set, &warm, &mut |_, _, _| {}).err().unwrap();
+    assert!(err.to_string().contains("`grey`"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -360,4 +360,19 @@ mod tests {
         );
         assert!(err.contains("tresh"), "{err}");
     }
+
+    /// The built-in trainer takes `[train]`'s settings and names a bad key; an unknown trainer
+    /// names the registered ones.
+    #[test]
+    fn builtin_hash_grid_trainer_and_unknown_names() {
+        let c = Components::builtin();
+        let defaults = serde_json::to_value(fipt_neural::TrainConfig::default()).unwrap();
+        assert_eq!(c.trainer("hash-grid", &defaults).unwrap().name(), "hash-grid");
+        let err = format!("{:#}", c.trainer("nerf", &defaults).err().unwrap());
+        assert!(err.contains("nerf") && err.contains("hash-grid"), "{err}");
+        let mut bad = defaults.clone();
+        bad["stepz"] = 3.into();
+        let err = format!("{:#}", c.trainer("hash-grid", &bad).err().unwrap());
+        assert!(err.contains("stepz"), "{err}");
+    }
 }
