@@ -570,6 +570,9 @@ impl ShadingBaker for FactorizedBaker {
     fn name(&self) -> &str {
         self.model.component_name("fipt-slf")
     }
+    fn caveats(&self) -> Vec<String> {
+        crate::diffuse::diffuse_cache_caveat(self.model)
+    }
     fn bake(
         &self,
         geometry: &dyn RayQuery,

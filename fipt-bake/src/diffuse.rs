@@ -178,6 +178,16 @@ pub fn moments_express(model: ReflectanceModel) -> bool {
     !matches!(model, ReflectanceModel::External(_))
 }
 
+/// The caveat of a bake or refinement under `model` when the diffuse cache cannot express it.
+pub fn diffuse_cache_caveat(model: ReflectanceModel) -> Vec<String> {
+    if moments_express(model) {
+        return vec![];
+    }
+    vec![format!(
+        "diffuse cache off: its moments express the built-in lobes only, so `{model}`'s diffuse shading is integrated per pixel for each view direction (slower bake and refinement)"
+    )]
+}
+
 /// Ld at a surface point: (1/π)∫ Li cos dω by `n` cosine samples (weight = Li) and, when the
 /// light has emitters, `n_light` emitter samples, combined by the power heuristic. `rng` drives
 /// the emitter samples and any path continuation.

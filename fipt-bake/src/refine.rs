@@ -740,6 +740,9 @@ impl ShadingRefiner for PathGrownRefiner {
     fn name(&self) -> &str {
         self.model.component_name("fipt-path-grown")
     }
+    fn caveats(&self) -> Vec<String> {
+        crate::diffuse::diffuse_cache_caveat(self.model)
+    }
     fn refine(
         &self,
         inputs: &RefineInputs,

@@ -213,4 +213,10 @@ pub struct PixelHit {
 pub trait EmitterExtractor {
     fn name(&self) -> &str;
     fn extract(&self, inputs: &EmitterInputs) -> Result<Vec<Emitter>>;
+    /// Checked before any work of a run: whether the extraction on a mesh of `triangles`
+    /// triangles stays within this extractor's bounds (Err: what to change). Ok by default.
+    fn check(&self, triangles: usize) -> std::result::Result<(), String> {
+        let _ = triangles;
+        Ok(())
+    }
 }

@@ -240,6 +240,11 @@ impl std::fmt::Display for Shard {
 pub trait ShadingBaker {
     /// A short name for reports.
     fn name(&self) -> &str;
+    /// What this baker leaves out or does otherwise under its settings and model (one
+    /// sentence each), for the run's log and `report.json`'s `modeled`. None by default.
+    fn caveats(&self) -> Vec<String> {
+        vec![]
+    }
     /// Shadings of every view in `views` (HDR `images` in the same order), and the bake's report.
     fn bake(
         &self,
@@ -316,6 +321,10 @@ pub struct RefineInputs<'a> {
 pub trait ShadingRefiner {
     /// A short name for reports.
     fn name(&self) -> &str;
+    /// As [`ShadingBaker::caveats`].
+    fn caveats(&self) -> Vec<String> {
+        vec![]
+    }
     /// Shadings of every view of `inputs.views`, in the same order, and the refinement's report.
     fn refine(
         &self,

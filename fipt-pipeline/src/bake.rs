@@ -46,16 +46,22 @@ pub enum BakeOutcome {
 /// config (a file with a `[pipeline]` table), its `baker` with that baker's section (`[bake]`
 /// for `slf`, else `[plugins.<name>]`); otherwise the built-in `slf` with the file's bake
 /// settings (a plain bake config, or a run config's `[bake]`) over the preset's.
-pub fn chosen_baker(preset: &str, file: Option<&Path>) -> Result<(String, serde_json::Value)> {
+pub fn chosen_baker(
+    preset: &str,
+    file: Option<&Path>,
+    components: &crate::Components,
+) -> Result<(String, serde_json::Value)> {
     if let Some(path) = file.filter(|p| crate::config::has_table(p, "pipeline").unwrap_or(false)) {
         let cfg =
             crate::config::load_preset(preset, crate::run_config::RunConfig::preset, Some(path))?;
-        return Ok((cfg.pipeline.baker.clone(), cfg.baker_settings()?));
+        let name = cfg.pipeline.baker.clone();
+        let settings = components.settings_of(crate::components::Kind::Baker, &name, &cfg)?;
+        return Ok((name, settings));
     }
     let cfg: BakeConfig =
         crate::config::load_preset_section(preset, BakeConfig::preset, file, "bake")?;
     Ok((
-        crate::names::SLF_BAKER.to_string(),
+        crate::run_config::PipelineConfig::default().baker,
         serde_json::to_value(&cfg)?,
     ))
 }
@@ -82,14 +88,15 @@ pub fn run_baker(
             path.display()
         );
     }
-    let settings = cfg.baker_settings()?;
-    let baker = components.baker(&cfg.pipeline.baker, &settings, cfg.model.brdf)?;
+    let name = &cfg.pipeline.baker;
+    let settings = components.settings_of(crate::components::Kind::Baker, name, &cfg)?;
+    let baker = components.baker(name, &settings, cfg.model.brdf)?;
     Ok(Some((baker.name().to_string(), settings)))
 }
 
 /// The bake alone (`fipt bake`), with the baker a run would use ([`chosen_baker`]).
 pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeOutcome> {
-    let (name, settings) = chosen_baker(&a.preset, a.config.as_deref())?;
+    let (name, settings) = chosen_baker(&a.preset, a.config.as_deref(), components)?;
     let baker = components.baker(&name, &settings, a.brdf)?;
     fipt_core::lock::refuse_nested_run(&a.out)?;
     let _lock = crate::request::lock(&a.out, a.shard, "fipt bake")?;

@@ -12,8 +12,9 @@
 //! | emitter extractor (`fipt_core::emitter::EmitterExtractor`) | `[pipeline] extractor` | `mask`: the emission-mask extractor, settings `[emitters]` |
 //! | reflectance model (`fipt_core::reflectance::ReflectanceFormulas`; built-ins a closed enum) | `[model] brdf`, `--brdf` | `principled`, `fipt` |
 //!
-//! A registered component's settings are the run config's `[plugins.<name>]` table, passed to
-//! its factory as JSON (the factory validates them and names the bad key).
+//! A registered component's settings are the run config's `[plugins.<name>]` table (a
+//! built-in's: its own table, `[bake]`, `[refine]`, `[train]` or `[emitters]`), passed to its
+//! factory as JSON (the factory validates them and names the bad key); `settings_of` finds them.
 use crate::bail;
 use crate::error::Result;
 use fipt_core::emitter::EmitterExtractor;
@@ -50,6 +51,19 @@ pub type FitterFactory =
 struct Entry<F> {
     description: String,
     factory: F,
+    /// The run config's own table holding the settings (the built-ins'); None: the
+    /// component's `[plugins.<name>]`.
+    section: Option<&'static str>,
+}
+
+/// The kinds of components the registry holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    Method,
+    Baker,
+    Refiner,
+    Trainer,
+    Extractor,
 }
 
 /// The registry of named components.
@@ -124,6 +138,48 @@ impl Components {
                 Ok(Box::new(fipt_emitter::MaskExtractor { config }))
             }),
         )
+        .in_section(Kind::Baker, SLF_BAKER, "bake")
+        .in_section(Kind::Refiner, PATH_GROWN_REFINER, "refine")
+        .in_section(Kind::Trainer, HASH_GRID_TRAINER, "train")
+        .in_section(Kind::Extractor, MASK_EXTRACTOR, "emitters")
+    }
+
+    /// Gives the registered component `name` of `kind` the run config's table `section` for
+    /// its settings (a built-in's own table) instead of `[plugins.<name>]`.
+    fn in_section(mut self, kind: Kind, name: &str, section: &'static str) -> Self {
+        let slot = match kind {
+            Kind::Method => self.fitters.get_mut(name).map(|e| &mut e.section),
+            Kind::Baker => self.bakers.get_mut(name).map(|e| &mut e.section),
+            Kind::Refiner => self.refiners.get_mut(name).map(|e| &mut e.section),
+            Kind::Trainer => self.trainers.get_mut(name).map(|e| &mut e.section),
+            Kind::Extractor => self.extractors.get_mut(name).map(|e| &mut e.section),
+        };
+        if let Some(slot) = slot {
+            *slot = Some(section);
+        }
+        self
+    }
+
+    /// The settings of component `name` of `kind` in `cfg`: a built-in's own table (`[bake]`,
+    /// `[refine]`, `[train]`, `[emitters]`), anything else's `[plugins.<name>]` (an empty table
+    /// when absent).
+    pub fn settings_of(
+        &self,
+        kind: Kind,
+        name: &str,
+        cfg: &crate::run_config::RunConfig,
+    ) -> Result<serde_json::Value> {
+        let section = match kind {
+            Kind::Method => self.fitters.get(name).and_then(|e| e.section),
+            Kind::Baker => self.bakers.get(name).and_then(|e| e.section),
+            Kind::Refiner => self.refiners.get(name).and_then(|e| e.section),
+            Kind::Trainer => self.trainers.get(name).and_then(|e| e.section),
+            Kind::Extractor => self.extractors.get(name).and_then(|e| e.section),
+        };
+        match section {
+            Some(table) => cfg.section(table),
+            None => Ok(cfg.plugin_settings(name)),
+        }
     }
 
     /// Registers (or replaces) the emitter extractor `name`.
@@ -138,6 +194,7 @@ impl Components {
             Entry {
                 description: description.to_string(),
                 factory,
+                section: None,
             },
         );
         self
@@ -150,6 +207,7 @@ impl Components {
             Entry {
                 description: description.to_string(),
                 factory,
+                section: None,
             },
         );
         self
@@ -185,6 +243,7 @@ impl Components {
             Entry {
                 description: description.to_string(),
                 factory,
+                section: None,
             },
         );
         self
@@ -197,6 +256,7 @@ impl Components {
             Entry {
                 description: description.to_string(),
                 factory,
+                section: None,
             },
         );
         self
@@ -209,6 +269,7 @@ impl Components {
             Entry {
                 description: description.to_string(),
                 factory,
+                section: None,
             },
         );
         self
@@ -367,7 +428,10 @@ mod tests {
     fn builtin_hash_grid_trainer_and_unknown_names() {
         let c = Components::builtin();
         let defaults = serde_json::to_value(fipt_neural::TrainConfig::default()).unwrap();
-        assert_eq!(c.trainer("hash-grid", &defaults).unwrap().name(), "hash-grid");
+        assert_eq!(
+            c.trainer("hash-grid", &defaults).unwrap().name(),
+            "hash-grid"
+        );
         let err = format!("{:#}", c.trainer("nerf", &defaults).err().unwrap());
         assert!(err.contains("nerf") && err.contains("hash-grid"), "{err}");
         let mut bad = defaults.clone();

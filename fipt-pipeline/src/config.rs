@@ -153,7 +153,8 @@ mod tests {
         assert_eq!(c.diffuse_samples, 48);
         // `fipt bake` chooses the baker as `fipt run` does: `slf` with `[bake]` without a
         // `[pipeline]` table, else the table's baker with its own section.
-        let (name, settings) = crate::bake::chosen_baker("fast", Some(&p)).unwrap();
+        let (name, settings) =
+            crate::bake::chosen_baker("fast", Some(&p), &crate::Components::builtin()).unwrap();
         assert_eq!(
             (name.as_str(), settings["diffuse_samples"].as_u64()),
             ("slf", Some(48))
@@ -163,7 +164,8 @@ mod tests {
             "[pipeline]\nbaker = \"mine\"\n[plugins.mine]\nrays = 3\n[bake]\ndiffuse_samples = 48\n",
         )
         .unwrap();
-        let (name, settings) = crate::bake::chosen_baker("fast", Some(&p)).unwrap();
+        let (name, settings) =
+            crate::bake::chosen_baker("fast", Some(&p), &crate::Components::builtin()).unwrap();
         assert_eq!(
             (name.as_str(), &settings),
             ("mine", &serde_json::json!({"rays": 3}))
@@ -182,7 +184,8 @@ mod tests {
             "[pipeline]\nbaker = \"slf\"\n[bake]\ndiffuse_samples = 40\n",
         )
         .unwrap();
-        let (name, settings) = crate::bake::chosen_baker("fast", Some(&p)).unwrap();
+        let (name, settings) =
+            crate::bake::chosen_baker("fast", Some(&p), &crate::Components::builtin()).unwrap();
         assert_eq!(
             (name.as_str(), settings["diffuse_samples"].as_u64()),
             ("slf", Some(40))

@@ -56,6 +56,10 @@ fn fit_rounds(
     let (a, cfg, scene) = (&host.request, &host.cfg, &host.scene);
     let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
     let memory = crate::memory::check(pixels, cfg)?;
+    let caveats = crate::fit::caveats([parts.baker.caveats(), parts.refiner.caveats()]);
+    if let Some(c) = &caveats {
+        crate::note!("{c}");
+    }
     let mut first = first_round(host, parts, mark)?;
     let (records, footprint) = host.hits();
     let t = crate::observe::begin("emitters");
@@ -106,7 +110,11 @@ fn fit_rounds(
         "memory_estimate_gib": fipt_core::memory::gib(memory),
     });
     let mut fitted = Fitted::new(field, Some(emitters), report);
-    fitted.modeled = Some(modeled(cfg, &refine_plan, &train));
+    let mut modeled = modeled(cfg, &refine_plan, &train);
+    if let Some(c) = caveats {
+        modeled["diffuse_cache"] = c.into();
+    }
+    fitted.modeled = Some(modeled);
     fitted.id = (!a.force).then(|| train.fingerprint());
     let dir = crate::rounds::train_dir(&a.out, done_rounds);
     fitted.field_file = train.field_files.first().map(|f| dir.join(f));

@@ -156,43 +156,27 @@ fn fit_views(
     fitted.map_err(from_method)
 }
 
-/// The scene, checked for coverage and, with the emission-mask extractor, for the mask's queries.
-fn load_checked(a: &RunRequest, cfg: &RunConfig) -> Result<LoadedScene> {
+/// The scene, checked for coverage and for the extractor's bounds on its mesh.
+fn load_checked(
+    a: &RunRequest,
+    cfg: &RunConfig,
+    extractor: &dyn fipt_core::emitter::EmitterExtractor,
+) -> Result<LoadedScene> {
     let scene = crate::scene::load(&a.scene, a.bad_pixels, cfg.capture.align_views)?;
     crate::scene::check_coverage(&scene)?;
-    if cfg.pipeline.extractor == crate::names::MASK_EXTRACTOR {
-        // The emission mask is queried at every sample of every triangle: about 10 M queries
-        // a second on 2 cores.
-        let triangles = scene.geometry.mesh.triangles.len() as f64;
-        let factors = [
-            (
-                "emitters.samples_per_triangle",
-                cfg.emitters.samples_per_triangle as f64,
-            ),
-            ("triangles", triangles),
-        ];
-        fipt_core::range::product("the emission mask's queries", &factors, 1e10, "queries")
-            .map_err(PipelineError::invalid)?;
-    }
-    if let Some(off) = diffuse_cache_off(cfg, false) {
-        crate::note!("{off}");
-    }
+    (extractor.check(scene.geometry.mesh.triangles.len())).map_err(PipelineError::invalid)?;
     Ok(scene)
 }
 
-/// Why the diffuse cache is off for this run's reflectance model, if it is and the run's
-/// shadings come from the built-in bake (`baked`: the method asked for one) or, under FIPT, the
-/// built-in refinement.
-fn diffuse_cache_off(cfg: &RunConfig, baked: bool) -> Option<String> {
-    let (model, p) = (cfg.model.brdf, &cfg.pipeline);
-    let fipt = p.method == crate::names::FIPT_METHOD;
-    let slf = p.baker == crate::names::SLF_BAKER && (baked || fipt);
-    let grown = fipt && p.refiner == crate::names::PATH_GROWN_REFINER;
-    (!fipt_bake::bake::moments_express(model) && (slf || grown)).then(|| {
-        format!(
-            "diffuse cache off: its moments express the built-in lobes only, so `{model}`'s diffuse shading is integrated per pixel for each view direction (slower bake and refinement)"
-        )
-    })
+/// The caveats of the components whose work a run uses, without repeats, as one sentence.
+pub(crate) fn caveats(lists: impl IntoIterator<Item = Vec<String>>) -> Option<String> {
+    let mut all: Vec<String> = vec![];
+    for c in lists.into_iter().flatten() {
+        if !all.contains(&c) {
+            all.push(c);
+        }
+    }
+    (!all.is_empty()).then(|| all.join("; "))
 }
 
 /// Runs `parts.fitter` on the scene of `a` and writes the output contract into `a.out`.
@@ -211,7 +195,7 @@ pub fn run(
     }
     let t = crate::observe::begin("load");
     let host = Host {
-        scene: load_checked(a, cfg)?,
+        scene: load_checked(a, cfg, parts.parts.extractor)?,
         cfg: cfg.clone(),
         request: a.clone(),
         hits: OnceLock::new(),
@@ -254,6 +238,7 @@ pub fn run(
         extractor: p.extractor,
         field,
         baked: shadings.is_some(),
+        caveats: caveats(shadings.is_some().then(|| p.baker.caveats())),
         exposure: scene.exposure,
     };
     let lights = emitters.len();
@@ -275,6 +260,9 @@ fn bake_for(
         return Ok(None);
     }
     let (a, p) = (&host.request, &parts.parts);
+    if let Some(c) = caveats([p.baker.caveats()]) {
+        crate::note!("{c}");
+    }
     let t = crate::observe::begin("bake");
     let bake = &a.out.join("bake");
     let sh = crate::bake::stage(
@@ -384,6 +372,8 @@ struct Ran<'a> {
     extractor: &'a dyn EmitterExtractor,
     field: &'a dyn fipt_core::field::MaterialField,
     baked: bool,
+    /// The baker's caveats, when the run baked for the method.
+    caveats: Option<String>,
     exposure: f32,
 }
 
@@ -416,8 +406,8 @@ impl Ran<'_> {
             "re_render": self.re_render(),
         });
         extend(&mut modeled, own);
-        if let Some(off) = diffuse_cache_off(cfg, self.baked) {
-            modeled["diffuse_cache"] = off.into();
+        if let Some(off) = self.caveats.as_ref() {
+            modeled["diffuse_cache"] = off.as_str().into();
         }
         serde_json::json!({
             "fit": fit,

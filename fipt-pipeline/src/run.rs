@@ -2,6 +2,7 @@
 //! per-view maps → re-render → report (→ eval when ground truth exists). Every stage writes
 //! its results atomically and a manifest last; re-running skips finished stages and resumes an
 //! interrupted training.
+use crate::components::Kind;
 use crate::error::{PipelineError, Result};
 pub use crate::outputs::{RunOutcome, RunSummary};
 pub use crate::request::{lock, RunRequest};
@@ -42,7 +43,8 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
     status("running", None)?;
     let method = &cfg.pipeline.method;
     let res = components
-        .fitter(method, &cfg.plugin_settings(method), &a.preset)
+        .settings_of(Kind::Method, method, &cfg)
+        .and_then(|settings| components.fitter(method, &settings, &a.preset))
         .and_then(|fitter| {
             let parts = crate::fit::Parts {
                 fitter: fitter.as_ref(),
@@ -92,15 +94,17 @@ pub(crate) fn check(
     cfg.search.validate().map_err(PipelineError::invalid)?;
     cfg.rounds.validate().map_err(PipelineError::invalid)?;
     cfg.render.validate().map_err(PipelineError::invalid)?;
-    let extractor = components.extractor(&cfg.pipeline.extractor, &cfg.extractor_settings()?)?;
-    let bake_settings = cfg.baker_settings()?;
-    let baker = components.baker(&cfg.pipeline.baker, &bake_settings, cfg.model.brdf)?;
-    let refine_settings = cfg.refiner_settings()?;
-    let refiner = components.refiner(&cfg.pipeline.refiner, &refine_settings, cfg.model.brdf)?;
-    let train_settings = cfg.trainer_settings()?;
-    components.trainer(&cfg.pipeline.trainer, &train_settings)?;
-    let method = &cfg.pipeline.method;
-    components.fitter(method, &cfg.plugin_settings(method), preset)?;
+    let p = &cfg.pipeline;
+    let settings = |kind, name: &str| components.settings_of(kind, name, cfg);
+    let extractor =
+        components.extractor(&p.extractor, &settings(Kind::Extractor, &p.extractor)?)?;
+    let bake_settings = settings(Kind::Baker, &p.baker)?;
+    let baker = components.baker(&p.baker, &bake_settings, cfg.model.brdf)?;
+    let refine_settings = settings(Kind::Refiner, &p.refiner)?;
+    let refiner = components.refiner(&p.refiner, &refine_settings, cfg.model.brdf)?;
+    let train_settings = settings(Kind::Trainer, &p.trainer)?;
+    components.trainer(&p.trainer, &train_settings)?;
+    components.fitter(&p.method, &settings(Kind::Method, &p.method)?, preset)?;
     Ok(Checked {
         extractor,
         baker,

@@ -72,48 +72,14 @@ impl Default for PipelineConfig {
 }
 
 impl RunConfig {
-    /// The settings of the configured extractor: `[emitters]` for the built-in one, else
-    /// `[plugins.<name>]`.
-    pub(crate) fn extractor_settings(&self) -> Result<serde_json::Value> {
-        let name = &self.pipeline.extractor;
-        Ok(if name == crate::names::MASK_EXTRACTOR {
-            serde_json::to_value(&self.emitters)?
-        } else {
-            self.plugin_settings(name)
-        })
-    }
-
-    /// The settings of the configured baker: `[bake]` for the built-in one, else
-    /// `[plugins.<name>]`.
-    pub(crate) fn baker_settings(&self) -> Result<serde_json::Value> {
-        let name = &self.pipeline.baker;
-        Ok(if name == crate::names::SLF_BAKER {
-            serde_json::to_value(&self.bake)?
-        } else {
-            self.plugin_settings(name)
-        })
-    }
-
-    /// The settings of the configured refiner: `[refine]` for the built-in one, else
-    /// `[plugins.<name>]`.
-    pub(crate) fn refiner_settings(&self) -> Result<serde_json::Value> {
-        let name = &self.pipeline.refiner;
-        Ok(if name == crate::names::PATH_GROWN_REFINER {
-            serde_json::to_value(&self.refine)?
-        } else {
-            self.plugin_settings(name)
-        })
-    }
-
-    /// The settings of the configured trainer: `[train]` for the built-in one, else
-    /// `[plugins.<name>]`.
-    pub(crate) fn trainer_settings(&self) -> Result<serde_json::Value> {
-        let name = &self.pipeline.trainer;
-        Ok(if name == crate::names::HASH_GRID_TRAINER {
-            serde_json::to_value(&self.train)?
-        } else {
-            self.plugin_settings(name)
-        })
+    /// The table `name` of the config (`bake`, `train`, …) as JSON, for the component whose
+    /// settings it holds.
+    pub(crate) fn section(&self, name: &str) -> Result<serde_json::Value> {
+        let mut all = serde_json::to_value(self)?;
+        match all.get_mut(name) {
+            Some(v) => Ok(v.take()),
+            None => crate::bail!("the run config has no [{name}] table"),
+        }
     }
 
     /// `[plugins.<name>]` (an empty table when absent).

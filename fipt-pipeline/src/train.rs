@@ -127,10 +127,12 @@ fn chosen_trainer(
     let (name, mut settings) = match with_pipeline {
         Some(path) => {
             let cfg = crate::config::load_preset(&a.preset, RunConfig::preset, Some(path))?;
-            (cfg.pipeline.trainer.clone(), cfg.trainer_settings()?)
+            let name = cfg.pipeline.trainer.clone();
+            let settings = components.settings_of(crate::components::Kind::Trainer, &name, &cfg)?;
+            (name, settings)
         }
         None => (
-            crate::names::HASH_GRID_TRAINER.to_string(),
+            crate::run_config::PipelineConfig::default().trainer,
             serde_json::to_value(set)?,
         ),
     };
