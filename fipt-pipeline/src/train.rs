@@ -56,6 +56,11 @@ pub struct TrainManifest {
     pub trainer: String,
     /// The settings the training ran with, as the trainer sized them for the set.
     pub config: serde_json::Value,
+    /// The content hash of `config` as the trainer returned it (a float read back from JSON
+    /// may differ in its last bit, so the fingerprint does not re-hash what it reads; empty in
+    /// manifests written before it existed: `config` is hashed).
+    #[serde(default)]
+    pub config_hash: String,
     pub pixels: usize,
     /// Hit pixels that `train.set_cap` left out of the training set.
     #[serde(default)]
@@ -109,9 +114,17 @@ impl TrainManifest {
     /// What the trained field is a function of: its inputs, trainer and settings (training
     /// is deterministic). Later stages key on it.
     pub fn fingerprint(&self) -> String {
-        let cfg = serde_json::to_string(&self.config).unwrap_or_default();
+        let cfg = match self.config_hash.as_str() {
+            "" => config_hash(&self.config),
+            h => h.to_string(),
+        };
         fipt_core::fsutil::hash_bytes(format!("{}|{}|{cfg}", self.inputs, self.trainer).as_bytes())
     }
+}
+
+/// [`TrainManifest::config_hash`] of `config`.
+fn config_hash(config: &serde_json::Value) -> String {
+    fipt_core::fsutil::hash_bytes(serde_json::to_string(config).unwrap_or_default().as_bytes())
 }
 
 /// The trainer `fipt train` uses, with its settings: `[pipeline] trainer` when the config file
@@ -418,6 +431,7 @@ fn train_and_record(
         inputs,
         request,
         trainer: on.trainer.name().to_string(),
+        config_hash: config_hash(&trained.settings),
         config: trained.settings,
         pixels: set.data.len(),
         pixels_left_out: set.left_out,
