@@ -55,7 +55,7 @@ pub fn chosen_baker(
         let cfg =
             crate::config::load_preset(preset, crate::run_config::RunConfig::preset, Some(path))?;
         let name = cfg.pipeline.baker.clone();
-        let settings = components.settings_of(crate::components::Kind::Baker, &name, &cfg)?;
+        let settings = components.settings_of(crate::names::Kind::Baker, &name, &cfg)?;
         return Ok((name, settings));
     }
     let cfg: BakeConfig =
@@ -89,7 +89,7 @@ pub fn run_baker(
         );
     }
     let name = &cfg.pipeline.baker;
-    let settings = components.settings_of(crate::components::Kind::Baker, name, &cfg)?;
+    let settings = components.settings_of(crate::names::Kind::Baker, name, &cfg)?;
     let baker = components.baker(name, &settings, cfg.model.brdf)?;
     Ok(Some((baker.name().to_string(), settings)))
 }

@@ -56,15 +56,7 @@ struct Entry<F> {
     section: Option<&'static str>,
 }
 
-/// The kinds of components the registry holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
-    Method,
-    Baker,
-    Refiner,
-    Trainer,
-    Extractor,
-}
+pub use crate::names::Kind;
 
 /// The registry of named components.
 pub struct Components {

@@ -1,5 +1,5 @@
-//! The names of the built-in components, as `[pipeline]` chooses them (a leaf module: the run
-//! config's defaults and the registry both read it).
+//! The names of the built-in components, as `[pipeline]` chooses them, and the kinds of
+//! components (a leaf module: the run config's defaults, the stages and the registry read it).
 
 /// The built-in shading baker's name.
 pub const SLF_BAKER: &str = "slf";
@@ -15,3 +15,13 @@ pub const FIPT_METHOD: &str = "fipt";
 
 /// The built-in field trainer's name (`fipt_neural::HashGridTrainer`).
 pub const HASH_GRID_TRAINER: &str = "hash-grid";
+
+/// The kinds of components the registry holds (`crate::Components`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    Method,
+    Baker,
+    Refiner,
+    Trainer,
+    Extractor,
+}

@@ -2,8 +2,8 @@
 //! per-view maps → re-render → report (→ eval when ground truth exists). Every stage writes
 //! its results atomically and a manifest last; re-running skips finished stages and resumes an
 //! interrupted training.
-use crate::components::Kind;
 use crate::error::{PipelineError, Result};
+use crate::names::Kind;
 pub use crate::outputs::{RunOutcome, RunSummary};
 pub use crate::request::{lock, RunRequest};
 pub use crate::rounds::RoundsConfig;

@@ -141,7 +141,7 @@ fn chosen_trainer(
         Some(path) => {
             let cfg = crate::config::load_preset(&a.preset, RunConfig::preset, Some(path))?;
             let name = cfg.pipeline.trainer.clone();
-            let settings = components.settings_of(crate::components::Kind::Trainer, &name, &cfg)?;
+            let settings = components.settings_of(crate::names::Kind::Trainer, &name, &cfg)?;
             (name, settings)
         }
         None => (
