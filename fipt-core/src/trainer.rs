@@ -20,17 +20,19 @@ pub type StepProgress<'a> = &'a mut dyn FnMut(usize, usize, f32);
 
 /// The round a training is in.
 pub struct TrainRound<'a> {
-    /// The round's own folder: the trainer writes its checkpoints and its field here, and
-    /// [`FieldTrainer::load`] reads the field back from it.
+    /// The round's own folder (it exists): the trainer writes its checkpoints and its field
+    /// here, and [`FieldTrainer::load`] reads the field back from it.
     pub dir: &'a Path,
     /// What the set is a function of (scene, shadings, targets): a checkpoint written for
     /// other inputs must not be resumed.
     pub inputs: &'a str,
-    /// Resume an interrupted training of the same inputs and settings found in `dir`
-    /// (false: `--force`, train afresh).
+    /// Resume an interrupted training of the same inputs and settings found in `dir`. When
+    /// false (`--force`, or the field in `dir` was changed after it was written) the trainer
+    /// must not read what an earlier training left there.
     pub resume: bool,
     /// The previous round's field to start from (a warm start), when the method asks for one.
-    /// A trainer that cannot start from this kind of field says so with an error.
+    /// A trainer that needs none may ignore it; one that cannot start from this kind of field
+    /// says so with an error.
     pub warm: Option<&'a dyn MaterialField>,
     /// Where the trainer's messages go (resumed, warm-started, steps capped, final losses).
     pub note: Note<'a>,
@@ -40,13 +42,15 @@ pub struct TrainRound<'a> {
 pub struct Trained {
     pub field: Box<dyn MaterialField>,
     /// The settings the training ran with, as the trainer sized them for the set (written
-    /// to the round's manifest; later stages key on them).
+    /// to the round's manifest; later stages key on them). The trainer's factory must accept
+    /// them: a finished round's field is loaded by a trainer built from them.
     pub settings: serde_json::Value,
     /// What the training did, in the trainer's words (steps, losses, timings):
     /// `report.json`'s rounds carry it.
     pub report: serde_json::Value,
-    /// The files in [`TrainRound::dir`] that hold the field, relative to it: their content
-    /// hash is recorded, so that a field changed afterwards is not taken for this one.
+    /// The files in [`TrainRound::dir`] that hold the field, relative to it (at least one, no
+    /// `..`): their content hash is recorded, so that a field changed afterwards is not taken
+    /// for this one.
     pub files: Vec<PathBuf>,
 }
 

@@ -35,6 +35,8 @@ pub fn unreflectable(
 pub struct TrainingSet {
     /// The box the positions are relative to ([`Cube::unit`]).
     pub bounds: Cube,
+    /// How many views the set was gathered from (some may have left no pixel in it).
+    pub views: usize,
     /// The world size of a pixel's footprint on the surface (the median over the views), when
     /// the builder knows it: a trainer may size its finest detail by it.
     pub footprint: Option<f32>,
@@ -144,6 +146,7 @@ impl TrainingSet {
         }
         let mut set = TrainingSet {
             bounds: *bounds,
+            views,
             footprint: None,
             levels: crate::shading::DEFAULT_LEVELS,
             unit: vec![],

@@ -99,10 +99,10 @@ impl FieldTrainer for HashGridTrainer {
         let cfg = self.sized(set, round.warm.is_some(), round.note);
         let mut trainer = self.start(&cfg, set, round)?;
         let (pg, pm) = trainer.field.num_params();
-        let views = set.origin.last().map_or(0, |o| o.0 as usize + 1);
         (round.note)(&format!(
-            "training on {} pixels of {views} views: {pg} hash-table + {pm} MLP parameters, {} steps of {}",
+            "training on {} pixels of {} views: {pg} hash-table + {pm} MLP parameters, {} steps of {}",
             set.len(),
+            set.views,
             cfg.steps,
             cfg.batch
         ));

@@ -51,9 +51,18 @@ pub type FitterFactory =
 struct Entry<F> {
     description: String,
     factory: F,
-    /// The run config's own table holding the settings (the built-ins'); None: the
-    /// component's `[plugins.<name>]`.
-    section: Option<&'static str>,
+}
+
+/// Registers (or replaces) `name` in `map`.
+fn insert<F>(map: &mut BTreeMap<String, Entry<F>>, name: &str, description: &str, factory: F) {
+    let description = description.to_string();
+    map.insert(
+        name.to_string(),
+        Entry {
+            description,
+            factory,
+        },
+    );
 }
 
 pub use crate::names::Kind;
@@ -65,6 +74,9 @@ pub struct Components {
     bakers: BTreeMap<String, Entry<BakerFactory>>,
     refiners: BTreeMap<String, Entry<RefinerFactory>>,
     trainers: BTreeMap<String, Entry<TrainerFactory>>,
+    /// The run config's own table holding a component's settings (the built-ins'; kept when
+    /// one is registered again); the others read `[plugins.<name>]`.
+    sections: BTreeMap<(Kind, String), &'static str>,
 }
 
 pub use crate::names::{
@@ -80,6 +92,7 @@ impl Components {
             bakers: BTreeMap::new(),
             refiners: BTreeMap::new(),
             trainers: BTreeMap::new(),
+            sections: BTreeMap::new(),
         }
         .with_baker(
             SLF_BAKER,
@@ -139,16 +152,7 @@ impl Components {
     /// Gives the registered component `name` of `kind` the run config's table `section` for
     /// its settings (a built-in's own table) instead of `[plugins.<name>]`.
     fn in_section(mut self, kind: Kind, name: &str, section: &'static str) -> Self {
-        let slot = match kind {
-            Kind::Method => self.fitters.get_mut(name).map(|e| &mut e.section),
-            Kind::Baker => self.bakers.get_mut(name).map(|e| &mut e.section),
-            Kind::Refiner => self.refiners.get_mut(name).map(|e| &mut e.section),
-            Kind::Trainer => self.trainers.get_mut(name).map(|e| &mut e.section),
-            Kind::Extractor => self.extractors.get_mut(name).map(|e| &mut e.section),
-        };
-        if let Some(slot) = slot {
-            *slot = Some(section);
-        }
+        self.sections.insert((kind, name.to_string()), section);
         self
     }
 
@@ -161,15 +165,9 @@ impl Components {
         name: &str,
         cfg: &crate::run_config::RunConfig,
     ) -> Result<serde_json::Value> {
-        let section = match kind {
-            Kind::Method => self.fitters.get(name).and_then(|e| e.section),
-            Kind::Baker => self.bakers.get(name).and_then(|e| e.section),
-            Kind::Refiner => self.refiners.get(name).and_then(|e| e.section),
-            Kind::Trainer => self.trainers.get(name).and_then(|e| e.section),
-            Kind::Extractor => self.extractors.get(name).and_then(|e| e.section),
-        };
+        let section = self.sections.get(&(kind, name.to_string()));
         match section {
-            Some(table) => cfg.section(table),
+            Some(&table) => cfg.section(table),
             None => Ok(cfg.plugin_settings(name)),
         }
     }
@@ -181,27 +179,13 @@ impl Components {
         description: &str,
         factory: ExtractorFactory,
     ) -> Self {
-        self.extractors.insert(
-            name.to_string(),
-            Entry {
-                description: description.to_string(),
-                factory,
-                section: None,
-            },
-        );
+        insert(&mut self.extractors, name, description, factory);
         self
     }
 
     /// Registers (or replaces) the method `name`.
     pub fn with_fitter(mut self, name: &str, description: &str, factory: FitterFactory) -> Self {
-        self.fitters.insert(
-            name.to_string(),
-            Entry {
-                description: description.to_string(),
-                factory,
-                section: None,
-            },
-        );
+        insert(&mut self.fitters, name, description, factory);
         self
     }
 
@@ -230,40 +214,19 @@ impl Components {
 
     /// Registers (or replaces) the shading baker `name`.
     pub fn with_baker(mut self, name: &str, description: &str, factory: BakerFactory) -> Self {
-        self.bakers.insert(
-            name.to_string(),
-            Entry {
-                description: description.to_string(),
-                factory,
-                section: None,
-            },
-        );
+        insert(&mut self.bakers, name, description, factory);
         self
     }
 
     /// Registers (or replaces) the shading refiner `name`.
     pub fn with_refiner(mut self, name: &str, description: &str, factory: RefinerFactory) -> Self {
-        self.refiners.insert(
-            name.to_string(),
-            Entry {
-                description: description.to_string(),
-                factory,
-                section: None,
-            },
-        );
+        insert(&mut self.refiners, name, description, factory);
         self
     }
 
     /// Registers (or replaces) the field trainer `name`.
     pub fn with_trainer(mut self, name: &str, description: &str, factory: TrainerFactory) -> Self {
-        self.trainers.insert(
-            name.to_string(),
-            Entry {
-                description: description.to_string(),
-                factory,
-                section: None,
-            },
-        );
+        insert(&mut self.trainers, name, description, factory);
         self
     }
 

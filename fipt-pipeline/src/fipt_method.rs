@@ -273,7 +273,7 @@ fn training(cfg: &RunConfig, train: &crate::train::TrainManifest) -> String {
         training += &format!(
             "; {} steps asked, capped at {} passes and at least {} steps in the rounds from a previous round's field (train.max_passes, min_steps)",
             cfg.train.steps,
-            num("max_passes").unwrap_or(0.0),
+            num("max_passes").unwrap_or(0.0) as f32,
             num("min_steps").unwrap_or(0.0)
         );
     }
@@ -285,13 +285,16 @@ fn training(cfg: &RunConfig, train: &crate::train::TrainManifest) -> String {
         );
     }
     if train.pixels_lights > 0 {
-        let material = t.get("emitter_material").and_then(|v| v.as_bool());
+        let trains = match t.get("emitter_material").and_then(|v| v.as_bool()) {
+            Some(true) => " train the material and the emission mask (train.emitter_material)",
+            Some(false) => " train the emission mask only (train.emitter_material)",
+            None => "",
+        };
         training += &format!(
-            "; {} pixels ({:.2} %) over {}× brighter than any reflection their shadings allow (a light's) train {} (train.emitter_material)",
+            "; {} pixels ({:.2} %) over {}× brighter than any reflection their shadings allow (a light's){trains}",
             train.pixels_lights,
             100.0 * train.pixels_lights as f64 / train.pixels.max(1) as f64,
             fipt_core::training_set::UNREFLECTABLE,
-            if material.unwrap_or(true) { "the material and the emission mask" } else { "the emission mask only" }
         );
     }
     training

@@ -17,7 +17,7 @@ pub const FIPT_METHOD: &str = "fipt";
 pub const HASH_GRID_TRAINER: &str = "hash-grid";
 
 /// The kinds of components the registry holds (`crate::Components`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Kind {
     Method,
     Baker,

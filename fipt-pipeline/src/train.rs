@@ -56,11 +56,11 @@ pub struct TrainManifest {
     pub trainer: String,
     /// The settings the training ran with, as the trainer sized them for the set.
     pub config: serde_json::Value,
-    /// The content hash of `config` as the trainer returned it (a float read back from JSON
-    /// may differ in its last bit, so the fingerprint does not re-hash what it reads; empty in
-    /// manifests written before it existed: `config` is hashed).
+    /// [`TrainManifest::fingerprint`], computed when the training finished (a float read back
+    /// from JSON may differ in its last bit, so it is not recomputed from `config`; empty in
+    /// manifests written before 2026-11-28, whose fingerprint is recomputed as it was then).
     #[serde(default)]
-    pub config_hash: String,
+    pub fingerprint: String,
     pub pixels: usize,
     /// Hit pixels that `train.set_cap` left out of the training set.
     #[serde(default)]
@@ -114,17 +114,24 @@ impl TrainManifest {
     /// What the trained field is a function of: its inputs, trainer and settings (training
     /// is deterministic). Later stages key on it.
     pub fn fingerprint(&self) -> String {
-        let cfg = match self.config_hash.as_str() {
-            "" => config_hash(&self.config),
-            h => h.to_string(),
-        };
-        fipt_core::fsutil::hash_bytes(format!("{}|{}|{cfg}", self.inputs, self.trainer).as_bytes())
+        if !self.fingerprint.is_empty() {
+            return self.fingerprint.clone();
+        }
+        // Written before trainers were plug-ins: the hash-grid trainer's settings, hashed as
+        // they were then (typed, in their fields' order), so that the stages after it are reused.
+        let typed = serde_json::from_value::<TrainConfig>(self.config.clone());
+        let cfg = typed.map_or_else(
+            |_| self.config.to_string(),
+            |c| serde_json::to_string(&c).unwrap_or_default(),
+        );
+        fipt_core::fsutil::hash_bytes(format!("{}|{cfg}", self.inputs).as_bytes())
     }
 }
 
-/// [`TrainManifest::config_hash`] of `config`.
-fn config_hash(config: &serde_json::Value) -> String {
-    fipt_core::fsutil::hash_bytes(serde_json::to_string(config).unwrap_or_default().as_bytes())
+/// The fingerprint of a training of `inputs` by `trainer` with `settings`.
+fn fingerprint_of(inputs: &str, trainer: &str, settings: &serde_json::Value) -> String {
+    let cfg = fipt_core::fsutil::hash_bytes(settings.to_string().as_bytes());
+    fipt_core::fsutil::hash_bytes(format!("{inputs}|{trainer}|{cfg}").as_bytes())
 }
 
 /// The trainer `fipt train` uses, with its settings: `[pipeline] trainer` when the config file
@@ -273,15 +280,26 @@ pub(crate) struct TrainOn<'a> {
     pub(crate) search: Option<&'a Searched>,
 }
 
+/// The `[train]` settings that decide which pixels the set holds (whichever trainer runs).
+fn set_settings_id(set: &TrainConfig) -> String {
+    fipt_core::fsutil::hash_json(&serde_json::json!({
+        "bleed_radius": set.bleed_radius,
+        "bleed_contrast": set.bleed_contrast,
+        "seed": set.seed,
+        "set_limit": set.set_limit(),
+    }))
+}
+
 /// What decides a training before its set is built: the inputs, the shadings, the warm start,
-/// the trainer and its settings as given, the search's targets and the segment ids. A finished
-/// training with the same key is reused without building the training set (a resumed run
-/// skips it).
+/// the trainer's settings as given, the search's targets, the segment ids and the settings that
+/// choose the set's pixels; and the same key as written before 2026-11-28 (without the last,
+/// then part of the trainer's settings). A finished training of the same trainer with either key
+/// is reused without building the training set (a resumed run skips it).
 fn request_key(
     on: &TrainOn,
     warm: Option<&str>,
     segments: Option<&(crate::train_set::SegmentKind, String)>,
-) -> String {
+) -> (String, String) {
     let search = on.search;
     let segments = segments.map(|s| match second_sides(search, s.0) {
         Some(sides) => {
@@ -308,43 +326,68 @@ fn request_key(
         }
         h.hex()
     });
-    format!(
-        "{}|{}|{}|{}:{}|{}|{}",
+    let legacy = format!(
+        "{}|{}|{}|{}|{}|{}",
         on.scene.cache_key,
         on.shadings_id,
         warm.unwrap_or("none"),
-        on.trainer.name(),
         fipt_core::fsutil::hash_json(on.settings),
         targets.as_deref().unwrap_or("none"),
         segments.as_deref().unwrap_or("none")
-    )
+    );
+    (format!("{legacy}|set:{}", set_settings_id(on.set)), legacy)
 }
 
-/// A finished training in `dir` whose manifest `fits`, with its field (loaded by `trainer`).
+/// What [`finished`] found in a round's folder.
+enum Found {
+    /// A finished training that fits, with its field.
+    Done(Box<dyn MaterialField>, TrainManifest),
+    /// None that fits: train, resuming a checkpoint if the trainer has one.
+    Train,
+    /// A finished training whose field was changed since: train afresh.
+    Afresh,
+}
+
+/// A finished training of `trainer` in `dir` whose manifest `fits`, with its field (loaded by
+/// `trainer`).
 fn finished(
     dir: &Path,
     trainer: &dyn FieldTrainer,
     fits: impl Fn(&TrainManifest) -> bool,
-) -> Option<(Box<dyn MaterialField>, TrainManifest)> {
-    let m = read_json::<TrainManifest>(&dir.join("manifest.json")).ok()?;
+) -> Found {
+    let Ok(m) = read_json::<TrainManifest>(&dir.join("manifest.json")) else {
+        return Found::Train;
+    };
     if !fits(&m) || m.trainer != trainer.name() {
-        return None;
+        return Found::Train;
     }
     if let Some(why) = field_changed(dir) {
-        // Its checkpoint is the same file: training resumes from nothing.
+        // Its checkpoint may be the same file: the trainer starts afresh.
         crate::note!("warning: {why}: training again");
-        let _ = std::fs::remove_file(dir.join("checkpoint.json"));
         let _ = std::fs::remove_file(dir.join("manifest.json"));
-        return None;
+        return Found::Afresh;
     }
-    let field = trainer.load(dir).ok()?;
+    let field = match trainer.load(dir) {
+        Ok(f) => f,
+        Err(e) => {
+            crate::note!(
+                "training again: the finished field in {} does not load ({e})",
+                dir.display()
+            );
+            return Found::Train;
+        }
+    };
+    let steps = m
+        .config
+        .get("steps")
+        .map_or(String::new(), |s| format!("{s} steps in "));
     crate::note!(
-        "reusing the trained field in {} ({:.1} s of training); --force to redo it",
+        "reusing the trained field in {} ({steps}{:.1} s); --force to redo it",
         dir.display(),
         m.seconds
     );
     crate::observe::reused(Some(m.seconds));
-    Some((field, m))
+    Found::Done(field, m)
 }
 
 /// The training stage: reuses a finished run in `dir` (same inputs and settings) unless
@@ -362,10 +405,15 @@ pub(crate) fn stage(
     let scene = on.scene;
     let segments = segment_ids(scene, on.set.segments)?;
     let warm_id = warm.map(|w| w.1);
-    let request = request_key(on, warm_id, segments.as_ref());
+    let (request, legacy) = request_key(on, warm_id, segments.as_ref());
+    let mut resume = !force;
     if !force {
-        if let Some((field, m)) = finished(dir, on.trainer, |m| m.request == request) {
-            return Ok((field, m, false));
+        match finished(dir, on.trainer, |m| {
+            m.request == request || m.request == legacy
+        }) {
+            Found::Done(field, m) => return Ok((field, m, false)),
+            Found::Afresh => resume = false,
+            Found::Train => {}
         }
     }
     if must_reuse {
@@ -377,10 +425,11 @@ pub(crate) fn stage(
     let st = Stage::start("training set");
     let set = build_set(scene, on.shadings, on.set, segments.as_ref(), on.search)?;
     let mut inputs = format!(
-        "{}+shadings:{}+warm:{}",
+        "{}+shadings:{}+warm:{}+set:{}",
         scene.cache_key,
         on.shadings_id,
-        warm_id.unwrap_or("none")
+        warm_id.unwrap_or("none"),
+        set_settings_id(on.set)
     );
     if let Some((_, id)) = &segments {
         inputs += &format!("+segments:{id}");
@@ -389,25 +438,27 @@ pub(crate) fn stage(
         inputs += &format!("+targets:{id}");
     }
     st.done();
-    let (field, manifest) = train_and_record(on, &set, inputs, request, dir, force, warm)?;
+    let round = (inputs, request, resume);
+    let (field, manifest) = train_and_record(on, &set, round, dir, warm)?;
     Ok((field, manifest, true))
 }
 
 /// Has the trainer train on the set (checkpoints in `dir`) and writes the round's manifest.
+/// `round` is the set's inputs, the request key and whether a checkpoint may be resumed.
 fn train_and_record(
     on: &TrainOn,
     set: &BuiltSet,
-    inputs: String,
-    request: String,
+    round: (String, String, bool),
     dir: &Path,
-    force: bool,
     warm: Option<(&dyn MaterialField, &str)>,
 ) -> Result<(Box<dyn MaterialField>, TrainManifest)> {
+    let (inputs, request, resume) = round;
+    std::fs::create_dir_all(dir).map_err(|e| fipt_core::CoreError::io(dir, e))?;
     let note = |s: &str| crate::note!("{s}");
     let round = TrainRound {
         dir,
         inputs: &inputs,
-        resume: !force,
+        resume,
         warm: warm.map(|w| w.0),
         note: &note,
     };
@@ -426,12 +477,23 @@ fn train_and_record(
         pb.finish_and_clear();
     }
     let secs = st.done();
+    let name = on.trainer.name();
+    let bad = |f: &PathBuf| {
+        !f.is_relative() || f.components().any(|c| c == std::path::Component::ParentDir)
+    };
+    if trained.files.is_empty() || trained.files.iter().any(bad) {
+        bail!(
+            "trainer `{name}` named {:?} as its field's files: it must name at least one, each relative to the round's folder {}",
+            trained.files,
+            dir.display()
+        );
+    }
     let files: Vec<PathBuf> = trained.files.iter().map(|f| dir.join(f)).collect();
     let manifest = TrainManifest {
+        fingerprint: fingerprint_of(&inputs, name, &trained.settings),
         inputs,
         request,
-        trainer: on.trainer.name().to_string(),
-        config_hash: config_hash(&trained.settings),
+        trainer: name.to_string(),
         config: trained.settings,
         pixels: set.data.len(),
         pixels_left_out: set.left_out,
