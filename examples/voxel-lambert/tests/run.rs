@@ -208,6 +208,18 @@ fn the_plugged_trainer_runs_in_fipts_rounds_and_reloads_its_field() {
     eprintln!("voxel-table in FIPT's rounds on cornell: train kd {kd:.2} dB, emitter IoU {iou:.2}");
     // Measured: kd 17.56 dB (the same table as its own method on the bake: 14.35), IoU 0.44.
     assert!(kd >= 12.0 && iou >= 0.3, "kd {kd:.2} dB, IoU {iou:.2}");
+    // Re-run: every stage reused. The `[train]` settings that choose the set's pixels are not
+    // the trainer's, yet a change of them trains again.
+    let manifest = || read(out.join("train/manifest.json"));
+    let first = manifest();
+    run_args(run, &c).unwrap();
+    assert_eq!(manifest()["inputs"], first["inputs"]);
+    assert!(read(out.join("report.json"))["stages_reused"].as_u64().unwrap() >= 5);
+    let text = std::fs::read_to_string(&cfg).unwrap();
+    std::fs::write(&cfg, format!("{text}[train]\nset_cap = 0.5\n")).unwrap();
+    run_args(run, &c).unwrap();
+    assert_ne!(manifest()["request"], first["request"]);
+    assert_ne!(manifest()["inputs"], first["inputs"]);
     // The field reloads through the trainer its manifest names.
     let glb = dir.join("export");
     let export = [
