@@ -5,6 +5,30 @@
 use fipt_cli::{run_args, Components};
 use voxel_lambert::register;
 
+/// A small generated `cornell` (8 training views and 1 validation view of 48×36) in `scene`.
+fn synth_cornell(scene: &std::path::Path, c: &Components) {
+    let out = scene.to_str().unwrap();
+    let args = [
+        "--views",
+        "8",
+        "--val-views",
+        "1",
+        "--width",
+        "48",
+        "--height",
+        "36",
+    ];
+    let synth = ["fipt", "synth", "cornell", "--out", out, "--spp", "32"];
+    run_args(synth.into_iter().chain(args), c).unwrap();
+}
+
+/// The run config's settings that keep the tests quick, after `head`.
+fn quick_config(head: &str) -> String {
+    format!(
+        "[model]\nbrdf = \"fipt\"\n{head}[bake]\ndiffuse_samples = 64\nspecular_samples = [4, 4, 4, 4, 4, 4]\n[render]\nspp = 4\nval_spp = 4\n"
+    )
+}
+
 #[test]
 fn the_plugged_method_runs_through_fipt_run_and_is_evaluated() {
     let dir = std::env::temp_dir().join(format!("fipt-voxel-{}", std::process::id()));
@@ -12,33 +36,13 @@ fn the_plugged_method_runs_through_fipt_run_and_is_evaluated() {
     let (scene, out) = (dir.join("scene"), dir.join("out"));
     let c = register(Components::builtin());
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
-    run_args(
-        [
-            "fipt",
-            "synth",
-            "cornell",
-            "--out",
-            &s(&scene),
-            "--views",
-            "8",
-            "--val-views",
-            "1",
-            "--width",
-            "48",
-            "--height",
-            "36",
-            "--spp",
-            "32",
-        ],
-        &c,
-    )
-    .unwrap();
+    synth_cornell(&scene, &c);
     let cfg = dir.join("run.toml");
     std::fs::write(
         &cfg,
-        "[model]\nbrdf = \"fipt\"\n[pipeline]\nmethod = \"voxel-lambert\"\n\
-         [plugins.voxel-lambert]\ncell_footprints = 3.0\n\
-         [bake]\ndiffuse_samples = 64\nspecular_samples = [4, 4, 4, 4, 4, 4]\n[render]\nspp = 4\nval_spp = 4\n",
+        quick_config(
+            "[pipeline]\nmethod = \"voxel-lambert\"\n[plugins.voxel-lambert]\ncell_footprints = 3.0\n",
+        ),
     )
     .unwrap();
     run_args(
@@ -150,30 +154,13 @@ fn the_plugged_trainer_runs_in_fipts_rounds_and_reloads_its_field() {
     let (scene, out) = (dir.join("scene"), dir.join("out"));
     let c = register(Components::builtin());
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
-    let synth = [
-        "fipt",
-        "synth",
-        "cornell",
-        "--out",
-        &s(&scene),
-        "--views",
-        "8",
-        "--val-views",
-        "1",
-        "--width",
-        "48",
-        "--height",
-        "36",
-        "--spp",
-        "32",
-    ];
-    run_args(synth, &c).unwrap();
+    synth_cornell(&scene, &c);
     let cfg = dir.join("run.toml");
     std::fs::write(
         &cfg,
-        "[model]\nbrdf = \"fipt\"\n[pipeline]\ntrainer = \"voxel-table\"\n\
-         [plugins.voxel-table]\ncell_footprints = 3.0\n\
-         [bake]\ndiffuse_samples = 64\nspecular_samples = [4, 4, 4, 4, 4, 4]\n[render]\nspp = 4\nval_spp = 4\n",
+        quick_config(
+            "[pipeline]\ntrainer = \"voxel-table\"\n[plugins.voxel-table]\ncell_footprints = 3.0\n",
+        ),
     )
     .unwrap();
     let run = [
@@ -214,7 +201,12 @@ fn the_plugged_trainer_runs_in_fipts_rounds_and_reloads_its_field() {
     let first = manifest();
     run_args(run, &c).unwrap();
     assert_eq!(manifest()["inputs"], first["inputs"]);
-    assert!(read(out.join("report.json"))["stages_reused"].as_u64().unwrap() >= 5);
+    assert!(
+        read(out.join("report.json"))["stages_reused"]
+            .as_u64()
+            .unwrap()
+            >= 5
+    );
     let text = std::fs::read_to_string(&cfg).unwrap();
     std::fs::write(&cfg, format!("{text}[train]\nset_cap = 0.5\n")).unwrap();
     run_args(run, &c).unwrap();
