@@ -290,6 +290,20 @@ fn set_settings_id(set: &TrainConfig) -> String {
     }))
 }
 
+/// Which pixels the set holds (its (view, pixel) list, hashed): part of the set's inputs, so
+/// that a checkpoint is resumed only on the same pixels.
+fn pixels_id(set: &fipt_core::training_set::TrainingSet) -> String {
+    let mut h = fipt_core::fsutil::Fnv::new();
+    for chunk in set.origin.chunks(65_536) {
+        let bytes: Vec<u8> = (chunk.iter())
+            .flat_map(|&(v, i)| [v, i])
+            .flat_map(u32::to_le_bytes)
+            .collect();
+        h.feed(&bytes);
+    }
+    h.hex()
+}
+
 /// What decides a training before its set is built: the inputs, the shadings, the warm start,
 /// the trainer's settings as given, the search's targets, the segment ids and the settings that
 /// choose the set's pixels; and the same key as written before 2026-11-28 (without the last,
@@ -425,11 +439,11 @@ pub(crate) fn stage(
     let st = Stage::start("training set");
     let set = build_set(scene, on.shadings, on.set, segments.as_ref(), on.search)?;
     let mut inputs = format!(
-        "{}+shadings:{}+warm:{}+set:{}",
+        "{}+shadings:{}+warm:{}+pixels:{}",
         scene.cache_key,
         on.shadings_id,
         warm_id.unwrap_or("none"),
-        set_settings_id(on.set)
+        pixels_id(&set.data)
     );
     if let Some((_, id)) = &segments {
         inputs += &format!("+segments:{id}");

@@ -196,7 +196,7 @@ fn the_plugged_trainer_runs_in_fipts_rounds_and_reloads_its_field() {
     // Measured: kd 17.56 dB (the same table as its own method on the bake: 14.35), IoU 0.44.
     assert!(kd >= 12.0 && iou >= 0.3, "kd {kd:.2} dB, IoU {iou:.2}");
     // Re-run: every stage reused. The `[train]` settings that choose the set's pixels are not
-    // the trainer's, yet a change of them trains again.
+    // the trainer's, yet a change of them asks for the training again.
     let manifest = || read(out.join("train/manifest.json"));
     let first = manifest();
     run_args(run, &c).unwrap();
@@ -211,7 +211,15 @@ fn the_plugged_trainer_runs_in_fipts_rounds_and_reloads_its_field() {
     std::fs::write(&cfg, format!("{text}[train]\nset_cap = 0.5\n")).unwrap();
     run_args(run, &c).unwrap();
     assert_ne!(manifest()["request"], first["request"]);
-    assert_ne!(manifest()["inputs"], first["inputs"]);
+    let stages = read(out.join("report.json"))["stages"].clone();
+    let train = stages
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["stage"] == "train");
+    assert_eq!(train.unwrap()["reused"], false, "{stages}");
+    // All pixels are kept at either cap: the same set.
+    assert_eq!(manifest()["inputs"], first["inputs"]);
     // The field reloads through the trainer its manifest names.
     let glb = dir.join("export");
     let export = [
