@@ -235,5 +235,23 @@ fn the_plugged_trainer_runs_in_fipts_rounds_and_reloads_its_field() {
     assert!(std::fs::read_dir(&glb).unwrap().count() > 0);
     let err = run_args(export, &Components::builtin()).unwrap_err();
     assert!(format!("{err:#}").contains("voxel-table"), "{err:#}");
+    // `fipt train` trains with the run config's trainer (on the bake alone: no search
+    // targets); the maps come without the hash-grid field's factorised re-render, and `--steps`
+    // is refused for a trainer without that setting.
+    let train = [
+        "fipt",
+        "train",
+        &s(&scene),
+        "--out",
+        &s(&out),
+        "--config",
+        &s(&cfg),
+    ];
+    run_args(train, &c).unwrap();
+    assert_eq!(manifest()["trainer"], "voxel-table");
+    assert!(out.join("train/views/train/000_kd.exr").is_file());
+    assert!(!out.join("train/views/train/000_render.exr").exists());
+    let err = run_args(train.into_iter().chain(["--steps", "5"]), &c).unwrap_err();
+    assert!(format!("{err:#}").contains("no `steps` setting"), "{err:#}");
     let _ = std::fs::remove_dir_all(&dir);
 }
