@@ -5,10 +5,23 @@
 use fipt_cli::{run_args, Components};
 use voxel_lambert::register;
 
-/// A small generated `cornell` (8 training views and 1 validation view of 48×36) in `scene`.
-fn synth_cornell(scene: &std::path::Path, c: &Components) {
-    let out = scene.to_str().unwrap();
-    let args = [
+/// A test's folder (emptied), its small generated `cornell` (8 training views and 1 validation
+/// view of 48×36), its output folder, its run config (`head` over quick settings) and the
+/// components with the plug-ins registered.
+struct Setup {
+    dir: std::path::PathBuf,
+    scene: std::path::PathBuf,
+    out: std::path::PathBuf,
+    cfg: std::path::PathBuf,
+    c: Components,
+}
+
+fn setup(name: &str, head: &str) -> Setup {
+    let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (scene, out, cfg) = (dir.join("scene"), dir.join("out"), dir.join("run.toml"));
+    let c = register(Components::builtin());
+    let size = [
         "--views",
         "8",
         "--val-views",
@@ -18,33 +31,45 @@ fn synth_cornell(scene: &std::path::Path, c: &Components) {
         "--height",
         "36",
     ];
-    let synth = ["fipt", "synth", "cornell", "--out", out, "--spp", "32"];
-    run_args(synth.into_iter().chain(args), c).unwrap();
-}
-
-/// The run config's settings that keep the tests quick, after `head`.
-fn quick_config(head: &str) -> String {
-    format!(
-        "[model]\nbrdf = \"fipt\"\n{head}[bake]\ndiffuse_samples = 64\nspecular_samples = [4, 4, 4, 4, 4, 4]\n[render]\nspp = 4\nval_spp = 4\n"
+    let synth = [
+        "fipt",
+        "synth",
+        "cornell",
+        "--out",
+        scene.to_str().unwrap(),
+        "--spp",
+        "32",
+    ];
+    run_args(synth.into_iter().chain(size), &c).unwrap();
+    std::fs::write(
+        &cfg,
+        format!(
+            "[model]\nbrdf = \"fipt\"\n{head}[bake]\ndiffuse_samples = 64\nspecular_samples = [4, 4, 4, 4, 4, 4]\n[render]\nspp = 4\nval_spp = 4\n"
+        ),
     )
+    .unwrap();
+    Setup {
+        dir,
+        scene,
+        out,
+        cfg,
+        c,
+    }
 }
 
 #[test]
 fn the_plugged_method_runs_through_fipt_run_and_is_evaluated() {
-    let dir = std::env::temp_dir().join(format!("fipt-voxel-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let (scene, out) = (dir.join("scene"), dir.join("out"));
-    let c = register(Components::builtin());
+    let Setup {
+        dir,
+        scene,
+        out,
+        cfg,
+        c,
+    } = setup(
+        "fipt-voxel",
+        "[pipeline]\nmethod = \"voxel-lambert\"\n[plugins.voxel-lambert]\ncell_footprints = 3.0\n",
+    );
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
-    synth_cornell(&scene, &c);
-    let cfg = dir.join("run.toml");
-    std::fs::write(
-        &cfg,
-        quick_config(
-            "[pipeline]\nmethod = \"voxel-lambert\"\n[plugins.voxel-lambert]\ncell_footprints = 3.0\n",
-        ),
-    )
-    .unwrap();
     run_args(
         [
             "fipt",
@@ -149,20 +174,17 @@ fn check_outputs(out: &std::path::Path) {
 /// reloads the field through the trainer, which a binary without it cannot.
 #[test]
 fn the_plugged_trainer_runs_in_fipts_rounds_and_reloads_its_field() {
-    let dir = std::env::temp_dir().join(format!("fipt-voxel-trainer-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let (scene, out) = (dir.join("scene"), dir.join("out"));
-    let c = register(Components::builtin());
+    let Setup {
+        dir,
+        scene,
+        out,
+        cfg,
+        c,
+    } = setup(
+        "fipt-voxel-trainer",
+        "[pipeline]\ntrainer = \"voxel-table\"\n[plugins.voxel-table]\ncell_footprints = 3.0\n",
+    );
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
-    synth_cornell(&scene, &c);
-    let cfg = dir.join("run.toml");
-    std::fs::write(
-        &cfg,
-        quick_config(
-            "[pipeline]\ntrainer = \"voxel-table\"\n[plugins.voxel-table]\ncell_footprints = 3.0\n",
-        ),
-    )
-    .unwrap();
     let run = [
         "fipt",
         "run",
