@@ -186,6 +186,7 @@ fn closure_with_ground_truth_materials_reproduces_the_views() {
             ..Default::default()
         },
         model: Default::default(),
+        lens: Default::default(),
     };
     write_dataset(build("cornell").unwrap(), &dir, &opts, &|_, _| {}).unwrap();
     let ds = Dataset::open(&dir).unwrap();

@@ -443,6 +443,7 @@ fn cornell_views(dir: &std::path::Path) -> (Dataset, Mesh, Geometry, Vec<fipt_co
             ..Default::default()
         },
         model: Default::default(),
+        lens: Default::default(),
     };
     let scene = build("cornell").unwrap();
     write_dataset(scene, dir, &opts, &|_, _| {}).unwrap();

@@ -26,6 +26,7 @@ fn scene(name: &str) -> (Geometry, Vec<View>, Vec<Image>) {
             ..Default::default()
         },
         model: Default::default(),
+        lens: Default::default(),
     };
     write_dataset(build("cornell").unwrap(), &dir, &opts, &|_, _| {}).unwrap();
     let ds = Dataset::open(&dir).unwrap();

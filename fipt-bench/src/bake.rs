@@ -36,7 +36,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
             "--suite bake needs --scene DIR (e.g. the output of `fipt synth room`)".into(),
         ));
     };
-    let mut scene = fipt_pipeline::scene::load(dir, BadPixelPolicy::Reject, Default::default())?;
+    let mut scene = fipt_pipeline::scene::load(dir, BadPixelPolicy::Reject, &Default::default())?;
     let n = views.unwrap_or(scene.images.len()).min(scene.images.len());
     scene.images.truncate(n);
     scene.ds.splits[0].views.truncate(n);

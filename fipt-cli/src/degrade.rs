@@ -1,6 +1,6 @@
 //! `fipt degrade SRC --out DST`: fipt-pipeline's capture simulator, with its options parsed.
 use anyhow::{bail, Result};
-use fipt_pipeline::degrade::{degrade, DegradeRequest, LdrMode, ViewFormat};
+use fipt_pipeline::degrade::{degrade, CopyLayout, DegradeRequest, LdrMode, ViewFormat};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -10,10 +10,16 @@ pub struct Args {
     /// The copy's folder (new, or one `fipt degrade` made: it is replaced).
     #[arg(long)]
     out: PathBuf,
-    /// `real`: cam.txt + K_list.txt + Image/ with the training views only (no ground truth);
-    /// `same`: the source's layout.
+    /// `same`: the source's layout. The training views only (no ground truth), as captures
+    /// are stored: `real` (cam.txt + K_list.txt + Image/), `colmap-text` or `colmap-binary`
+    /// (sparse/0/ + images/), `nerfstudio` (transforms.json + images/).
     #[arg(long, value_enum, default_value = "same")]
     layout: LayoutArg,
+    /// The lens the copy's views are seen through (COLMAP and nerfstudio layouts):
+    /// `opencv:K1[,K2,P1,P2,K3]` or `fisheye:K1[,K2,K3,K4]`; the views are resampled from the
+    /// source's pinhole views and the focal length lengthened to stay inside them.
+    #[arg(long, value_name = "MODEL:COEFFS")]
+    lens: Option<fipt_core::distortion::Distortion>,
     /// Leave out the ground-truth maps and the part tables.
     #[arg(long)]
     drop_gt: bool,
@@ -47,6 +53,9 @@ pub struct Args {
 enum LayoutArg {
     Same,
     Real,
+    ColmapText,
+    ColmapBinary,
+    Nerfstudio,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -77,7 +86,14 @@ pub fn run(a: Args) -> Result<()> {
     let req = DegradeRequest {
         source: a.source,
         out: a.out,
-        real_layout: matches!(a.layout, LayoutArg::Real),
+        layout: match a.layout {
+            LayoutArg::Same => CopyLayout::Same,
+            LayoutArg::Real => CopyLayout::Real,
+            LayoutArg::ColmapText => CopyLayout::ColmapText,
+            LayoutArg::ColmapBinary => CopyLayout::ColmapBinary,
+            LayoutArg::Nerfstudio => CopyLayout::Nerfstudio,
+        },
+        lens: a.lens.unwrap_or_default(),
         drop_gt: a.drop_gt,
         pose_mm: mm,
         pose_deg: deg,

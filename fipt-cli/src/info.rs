@@ -6,8 +6,12 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Scene folder (synthetic layout with train/transforms.json, or real layout with cam.txt).
+    /// Scene folder: FIPT's synthetic (train/transforms.json) or real (cam.txt + K_list.txt)
+    /// layout, a COLMAP model (sparse/0/ with images/), or a nerfstudio transforms.json.
     scene: PathBuf,
+    /// Shrink every view by this factor on read, as `fipt run --downscale N` would.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    downscale: usize,
     /// What to do with NaN/Inf/negative pixels: reject (error) or clamp.
     #[arg(long, value_enum, default_value = "reject")]
     bad_pixels: Policy,
@@ -32,7 +36,13 @@ impl From<Policy> for BadPixelPolicy {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let sum = fipt_pipeline::inspect::inspect(&a.scene, a.bad_pixels.into())?;
+    if a.downscale == 0 {
+        anyhow::bail!("--downscale 0: give a factor of 1 (as stored) or more");
+    }
+    let opts = fipt_core::capture_layout::OpenOptions {
+        downscale: a.downscale,
+    };
+    let sum = fipt_pipeline::inspect::inspect(&a.scene, a.bad_pixels.into(), opts)?;
     // With --json, stdout holds the JSON alone; the human summary goes to stderr.
     let json = a.json;
     macro_rules! say {
@@ -45,10 +55,43 @@ pub fn run(a: Args) -> Result<()> {
         };
     }
     let layout = match sum.layout {
-        Layout::Synthetic => "synthetic",
-        _ => "real",
+        Layout::Synthetic => "FIPT synthetic",
+        Layout::Real => "FIPT real",
+        Layout::Colmap => "COLMAP",
+        Layout::Nerfstudio => "nerfstudio",
     };
     say!("scene        {} ({layout} layout)", sum.scene.display());
+    if let Some(c) = &sum.cameras {
+        say!("cameras      {c}");
+    }
+    let lenses: Vec<String> = sum.lenses.iter().map(|(l, n)| format!("{l} ({n} views)")).collect();
+    say!("lenses       {}", lenses.join("; "));
+    if let Some(c) = &sum.convention {
+        let scores: Vec<String> = c.contrast.iter().map(|(k, s)| format!("{k:?} {s:.2}")).collect();
+        say!(
+            "convention   poses read as {:?}; edge contrast per reading (median of {} views): {}",
+            c.read_as,
+            c.views_tested,
+            scores.join(", ")
+        );
+    }
+    if sum.downscale > 1 {
+        say!("downscale    every view read at 1/{} of its stored size", sum.downscale);
+    }
+    if sum.masked_views > 0 {
+        say!("masks        {} training views have a mask of pixels to leave out", sum.masked_views);
+    }
+    if !sum.exif.is_empty() {
+        let e = &sum.exif;
+        say!(
+            "EXIF         {} of {} views carry an exposure time{}{}{}",
+            e.views_with_exposure,
+            e.views,
+            e.camera.as_ref().map_or(String::new(), |c| format!(" ({c})")),
+            e.spread.map_or(String::new(), |s| format!("; relative exposures spread ×{s:.2}{}", if e.used { ", used" } else { "" })),
+            e.fitted_spread_after.map_or(String::new(), |s| format!("; the views' fitted gains after them spread ×{s:.2}"))
+        );
+    }
     say!(
         "mesh         {}: {} triangles, {} vertices, vertex normals: {}",
         sum.mesh.display(),

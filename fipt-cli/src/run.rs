@@ -47,6 +47,11 @@ pub struct Args {
     /// the refinement's shards).
     #[arg(long, value_enum)]
     pub stop_before: Option<StopBefore>,
+    /// Shrink every view (its mask and intrinsics with it) by this factor on read, over
+    /// `[capture] downscale`: photos larger than the method needs (a 4032×3024 capture with
+    /// 8 runs at 504×378). Later commands on OUT read the scene the same way.
+    #[arg(long, value_name = "N")]
+    pub downscale: Option<usize>,
 }
 
 /// Where `--stop-before` stops.
@@ -68,6 +73,7 @@ impl Args {
             force: self.force,
             shard: self.shard.unwrap_or(Shard::ALL),
             stop_before_refine: self.stop_before == Some(StopBefore::Refine),
+            downscale: self.downscale,
         }
     }
 }

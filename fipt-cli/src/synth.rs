@@ -38,6 +38,10 @@ pub struct Args {
     /// triangles; for scaling measurements).
     #[arg(long, default_value_t = 0)]
     subdivide: u32,
+    /// Render every view (and its maps) through this lens: `opencv:K1[,K2,P1,P2,K3]` or
+    /// `fisheye:K1[,K2,K3,K4]`; `transforms.json` records it (`distortion`).
+    #[arg(long, value_name = "MODEL:COEFFS")]
+    lens: Option<fipt_core::distortion::Distortion>,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -67,6 +71,7 @@ pub fn run(a: Args) -> Result<()> {
     opts.render.spp = a.spp.unwrap_or(opts.render.spp);
     opts.render.seed = a.seed;
     opts.model = a.brdf;
+    opts.lens = a.lens.unwrap_or_default();
     if opts.train_views == 0 || opts.width == 0 || opts.height == 0 || opts.render.spp == 0 {
         bail!("--views, --width, --height and --spp must be positive");
     }

@@ -6,6 +6,10 @@
 //!   Pixel centre (u, v) looks along R·((u−cx)/fx, (v−cy)/fy, 1).
 //!
 //! Pixel (i, j) has its centre at (u, v) = (i + 0.5, j + 0.5); j counts rows from the top.
+//!
+//! A camera may carry a lens model ([`Distortion`]): rays and projections go through it, on
+//! the normalised OpenCV-axes coordinates ((u−cx)/fx, (v−cy)/fy).
+use crate::distortion::Distortion;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -33,6 +37,9 @@ pub struct Camera {
     pub rotation: Mat3,
     /// Camera centre in world space.
     pub origin: Vec3,
+    /// The lens model (none: a pinhole).
+    #[serde(default, skip_serializing_if = "Distortion::is_none")]
+    pub distortion: Distortion,
 }
 
 /// Sign flip between the two conventions: Mitsuba axes = OpenCV axes · diag(−1, −1, 1).
@@ -53,6 +60,7 @@ impl Camera {
             convention: PoseConvention::Mitsuba,
             rotation: Mat3::from_mat4(c2w),
             origin: c2w.w_axis.truncate(),
+            distortion: Distortion::None,
         }
     }
 
@@ -95,6 +103,7 @@ impl Camera {
             convention: PoseConvention::OpenCv,
             rotation: look_at_rotation_opencv(origin, target, up),
             origin,
+            distortion: Distortion::None,
         }
     }
 
@@ -103,9 +112,10 @@ impl Camera {
     pub fn local_direction(&self, u: f32, v: f32) -> Vec3 {
         let x = (u - self.cx) / self.fx;
         let y = (v - self.cy) / self.fy;
+        let d = self.distortion.direction(Vec2::new(x, y));
         match self.convention {
-            PoseConvention::Mitsuba => Vec3::new(-x, -y, 1.0),
-            PoseConvention::OpenCv => Vec3::new(x, y, 1.0),
+            PoseConvention::Mitsuba => Vec3::new(-d.x, -d.y, d.z),
+            PoseConvention::OpenCv => d,
         }
     }
 
@@ -127,15 +137,36 @@ impl Camera {
     /// Continuous pixel coordinates of a world point, or None behind the camera.
     pub fn project(&self, p: Vec3) -> Option<Vec2> {
         let local = self.rotation.transpose() * (p - self.origin);
-        if local.z <= 0.0 {
-            return None;
-        }
-        let (x, y) = (local.x / local.z, local.y / local.z);
-        let (x, y) = match self.convention {
-            PoseConvention::Mitsuba => (-x, -y),
-            PoseConvention::OpenCv => (x, y),
+        let local = match self.convention {
+            PoseConvention::Mitsuba => Vec3::new(-local.x, -local.y, local.z),
+            PoseConvention::OpenCv => local,
         };
-        Some(Vec2::new(x * self.fx + self.cx, y * self.fy + self.cy))
+        let q = self.distortion.project(local)?;
+        Some(Vec2::new(q.x * self.fx + self.cx, q.y * self.fy + self.cy))
+    }
+
+    /// The same camera for images downscaled by `factor` (each output pixel the mean of a
+    /// `factor`×`factor` block, the remainder cropped at the right and bottom): intrinsics in
+    /// pixels divided by it, exactly, since pixel coordinates start at the image's corner.
+    pub fn downscaled(&self, factor: usize) -> Camera {
+        let s = factor.max(1) as f32;
+        let mut c = self.clone();
+        c.width = self.width / factor.max(1);
+        c.height = self.height / factor.max(1);
+        c.fx /= s;
+        c.fy /= s;
+        c.cx /= s;
+        c.cy /= s;
+        c
+    }
+
+    /// The largest normalised radius (on the distorted plane) any pixel of the image reaches.
+    pub fn max_normalised_radius(&self) -> f32 {
+        let corners = [(0.0, 0.0), (self.width as f32, 0.0), (0.0, self.height as f32), (self.width as f32, self.height as f32)];
+        corners
+            .iter()
+            .map(|&(u, v)| Vec2::new((u - self.cx) / self.fx, (v - self.cy) / self.fy).length())
+            .fold(0.0, f32::max)
     }
 
     /// Viewing direction (unit vector along the optical axis) in world space.

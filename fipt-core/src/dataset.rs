@@ -1,6 +1,7 @@
 //! Reading the scene folders users already have, with validation that names the file.
 //!
-//! Two layouts (method §5):
+//! FIPT's two layouts (method §5), and the capture layouts users have
+//! ([`crate::capture_layout`]: a COLMAP model, a nerfstudio / instant-ngp `transforms.json`):
 //! * **synthetic**: `scene.obj`, `train/transforms.json`, `val/transforms.json`,
 //!   `<split>/Image/{k:03d}_0001.exr` and optional ground-truth folders ([`GtKind`]);
 //! * **real**: `scene.obj`, `Image/{k:03d}_0001.exr`, `cam.txt`, `K_list.txt`, optional
@@ -13,9 +14,11 @@ use crate::camera::Camera;
 use crate::color::Rgb;
 use crate::error::{CoreError, Result};
 use crate::image::{BadPixelCount, BadPixelPolicy, Image};
-use glam::{Mat4, Vec3};
+use glam::Mat4;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
+
+pub use crate::camera_files::{read_cam_list, write_cam_list, write_transforms};
 
 /// Which of the two reference layouts a scene folder follows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -23,6 +26,10 @@ use std::path::{Path, PathBuf};
 pub enum Layout {
     Synthetic,
     Real,
+    /// A COLMAP sparse model (`sparse/0/`) with `images/`.
+    Colmap,
+    /// A nerfstudio / instant-ngp `transforms.json` at the folder's root.
+    Nerfstudio,
 }
 
 /// Ground-truth map folders of the synthetic layout.
@@ -107,6 +114,8 @@ pub struct View {
     pub index: usize,
     pub camera: Camera,
     pub image: PathBuf,
+    /// A mask of pixels to leave out (0 = leave out), at the image's stored size.
+    pub mask: Option<PathBuf>,
 }
 
 /// A set of views (`train`, `val`, or the real layout's single set).
@@ -145,16 +154,35 @@ pub struct Dataset {
     pub warnings: Vec<String>,
     /// `capture.json`: the response curve of 8/16-bit views and known exposures.
     pub capture: crate::capture::CaptureInfo,
+    /// Views, masks and ground truth are shrunk by this factor on read (1: as stored); the
+    /// cameras, `width` and `height` are the shrunk ones.
+    pub downscale: usize,
+    /// What the camera files are and which convention they state (capture layouts), and
+    /// which convention a FIPT `transforms.json` was taken in and why.
+    pub cameras_description: Option<String>,
+    /// The files the cameras came from (the inputs' fingerprint hashes them).
+    pub camera_files: Vec<PathBuf>,
+    /// What each training view's EXIF says of its exposure (8/16-bit files; empty for EXR
+    /// views).
+    pub exif: Vec<Option<crate::exif::ExifExposure>>,
+    /// The training views' relative exposures from their EXIF (median 1), used when
+    /// `capture.json` gives none and every view has an exposure time.
+    pub exif_exposures: Option<Vec<f32>>,
 }
 
 /// Mesh file names looked for in a scene folder, in order.
 pub const MESH_NAMES: [&str; 4] = ["scene.obj", "scene.ply", "scene.glb", "scene.gltf"];
 
 impl Dataset {
-    /// Opens a scene folder of either layout.
+    /// Opens a scene folder of any layout, as stored.
     pub fn open(root: &Path) -> Result<Dataset> {
+        Dataset::open_with(root, crate::capture_layout::OpenOptions::default())
+    }
+
+    /// Opens a scene folder of any layout with `opts` (a downscale).
+    pub fn open_with(root: &Path, opts: crate::capture_layout::OpenOptions) -> Result<Dataset> {
         if !root.is_dir() {
-            return Err(CoreError::invalid(root, "not a folder (expected a scene folder with scene.obj and train/transforms.json, or cam.txt + K_list.txt)"));
+            return Err(CoreError::invalid(root, "not a folder (expected a scene folder with scene.obj and train/transforms.json, cam.txt + K_list.txt, a COLMAP model in sparse/0/, or a nerfstudio transforms.json)"));
         }
         let mesh = MESH_NAMES
             .iter()
@@ -167,7 +195,10 @@ impl Dataset {
                 )
             })?;
         let mut warnings = Vec::new();
+        let mut description = None;
+        let mut camera_files = Vec::new();
         let (layout, splits) = if root.join("train/transforms.json").is_file() {
+            description = Some(crate::capture_layout::check_fipt_transforms(root)?);
             let mut splits = vec![read_synthetic_split(root, "train", &mut warnings)?];
             if root.join("val/transforms.json").is_file() {
                 splits.push(read_synthetic_split(root, "val", &mut warnings)?);
@@ -179,13 +210,20 @@ impl Dataset {
             (Layout::Synthetic, splits)
         } else if root.join("cam.txt").is_file() {
             (Layout::Real, vec![read_real_split(root, &mut warnings)?])
+        } else if let Some((layout, cams)) = crate::capture_layout::read_capture_layout(root)? {
+            warnings.extend(cams.notes.iter().cloned());
+            description = Some(cams.description.clone());
+            camera_files = cams.files.clone();
+            (layout, vec![crate::capture_layout::capture_split(root, &cams)?])
         } else {
             return Err(CoreError::invalid(
                 root,
-                "neither train/transforms.json (synthetic layout) nor cam.txt + K_list.txt (real layout) found",
+                "no cameras found: expected train/transforms.json (FIPT's synthetic layout), cam.txt + K_list.txt (FIPT's real layout), \
+                 a COLMAP model (sparse/0/cameras.bin or .txt with images/) or a nerfstudio / instant-ngp transforms.json",
             ));
         };
         let (width, height) = check_image_sizes(&splits)?;
+        let (splits, width, height) = crate::capture_layout::downscaled(splits, width, height, opts.downscale, root)?;
         let capture = crate::capture::CaptureInfo::read(root)?;
         if let Some(e) = &capture.exposures {
             let n = splits[0].views.len();
@@ -199,6 +237,21 @@ impl Dataset {
                 ));
             }
         }
+        let exif: Vec<Option<crate::exif::ExifExposure>> =
+            if splits[0].views.iter().any(|v| crate::capture::is_ldr_file(&v.image)) {
+                splits[0]
+                    .views
+                    .iter()
+                    .map(|v| crate::exif::read(&v.image).ok().flatten())
+                    .collect()
+            } else {
+                vec![]
+            };
+        let exif_exposures = if capture.exposures.is_none() && !exif.is_empty() {
+            crate::exif::relative_exposures(&exif).ok()
+        } else {
+            None
+        };
         Ok(Dataset {
             root: root.to_path_buf(),
             layout,
@@ -208,6 +261,11 @@ impl Dataset {
             height,
             warnings,
             capture,
+            downscale: opts.downscale.max(1),
+            cameras_description: description,
+            camera_files,
+            exif,
+            exif_exposures,
         })
     }
 
@@ -230,7 +288,7 @@ impl Dataset {
     ) -> Result<(Image, BadPixelCount)> {
         let c = &self.capture;
         if crate::capture::is_ldr_file(&view.image) || c.exr_response {
-            let mut img = if crate::capture::is_ldr_file(&view.image) {
+            let img = if crate::capture::is_ldr_file(&view.image) {
                 crate::capture::read_ldr(&view.image, &c.response)?
             } else {
                 let mut img = Image::read_exr(&view.image)?;
@@ -239,20 +297,53 @@ impl Dataset {
                 }
                 img
             };
+            let img = self.shrunk(img);
             check_size(&img, &view.image, self.width, self.height)?;
-            let bad = img.sanitize(policy, &view.image)?;
-            return Ok((img, bad));
+            let bad = img_sanitize(img, policy, &view.image)?;
+            return Ok(bad);
+        }
+        if self.downscale > 1 {
+            let img = self.shrunk(Image::read_exr(&view.image)?);
+            check_size(&img, &view.image, self.width, self.height)?;
+            return img_sanitize(img, policy, &view.image);
         }
         load_checked(&view.image, self.width, self.height, policy)
     }
 
-    /// The relative exposure `capture.json` gives for training view `k` (1 without one).
+    /// An image as the run sees it: shrunk by [`Dataset::downscale`].
+    fn shrunk(&self, img: Image) -> Image {
+        if self.downscale > 1 {
+            crate::capture_layout::downscale_image(&img, self.downscale)
+        } else {
+            img
+        }
+    }
+
+    /// The pixels of view `view` to keep (`true`), from its mask, at the run's size; None
+    /// when it has no mask.
+    pub fn load_mask(&self, view: &View) -> Result<Option<Vec<bool>>> {
+        let Some(path) = &view.mask else {
+            return Ok(None);
+        };
+        let f = self.downscale.max(1);
+        crate::capture_layout::read_mask(path, self.width * f, self.height * f, f).map(Some)
+    }
+
+    /// The relative exposure known for training view `k`: `capture.json`'s, else its EXIF's
+    /// (1 without either).
     pub fn view_exposure(&self, k: usize) -> f32 {
-        self.capture
-            .exposures
-            .as_ref()
-            .and_then(|e| e.get(k).copied())
+        self.known_exposures()
+            .and_then(|(e, _)| e.get(k).copied())
             .unwrap_or(1.0)
+    }
+
+    /// The training views' known relative exposures and where they came from
+    /// (`capture.json`, else EXIF).
+    pub fn known_exposures(&self) -> Option<(&[f32], &'static str)> {
+        if let Some(e) = &self.capture.exposures {
+            return Some((e, crate::capture::CAPTURE_FILE));
+        }
+        self.exif_exposures.as_deref().map(|e| (e, "EXIF"))
     }
 
     /// Whether any view is an 8/16-bit file (PNG, JPEG).
@@ -269,6 +360,11 @@ impl Dataset {
             return Ok(None);
         }
         let p = split.gt_path(kind, k);
+        if self.downscale > 1 {
+            let img = self.shrunk(Image::read_exr(&p)?);
+            check_size(&img, &p, self.width, self.height)?;
+            return img_sanitize(img, BadPixelPolicy::Reject, &p).map(|(i, _)| Some(i));
+        }
         load_checked(&p, self.width, self.height, BadPixelPolicy::Reject).map(|(i, _)| Some(i))
     }
 
@@ -279,14 +375,15 @@ impl Dataset {
         if !split.has_gt(kind) {
             return Ok(None);
         }
+        let f = self.downscale.max(1);
         let img = read_sized(
             &split.gt_path(kind, k),
-            self.width,
-            self.height,
+            self.width * f,
+            self.height * f,
             "an id map must have the size of its view",
         )?;
-        Ok(Some(
-            img.data
+        let ids: Vec<i64> = img
+            .data
                 .iter()
                 .map(|v| {
                     let x = v.x;
@@ -296,9 +393,23 @@ impl Dataset {
                         -1
                     }
                 })
-                .collect(),
-        ))
+                .collect();
+        Ok(Some(crate::capture_layout::downscale_ids(
+            &ids,
+            img.width,
+            img.height,
+            f,
+        )))
     }
+}
+
+fn img_sanitize(
+    mut img: Image,
+    policy: BadPixelPolicy,
+    path: &Path,
+) -> Result<(Image, BadPixelCount)> {
+    let bad = img.sanitize(policy, path)?;
+    Ok((img, bad))
 }
 
 /// Reads an EXR of `w`×`h` pixels; another size is an error naming the file, with `hint`.
@@ -430,7 +541,7 @@ fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
     Ok((w, h))
 }
 
-fn check_pose(path: &Path, frame: usize, cam: &Camera) -> Result<()> {
+pub(crate) fn check_pose(path: &Path, frame: usize, cam: &Camera) -> Result<()> {
     let (err, det) = cam.rotation_error();
     if !cam.origin.is_finite() || !(err < 1e-3) || !(det > 0.0) {
         let hint = if det < 0.0 && err < 1e-3 {
@@ -457,6 +568,9 @@ struct TransformsJson {
     width: Option<usize>,
     #[serde(default)]
     height: Option<usize>,
+    /// The lens of every view (an extension of FIPT's layout; absent: pinholes).
+    #[serde(default)]
+    distortion: crate::distortion::Distortion,
     frames: Vec<FrameJson>,
 }
 
@@ -502,8 +616,12 @@ pub fn read_transforms(tf_path: &Path, size: Option<(usize, usize)>) -> Result<V
                 format!("frame {k}: last row of transform_matrix is {last}, expected [0, 0, 0, 1]"),
             ));
         }
-        let cam = Camera::from_transform(c2w, tf.camera_angle_x, w, h);
+        let mut cam = Camera::from_transform(c2w, tf.camera_angle_x, w, h);
+        cam.distortion = tf.distortion;
         check_pose(tf_path, k, &cam)?;
+        if let Some(why) = cam.distortion.check(cam.max_normalised_radius()) {
+            return Err(CoreError::invalid(tf_path, why));
+        }
         cams.push(cam);
     }
     Ok(cams)
@@ -526,6 +644,7 @@ fn read_synthetic_split(root: &Path, name: &str, warnings: &mut Vec<String>) -> 
             index: k,
             camera,
             image: find_image(&dir.join("Image"), k),
+            mask: crate::capture_layout::fipt_mask(&dir, k),
         })
         .collect();
     let gt = present_gt(&dir, views.len(), warnings, name);
@@ -601,72 +720,6 @@ fn present_gt(dir: &Path, n: usize, warnings: &mut Vec<String>, split: &str) -> 
     gt
 }
 
-fn numbers(path: &Path) -> Result<Vec<f32>> {
-    let text = std::fs::read_to_string(path).map_err(|e| CoreError::io(path, e))?;
-    text.split_whitespace()
-        .map(|t| {
-            t.parse::<f32>()
-                .map_err(|_| CoreError::invalid(path, format!("`{t}` is not a number")))
-        })
-        .collect()
-}
-
-/// Reads cameras of the real layout: `cam.txt` (N, then origin, look-at and up per camera)
-/// and `K_list.txt` (N, then a 3×3 intrinsic matrix per camera), for images of `w`×`h`.
-pub fn read_cam_list(cam_path: &Path, k_path: &Path, w: usize, h: usize) -> Result<Vec<Camera>> {
-    let c = numbers(cam_path)?;
-    let k = numbers(k_path)?;
-    let n = c.first().copied().unwrap_or(0.0) as usize;
-    if c.len() != 1 + 9 * n {
-        return Err(CoreError::invalid(cam_path, format!("expected N then 3 lines of 3 numbers per camera (origin, look-at, up): {} numbers for N = {n}", c.len())));
-    }
-    let nk = k.first().copied().unwrap_or(0.0) as usize;
-    if nk != n || k.len() != 1 + 9 * n {
-        return Err(CoreError::invalid(
-            k_path,
-            format!(
-                "expected {n} 3x3 matrices (N = {n} in cam.txt), found N = {nk} and {} numbers",
-                k.len()
-            ),
-        ));
-    }
-    let mut cams = Vec::with_capacity(n);
-    for i in 0..n {
-        let v = |j: usize| {
-            Vec3::new(
-                c[1 + 9 * i + 3 * j],
-                c[2 + 9 * i + 3 * j],
-                c[3 + 9 * i + 3 * j],
-            )
-        };
-        let (o, t, up) = (v(0), v(1), v(2));
-        if (t - o).length() < 1e-9 {
-            return Err(CoreError::invalid(
-                cam_path,
-                format!("camera {i}: look-at point equals the origin"),
-            ));
-        }
-        let km = &k[1 + 9 * i..1 + 9 * (i + 1)];
-        let kk = [
-            [km[0], km[1], km[2]],
-            [km[3], km[4], km[5]],
-            [km[6], km[7], km[8]],
-        ];
-        if !(kk[0][0] > 0.0 && kk[1][1] > 0.0) || (kk[2][2] - 1.0).abs() > 1e-4 {
-            return Err(CoreError::invalid(
-                k_path,
-                format!(
-                    "camera {i}: K = {kk:?} is not an intrinsic matrix (fx, fy > 0, K[2][2] = 1)"
-                ),
-            ));
-        }
-        let cam = Camera::from_opencv(o, t, up, kk, w, h);
-        check_pose(cam_path, i, &cam)?;
-        cams.push(cam);
-    }
-    Ok(cams)
-}
-
 fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
     let cam_path = root.join("cam.txt");
     let img0 = find_image(&root.join("Image"), 0);
@@ -685,6 +738,7 @@ fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
             index: i,
             camera,
             image: find_image(&root.join("Image"), i),
+            mask: crate::capture_layout::fipt_mask(root, i),
         })
         .collect();
     let n = views.len();
@@ -703,44 +757,4 @@ fn read_real_split(root: &Path, warnings: &mut Vec<String>) -> Result<Split> {
         gt,
         cameras_file: cam_path,
     })
-}
-
-/// Writes a `transforms.json` for `cameras` (Mitsuba convention), atomically.
-pub fn write_transforms(path: &Path, cameras: &[Camera]) -> Result<()> {
-    let first = cameras
-        .first()
-        .ok_or_else(|| CoreError::invalid(path, "no cameras to write"))?;
-    let frames: Vec<serde_json::Value> = cameras
-        .iter()
-        .enumerate()
-        .map(|(k, c)| {
-            let m = c.to_mitsuba_matrix().transpose().to_cols_array_2d();
-            serde_json::json!({ "file_path": format!("Image/{}", image_file_name(k)), "transform_matrix": m })
-        })
-        .collect();
-    let v = serde_json::json!({
-        "camera_angle_x": first.fov_x(),
-        "width": first.width,
-        "height": first.height,
-        "camera_convention": "Mitsuba camera-to-world: +X = image left, +Y = up, +Z = forward",
-        "frames": frames,
-    });
-    crate::fsutil::write_json_atomic(path, &v)
-}
-
-/// Writes the real layout's `cam.txt` (N, then origin, look-at and up per camera) and
-/// `K_list.txt` (N, then K per camera) for `cameras`, atomically.
-pub fn write_cam_list(cam_path: &Path, k_path: &Path, cameras: &[Camera]) -> Result<()> {
-    let mut cam = format!("{}\n", cameras.len());
-    let mut ks = cam.clone();
-    let row = |v: Vec3| format!("{} {} {}\n", v.x, v.y, v.z);
-    for c in cameras {
-        let (o, t, up, k) = c.to_opencv_lookat();
-        cam += &(row(o) + &row(t) + &row(up));
-        for r in k {
-            ks += &row(Vec3::from_array(r));
-        }
-    }
-    crate::fsutil::write_bytes_atomic(cam_path, cam.as_bytes())?;
-    crate::fsutil::write_bytes_atomic(k_path, ks.as_bytes())
 }

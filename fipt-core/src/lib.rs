@@ -32,12 +32,17 @@
 //! ```
 pub mod brdf;
 pub mod camera;
+pub mod camera_files;
 pub mod capture;
+pub mod capture_layout;
+pub mod colmap;
 pub mod chaos;
 pub mod color;
 pub mod cube;
 pub mod dataset;
+pub mod distortion;
 pub mod emitter;
+pub mod exif;
 pub mod error;
 pub mod external_model;
 pub mod field;
@@ -48,6 +53,7 @@ pub mod lock;
 pub mod materials;
 pub mod memory;
 pub mod metrics;
+pub mod nerfstudio;
 pub mod presets;
 pub mod range;
 pub mod reflectance;

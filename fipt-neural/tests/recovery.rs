@@ -57,6 +57,7 @@ fn recover(ids: GtKind, glossy_min: f64) {
         height: 48,
         render: RenderConfig::ground_truth(32),
         model: Default::default(),
+        lens: Default::default(),
     };
     let scene = build("cornell").unwrap();
     write_dataset(scene, &dir, &opts, &|_, _| {}).unwrap();

@@ -100,7 +100,7 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
     let baker = components.baker(&name, &settings, a.brdf)?;
     fipt_core::lock::refuse_nested_run(&a.out)?;
     let _lock = crate::request::lock(&a.out, a.shard, "fipt bake")?;
-    let scene = crate::scene::load(&a.scene, a.bad_pixels, Default::default())?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels, &Default::default())?;
     let dir = a.out.join("bake");
     match stage(&scene, baker.as_ref(), &settings, &dir, a.force, a.shard) {
         Err(e) if e.is_stopped() => Ok(BakeOutcome::Stopped(e.to_string())),

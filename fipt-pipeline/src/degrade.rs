@@ -45,14 +45,41 @@ pub enum ViewFormat {
     Jpg,
 }
 
+/// The copy's layout: the source's, or one of a capture's (the training views only, no
+/// ground truth).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CopyLayout {
+    /// The source's layout, with its splits and ground truth.
+    Same,
+    /// FIPT's real layout: `cam.txt`, `K_list.txt`, `Image/`.
+    Real,
+    /// A COLMAP text model in `sparse/0/`, views in `images/`.
+    ColmapText,
+    /// A COLMAP binary model in `sparse/0/`, views in `images/`.
+    ColmapBinary,
+    /// A nerfstudio `transforms.json` (OpenGL poses), views in `images/`.
+    Nerfstudio,
+}
+
+impl CopyLayout {
+    /// A layout of the training views alone (every one but `Same`).
+    pub fn captures_only(self) -> bool {
+        self != CopyLayout::Same
+    }
+}
+
 /// What `fipt degrade` does.
 #[derive(Clone, Debug, Serialize)]
 pub struct DegradeRequest {
     pub source: PathBuf,
     pub out: PathBuf,
-    /// The real layout (`cam.txt`, `K_list.txt`, `Image/`: the training views only, no
-    /// ground truth) instead of the source's.
-    pub real_layout: bool,
+    /// The copy's layout.
+    pub layout: CopyLayout,
+    /// The lens the copy's views are seen through (resampled from the source's pinhole
+    /// views, the focal length lengthened so that every pixel stays inside the source's
+    /// view); COLMAP and nerfstudio layouts only.
+    pub lens: fipt_core::distortion::Distortion,
     /// Leave out every ground-truth folder, `scene_gt.json` and `scene_parts.json`.
     pub drop_gt: bool,
     /// Each camera moved by this many millimetres in a random direction…
@@ -123,6 +150,9 @@ fn validate(a: &DegradeRequest) -> Result<()> {
     if !(1..=100).contains(&a.jpeg_quality) {
         bail!("--jpeg-quality {}: give 1 to 100", a.jpeg_quality);
     }
+    if !a.lens.is_none() && !matches!(a.layout, CopyLayout::ColmapText | CopyLayout::ColmapBinary | CopyLayout::Nerfstudio) {
+        bail!("--lens: a lens model is written by the COLMAP and nerfstudio layouts only; pass --layout colmap-text, colmap-binary or nerfstudio");
+    }
     if a.ldr == LdrMode::None && a.format != ViewFormat::Exr {
         bail!("--format {:?}: PNG and JPEG hold 8-bit values; pass --ldr fixed or --ldr auto (or --format exr)", a.format);
     }
@@ -162,7 +192,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
     }
     std::fs::create_dir_all(&a.out)?;
     let triangles = write_mesh(a, &ds)?;
-    let splits: Vec<&Split> = if a.real_layout {
+    let splits: Vec<&Split> = if a.layout.captures_only() {
         vec![ds.train()]
     } else {
         ds.splits.iter().collect()
@@ -174,7 +204,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
     let mut views = vec![];
     for s in splits {
         let st = Stage::start(&format!("degrade {}", s.name));
-        let dir = if a.real_layout {
+        let dir = if a.layout.captures_only() {
             a.out.clone()
         } else {
             a.out.join(&s.name)
@@ -184,20 +214,28 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
             .iter()
             .map(|v| moved(a, &s.name, v.index, &v.camera))
             .collect();
-        let cameras: Vec<Camera> = cams.iter().map(|c| c.0.clone()).collect();
-        if a.real_layout {
-            write_cam_list(&dir.join("cam.txt"), &dir.join("K_list.txt"), &cameras)?;
-        } else {
-            write_transforms(&dir.join("transforms.json"), &cameras)?;
-        }
+        // The lens: rays leave the copy's cameras through it, from the source's true poses.
+        let lensed: Vec<Camera> = s.views.iter().map(|v| with_lens(&v.camera, a.lens)).collect();
+        let cameras: Vec<Camera> = cams
+            .iter()
+            .zip(&lensed)
+            .map(|(c, l)| Camera { distortion: l.distortion, fx: l.fx, fy: l.fy, ..c.0.clone() })
+            .collect();
+        let images_dir = write_cameras(a, &dir, &cameras)?;
         let recs: Vec<Result<ViewRecord>> = s
             .views
             .par_iter()
             .zip(&cams)
-            .map(|(v, (_, offset_mm, turn_deg))| {
+            .zip(&lensed)
+            .map(|((v, (_, offset_mm, turn_deg)), lens_cam)| {
                 let img = ds.load_image(v, BadPixelPolicy::Clamp)?.0;
+                let img = if a.lens.is_none() {
+                    img
+                } else {
+                    resample(&img, &v.camera, lens_cam)
+                };
                 let (gain, clipped_share) =
-                    write_view(a, &s.name, v.index, img, fixed_gain, &dir.join("Image"))?;
+                    write_view(a, &s.name, v.index, img, fixed_gain, &images_dir)?;
                 Ok(ViewRecord {
                     split: s.name.clone(),
                     index: v.index,
@@ -211,12 +249,12 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
         for r in recs {
             views.push(r?);
         }
-        if !a.real_layout && !a.drop_gt {
+        if !a.layout.captures_only() && !a.drop_gt {
             copy_gt(s, &dir)?;
         }
         st.done();
     }
-    if !a.drop_gt && !a.real_layout && a.subdivide == 0 {
+    if !a.drop_gt && !a.layout.captures_only() && a.subdivide == 0 {
         for f in ["scene_gt.json", "scene_parts.json"] {
             if ds.root.join(f).is_file() {
                 std::fs::copy(ds.root.join(f), a.out.join(f))?;
@@ -237,6 +275,100 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
     };
     fipt_core::fsutil::write_json_atomic(&a.out.join(RECORD_FILE), &record)?;
     Ok(record)
+}
+
+/// Writes the copy's camera files in its layout; returns the folder its views go to.
+fn write_cameras(a: &DegradeRequest, dir: &Path, cameras: &[Camera]) -> Result<PathBuf> {
+    let name = |k: usize| format!("images/{}", image_file_name(k));
+    let ext = match a.format {
+        ViewFormat::Exr => "exr",
+        ViewFormat::Png => "png",
+        ViewFormat::Jpg => "jpg",
+    };
+    let named: Vec<(String, Camera)> = cameras
+        .iter()
+        .enumerate()
+        .map(|(k, c)| (Path::new(&name(k)).with_extension(ext).to_string_lossy().into_owned(), c.clone()))
+        .collect();
+    match a.layout {
+        CopyLayout::Same => {
+            write_transforms(&dir.join("transforms.json"), cameras)?;
+            Ok(dir.join("Image"))
+        }
+        CopyLayout::Real => {
+            write_cam_list(&dir.join("cam.txt"), &dir.join("K_list.txt"), cameras)?;
+            Ok(dir.join("Image"))
+        }
+        CopyLayout::ColmapText | CopyLayout::ColmapBinary => {
+            // COLMAP names images relative to images/.
+            let in_images: Vec<(String, Camera)> = named
+                .iter()
+                .map(|(n, c)| (n.trim_start_matches("images/").to_string(), c.clone()))
+                .collect();
+            let model = dir.join("sparse/0");
+            std::fs::create_dir_all(&model)?;
+            fipt_core::colmap::write_model(&model, &in_images, a.layout == CopyLayout::ColmapText)?;
+            Ok(dir.join("images"))
+        }
+        CopyLayout::Nerfstudio => {
+            let frames: Vec<(String, Camera, Option<String>)> =
+                named.into_iter().map(|(n, c)| (n, c, None)).collect();
+            fipt_core::nerfstudio::write(&dir.join("transforms.json"), &frames)?;
+            Ok(dir.join("images"))
+        }
+    }
+}
+
+/// `cam` seen through `lens`, its focal length lengthened so that every pixel's ray stays
+/// inside `cam`'s own view (the copy's views are resampled from the source's).
+fn with_lens(cam: &Camera, lens: fipt_core::distortion::Distortion) -> Camera {
+    let mut c = cam.clone();
+    if lens.is_none() {
+        return c;
+    }
+    c.distortion = lens;
+    let (w, h) = (cam.width as f32, cam.height as f32);
+    for _ in 0..20 {
+        // How far past the source's frame the border pixels' rays land (1: on its edge).
+        let mut reach = 0.0f32;
+        for i in 0..=64 {
+            let t = i as f32 / 64.0;
+            for (u, v) in [(t * w, 0.0), (t * w, h), (0.0, t * h), (w, t * h)] {
+                let (_, d) = c.ray(u, v);
+                let r = cam.project(cam.origin + d).map_or(4.0, |p| {
+                    ((p.x - cam.cx).abs() / cam.cx.max(w - cam.cx))
+                        .max((p.y - cam.cy).abs() / cam.cy.max(h - cam.cy))
+                });
+                reach = reach.max(r);
+            }
+        }
+        if reach <= 1.0 + 1e-4 {
+            break;
+        }
+        c.fx *= reach;
+        c.fy *= reach;
+    }
+    c
+}
+
+/// The image `lens_cam` sees, bilinearly resampled from `img` taken by `src` (same pose).
+fn resample(img: &Image, src: &Camera, lens_cam: &Camera) -> Image {
+    let (w, h) = (img.width, img.height);
+    let at = |x: i64, y: i64| img.data[(y.clamp(0, h as i64 - 1) as usize) * w + x.clamp(0, w as i64 - 1) as usize];
+    let mut out = Image::new(w, h);
+    for j in 0..h {
+        for i in 0..w {
+            let (_, d) = lens_cam.pixel_center_ray(i, j);
+            let Some(p) = src.project(src.origin + d) else { continue };
+            let (x, y) = (p.x - 0.5, p.y - 0.5);
+            let (x0, y0) = (x.floor(), y.floor());
+            let (fx, fy) = (x - x0, y - y0);
+            let (x0, y0) = (x0 as i64, y0 as i64);
+            out.data[j * w + i] = (at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx) * (1.0 - fy)
+                + (at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx) * fy;
+        }
+    }
+    out
 }
 
 /// The mesh, subdivided and warped as asked (copied byte for byte otherwise).

@@ -162,7 +162,7 @@ fn load_checked(
     cfg: &RunConfig,
     extractor: &dyn fipt_core::emitter::EmitterExtractor,
 ) -> Result<LoadedScene> {
-    let scene = crate::scene::load(&a.scene, a.bad_pixels, cfg.capture.align_views)?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels, &cfg.capture)?;
     crate::scene::check_coverage(&scene)?;
     (extractor.check(scene.geometry.mesh.triangles.len())).map_err(PipelineError::invalid)?;
     Ok(scene)

@@ -42,6 +42,18 @@ pub struct SceneSummary {
     pub bounds: [[f32; 3]; 2],
     pub width: usize,
     pub height: usize,
+    /// The camera files: what they are and the convention they state.
+    pub cameras: Option<String>,
+    /// The views' lens models, with how many views have each.
+    pub lenses: Vec<(String, usize)>,
+    /// Views shrunk by this factor on read (`--downscale`).
+    pub downscale: usize,
+    /// Training views with a mask of pixels to leave out.
+    pub masked_views: usize,
+    /// The poses' convention tested on the edges, and the reading refused (if any).
+    pub convention: Option<crate::capture::ConventionCheck>,
+    /// What the photos' EXIF says of their exposures.
+    pub exif: crate::capture::ExifReport,
     pub splits: Vec<SplitSummary>,
     /// The training views' exposures fitted on the surfaces they share.
     pub exposure_fit: Option<crate::capture::GainFit>,
@@ -59,8 +71,13 @@ impl SceneSummary {
 
 /// Opens `scene`, reads every image (bad pixels as `policy` says) and checks the views
 /// against the mesh.
-pub fn inspect(scene: &Path, policy: BadPixelPolicy) -> Result<SceneSummary> {
-    let ds = Dataset::open(scene).with_context(|| format!("opening scene {}", scene.display()))?;
+pub fn inspect(
+    scene: &Path,
+    policy: BadPixelPolicy,
+    opts: fipt_core::capture_layout::OpenOptions,
+) -> Result<SceneSummary> {
+    let ds = Dataset::open_with(scene, opts)
+        .with_context(|| format!("opening scene {}", scene.display()))?;
     let mut warnings = ds.warnings.clone();
     let mesh = Mesh::load(&ds.mesh).with_context(|| "loading the scene mesh")?;
     if mesh.dropped_degenerate > 0 {
@@ -110,7 +127,9 @@ pub fn inspect(scene: &Path, policy: BadPixelPolicy) -> Result<SceneSummary> {
             ds.mesh.display()
         );
     }
-    let (exposure_fit, edges, ldr) = exposures(&ds, &mesh, policy)?;
+    let (exposure_fit, edges, ldr, convention) = exposures(&ds, &mesh, policy, &mut warnings)?;
+    let exif = crate::capture::ExifReport::of(&ds, exposure_fit.as_ref());
+    warnings.extend(exif.warning.clone());
     warnings.extend(crate::capture::edge_warning(&edges));
     if let Some(f) = exposure_fit
         .as_ref()
@@ -133,6 +152,12 @@ pub fn inspect(scene: &Path, policy: BadPixelPolicy) -> Result<SceneSummary> {
         bounds: [b.min.to_array(), b.max.to_array()],
         width: ds.width,
         height: ds.height,
+        cameras: ds.cameras_description.clone(),
+        lenses: lenses(&ds),
+        downscale: ds.downscale,
+        masked_views: ds.train().views.iter().filter(|v| v.mask.is_some()).count(),
+        convention,
+        exif,
         splits,
         exposure_fit,
         edges,
@@ -146,25 +171,53 @@ fn exposures(
     ds: &Dataset,
     mesh: &Mesh,
     policy: BadPixelPolicy,
+    warnings: &mut Vec<String>,
 ) -> Result<(
     Option<crate::capture::GainFit>,
     crate::capture::EdgeCheck,
     bool,
+    Option<crate::capture::ConventionCheck>,
 )> {
     let split = ds.train();
     let mut images = vec![];
-    for v in &split.views {
-        images.push(ds.load_image(v, policy)?.0);
+    for (k, v) in split.views.iter().enumerate() {
+        let mut img = ds.load_image(v, policy)?.0;
+        let e = ds.view_exposure(k);
+        if e != 1.0 {
+            img.data.iter_mut().for_each(|p| *p /= e);
+        }
+        images.push(img);
     }
     let geometry = fipt_geom::Geometry::new(mesh.clone());
+    let (convention, refused) = crate::capture::test_convention(&geometry, ds, &images);
+    warnings.extend(refused);
+    let masks = split
+        .views
+        .iter()
+        .map(|v| ds.load_mask(v))
+        .collect::<Result<Vec<_>, _>>()?;
     let report = crate::capture::examine(
         &geometry,
         &split.views,
         &mut images,
         ds.has_ldr_files(),
         crate::capture::AlignViews::Off,
+        &masks,
     );
-    Ok((report.exposure_fit, report.edges, report.check.ldr))
+    Ok((report.exposure_fit, report.edges, report.check.ldr, convention))
+}
+
+/// The views' lens models ("pinhole", "opencv k1 -0.120 …"), with how many views have each.
+fn lenses(ds: &Dataset) -> Vec<(String, usize)> {
+    let mut out: Vec<(String, usize)> = vec![];
+    for v in ds.splits.iter().flat_map(|s| &s.views) {
+        let name = fipt_core::distortion::describe(&v.camera.distortion);
+        match out.iter_mut().find(|(n, _)| *n == name) {
+            Some(e) => e.1 += 1,
+            None => out.push((name, 1)),
+        }
+    }
+    out
 }
 
 /// What a split's images say that a user should know: clamped values, black and saturated

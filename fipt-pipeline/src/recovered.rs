@@ -62,6 +62,21 @@ pub struct RunOutput {
     pub emitters: Vec<Emitter>,
 }
 
+/// How the run whose `report.json` is `report` read its scene (`[capture] downscale`).
+pub fn open_options_of(report: &serde_json::Value) -> fipt_core::capture_layout::OpenOptions {
+    let n = report["settings"]["capture"]["downscale"].as_u64().unwrap_or(1);
+    fipt_core::capture_layout::OpenOptions {
+        downscale: (n as usize).max(1),
+    }
+}
+
+/// How the run in `out` read its scene (as stored when its report cannot be read).
+pub fn run_open_options(out: &Path) -> fipt_core::capture_layout::OpenOptions {
+    fipt_core::fsutil::read_json::<serde_json::Value>(&out.join("report.json"))
+        .map(|r| open_options_of(&r))
+        .unwrap_or_default()
+}
+
 fn not_a_run(dir: &Path, why: &str) -> crate::error::PipelineError {
     crate::err!(
         "{}: not a finished `fipt run` output folder ({why}); run `fipt run <scene> --out {}` first",
@@ -165,9 +180,14 @@ impl RunOutput {
             .with_context(|| format!("loading the material field from {}", dir.display()))
     }
 
+    /// How the run read its scene (`[capture] downscale`).
+    pub fn open_options(&self) -> fipt_core::capture_layout::OpenOptions {
+        open_options_of(&self.report)
+    }
+
     /// The scene's dataset and geometry; warns when its inputs changed since the run.
     pub fn open_scene(&self) -> Result<(Dataset, Geometry)> {
-        let ds = Dataset::open(&self.scene)
+        let ds = Dataset::open_with(&self.scene, self.open_options())
             .with_context(|| format!("opening scene {}", self.scene.display()))?;
         let here = crate::scene::inputs_hash(&ds)?;
         if let Some(there) = self.report["inputs_hash"].as_str() {

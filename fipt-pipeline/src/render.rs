@@ -223,6 +223,7 @@ fn exact_maps(
             index: k,
             camera: cams[k].clone(),
             image: PathBuf::new(),
+            mask: None,
         })
         .collect();
     let mut emission = std::collections::HashMap::new();

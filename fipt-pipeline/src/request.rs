@@ -27,6 +27,8 @@ pub struct RunRequest {
     pub shard: Shard,
     /// Stop before the refinement when it is not done (a job array computes its shards).
     pub stop_before_refine: bool,
+    /// Shrink the views by this factor on read, over `[capture] downscale`.
+    pub downscale: Option<usize>,
 }
 
 impl RunRequest {
@@ -42,6 +44,7 @@ impl RunRequest {
             force: false,
             shard: Shard::ALL,
             stop_before_refine: false,
+            downscale: None,
         }
     }
 

@@ -17,6 +17,12 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
     if let Some(m) = &a.method {
         cfg.pipeline.method = m.clone();
     }
+    if let Some(n) = a.downscale {
+        cfg.capture.downscale = n;
+    }
+    if cfg.capture.downscale == 0 {
+        crate::bail!("[capture] downscale = 0: give a factor of 1 (as stored) or more");
+    }
     let Checked {
         extractor,
         baker,

@@ -1,5 +1,5 @@
 //! Loading a scene folder for the stages: dataset, geometry, training images, fingerprint.
-use crate::capture::AlignViews;
+use crate::capture::CaptureConfig;
 use crate::error::{Context, Result};
 use crate::observe::Stage;
 use fipt_core::dataset::Dataset;
@@ -30,6 +30,9 @@ pub struct LoadedScene {
 pub fn inputs_hash(ds: &Dataset) -> Result<String> {
     let split = ds.train();
     let mut files = vec![ds.mesh.clone(), split.cameras_file.clone()];
+    // A capture layout's other camera files (COLMAP's cameras and images), and the masks.
+    files.extend(ds.camera_files.iter().filter(|f| **f != split.cameras_file).cloned());
+    files.extend(split.views.iter().filter_map(|v| v.mask.clone()));
     // The real layout's intrinsics and the capture's response and exposures shape the inputs.
     for name in ["K_list.txt", fipt_core::capture::CAPTURE_FILE] {
         let f = ds.root.join(name);
@@ -38,14 +41,20 @@ pub fn inputs_hash(ds: &Dataset) -> Result<String> {
         }
     }
     files.extend(split.views.iter().map(|v| v.image.clone()));
-    Ok(fipt_core::fsutil::hash_files(&files)?)
+    let hash = fipt_core::fsutil::hash_files(&files)?;
+    Ok(if ds.downscale > 1 {
+        format!("{hash}@downscale:{}", ds.downscale)
+    } else {
+        hash
+    })
 }
 
-/// Loads the scene at `root` for the stages; `align` says when views are shifted onto the
-/// mesh (`[capture] align_views`; the stages' caches key on the shifts).
-pub fn load(root: &Path, policy: BadPixelPolicy, align: AlignViews) -> Result<LoadedScene> {
+/// Loads the scene at `root` for the stages as `capture` says (`[capture]`: its downscale, and
+/// when views are shifted onto the mesh; the stages' caches key on both).
+pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<LoadedScene> {
     let st = Stage::start("load scene");
-    let ds = Dataset::open(root).with_context(|| format!("opening scene {}", root.display()))?;
+    let ds = Dataset::open_with(root, cfg.open_options())
+        .with_context(|| format!("opening scene {}", root.display()))?;
     let mesh = Mesh::load(&ds.mesh).context("loading the scene mesh")?;
     if mesh.dropped_degenerate > 0 {
         crate::note!(
@@ -69,15 +78,22 @@ pub fn load(root: &Path, policy: BadPixelPolicy, align: AlignViews) -> Result<Lo
             img.data.iter_mut().for_each(|p| *p /= e);
         }
     }
+    let convention = crate::capture::check_convention(&geometry, &ds, &images)?;
+    let masks = load_masks(&ds)?;
     let mut capture = crate::capture::examine(
         &geometry,
         &split.views,
         &mut images,
         ds.has_ldr_files(),
-        align,
+        cfg.align_views,
+        &masks,
     );
-    capture.exposures_known = ds.capture.exposures.is_some();
+    capture.exposures_known = ds.known_exposures().is_some();
+    capture.exif = crate::capture::ExifReport::of(&ds, capture.exposure_fit.as_ref());
+    capture.warnings.extend(capture.exif.warning.clone());
+    capture.convention = convention;
     crate::capture::restore_clipped_lights(&geometry, &split.views, &mut images, &mut capture);
+    crate::capture::leave_out_masked(&mut capture, &masks);
     for w in &capture.warnings {
         crate::note!("warning: {w}");
     }
@@ -114,6 +130,20 @@ pub fn load(root: &Path, policy: BadPixelPolicy, align: AlignViews) -> Result<Lo
         cache_key,
         capture,
     })
+}
+
+/// The training views' masks (pixels to keep), None for a view without one; empty when no
+/// view has one.
+fn load_masks(ds: &Dataset) -> Result<Vec<Option<Vec<bool>>>> {
+    let views = &ds.train().views;
+    if views.iter().all(|v| v.mask.is_none()) {
+        return Ok(vec![]);
+    }
+    views
+        .par_iter()
+        .map(|v| ds.load_mask(v))
+        .collect::<Result<Vec<_>, _>>()
+        .context("reading the training views' masks")
 }
 
 /// Refuses, before any work, training views none of whose rays hits the mesh (poses in another

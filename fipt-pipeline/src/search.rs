@@ -695,7 +695,7 @@ fn reference_profiles(
 fn profile_inputs(
     a: &ProfileRequest,
 ) -> Result<(crate::scene::LoadedScene, Vec<ViewShadings>, SearchConfig)> {
-    let scene = crate::scene::load(&a.scene, a.bad_pixels, Default::default())?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels, &Default::default())?;
     let dir = a.out.join(&a.shadings);
     let shadings = match fipt_bake::bake_store::load_for_inputs(&dir, &scene.cache_key)? {
         Ok((_, s)) => s.load_all()?,

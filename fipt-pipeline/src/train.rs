@@ -185,7 +185,7 @@ pub fn train_only(a: TrainRequest, components: &crate::Components) -> Result<Pat
     }
     cfg.validate()?;
     let (trainer, settings) = chosen_trainer(&a, &cfg, components)?;
-    let scene = crate::scene::load(&a.scene, a.bad_pixels, Default::default())?;
+    let scene = crate::scene::load(&a.scene, a.bad_pixels, &Default::default())?;
     let bake_dir = a.out.join("bake");
     fipt_core::lock::refuse_nested_run(&a.out)?;
     let _lock = if a.out.is_dir() {

@@ -306,6 +306,8 @@ pub struct SynthOptions {
     pub render: RenderConfig,
     /// The reflectance model the views are rendered with.
     pub model: ReflectanceModel,
+    /// The lens every view is rendered through (the maps too; `transforms.json` records it).
+    pub lens: fipt_core::distortion::Distortion,
 }
 
 impl SynthOptions {
@@ -319,6 +321,7 @@ impl SynthOptions {
                 height: 48,
                 render: RenderConfig::ground_truth(64),
                 model: ReflectanceModel::Fipt,
+                lens: Default::default(),
             },
             _ => SynthOptions {
                 train_views: 48,
@@ -327,6 +330,7 @@ impl SynthOptions {
                 height: 160,
                 render: RenderConfig::ground_truth(128),
                 model: ReflectanceModel::Fipt,
+                lens: Default::default(),
             },
         }
     }
@@ -515,20 +519,25 @@ pub fn write_dataset(
     let semantic = scene.semantic.clone();
     let table = out.join("scene_gt.json");
     let bvh = fipt_geom::Bvh::build(&scene.mesh, fipt_geom::BuildQuality::Medium);
-    let train = scene.cameras(
+    let lensed = |cams: Vec<Camera>| -> Vec<Camera> {
+        cams.into_iter()
+            .map(|c| Camera { distortion: opts.lens, ..c })
+            .collect()
+    };
+    let train = lensed(scene.cameras(
         opts.train_views,
         opts.render.seed,
         opts.width,
         opts.height,
         &bvh,
-    );
-    let val = scene.cameras(
+    ));
+    let val = lensed(scene.cameras(
         opts.val_views,
         opts.render.seed ^ 0x5EED_0F7A,
         opts.width,
         opts.height,
         &bvh,
-    );
+    ));
     let mut surfaces = TableSurfaces::new(scene.materials, &scene.mesh, &table)?;
     surfaces.model = opts.model;
     let rs = Scene::with_bvh(scene.mesh, bvh, surfaces);

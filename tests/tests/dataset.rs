@@ -22,6 +22,7 @@ fn tiny_cornell(dir: &Path) {
             ..Default::default()
         },
         model: Default::default(),
+        lens: Default::default(),
     };
     write_dataset(build("cornell").unwrap(), dir, &opts, &|_, _| {}).unwrap();
 }

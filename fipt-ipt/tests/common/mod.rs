@@ -52,6 +52,7 @@ pub fn cornell(n: usize, w: usize, h: usize, spp: u32, model: ReflectanceModel) 
             index: k,
             camera: cam,
             image: PathBuf::from(format!("{k}.exr")),
+            mask: None,
         });
     }
     Fixture {

@@ -22,10 +22,36 @@ pub enum AlignViews {
 }
 
 /// `[capture]`: what a run does with views that are captures.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CaptureConfig {
     pub align_views: AlignViews,
+    /// Shrink every view (and its mask and intrinsics) by this factor on read: photos larger
+    /// than the method needs (`fipt run --downscale N`). 1 reads them as stored.
+    #[serde(skip_serializing_if = "is_one")]
+    pub downscale: usize,
+}
+
+impl Default for CaptureConfig {
+    fn default() -> Self {
+        CaptureConfig {
+            align_views: AlignViews::default(),
+            downscale: 1,
+        }
+    }
+}
+
+fn is_one(n: &usize) -> bool {
+    *n == 1
+}
+
+impl CaptureConfig {
+    /// How the scene folder is opened under these settings.
+    pub fn open_options(&self) -> fipt_core::capture_layout::OpenOptions {
+        fipt_core::capture_layout::OpenOptions {
+            downscale: self.downscale.max(1),
+        }
+    }
 }
 
 /// Shifts under this many pixels are left alone: on exact poses and mesh the check reads

@@ -3,12 +3,16 @@
 //! gives exact correspondences), and the warnings a user must read. `report.json`'s `capture`.
 mod align;
 mod clipped;
+mod convention;
+mod exif;
 mod edges;
 mod gains;
 
 pub use align::{AlignViews, Alignment, CaptureConfig, MIN_SHIFT_PX};
+pub use convention::{check_convention, test_convention, ConventionCheck, FileConvention};
+pub use exif::ExifReport;
 pub use clipped::{restore_clipped_lights, ClippedLights, CLIPPED_LIGHT_LEVELS};
-pub use edges::{edge_alignment, edge_warning, EdgeCheck, EDGE_OFF_PX};
+pub use edges::{edge_alignment, edge_contrast, edge_warning, EdgeCheck, EDGE_OFF_PX};
 pub use gains::{fit_gains, gain_spread_limit, GainFit, GAIN_SPREAD_WARN, MIN_SHARED_CELLS};
 
 use fipt_core::capture::{clipped_mask, ldr_check, LdrCheck, ViewLdr};
@@ -46,6 +50,51 @@ pub struct CaptureReport {
     pub edges: EdgeCheck,
     /// The views shifted onto the mesh (`[capture] align_views`).
     pub alignment: Alignment,
+    /// The poses' convention tested on the edges (layouts whose files could be in another).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub convention: Option<ConventionCheck>,
+    /// Training pixels the views' masks leave out (`Mask/`, COLMAP's `masks/`, nerfstudio's
+    /// `mask_path`).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub masked_pixels: usize,
+    /// What the photos' EXIF said of their exposures, and whether the views agree.
+    #[serde(skip_serializing_if = "ExifReport::is_empty")]
+    pub exif: ExifReport,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
+/// Leaves the pixels the views' masks drop out of the material loss and the search (with
+/// the clipped ones), and counts them.
+pub fn leave_out_masked(r: &mut CaptureReport, masks: &[Option<Vec<bool>>]) {
+    if masks.is_empty() {
+        return;
+    }
+    if r.left_out.len() < masks.len() {
+        r.left_out.resize(masks.len(), vec![]);
+    }
+    for (out, keep) in r.left_out.iter_mut().zip(masks) {
+        let Some(keep) = keep else { continue };
+        if out.is_empty() {
+            *out = vec![false; keep.len()];
+        }
+        for (o, k) in out.iter_mut().zip(keep) {
+            if !k {
+                r.masked_pixels += 1;
+                *o = true;
+            }
+        }
+    }
+    let per_view = masks.iter().flatten().map(Vec::len).next().unwrap_or(0);
+    if r.masked_pixels > 0 {
+        r.warnings.push(format!(
+            "train: the views' masks leave out {} pixels ({:.1} % of the training pixels) from the materials' fit",
+            r.masked_pixels,
+            100.0 * r.masked_pixels as f64 / (masks.len() * per_view).max(1) as f64
+        ));
+    }
 }
 
 /// Checks the training images, fits their exposures on shared surfaces and, for LDR views,
@@ -57,6 +106,7 @@ pub fn examine(
     images: &mut [Image],
     files_ldr: bool,
     mode: AlignViews,
+    masks: &[Option<Vec<bool>>],
 ) -> CaptureReport {
     let per_view: Vec<(usize, ViewLdr)> = images
         .par_iter()
@@ -78,7 +128,23 @@ pub fn examine(
         r.clip_level = Some(level);
         r.clipped = images.iter().map(|i| clipped_mask(i, level)).collect();
     }
-    let fit = fit_gains(geometry, views, images, &r.clipped, r.clip_level);
+    // Masked pixels (people, screens) say nothing of the views' exposures either.
+    let unused = if masks.iter().any(Option::is_some) {
+        (0..images.len())
+            .map(|k| {
+                let n = images[k].data.len();
+                (0..n)
+                    .map(|i| {
+                        r.clipped.get(k).is_some_and(|c| c[i])
+                            || masks.get(k).and_then(|m| m.as_ref()).is_some_and(|m| !m[i])
+                    })
+                    .collect()
+            })
+            .collect()
+    } else {
+        r.clipped.clone()
+    };
+    let fit = fit_gains(geometry, views, images, &unused, r.clip_level);
     if let Some(f) = &fit {
         if !f.unfitted.is_empty() {
             r.warnings.push(format!(
