@@ -15,9 +15,10 @@ pub struct Args {
     /// (sparse/0/ + images/), `nerfstudio` (transforms.json + images/).
     #[arg(long, value_enum, default_value = "same")]
     layout: LayoutArg,
-    /// The lens the copy's views are seen through (COLMAP and nerfstudio layouts):
-    /// `opencv:K1[,K2,P1,P2,K3]` or `fisheye:K1[,K2,K3,K4]`; the views are resampled from the
-    /// source's pinhole views and the focal length lengthened to stay inside them.
+    /// The lens the copy's views are seen through: `opencv:K1[,K2,P1,P2,K3]` or
+    /// `fisheye:K1[,K2,K3,K4]` (COLMAP and nerfstudio layouts), or `pinhole` (undistorted
+    /// copies of a lensed source); the views are resampled from the source's and the focal
+    /// length lengthened to stay inside them.
     #[arg(long, value_name = "MODEL:COEFFS")]
     lens: Option<fipt_core::distortion::Distortion>,
     /// Leave out the ground-truth maps and the part tables.
@@ -93,7 +94,7 @@ pub fn run(a: Args) -> Result<()> {
             LayoutArg::ColmapBinary => CopyLayout::ColmapBinary,
             LayoutArg::Nerfstudio => CopyLayout::Nerfstudio,
         },
-        lens: a.lens.unwrap_or_default(),
+        lens: a.lens,
         drop_gt: a.drop_gt,
         pose_mm: mm,
         pose_deg: deg,

@@ -67,9 +67,9 @@ pub fn run(a: Args) -> Result<()> {
     let lenses: Vec<String> = sum.lenses.iter().map(|(l, n)| format!("{l} ({n} views)")).collect();
     say!("lenses       {}", lenses.join("; "));
     if let Some(c) = &sum.convention {
-        let scores: Vec<String> = c.contrast.iter().map(|(k, s)| format!("{k:?} {s:.2}")).collect();
+        let scores: Vec<String> = c.contrast.iter().map(|(k, s)| format!("{k} {s:.2}")).collect();
         say!(
-            "convention   poses read as {:?}; edge contrast per reading (median of {} views): {}",
+            "convention   poses read as {}; edge contrast per reading (median of {} views): {}",
             c.read_as,
             c.views_tested,
             scores.join(", ")

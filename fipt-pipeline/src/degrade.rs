@@ -76,10 +76,11 @@ pub struct DegradeRequest {
     pub out: PathBuf,
     /// The copy's layout.
     pub layout: CopyLayout,
-    /// The lens the copy's views are seen through (resampled from the source's pinhole
-    /// views, the focal length lengthened so that every pixel stays inside the source's
-    /// view); COLMAP and nerfstudio layouts only.
-    pub lens: fipt_core::distortion::Distortion,
+    /// The lens the copy's views are seen through, resampled from the source's views (the
+    /// focal length lengthened so that every pixel stays inside the source's view): a lens
+    /// for the COLMAP and nerfstudio layouts, or the pinhole (undistorted copies of a lensed
+    /// source). None keeps the source's cameras.
+    pub lens: Option<fipt_core::distortion::Distortion>,
     /// Leave out every ground-truth folder, `scene_gt.json` and `scene_parts.json`.
     pub drop_gt: bool,
     /// Each camera moved by this many millimetres in a random direction…
@@ -150,7 +151,7 @@ fn validate(a: &DegradeRequest) -> Result<()> {
     if !(1..=100).contains(&a.jpeg_quality) {
         bail!("--jpeg-quality {}: give 1 to 100", a.jpeg_quality);
     }
-    if !a.lens.is_none() && !matches!(a.layout, CopyLayout::ColmapText | CopyLayout::ColmapBinary | CopyLayout::Nerfstudio) {
+    if a.lens.is_some_and(|l| !l.is_none()) && !matches!(a.layout, CopyLayout::ColmapText | CopyLayout::ColmapBinary | CopyLayout::Nerfstudio) {
         bail!("--lens: a lens model is written by the COLMAP and nerfstudio layouts only; pass --layout colmap-text, colmap-binary or nerfstudio");
     }
     if a.ldr == LdrMode::None && a.format != ViewFormat::Exr {
@@ -215,7 +216,14 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
             .map(|v| moved(a, &s.name, v.index, &v.camera))
             .collect();
         // The lens: rays leave the copy's cameras through it, from the source's true poses.
-        let lensed: Vec<Camera> = s.views.iter().map(|v| with_lens(&v.camera, a.lens)).collect();
+        let lensed: Vec<Camera> = s
+            .views
+            .iter()
+            .map(|v| {
+                let l = a.lens.map_or_else(|| v.camera.clone(), |lens| with_lens(&v.camera, lens));
+                Camera { distortion: l.distortion, fx: l.fx, fy: l.fy, ..v.camera.clone() }
+            })
+            .collect();
         let cameras: Vec<Camera> = cams
             .iter()
             .zip(&lensed)
@@ -322,10 +330,16 @@ fn write_cameras(a: &DegradeRequest, dir: &Path, cameras: &[Camera]) -> Result<P
 /// `cam` seen through `lens`, its focal length lengthened so that every pixel's ray stays
 /// inside `cam`'s own view (the copy's views are resampled from the source's).
 fn with_lens(cam: &Camera, lens: fipt_core::distortion::Distortion) -> Camera {
-    let mut c = cam.clone();
-    if lens.is_none() {
-        return c;
+    if lens == cam.distortion {
+        return cam.clone();
     }
+    // In camera space (the pose left out), so that cameras of one intrinsics get one focal.
+    let cam = &Camera {
+        rotation: glam::Mat3::IDENTITY,
+        origin: Vec3::ZERO,
+        ..cam.clone()
+    };
+    let mut c = cam.clone();
     c.distortion = lens;
     let (w, h) = (cam.width as f32, cam.height as f32);
     for _ in 0..20 {

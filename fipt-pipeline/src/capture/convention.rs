@@ -23,6 +23,16 @@ pub enum FileConvention {
     OpenGl,
 }
 
+impl std::fmt::Display for FileConvention {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            FileConvention::Mitsuba => "Mitsuba",
+            FileConvention::OpenCv => "OpenCV",
+            FileConvention::OpenGl => "OpenGL",
+        })
+    }
+}
+
 impl FileConvention {
     const ALL: [FileConvention; 3] = [FileConvention::Mitsuba, FileConvention::OpenCv, FileConvention::OpenGl];
 
@@ -106,7 +116,7 @@ pub fn test_convention(
         .filter(|b| b.0 != read && b.1 > REFUSE_RATIO * own);
     let refusal = best.map(|(conv, c)| {
         format!(
-            "{}: the poses fit the mesh's edges far better read as {conv:?} camera-to-world than as {read:?}, the layout's \
+            "{}: the poses fit the mesh's edges far better read as {conv} camera-to-world than as {read}, the layout's \
              (edge contrast {c:.2} against {own:.2}, median of {} views): every camera would look the wrong way. {}",
             split.cameras_file.display(),
             picks.len(),

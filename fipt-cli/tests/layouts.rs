@@ -1,0 +1,118 @@
+//! Captures as users store them, through the binary: a COLMAP copy (downscaled, with a mask)
+//! and a nerfstudio copy seen through a lens run and score as the real layout's copy does; a
+//! NeRF-convention `transforms.json` fed as FIPT's is named by `fipt info` and refused by
+//! `fipt run`.
+mod common;
+use common::{fipt, run, synth, tmp};
+use serde_json::Value;
+use std::path::Path;
+
+fn json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The tiny run config of these tests, without the segment prior (a copy has no parts).
+const TINY: &str = "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
+     [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
+     [train]\nsteps = 150\nbatch = 512\nsegments = \"none\"\n[train.field]\nmlp_width = 16\n\
+     mask_width = 16\n[train.field.grid]\nlevels = 4\n[search]\nregions = \"mesh\"\n\
+     [render]\nspp = 2\nval_spp = 2\nmax_bounces = 3\nseed = 0\n";
+
+fn degrade(src: &Path, out: &Path, extra: &[&str]) {
+    let mut args = vec!["degrade", src.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    args.extend(extra);
+    let (ok, _, err) = fipt(&args);
+    assert!(ok, "{err}");
+}
+
+/// `fipt eval SRC OUT --cameras-from SRC`'s val means.
+fn scored_at_the_source(src: &Path, out: &Path) -> Value {
+    let s = src.to_str().unwrap();
+    let (ok, _, err) = fipt(&["eval", s, out.to_str().unwrap(), "--cameras-from", s, "--spp", "4"]);
+    assert!(ok, "{err}");
+    json(&out.join("eval/cameras-from/metrics.json"))["val"]["mean"].clone()
+}
+
+#[test]
+fn colmap_and_nerfstudio_copies_run_as_the_real_layouts_copy() {
+    let dir = tmp("layouts-run");
+    let src = dir.join("scene");
+    synth("cornell", src.to_str().unwrap(), [6, 2, 48, 36, 16], &[]);
+    let (real, colmap, ns) = (dir.join("real"), dir.join("colmap"), dir.join("ns"));
+    degrade(&src, &real, &["--layout", "real"]);
+    degrade(&src, &colmap, &["--layout", "colmap-binary"]);
+    degrade(&src, &ns, &["--layout", "nerfstudio", "--lens", "opencv:-0.12"]);
+    // A mask on the COLMAP copy's first view: its top rows left out.
+    std::fs::create_dir_all(colmap.join("masks")).unwrap();
+    let mask = image::GrayImage::from_fn(48, 36, |_, y| image::Luma([if y < 6 { 0 } else { 255 }]));
+    mask.save(colmap.join("masks/000_0001.exr.png")).unwrap();
+    let (ok, info, err) = fipt(&["info", ns.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    assert!(info.contains("nerfstudio layout") && info.contains("opencv k1 -0.1200"), "{info}");
+    assert!(info.contains("poses read as OpenGL"), "{info}");
+    let (ok, info, err) = fipt(&["info", colmap.to_str().unwrap(), "--downscale", "2"]);
+    assert!(ok, "{err}");
+    assert!(info.contains("COLMAP binary model") && info.contains("24x18"), "{info}");
+    assert!(info.contains("1 training views have a mask"), "{info}");
+
+    let cfg = dir.join("run.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let (out_real, out_ns) = (dir.join("out-real"), dir.join("out-ns"));
+    run(&real, &out_real, &cfg);
+    run(&ns, &out_ns, &cfg);
+    let (a, b) = (scored_at_the_source(&src, &out_real), scored_at_the_source(&src, &out_ns));
+    for key in ["kd_psnr", "render_psnr"] {
+        let (a, b) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
+        // The lens copy is resampled from the source's views (a bilinear blur at 48×36).
+        assert!((a - b).abs() < 1.5, "{key}: real layout {a:.2} dB, nerfstudio + lens {b:.2} dB");
+    }
+
+    // The COLMAP copy at half size with its mask; later commands read it as the run did.
+    let out_colmap = dir.join("out-colmap");
+    let (ok, _, err) = fipt(&[
+        "run", colmap.to_str().unwrap(), "--out", out_colmap.to_str().unwrap(),
+        "--config", cfg.to_str().unwrap(), "--downscale", "2",
+    ]);
+    assert!(ok, "{err}");
+    let report = json(&out_colmap.join("report.json"));
+    assert_eq!(report["settings"]["capture"]["downscale"], 2);
+    assert_eq!(report["capture"]["masked_pixels"], 24 * 3, "{}", report["capture"]);
+    assert!(report["inputs_hash"].as_str().unwrap().ends_with("@downscale:2"));
+    let kd = fipt_core::image::Image::read_exr(&out_colmap.join("views/train/000_kd.exr")).unwrap();
+    assert_eq!((kd.width, kd.height), (24, 18));
+    let m = scored_at_the_source(&src, &out_colmap);
+    assert!(m["kd_psnr"].as_f64().unwrap() > a["kd_psnr"].as_f64().unwrap() - 6.0, "{m}");
+}
+
+#[test]
+fn a_nerf_convention_transforms_json_is_named_by_info_and_refused_by_run() {
+    let dir = tmp("layouts-convention");
+    let src = dir.join("scene");
+    synth("cornell", src.to_str().unwrap(), [8, 2, 64, 48, 16], &[]);
+    // The same cameras written as NeRF writes them (OpenGL camera-to-world), with no word of
+    // the convention: Mitsuba's axes with X and Z negated.
+    let tf = src.join("train/transforms.json");
+    let mut t = json(&tf);
+    t.as_object_mut().unwrap().remove("camera_convention");
+    let (ok, info, err) = fipt(&["info", src.to_str().unwrap()]);
+    assert!(ok && !info.contains("far better"), "{info}{err}");
+    for f in t["frames"].as_array_mut().unwrap() {
+        for row in f["transform_matrix"].as_array_mut().unwrap().iter_mut().take(3) {
+            for c in [0, 2] {
+                row[c] = (-row[c].as_f64().unwrap()).into();
+            }
+        }
+    }
+    std::fs::write(&tf, serde_json::to_string(&t).unwrap()).unwrap();
+    let (ok, info, err) = fipt(&["info", src.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    assert!(info.contains("states no convention"), "{info}");
+    assert!(info.contains("far better read as OpenGL"), "{info}");
+    let cfg = dir.join("run.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let out = dir.join("out");
+    let (ok, _, err) = fipt(&["run", src.to_str().unwrap(), "--out", out.to_str().unwrap(), "--config", cfg.to_str().unwrap()]);
+    assert!(!ok, "a run in the wrong convention went ahead");
+    assert!(err.contains("train/transforms.json") && err.contains("OpenGL"), "{err}");
+    assert!(err.contains("diag(-1, 1, -1, 1)"), "the fix: {err}");
+}
