@@ -143,9 +143,9 @@ pub fn is_ldr_file(path: &Path) -> bool {
 
 /// Reads an 8/16-bit PNG or a JPEG and maps its values through `response` to linear ones.
 pub fn read_ldr(path: &Path, response: &Response) -> Result<Image> {
-    let img = image::open(path).map_err(|e| CoreError::Exr {
+    let img = image::open(path).map_err(|e| CoreError::ImageRead {
         path: path.to_path_buf(),
-        message: format!("{e} (views may be EXR, PNG or JPEG)"),
+        message: format!("{e} (a truncated or damaged file? views may be EXR, PNG or JPEG)"),
     })?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     // A table of the linear value of every stored level: one curve evaluation per level.
@@ -183,7 +183,7 @@ pub fn read_ldr(path: &Path, response: &Response) -> Result<Image> {
 pub fn ldr_size(path: &Path) -> Result<(usize, usize)> {
     image::image_dimensions(path)
         .map(|(w, h)| (w as usize, h as usize))
-        .map_err(|e| CoreError::Exr {
+        .map_err(|e| CoreError::ImageRead {
             path: path.to_path_buf(),
             message: e.to_string(),
         })

@@ -14,6 +14,9 @@ pub enum CoreError {
     },
     #[error("{path}: cannot read EXR: {message}")]
     Exr { path: PathBuf, message: String },
+    /// A PNG or JPEG that cannot be decoded (truncated, not an image).
+    #[error("{path}: cannot read the image: {message}")]
+    ImageRead { path: PathBuf, message: String },
     #[error("{path}: cannot write image: {message}")]
     ImageWrite { path: PathBuf, message: String },
     #[error("{path}: invalid JSON: {message}")]

@@ -232,3 +232,20 @@ fn a_views_mask_is_read_at_the_runs_size_and_a_wrong_size_named() {
     assert!(err.contains("001_0001.png") && err.contains("size of its view"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_truncated_jpeg_is_named_as_a_damaged_image_not_an_exr() {
+    let dir = temp_dir("truncated-jpeg");
+    let p = dir.join("view.jpg");
+    image::RgbImage::from_fn(64, 48, |x, y| image::Rgb([(x * 4) as u8, (y * 5) as u8, 90]))
+        .save(&p)
+        .unwrap();
+    let bytes = std::fs::read(&p).unwrap();
+    std::fs::write(&p, &bytes[..bytes.len() / 2]).unwrap();
+    let err = fipt_core::capture::read_ldr(&p, &Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("view.jpg") && err.contains("cannot read the image"), "{err}");
+    assert!(!err.contains("EXR:"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
