@@ -40,6 +40,10 @@ pub struct Args {
     format: FormatArg,
     #[arg(long, default_value_t = 90)]
     jpeg_quality: u8,
+    /// Write each JPEG view's exposure into its EXIF (time = gain / 100 s, ISO 100, f/2), as a
+    /// camera does.
+    #[arg(long)]
+    exif: bool,
     /// Split every triangle into 4^K (a scan is denser than a model).
     #[arg(long, default_value_t = 0)]
     subdivide: u32,
@@ -110,6 +114,7 @@ pub fn run(a: Args) -> Result<()> {
             FormatArg::Jpg => ViewFormat::Jpg,
         },
         jpeg_quality: a.jpeg_quality,
+        exif: a.exif,
         subdivide: a.subdivide,
         warp_mm: a.mesh_warp,
         seed: a.seed,

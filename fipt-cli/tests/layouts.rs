@@ -116,3 +116,31 @@ fn a_nerf_convention_transforms_json_is_named_by_info_and_refused_by_run() {
     assert!(err.contains("train/transforms.json") && err.contains("OpenGL"), "{err}");
     assert!(err.contains("diag(-1, 1, -1, 1)"), "the fix: {err}");
 }
+
+#[test]
+fn exif_exposures_of_auto_exposed_jpegs_are_used_and_checked() {
+    let dir = tmp("layouts-exif");
+    let src = dir.join("scene");
+    synth("cornell", src.to_str().unwrap(), [8, 2, 64, 48, 32], &[]);
+    let copy = dir.join("jpg");
+    let args = ["--layout", "colmap-text", "--ldr", "auto", "--format", "jpg", "--exif"];
+    degrade(&src, &copy, &args);
+    let (ok, info, err) = fipt(&["info", copy.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let line = info.lines().find(|l| l.starts_with("EXIF")).unwrap_or_else(|| panic!("{info}"));
+    assert!(line.contains("8 of 8 views") && line.contains("used"), "{line}");
+    // Once the EXIF exposures are divided out, the views agree: the fitted gains' spread.
+    let after: f32 = line
+        .split("spread ×")
+        .nth(2)
+        .and_then(|s| s.trim_end().parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!(after < 1.25, "{line}");
+    let cfg = dir.join("run.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let out = dir.join("out");
+    run(&copy, &out, &cfg);
+    let exif = &json(&out.join("report.json"))["capture"]["exif"];
+    assert_eq!(exif["used"], true, "{exif}");
+    assert_eq!(exif["views_with_exposure"], 8, "{exif}");
+}

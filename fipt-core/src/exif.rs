@@ -157,6 +157,51 @@ fn camera_name(make: Option<&Field>, model: Option<&Field>) -> Option<String> {
     }
 }
 
+/// `jpeg` (a whole JPEG file) with an EXIF segment holding `exp`'s settings, spliced in after
+/// its start-of-image marker: what a camera writes (`fipt degrade --exif`).
+pub fn jpeg_with_exif(jpeg: &[u8], exp: &ExifExposure) -> Result<Vec<u8>, String> {
+    if jpeg.len() < 2 || jpeg[..2] != [0xFF, 0xD8] {
+        return Err("not a JPEG (no start-of-image marker)".into());
+    }
+    let rational = |v: f32| {
+        // Seconds as 1/n when under a second (as cameras write them), else v/1000.
+        let r = if v > 0.0 && v < 1.0 {
+            ::exif::Rational::from((1000, (1000.0 / v).round() as u32))
+        } else {
+            ::exif::Rational::from(((v * 1000.0).round() as u32, 1000))
+        };
+        Value::Rational(vec![r])
+    };
+    let field = |tag: Tag, value: Value| Field { tag, ifd_num: In::PRIMARY, value };
+    let mut fields = vec![];
+    if let Some(t) = exp.exposure_time {
+        fields.push(field(Tag::ExposureTime, rational(t)));
+    }
+    if let Some(n) = exp.f_number {
+        fields.push(field(Tag::FNumber, rational(n)));
+    }
+    if let Some(iso) = exp.iso {
+        fields.push(field(Tag::PhotographicSensitivity, Value::Short(vec![iso.round() as u16])));
+    }
+    if let Some(c) = &exp.camera {
+        fields.push(field(Tag::Model, Value::Ascii(vec![c.as_bytes().to_vec()])));
+    }
+    let mut w = ::exif::experimental::Writer::new();
+    for f in &fields {
+        w.push_field(f);
+    }
+    let mut tiff = std::io::Cursor::new(Vec::new());
+    w.write(&mut tiff, true).map_err(|e| e.to_string())?;
+    let payload = [b"Exif\0\0".as_slice(), tiff.get_ref()].concat();
+    let len = u16::try_from(payload.len() + 2).map_err(|_| "EXIF over 64 KiB")?;
+    let mut out = jpeg[..2].to_vec();
+    out.extend([0xFF, 0xE1]);
+    out.extend(len.to_be_bytes());
+    out.extend(payload);
+    out.extend(&jpeg[2..]);
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -294,6 +339,25 @@ mod tests {
         assert_eq!(e.camera.as_deref(), Some("Fipt Test Camera"));
         let expected = (1.0 / 60.0) * 400.0 / (2.8 * 2.8);
         assert!((e.relative().unwrap() - expected).abs() < 1e-6);
+    }
+
+    #[test]
+    fn written_exif_reads_back() {
+        let tmp = Temp::new();
+        let p = tmp.0.join("written.jpg");
+        let e = ExifExposure {
+            exposure_time: Some(1.0 / 125.0),
+            f_number: Some(2.0),
+            iso: Some(200.0),
+            camera: Some("fipt degrade".into()),
+        };
+        std::fs::write(&p, jpeg_with_exif(&jpeg(None), &e).unwrap()).unwrap();
+        assert_eq!(image::image_dimensions(&p).unwrap(), (16, 16));
+        let back = read(&p).unwrap().unwrap();
+        assert!((back.exposure_time.unwrap() - 0.008).abs() < 1e-7, "{back:?}");
+        assert_eq!((back.f_number, back.iso), (Some(2.0), Some(200.0)));
+        assert_eq!(back.camera.as_deref(), Some("fipt degrade"));
+        assert!(jpeg_with_exif(b"PNG", &e).is_err());
     }
 
     #[test]

@@ -92,6 +92,9 @@ pub struct DegradeRequest {
     pub ldr: LdrMode,
     pub format: ViewFormat,
     pub jpeg_quality: u8,
+    /// Write each JPEG view's exposure into its EXIF, as a camera does (time = gain / 100 s
+    /// at ISO 100 and f/2: the relative exposures are the gains).
+    pub exif: bool,
     /// Subdivision levels of the mesh (every triangle into 4^K).
     pub subdivide: u32,
     /// Largest displacement of the smooth mesh warp, millimetres.
@@ -153,6 +156,9 @@ fn validate(a: &DegradeRequest) -> Result<()> {
     }
     if a.lens.is_some_and(|l| !l.is_none()) && !matches!(a.layout, CopyLayout::ColmapText | CopyLayout::ColmapBinary | CopyLayout::Nerfstudio) {
         bail!("--lens: a lens model is written by the COLMAP and nerfstudio layouts only; pass --layout colmap-text, colmap-binary or nerfstudio");
+    }
+    if a.exif && a.format != ViewFormat::Jpg {
+        bail!("--exif: EXIF is written into JPEG views; pass --format jpg");
     }
     if a.ldr == LdrMode::None && a.format != ViewFormat::Exr {
         bail!("--format {:?}: PNG and JPEG hold 8-bit values; pass --ldr fixed or --ldr auto (or --format exr)", a.format);
@@ -516,11 +522,13 @@ fn write_view(
             &stored,
             LdrFormat::Png,
         )?,
-        ViewFormat::Jpg => fipt_core::capture::write_ldr(
-            &dir.join(&name).with_extension("jpg"),
-            &stored,
-            LdrFormat::Jpeg(a.jpeg_quality),
-        )?,
+        ViewFormat::Jpg => {
+            let path = dir.join(&name).with_extension("jpg");
+            fipt_core::capture::write_ldr(&path, &stored, LdrFormat::Jpeg(a.jpeg_quality))?;
+            if a.exif {
+                write_exif(&path, gain)?;
+            }
+        }
         ViewFormat::Exr => {
             // 8-bit steps, decoded back to linear: an LDR photo in an EXR.
             let q = |v: f32| r.to_linear(fipt_core::capture::quantise8(v) as f32 / 255.0);
@@ -536,6 +544,21 @@ fn write_view(
         }
     }
     Ok((gain, clipped as f64 / img.data.len().max(1) as f64))
+}
+
+/// Rewrites the JPEG at `path` with the EXIF a camera would give a view of `gain`.
+fn write_exif(path: &Path, gain: f32) -> Result<()> {
+    let exp = fipt_core::exif::ExifExposure {
+        exposure_time: Some(gain / 100.0),
+        f_number: Some(2.0),
+        iso: Some(100.0),
+        camera: Some("fipt degrade".into()),
+    };
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let with = fipt_core::exif::jpeg_with_exif(&bytes, &exp)
+        .map_err(|e| crate::err!("{}: {e}", path.display()))?;
+    fipt_core::fsutil::write_bytes_atomic(path, &with)?;
+    Ok(())
 }
 
 /// Copies a split's ground-truth folders as they are (at the source's cameras).
