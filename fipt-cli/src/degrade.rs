@@ -40,6 +40,11 @@ pub struct Args {
     format: FormatArg,
     #[arg(long, default_value_t = 90)]
     jpeg_quality: u8,
+    /// Enlarge every view N times (each pixel an N×N block, the intrinsics with it): a
+    /// capture of photos larger than the method needs (`fipt run --downscale N` reads the
+    /// views back exactly from PNG or EXR).
+    #[arg(long, default_value_t = 1)]
+    upscale: usize,
     /// Write each JPEG view's exposure into its EXIF (time = gain / 100 s, ISO 100, f/2), as a
     /// camera does.
     #[arg(long)]
@@ -115,6 +120,7 @@ pub fn run(a: Args) -> Result<()> {
         },
         jpeg_quality: a.jpeg_quality,
         exif: a.exif,
+        upscale: a.upscale,
         subdivide: a.subdivide,
         warp_mm: a.mesh_warp,
         seed: a.seed,

@@ -144,3 +144,28 @@ fn exif_exposures_of_auto_exposed_jpegs_are_used_and_checked() {
     assert_eq!(exif["used"], true, "{exif}");
     assert_eq!(exif["views_with_exposure"], 8, "{exif}");
 }
+
+#[test]
+fn a_run_downscaled_on_read_equals_the_run_of_the_small_views() {
+    let dir = tmp("layouts-downscale");
+    let src = dir.join("scene");
+    synth("cornell", src.to_str().unwrap(), [6, 2, 40, 30, 16], &[]);
+    let (small, big) = (dir.join("small"), dir.join("big"));
+    degrade(&src, &small, &["--layout", "real"]);
+    degrade(&src, &big, &["--layout", "real", "--upscale", "4"]);
+    let (ok, info, err) = fipt(&["info", big.to_str().unwrap()]);
+    assert!(ok && info.contains("160x120"), "{info}{err}");
+    let cfg = dir.join("run.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let (out_small, out_big) = (dir.join("out-small"), dir.join("out-big"));
+    run(&small, &out_small, &cfg);
+    let (ok, _, err) = fipt(&[
+        "run", big.to_str().unwrap(), "--out", out_big.to_str().unwrap(),
+        "--config", cfg.to_str().unwrap(), "--downscale", "4",
+    ]);
+    assert!(ok, "{err}");
+    for f in ["emitters.json", "views/train/000_kd.exr", "views/train/003_roughness.exr"] {
+        let (a, b) = (std::fs::read(out_small.join(f)).unwrap(), std::fs::read(out_big.join(f)).unwrap());
+        assert!(a == b, "{f} differs between the small views' run and the big views' run at 1/4");
+    }
+}

@@ -160,6 +160,20 @@ impl Camera {
         c
     }
 
+    /// The same camera for images enlarged `factor` times (each pixel a `factor`×`factor`
+    /// block): the inverse of [`Camera::downscaled`].
+    pub fn upscaled(&self, factor: usize) -> Camera {
+        let s = factor.max(1) as f32;
+        let mut c = self.clone();
+        c.width = self.width * factor.max(1);
+        c.height = self.height * factor.max(1);
+        c.fx *= s;
+        c.fy *= s;
+        c.cx *= s;
+        c.cy *= s;
+        c
+    }
+
     /// The largest normalised radius (on the distorted plane) any pixel of the image reaches.
     pub fn max_normalised_radius(&self) -> f32 {
         let corners = [(0.0, 0.0), (self.width as f32, 0.0), (0.0, self.height as f32), (self.width as f32, self.height as f32)];

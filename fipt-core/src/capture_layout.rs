@@ -91,24 +91,25 @@ pub fn capture_split(root: &Path, cams: &CaptureCameras) -> Result<Split> {
 }
 
 /// `img` shrunk by `factor`: each output pixel the mean of a `factor`×`factor` block of
-/// linear values, the remainder cropped at the right and bottom.
+/// linear values (summed in f64: a block of equal values gives that value exactly), the
+/// remainder cropped at the right and bottom.
 pub fn downscale_image(img: &Image, factor: usize) -> Image {
     if factor <= 1 {
         return img.clone();
     }
     let (w, h) = (img.width / factor, img.height / factor);
     let mut out = Image::new(w, h);
-    let n = (factor * factor) as f32;
+    let n = (factor * factor) as f64;
     for y in 0..h {
         for x in 0..w {
-            let mut s = crate::color::Rgb::ZERO;
+            let mut s = glam::DVec3::ZERO;
             for dy in 0..factor {
                 let row = (y * factor + dy) * img.width + x * factor;
                 for p in &img.data[row..row + factor] {
-                    s += *p;
+                    s += p.as_dvec3();
                 }
             }
-            out.data[y * w + x] = s / n;
+            out.data[y * w + x] = (s / n).as_vec3();
         }
     }
     out

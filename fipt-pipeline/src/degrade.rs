@@ -92,6 +92,10 @@ pub struct DegradeRequest {
     pub ldr: LdrMode,
     pub format: ViewFormat,
     pub jpeg_quality: u8,
+    /// Each view enlarged this many times (every pixel an N×N block; the intrinsics
+    /// multiplied): photos larger than the method needs, for `fipt run --downscale N`, which
+    /// gives the views back exactly (from PNG and EXR views).
+    pub upscale: usize,
     /// Write each JPEG view's exposure into its EXIF, as a camera does (time = gain / 100 s
     /// at ISO 100 and f/2: the relative exposures are the gains).
     pub exif: bool,
@@ -156,6 +160,12 @@ fn validate(a: &DegradeRequest) -> Result<()> {
     }
     if a.lens.is_some_and(|l| !l.is_none()) && !matches!(a.layout, CopyLayout::ColmapText | CopyLayout::ColmapBinary | CopyLayout::Nerfstudio) {
         bail!("--lens: a lens model is written by the COLMAP and nerfstudio layouts only; pass --layout colmap-text, colmap-binary or nerfstudio");
+    }
+    if !(1..=32).contains(&a.upscale) {
+        bail!("--upscale {}: give 1 to 32", a.upscale);
+    }
+    if a.upscale > 1 && !a.layout.captures_only() && !a.drop_gt {
+        bail!("--upscale: the ground truth stays at the source's size; pass --drop-gt or a capture layout (--layout real, …)");
     }
     if a.exif && a.format != ViewFormat::Jpg {
         bail!("--exif: EXIF is written into JPEG views; pass --format jpg");
@@ -234,6 +244,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
             .iter()
             .zip(&lensed)
             .map(|(c, l)| Camera { distortion: l.distortion, fx: l.fx, fy: l.fy, ..c.0.clone() })
+            .map(|c| c.upscaled(a.upscale))
             .collect();
         let images_dir = write_cameras(a, &dir, &cameras)?;
         let recs: Vec<Result<ViewRecord>> = s
@@ -248,6 +259,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
                 } else {
                     resample(&img, &v.camera, lens_cam)
                 };
+                let img = upscaled(&img, a.upscale);
                 let (gain, clipped_share) =
                     write_view(a, &s.name, v.index, img, fixed_gain, &images_dir)?;
                 Ok(ViewRecord {
@@ -369,6 +381,19 @@ fn with_lens(cam: &Camera, lens: fipt_core::distortion::Distortion) -> Camera {
         c.fy *= reach;
     }
     c
+}
+
+/// `img` with every pixel an `n`×`n` block.
+fn upscaled(img: &Image, n: usize) -> Image {
+    if n <= 1 {
+        return img.clone();
+    }
+    let mut out = Image::new(img.width * n, img.height * n);
+    for (k, p) in out.data.iter_mut().enumerate() {
+        let (x, y) = (k % (img.width * n) / n, k / (img.width * n) / n);
+        *p = img.data[y * img.width + x];
+    }
+    out
 }
 
 /// The image `lens_cam` sees, bilinearly resampled from `img` taken by `src` (same pose).
