@@ -91,6 +91,18 @@ fn make_seeds() -> Vec<(&'static str, Vec<u8>)> {
     let sh =
         fipt_core::shading::ViewShadings::zeros_for(6, 4, fipt_core::shading::DEFAULT_LEVELS, true);
     let fsh = fipt_bake::bake_store::encode(&sh);
+    // A lensed camera for the capture layouts' files.
+    let mut lensed = cams[0].clone();
+    lensed.distortion = fipt_core::distortion::Distortion::Opencv { k1: -0.1, k2: 0.01, k3: 0.0, p1: 0.001, p2: 0.0 };
+    let named = vec![("a.exr".to_string(), lensed.clone())];
+    for text in [true, false] {
+        fipt_core::colmap::write_model(&d, &named, text).unwrap();
+    }
+    fipt_core::nerfstudio::write(&d.join("ns.json"), &[("a.exr".into(), lensed, Some("m.png".into()))]).unwrap();
+    let mut jpeg = std::io::Cursor::new(Vec::new());
+    image::RgbImage::new(6, 4).write_to(&mut jpeg, image::ImageFormat::Jpeg).unwrap();
+    let exif = fipt_core::exif::ExifExposure { exposure_time: Some(0.01), f_number: Some(2.0), iso: Some(100.0), camera: Some("seed".into()) };
+    let jpeg = fipt_core::exif::jpeg_with_exif(&jpeg.into_inner(), &exif).unwrap();
     let cam = b"1\n0 0 1\n0 0 0\n0 1 0\n".to_vec();
     let k = b"1\n5 0 3\n0 5 2\n0 0 1\n".to_vec();
     let read = |f: &str| std::fs::read(d.join(f)).unwrap();
@@ -103,7 +115,31 @@ fn make_seeds() -> Vec<(&'static str, Vec<u8>)> {
         ("fsh", fsh),
         ("cam", cam),
         ("k", k),
+        ("cameras.bin", read("cameras.bin")),
+        ("images.bin", read("images.bin")),
+        ("cameras.txt", read("cameras.txt")),
+        ("images.txt", read("images.txt")),
+        ("ns.json", read("ns.json")),
+        ("jpg", jpeg),
     ]
+}
+
+/// Reads a COLMAP model whose file `name` is `path`'s bytes and whose other file is the
+/// seed's.
+fn read_colmap(name: &str, path: &Path, d: &Path) -> bool {
+    let model = d.join(format!("model-{name}"));
+    let _ = std::fs::remove_dir_all(&model);
+    std::fs::create_dir_all(&model).unwrap();
+    let other = match name {
+        "cameras.bin" => "images.bin",
+        "images.bin" => "cameras.bin",
+        "cameras.txt" => "images.txt",
+        _ => "cameras.txt",
+    };
+    let seed = seeds().into_iter().find(|s| s.0 == other).unwrap().1;
+    std::fs::write(model.join(other), seed).unwrap();
+    std::fs::copy(path, model.join(name)).unwrap();
+    fipt_core::colmap::read_model(d, &model).is_ok()
 }
 
 /// Feeds `bytes` to the reader of `kind`; returns whether it accepted them.
@@ -126,6 +162,9 @@ fn read(kind: &str, bytes: &[u8], d: &Path) -> bool {
             std::fs::write(&c, b"1\n0 0 1\n0 0 0\n0 1 0\n").unwrap();
             fipt_core::dataset::read_cam_list(&c, &path, 6, 4).is_ok()
         }
+        "cameras.bin" | "images.bin" | "cameras.txt" | "images.txt" => read_colmap(kind, &path, d),
+        "ns.json" => fipt_core::nerfstudio::read(&path).is_ok(),
+        "jpg" => fipt_core::exif::read(&path).is_ok_and(|e| e.is_some()),
         _ => unreachable!(),
     };
     let largest = LARGEST.load(Ordering::Relaxed);
@@ -198,7 +237,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 6000, failure_persistence: None, rng_seed: fuzz_seed(), ..ProptestConfig::default() })]
 
     #[test]
-    fn mutated_files_give_errors_not_panics(kind in 0usize..8, ms in prop::collection::vec(mutation(), 1..4)) {
+    fn mutated_files_give_errors_not_panics(kind in 0usize..14, ms in prop::collection::vec(mutation(), 1..4)) {
         let d = dir().join(format!("m{kind}"));
         std::fs::create_dir_all(&d).unwrap();
         let (name, seed) = seeds().swap_remove(kind);
@@ -206,7 +245,7 @@ proptest! {
     }
 
     #[test]
-    fn arbitrary_bytes_give_errors_not_panics(kind in 0usize..8, bytes in prop::collection::vec(any::<u8>(), 0..512)) {
+    fn arbitrary_bytes_give_errors_not_panics(kind in 0usize..14, bytes in prop::collection::vec(any::<u8>(), 0..512)) {
         let d = dir().join(format!("a{kind}"));
         std::fs::create_dir_all(&d).unwrap();
         let name = seeds()[kind].0;
