@@ -92,6 +92,14 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
     capture.exif = crate::capture::ExifReport::of(&ds, capture.exposure_fit.as_ref());
     capture.warnings.extend(capture.exif.warning.clone());
     capture.convention = convention;
+    capture.cameras = ds.cameras_description.clone();
+    if let Some(c) = &capture.cameras {
+        crate::note!("cameras: {c}");
+    }
+    if let Some(c) = &capture.convention {
+        let scores: Vec<String> = c.contrast.iter().map(|(k, s)| format!("{k} {s:.2}")).collect();
+        crate::note!("cameras: poses read as {}; edge contrast per reading {}", c.read_as, scores.join(", "));
+    }
     crate::capture::restore_clipped_lights(&geometry, &split.views, &mut images, &mut capture);
     crate::capture::leave_out_masked(&mut capture, &masks);
     for w in &capture.warnings {

@@ -166,8 +166,12 @@ fn compact_inputs(
         0 => 1.0,
         m => m as f64 / candidates.max(1) as f64,
     };
+    // Pixels a view's mask leaves out (people, screens) say nothing of the materials.
+    let masked = |v: usize, i: usize| scene.capture.masked.get(v).is_some_and(|m| m.get(i) == Some(&true));
     let keep = |v: usize, i: usize, h: &HitPoint| {
-        rule(v, i, h).filter(|_| fipt_core::rng::pixel_kept(SEARCH_SEED, v, i, share))
+        rule(v, i, h)
+            .filter(|_| !masked(v, i))
+            .filter(|_| fipt_core::rng::pixel_kept(SEARCH_SEED, v, i, share))
     };
     let (mut keyed, mut shadings, mut images) = (vec![], vec![], vec![]);
     // One buffer for every view's file, and only the kept pixels decoded (a whole view

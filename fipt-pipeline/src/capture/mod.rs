@@ -57,6 +57,12 @@ pub struct CaptureReport {
     /// `mask_path`).
     #[serde(skip_serializing_if = "is_zero")]
     pub masked_pixels: usize,
+    /// Per training view, the pixels its mask leaves out (empty: no masks).
+    #[serde(skip)]
+    pub masked: Vec<Vec<bool>>,
+    /// What the camera files are and the convention they state (as `fipt info` says).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cameras: Option<String>,
     /// What the photos' EXIF said of their exposures, and whether the views agree.
     #[serde(skip_serializing_if = "ExifReport::is_empty")]
     pub exif: ExifReport,
@@ -87,6 +93,10 @@ pub fn leave_out_masked(r: &mut CaptureReport, masks: &[Option<Vec<bool>>]) {
             }
         }
     }
+    r.masked = masks
+        .iter()
+        .map(|m| m.as_ref().map_or(vec![], |k| k.iter().map(|k| !k).collect()))
+        .collect();
     let per_view = masks.iter().flatten().map(Vec::len).next().unwrap_or(0);
     if r.masked_pixels > 0 {
         r.warnings.push(format!(
