@@ -1,39 +1,15 @@
 //! Captures, not renders: `fipt degrade` copies of generated scenes, and what `fipt info` and
 //! `fipt run` make of them (LDR evidence, exposures, clipped lights, the no-light warning).
 mod common;
-use common::{fipt, run, synth, tmp};
+use common::{degrade, fipt, json, run, synth, tmp, TINY};
 use serde_json::Value;
 use std::path::Path;
-
-fn json(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
-
-/// The tiny run config of these tests, without the segment prior (a copy has no parts).
-const TINY: &str = "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
-     [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
-     [train]\nsteps = 150\nbatch = 512\nsegments = \"none\"\n[train.field]\nmlp_width = 16\n\
-     mask_width = 16\n[train.field.grid]\nlevels = 4\n[search]\nregions = \"mesh\"\n\
-     [render]\nspp = 2\nval_spp = 2\nmax_bounces = 3\nseed = 0\n";
 
 /// An 8-view cornell at 64×48 (2 val views): every view shares walls with the others.
 fn cornell(dir: &Path) -> std::path::PathBuf {
     let scene = dir.join("scene");
     synth("cornell", scene.to_str().unwrap(), [8, 2, 64, 48, 32], &[]);
     scene
-}
-
-fn degrade(src: &Path, out: &Path, extra: &[&str]) -> Value {
-    let mut args = vec![
-        "degrade",
-        src.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend(extra);
-    let (ok, _, err) = fipt(&args);
-    assert!(ok, "{err}");
-    json(&out.join("degrade.json"))
 }
 
 #[test]

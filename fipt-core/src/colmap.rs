@@ -265,7 +265,7 @@ fn camera_summary(cams: &Cameras, used: &HashSet<u32>) -> String {
         .map(|(_, c)| c)
         .collect();
     if let [(m, c)] = used.as_slice() {
-        return format!("1 camera ({}{})", MODELS[*m].0, lens_summary(&c.distortion));
+        return format!("1 camera ({}{})", MODELS[*m].0, c.distortion.nonzero_summary(", "));
     }
     let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
     for (m, _) in &used {
@@ -273,24 +273,6 @@ fn camera_summary(cams: &Cameras, used: &HashSet<u32>) -> String {
     }
     let list: Vec<String> = counts.iter().map(|(m, n)| format!("{n} {m}")).collect();
     format!("{} cameras ({})", used.len(), list.join(", "))
-}
-
-/// ", k1 = -0.120, p1 = 0.001": a lens's non-zero coefficients.
-fn lens_summary(d: &Distortion) -> String {
-    let coeffs = match *d {
-        Distortion::None => vec![],
-        Distortion::Opencv { k1, k2, k3, p1, p2 } => {
-            vec![("k1", k1), ("k2", k2), ("k3", k3), ("p1", p1), ("p2", p2)]
-        }
-        Distortion::Fisheye { k1, k2, k3, k4 } => {
-            vec![("k1", k1), ("k2", k2), ("k3", k3), ("k4", k4)]
-        }
-    };
-    coeffs
-        .into_iter()
-        .filter(|(_, v)| *v != 0.0)
-        .map(|(n, v)| format!(", {n} = {v:.3}"))
-        .collect()
 }
 
 /// The id of a model COLMAP names `shown` (`model`: its id when known), or the error for

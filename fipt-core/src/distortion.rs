@@ -275,6 +275,36 @@ impl std::str::FromStr for Distortion {
     }
 }
 
+impl Distortion {
+    /// The model's coefficients by name (k1, k2, k3, p1, p2 or k1–k4; none for the pinhole).
+    pub fn coefficients(&self) -> Vec<(&'static str, f32)> {
+        match *self {
+            Distortion::None => vec![],
+            Distortion::Opencv { k1, k2, k3, p1, p2 } => {
+                vec![("k1", k1), ("k2", k2), ("k3", k3), ("p1", p1), ("p2", p2)]
+            }
+            Distortion::Fisheye { k1, k2, k3, k4 } => {
+                vec![("k1", k1), ("k2", k2), ("k3", k3), ("k4", k4)]
+            }
+        }
+    }
+
+    /// "k1 = -0.120, p1 = 0.001" after `lead` (", "): the non-zero coefficients ("" for none).
+    pub fn nonzero_summary(&self, lead: &str) -> String {
+        let list: Vec<String> = self
+            .coefficients()
+            .into_iter()
+            .filter(|(_, v)| *v != 0.0)
+            .map(|(n, v)| format!("{n} = {v:.3}"))
+            .collect();
+        if list.is_empty() {
+            String::new()
+        } else {
+            format!("{lead}{}", list.join(", "))
+        }
+    }
+}
+
 /// A lens model in a few words: "pinhole", "opencv k1 -0.120 k2 0.000 …", "fisheye …".
 pub fn describe(d: &Distortion) -> String {
     match *d {

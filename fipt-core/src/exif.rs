@@ -205,28 +205,8 @@ pub fn jpeg_with_exif(jpeg: &[u8], exp: &ExifExposure) -> Result<Vec<u8>, String
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::path::PathBuf;
 
-    /// A temporary folder, removed when dropped.
-    struct Temp(PathBuf);
-    impl Temp {
-        fn new() -> Temp {
-            static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-            let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let t = std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .unwrap();
-            let name = format!("fipt-exif-{}-{n}-{}", std::process::id(), t.as_nanos());
-            let p = std::env::temp_dir().join(name);
-            std::fs::create_dir_all(&p).unwrap();
-            Temp(p)
-        }
-    }
-    impl Drop for Temp {
-        fn drop(&mut self) {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
+    use crate::test_temp::Temp;
 
     /// A TIFF entry: tag, type (2 ASCII, 3 SHORT, 4 LONG, 5 RATIONAL), count, value bytes.
     type Entry = (u16, u16, u32, Vec<u8>);

@@ -59,6 +59,8 @@ pub mod range;
 pub mod reflectance;
 pub mod rng;
 pub mod shading;
+#[cfg(test)]
+mod test_temp;
 pub mod trainer;
 pub mod training_set;
 pub mod view_stats;

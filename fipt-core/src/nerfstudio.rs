@@ -554,7 +554,7 @@ fn describe(
     };
     let first = &views[0].camera;
     let cameras = if views.iter().all(|v| same_intrinsics(&v.camera, first)) {
-        format!("{}{}", models[0], lens_summary(&first.distortion))
+        format!("{}{}", models[0], first.distortion.nonzero_summary(" "))
     } else {
         let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
         for m in models {
@@ -573,29 +573,6 @@ fn describe(
             String::new()
         }
     )
-}
-
-/// " k1 = -0.120, p1 = 0.001": a lens's non-zero coefficients.
-fn lens_summary(d: &Distortion) -> String {
-    let coeffs = match *d {
-        Distortion::None => vec![],
-        Distortion::Opencv { k1, k2, k3, p1, p2 } => {
-            vec![("k1", k1), ("k2", k2), ("k3", k3), ("p1", p1), ("p2", p2)]
-        }
-        Distortion::Fisheye { k1, k2, k3, k4 } => {
-            vec![("k1", k1), ("k2", k2), ("k3", k3), ("k4", k4)]
-        }
-    };
-    let list: Vec<String> = coeffs
-        .into_iter()
-        .filter(|(_, v)| *v != 0.0)
-        .map(|(n, v)| format!("{n} = {v:.3}"))
-        .collect();
-    if list.is_empty() {
-        String::new()
-    } else {
-        format!(" {}", list.join(", "))
-    }
 }
 
 /// Whether two cameras have the same size, intrinsics and lens.

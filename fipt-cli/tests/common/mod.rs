@@ -2,7 +2,8 @@
 #![allow(dead_code)]
 pub mod recovered;
 
-use std::path::PathBuf;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 pub fn fipt(args: &[&str]) -> (bool, String, String) {
@@ -146,4 +147,30 @@ pub fn temporaries(dir: &std::path::Path) -> Vec<PathBuf> {
         .into_iter()
         .filter(|p| p.to_string_lossy().ends_with(".tmp"))
         .collect()
+}
+
+/// A JSON file, read.
+pub fn json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The tiny run config of these tests, without the segment prior (a copy has no parts).
+pub const TINY: &str = "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
+     [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
+     [train]\nsteps = 150\nbatch = 512\nsegments = \"none\"\n[train.field]\nmlp_width = 16\n\
+     mask_width = 16\n[train.field.grid]\nlevels = 4\n[search]\nregions = \"mesh\"\n\
+     [render]\nspp = 2\nval_spp = 2\nmax_bounces = 3\nseed = 0\n";
+
+/// `fipt degrade SRC --out OUT EXTRA…`, which must succeed; its `degrade.json`.
+pub fn degrade(src: &Path, out: &Path, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "degrade",
+        src.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    let (ok, _, err) = fipt(&args);
+    assert!(ok, "{err}");
+    json(&out.join("degrade.json"))
 }

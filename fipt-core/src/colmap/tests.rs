@@ -1,26 +1,7 @@
 //! Tests of [`crate::colmap`].
 use super::*;
 
-/// A temporary folder, removed when dropped.
-struct Temp(PathBuf);
-impl Temp {
-    fn new() -> Temp {
-        static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-        let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let t = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap();
-        let name = format!("fipt-colmap-{}-{n}-{}", std::process::id(), t.as_nanos());
-        let p = std::env::temp_dir().join(name);
-        std::fs::create_dir_all(&p).unwrap();
-        Temp(p)
-    }
-}
-impl Drop for Temp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+use crate::test_temp::Temp;
 
 fn expect(e: &str, parts: &[&str]) {
     for p in parts {

@@ -9,42 +9,20 @@ const EYE: [[f32; 4]; 4] = [
     [0., 0., 0., 1.],
 ];
 
-/// A temporary folder, removed when dropped.
-struct Temp(PathBuf);
-impl Temp {
-    fn new() -> Temp {
-        static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-        let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let t = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap();
-        let name = format!(
-            "fipt-nerfstudio-{}-{n}-{}",
-            std::process::id(),
-            t.as_nanos()
-        );
-        let p = std::env::temp_dir().join(name);
-        std::fs::create_dir_all(&p).unwrap();
-        Temp(p)
+use crate::test_temp::Temp;
+
+/// Writes `top` with `frames` (name, transform_matrix) added, as `tmp`'s transforms.json.
+fn write_file(tmp: &Temp, mut top: Value, frames: &[(&str, [[f32; 4]; 4])]) -> PathBuf {
+    if top.get("frames").is_none() {
+        let f: Vec<Value> = frames
+            .iter()
+            .map(|(n, m)| json!({"file_path": n, "transform_matrix": m}))
+            .collect();
+        top["frames"] = Value::Array(f);
     }
-    /// Writes `top` with `frames` (name, transform_matrix) added, as transforms.json.
-    fn file(&self, mut top: Value, frames: &[(&str, [[f32; 4]; 4])]) -> PathBuf {
-        if top.get("frames").is_none() {
-            let f: Vec<Value> = frames
-                .iter()
-                .map(|(n, m)| json!({"file_path": n, "transform_matrix": m}))
-                .collect();
-            top["frames"] = Value::Array(f);
-        }
-        let p = self.0.join("transforms.json");
-        std::fs::write(&p, serde_json::to_string_pretty(&top).unwrap()).unwrap();
-        p
-    }
-}
-impl Drop for Temp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
+    let p = tmp.0.join("transforms.json");
+    std::fs::write(&p, serde_json::to_string_pretty(&top).unwrap()).unwrap();
+    p
 }
 
 /// A lens from the CLI's `--lens` syntax.
@@ -183,7 +161,7 @@ fn per_frame_intrinsics_are_written_and_read_per_frame() {
             {"file_path": "b.png", "transform_matrix": EYE, "fl_x": 120.0, "w": 96, "k1": 0.0},
         ]
     });
-    let got = read(&tmp.file(top, &[])).unwrap();
+    let got = read(&write_file(&tmp, top, &[])).unwrap();
     let (a, b) = (&got.views[0].camera, &got.views[1].camera);
     assert_eq!(
         (a.fx, a.fy, a.cx, a.cy, a.width, a.height),
@@ -215,7 +193,7 @@ fn instant_ngp_files_with_a_field_of_view_and_bare_names_are_read() {
     ];
     let ax = 0.6911112070083618_f64;
     let top = json!({"camera_angle_x": ax, "aabb_scale": 16, "scale": 0.33});
-    let path = tmp.file(top, &[("./train/r_0", EYE), ("./train/r_1", turned)]);
+    let path = write_file(&tmp, top, &[("./train/r_0", EYE), ("./train/r_1", turned)]);
     expect(
         &looks_like_nerfstudio(&path).unwrap().unwrap(),
         &["it has aabb_scale"],
@@ -258,7 +236,7 @@ fn applied_transform_and_distortion_without_a_model_are_noted() {
         "frames": [{"file_path": "a.jpg", "transform_matrix": EYE, "mask_path": "m/a.png",
                     "sharpness": 31.5}]
     });
-    let got = read(&tmp.file(top, &[])).unwrap();
+    let got = read(&write_file(&tmp, top, &[])).unwrap();
     let c = &got.views[0].camera;
     assert_eq!((c.fy, c.cx, c.cy), (50.0, 32.0, 24.0));
     let brown = lens("opencv:-0.05,0,0.001");
@@ -313,14 +291,14 @@ fn bad_poses_are_refused_naming_the_file_and_frame() {
         (scaled, ["frame 1", "det", "rigid", "translations"]),
     ] {
         let top = json!({"fl_x": 50.0, "w": 64, "h": 48});
-        let path = tmp.file(top, &[("a.png", EYE), ("b.png", bad)]);
+        let path = write_file(&tmp, top, &[("a.png", EYE), ("b.png", bad)]);
         let e = read(&path).unwrap_err().to_string();
         expect(&e, &parts);
         expect(&e, &[path.to_str().unwrap()]);
     }
     let top = json!({"fl_x": 50.0, "w": 64, "h": 48,
                      "frames": [{"file_path": "a.png", "transform_matrix": [[1.0, 0.0]]}]});
-    let e = read(&tmp.file(top, &[])).unwrap_err().to_string();
+    let e = read(&write_file(&tmp, top, &[])).unwrap_err().to_string();
     expect(&e, &["frame 0 (a.png)", "4 rows of 4"]);
 }
 
@@ -366,7 +344,7 @@ fn unsupported_models_and_bad_intrinsics_are_refused_with_the_fix() {
         ),
     ];
     for (top, parts) in cases {
-        let e = read(&tmp.file(top, &[("a.png", EYE)]))
+        let e = read(&write_file(&tmp, top, &[("a.png", EYE)]))
             .unwrap_err()
             .to_string();
         expect(&e, &parts);
@@ -379,11 +357,11 @@ fn fipt_files_are_told_apart_and_mixed_lenses_are_not_written() {
     let tmp = Temp::new();
     let fipt = json!({"camera_angle_x": 0.8, "width": 64, "height": 48,
                       "frames": [{"file_path": "./train/r_0", "transform_matrix": EYE}]});
-    let path = tmp.file(fipt, &[]);
+    let path = write_file(&tmp, fipt, &[]);
     assert_eq!(looks_like_nerfstudio(&path).unwrap(), None);
     let own = json!({"camera_angle_x": 0.8,
                      "frames": [{"fl_x": 40.0, "transform_matrix": EYE}]});
-    let path = tmp.file(own, &[]);
+    let path = write_file(&tmp, own, &[]);
     expect(
         &looks_like_nerfstudio(&path).unwrap().unwrap(),
         &["frames with their own fl_x"],

@@ -1,0 +1,25 @@
+//! A scratch folder for fipt-core's unit tests, removed when dropped.
+use std::path::PathBuf;
+
+/// A temporary folder (unique per process, call and time), removed when dropped.
+pub(crate) struct Temp(pub PathBuf);
+
+impl Temp {
+    pub(crate) fn new() -> Temp {
+        static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let t = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap();
+        let name = format!("fipt-core-test-{}-{n}-{}", std::process::id(), t.as_nanos());
+        let p = std::env::temp_dir().join(name);
+        std::fs::create_dir_all(&p).unwrap();
+        Temp(p)
+    }
+}
+
+impl Drop for Temp {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
