@@ -57,6 +57,16 @@ impl Default for OpenOptions {
 pub fn read_capture_layout(root: &Path) -> Result<Option<(Layout, CaptureCameras)>> {
     let tf = root.join("transforms.json");
     if tf.is_file() {
+        let v: serde_json::Value = crate::fsutil::read_json(&tf)?;
+        if let Some(c) = v["camera_convention"].as_str().filter(|c| c.contains("Mitsuba")) {
+            return Err(CoreError::invalid(
+                &tf,
+                format!(
+                    "this is FIPT's synthetic-layout transforms.json (camera_convention: {c}), not a nerfstudio one \
+                     (OpenGL): put it in train/ (with its images in train/Image/) to read it as FIPT's"
+                ),
+            ));
+        }
         return Ok(Some((Layout::Nerfstudio, crate::nerfstudio::read(&tf)?)));
     }
     if let Some(model) = crate::colmap::find_model(root) {

@@ -249,3 +249,17 @@ fn a_truncated_jpeg_is_named_as_a_damaged_image_not_an_exr() {
     assert!(!err.contains("EXR:"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn fipts_own_transforms_json_at_the_root_is_refused_with_the_fix() {
+    let dir = temp_dir("fipt-at-root");
+    tiny_cornell(&dir, Distortion::None, (16, 12));
+    let ds = Dataset::open(&dir).unwrap();
+    let root = dir.join("moved");
+    let views = copy_views(&ds, &root, "Image");
+    let cams: Vec<Camera> = views.into_iter().map(|v| v.1).collect();
+    fipt_core::dataset::write_transforms(&root.join("transforms.json"), &cams).unwrap();
+    let err = Dataset::open(&root).unwrap_err().to_string();
+    assert!(err.contains("FIPT's synthetic-layout") && err.contains("put it in train/"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

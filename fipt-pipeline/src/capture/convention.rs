@@ -155,7 +155,9 @@ fn fix(layout: Layout, conv: FileConvention) -> String {
              on the right by diag(-1, -1, 1, 1) to make it Mitsuba's".into(),
         (_, FileConvention::OpenCv) => "These look like OpenCV camera-to-world poses: multiply each transform_matrix on the right \
              by diag(1, -1, -1, 1) to make them OpenGL's, as nerfstudio expects".into(),
-        _ => "Multiply each transform_matrix on the right by diag(-1, 1, -1, 1) (Mitsuba → OpenGL)".into(),
+        _ => "These look like Mitsuba camera-to-world poses (FIPT's synthetic layout): put the file in train/ \
+             with its images in train/Image/, or multiply each transform_matrix on the right by diag(-1, 1, -1, 1) \
+             to make them OpenGL's".into(),
     }
 }
 
