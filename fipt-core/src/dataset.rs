@@ -157,6 +157,8 @@ pub struct Dataset {
     /// Views, masks and ground truth are shrunk by this factor on read (1: as stored); the
     /// cameras, `width` and `height` are the shrunk ones.
     pub downscale: usize,
+    /// The views' size as stored (before the downscale).
+    pub stored_size: (usize, usize),
     /// What the camera files are and which convention they state (capture layouts), and
     /// which convention a FIPT `transforms.json` was taken in and why.
     pub cameras_description: Option<String>,
@@ -223,6 +225,7 @@ impl Dataset {
             ));
         };
         let (width, height) = check_image_sizes(&splits)?;
+        let stored_size = (width, height);
         let (splits, width, height) = crate::capture_layout::downscaled(splits, width, height, opts.downscale, root)?;
         let capture = crate::capture::CaptureInfo::read(root)?;
         if let Some(e) = &capture.exposures {
@@ -262,6 +265,7 @@ impl Dataset {
             warnings,
             capture,
             downscale: opts.downscale.max(1),
+            stored_size,
             cameras_description: description,
             camera_files,
             exif,
@@ -326,7 +330,8 @@ impl Dataset {
             return Ok(None);
         };
         let f = self.downscale.max(1);
-        crate::capture_layout::read_mask(path, self.width * f, self.height * f, f).map(Some)
+        let (w, h) = self.stored_size;
+        crate::capture_layout::read_mask(path, w, h, f).map(Some)
     }
 
     /// The relative exposure known for training view `k`: `capture.json`'s, else its EXIF's
@@ -378,8 +383,8 @@ impl Dataset {
         let f = self.downscale.max(1);
         let img = read_sized(
             &split.gt_path(kind, k),
-            self.width * f,
-            self.height * f,
+            self.stored_size.0,
+            self.stored_size.1,
             "an id map must have the size of its view",
         )?;
         let ids: Vec<i64> = img

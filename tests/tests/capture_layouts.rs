@@ -227,6 +227,10 @@ fn a_views_mask_is_read_at_the_runs_size_and_a_wrong_size_named() {
     let half = Dataset::open_with(&dir, OpenOptions { downscale: 2 }).unwrap();
     let keep = half.load_mask(&half.train().views[1]).unwrap().unwrap();
     assert_eq!((keep.len(), keep.iter().filter(|k| !**k).count()), (48, 4 * 6));
+    // A size the factor does not divide: the remainder is cropped, the mask still read.
+    let fifth = Dataset::open_with(&dir, OpenOptions { downscale: 3 }).unwrap();
+    let keep = fifth.load_mask(&fifth.train().views[1]).unwrap().unwrap();
+    assert_eq!(keep.len(), 5 * 4);
     image::GrayImage::new(8, 8).save(dir.join("train/Mask/001_0001.png")).unwrap();
     let err = ds.load_mask(&v[1]).unwrap_err().to_string();
     assert!(err.contains("001_0001.png") && err.contains("size of its view"), "{err}");
