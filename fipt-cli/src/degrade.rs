@@ -1,6 +1,6 @@
 //! `fipt degrade SRC --out DST`: fipt-pipeline's capture simulator, with its options parsed.
 use anyhow::{bail, Result};
-use fipt_pipeline::degrade::{degrade, CopyLayout, DegradeRequest, LdrMode, ViewFormat};
+use fipt_pipeline::degrade::{degrade, CopyLayout, DegradeRequest, LdrMode, Meter, ViewFormat};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -35,6 +35,15 @@ pub struct Args {
     /// or `auto` (each view metered alone); `none` keeps HDR.
     #[arg(long, value_enum, default_value = "none")]
     ldr: LdrArg,
+    /// The camera's tone curve of the 8-bit photos: `srgb`, `gamma:G`, `scurve:A` (sRGB then
+    /// a contrast S-curve, as phones do) or `filmic` (sRGB, lifted shadows, a rolled-off
+    /// shoulder); degrade.json records it as the true response.
+    #[arg(long, default_value = "srgb", value_parser = parse_tone)]
+    tone: fipt_core::capture::Response,
+    /// What the exposure meters on: `median` (to middle grey) or `lights` (the brightest
+    /// 0.5 % to 0.9: views with a light in them come out dark).
+    #[arg(long, value_enum, default_value = "median")]
+    meter: MeterArg,
     /// File format of the views (png and jpg need --ldr).
     #[arg(long, value_enum, default_value = "exr")]
     format: FormatArg,
@@ -119,6 +128,11 @@ pub fn run(a: Args) -> Result<()> {
             FormatArg::Jpg => ViewFormat::Jpg,
         },
         jpeg_quality: a.jpeg_quality,
+        tone: a.tone,
+        meter: match a.meter {
+            MeterArg::Median => Meter::Median,
+            MeterArg::Lights => Meter::Lights,
+        },
         exif: a.exif,
         upscale: a.upscale,
         subdivide: a.subdivide,
@@ -148,4 +162,14 @@ pub fn run(a: Args) -> Result<()> {
         req.out.join(fipt_pipeline::degrade::RECORD_FILE).display()
     );
     Ok(())
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum MeterArg {
+    Median,
+    Lights,
+}
+
+fn parse_tone(s: &str) -> Result<fipt_core::capture::Response, String> {
+    fipt_pipeline::degrade::tone_curve(s)
 }

@@ -64,10 +64,18 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(c) = &sum.cameras {
         say!("cameras      {c}");
     }
-    let lenses: Vec<String> = sum.lenses.iter().map(|(l, n)| format!("{l} ({n} views)")).collect();
+    let lenses: Vec<String> = sum
+        .lenses
+        .iter()
+        .map(|(l, n)| format!("{l} ({n} views)"))
+        .collect();
     say!("lenses       {}", lenses.join("; "));
     if let Some(c) = &sum.convention {
-        let scores: Vec<String> = c.contrast.iter().map(|(k, s)| format!("{k} {s:.2}")).collect();
+        let scores: Vec<String> = c
+            .contrast
+            .iter()
+            .map(|(k, s)| format!("{k} {s:.2}"))
+            .collect();
         say!(
             "convention   poses read as {}; edge contrast per reading (median of {} views): {}",
             c.read_as,
@@ -76,10 +84,16 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     if sum.downscale > 1 {
-        say!("downscale    every view read at 1/{} of its stored size", sum.downscale);
+        say!(
+            "downscale    every view read at 1/{} of its stored size",
+            sum.downscale
+        );
     }
     if sum.masked_views > 0 {
-        say!("masks        {} training views have a mask of pixels to leave out", sum.masked_views);
+        say!(
+            "masks        {} training views have a mask of pixels to leave out",
+            sum.masked_views
+        );
     }
     if !sum.exif.is_empty() {
         let e = &sum.exif;
@@ -87,9 +101,16 @@ pub fn run(a: Args) -> Result<()> {
             "EXIF         {} of {} views carry an exposure time{}{}{}",
             e.views_with_exposure,
             e.views,
-            e.camera.as_ref().map_or(String::new(), |c| format!(" ({c})")),
-            e.spread.map_or(String::new(), |s| format!("; relative exposures spread ×{s:.2}{}", if e.used { ", used" } else { "" })),
-            e.fitted_spread_after.map_or(String::new(), |s| format!("; the views' fitted gains after them spread ×{s:.2}"))
+            e.camera
+                .as_ref()
+                .map_or(String::new(), |c| format!(" ({c})")),
+            e.spread.map_or(String::new(), |s| format!(
+                "; relative exposures spread ×{s:.2}{}",
+                if e.used { ", used" } else { "" }
+            )),
+            e.fitted_spread_after.map_or(String::new(), |s| format!(
+                "; the views' fitted gains after them spread ×{s:.2}"
+            ))
         );
     }
     say!(
@@ -141,6 +162,17 @@ pub fn run(a: Args) -> Result<()> {
             } else {
                 s.ground_truth.join(", ")
             }
+        );
+    }
+    if let Some(r) = &sum.response {
+        say!(
+            "response    {} (fitted on {} surface series, gains {}; departs from sRGB by {:.3} RMS; views disagree by {:.2} 8-bit steps RMS under sRGB, {:.2} under the fit)",
+            r.outcome,
+            r.series,
+            r.gains,
+            r.departure,
+            r.residual_srgb,
+            r.residual_fitted
         );
     }
     if let Some(f) = &sum.exposure_fit {

@@ -10,7 +10,15 @@ use std::path::Path;
 /// `fipt eval SRC OUT --cameras-from SRC`'s val means.
 fn scored_at_the_source(src: &Path, out: &Path) -> Value {
     let s = src.to_str().unwrap();
-    let (ok, _, err) = fipt(&["eval", s, out.to_str().unwrap(), "--cameras-from", s, "--spp", "4"]);
+    let (ok, _, err) = fipt(&[
+        "eval",
+        s,
+        out.to_str().unwrap(),
+        "--cameras-from",
+        s,
+        "--spp",
+        "4",
+    ]);
     assert!(ok, "{err}");
     json(&out.join("eval/cameras-from/metrics.json"))["val"]["mean"].clone()
 }
@@ -23,18 +31,28 @@ fn colmap_and_nerfstudio_copies_run_as_the_real_layouts_copy() {
     let (real, colmap, ns) = (dir.join("real"), dir.join("colmap"), dir.join("ns"));
     degrade(&src, &real, &["--layout", "real"]);
     degrade(&src, &colmap, &["--layout", "colmap-binary"]);
-    degrade(&src, &ns, &["--layout", "nerfstudio", "--lens", "opencv:-0.12"]);
+    degrade(
+        &src,
+        &ns,
+        &["--layout", "nerfstudio", "--lens", "opencv:-0.12"],
+    );
     // A mask on the COLMAP copy's first view: its top rows left out.
     std::fs::create_dir_all(colmap.join("masks")).unwrap();
     let mask = image::GrayImage::from_fn(48, 36, |_, y| image::Luma([if y < 6 { 0 } else { 255 }]));
     mask.save(colmap.join("masks/000_0001.exr.png")).unwrap();
     let (ok, info, err) = fipt(&["info", ns.to_str().unwrap()]);
     assert!(ok, "{err}");
-    assert!(info.contains("nerfstudio layout") && info.contains("opencv k1 -0.1200"), "{info}");
+    assert!(
+        info.contains("nerfstudio layout") && info.contains("opencv k1 -0.1200"),
+        "{info}"
+    );
     assert!(info.contains("poses read as OpenGL"), "{info}");
     let (ok, info, err) = fipt(&["info", colmap.to_str().unwrap(), "--downscale", "2"]);
     assert!(ok, "{err}");
-    assert!(info.contains("COLMAP binary model") && info.contains("24x18"), "{info}");
+    assert!(
+        info.contains("COLMAP binary model") && info.contains("24x18"),
+        "{info}"
+    );
     assert!(info.contains("1 training views have a mask"), "{info}");
 
     let cfg = dir.join("run.toml");
@@ -42,28 +60,51 @@ fn colmap_and_nerfstudio_copies_run_as_the_real_layouts_copy() {
     let (out_real, out_ns) = (dir.join("out-real"), dir.join("out-ns"));
     run(&real, &out_real, &cfg);
     run(&ns, &out_ns, &cfg);
-    let (a, b) = (scored_at_the_source(&src, &out_real), scored_at_the_source(&src, &out_ns));
+    let (a, b) = (
+        scored_at_the_source(&src, &out_real),
+        scored_at_the_source(&src, &out_ns),
+    );
     for key in ["kd_psnr", "render_psnr"] {
         let (a, b) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
         // The lens copy is resampled from the source's views (a bilinear blur at 48×36).
-        assert!((a - b).abs() < 1.5, "{key}: real layout {a:.2} dB, nerfstudio + lens {b:.2} dB");
+        assert!(
+            (a - b).abs() < 1.5,
+            "{key}: real layout {a:.2} dB, nerfstudio + lens {b:.2} dB"
+        );
     }
 
     // The COLMAP copy at half size with its mask; later commands read it as the run did.
     let out_colmap = dir.join("out-colmap");
     let (ok, _, err) = fipt(&[
-        "run", colmap.to_str().unwrap(), "--out", out_colmap.to_str().unwrap(),
-        "--config", cfg.to_str().unwrap(), "--downscale", "2",
+        "run",
+        colmap.to_str().unwrap(),
+        "--out",
+        out_colmap.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+        "--downscale",
+        "2",
     ]);
     assert!(ok, "{err}");
     let report = json(&out_colmap.join("report.json"));
     assert_eq!(report["settings"]["capture"]["downscale"], 2);
-    assert_eq!(report["capture"]["masked_pixels"], 24 * 3, "{}", report["capture"]);
-    assert!(report["inputs_hash"].as_str().unwrap().ends_with("@downscale:2"));
+    assert_eq!(
+        report["capture"]["masked_pixels"],
+        24 * 3,
+        "{}",
+        report["capture"]
+    );
+    assert!(report["inputs_hash"]
+        .as_str()
+        .unwrap()
+        .ends_with("@downscale:2"));
     let kd = fipt_core::image::Image::read_exr(&out_colmap.join("views/train/000_kd.exr")).unwrap();
     assert_eq!((kd.width, kd.height), (24, 18));
     let m = scored_at_the_source(&src, &out_colmap);
-    assert!(m["kd_psnr"].as_f64().unwrap() > a["kd_psnr"].as_f64().unwrap() - 6.0, "{m}");
+    assert!(
+        m["kd_psnr"].as_f64().unwrap() > a["kd_psnr"].as_f64().unwrap() - 6.0,
+        "{m}"
+    );
 }
 
 #[test]
@@ -79,7 +120,12 @@ fn a_nerf_convention_transforms_json_is_named_by_info_and_refused_by_run() {
     let (ok, info, err) = fipt(&["info", src.to_str().unwrap()]);
     assert!(ok && !info.contains("far better"), "{info}{err}");
     for f in t["frames"].as_array_mut().unwrap() {
-        for row in f["transform_matrix"].as_array_mut().unwrap().iter_mut().take(3) {
+        for row in f["transform_matrix"]
+            .as_array_mut()
+            .unwrap()
+            .iter_mut()
+            .take(3)
+        {
             for c in [0, 2] {
                 row[c] = (-row[c].as_f64().unwrap()).into();
             }
@@ -93,9 +139,19 @@ fn a_nerf_convention_transforms_json_is_named_by_info_and_refused_by_run() {
     let cfg = dir.join("run.toml");
     std::fs::write(&cfg, TINY).unwrap();
     let out = dir.join("out");
-    let (ok, _, err) = fipt(&["run", src.to_str().unwrap(), "--out", out.to_str().unwrap(), "--config", cfg.to_str().unwrap()]);
+    let (ok, _, err) = fipt(&[
+        "run",
+        src.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
     assert!(!ok, "a run in the wrong convention went ahead");
-    assert!(err.contains("train/transforms.json") && err.contains("OpenGL"), "{err}");
+    assert!(
+        err.contains("train/transforms.json") && err.contains("OpenGL"),
+        "{err}"
+    );
     assert!(err.contains("diag(-1, 1, -1, 1)"), "the fix: {err}");
 }
 
@@ -105,12 +161,26 @@ fn exif_exposures_of_auto_exposed_jpegs_are_used_and_checked() {
     let src = dir.join("scene");
     synth("cornell", src.to_str().unwrap(), [8, 2, 64, 48, 32], &[]);
     let copy = dir.join("jpg");
-    let args = ["--layout", "colmap-text", "--ldr", "auto", "--format", "jpg", "--exif"];
+    let args = [
+        "--layout",
+        "colmap-text",
+        "--ldr",
+        "auto",
+        "--format",
+        "jpg",
+        "--exif",
+    ];
     degrade(&src, &copy, &args);
     let (ok, info, err) = fipt(&["info", copy.to_str().unwrap()]);
     assert!(ok, "{err}");
-    let line = info.lines().find(|l| l.starts_with("EXIF")).unwrap_or_else(|| panic!("{info}"));
-    assert!(line.contains("8 of 8 views") && line.contains("used"), "{line}");
+    let line = info
+        .lines()
+        .find(|l| l.starts_with("EXIF"))
+        .unwrap_or_else(|| panic!("{info}"));
+    assert!(
+        line.contains("8 of 8 views") && line.contains("used"),
+        "{line}"
+    );
     // Once the EXIF exposures are divided out, the views agree: the fitted gains' spread.
     let after: f32 = line
         .split("spread ×")
@@ -142,12 +212,28 @@ fn a_run_downscaled_on_read_equals_the_run_of_the_small_views() {
     let (out_small, out_big) = (dir.join("out-small"), dir.join("out-big"));
     run(&small, &out_small, &cfg);
     let (ok, _, err) = fipt(&[
-        "run", big.to_str().unwrap(), "--out", out_big.to_str().unwrap(),
-        "--config", cfg.to_str().unwrap(), "--downscale", "4",
+        "run",
+        big.to_str().unwrap(),
+        "--out",
+        out_big.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+        "--downscale",
+        "4",
     ]);
     assert!(ok, "{err}");
-    for f in ["emitters.json", "views/train/000_kd.exr", "views/train/003_roughness.exr"] {
-        let (a, b) = (std::fs::read(out_small.join(f)).unwrap(), std::fs::read(out_big.join(f)).unwrap());
-        assert!(a == b, "{f} differs between the small views' run and the big views' run at 1/4");
+    for f in [
+        "emitters.json",
+        "views/train/000_kd.exr",
+        "views/train/003_roughness.exr",
+    ] {
+        let (a, b) = (
+            std::fs::read(out_small.join(f)).unwrap(),
+            std::fs::read(out_big.join(f)).unwrap(),
+        );
+        assert!(
+            a == b,
+            "{f} differs between the small views' run and the big views' run at 1/4"
+        );
     }
 }

@@ -176,7 +176,12 @@ impl Camera {
 
     /// The largest normalised radius (on the distorted plane) any pixel of the image reaches.
     pub fn max_normalised_radius(&self) -> f32 {
-        let corners = [(0.0, 0.0), (self.width as f32, 0.0), (0.0, self.height as f32), (self.width as f32, self.height as f32)];
+        let corners = [
+            (0.0, 0.0),
+            (self.width as f32, 0.0),
+            (0.0, self.height as f32),
+            (self.width as f32, self.height as f32),
+        ];
         corners
             .iter()
             .map(|&(u, v)| Vec2::new((u - self.cx) / self.fx, (v - self.cy) / self.fy).length())

@@ -94,7 +94,10 @@ pub fn write_transforms(path: &Path, cameras: &[Camera]) -> Result<()> {
     });
     if !first.distortion.is_none() {
         if cameras.iter().any(|c| c.distortion != first.distortion) {
-            return Err(CoreError::invalid(path, "transforms.json holds one lens for all views: these cameras have several"));
+            return Err(CoreError::invalid(
+                path,
+                "transforms.json holds one lens for all views: these cameras have several",
+            ));
         }
         v["distortion"] = serde_json::to_value(first.distortion)
             .map_err(|e| CoreError::invalid(path, e.to_string()))?;

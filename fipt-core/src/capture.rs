@@ -107,6 +107,9 @@ pub struct CaptureInfo {
     /// Relative exposure of each training view (time × gain); the views are divided by it.
     #[serde(default)]
     pub exposures: Option<Vec<f32>>,
+    /// Whether the file states `response` (else a run may estimate it from the views).
+    #[serde(skip)]
+    pub response_stated: bool,
 }
 
 impl CaptureInfo {
@@ -116,8 +119,10 @@ impl CaptureInfo {
         if !path.is_file() {
             return Ok(CaptureInfo::default());
         }
-        let c: CaptureInfo = crate::fsutil::read_json(&path)?;
+        let mut c: CaptureInfo = crate::fsutil::read_json(&path)?;
         c.response.validate(&path)?;
+        let raw: serde_json::Value = crate::fsutil::read_json(&path)?;
+        c.response_stated = raw.get("response").is_some();
         if let Some(e) = &c.exposures {
             if let Some((k, v)) = e
                 .iter()
@@ -368,7 +373,11 @@ pub fn ldr_check(views: &[(usize, ViewLdr)], files_ldr: bool) -> LdrCheck {
 /// The pixels of an LDR view that are clipped: a channel at 250 of 255 sRGB steps of `level`
 /// or above (JPEG rings a clipped region down to 250 and so loses its exact cap).
 pub fn clipped_mask(img: &Image, level: f32) -> Vec<bool> {
-    let at = level * srgb_eotf(250.0 / 255.0);
+    clipped_mask_at(img, level * srgb_eotf(250.0 / 255.0))
+}
+
+/// The pixels with a channel at or above the linear value `at`.
+pub fn clipped_mask_at(img: &Image, at: f32) -> Vec<bool> {
     img.data.iter().map(|p| p.max_element() >= at).collect()
 }
 

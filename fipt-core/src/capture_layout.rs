@@ -58,7 +58,10 @@ pub fn read_capture_layout(root: &Path) -> Result<Option<(Layout, CaptureCameras
     let tf = root.join("transforms.json");
     if tf.is_file() {
         let v: serde_json::Value = crate::fsutil::read_json(&tf)?;
-        if let Some(c) = v["camera_convention"].as_str().filter(|c| c.contains("Mitsuba")) {
+        if let Some(c) = v["camera_convention"]
+            .as_str()
+            .filter(|c| c.contains("Mitsuba"))
+        {
             return Err(CoreError::invalid(
                 &tf,
                 format!(
@@ -70,7 +73,10 @@ pub fn read_capture_layout(root: &Path) -> Result<Option<(Layout, CaptureCameras
         return Ok(Some((Layout::Nerfstudio, crate::nerfstudio::read(&tf)?)));
     }
     if let Some(model) = crate::colmap::find_model(root) {
-        return Ok(Some((Layout::Colmap, crate::colmap::read_model(root, &model)?)));
+        return Ok(Some((
+            Layout::Colmap,
+            crate::colmap::read_model(root, &model)?,
+        )));
     }
     Ok(None)
 }
@@ -141,7 +147,10 @@ pub fn downscale_ids(ids: &[i64], width: usize, height: usize, factor: usize) ->
 /// JPEG or EXR that is 0 leaves the pixel out. Shrunk by `factor`, a block is kept only when
 /// all its pixels are.
 pub fn read_mask(path: &Path, width: usize, height: usize, factor: usize) -> Result<Vec<bool>> {
-    let keep: Vec<bool> = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+    let keep: Vec<bool> = if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+    {
         let img = Image::read_exr(path)?;
         check_mask_size(path, img.width, img.height, width, height)?;
         img.data.iter().map(|p| p.x > 0.0).collect()
@@ -149,7 +158,13 @@ pub fn read_mask(path: &Path, width: usize, height: usize, factor: usize) -> Res
         let img = image::open(path)
             .map_err(|e| CoreError::invalid(path, format!("cannot read the mask: {e}")))?
             .into_luma8();
-        check_mask_size(path, img.width() as usize, img.height() as usize, width, height)?;
+        check_mask_size(
+            path,
+            img.width() as usize,
+            img.height() as usize,
+            width,
+            height,
+        )?;
         img.pixels().map(|p| p.0[0] > 0).collect()
     };
     if factor <= 1 {

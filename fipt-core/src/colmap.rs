@@ -265,7 +265,11 @@ fn camera_summary(cams: &Cameras, used: &HashSet<u32>) -> String {
         .map(|(_, c)| c)
         .collect();
     if let [(m, c)] = used.as_slice() {
-        return format!("1 camera ({}{})", MODELS[*m].0, c.distortion.nonzero_summary(", "));
+        return format!(
+            "1 camera ({}{})",
+            MODELS[*m].0,
+            c.distortion.nonzero_summary(", ")
+        );
     }
     let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
     for (m, _) in &used {

@@ -216,7 +216,10 @@ impl Dataset {
             warnings.extend(cams.notes.iter().cloned());
             description = Some(cams.description.clone());
             camera_files = cams.files.clone();
-            (layout, vec![crate::capture_layout::capture_split(root, &cams)?])
+            (
+                layout,
+                vec![crate::capture_layout::capture_split(root, &cams)?],
+            )
         } else {
             return Err(CoreError::invalid(
                 root,
@@ -226,7 +229,8 @@ impl Dataset {
         };
         let (width, height) = check_image_sizes(&splits)?;
         let stored_size = (width, height);
-        let (splits, width, height) = crate::capture_layout::downscaled(splits, width, height, opts.downscale, root)?;
+        let (splits, width, height) =
+            crate::capture_layout::downscaled(splits, width, height, opts.downscale, root)?;
         let capture = crate::capture::CaptureInfo::read(root)?;
         if let Some(e) = &capture.exposures {
             let n = splits[0].views.len();
@@ -240,16 +244,19 @@ impl Dataset {
                 ));
             }
         }
-        let exif: Vec<Option<crate::exif::ExifExposure>> =
-            if splits[0].views.iter().any(|v| crate::capture::is_ldr_file(&v.image)) {
-                splits[0]
-                    .views
-                    .iter()
-                    .map(|v| crate::exif::read(&v.image).ok().flatten())
-                    .collect()
-            } else {
-                vec![]
-            };
+        let exif: Vec<Option<crate::exif::ExifExposure>> = if splits[0]
+            .views
+            .iter()
+            .any(|v| crate::capture::is_ldr_file(&v.image))
+        {
+            splits[0]
+                .views
+                .iter()
+                .map(|v| crate::exif::read(&v.image).ok().flatten())
+                .collect()
+        } else {
+            vec![]
+        };
         let exif_exposures = if capture.exposures.is_none() && !exif.is_empty() {
             crate::exif::relative_exposures(&exif).ok()
         } else {
@@ -389,21 +396,18 @@ impl Dataset {
         )?;
         let ids: Vec<i64> = img
             .data
-                .iter()
-                .map(|v| {
-                    let x = v.x;
-                    if x.is_finite() && x >= 0.0 && x.fract() == 0.0 && x < 1e15 {
-                        x as i64
-                    } else {
-                        -1
-                    }
-                })
-                .collect();
+            .iter()
+            .map(|v| {
+                let x = v.x;
+                if x.is_finite() && x >= 0.0 && x.fract() == 0.0 && x < 1e15 {
+                    x as i64
+                } else {
+                    -1
+                }
+            })
+            .collect();
         Ok(Some(crate::capture_layout::downscale_ids(
-            &ids,
-            img.width,
-            img.height,
-            f,
+            &ids, img.width, img.height, f,
         )))
     }
 }

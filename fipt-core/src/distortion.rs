@@ -114,9 +114,9 @@ impl Distortion {
                     y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
                 )
             }
-            Distortion::Fisheye { .. } => self
-                .project(q.extend(1.0))
-                .unwrap_or(Vec2::splat(f32::NAN)),
+            Distortion::Fisheye { .. } => {
+                self.project(q.extend(1.0)).unwrap_or(Vec2::splat(f32::NAN))
+            }
             Distortion::None => q,
         }
     }
@@ -210,7 +210,9 @@ impl Distortion {
             Distortion::Fisheye { k1, k2, k3, k4 } => vec![k1, k2, k3, k4],
         };
         if coeffs.iter().any(|c| !c.is_finite()) {
-            return Some(format!("distortion coefficients {coeffs:?} are not all finite"));
+            return Some(format!(
+                "distortion coefficients {coeffs:?} are not all finite"
+            ));
         }
         // Round trip at the image's corners and edges: the inverse must reproduce them, from
         // a ray on the same side of the axis, with the image growing outwards all the way (a
@@ -348,9 +350,27 @@ mod tests {
     #[test]
     fn brown_conrady_inverts_over_the_image() {
         for d in [
-            Distortion::Opencv { k1: -0.12, k2: 0.0, k3: 0.0, p1: 0.0, p2: 0.0 },
-            Distortion::Opencv { k1: 0.08, k2: -0.02, k3: 0.004, p1: 0.001, p2: -0.0015 },
-            Distortion::Opencv { k1: -0.3, k2: 0.09, k3: 0.0, p1: 0.0, p2: 0.0 },
+            Distortion::Opencv {
+                k1: -0.12,
+                k2: 0.0,
+                k3: 0.0,
+                p1: 0.0,
+                p2: 0.0,
+            },
+            Distortion::Opencv {
+                k1: 0.08,
+                k2: -0.02,
+                k3: 0.004,
+                p1: 0.001,
+                p2: -0.0015,
+            },
+            Distortion::Opencv {
+                k1: -0.3,
+                k2: 0.09,
+                k3: 0.0,
+                p1: 0.0,
+                p2: 0.0,
+            },
         ] {
             let e = round_trip(d, 0.7);
             assert!(e < 1e-5, "{d:?}: round trip off by {e}");
@@ -360,7 +380,13 @@ mod tests {
 
     #[test]
     fn barrel_distortion_pulls_the_corners_in() {
-        let d = Distortion::Opencv { k1: -0.12, k2: 0.0, k3: 0.0, p1: 0.0, p2: 0.0 };
+        let d = Distortion::Opencv {
+            k1: -0.12,
+            k2: 0.0,
+            k3: 0.0,
+            p1: 0.0,
+            p2: 0.0,
+        };
         let q = Vec2::new(0.5, 0.4);
         let r2 = q.length_squared();
         // Pure radial: x_d = x(1 + k1 r²).
@@ -373,10 +399,20 @@ mod tests {
 
     #[test]
     fn fisheye_inverts_past_ninety_degrees() {
-        let d = Distortion::Fisheye { k1: 0.02, k2: -0.01, k3: 0.001, k4: 0.0 };
+        let d = Distortion::Fisheye {
+            k1: 0.02,
+            k2: -0.01,
+            k3: 0.001,
+            k4: 0.0,
+        };
         assert!(round_trip(d, 1.2) < 1e-5);
         // θ_d = θ for the plain equidistant model: a ray at 100° off axis.
-        let e = Distortion::Fisheye { k1: 0.0, k2: 0.0, k3: 0.0, k4: 0.0 };
+        let e = Distortion::Fisheye {
+            k1: 0.0,
+            k2: 0.0,
+            k3: 0.0,
+            k4: 0.0,
+        };
         let theta = 100f32.to_radians();
         let dir = e.direction(Vec2::new(theta, 0.0));
         assert!((dir.normalize().z - theta.cos()).abs() < 1e-5, "{dir}");
@@ -386,9 +422,20 @@ mod tests {
     #[test]
     fn folding_coefficients_are_refused() {
         // 1 + k1 r² turns back before r = 1: the image folds over.
-        let d = Distortion::Opencv { k1: -0.9, k2: 0.0, k3: 0.0, p1: 0.0, p2: 0.0 };
+        let d = Distortion::Opencv {
+            k1: -0.9,
+            k2: 0.0,
+            k3: 0.0,
+            p1: 0.0,
+            p2: 0.0,
+        };
         assert!(d.check(1.0).is_some());
-        let nan = Distortion::Fisheye { k1: f32::NAN, k2: 0.0, k3: 0.0, k4: 0.0 };
+        let nan = Distortion::Fisheye {
+            k1: f32::NAN,
+            k2: 0.0,
+            k3: 0.0,
+            k4: 0.0,
+        };
         assert!(nan.check(1.0).unwrap().contains("finite"));
     }
 }

@@ -172,7 +172,11 @@ pub fn jpeg_with_exif(jpeg: &[u8], exp: &ExifExposure) -> Result<Vec<u8>, String
         };
         Value::Rational(vec![r])
     };
-    let field = |tag: Tag, value: Value| Field { tag, ifd_num: In::PRIMARY, value };
+    let field = |tag: Tag, value: Value| Field {
+        tag,
+        ifd_num: In::PRIMARY,
+        value,
+    };
     let mut fields = vec![];
     if let Some(t) = exp.exposure_time {
         fields.push(field(Tag::ExposureTime, rational(t)));
@@ -181,7 +185,10 @@ pub fn jpeg_with_exif(jpeg: &[u8], exp: &ExifExposure) -> Result<Vec<u8>, String
         fields.push(field(Tag::FNumber, rational(n)));
     }
     if let Some(iso) = exp.iso {
-        fields.push(field(Tag::PhotographicSensitivity, Value::Short(vec![iso.round() as u16])));
+        fields.push(field(
+            Tag::PhotographicSensitivity,
+            Value::Short(vec![iso.round() as u16]),
+        ));
     }
     if let Some(c) = &exp.camera {
         fields.push(field(Tag::Model, Value::Ascii(vec![c.as_bytes().to_vec()])));
@@ -334,7 +341,10 @@ mod tests {
         std::fs::write(&p, jpeg_with_exif(&jpeg(None), &e).unwrap()).unwrap();
         assert_eq!(image::image_dimensions(&p).unwrap(), (16, 16));
         let back = read(&p).unwrap().unwrap();
-        assert!((back.exposure_time.unwrap() - 0.008).abs() < 1e-7, "{back:?}");
+        assert!(
+            (back.exposure_time.unwrap() - 0.008).abs() < 1e-7,
+            "{back:?}"
+        );
         assert_eq!((back.f_number, back.iso), (Some(2.0), Some(200.0)));
         assert_eq!(back.camera.as_deref(), Some("fipt degrade"));
         assert!(jpeg_with_exif(b"PNG", &e).is_err());

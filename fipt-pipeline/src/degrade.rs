@@ -36,6 +36,91 @@ pub enum LdrMode {
     Auto,
 }
 
+/// What a camera's auto-exposure meters on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Meter {
+    /// The median luminance to middle grey ([`METERED_GREY`]).
+    Median,
+    /// The brightest pixels (the 99.5th percentile of luminance) to 0.9: a view with a light
+    /// in it is exposed for the light and its surfaces come out dark.
+    Lights,
+}
+
+impl Meter {
+    /// The gain that maps luminances `l` to the metered value (1 for a black set).
+    fn gain(self, l: &mut [f32]) -> f32 {
+        let m = match self {
+            Meter::Median => fipt_core::image::median(l),
+            Meter::Lights => {
+                let k = ((l.len() as f64 * 0.995) as usize).min(l.len().saturating_sub(1));
+                l.select_nth_unstable_by(k, f32::total_cmp).1.to_owned()
+            }
+        };
+        let target = match self {
+            Meter::Median => METERED_GREY,
+            Meter::Lights => 0.9,
+        };
+        if m > 0.0 {
+            target / m
+        } else {
+            1.0
+        }
+    }
+}
+
+/// A camera's tone curve, as `fipt degrade --tone` names it: `srgb`, `gamma:G`, `scurve:A`
+/// (sRGB, then a contrast S-curve of strength A about stored 0.5, as phones do) or `filmic`
+/// (sRGB, then lifted shadows and a rolled-off shoulder). Returned as the response a
+/// `capture.json` would state (a table of 257 linear values for the last two).
+pub fn tone_curve(name: &str) -> std::result::Result<Response, String> {
+    let (kind, arg) = name
+        .split_once(':')
+        .map_or((name, None), |(k, a)| (k, Some(a)));
+    let number = |what: &str| -> std::result::Result<f32, String> {
+        arg.and_then(|a| a.parse::<f32>().ok())
+            .filter(|x| x.is_finite() && (0.2..=5.0).contains(x))
+            .ok_or_else(|| format!("--tone {name}: give {what} in [0.2, 5] (e.g. {kind}:1.5)"))
+    };
+    let over_srgb = |stored: &dyn Fn(f64) -> f64| -> Response {
+        // The inverse of stored(t) (t the sRGB value) by bisection, at 257 stored values.
+        let t_of = |s: f64| {
+            let (mut lo, mut hi) = (0.0f64, 1.0f64);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if stored(mid) < s {
+                    lo = mid
+                } else {
+                    hi = mid
+                }
+            }
+            0.5 * (lo + hi)
+        };
+        Response::Table(
+            (0..=256)
+                .map(|k| fipt_core::color::srgb_eotf(t_of(k as f64 / 256.0) as f32))
+                .collect(),
+        )
+    };
+    match kind {
+        "srgb" if arg.is_none() => Ok(Response::Srgb),
+        "gamma" => Ok(Response::Gamma(number("a gamma")?)),
+        "scurve" => {
+            let a = number("a strength")? as f64;
+            Ok(over_srgb(&|t: f64| {
+                t.powf(a) / (t.powf(a) + (1.0 - t).powf(a))
+            }))
+        }
+        "filmic" if arg.is_none() => Ok(over_srgb(&|t: f64| {
+            let s = t.powf(1.4) / (t.powf(1.4) + 0.55 * (1.0 - t).powf(1.4));
+            s.clamp(0.0, 1.0)
+        })),
+        _ => Err(format!(
+            "--tone {name}: give srgb, gamma:G, scurve:A or filmic"
+        )),
+    }
+}
+
 /// The copy's file format of the views.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -90,6 +175,10 @@ pub struct DegradeRequest {
     /// Multiplicative Gaussian noise per pixel and channel (0.03 = 3 %).
     pub pixel_noise: f32,
     pub ldr: LdrMode,
+    /// The camera's tone curve for LDR copies ([`tone_curve`]); recorded as the true response.
+    pub tone: Response,
+    /// What auto-exposure (and the fixed exposure) meters on.
+    pub meter: Meter,
     pub format: ViewFormat,
     pub jpeg_quality: u8,
     /// Each view enlarged this many times (every pixel an N×N block; the intrinsics
@@ -158,7 +247,12 @@ fn validate(a: &DegradeRequest) -> Result<()> {
     if !(1..=100).contains(&a.jpeg_quality) {
         bail!("--jpeg-quality {}: give 1 to 100", a.jpeg_quality);
     }
-    if a.lens.is_some_and(|l| !l.is_none()) && !matches!(a.layout, CopyLayout::ColmapText | CopyLayout::ColmapBinary | CopyLayout::Nerfstudio) {
+    if a.lens.is_some_and(|l| !l.is_none())
+        && !matches!(
+            a.layout,
+            CopyLayout::ColmapText | CopyLayout::ColmapBinary | CopyLayout::Nerfstudio
+        )
+    {
         bail!("--lens: a lens model is written by the COLMAP and nerfstudio layouts only; pass --layout colmap-text, colmap-binary or nerfstudio");
     }
     if !(1..=32).contains(&a.upscale) {
@@ -166,6 +260,9 @@ fn validate(a: &DegradeRequest) -> Result<()> {
     }
     if a.upscale > 1 && !a.layout.captures_only() && !a.drop_gt {
         bail!("--upscale: the ground truth stays at the source's size; pass --drop-gt or a capture layout (--layout real, …)");
+    }
+    if a.ldr == LdrMode::None && (a.tone != Response::Srgb || a.meter != Meter::Median) {
+        bail!("--tone and --meter shape 8-bit photos; pass --ldr fixed or --ldr auto");
     }
     if a.exif && a.format != ViewFormat::Jpg {
         bail!("--exif: EXIF is written into JPEG views; pass --format jpg");
@@ -215,7 +312,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
         ds.splits.iter().collect()
     };
     let fixed_gain = match a.ldr {
-        LdrMode::Fixed => Some(METERED_GREY / median_luminance(&ds, ds.train())?),
+        LdrMode::Fixed => Some(a.meter.gain(&mut split_luminance(&ds, ds.train())?)),
         _ => None,
     };
     let mut views = vec![];
@@ -236,14 +333,26 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
             .views
             .iter()
             .map(|v| {
-                let l = a.lens.map_or_else(|| v.camera.clone(), |lens| with_lens(&v.camera, lens));
-                Camera { distortion: l.distortion, fx: l.fx, fy: l.fy, ..v.camera.clone() }
+                let l = a
+                    .lens
+                    .map_or_else(|| v.camera.clone(), |lens| with_lens(&v.camera, lens));
+                Camera {
+                    distortion: l.distortion,
+                    fx: l.fx,
+                    fy: l.fy,
+                    ..v.camera.clone()
+                }
             })
             .collect();
         let cameras: Vec<Camera> = cams
             .iter()
             .zip(&lensed)
-            .map(|(c, l)| Camera { distortion: l.distortion, fx: l.fx, fy: l.fy, ..c.0.clone() })
+            .map(|(c, l)| Camera {
+                distortion: l.distortion,
+                fx: l.fx,
+                fy: l.fy,
+                ..c.0.clone()
+            })
             .map(|c| c.upscaled(a.upscale))
             .collect();
         let images_dir = write_cameras(a, &dir, &cameras)?;
@@ -289,8 +398,8 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
     }
     let note = match a.ldr {
         LdrMode::None => "HDR: the views are the source's radiance (with the noise)".into(),
-        LdrMode::Fixed => format!("8-bit sRGB at one exposure: stored = sRGB(min(1, {:.4e} × radiance))", fixed_gain.unwrap_or(1.0)),
-        LdrMode::Auto => "8-bit sRGB at each view's exposure: stored = sRGB(min(1, gain × radiance)), gain per view below".into(),
+        LdrMode::Fixed => format!("8-bit at one exposure: stored = tone(min(1, {:.4e} × radiance)), tone = request.tone", fixed_gain.unwrap_or(1.0)),
+        LdrMode::Auto => "8-bit at each view's exposure: stored = tone(min(1, gain × radiance)), tone = request.tone, gain per view below".into(),
     };
     let record = DegradeRecord {
         fipt_version: env!("CARGO_PKG_VERSION"),
@@ -314,7 +423,15 @@ fn write_cameras(a: &DegradeRequest, dir: &Path, cameras: &[Camera]) -> Result<P
     let named: Vec<(String, Camera)> = cameras
         .iter()
         .enumerate()
-        .map(|(k, c)| (Path::new(&name(k)).with_extension(ext).to_string_lossy().into_owned(), c.clone()))
+        .map(|(k, c)| {
+            (
+                Path::new(&name(k))
+                    .with_extension(ext)
+                    .to_string_lossy()
+                    .into_owned(),
+                c.clone(),
+            )
+        })
         .collect();
     match a.layout {
         CopyLayout::Same => {
@@ -399,12 +516,16 @@ fn upscaled(img: &Image, n: usize) -> Image {
 /// The image `lens_cam` sees, bilinearly resampled from `img` taken by `src` (same pose).
 fn resample(img: &Image, src: &Camera, lens_cam: &Camera) -> Image {
     let (w, h) = (img.width, img.height);
-    let at = |x: i64, y: i64| img.data[(y.clamp(0, h as i64 - 1) as usize) * w + x.clamp(0, w as i64 - 1) as usize];
+    let at = |x: i64, y: i64| {
+        img.data[(y.clamp(0, h as i64 - 1) as usize) * w + x.clamp(0, w as i64 - 1) as usize]
+    };
     let mut out = Image::new(w, h);
     for j in 0..h {
         for i in 0..w {
             let (_, d) = lens_cam.pixel_center_ray(i, j);
-            let Some(p) = src.project(src.origin + d) else { continue };
+            let Some(p) = src.project(src.origin + d) else {
+                continue;
+            };
             let (x, y) = (p.x - 0.5, p.y - 0.5);
             let (x0, y0) = (x.floor(), y.floor());
             let (fx, fy) = (x - x0, y - y0);
@@ -438,21 +559,21 @@ fn write_mesh(a: &DegradeRequest, ds: &Dataset) -> Result<usize> {
     Ok(m.triangles.len())
 }
 
-/// A split's median luminance (every 7th pixel of every view).
-fn median_luminance(ds: &Dataset, s: &Split) -> Result<f32> {
+/// A split's luminances (every 7th pixel of every view), checked not all black.
+fn split_luminance(ds: &Dataset, s: &Split) -> Result<Vec<f32>> {
     let mut l: Vec<f32> = vec![];
     for v in &s.views {
         let img = ds.load_image(v, BadPixelPolicy::Clamp)?.0;
         l.extend(img.data.iter().step_by(7).map(|&p| luminance(p)));
     }
-    let m = fipt_core::image::median(&mut l);
+    let m = fipt_core::image::median(&mut l.clone());
     if !(m > 0.0) {
         bail!(
             "{}: the median training pixel is black; an exposure cannot be metered",
             ds.root.display()
         );
     }
-    Ok(m)
+    Ok(l)
 }
 
 /// The camera of view `k` of `split`, moved and turned as asked: (camera, offset in mm, turn
@@ -516,17 +637,11 @@ fn write_view(
     }
     let gain = match fixed_gain {
         Some(g) => g,
-        None => {
-            let mut l: Vec<f32> = img.data.iter().map(|&p| luminance(p)).collect();
-            let m = fipt_core::image::median(&mut l);
-            if m > 0.0 {
-                METERED_GREY / m
-            } else {
-                1.0
-            }
-        }
+        None => a
+            .meter
+            .gain(&mut img.data.iter().map(|&p| luminance(p)).collect::<Vec<_>>()),
     };
-    let r = Response::Srgb;
+    let r = &a.tone;
     let clipped = img
         .data
         .iter()

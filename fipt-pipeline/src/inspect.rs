@@ -54,6 +54,8 @@ pub struct SceneSummary {
     pub convention: Option<crate::capture::ConventionCheck>,
     /// What the photos' EXIF says of their exposures.
     pub exif: crate::capture::ExifReport,
+    /// The camera's response estimated from the views (8-bit views, no stated response).
+    pub response: Option<crate::capture::ResponseFit>,
     pub splits: Vec<SplitSummary>,
     /// The training views' exposures fitted on the surfaces they share.
     pub exposure_fit: Option<crate::capture::GainFit>,
@@ -127,7 +129,15 @@ pub fn inspect(
             ds.mesh.display()
         );
     }
-    let (exposure_fit, edges, ldr, convention) = exposures(&ds, &mesh, policy, &mut warnings)?;
+    let (capture, convention) = exposures(&ds, &mesh, policy, &mut warnings)?;
+    let (exposure_fit, edges, ldr) = (capture.exposure_fit, capture.edges, capture.check.ldr);
+    warnings.extend(
+        capture
+            .warnings
+            .iter()
+            .filter(|w| w.contains("response is NOT sRGB"))
+            .cloned(),
+    );
     let exif = crate::capture::ExifReport::of(&ds, exposure_fit.as_ref());
     warnings.extend(exif.warning.clone());
     warnings.extend(crate::capture::edge_warning(&edges));
@@ -158,6 +168,7 @@ pub fn inspect(
         masked_views: ds.train().views.iter().filter(|v| v.mask.is_some()).count(),
         convention,
         exif,
+        response: capture.response,
         splits,
         exposure_fit,
         edges,
@@ -165,17 +176,16 @@ pub fn inspect(
     })
 }
 
-/// The training views' exposures, fitted as `fipt run` fits them (clipped pixels left out),
-/// and how their edges line up with the mesh's.
+/// The training views examined as `fipt run` examines them (the response, the exposures with
+/// the clipped pixels left out, how their edges line up with the mesh's), and the poses'
+/// convention.
 fn exposures(
     ds: &Dataset,
     mesh: &Mesh,
     policy: BadPixelPolicy,
     warnings: &mut Vec<String>,
 ) -> Result<(
-    Option<crate::capture::GainFit>,
-    crate::capture::EdgeCheck,
-    bool,
+    crate::capture::CaptureReport,
     Option<crate::capture::ConventionCheck>,
 )> {
     let split = ds.train();
@@ -198,13 +208,12 @@ fn exposures(
         .collect::<Result<Vec<_>, _>>()?;
     let report = crate::capture::examine(
         &geometry,
-        &split.views,
+        ds,
         &mut images,
-        ds.has_ldr_files(),
         crate::capture::AlignViews::Off,
         &masks,
     );
-    Ok((report.exposure_fit, report.edges, report.check.ldr, convention))
+    Ok((report, convention))
 }
 
 /// The views' lens models ("pinhole", "opencv k1 -0.120 …"), with how many views have each.

@@ -64,7 +64,9 @@ pub struct RunOutput {
 
 /// How the run whose `report.json` is `report` read its scene (`[capture] downscale`).
 pub fn open_options_of(report: &serde_json::Value) -> fipt_core::capture_layout::OpenOptions {
-    let n = report["settings"]["capture"]["downscale"].as_u64().unwrap_or(1);
+    let n = report["settings"]["capture"]["downscale"]
+        .as_u64()
+        .unwrap_or(1);
     fipt_core::capture_layout::OpenOptions {
         downscale: (n as usize).max(1),
     }

@@ -31,7 +31,12 @@ pub fn inputs_hash(ds: &Dataset) -> Result<String> {
     let split = ds.train();
     let mut files = vec![ds.mesh.clone(), split.cameras_file.clone()];
     // A capture layout's other camera files (COLMAP's cameras and images), and the masks.
-    files.extend(ds.camera_files.iter().filter(|f| **f != split.cameras_file).cloned());
+    files.extend(
+        ds.camera_files
+            .iter()
+            .filter(|f| **f != split.cameras_file)
+            .cloned(),
+    );
     files.extend(split.views.iter().filter_map(|v| v.mask.clone()));
     // The real layout's intrinsics and the capture's response and exposures shape the inputs.
     for name in ["K_list.txt", fipt_core::capture::CAPTURE_FILE] {
@@ -80,14 +85,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
     }
     let convention = crate::capture::check_convention(&geometry, &ds, &images)?;
     let masks = load_masks(&ds)?;
-    let mut capture = crate::capture::examine(
-        &geometry,
-        &split.views,
-        &mut images,
-        ds.has_ldr_files(),
-        cfg.align_views,
-        &masks,
-    );
+    let mut capture = crate::capture::examine(&geometry, &ds, &mut images, cfg.align_views, &masks);
     capture.exposures_known = ds.known_exposures().is_some();
     capture.exif = crate::capture::ExifReport::of(&ds, capture.exposure_fit.as_ref());
     capture.warnings.extend(capture.exif.warning.clone());
@@ -97,8 +95,16 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
         crate::note!("cameras: {c}");
     }
     if let Some(c) = &capture.convention {
-        let scores: Vec<String> = c.contrast.iter().map(|(k, s)| format!("{k} {s:.2}")).collect();
-        crate::note!("cameras: poses read as {}; edge contrast per reading {}", c.read_as, scores.join(", "));
+        let scores: Vec<String> = c
+            .contrast
+            .iter()
+            .map(|(k, s)| format!("{k} {s:.2}"))
+            .collect();
+        crate::note!(
+            "cameras: poses read as {}; edge contrast per reading {}",
+            c.read_as,
+            scores.join(", ")
+        );
     }
     crate::capture::restore_clipped_lights(&geometry, &split.views, &mut images, &mut capture);
     crate::capture::leave_out_masked(&mut capture, &masks);

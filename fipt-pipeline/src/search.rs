@@ -167,7 +167,13 @@ fn compact_inputs(
         m => m as f64 / candidates.max(1) as f64,
     };
     // Pixels a view's mask leaves out (people, screens) say nothing of the materials.
-    let masked = |v: usize, i: usize| scene.capture.masked.get(v).is_some_and(|m| m.get(i) == Some(&true));
+    let masked = |v: usize, i: usize| {
+        scene
+            .capture
+            .masked
+            .get(v)
+            .is_some_and(|m| m.get(i) == Some(&true))
+    };
     let keep = |v: usize, i: usize, h: &HitPoint| {
         rule(v, i, h)
             .filter(|_| !masked(v, i))

@@ -34,8 +34,7 @@ fn cameras() -> Vec<(String, Camera)> {
         k3: 0.001,
         k4: 0.0,
     };
-    let (o, t, up, k) =
-        cam([0.0, 2.0, 0.0], [0.1, 0.0, 0.2], Distortion::None).to_opencv_lookat();
+    let (o, t, up, k) = cam([0.0, 2.0, 0.0], [0.1, 0.0, 0.2], Distortion::None).to_opencv_lookat();
     vec![
         (
             "d.png".into(),

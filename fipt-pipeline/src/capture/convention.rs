@@ -34,7 +34,11 @@ impl std::fmt::Display for FileConvention {
 }
 
 impl FileConvention {
-    const ALL: [FileConvention; 3] = [FileConvention::Mitsuba, FileConvention::OpenCv, FileConvention::OpenGl];
+    const ALL: [FileConvention; 3] = [
+        FileConvention::Mitsuba,
+        FileConvention::OpenCv,
+        FileConvention::OpenGl,
+    ];
 
     /// S with R_opencv = M · S for a camera-to-world rotation M in this convention.
     fn to_opencv(self) -> Mat3 {
@@ -96,7 +100,9 @@ pub fn test_convention(
     };
     let split = ds.train();
     let n = split.views.len();
-    let picks: Vec<usize> = (0..VIEWS_TESTED.min(n)).map(|i| i * n / VIEWS_TESTED.min(n)).collect();
+    let picks: Vec<usize> = (0..VIEWS_TESTED.min(n))
+        .map(|i| i * n / VIEWS_TESTED.min(n))
+        .collect();
     let imgs: Vec<Image> = picks.iter().map(|&k| images[k].clone()).collect();
     let mut contrast = vec![];
     for conv in FileConvention::ALL {
@@ -104,8 +110,15 @@ pub fn test_convention(
             .iter()
             .map(|&k| reread(&split.views[k], read, conv))
             .collect();
-        let mut c: Vec<f32> = edge_contrast(geometry, &views, &imgs).into_iter().flatten().collect();
-        let median = if c.is_empty() { 0.0 } else { fipt_core::image::median(&mut c) };
+        let mut c: Vec<f32> = edge_contrast(geometry, &views, &imgs)
+            .into_iter()
+            .flatten()
+            .collect();
+        let median = if c.is_empty() {
+            0.0
+        } else {
+            fipt_core::image::median(&mut c)
+        };
         contrast.push((conv, median));
     }
     let own = contrast.iter().find(|c| c.0 == read).map_or(0.0, |c| c.1);
@@ -169,7 +182,12 @@ mod tests {
     #[test]
     fn rereading_in_the_same_convention_changes_nothing_and_the_others_turn_the_camera() {
         let cam = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 1.0, 8, 6);
-        let view = View { index: 0, camera: cam.clone(), image: "x".into(), mask: None };
+        let view = View {
+            index: 0,
+            camera: cam.clone(),
+            image: "x".into(),
+            mask: None,
+        };
         let same = reread(&view, FileConvention::Mitsuba, FileConvention::Mitsuba);
         assert!((same.camera.rotation - cam.rotation).abs_diff_eq(Mat3::ZERO, 1e-7));
         // Read as OpenGL, a Mitsuba matrix looks backwards.

@@ -177,7 +177,8 @@ pub fn edge_contrast(geometry: &Geometry, views: &[View], images: &[Image]) -> V
             let mut all = 0.0f64;
             for y in 0..h as i32 {
                 for x in 0..w as i32 {
-                    all += (gradient(&log_l, w, h, x, y, true) + gradient(&log_l, w, h, x, y, false)) as f64;
+                    all += (gradient(&log_l, w, h, x, y, true)
+                        + gradient(&log_l, w, h, x, y, false)) as f64;
                 }
             }
             let mean_all = all / (2 * w * h) as f64;

@@ -133,6 +133,9 @@ pub fn fit_gains(
     })
 }
 
+/// A surface cell: its integer coordinates on the grid [`cell_size`] gives.
+pub(super) type Cell = (i32, i32, i32);
+
 /// Per surface cell seen by two views or more: (view, mean log luminance of its pixels there),
 /// over the pixels that are unclipped, above 16 8-bit steps (LDR) and not black.
 fn shared_cells(
@@ -141,13 +144,43 @@ fn shared_cells(
     images: &[Image],
     clipped: &[Vec<bool>],
     clip_level: Option<f32>,
-) -> HashMap<(i32, i32, i32), Vec<(usize, f64)>> {
+) -> HashMap<Cell, Vec<(usize, f64)>> {
     // 8-bit values under 16 steps carry a quantisation error over 3 %: not used.
     let ldr_floor = clip_level.map_or(0.0, |l| l * fipt_core::color::srgb_eotf(16.0 / 255.0));
+    let floors: Vec<f32> = images
+        .iter()
+        .map(|img| {
+            1e-3 * fipt_core::image::median(
+                &mut img
+                    .data
+                    .iter()
+                    .step_by(7)
+                    .map(|&p| luminance(p))
+                    .collect::<Vec<_>>(),
+            )
+        })
+        .collect();
+    let per_view = cell_sums(geometry, views, images, clipped, |v, p| {
+        let l = luminance(p);
+        (l > floors[v].max(ldr_floor).max(1e-8)).then(|| [(l as f64).ln()])
+    });
+    let mut cells: HashMap<Cell, Vec<(usize, f64)>> = HashMap::new();
+    for (v, m) in per_view.iter().enumerate() {
+        for (c, (s, n)) in m {
+            if *n >= 2 {
+                cells.entry(*c).or_default().push((v, s[0] / *n as f64));
+            }
+        }
+    }
+    cells.retain(|_, obs| obs.len() >= 2);
+    cells
+}
+
+/// The side of the cells views are compared over: 3 pixel footprints (the median over every
+/// 16th pixel), at least 1/CELLS of the bounds, so that every cell gathers several pixels of
+/// each view that sees it.
+fn cell_size(geometry: &Geometry, views: &[View]) -> f32 {
     let b = geometry.mesh.bounds();
-    // Cells of 3 pixel footprints (the median over every 16th pixel), at least 1/CELLS of the
-    // bounds: every cell gathers several pixels of each view that sees it. Each view's hits are
-    // traced where they are used and dropped after: no view's hits outlive its pass.
     let mut foot: Vec<f32> = views
         .par_iter()
         .flat_map_iter(|view| {
@@ -162,57 +195,55 @@ fn shared_cells(
                 })
         })
         .collect();
-    let cell = (3.0 * fipt_core::image::median(&mut foot))
+    (3.0 * fipt_core::image::median(&mut foot))
         .max((b.max - b.min).max_element() / CELLS)
-        .max(1e-6);
-    // Per view: cell → (sum of log luminance, count).
-    let per_view: Vec<HashMap<(i32, i32, i32), (f64, u32)>> = views
+        .max(1e-6)
+}
+
+/// Per view: surface cell → (sum of `value` over its pixels, their count), over the pixels
+/// that hit the mesh, are not `skip`ped and have a value. Each view's hits are traced where
+/// they are used and dropped after: no view's hits outlive its pass.
+pub(super) fn cell_sums<const N: usize>(
+    geometry: &Geometry,
+    views: &[View],
+    images: &[Image],
+    skip: &[Vec<bool>],
+    value: impl Fn(usize, fipt_core::color::Rgb) -> Option<[f64; N]> + Sync,
+) -> Vec<HashMap<Cell, ([f64; N], u32)>> {
+    let b = geometry.mesh.bounds();
+    let cell = cell_size(geometry, views);
+    views
         .par_iter()
         .zip(images)
         .enumerate()
         .map(|(v, (view, img))| {
             let hits = fipt_shading::records::hit_points(geometry, view);
-            let mut m: HashMap<(i32, i32, i32), (f64, u32)> = HashMap::new();
-            let floor = 1e-3
-                * fipt_core::image::median(
-                    &mut img
-                        .data
-                        .iter()
-                        .step_by(7)
-                        .map(|&p| luminance(p))
-                        .collect::<Vec<_>>(),
-                );
+            let mut m: HashMap<Cell, ([f64; N], u32)> = HashMap::new();
             for (i, h) in hits.iter().enumerate() {
-                let (Some(h), l) = (h, luminance(img.data[i])) else {
-                    continue;
-                };
-                if clipped.get(v).is_some_and(|c| c[i]) || !(l > floor.max(ldr_floor).max(1e-8)) {
+                let Some(h) = h else { continue };
+                if skip.get(v).is_some_and(|c| c[i]) {
                     continue;
                 }
+                let Some(x) = value(v, img.data[i]) else {
+                    continue;
+                };
                 let q = ((h.p - b.min) / cell).floor();
-                let e = m.entry((q.x as i32, q.y as i32, q.z as i32)).or_default();
-                e.0 += (l as f64).ln();
+                let e = m
+                    .entry((q.x as i32, q.y as i32, q.z as i32))
+                    .or_insert(([0.0; N], 0));
+                for (s, x) in e.0.iter_mut().zip(x) {
+                    *s += x;
+                }
                 e.1 += 1;
             }
             m
         })
-        .collect();
-    // cell → [(view, mean log luminance)] for cells seen by two views or more.
-    let mut cells: HashMap<(i32, i32, i32), Vec<(usize, f64)>> = HashMap::new();
-    for (v, m) in per_view.iter().enumerate() {
-        for (c, (s, n)) in m {
-            if *n >= 2 {
-                cells.entry(*c).or_default().push((v, s / *n as f64));
-            }
-        }
-    }
-    cells.retain(|_, obs| obs.len() >= 2);
-    cells
+        .collect()
 }
 
 /// Alternating least squares of y(view, cell) = g(view) + r(cell), with each view's g the
 /// median of its residuals (robust to highlights) and the g's mean 0; from `start` if given.
-fn alternate(
+pub(super) fn alternate(
     obs: &[&Vec<(usize, f64)>],
     nv: usize,
     start: Option<Vec<f64>>,

@@ -4,19 +4,20 @@
 mod align;
 mod clipped;
 mod convention;
-mod exif;
 mod edges;
+mod exif;
 mod gains;
+mod response;
 
 pub use align::{AlignViews, Alignment, CaptureConfig, MIN_SHIFT_PX};
-pub use convention::{check_convention, test_convention, ConventionCheck, FileConvention};
-pub use exif::ExifReport;
 pub use clipped::{restore_clipped_lights, ClippedLights, CLIPPED_LIGHT_LEVELS};
+pub use convention::{check_convention, test_convention, ConventionCheck, FileConvention};
 pub use edges::{edge_alignment, edge_contrast, edge_warning, EdgeCheck, EDGE_OFF_PX};
+pub use exif::ExifReport;
 pub use gains::{fit_gains, gain_spread_limit, GainFit, GAIN_SPREAD_WARN, MIN_SHARED_CELLS};
+pub use response::{fit_response, ResponseFit, MIN_DEPARTURE};
 
-use fipt_core::capture::{clipped_mask, ldr_check, LdrCheck, ViewLdr};
-use fipt_core::dataset::View;
+use fipt_core::capture::{clipped_mask_at, ldr_check, LdrCheck, ViewLdr};
 use fipt_core::image::Image;
 use fipt_geom::Geometry;
 use rayon::prelude::*;
@@ -66,6 +67,10 @@ pub struct CaptureReport {
     /// What the photos' EXIF said of their exposures, and whether the views agree.
     #[serde(skip_serializing_if = "ExifReport::is_empty")]
     pub exif: ExifReport,
+    /// The camera's response estimated from the views (8-bit views whose `capture.json`
+    /// gives none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub response: Option<ResponseFit>,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -95,7 +100,10 @@ pub fn leave_out_masked(r: &mut CaptureReport, masks: &[Option<Vec<bool>>]) {
     }
     r.masked = masks
         .iter()
-        .map(|m| m.as_ref().map_or(vec![], |k| k.iter().map(|k| !k).collect()))
+        .map(|m| {
+            m.as_ref()
+                .map_or(vec![], |k| k.iter().map(|k| !k).collect())
+        })
         .collect();
     let per_view = masks.iter().flatten().map(Vec::len).next().unwrap_or(0);
     if r.masked_pixels > 0 {
@@ -107,17 +115,31 @@ pub fn leave_out_masked(r: &mut CaptureReport, masks: &[Option<Vec<bool>>]) {
     }
 }
 
-/// Checks the training images, fits their exposures on shared surfaces and, for LDR views,
-/// divides each by its fitted gain, and shifts the views onto the mesh as `mode` asks.
-/// Returns what it found.
+/// Checks the training images of `ds` (`images`, divided by their known exposures), estimates
+/// the camera's response where the views are 8-bit files and `capture.json` gives none, fits
+/// their exposures on shared surfaces and, for LDR views, divides each by its fitted gain, and
+/// shifts the views onto the mesh as `mode` asks. Returns what it found.
 pub fn examine(
     geometry: &Geometry,
-    views: &[View],
+    ds: &fipt_core::dataset::Dataset,
     images: &mut [Image],
-    files_ldr: bool,
     mode: AlignViews,
     masks: &[Option<Vec<bool>>],
 ) -> CaptureReport {
+    let views = &ds.train().views;
+    let files_ldr = ds.has_ldr_files();
+    let estimate = !ds.capture.response_stated
+        && views
+            .iter()
+            .all(|v| fipt_core::capture::is_ldr_file(&v.image));
+    let response = estimate.then(|| {
+        fit_response(
+            geometry,
+            views,
+            images,
+            ds.known_exposures().map(|(e, _)| e),
+        )
+    });
     let per_view: Vec<(usize, ViewLdr)> = images
         .par_iter()
         .enumerate()
@@ -128,6 +150,13 @@ pub fn examine(
         warnings: ldr_warnings("train", &check),
         ..Default::default()
     };
+    if let Some(f) = response.as_ref().filter(|f| f.applied) {
+        r.warnings.push(format!(
+            "train: the camera's response is NOT sRGB: the curve fitted on the surfaces the views share departs from sRGB by {:.3} RMS (linear, over stored values) and explains the views better (they disagree by {:.2} 8-bit steps RMS against sRGB's {:.2}, gains {}); the views are decoded through it (report.json capture.response; state it in capture.json to skip the fit)",
+            f.departure, f.residual_fitted, f.residual_srgb, f.gains
+        ));
+    }
+    r.response = response;
     if check.ldr {
         let level = per_view.iter().map(|(_, v)| v.max).fold(0.0f32, f32::max);
         let level = if files_ldr || level <= 1.0 + 1e-3 {
@@ -136,7 +165,12 @@ pub fn examine(
             level
         };
         r.clip_level = Some(level);
-        r.clipped = images.iter().map(|i| clipped_mask(i, level)).collect();
+        // A stored value of 250 and above clips, whatever the curve decodes it to.
+        let at = match r.response.as_ref().filter(|f| f.applied) {
+            Some(f) => level * f.to_linear(250.0 / 255.0),
+            None => level * fipt_core::color::srgb_eotf(250.0 / 255.0),
+        };
+        r.clipped = images.iter().map(|i| clipped_mask_at(i, at)).collect();
     }
     // Masked pixels (people, screens) say nothing of the views' exposures either.
     let unused = if masks.iter().any(Option::is_some) {
