@@ -43,9 +43,29 @@ pub struct LightEstimate {
     pub levels: f32,
     /// The least rise of the channels' costs at a tenth and at ten times the radiance.
     pub contrast: f64,
-    /// Whether the curve pins it (else the convention stays).
+    /// Whether the flatness curve pins it.
     pub pinned: bool,
+    /// The range the views allow, in clip levels (luminance): at least the highest clip level
+    /// of the views that see it clipped and what the surfaces it lights need to reflect no
+    /// more than they receive ([`KD_MAX`]); at most what keeps them above [`KD_MIN`].
+    pub range: [f32; 2],
+    /// How the radiance was chosen: "flatness" (the curve pins it), "albedo" (the prior of
+    /// [`KD_BRIGHT`], inside the range) or "lower bound".
+    pub chosen_by: String,
 }
+
+/// No surface reflects more than this share of the light it receives…
+pub const KD_MAX: f32 = 0.95;
+/// …or less than this (black paint, dark fabric).
+pub const KD_MIN: f32 = 0.02;
+/// A light the flatness does not pin is set so that the surface bounding it from below (the
+/// brightest it lights strongly) reads this albedo: a room's brightest lit surface (a wall, a
+/// ceiling, white furniture) lies between 0.65 and 0.95, and 0.8 is within ×1.2 of either end.
+pub const KD_BRIGHT: f32 = 0.8;
+/// The most one channel of an unpinned light may exceed another.
+const MAX_TINT: f32 = 4.0;
+/// Samples a patch needs to bound a light.
+const MIN_PATCH_SAMPLES: usize = 10;
 
 /// One sample: its pixel, patch, observed radiance, A and each light's D.
 struct Sample {
@@ -65,6 +85,7 @@ pub fn estimate(
     lights: &[Vec<u32>],
     skip: &[Vec<bool>],
     level: f32,
+    seen_clipped: &[f32],
 ) -> Option<Vec<LightEstimate>> {
     let mesh = &geometry.mesh;
     let is_light: std::collections::HashSet<u32> = lights.iter().flatten().copied().collect();
@@ -89,10 +110,12 @@ pub fn estimate(
         .map(|t| TriangleSampler::uniform_area(mesh, t))
         .collect::<Option<_>>()?;
     let (patch, _) = fipt_geom::patches::smooth_patches(mesh, 30.0);
+    let near_light = touching(mesh, &is_light);
     let at = Surfaces {
         geometry,
         slf: &slf,
         is_light: &is_light,
+        near_light: &near_light,
         side: &side,
         samplers: &samplers,
         patch: &patch,
@@ -101,7 +124,9 @@ pub fn estimate(
     if samples.is_empty() {
         return None;
     }
-    Some(search(&samples, lights, level))
+    let mut out = search(&samples, lights, level);
+    bound_and_choose(&samples, &mut out, seen_clipped, level);
+    Some(out)
 }
 
 /// What a sample is measured against: the scene, its lights and its patches.
@@ -109,6 +134,9 @@ struct Surfaces<'a> {
     geometry: &'a Geometry,
     slf: &'a fipt_bake::slf::SurfaceLightField,
     is_light: &'a std::collections::HashSet<u32>,
+    /// Triangles that touch a light: a lamp's faces seen too rarely clipped to count as the
+    /// light, which glow rather than reflect.
+    near_light: &'a std::collections::HashSet<u32>,
     side: &'a HashMap<u32, f32>,
     samplers: &'a [TriangleSampler],
     patch: &'a [u32],
@@ -135,7 +163,11 @@ impl Surfaces<'_> {
                     for x in (STRIDE / 2..w).step_by(STRIDE) {
                         let i = y * w + x;
                         let Some(hit) =
-                            hits[v][i].filter(|h| !skip[v][i] && !self.is_light.contains(&h.tri))
+                            hits[v][i].filter(|h| {
+                                !skip[v][i]
+                                    && !self.is_light.contains(&h.tri)
+                                    && !self.near_light.contains(&h.tri)
+                            })
                         else {
                             continue;
                         };
@@ -180,6 +212,29 @@ impl Surfaces<'_> {
             d,
         }
     }
+}
+
+/// The triangles (not lights) with a corner at a light triangle's corner (positions to 0.1 mm).
+fn touching(
+    mesh: &fipt_geom::Mesh,
+    is_light: &std::collections::HashSet<u32>,
+) -> std::collections::HashSet<u32> {
+    let key = |p: Vec3| {
+        let q = (p * 1e4).round();
+        (q.x as i64, q.y as i64, q.z as i64)
+    };
+    let corners: std::collections::HashSet<(i64, i64, i64)> = is_light
+        .iter()
+        .flat_map(|&t| mesh.triangles[t as usize].map(|v| key(mesh.positions[v as usize])))
+        .collect();
+    (0..mesh.triangles.len() as u32)
+        .filter(|t| !is_light.contains(t))
+        .filter(|&t| {
+            mesh.triangles[t as usize]
+                .iter()
+                .any(|&v| corners.contains(&key(mesh.positions[v as usize])))
+        })
+        .collect()
 }
 
 /// The side each light triangle was seen from (+1 its winding's, −1 the other, 0 both).
@@ -314,6 +369,8 @@ fn search(samples: &[Sample], lights: &[Vec<u32>], level: f32) -> Vec<LightEstim
             levels: 0.0,
             contrast: f64::INFINITY,
             pinned: true,
+            range: [0.0, f32::INFINITY],
+            chosen_by: "flatness".into(),
         })
         .collect();
     for c in 0..3 {
@@ -372,4 +429,216 @@ fn cost(samples: &[Sample], pairs: &[(usize, usize)], channel: usize, l: &[f32])
         .map(|&(a, b)| (kd[a] - kd[b]).abs())
         .sum::<f64>()
         / pairs.len().max(1) as f64
+}
+
+/// Each light's range from the bounds, and its radiance where the flatness does not pin it
+/// (or pins it outside the range): the albedo prior [`KD_BRIGHT`] inside the range, the
+/// lights set together (each one's share of a sample's light depends on the others').
+fn bound_and_choose(samples: &[Sample], out: &mut [LightEstimate], seen_clipped: &[f32], level: f32) {
+    let n = out.len();
+    // Start from the flatness estimates where pinned, else the clip bound.
+    let mut l: Vec<Vec3> = out
+        .iter()
+        .enumerate()
+        .map(|(e, x)| {
+            if x.pinned {
+                Vec3::from_array(x.radiance)
+            } else {
+                Vec3::splat(seen_clipped.get(e).copied().unwrap_or(level).max(1e-6))
+            }
+        })
+        .collect();
+    let mut range = vec![[Vec3::ZERO, Vec3::splat(f32::INFINITY)]; n];
+    for _ in 0..4 {
+        for e in 0..n {
+            let clip = Vec3::splat(seen_clipped.get(e).copied().unwrap_or(0.0));
+            let (lo, hi) = albedo_bounds(samples, &l, e);
+            range[e] = [lo.max(clip), hi.max(lo.max(clip))];
+            l[e] = if out[e].pinned {
+                l[e].clamp(range[e][0], range[e][1])
+            } else {
+                bright_prior(lo, range[e])
+            };
+        }
+    }
+    for (e, x) in out.iter_mut().enumerate() {
+        let chosen = Vec3::from_array(x.radiance);
+        x.chosen_by = if x.pinned && chosen.cmpge(range[e][0]).all() && chosen.cmple(range[e][1]).all() {
+            "flatness".into()
+        } else if range[e][1].is_finite() || range[e][0].cmpgt(Vec3::ZERO).any() {
+            "albedo".into()
+        } else {
+            "lower bound".into()
+        };
+        x.radiance = l[e].to_array();
+        x.levels = luminance(l[e]) / level;
+        x.range = [luminance(range[e][0]) / level, luminance(range[e][1]) / level];
+    }
+}
+
+/// The samples light `e` lights most strongly (the fifth with the highest D_e: a choice that
+/// does not depend on the radiances being estimated), each with the shading everything else
+/// gives it per channel at radiances `l`: (sample, others' shading).
+fn lit_by<'a>(samples: &'a [Sample], l: &[Vec3], e: usize) -> Vec<(&'a Sample, Vec3)> {
+    let mut d: Vec<f32> = samples.iter().map(|s| s.d[e]).filter(|&d| d > 0.0).collect();
+    if d.is_empty() {
+        return vec![];
+    }
+    let k = ((d.len() as f64 * 0.8) as usize).min(d.len() - 1);
+    let cut = *d.select_nth_unstable_by(k, f32::total_cmp).1;
+    samples
+        .iter()
+        .filter(|s| s.d[e] > 0.0 && s.d[e] >= cut)
+        .map(|s| {
+            let others = s.a
+                + s.d
+                    .iter()
+                    .zip(l)
+                    .enumerate()
+                    .filter(|(j, _)| *j != e)
+                    .map(|(_, (d, l))| *l * *d)
+                    .sum::<Vec3>();
+            (s, others)
+        })
+        .collect()
+}
+
+/// The strongly lit samples of light `e` grouped by smooth patch (patches of at least
+/// [`MIN_PATCH_SAMPLES`]): a patch's median albedo is its colour, whatever highlight or
+/// misregistered edge covers less than half of it.
+fn lit_patches<'a>(samples: &'a [Sample], l: &[Vec3], e: usize) -> Vec<Vec<(&'a Sample, Vec3)>> {
+    let mut by: std::collections::BTreeMap<u32, Vec<(&Sample, Vec3)>> = Default::default();
+    for (s, o) in lit_by(samples, l, e) {
+        by.entry(s.patch).or_default().push((s, o));
+    }
+    by.into_values().filter(|p| p.len() >= MIN_PATCH_SAMPLES).collect()
+}
+
+/// A patch's median albedo in channel `c` with light `e` at `x`.
+fn patch_kd(p: &[(&Sample, Vec3)], e: usize, c: usize, x: f32) -> f32 {
+    let mut kd: Vec<f32> = p.iter().map(|(s, o)| s.i[c] / (o[c] + x * s.d[e]).max(1e-12)).collect();
+    let m = kd.len() / 2;
+    *kd.select_nth_unstable_by(m, f32::total_cmp).1
+}
+
+/// The radiance of light `e` in channel `c` at which `f` (falling as the light grows) equals
+/// `target`, by bisection on a log scale over [lo, hi].
+fn solve_falling(f: impl Fn(f32) -> f32, target: f32, lo: f32, hi: f32) -> f32 {
+    let (mut a, mut b) = (lo.max(1e-6).ln(), hi.max(lo.max(1e-6)).ln());
+    if f(a.exp()) <= target {
+        return a.exp();
+    }
+    if f(b.exp()) >= target {
+        return b.exp();
+    }
+    for _ in 0..40 {
+        let m = 0.5 * (a + b);
+        if f(m.exp()) > target { a = m } else { b = m }
+    }
+    (0.5 * (a + b)).exp()
+}
+
+/// Per channel, the range of light `e`'s radiance that keeps the median albedo of every patch
+/// it lights strongly within [KD_MIN, KD_MAX], the other lights at `l` (elsewhere the others'
+/// light hides it).
+fn albedo_bounds(samples: &[Sample], l: &[Vec3], e: usize) -> (Vec3, Vec3) {
+    let patches = lit_patches(samples, l, e);
+    if patches.is_empty() {
+        return (Vec3::ZERO, Vec3::splat(f32::INFINITY));
+    }
+    let (mut lo, mut hi) = (Vec3::ZERO, Vec3::splat(f32::INFINITY));
+    for c in 0..3 {
+        for p in &patches {
+            let f = |x: f32| patch_kd(p, e, c, x);
+            // At least what keeps the patch at or below KD_MAX; at most what keeps it above
+            // KD_MIN (when no light at all leaves it above KD_MIN, it bounds nothing).
+            lo[c] = lo[c].max(if f(0.0) > KD_MAX { solve_falling(f, KD_MAX, 1e-6, 1e9) } else { 0.0 });
+            if f(1e9) < KD_MIN {
+                hi[c] = hi[c].min(solve_falling(f, KD_MIN, 1e-6, 1e9));
+            }
+        }
+    }
+    (lo, hi)
+}
+
+/// Light `e`'s radiance where the views do not pin it: per channel, its albedo lower bound
+/// (the brightest surface it lights strongly at [`KD_MAX`]) scaled so that surface reads
+/// [`KD_BRIGHT`] instead, inside `range` (the clip bound may be higher); no channel under a
+/// [`MAX_TINT`]th of the brightest (lights are white to warm or cool, not one primary: a
+/// channel that rises alone is a coloured surface's clipping). Scaling the bound, rather
+/// than solving that surface for KD_BRIGHT, keeps the choice where the light's own share of
+/// the surface's light is small (there, a small change of albedo asks a large one of it).
+fn bright_prior(albedo_lo: Vec3, range: [Vec3; 2]) -> Vec3 {
+    let x = (albedo_lo * (KD_MAX / KD_BRIGHT)).clamp(range[0], range[1]);
+    x.max(Vec3::splat(x.max_element() / MAX_TINT))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Samples of two patches (albedo 0.8 and 0.3) lit by one light of radiance `l` through
+    /// D falling from 0.05 to 0.005 along them, plus light from the room A = `ambient`; all
+    /// radiances times `scale`.
+    fn room(l: f32, ambient: f32, scale: f32) -> Vec<Sample> {
+        let mut out = vec![];
+        for (patch, kd) in [(0u32, 0.8f32), (1, 0.3)] {
+            for k in 0..200 {
+                let d = 0.05 * 10f32.powf(-(k as f32) / 200.0);
+                let shade = ambient + l * d;
+                out.push(Sample {
+                    at: (0, k, patch as usize),
+                    patch,
+                    i: Vec3::splat(kd * shade * scale),
+                    a: Vec3::splat(ambient * scale),
+                    d: vec![d],
+                });
+            }
+        }
+        out
+    }
+
+    fn unpinned() -> Vec<LightEstimate> {
+        vec![LightEstimate {
+            triangles: 2,
+            radiance: [0.0; 3],
+            levels: 0.0,
+            contrast: 0.0,
+            pinned: false,
+            range: [0.0, f32::INFINITY],
+            chosen_by: String::new(),
+        }]
+    }
+
+    #[test]
+    fn an_unpinned_light_is_bounded_and_set_by_the_brightest_surface() {
+        let samples = room(10.0, 0.02, 1.0);
+        let mut out = unpinned();
+        bound_and_choose(&samples, &mut out, &[1.0], 1.0);
+        let x = &out[0];
+        // kd ≤ 0.95 on the 0.8 patch: L ≥ 10 · 0.8 / 0.95 (less the room's share).
+        assert!(x.range[0] <= 10.0 && x.range[0] > 7.0, "{:?}", x.range);
+        // kd ≥ 0.02 on the 0.3 patch: L ≤ 10 · 0.3 / 0.02.
+        assert!(x.range[1] >= 10.0 && x.range[1] < 200.0, "{:?}", x.range);
+        // The 0.8 patch read at KD_BRIGHT = 0.8: the true 10 (less the room's share).
+        assert!((x.levels - 10.0).abs() < 0.5, "{}", x.levels);
+        assert_eq!(x.chosen_by, "albedo");
+    }
+
+    #[test]
+    fn the_choice_scales_with_the_radiance_from_1e_minus_6_to_1e5() {
+        for scale in [1e-6f32, 1e5] {
+            let mut out = unpinned();
+            bound_and_choose(&room(10.0, 0.02, scale), &mut out, &[scale], scale);
+            assert!((out[0].levels - 10.0).abs() < 0.5, "{scale}: {}", out[0].levels);
+        }
+    }
+
+    #[test]
+    fn the_clip_level_bounds_from_below() {
+        // Views that see the light clipped at 40 (after their gains) say it is brighter.
+        let mut out = unpinned();
+        bound_and_choose(&room(10.0, 0.02, 1.0), &mut out, &[40.0], 1.0);
+        assert!(out[0].levels >= 40.0 - 1e-3 && out[0].range[0] >= 40.0 - 1e-3);
+    }
 }

@@ -15,6 +15,7 @@
 //! on `<body>`, which a headless browser's DOM dump reads.
 mod font;
 mod html;
+pub mod photo;
 mod sheet;
 
 use fipt_core::dataset::{Dataset, GtKind};
@@ -153,6 +154,9 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
         }
         i
     };
+    let mut photo = photo::PhotoModel::of(run);
+    // The inputs are shown at the working exposure: so is their clip level.
+    photo.clip /= exposure;
     for split in &ds.splits {
         let maps_dir = run.join("views").join(&split.name);
         for v in split.views.iter().take(opts.views) {
@@ -173,10 +177,32 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
                     )));
                 }
                 let e = pics.join(format!("error/{}_{k:03}.png", split.name));
-                error_map(&r, &input).write_png(&e, 1.0)?;
-                let p = fipt_core::metrics::srgb_psnr(&r.data, &input.data, None);
-                let png = maps_dir.join(format!("preview/{k:03}_render.png"));
-                (Some(rel(run, &png)), Some(rel(run, &e)), p)
+                if photo.ldr {
+                    // Like with like: the render at the view's exposure, through the camera,
+                    // clipped; the photo's clipped pixels are not scored.
+                    let known = if split.name == "train" { ds.view_exposure(v.index) } else { 1.0 };
+                    let gain = (split.name == "train")
+                        .then(|| photo.train_gains.as_ref().and_then(|g| g.get(v.index)).map(|g| g * known))
+                        .flatten();
+                    let shown = photo.as_photo(&r, &input, gain);
+                    let mut err = error_map(&shown.image, &input);
+                    for (p, c) in err.data.iter_mut().zip(&shown.clipped) {
+                        if *c {
+                            *p = glam::Vec3::new(0.0, 0.05, 0.6);
+                        }
+                    }
+                    err.write_png(&e, 1.0)?;
+                    let keep: Vec<bool> = shown.clipped.iter().map(|c| !c).collect();
+                    let p = fipt_core::metrics::srgb_psnr(&shown.image.data, &input.data, Some(&keep));
+                    let png = pics.join(format!("as_photo/{}_{k:03}.png", split.name));
+                    shown.image.write_png(&png, 1.0)?;
+                    (Some(rel(run, &png)), Some(rel(run, &e)), p)
+                } else {
+                    error_map(&r, &input).write_png(&e, 1.0)?;
+                    let p = fipt_core::metrics::srgb_psnr(&r.data, &input.data, None);
+                    let png = maps_dir.join(format!("preview/{k:03}_render.png"));
+                    (Some(rel(run, &png)), Some(rel(run, &e)), p)
+                }
             } else {
                 (None, None, None)
             };

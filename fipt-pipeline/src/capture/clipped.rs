@@ -50,23 +50,24 @@ pub fn restore_clipped_lights(
     let (hits, lights) = find_lights(geometry, views, &report.clipped);
     let kept: std::collections::HashSet<u32> = lights.iter().flatten().copied().collect();
     let light = |t: u32| kept.contains(&t);
-    let gains = report
-        .exposure_fit
-        .as_ref()
-        .filter(|_| report.exposures_applied)
-        .map(|f| f.gains.clone());
     let mut cl = ClippedLights {
         assumed: CLIPPED_LIGHT_LEVELS,
         ..Default::default()
     };
     let skip: Vec<Vec<bool>> = report.clipped.clone();
-    let estimates = crate::light_scale::estimate(geometry, views, images, &lights, &skip, level);
+    let seen_clipped = clip_bounds(&hits, &lights, &report.clipped, &report.view_clip);
+    let estimates = crate::light_scale::estimate(
+        geometry,
+        views,
+        images,
+        &lights,
+        &skip,
+        level,
+        &seen_clipped,
+    );
     let mut radiance: HashMap<u32, glam::Vec3> = HashMap::new();
     for (e, tris) in lights.iter().enumerate() {
-        let est = estimates
-            .as_ref()
-            .and_then(|v| v.get(e))
-            .filter(|x| x.pinned);
+        let est = estimates.as_ref().and_then(|v| v.get(e));
         if let Some(x) = est {
             for &t in tris {
                 radiance.insert(t, glam::Vec3::from_array(x.radiance));
@@ -77,7 +78,7 @@ pub fn restore_clipped_lights(
     cl.triangles = lights.iter().map(Vec::len).sum();
     report.left_out = vec![];
     for (v, img) in images.iter_mut().enumerate() {
-        let g = gains.as_ref().map_or(1.0, |g| g[v]);
+        let clip = report.view_clip.get(v).copied().unwrap_or(level);
         let mut out = vec![false; img.data.len()];
         for (i, p) in img.data.iter_mut().enumerate() {
             if !report.clipped[v][i] {
@@ -88,7 +89,7 @@ pub fn restore_clipped_lights(
                     *p = radiance
                         .get(&t)
                         .copied()
-                        .unwrap_or(glam::Vec3::splat(CLIPPED_LIGHT_LEVELS * level / g));
+                        .unwrap_or(glam::Vec3::splat(CLIPPED_LIGHT_LEVELS * clip));
                     cl.pixels += 1;
                 }
                 None => {
@@ -151,25 +152,56 @@ fn find_lights(
     (hits, lights)
 }
 
+/// Per light, the least radiance its clipped pixels imply: the highest clip level (in the
+/// stages' units) of the views that see it clipped.
+fn clip_bounds(
+    hits: &[Vec<Option<u32>>],
+    lights: &[Vec<u32>],
+    clipped: &[Vec<bool>],
+    view_clip: &[f32],
+) -> Vec<f32> {
+    let of: HashMap<u32, usize> = lights
+        .iter()
+        .enumerate()
+        .flat_map(|(e, t)| t.iter().map(move |&t| (t, e)))
+        .collect();
+    let mut bound = vec![0f32; lights.len()];
+    for (v, hv) in hits.iter().enumerate() {
+        for (i, t) in hv.iter().enumerate() {
+            if let Some(&e) = t.and_then(|t| of.get(&t)) {
+                if clipped[v][i] {
+                    bound[e] = bound[e].max(view_clip.get(v).copied().unwrap_or(0.0));
+                }
+            }
+        }
+    }
+    bound
+}
+
 /// What `report.json` and the log say of the clipped lights.
 fn describe(cl: &ClippedLights, lights: usize) -> String {
     let said: Vec<String> = cl
         .estimates
         .iter()
         .map(|e| {
-            if e.pinned {
-                format!("{} triangles: {:.1} clip levels, RGB {:.2?} (the curve rises {:.0} % at 10× off)", e.triangles, e.levels, e.radiance, 100.0 * e.contrast)
-            } else {
-                format!("{} triangles: NOT PINNED by the views (the curve rises {:.1} % at 10× off), set by convention to {} clip levels", e.triangles, 100.0 * e.contrast, CLIPPED_LIGHT_LEVELS)
+            let range = format!(
+                "the views allow {:.1} … {} clip levels",
+                e.range[0],
+                if e.range[1].is_finite() { format!("{:.0}", e.range[1]) } else { "∞".into() }
+            );
+            match e.chosen_by.as_str() {
+                "flatness" => format!("{} triangles: {:.1} clip levels, RGB {:.2?}, pinned by the surfaces it lights (the curve rises {:.0} % at 10× off; {range})", e.triangles, e.levels, e.radiance, 100.0 * e.contrast),
+                "albedo" => format!("{} triangles: NOT PINNED by the shading it casts (the curve rises {:.1} % at 10× off); {range}; set to {:.1} clip levels, RGB {:.2?}, where the brightest surface it lights strongly reads albedo {} (the least wrong over rooms whose brightest lit surface is 0.65 … 0.95)", e.triangles, 100.0 * e.contrast, e.levels, e.radiance, crate::light_scale::KD_BRIGHT),
+                _ => format!("{} triangles: NOT PINNED and lighting too few unclipped surfaces to bound it; set to its lower bound, {:.1} clip levels ({range})", e.triangles, e.levels),
             }
         })
         .collect();
     format!(
-        "{} triangles clip in at least {:.0} % of their pixels over all views: {} light(s) whose radiance the LDR views do not give. Estimated from the surfaces they light (the radiance per channel at which kd varies least along smooth patches): {}. The absolute scale of radiance and kd rests on this estimate; {} other clipped pixels are left out of the material loss",
+        "{} triangles clip in at least {:.0} % of their pixels over all views: {} light(s) whose radiance the LDR views do not give. Estimated from the surfaces they light: {}. The absolute scale of radiance and kd rests on these estimates; {} other clipped pixels are left out of the material loss",
         cl.triangles,
         100.0 * CLIPPED_TRIANGLE_SHARE,
         lights,
-        if said.is_empty() { "no estimate (no sample)".to_string() } else { said.join("; ") },
+        if said.is_empty() { format!("no estimate (no sample): set by convention to {CLIPPED_LIGHT_LEVELS} clip levels") } else { said.join("; ") },
         cl.left_out_pixels
     )
 }

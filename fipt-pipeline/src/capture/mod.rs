@@ -31,6 +31,10 @@ pub struct CaptureReport {
     pub check: LdrCheck,
     /// The value LDR views clip at (1 for 8-bit files), before any gain.
     pub clip_level: Option<f32>,
+    /// Per training view, the value it clips at in the units the stages see (after its known
+    /// exposure and its fitted gain; LDR views only).
+    #[serde(skip)]
+    pub view_clip: Vec<f32>,
     /// The fitted exposures, and whether the views were divided by them (LDR views only).
     pub exposure_fit: Option<GainFit>,
     pub exposures_applied: bool,
@@ -165,12 +169,21 @@ pub fn examine(
             level
         };
         r.clip_level = Some(level);
-        // A stored value of 250 and above clips, whatever the curve decodes it to.
+        // Each view clips at the level over its known exposure (it was divided by it); a
+        // stored value of 250 and above clips, whatever the curve decodes it to.
+        let known = ds.known_exposures().map(|(e, _)| e.to_vec());
+        r.view_clip = (0..images.len())
+            .map(|k| level / known.as_ref().map_or(1.0, |e| e[k]))
+            .collect();
         let at = match r.response.as_ref().filter(|f| f.applied) {
-            Some(f) => level * f.to_linear(250.0 / 255.0),
-            None => level * fipt_core::color::srgb_eotf(250.0 / 255.0),
+            Some(f) => f.to_linear(250.0 / 255.0),
+            None => fipt_core::color::srgb_eotf(250.0 / 255.0),
         };
-        r.clipped = images.iter().map(|i| clipped_mask_at(i, at)).collect();
+        r.clipped = images
+            .iter()
+            .zip(&r.view_clip)
+            .map(|(i, l)| clipped_mask_at(i, l * at))
+            .collect();
     }
     // Masked pixels (people, screens) say nothing of the views' exposures either.
     let unused = if masks.iter().any(Option::is_some) {
@@ -207,10 +220,11 @@ pub fn examine(
             ));
         }
         if check.ldr && f.spread > GAIN_SPREAD_WARN {
-            for (img, g) in images.iter_mut().zip(&f.gains) {
+            for ((img, g), clip) in images.iter_mut().zip(&f.gains).zip(&mut r.view_clip) {
                 for p in &mut img.data {
                     *p /= *g;
                 }
+                *clip /= *g;
             }
             r.exposures_applied = true;
         }

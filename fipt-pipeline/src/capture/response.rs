@@ -115,11 +115,7 @@ pub fn fit_response(
     }
     let known_log: Option<Vec<f64>> = known.map(|e| centred(e.iter().map(|&x| (x as f64).ln())));
     let srgb = Curve::srgb();
-    // Leave out the series the views disagree on most under sRGB (highlights that move with
-    // the view, misregistered edges): above twice the median residual.
-    let series = consistent(series, &srgb, views.len(), known_log.as_deref());
-    let (g0, r0) = gains_for(&series, &srgb, views.len(), known_log.as_deref());
-    fit.residual_srgb = r0 as f32;
+    let (g0, _) = gains_for(&series, &srgb, views.len(), known_log.as_deref());
     let spread = (g0.iter().cloned().fold(f64::MIN, f64::max)
         - g0.iter().cloned().fold(f64::MAX, f64::min))
     .exp() as f32;
@@ -129,6 +125,12 @@ pub fn fit_response(
         );
         return fit;
     }
+    // Leave out the series the views disagree on most (highlights that move with the view,
+    // misregistered edges): above twice the median residual under a first fit on them all
+    // (under sRGB the series a curve changes most would be the ones left out).
+    let first = fit_curve(&series, views.len(), known_log.as_deref());
+    let series = consistent(series, &first, views.len(), known_log.as_deref());
+    fit.residual_srgb = gains_for(&series, &srgb, views.len(), known_log.as_deref()).1 as f32;
     let mut curve = fit_curve(&series, views.len(), known_log.as_deref());
     if known.is_none() {
         curve.gamma = curve.nearest_srgb_gamma();
