@@ -237,3 +237,73 @@ fn a_run_downscaled_on_read_equals_the_run_of_the_small_views() {
         );
     }
 }
+
+/// `fipt info --json`'s `response` for a JPEG copy of `src` through `tone`, with EXIF.
+fn fitted_response(src: &Path, copy: &Path, tone: &str) -> Value {
+    degrade(
+        src,
+        copy,
+        &[
+            "--ldr",
+            "auto",
+            "--format",
+            "jpg",
+            "--jpeg-quality",
+            "95",
+            "--exif",
+            "--tone",
+            tone,
+        ],
+    );
+    let (ok, out, err) = fipt(&["info", copy.to_str().unwrap(), "--json"]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out[out.find('{').expect("json")..]).expect("json");
+    v["response"].clone()
+}
+
+#[test]
+fn a_phone_tone_curve_is_fitted_and_an_srgb_camera_stays_srgb() {
+    let dir = tmp("layouts-response");
+    let src = dir.join("scene");
+    synth("cornell", src.to_str().unwrap(), [16, 2, 128, 96, 64], &[]);
+    let srgb = fitted_response(&src, &dir.join("srgb"), "srgb");
+    assert!(
+        srgb["outcome"].as_str().unwrap().starts_with("srgb"),
+        "{srgb}"
+    );
+    assert_eq!(srgb["applied"], false, "{srgb}");
+    let s = fitted_response(&src, &dir.join("scurve"), "scurve:1.5");
+    assert_eq!(s["outcome"], "fitted", "{s}");
+    // The fitted curve against the true one, both at 1 at stored 230, over 0 … 230.
+    let truth = match fipt_pipeline::degrade::tone_curve("scurve:1.5").unwrap() {
+        fipt_core::capture::Response::Table(t) => t,
+        _ => unreachable!(),
+    };
+    let fit: Vec<f32> = s["linear"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap() as f32)
+        .collect();
+    let at = |t: &[f32], v: f32| {
+        let x = v * (t.len() - 1) as f32;
+        let i = (x.floor() as usize).min(t.len() - 2);
+        t[i] + (t[i + 1] - t[i]) * (x - i as f32)
+    };
+    let top = 230.0 / 255.0;
+    let rms_to_truth = |curve: &dyn Fn(f32) -> f32| {
+        let sq: f32 = (0..=230)
+            .map(|k| k as f32 / 255.0)
+            .map(|v| (curve(v) / curve(top) - at(&truth, v) / at(&truth, top)).powi(2))
+            .sum();
+        (sq / 231.0).sqrt()
+    };
+    let rms = rms_to_truth(&|v| at(&fit, v));
+    let srgb = rms_to_truth(&|v| fipt_core::color::srgb_eotf(v));
+    // A small generated room (16 views of 128 × 96) pins the curve
+    // less than the Mitsuba rooms of docs/phone-captures.md (0.005 … 0.010 there).
+    assert!(
+        rms < 0.03 && rms < 0.6 * srgb,
+        "RMS {rms} (sRGB's {srgb}): {s}"
+    );
+}

@@ -162,13 +162,11 @@ impl Surfaces<'_> {
                 for y in (STRIDE / 2..h).step_by(STRIDE) {
                     for x in (STRIDE / 2..w).step_by(STRIDE) {
                         let i = y * w + x;
-                        let Some(hit) =
-                            hits[v][i].filter(|h| {
-                                !skip[v][i]
-                                    && !self.is_light.contains(&h.tri)
-                                    && !self.near_light.contains(&h.tri)
-                            })
-                        else {
+                        let Some(hit) = hits[v][i].filter(|h| {
+                            !skip[v][i]
+                                && !self.is_light.contains(&h.tri)
+                                && !self.near_light.contains(&h.tri)
+                        }) else {
                             continue;
                         };
                         let seen = images[v].data[i];
@@ -434,7 +432,12 @@ fn cost(samples: &[Sample], pairs: &[(usize, usize)], channel: usize, l: &[f32])
 /// Each light's range from the bounds, and its radiance where the flatness does not pin it
 /// (or pins it outside the range): the albedo prior [`KD_BRIGHT`] inside the range, the
 /// lights set together (each one's share of a sample's light depends on the others').
-fn bound_and_choose(samples: &[Sample], out: &mut [LightEstimate], seen_clipped: &[f32], level: f32) {
+fn bound_and_choose(
+    samples: &[Sample],
+    out: &mut [LightEstimate],
+    seen_clipped: &[f32],
+    level: f32,
+) {
     let n = out.len();
     // Start from the flatness estimates where pinned, else the clip bound.
     let mut l: Vec<Vec3> = out
@@ -463,16 +466,20 @@ fn bound_and_choose(samples: &[Sample], out: &mut [LightEstimate], seen_clipped:
     }
     for (e, x) in out.iter_mut().enumerate() {
         let chosen = Vec3::from_array(x.radiance);
-        x.chosen_by = if x.pinned && chosen.cmpge(range[e][0]).all() && chosen.cmple(range[e][1]).all() {
-            "flatness".into()
-        } else if range[e][1].is_finite() || range[e][0].cmpgt(Vec3::ZERO).any() {
-            "albedo".into()
-        } else {
-            "lower bound".into()
-        };
+        x.chosen_by =
+            if x.pinned && chosen.cmpge(range[e][0]).all() && chosen.cmple(range[e][1]).all() {
+                "flatness".into()
+            } else if range[e][1].is_finite() || range[e][0].cmpgt(Vec3::ZERO).any() {
+                "albedo".into()
+            } else {
+                "lower bound".into()
+            };
         x.radiance = l[e].to_array();
         x.levels = luminance(l[e]) / level;
-        x.range = [luminance(range[e][0]) / level, luminance(range[e][1]) / level];
+        x.range = [
+            luminance(range[e][0]) / level,
+            luminance(range[e][1]) / level,
+        ];
     }
 }
 
@@ -480,7 +487,11 @@ fn bound_and_choose(samples: &[Sample], out: &mut [LightEstimate], seen_clipped:
 /// does not depend on the radiances being estimated), each with the shading everything else
 /// gives it per channel at radiances `l`: (sample, others' shading).
 fn lit_by<'a>(samples: &'a [Sample], l: &[Vec3], e: usize) -> Vec<(&'a Sample, Vec3)> {
-    let mut d: Vec<f32> = samples.iter().map(|s| s.d[e]).filter(|&d| d > 0.0).collect();
+    let mut d: Vec<f32> = samples
+        .iter()
+        .map(|s| s.d[e])
+        .filter(|&d| d > 0.0)
+        .collect();
     if d.is_empty() {
         return vec![];
     }
@@ -511,12 +522,17 @@ fn lit_patches<'a>(samples: &'a [Sample], l: &[Vec3], e: usize) -> Vec<Vec<(&'a 
     for (s, o) in lit_by(samples, l, e) {
         by.entry(s.patch).or_default().push((s, o));
     }
-    by.into_values().filter(|p| p.len() >= MIN_PATCH_SAMPLES).collect()
+    by.into_values()
+        .filter(|p| p.len() >= MIN_PATCH_SAMPLES)
+        .collect()
 }
 
 /// A patch's median albedo in channel `c` with light `e` at `x`.
 fn patch_kd(p: &[(&Sample, Vec3)], e: usize, c: usize, x: f32) -> f32 {
-    let mut kd: Vec<f32> = p.iter().map(|(s, o)| s.i[c] / (o[c] + x * s.d[e]).max(1e-12)).collect();
+    let mut kd: Vec<f32> = p
+        .iter()
+        .map(|(s, o)| s.i[c] / (o[c] + x * s.d[e]).max(1e-12))
+        .collect();
     let m = kd.len() / 2;
     *kd.select_nth_unstable_by(m, f32::total_cmp).1
 }
@@ -533,7 +549,11 @@ fn solve_falling(f: impl Fn(f32) -> f32, target: f32, lo: f32, hi: f32) -> f32 {
     }
     for _ in 0..40 {
         let m = 0.5 * (a + b);
-        if f(m.exp()) > target { a = m } else { b = m }
+        if f(m.exp()) > target {
+            a = m
+        } else {
+            b = m
+        }
     }
     (0.5 * (a + b)).exp()
 }
@@ -552,7 +572,11 @@ fn albedo_bounds(samples: &[Sample], l: &[Vec3], e: usize) -> (Vec3, Vec3) {
             let f = |x: f32| patch_kd(p, e, c, x);
             // At least what keeps the patch at or below KD_MAX; at most what keeps it above
             // KD_MIN (when no light at all leaves it above KD_MIN, it bounds nothing).
-            lo[c] = lo[c].max(if f(0.0) > KD_MAX { solve_falling(f, KD_MAX, 1e-6, 1e9) } else { 0.0 });
+            lo[c] = lo[c].max(if f(0.0) > KD_MAX {
+                solve_falling(f, KD_MAX, 1e-6, 1e9)
+            } else {
+                0.0
+            });
             if f(1e9) < KD_MIN {
                 hi[c] = hi[c].min(solve_falling(f, KD_MIN, 1e-6, 1e9));
             }
@@ -630,7 +654,11 @@ mod tests {
         for scale in [1e-6f32, 1e5] {
             let mut out = unpinned();
             bound_and_choose(&room(10.0, 0.02, scale), &mut out, &[scale], scale);
-            assert!((out[0].levels - 10.0).abs() < 0.5, "{scale}: {}", out[0].levels);
+            assert!(
+                (out[0].levels - 10.0).abs() < 0.5,
+                "{scale}: {}",
+                out[0].levels
+            );
         }
     }
 

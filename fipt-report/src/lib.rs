@@ -180,9 +180,19 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
                 if photo.ldr {
                     // Like with like: the render at the view's exposure, through the camera,
                     // clipped; the photo's clipped pixels are not scored.
-                    let known = if split.name == "train" { ds.view_exposure(v.index) } else { 1.0 };
+                    let known = if split.name == "train" {
+                        ds.view_exposure(v.index)
+                    } else {
+                        1.0
+                    };
                     let gain = (split.name == "train")
-                        .then(|| photo.train_gains.as_ref().and_then(|g| g.get(v.index)).map(|g| g * known))
+                        .then(|| {
+                            photo
+                                .train_gains
+                                .as_ref()
+                                .and_then(|g| g.get(v.index))
+                                .map(|g| g * known)
+                        })
                         .flatten();
                     let shown = photo.as_photo(&r, &input, gain);
                     let mut err = error_map(&shown.image, &input);
@@ -193,7 +203,8 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
                     }
                     err.write_png(&e, 1.0)?;
                     let keep: Vec<bool> = shown.clipped.iter().map(|c| !c).collect();
-                    let p = fipt_core::metrics::srgb_psnr(&shown.image.data, &input.data, Some(&keep));
+                    let p =
+                        fipt_core::metrics::srgb_psnr(&shown.image.data, &input.data, Some(&keep));
                     let png = pics.join(format!("as_photo/{}_{k:03}.png", split.name));
                     shown.image.write_png(&png, 1.0)?;
                     (Some(rel(run, &png)), Some(rel(run, &e)), p)

@@ -41,8 +41,12 @@ impl PhotoModel {
         };
         let c = &r["capture"];
         let floats = |v: &serde_json::Value| -> Option<Vec<f32>> {
-            v.as_array()
-                .map(|a| a.iter().filter_map(|x| x.as_f64()).map(|x| x as f32).collect())
+            v.as_array().map(|a| {
+                a.iter()
+                    .filter_map(|x| x.as_f64())
+                    .map(|x| x as f32)
+                    .collect()
+            })
         };
         PhotoModel {
             ldr: c["ldr"].as_bool().unwrap_or(false),
@@ -65,7 +69,11 @@ impl PhotoModel {
     /// the unclipped pixels), through the fitted response, clipped.
     pub fn as_photo(&self, render: &Image, input: &Image, gain: Option<f32>) -> AsPhoto {
         let clip_at = self.clip * srgb_eotf(250.0 / 255.0);
-        let clipped: Vec<bool> = input.data.iter().map(|p| p.max_element() >= clip_at).collect();
+        let clipped: Vec<bool> = input
+            .data
+            .iter()
+            .map(|p| p.max_element() >= clip_at)
+            .collect();
         let gain = gain.unwrap_or_else(|| self.fitted_gain(render, input, &clipped));
         let data = render
             .data
@@ -73,7 +81,10 @@ impl PhotoModel {
             .map(|p| Vec3::from_array((*p * gain).to_array().map(|x| self.encode(x))))
             .collect();
         AsPhoto {
-            image: Image { data, ..render.clone() },
+            image: Image {
+                data,
+                ..render.clone()
+            },
             clipped,
             gain,
         }
@@ -110,7 +121,10 @@ impl PhotoModel {
             .zip(clipped)
             .filter(|(_, c)| !**c)
             .filter_map(|((a, b), _)| {
-                let (a, b) = (luminance(*a), luminance(Vec3::from_array(b.to_array().map(|x| self.decode(x)))));
+                let (a, b) = (
+                    luminance(*a),
+                    luminance(Vec3::from_array(b.to_array().map(|x| self.decode(x)))),
+                );
                 (a > 1e-6 && b > 1e-3 * self.clip).then(|| b / a)
             })
             .collect();
@@ -125,7 +139,11 @@ impl PhotoModel {
 fn stored_of(t: &[f32], v: f32) -> f32 {
     let i = t.partition_point(|&y| y < v).clamp(1, t.len() - 1);
     let (a, b) = (t[i - 1], t[i]);
-    let f = if b > a { ((v - a) / (b - a)).clamp(0.0, 1.0) } else { 0.0 };
+    let f = if b > a {
+        ((v - a) / (b - a)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     ((i - 1) as f32 + f) / (t.len() - 1) as f32
 }
 
@@ -134,12 +152,20 @@ mod tests {
     use super::*;
 
     fn image(v: &[f32]) -> Image {
-        Image { width: v.len(), height: 1, data: v.iter().map(|&x| Vec3::splat(x)).collect() }
+        Image {
+            width: v.len(),
+            height: 1,
+            data: v.iter().map(|&x| Vec3::splat(x)).collect(),
+        }
     }
 
     #[test]
     fn an_auto_exposed_view_is_shown_at_its_gain_and_clipped() {
-        let m = PhotoModel { ldr: true, clip: 1.0, ..Default::default() };
+        let m = PhotoModel {
+            ldr: true,
+            clip: 1.0,
+            ..Default::default()
+        };
         // The photo: the scene ×4, clipped at 1.
         let scene = [0.01, 0.05, 0.1, 0.2, 0.5];
         let photo: Vec<f32> = scene.iter().map(|x| (x * 4.0f32).min(1.0)).collect();
@@ -155,12 +181,21 @@ mod tests {
     fn a_fitted_response_round_trips() {
         // A gamma-2 camera, its curve as the run reports it; the input decoded as sRGB.
         let t: Vec<f32> = (0..=32).map(|k| (k as f32 / 32.0).powi(2)).collect();
-        let m = PhotoModel { ldr: true, clip: 1.0, response: Some(t), ..Default::default() };
+        let m = PhotoModel {
+            ldr: true,
+            clip: 1.0,
+            response: Some(t),
+            ..Default::default()
+        };
         for x in [0.01f32, 0.1, 0.4, 0.9] {
             let stored = x.sqrt();
             let input = srgb_eotf(stored);
             assert!((m.encode(x) - input).abs() < 2e-3, "{x}");
-            assert!((m.decode(input) - x).abs() < 5e-3, "{x}: {}", m.decode(input));
+            assert!(
+                (m.decode(input) - x).abs() < 5e-3,
+                "{x}: {}",
+                m.decode(input)
+            );
         }
     }
 }

@@ -15,6 +15,7 @@ use fipt_core::color::{srgb_eotf, srgb_oetf, Rgb};
 use fipt_core::dataset::View;
 use fipt_core::image::Image;
 use fipt_geom::Geometry;
+use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
 
@@ -40,9 +41,9 @@ const SMOOTH: f64 = 1e-5;
 const PRIOR: f64 = 1e-10;
 /// A curve is used when its linear values depart from sRGB's by this RMS over the stored
 /// values…
-pub const MIN_DEPARTURE: f32 = 0.01;
+pub const MIN_DEPARTURE: f32 = 0.03;
 /// …and it lowers the views' disagreement by this share.
-const MIN_GAIN: f32 = 0.05;
+const MIN_GAIN: f32 = 0.1;
 /// Without known exposures, views whose fitted exposures spread less than this do not tell
 /// a curve from another.
 const MIN_SPREAD: f32 = 1.5;
@@ -241,20 +242,6 @@ impl Curve {
         ((at(b) - at(a)) / (b - a)).max(1e-2)
     }
 
-    /// The stored value whose ln h is `log` (bisection; h is increasing).
-    fn stored(&self, log: f64) -> f64 {
-        let (mut lo, mut hi) = (0.0f64, 1.0f64);
-        for _ in 0..30 {
-            let mid = 0.5 * (lo + hi);
-            if self.log(mid) < log {
-                lo = mid
-            } else {
-                hi = mid
-            }
-        }
-        0.5 * (lo + hi)
-    }
-
     /// The γ of h's family (h^γ) nearest sRGB: least squares of ln h against ln sRGB⁻¹ over
     /// the stored values used, weighed into stored units.
     fn nearest_srgb_gamma(&self) -> f64 {
@@ -332,13 +319,14 @@ fn stored_series(
 /// The series whose RMS residual under `curve` is at most twice the median one.
 fn consistent(series: Vec<Series>, curve: &Curve, nv: usize, known: Option<&[f64]>) -> Vec<Series> {
     let (g, radiance) = fit_gains(&series, curve, nv, known);
+    let inv = Inverse::of(curve);
     let rms: Vec<f64> = series
         .iter()
         .zip(&radiance)
         .map(|(o, r)| {
             let sq: f64 = o
                 .iter()
-                .map(|&(v, s)| residual(curve, s, g[v] + r).powi(2))
+                .map(|&(v, s)| residual(&inv, s, g[v] + r).powi(2))
                 .sum();
             (sq / o.len() as f64).sqrt()
         })
@@ -359,8 +347,38 @@ fn consistent(series: Vec<Series>, curve: &Curve, nv: usize, known: Option<&[f64
 
 /// An observation's residual in stored units: s against the stored value the curve gives
 /// g·R (exact: a flattened curve gains nothing).
-fn residual(curve: &Curve, s: f64, log_gr: f64) -> f64 {
-    s - curve.stored(log_gr)
+fn residual(inv: &Inverse, s: f64, log_gr: f64) -> f64 {
+    s - inv.stored(log_gr)
+}
+
+/// A curve's ln h tabulated on 4,097 stored values, to invert by a binary search.
+struct Inverse {
+    logs: Vec<f64>,
+}
+
+impl Inverse {
+    const STEPS: usize = 4096;
+
+    fn of(curve: &Curve) -> Inverse {
+        Inverse {
+            logs: (0..=Self::STEPS)
+                .map(|k| curve.log((k as f64 / Self::STEPS as f64).max(1e-5)))
+                .collect(),
+        }
+    }
+
+    /// The stored value whose ln h is `log` (h is increasing).
+    fn stored(&self, log: f64) -> f64 {
+        let t = &self.logs;
+        let i = t.partition_point(|&y| y < log).clamp(1, t.len() - 1);
+        let (a, b) = (t[i - 1], t[i]);
+        let f = if b > a {
+            ((log - a) / (b - a)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        ((i - 1) as f64 + f) / Self::STEPS as f64
+    }
 }
 
 /// The gains (log, mean 0) and the series' radiances (log) under `curve`: each the weighted
@@ -415,10 +433,11 @@ fn gains_for(
     known: Option<&[f64]>,
 ) -> (Vec<f64>, f64) {
     let (g, radiance) = fit_gains(series, curve, nv, known);
+    let inv = Inverse::of(curve);
     let (mut sq, mut n) = (0.0, 0usize);
     for (o, r) in series.iter().zip(&radiance) {
         for &(v, s) in o {
-            sq += residual(curve, s, g[v] + r).powi(2);
+            sq += residual(&inv, s, g[v] + r).powi(2);
             n += 1;
         }
     }
@@ -440,17 +459,18 @@ fn fit_curve(series: &[Series], nv: usize, known: Option<&[f64]>) -> Curve {
     let n = nk + if free_g { nv } else { 0 };
     let mut curve = Curve::srgb();
     let (mut g, mut radiance) = fit_gains(series, &curve, nv, known);
-    let mut cost = stored_cost(series, &curve, &g, &radiance);
+    let mut cost = stored_cost(series, &Inverse::of(&curve), &g, &radiance);
     let mut damping = 1e-3;
     for _ in 0..ROUNDS {
         let mut a = vec![vec![0f64; n]; n];
         let mut b = vec![0f64; n];
         let mut scale = 0.0;
         // Per series, its rows (x, y, weight) in log units: y = r·v'(ŝ), weight 1/v'(ŝ)².
+        let inv = Inverse::of(&curve);
         let rows_of = |c: usize, o: &Series| -> Vec<(Vec<(usize, f64)>, f64, f64)> {
             o.iter()
                 .map(|&(v, s)| {
-                    let pred = curve.stored(g[v] + radiance[c]);
+                    let pred = inv.stored(g[v] + radiance[c]);
                     let slope = curve.log_slope(pred);
                     let mut x: Vec<(usize, f64)> =
                         Curve::weights(pred).iter().map(|&(k, w)| (k, -w)).collect();
@@ -481,12 +501,13 @@ fn fit_curve(series: &[Series], nv: usize, known: Option<&[f64]>) -> Curve {
             }
         }
         // Each series' radiance: its best for the new curve and gains (a few Newton steps).
+        let next_inv = Inverse::of(&next);
         let nr: Vec<f64> = series
-            .iter()
+            .par_iter()
             .zip(&radiance)
-            .map(|(o, &r)| best_radiance(o, &next, &ng, r))
+            .map(|(o, &r)| best_radiance(o, &next, &next_inv, &ng, r))
             .collect();
-        let new_cost = stored_cost(series, &next, &ng, &nr);
+        let new_cost = stored_cost(series, &next_inv, &ng, &nr);
         if new_cost < cost {
             (curve, g, radiance, cost) = (next, ng, nr, new_cost);
             damping = (damping * 0.3).max(1e-6);
@@ -511,13 +532,13 @@ fn fit_curve(series: &[Series], nv: usize, known: Option<&[f64]>) -> Curve {
 }
 
 /// Σ (s − h⁻¹(g R))² over every observation.
-fn stored_cost(series: &[Series], curve: &Curve, g: &[f64], radiance: &[f64]) -> f64 {
+fn stored_cost(series: &[Series], inv: &Inverse, g: &[f64], radiance: &[f64]) -> f64 {
     series
-        .iter()
+        .par_iter()
         .zip(radiance)
         .map(|(o, r)| {
             o.iter()
-                .map(|&(v, s)| residual(curve, s, g[v] + r).powi(2))
+                .map(|&(v, s)| residual(inv, s, g[v] + r).powi(2))
                 .sum::<f64>()
         })
         .sum()
@@ -525,12 +546,12 @@ fn stored_cost(series: &[Series], curve: &Curve, g: &[f64], radiance: &[f64]) ->
 
 /// The log radiance of one series that fits its stored values best under `curve` and gains
 /// `g`, from `start` (Gauss–Newton in one unknown).
-fn best_radiance(o: &Series, curve: &Curve, g: &[f64], start: f64) -> f64 {
+fn best_radiance(o: &Series, curve: &Curve, inv: &Inverse, g: &[f64], start: f64) -> f64 {
     let mut r = start;
     for _ in 0..4 {
         let (mut num, mut den) = (0.0, 0.0);
         for &(v, s) in o {
-            let pred = curve.stored(g[v] + r);
+            let pred = inv.stored(g[v] + r);
             let dpred = 1.0 / curve.log_slope(pred);
             num += (s - pred) * dpred;
             den += dpred * dpred;
