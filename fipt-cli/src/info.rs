@@ -164,16 +164,8 @@ pub fn run(a: Args) -> Result<()> {
             }
         );
     }
-    if let Some(r) = &sum.response {
-        say!(
-            "response    {} (fitted on {} surface series, gains {}; departs from sRGB by {:.3} RMS; views disagree by {:.2} 8-bit steps RMS under sRGB, {:.2} under the fit)",
-            r.outcome,
-            r.series,
-            r.gains,
-            r.departure,
-            r.residual_srgb,
-            r.residual_fitted
-        );
+    if let Some(line) = response_line(sum.response.as_ref()) {
+        say!("{line}");
     }
     if let Some(f) = &sum.exposure_fit {
         let lo = f.gains.iter().cloned().fold(f32::INFINITY, f32::min);
@@ -204,4 +196,12 @@ pub fn run(a: Args) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&sum)?);
     }
     Ok(())
+}
+
+/// The line on the camera's response, where one was fitted.
+fn response_line(r: Option<&fipt_pipeline::capture::ResponseFit>) -> Option<String> {
+    r.map(|r| format!(
+        "response    {} (fitted on {} surface series, gains {}; departs from sRGB by {:.3} RMS; views disagree by {:.2} 8-bit steps RMS under sRGB, {:.2} under the fit)",
+        r.outcome, r.series, r.gains, r.departure, r.residual_srgb, r.residual_fitted
+    ))
 }

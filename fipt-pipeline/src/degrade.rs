@@ -396,11 +396,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
             }
         }
     }
-    let note = match a.ldr {
-        LdrMode::None => "HDR: the views are the source's radiance (with the noise)".into(),
-        LdrMode::Fixed => format!("8-bit at one exposure: stored = tone(min(1, {:.4e} × radiance)), tone = request.tone", fixed_gain.unwrap_or(1.0)),
-        LdrMode::Auto => "8-bit at each view's exposure: stored = tone(min(1, gain × radiance)), tone = request.tone, gain per view below".into(),
-    };
+    let note = note_of(a.ldr, fixed_gain);
     let record = DegradeRecord {
         fipt_version: env!("CARGO_PKG_VERSION"),
         request: a.clone(),
@@ -557,6 +553,15 @@ fn write_mesh(a: &DegradeRequest, ds: &Dataset) -> Result<usize> {
     );
     m.write_obj(&a.out.join("scene.obj"), &header)?;
     Ok(m.triangles.len())
+}
+
+/// `degrade.json`'s note: how the copy's stored values relate to the source's radiance.
+fn note_of(ldr: LdrMode, fixed_gain: Option<f32>) -> String {
+    match ldr {
+        LdrMode::None => "HDR: the views are the source's radiance (with the noise)".into(),
+        LdrMode::Fixed => format!("8-bit at one exposure: stored = tone(min(1, {:.4e} × radiance)), tone = request.tone", fixed_gain.unwrap_or(1.0)),
+        LdrMode::Auto => "8-bit at each view's exposure: stored = tone(min(1, gain × radiance)), tone = request.tone, gain per view below".into(),
+    }
 }
 
 /// A split's luminances (every 7th pixel of every view), checked not all black.

@@ -130,14 +130,8 @@ pub fn inspect(
         );
     }
     let (capture, convention) = exposures(&ds, &mesh, policy, &mut warnings)?;
+    warnings.extend(capture.response_warning());
     let (exposure_fit, edges, ldr) = (capture.exposure_fit, capture.edges, capture.check.ldr);
-    warnings.extend(
-        capture
-            .warnings
-            .iter()
-            .filter(|w| w.contains("response is NOT sRGB"))
-            .cloned(),
-    );
     let exif = crate::capture::ExifReport::of(&ds, exposure_fit.as_ref());
     warnings.extend(exif.warning.clone());
     warnings.extend(crate::capture::edge_warning(&edges));

@@ -176,44 +176,13 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
                         ),
                     )));
                 }
-                let e = pics.join(format!("error/{}_{k:03}.png", split.name));
-                if photo.ldr {
-                    // Like with like: the render at the view's exposure, through the camera,
-                    // clipped; the photo's clipped pixels are not scored.
-                    let known = if split.name == "train" {
-                        ds.view_exposure(v.index)
-                    } else {
-                        1.0
-                    };
-                    let gain = (split.name == "train")
-                        .then(|| {
-                            photo
-                                .train_gains
-                                .as_ref()
-                                .and_then(|g| g.get(v.index))
-                                .map(|g| g * known)
-                        })
-                        .flatten();
-                    let shown = photo.as_photo(&r, &input, gain);
-                    let mut err = error_map(&shown.image, &input);
-                    for (p, c) in err.data.iter_mut().zip(&shown.clipped) {
-                        if *c {
-                            *p = glam::Vec3::new(0.0, 0.05, 0.6);
-                        }
-                    }
-                    err.write_png(&e, 1.0)?;
-                    let keep: Vec<bool> = shown.clipped.iter().map(|c| !c).collect();
-                    let p =
-                        fipt_core::metrics::srgb_psnr(&shown.image.data, &input.data, Some(&keep));
-                    let png = pics.join(format!("as_photo/{}_{k:03}.png", split.name));
-                    shown.image.write_png(&png, 1.0)?;
-                    (Some(rel(run, &png)), Some(rel(run, &e)), p)
+                let known = if split.name == "train" {
+                    ds.view_exposure(v.index)
                 } else {
-                    error_map(&r, &input).write_png(&e, 1.0)?;
-                    let p = fipt_core::metrics::srgb_psnr(&r.data, &input.data, None);
-                    let png = maps_dir.join(format!("preview/{k:03}_render.png"));
-                    (Some(rel(run, &png)), Some(rel(run, &e)), p)
-                }
+                    1.0
+                };
+                let view = (split.name.as_str(), k, known);
+                compare(run, &pics, &maps_dir, &photo, view, &r, &input)?
             } else {
                 (None, None, None)
             };
@@ -256,6 +225,50 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
         }
     }
     Ok(out)
+}
+
+/// The re-render `r` of view (split, k, known exposure) against its `input`: the picture the
+/// slider shows, the error map, the PSNR. LDR views: the render as the camera would have
+/// taken it ([`photo::PhotoModel`]), the photo's clipped pixels blue and not scored.
+fn compare(
+    run: &Path,
+    pics: &Path,
+    maps_dir: &Path,
+    photo: &photo::PhotoModel,
+    (split, k, known): (&str, usize, f32),
+    r: &Image,
+    input: &Image,
+) -> Result<(Option<String>, Option<String>, Option<f64>)> {
+    let e = pics.join(format!("error/{split}_{k:03}.png"));
+    if !photo.ldr {
+        error_map(r, input).write_png(&e, 1.0)?;
+        let p = fipt_core::metrics::srgb_psnr(&r.data, &input.data, None);
+        let png = maps_dir.join(format!("preview/{k:03}_render.png"));
+        return Ok((Some(rel(run, &png)), Some(rel(run, &e)), p));
+    }
+    // Like with like: the render at the view's exposure, through the camera, clipped.
+    let gain = (split == "train")
+        .then(|| {
+            photo
+                .train_gains
+                .as_ref()
+                .and_then(|g| g.get(k))
+                .map(|g| g * known)
+        })
+        .flatten();
+    let shown = photo.as_photo(r, input, gain);
+    let mut err = error_map(&shown.image, input);
+    for (p, c) in err.data.iter_mut().zip(&shown.clipped) {
+        if *c {
+            *p = glam::Vec3::new(0.0, 0.05, 0.6);
+        }
+    }
+    err.write_png(&e, 1.0)?;
+    let keep: Vec<bool> = shown.clipped.iter().map(|c| !c).collect();
+    let p = fipt_core::metrics::srgb_psnr(&shown.image.data, &input.data, Some(&keep));
+    let png = pics.join(format!("as_photo/{split}_{k:03}.png"));
+    shown.image.write_png(&png, 1.0)?;
+    Ok((Some(rel(run, &png)), Some(rel(run, &e)), p))
 }
 
 /// Writes every picture, the contact sheets and `report.html` of the run folder `run` of

@@ -77,6 +77,17 @@ pub struct CaptureReport {
     pub response: Option<ResponseFit>,
 }
 
+impl CaptureReport {
+    /// The warning that the views were decoded through a fitted response, if they were.
+    pub fn response_warning(&self) -> Option<String> {
+        let f = self.response.as_ref().filter(|f| f.applied)?;
+        Some(format!(
+            "train: the camera's response is NOT sRGB: the curve fitted on the surfaces the views share departs from sRGB by {:.3} RMS (linear, over stored values) and explains the views better (they disagree by {:.2} 8-bit steps RMS against sRGB's {:.2}, gains {}); the views are decoded through it (report.json capture.response; state it in capture.json to skip the fit)",
+            f.departure, f.residual_fitted, f.residual_srgb, f.gains
+        ))
+    }
+}
+
 fn is_zero(n: &usize) -> bool {
     *n == 0
 }
@@ -132,18 +143,7 @@ pub fn examine(
 ) -> CaptureReport {
     let views = &ds.train().views;
     let files_ldr = ds.has_ldr_files();
-    let estimate = !ds.capture.response_stated
-        && views
-            .iter()
-            .all(|v| fipt_core::capture::is_ldr_file(&v.image));
-    let response = estimate.then(|| {
-        fit_response(
-            geometry,
-            views,
-            images,
-            ds.known_exposures().map(|(e, _)| e),
-        )
-    });
+    let response = response_of(geometry, ds, images);
     let per_view: Vec<(usize, ViewLdr)> = images
         .par_iter()
         .enumerate()
@@ -154,13 +154,8 @@ pub fn examine(
         warnings: ldr_warnings("train", &check),
         ..Default::default()
     };
-    if let Some(f) = response.as_ref().filter(|f| f.applied) {
-        r.warnings.push(format!(
-            "train: the camera's response is NOT sRGB: the curve fitted on the surfaces the views share departs from sRGB by {:.3} RMS (linear, over stored values) and explains the views better (they disagree by {:.2} 8-bit steps RMS against sRGB's {:.2}, gains {}); the views are decoded through it (report.json capture.response; state it in capture.json to skip the fit)",
-            f.departure, f.residual_fitted, f.residual_srgb, f.gains
-        ));
-    }
     r.response = response;
+    r.warnings.extend(r.response_warning());
     if check.ldr {
         let level = per_view.iter().map(|(_, v)| v.max).fold(0.0f32, f32::max);
         let level = if files_ldr || level <= 1.0 + 1e-3 {
@@ -169,21 +164,7 @@ pub fn examine(
             level
         };
         r.clip_level = Some(level);
-        // Each view clips at the level over its known exposure (it was divided by it); a
-        // stored value of 250 and above clips, whatever the curve decodes it to.
-        let known = ds.known_exposures().map(|(e, _)| e.to_vec());
-        r.view_clip = (0..images.len())
-            .map(|k| level / known.as_ref().map_or(1.0, |e| e[k]))
-            .collect();
-        let at = match r.response.as_ref().filter(|f| f.applied) {
-            Some(f) => f.to_linear(250.0 / 255.0),
-            None => fipt_core::color::srgb_eotf(250.0 / 255.0),
-        };
-        r.clipped = images
-            .iter()
-            .zip(&r.view_clip)
-            .map(|(i, l)| clipped_mask_at(i, l * at))
-            .collect();
+        clip_masks(&mut r, ds, images, level);
     }
     // Masked pixels (people, screens) say nothing of the views' exposures either.
     let unused = if masks.iter().any(Option::is_some) {
@@ -251,6 +232,51 @@ pub fn examine(
         None => w,
     }));
     r
+}
+
+/// The camera's response fitted where every training view is an 8-bit file and
+/// `capture.json` states none (`images` decoded again through it when it is used).
+fn response_of(
+    geometry: &Geometry,
+    ds: &fipt_core::dataset::Dataset,
+    images: &mut [Image],
+) -> Option<ResponseFit> {
+    let views = &ds.train().views;
+    let estimate = !ds.capture.response_stated
+        && views
+            .iter()
+            .all(|v| fipt_core::capture::is_ldr_file(&v.image));
+    estimate.then(|| {
+        fit_response(
+            geometry,
+            views,
+            images,
+            ds.known_exposures().map(|(e, _)| e),
+        )
+    })
+}
+
+/// Each view's clip level (`level` over its known exposure: it was divided by it) and its
+/// clipped pixels: a stored value of 250 and above clips, whatever the curve decodes it to.
+fn clip_masks(
+    r: &mut CaptureReport,
+    ds: &fipt_core::dataset::Dataset,
+    images: &[Image],
+    level: f32,
+) {
+    let known = ds.known_exposures().map(|(e, _)| e.to_vec());
+    r.view_clip = (0..images.len())
+        .map(|k| level / known.as_ref().map_or(1.0, |e| e[k]))
+        .collect();
+    let at = match r.response.as_ref().filter(|f| f.applied) {
+        Some(f) => f.to_linear(250.0 / 255.0),
+        None => fipt_core::color::srgb_eotf(250.0 / 255.0),
+    };
+    r.clipped = images
+        .iter()
+        .zip(&r.view_clip)
+        .map(|(i, l)| clipped_mask_at(i, l * at))
+        .collect();
 }
 
 /// What a split's LDR evidence means for a run, in words and numbers (empty for HDR views).
