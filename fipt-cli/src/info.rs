@@ -201,7 +201,7 @@ pub fn run(a: Args) -> Result<()> {
 /// The line on the camera's response, where one was fitted.
 fn response_line(r: Option<&fipt_pipeline::capture::ResponseFit>) -> Option<String> {
     r.map(|r| format!(
-        "response    {} (fitted on {} surface series, gains {}; departs from sRGB by {:.3} RMS; views disagree by {:.2} 8-bit steps RMS under sRGB, {:.2} under the fit)",
+        "response     {} (fitted on {} surface series, gains {}; departs from sRGB by {:.3} RMS; views disagree by {:.2} 8-bit steps RMS under sRGB, {:.2} under the fit)",
         r.outcome, r.series, r.gains, r.departure, r.residual_srgb, r.residual_fitted
     ))
 }

@@ -52,6 +52,7 @@ impl Meter {
     fn gain(self, l: &mut [f32]) -> f32 {
         let m = match self {
             Meter::Median => fipt_core::image::median(l),
+            Meter::Lights if l.is_empty() => 0.0,
             Meter::Lights => {
                 let k = ((l.len() as f64 * 0.995) as usize).min(l.len().saturating_sub(1));
                 l.select_nth_unstable_by(k, f32::total_cmp).1.to_owned()

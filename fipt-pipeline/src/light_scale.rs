@@ -49,8 +49,9 @@ pub struct LightEstimate {
     /// of the views that see it clipped and what the surfaces it lights need to reflect no
     /// more than they receive ([`KD_MAX`]); at most what keeps them above [`KD_MIN`].
     pub range: [f32; 2],
-    /// How the radiance was chosen: "flatness" (the curve pins it), "albedo" (the prior of
-    /// [`KD_BRIGHT`], inside the range) or "lower bound".
+    /// How the radiance was chosen: "flatness" (the curve pins it inside the range),
+    /// "flatness, clamped to the range", "albedo" (the prior of [`KD_BRIGHT`], inside the
+    /// range) or "lower bound" (no surface it lights bounds it: the clip bound).
     pub chosen_by: String,
 }
 
@@ -452,10 +453,13 @@ fn bound_and_choose(
         })
         .collect();
     let mut range = vec![[Vec3::ZERO, Vec3::splat(f32::INFINITY)]; n];
+    let mut bounded = vec![false; n];
     for _ in 0..4 {
         for e in 0..n {
             let clip = Vec3::splat(seen_clipped.get(e).copied().unwrap_or(0.0));
-            let (lo, hi) = albedo_bounds(samples, &l, e);
+            let (lo, hi) = albedo_bounds(samples, &l, e, level)
+                .unwrap_or((Vec3::ZERO, Vec3::splat(f32::INFINITY)));
+            bounded[e] = lo.cmpgt(Vec3::ZERO).any() || hi.is_finite();
             range[e] = [lo.max(clip), hi.max(lo.max(clip))];
             l[e] = if out[e].pinned {
                 l[e].clamp(range[e][0], range[e][1])
@@ -466,14 +470,14 @@ fn bound_and_choose(
     }
     for (e, x) in out.iter_mut().enumerate() {
         let chosen = Vec3::from_array(x.radiance);
-        x.chosen_by =
-            if x.pinned && chosen.cmpge(range[e][0]).all() && chosen.cmple(range[e][1]).all() {
-                "flatness".into()
-            } else if range[e][1].is_finite() || range[e][0].cmpgt(Vec3::ZERO).any() {
-                "albedo".into()
-            } else {
-                "lower bound".into()
-            };
+        let inside = chosen.cmpge(range[e][0]).all() && chosen.cmple(range[e][1]).all();
+        x.chosen_by = match (x.pinned, inside, bounded[e]) {
+            (true, true, _) => "flatness",
+            (true, false, _) => "flatness, clamped to the range",
+            (false, _, true) => "albedo",
+            (false, _, false) => "lower bound",
+        }
+        .into();
         x.radiance = l[e].to_array();
         x.levels = luminance(l[e]) / level;
         x.range = [
@@ -561,28 +565,30 @@ fn solve_falling(f: impl Fn(f32) -> f32, target: f32, lo: f32, hi: f32) -> f32 {
 /// Per channel, the range of light `e`'s radiance that keeps the median albedo of every patch
 /// it lights strongly within [KD_MIN, KD_MAX], the other lights at `l` (elsewhere the others'
 /// light hides it).
-fn albedo_bounds(samples: &[Sample], l: &[Vec3], e: usize) -> (Vec3, Vec3) {
+fn albedo_bounds(samples: &[Sample], l: &[Vec3], e: usize, level: f32) -> Option<(Vec3, Vec3)> {
     let patches = lit_patches(samples, l, e);
     if patches.is_empty() {
-        return (Vec3::ZERO, Vec3::splat(f32::INFINITY));
+        return None;
     }
+    // The search bracket, in clip levels: a light from a millionth to 10⁹ of them.
+    let (a, b) = (1e-6 * level, 1e9 * level);
     let (mut lo, mut hi) = (Vec3::ZERO, Vec3::splat(f32::INFINITY));
     for c in 0..3 {
         for p in &patches {
             let f = |x: f32| patch_kd(p, e, c, x);
-            // At least what keeps the patch at or below KD_MAX; at most what keeps it above
-            // KD_MIN (when no light at all leaves it above KD_MIN, it bounds nothing).
-            lo[c] = lo[c].max(if f(0.0) > KD_MAX {
-                solve_falling(f, KD_MAX, 1e-6, 1e9)
-            } else {
-                0.0
-            });
-            if f(1e9) < KD_MIN {
-                hi[c] = hi[c].min(solve_falling(f, KD_MIN, 1e-6, 1e9));
+            // At least what brings the patch down to KD_MAX, where some radiance does (a
+            // patch no radiance brings under it glows: a screen, a light not found, and
+            // bounds nothing); at most what keeps it at KD_MIN, where the others' light alone
+            // leaves it above.
+            if f(0.0) > KD_MAX && f(b) <= KD_MAX {
+                lo[c] = lo[c].max(solve_falling(f, KD_MAX, a, b));
+            }
+            if f(a) >= KD_MIN && f(b) < KD_MIN {
+                hi[c] = hi[c].min(solve_falling(f, KD_MIN, a, b));
             }
         }
     }
-    (lo, hi)
+    Some((lo, hi))
 }
 
 /// Light `e`'s radiance where the views do not pin it: per channel, its albedo lower bound
@@ -594,7 +600,7 @@ fn albedo_bounds(samples: &[Sample], l: &[Vec3], e: usize) -> (Vec3, Vec3) {
 /// the surface's light is small (there, a small change of albedo asks a large one of it).
 fn bright_prior(albedo_lo: Vec3, range: [Vec3; 2]) -> Vec3 {
     let x = (albedo_lo * (KD_MAX / KD_BRIGHT)).clamp(range[0], range[1]);
-    x.max(Vec3::splat(x.max_element() / MAX_TINT))
+    x.max(Vec3::splat(x.max_element() / MAX_TINT)).min(range[1])
 }
 
 #[cfg(test)]

@@ -54,6 +54,26 @@ pub fn inputs_hash(ds: &Dataset) -> Result<String> {
     })
 }
 
+/// What the stages' caches must also key on when the views were decoded or restored by what
+/// the run estimated (a fitted response, clipped lights' radiances): empty otherwise.
+fn decoding_tag(c: &crate::capture::CaptureReport) -> String {
+    let mut tag = String::new();
+    if let Some(r) = c.response.as_ref().filter(|r| r.applied) {
+        tag += &format!(
+            "@response:{}",
+            fipt_core::fsutil::hash_bytes(format!("{:?}", r.linear).as_bytes())
+        );
+    }
+    if let Some(l) = &c.clipped_lights {
+        let radiances: Vec<[f32; 3]> = l.estimates.iter().map(|e| e.radiance).collect();
+        tag += &format!(
+            "@lights:{}",
+            fipt_core::fsutil::hash_bytes(format!("{radiances:?}").as_bytes())
+        );
+    }
+    tag
+}
+
 /// Loads the scene at `root` for the stages as `capture` says (`[capture]`: its downscale, and
 /// when views are shifted onto the mesh; the stages' caches key on both).
 pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<LoadedScene> {
@@ -134,6 +154,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
         format!("{inputs_hash}@exposure:{exposure:e}")
     };
     cache_key += &capture.alignment.cache_tag(&capture.edges);
+    cache_key += &decoding_tag(&capture);
     st.done();
     Ok(LoadedScene {
         ds,

@@ -270,7 +270,7 @@ pub fn write_html(
     metrics_table(&mut h, &metrics);
     h.push_str("<h2>Views</h2>\n<p>Drag a slider to compare the re-render with the input; the error map shows |Δ| of the displayed values ×4 (black → red → yellow → white).</p>\n");
     if report["capture"]["ldr"].as_bool() == Some(true) {
-        h.push_str("<p>The views are LDR photos: each re-render is shown as the camera would have taken it, at the view's exposure (the gain the run fitted for a training view, the best single gain for the others), through the camera's response and clipped at its clip level. Blue in the error map: pixels the photo clips, not scored.</p>\n");
+        h.push_str("<p>The views are LDR photos: each re-render is shown as the camera would have taken it, at the view's exposure (the gain the run divided a training view by, where it did; else the best single gain), through the camera's response and clipped at its clip level. Blue in the error map: pixels the photo clips, not scored.</p>\n");
     }
     let shown: Vec<String> = splits
         .iter()

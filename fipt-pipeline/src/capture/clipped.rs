@@ -12,7 +12,7 @@ use std::collections::HashMap;
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ClippedLights {
     pub triangles: usize,
-    /// Their pixels, set to `assumed` × the clip level.
+    /// Their pixels; `assumed`: the clip levels a light that lights no sampled surface gets.
     pub pixels: usize,
     pub assumed: f32,
     /// Other clipped pixels, left out of the material loss.
@@ -26,15 +26,16 @@ pub struct ClippedLights {
 const MIN_LIGHT_PIXELS: usize = 16;
 /// A triangle counts as a clipped light when this share of its pixels clip (over all views).
 const CLIPPED_TRIANGLE_SHARE: f64 = 0.9;
-/// The radiance assumed for a clipped light, in clip levels: not identifiable from LDR views,
-/// fixed by this convention (a lamp is typically one to two orders of magnitude brighter than
+/// The radiance assumed for a clipped light that lights no sampled surface, in clip levels:
+/// not identifiable from LDR views, fixed by this convention (a lamp is typically one to two orders of magnitude brighter than
 /// the surfaces a camera meters for; what it lights then fixes the scale of kd).
 pub const CLIPPED_LIGHT_LEVELS: f32 = 16.0;
 
 /// For LDR views: the pixels of the clipped lights ([`find_lights`]) are set to each light's
-/// radiance as [`crate::light_scale::estimate`] finds it (where the views pin it; else
-/// [`CLIPPED_LIGHT_LEVELS`] × the clip level of their view, white), so that the stages see a
-/// light; the other clipped pixels are marked to be left out of the material loss.
+/// radiance as [`crate::light_scale::estimate`] bounds and chooses it (where it has no sample
+/// at all, [`CLIPPED_LIGHT_LEVELS`] × the clip level of their view, white), so that the
+/// stages see a light; the other clipped pixels are marked to be left out of the material
+/// loss.
 pub fn restore_clipped_lights(
     geometry: &Geometry,
     views: &[View],
@@ -55,7 +56,10 @@ pub fn restore_clipped_lights(
         ..Default::default()
     };
     let skip: Vec<Vec<bool>> = report.clipped.clone();
-    let seen_clipped = clip_bounds(&hits, &lights, &report.clipped, &report.view_clip);
+    let seen_clipped: Vec<f32> = clip_bounds(&hits, &lights, &report.clipped, &report.view_clip)
+        .into_iter()
+        .map(|b| b * report.clip_fraction)
+        .collect();
     let estimates = crate::light_scale::estimate(
         geometry,
         views,
@@ -152,8 +156,8 @@ fn find_lights(
     (hits, lights)
 }
 
-/// Per light, the least radiance its clipped pixels imply: the highest clip level (in the
-/// stages' units) of the views that see it clipped.
+/// Per light, the highest clip level (in the stages' units) of the views that see it clipped
+/// (times the clip fraction, the least radiance its clipped pixels imply).
 fn clip_bounds(
     hits: &[Vec<Option<u32>>],
     lights: &[Vec<u32>],
@@ -190,7 +194,7 @@ fn describe(cl: &ClippedLights, lights: usize) -> String {
                 if e.range[1].is_finite() { format!("{:.0}", e.range[1]) } else { "∞".into() }
             );
             match e.chosen_by.as_str() {
-                "flatness" => format!("{} triangles: {:.1} clip levels, RGB {:.2?}, pinned by the surfaces it lights (the curve rises {:.0} % at 10× off; {range})", e.triangles, e.levels, e.radiance, 100.0 * e.contrast),
+                "flatness" | "flatness, clamped to the range" => format!("{} triangles: {:.1} clip levels, RGB {:.2?}, pinned by the surfaces it lights (the curve rises {:.0} % at 10× off; {range})", e.triangles, e.levels, e.radiance, 100.0 * e.contrast),
                 "albedo" => format!("{} triangles: NOT PINNED by the shading it casts (the curve rises {:.1} % at 10× off); {range}; set to {:.1} clip levels, RGB {:.2?}, where the brightest surface it lights strongly reads albedo {} (the least wrong over rooms whose brightest lit surface is 0.65 … 0.95)", e.triangles, 100.0 * e.contrast, e.levels, e.radiance, crate::light_scale::KD_BRIGHT),
                 _ => format!("{} triangles: NOT PINNED and lighting too few unclipped surfaces to bound it; set to its lower bound, {:.1} clip levels ({range})", e.triangles, e.levels),
             }

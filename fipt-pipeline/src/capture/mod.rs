@@ -35,6 +35,10 @@ pub struct CaptureReport {
     /// exposure and its fitted gain; LDR views only).
     #[serde(skip)]
     pub view_clip: Vec<f32>,
+    /// The share of a view's clip level at which a pixel counts as clipped (the linear value
+    /// of stored 250): what a clipped pixel says of its radiance at least.
+    #[serde(skip)]
+    pub clip_fraction: f32,
     /// The fitted exposures, and whether the views were divided by them (LDR views only).
     pub exposure_fit: Option<GainFit>,
     pub exposures_applied: bool,
@@ -143,7 +147,7 @@ pub fn examine(
 ) -> CaptureReport {
     let views = &ds.train().views;
     let files_ldr = ds.has_ldr_files();
-    let response = response_of(geometry, ds, images);
+    let response = response_of(geometry, ds, images, masks);
     let per_view: Vec<(usize, ViewLdr)> = images
         .par_iter()
         .enumerate()
@@ -157,7 +161,13 @@ pub fn examine(
     r.response = response;
     r.warnings.extend(r.response_warning());
     if check.ldr {
-        let level = per_view.iter().map(|(_, v)| v.max).fold(0.0f32, f32::max);
+        // The views were divided by their known exposures: their common clip level is the
+        // largest value times its view's exposure.
+        let known = ds.known_exposures().map(|(e, _)| e.to_vec());
+        let level = per_view
+            .iter()
+            .map(|(k, v)| v.max * known.as_ref().map_or(1.0, |e| e[*k]))
+            .fold(0.0f32, f32::max);
         let level = if files_ldr || level <= 1.0 + 1e-3 {
             1.0
         } else {
@@ -240,6 +250,7 @@ fn response_of(
     geometry: &Geometry,
     ds: &fipt_core::dataset::Dataset,
     images: &mut [Image],
+    masks: &[Option<Vec<bool>>],
 ) -> Option<ResponseFit> {
     let views = &ds.train().views;
     let estimate = !ds.capture.response_stated
@@ -252,12 +263,27 @@ fn response_of(
             views,
             images,
             ds.known_exposures().map(|(e, _)| e),
+            &masked_pixels(masks),
         )
     })
 }
 
 /// Each view's clip level (`level` over its known exposure: it was divided by it) and its
 /// clipped pixels: a stored value of 250 and above clips, whatever the curve decodes it to.
+/// Per view, its pixels a mask leaves out (empty: no view has a mask).
+fn masked_pixels(masks: &[Option<Vec<bool>>]) -> Vec<Vec<bool>> {
+    if masks.iter().all(Option::is_none) {
+        return vec![];
+    }
+    masks
+        .iter()
+        .map(|m| {
+            m.as_ref()
+                .map_or(vec![], |keep| keep.iter().map(|k| !k).collect())
+        })
+        .collect()
+}
+
 fn clip_masks(
     r: &mut CaptureReport,
     ds: &fipt_core::dataset::Dataset,
@@ -269,9 +295,10 @@ fn clip_masks(
         .map(|k| level / known.as_ref().map_or(1.0, |e| e[k]))
         .collect();
     let at = match r.response.as_ref().filter(|f| f.applied) {
-        Some(f) => f.to_linear(250.0 / 255.0),
+        Some(f) => f.clip_linear,
         None => fipt_core::color::srgb_eotf(250.0 / 255.0),
     };
+    r.clip_fraction = at;
     r.clipped = images
         .iter()
         .zip(&r.view_clip)

@@ -55,6 +55,9 @@ pub struct ResponseFit {
     pub outcome: String,
     /// Whether the views were decoded again through the fitted curve.
     pub applied: bool,
+    /// The linear value of stored 250 (where a view clips) through the curve the views
+    /// were decoded with (exact, not from the 33-value table).
+    pub clip_linear: f32,
     /// The fitted inverse response: linear values at stored values 0, 1/32, …, 1.
     pub linear: Vec<f32>,
     /// RMS over stored values of the fitted linear values against sRGB's.
@@ -75,6 +78,9 @@ impl ResponseFit {
     /// The fitted inverse response at stored value `s` in [0, 1].
     pub fn to_linear(&self, s: f32) -> f32 {
         let t = &self.linear;
+        if t.len() < 2 {
+            return fipt_core::color::srgb_eotf(s.clamp(0.0, 1.0));
+        }
         let x = s.clamp(0.0, 1.0) * (t.len() - 1) as f32;
         let i = (x.floor() as usize).min(t.len() - 2);
         t[i] + (t[i + 1] - t[i]) * (x - i as f32)
@@ -90,16 +96,18 @@ impl ResponseFit {
 type Series = Vec<(usize, f64)>;
 
 /// Fits the response of 8-bit views decoded as sRGB (`images`, linear, clip level 1, each
-/// divided by its known exposure in `known` if given). Returns the fit; `images` are decoded
+/// divided by its known exposure in `known` if given), their `masked` pixels (per view; empty:
+/// none) left out. Returns the fit; `images` are decoded
 /// again through it when it is used.
 pub fn fit_response(
     geometry: &Geometry,
     views: &[View],
     images: &mut [Image],
     known: Option<&[f32]>,
+    masked: &[Vec<bool>],
 ) -> ResponseFit {
     let exposure = |v: usize| known.map_or(1.0, |e| e[v]);
-    let series = stored_series(geometry, views, images, &exposure);
+    let series = stored_series(geometry, views, images, &exposure, masked);
     let observations = series.iter().map(Vec::len).sum();
     let mut fit = ResponseFit {
         series: series.len(),
@@ -134,7 +142,7 @@ pub fn fit_response(
     fit.residual_srgb = gains_for(&series, &srgb, views.len(), known_log.as_deref()).1 as f32;
     let mut curve = fit_curve(&series, views.len(), known_log.as_deref());
     if known.is_none() {
-        curve.gamma = curve.nearest_srgb_gamma();
+        curve.gamma = curve.nearest_srgb_gamma().clamp(0.2, 5.0);
     }
     let (_, r1) = gains_for(&series, &curve, views.len(), known_log.as_deref());
     fit.residual_fitted = r1 as f32;
@@ -156,6 +164,7 @@ pub fn fit_response(
     }
     fit.outcome = "fitted".into();
     fit.applied = true;
+    fit.clip_linear = curve.linear(250.0 / 255.0) as f32;
     // One decoded value per 8-bit level, then the 8-bit level of each pixel.
     let lut: Vec<f32> = (0..256)
         .map(|k| curve.linear(k as f64 / 255.0) as f32)
@@ -283,8 +292,9 @@ fn stored_series(
     views: &[View],
     images: &[Image],
     exposure: &(dyn Fn(usize) -> f32 + Sync),
+    masked: &[Vec<bool>],
 ) -> Vec<Series> {
-    let per_view = cell_sums(geometry, views, images, &[], |v, p| {
+    let per_view = cell_sums(geometry, views, images, masked, |v, p| {
         let e = exposure(v);
         let s = p
             .to_array()
@@ -533,7 +543,8 @@ fn fit_curve(series: &[Series], nv: usize, known: Option<&[f64]>) -> Curve {
 
 /// Σ (s − h⁻¹(g R))² over every observation.
 fn stored_cost(series: &[Series], inv: &Inverse, g: &[f64], radiance: &[f64]) -> f64 {
-    series
+    // Per series in parallel, summed in order: the same cost, bit for bit, on any thread count.
+    let per: Vec<f64> = series
         .par_iter()
         .zip(radiance)
         .map(|(o, r)| {
@@ -541,7 +552,8 @@ fn stored_cost(series: &[Series], inv: &Inverse, g: &[f64], radiance: &[f64]) ->
                 .map(|&(v, s)| residual(inv, s, g[v] + r).powi(2))
                 .sum::<f64>()
         })
-        .sum()
+        .collect();
+    per.iter().sum()
 }
 
 /// The log radiance of one series that fits its stored values best under `curve` and gains
