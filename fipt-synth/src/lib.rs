@@ -521,7 +521,10 @@ pub fn write_dataset(
     let bvh = fipt_geom::Bvh::build(&scene.mesh, fipt_geom::BuildQuality::Medium);
     let lensed = |cams: Vec<Camera>| -> Vec<Camera> {
         cams.into_iter()
-            .map(|c| Camera { distortion: opts.lens, ..c })
+            .map(|c| Camera {
+                distortion: opts.lens,
+                ..c
+            })
             .collect()
     };
     let train = lensed(scene.cameras(

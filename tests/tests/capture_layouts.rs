@@ -49,7 +49,12 @@ fn assert_same_views(a: &Dataset, b: &Dataset, what: &str) {
     assert_eq!(a.train().views.len(), b.train().views.len(), "{what}");
     assert_eq!((a.width, a.height), (b.width, b.height), "{what}");
     for (va, vb) in a.train().views.iter().zip(&b.train().views) {
-        for (i, j) in [(0, 0), (a.width - 1, a.height - 1), (a.width / 2, 3), (5, a.height - 2)] {
+        for (i, j) in [
+            (0, 0),
+            (a.width - 1, a.height - 1),
+            (a.width / 2, 3),
+            (5, a.height - 2),
+        ] {
             let (oa, da) = va.camera.pixel_center_ray(i, j);
             let (ob, db) = vb.camera.pixel_center_ray(i, j);
             assert!(
@@ -86,8 +91,16 @@ fn one_capture_in_four_layouts_reads_as_the_same_cameras_and_pixels() {
         fipt_core::colmap::write_model(&d.join("sparse/0"), &views, text).unwrap();
         let ds = Dataset::open(&d).unwrap();
         assert_eq!(ds.layout, Layout::Colmap);
-        assert!(ds.cameras_description.as_deref().unwrap().contains("COLMAP"));
-        assert_same_views(&src, &ds, if text { "COLMAP text" } else { "COLMAP binary" });
+        assert!(ds
+            .cameras_description
+            .as_deref()
+            .unwrap()
+            .contains("COLMAP"));
+        assert_same_views(
+            &src,
+            &ds,
+            if text { "COLMAP text" } else { "COLMAP binary" },
+        );
     }
 
     let ns = dir.join("nerfstudio");
@@ -112,11 +125,20 @@ fn a_nerfstudio_file_in_fipts_place_is_refused_with_the_fix() {
         .train()
         .views
         .iter()
-        .map(|v| (format!("Image/{:03}_0001.exr", v.index), v.camera.clone(), None))
+        .map(|v| {
+            (
+                format!("Image/{:03}_0001.exr", v.index),
+                v.camera.clone(),
+                None,
+            )
+        })
         .collect();
     fipt_core::nerfstudio::write(&dir.join("train/transforms.json"), &frames).unwrap();
     let err = Dataset::open(&dir).unwrap_err().to_string();
-    assert!(err.contains("train/transforms.json") && err.contains("nerfstudio"), "{err}");
+    assert!(
+        err.contains("train/transforms.json") && err.contains("nerfstudio"),
+        "{err}"
+    );
     assert!(err.contains("scene's root"), "the fix: {err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -129,14 +151,23 @@ fn lensed_render_round_trips(lens: Distortion, name: &str) {
     let (lensed, pinhole) = (dir.join("lensed"), dir.join("pinhole"));
     tiny_cornell(&lensed, lens, (48, 36));
     tiny_cornell(&pinhole, Distortion::None, (48, 36));
-    let (a, b) = (Dataset::open(&lensed).unwrap(), Dataset::open(&pinhole).unwrap());
+    let (a, b) = (
+        Dataset::open(&lensed).unwrap(),
+        Dataset::open(&pinhole).unwrap(),
+    );
     let mesh = Mesh::load(&a.mesh).unwrap();
     let bvh = Bvh::build(&mesh, BuildQuality::Medium);
     let (mut agree, mut total) = (0usize, 0usize);
     for (va, vb) in a.train().views.iter().zip(&b.train().views) {
         assert_eq!(va.camera.distortion, lens);
-        let ka = a.load_gt(a.train(), fipt_core::dataset::GtKind::DiffCol, va.index).unwrap().unwrap();
-        let kb = b.load_gt(b.train(), fipt_core::dataset::GtKind::DiffCol, vb.index).unwrap().unwrap();
+        let ka = a
+            .load_gt(a.train(), fipt_core::dataset::GtKind::DiffCol, va.index)
+            .unwrap()
+            .unwrap();
+        let kb = b
+            .load_gt(b.train(), fipt_core::dataset::GtKind::DiffCol, vb.index)
+            .unwrap()
+            .unwrap();
         for j in 0..a.height {
             for i in 0..a.width {
                 let (o, d) = va.camera.pixel_center_ray(i, j);
@@ -145,9 +176,14 @@ fn lensed_render_round_trips(lens: Distortion, name: &str) {
                 };
                 let p = va.camera.project(o + d * hit.t).unwrap();
                 let centre = glam::Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
-                assert!((p - centre).length() < 2e-3, "{name}: pixel ({i},{j}) projects to {p}");
+                assert!(
+                    (p - centre).length() < 2e-3,
+                    "{name}: pixel ({i},{j}) projects to {p}"
+                );
                 // The pinhole view of the same pose sees the point at q.
-                let Some(q) = vb.camera.project(o + d * hit.t) else { continue };
+                let Some(q) = vb.camera.project(o + d * hit.t) else {
+                    continue;
+                };
                 let (x, y) = (q.x.floor() as i64, q.y.floor() as i64);
                 if x < 0 || y < 0 || x >= b.width as i64 || y >= b.height as i64 {
                     continue;
@@ -161,14 +197,23 @@ fn lensed_render_round_trips(lens: Distortion, name: &str) {
         }
     }
     // Pixels on material edges may fall on the other side in the other view.
-    assert!(total > 1000 && agree as f64 > 0.9 * total as f64, "{name}: {agree} of {total} pixels agree");
+    assert!(
+        total > 1000 && agree as f64 > 0.9 * total as f64,
+        "{name}: {agree} of {total} pixels agree"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn views_rendered_through_a_brown_conrady_lens_trace_back_through_it() {
     lensed_render_round_trips(
-        Distortion::Opencv { k1: -0.12, k2: 0.0, k3: 0.0, p1: 0.0, p2: 0.0 },
+        Distortion::Opencv {
+            k1: -0.12,
+            k2: 0.0,
+            k3: 0.0,
+            p1: 0.0,
+            p2: 0.0,
+        },
         "lens-opencv",
     );
 }
@@ -176,7 +221,12 @@ fn views_rendered_through_a_brown_conrady_lens_trace_back_through_it() {
 #[test]
 fn views_rendered_through_a_fisheye_trace_back_through_it() {
     lensed_render_round_trips(
-        Distortion::Fisheye { k1: 0.05, k2: -0.01, k3: 0.0, k4: 0.0 },
+        Distortion::Fisheye {
+            k1: 0.05,
+            k2: -0.01,
+            k3: 0.0,
+            k4: 0.0,
+        },
         "lens-fisheye",
     );
 }
@@ -201,7 +251,10 @@ fn a_downscale_averages_blocks_and_scales_the_intrinsics_exactly() {
         let block = (f.get(10, 6) + f.get(11, 6) + f.get(10, 7) + f.get(11, 7)) / 4.0;
         assert!((h.get(5, 3) - block).abs().max_element() < 1e-6);
         // Ground truth shrinks with the views: part ids are taken, not averaged.
-        let ids = half.load_ids(half.train(), fipt_core::dataset::GtKind::IndexMA, vh.index).unwrap().unwrap();
+        let ids = half
+            .load_ids(half.train(), fipt_core::dataset::GtKind::IndexMA, vh.index)
+            .unwrap()
+            .unwrap();
         assert_eq!(ids.len(), 13 * 9);
     }
     let err = Dataset::open_with(&dir, OpenOptions { downscale: 5 })
@@ -226,14 +279,22 @@ fn a_views_mask_is_read_at_the_runs_size_and_a_wrong_size_named() {
     assert_eq!(keep.iter().filter(|k| !**k).count(), 8 * 12);
     let half = Dataset::open_with(&dir, OpenOptions { downscale: 2 }).unwrap();
     let keep = half.load_mask(&half.train().views[1]).unwrap().unwrap();
-    assert_eq!((keep.len(), keep.iter().filter(|k| !**k).count()), (48, 4 * 6));
+    assert_eq!(
+        (keep.len(), keep.iter().filter(|k| !**k).count()),
+        (48, 4 * 6)
+    );
     // A size the factor does not divide: the remainder is cropped, the mask still read.
     let fifth = Dataset::open_with(&dir, OpenOptions { downscale: 3 }).unwrap();
     let keep = fifth.load_mask(&fifth.train().views[1]).unwrap().unwrap();
     assert_eq!(keep.len(), 5 * 4);
-    image::GrayImage::new(8, 8).save(dir.join("train/Mask/001_0001.png")).unwrap();
+    image::GrayImage::new(8, 8)
+        .save(dir.join("train/Mask/001_0001.png"))
+        .unwrap();
     let err = ds.load_mask(&v[1]).unwrap_err().to_string();
-    assert!(err.contains("001_0001.png") && err.contains("size of its view"), "{err}");
+    assert!(
+        err.contains("001_0001.png") && err.contains("size of its view"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -241,15 +302,20 @@ fn a_views_mask_is_read_at_the_runs_size_and_a_wrong_size_named() {
 fn a_truncated_jpeg_is_named_as_a_damaged_image_not_an_exr() {
     let dir = temp_dir("truncated-jpeg");
     let p = dir.join("view.jpg");
-    image::RgbImage::from_fn(64, 48, |x, y| image::Rgb([(x * 4) as u8, (y * 5) as u8, 90]))
-        .save(&p)
-        .unwrap();
+    image::RgbImage::from_fn(64, 48, |x, y| {
+        image::Rgb([(x * 4) as u8, (y * 5) as u8, 90])
+    })
+    .save(&p)
+    .unwrap();
     let bytes = std::fs::read(&p).unwrap();
     std::fs::write(&p, &bytes[..bytes.len() / 2]).unwrap();
     let err = fipt_core::capture::read_ldr(&p, &Default::default())
         .unwrap_err()
         .to_string();
-    assert!(err.contains("view.jpg") && err.contains("cannot read the image"), "{err}");
+    assert!(
+        err.contains("view.jpg") && err.contains("cannot read the image"),
+        "{err}"
+    );
     assert!(!err.contains("EXR:"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -264,6 +330,9 @@ fn fipts_own_transforms_json_at_the_root_is_refused_with_the_fix() {
     let cams: Vec<Camera> = views.into_iter().map(|v| v.1).collect();
     fipt_core::dataset::write_transforms(&root.join("transforms.json"), &cams).unwrap();
     let err = Dataset::open(&root).unwrap_err().to_string();
-    assert!(err.contains("FIPT's synthetic-layout") && err.contains("put it in train/"), "{err}");
+    assert!(
+        err.contains("FIPT's synthetic-layout") && err.contains("put it in train/"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

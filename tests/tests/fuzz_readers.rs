@@ -93,15 +93,32 @@ fn make_seeds() -> Vec<(&'static str, Vec<u8>)> {
     let fsh = fipt_bake::bake_store::encode(&sh);
     // A lensed camera for the capture layouts' files.
     let mut lensed = cams[0].clone();
-    lensed.distortion = fipt_core::distortion::Distortion::Opencv { k1: -0.1, k2: 0.01, k3: 0.0, p1: 0.001, p2: 0.0 };
+    lensed.distortion = fipt_core::distortion::Distortion::Opencv {
+        k1: -0.1,
+        k2: 0.01,
+        k3: 0.0,
+        p1: 0.001,
+        p2: 0.0,
+    };
     let named = vec![("a.exr".to_string(), lensed.clone())];
     for text in [true, false] {
         fipt_core::colmap::write_model(&d, &named, text).unwrap();
     }
-    fipt_core::nerfstudio::write(&d.join("ns.json"), &[("a.exr".into(), lensed, Some("m.png".into()))]).unwrap();
+    fipt_core::nerfstudio::write(
+        &d.join("ns.json"),
+        &[("a.exr".into(), lensed, Some("m.png".into()))],
+    )
+    .unwrap();
     let mut jpeg = std::io::Cursor::new(Vec::new());
-    image::RgbImage::new(6, 4).write_to(&mut jpeg, image::ImageFormat::Jpeg).unwrap();
-    let exif = fipt_core::exif::ExifExposure { exposure_time: Some(0.01), f_number: Some(2.0), iso: Some(100.0), camera: Some("seed".into()) };
+    image::RgbImage::new(6, 4)
+        .write_to(&mut jpeg, image::ImageFormat::Jpeg)
+        .unwrap();
+    let exif = fipt_core::exif::ExifExposure {
+        exposure_time: Some(0.01),
+        f_number: Some(2.0),
+        iso: Some(100.0),
+        camera: Some("seed".into()),
+    };
     let jpeg = fipt_core::exif::jpeg_with_exif(&jpeg.into_inner(), &exif).unwrap();
     let cam = b"1\n0 0 1\n0 0 0\n0 1 0\n".to_vec();
     let k = b"1\n5 0 3\n0 5 2\n0 0 1\n".to_vec();
