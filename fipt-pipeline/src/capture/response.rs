@@ -11,13 +11,16 @@
 //! curve is used only when it departs from sRGB by more than [`MIN_DEPARTURE`] and explains
 //! the views clearly better: a plain sRGB capture comes back as sRGB, bit for bit.
 use super::gains::{cell_sums, Cell};
-use fipt_core::color::{srgb_eotf, srgb_oetf, Rgb};
+use fipt_core::color::{srgb_oetf, Rgb};
 use fipt_core::dataset::View;
 use fipt_core::image::Image;
 use fipt_geom::Geometry;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
+
+mod curve;
+use curve::{Curve, Inverse};
 
 /// Segments of the log correction d on [0, 1].
 const KNOTS: usize = 24;
@@ -182,109 +185,6 @@ pub fn fit_response(
     fit
 }
 
-/// An inverse response h(s) = (sRGB⁻¹(s) · e^{d(s)})^γ, d piecewise linear on the knots.
-#[derive(Clone, Debug)]
-struct Curve {
-    d: Vec<f64>,
-    gamma: f64,
-}
-
-impl Curve {
-    fn srgb() -> Curve {
-        Curve {
-            d: vec![0.0; KNOTS + 1],
-            gamma: 1.0,
-        }
-    }
-
-    /// Stored value of knot k: denser towards both ends, where tone curves bend most (a
-    /// shoulder compresses the top eighth of the stored values over a third of the linear
-    /// ones); knot KNOTS/2 at 1/2.
-    fn knot(k: usize) -> f64 {
-        let x = k as f64 / KNOTS as f64;
-        0.5 * x + 0.25 * (1.0 - (std::f64::consts::PI * x).cos())
-    }
-
-    /// The knots and weights of d at stored value s.
-    fn weights(s: f64) -> [(usize, f64); 2] {
-        let s = s.clamp(0.0, 1.0);
-        let i = (1..KNOTS).take_while(|&k| Self::knot(k) <= s).count();
-        let (a, b) = (Self::knot(i), Self::knot(i + 1));
-        let f = ((s - a) / (b - a)).clamp(0.0, 1.0);
-        [(i, 1.0 - f), (i + 1, f)]
-    }
-
-    fn log_srgb(s: f64) -> f64 {
-        (srgb_eotf(s.clamp(0.0, 1.0) as f32).max(1e-7) as f64).ln()
-    }
-
-    /// ln h(s).
-    fn log(&self, s: f64) -> f64 {
-        let d: f64 = Self::weights(s).iter().map(|&(k, w)| w * self.d[k]).sum();
-        self.gamma * (Self::log_srgb(s) + d)
-    }
-
-    fn linear(&self, s: f64) -> f64 {
-        if s <= 0.0 {
-            0.0
-        } else {
-            self.log(s).exp().min(1.0)
-        }
-    }
-
-    /// The weight of an observation at stored value s in a least-squares fit of ln h: the
-    /// inverse square of sRGB's d ln h / ds there, so that residuals count in stored units
-    /// (near enough for curves near sRGB; weights taken from the fitted curve itself let
-    /// a fit hide its disagreement in steep stretches).
-    fn weight(s: f64) -> f64 {
-        let e = 0.25 / KNOTS as f64;
-        let (a, b) = ((s - e).max(1e-3), (s + e).min(1.0));
-        let slope = (Self::log_srgb(b) - Self::log_srgb(a)) / (b - a);
-        slope.powi(-2)
-    }
-
-    /// d ln h / ds at stored value s (of the segment it lies in; at least 1e-2).
-    fn log_slope(&self, s: f64) -> f64 {
-        let [(i, _), (j, _)] = Self::weights(s);
-        let (a, b) = (Self::knot(i), Self::knot(j));
-        let at = |x: f64| self.log(x.max(1e-4));
-        ((at(b) - at(a)) / (b - a)).max(1e-2)
-    }
-
-    /// The γ of h's family (h^γ) nearest sRGB: least squares of ln h against ln sRGB⁻¹ over
-    /// the stored values used, weighed into stored units.
-    fn nearest_srgb_gamma(&self) -> f64 {
-        let (mut num, mut den) = (0.0, 0.0);
-        for k in 0..=64 {
-            let s = LOW + (HIGH - LOW) * k as f64 / 64.0;
-            let base = Self {
-                gamma: 1.0,
-                ..self.clone()
-            };
-            let (x, y) = (base.log(s), Self::log_srgb(s));
-            let w = Self::weight(s);
-            num += w * x * y;
-            den += w * x * x;
-        }
-        if den > 0.0 {
-            num / den
-        } else {
-            1.0
-        }
-    }
-
-    /// RMS over 256 stored values of the linear values against sRGB's.
-    fn departure(&self) -> f32 {
-        let sq: f64 = (0..256)
-            .map(|k| {
-                let s = k as f64 / 255.0;
-                (self.linear(s) - srgb_eotf(s as f32) as f64).powi(2)
-            })
-            .sum();
-        (sq / 256.0).sqrt() as f32
-    }
-}
-
 /// Per (cell, channel) seen by two views or more: each view's mean stored value there, over
 /// the pixels whose every channel lies in [LOW, HIGH].
 fn stored_series(
@@ -359,36 +259,6 @@ fn consistent(series: Vec<Series>, curve: &Curve, nv: usize, known: Option<&[f64
 /// g·R (exact: a flattened curve gains nothing).
 fn residual(inv: &Inverse, s: f64, log_gr: f64) -> f64 {
     s - inv.stored(log_gr)
-}
-
-/// A curve's ln h tabulated on 4,097 stored values, to invert by a binary search.
-struct Inverse {
-    logs: Vec<f64>,
-}
-
-impl Inverse {
-    const STEPS: usize = 4096;
-
-    fn of(curve: &Curve) -> Inverse {
-        Inverse {
-            logs: (0..=Self::STEPS)
-                .map(|k| curve.log((k as f64 / Self::STEPS as f64).max(1e-5)))
-                .collect(),
-        }
-    }
-
-    /// The stored value whose ln h is `log` (h is increasing).
-    fn stored(&self, log: f64) -> f64 {
-        let t = &self.logs;
-        let i = t.partition_point(|&y| y < log).clamp(1, t.len() - 1);
-        let (a, b) = (t[i - 1], t[i]);
-        let f = if b > a {
-            ((log - a) / (b - a)).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        ((i - 1) as f64 + f) / Self::STEPS as f64
-    }
 }
 
 /// The gains (log, mean 0) and the series' radiances (log) under `curve`: each the weighted
@@ -679,20 +549,6 @@ fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     Some(x)
 }
 
-impl Curve {
-    /// Makes h increasing: each segment of ln sRGB⁻¹ + d keeps a positive slope.
-    fn monotone(&mut self) {
-        for k in 1..=KNOTS {
-            let (s0, s1) = (Self::knot(k - 1), Self::knot(k));
-            let rise = Self::log_srgb(s1) - Self::log_srgb(s0);
-            let least = self.d[k - 1] - rise + 1e-3;
-            if k > 1 && self.d[k] < least {
-                self.d[k] = least;
-            }
-        }
-    }
-}
-
 /// Values minus their mean.
 fn centred(x: impl Iterator<Item = f64>) -> Vec<f64> {
     let v: Vec<f64> = x.collect();
@@ -703,6 +559,7 @@ fn centred(x: impl Iterator<Item = f64>) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fipt_core::color::srgb_eotf;
 
     #[test]
     fn solve_solves() {
@@ -767,18 +624,9 @@ mod tests {
     fn an_s_curve_is_recovered_from_known_exposures() {
         let (series, g) = synthetic(&|x| s_curve(srgb_tone(x)));
         let c = fit_curve(&series, g.len(), Some(&g));
-        let truth = |s: f64| {
-            let (mut lo, mut hi) = (0.0f64, 1.0f64);
-            for _ in 0..60 {
-                let m = 0.5 * (lo + hi);
-                if s_curve(m) < s {
-                    lo = m
-                } else {
-                    hi = m
-                }
-            }
-            srgb_eotf((0.5 * (lo + hi)) as f32) as f64
-        };
+        // The true curve as `fipt degrade --tone scurve:1.5` tabulates it (the same S-curve).
+        let table = crate::degrade::tone_curve("scurve:1.5").expect("a tone curve");
+        let truth = |s: f64| table.to_linear(s as f32) as f64;
         let fitted = rms_to_250(&|s| c.linear(s), &truth);
         let srgb = rms_to_250(&|s| srgb_eotf(s as f32) as f64, &truth);
         // The curve's top above 242 is extrapolated: this S-curve's shoulder flattens to a
