@@ -2,6 +2,7 @@
 //! camera's response, clipped where the photo clips. An auto-exposed LDR capture is otherwise
 //! compared with renders at one exposure, and the report shows the camera's metering rather
 //! than where the model disagrees with the photos.
+use fipt_core::capture::Response;
 use fipt_core::color::{luminance, srgb_eotf, srgb_oetf};
 use fipt_core::image::Image;
 use glam::Vec3;
@@ -18,7 +19,7 @@ pub struct PhotoModel {
     pub train_gains: Option<Vec<f32>>,
     /// The camera's inverse response the run fitted (linear values at stored 0 … 1), if it
     /// used one; the inputs are decoded as sRGB.
-    pub response: Option<Vec<f32>>,
+    pub response: Option<Response>,
 }
 
 /// A render as a photo of one view.
@@ -59,7 +60,8 @@ impl PhotoModel {
                 .as_bool()
                 .filter(|a| *a)
                 .and_then(|_| floats(&c["response"]["linear"]))
-                .filter(|t| t.len() >= 2),
+                .map(Response::Table)
+                .filter(|r| r.validate(Path::new("report.json")).is_ok()),
         }
     }
 
@@ -93,21 +95,16 @@ impl PhotoModel {
     /// A linear value as the camera stores it, decoded back as sRGB.
     fn encode(&self, x: f32) -> f32 {
         let v = (x / self.clip).clamp(0.0, 1.0);
-        let stored = match &self.response {
-            Some(t) => stored_of(t, v),
-            None => return v * self.clip,
-        };
-        srgb_eotf(stored) * self.clip
+        match &self.response {
+            Some(r) => srgb_eotf(r.to_stored(v)) * self.clip,
+            None => v * self.clip,
+        }
     }
 
     /// The input pixel's value in the run's linear units (through the fitted response).
     fn decode(&self, x: f32) -> f32 {
         match &self.response {
-            Some(t) => {
-                let s = srgb_oetf((x / self.clip).clamp(0.0, 1.0)) * (t.len() - 1) as f32;
-                let i = (s.floor() as usize).min(t.len() - 2);
-                (t[i] + (t[i + 1] - t[i]) * (s - i as f32)) * self.clip
-            }
+            Some(r) => r.to_linear(srgb_oetf((x / self.clip).clamp(0.0, 1.0))) * self.clip,
             None => x,
         }
     }
@@ -133,18 +130,6 @@ impl PhotoModel {
         }
         fipt_core::image::median(&mut r)
     }
-}
-
-/// The stored value in [0, 1] whose linear value in table `t` is `v` (t non-decreasing).
-fn stored_of(t: &[f32], v: f32) -> f32 {
-    let i = t.partition_point(|&y| y < v).clamp(1, t.len() - 1);
-    let (a, b) = (t[i - 1], t[i]);
-    let f = if b > a {
-        ((v - a) / (b - a)).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    ((i - 1) as f32 + f) / (t.len() - 1) as f32
 }
 
 #[cfg(test)]
@@ -184,7 +169,7 @@ mod tests {
         let m = PhotoModel {
             ldr: true,
             clip: 1.0,
-            response: Some(t),
+            response: Some(Response::Table(t)),
             ..Default::default()
         };
         for x in [0.01f32, 0.1, 0.4, 0.9] {

@@ -78,17 +78,6 @@ pub struct ResponseFit {
 }
 
 impl ResponseFit {
-    /// The fitted inverse response at stored value `s` in [0, 1].
-    pub fn to_linear(&self, s: f32) -> f32 {
-        let t = &self.linear;
-        if t.len() < 2 {
-            return fipt_core::color::srgb_eotf(s.clamp(0.0, 1.0));
-        }
-        let x = s.clamp(0.0, 1.0) * (t.len() - 1) as f32;
-        let i = (x.floor() as usize).min(t.len() - 2);
-        t[i] + (t[i + 1] - t[i]) * (x - i as f32)
-    }
-
     /// As a `capture.json` response table.
     pub fn as_response(&self) -> fipt_core::capture::Response {
         fipt_core::capture::Response::Table(self.linear.clone())
