@@ -7,6 +7,7 @@ tuned on (`docs/loft-mitsuba.md`).
     python3 scripts/mitsuba_loft.py --out loft --spp 512
     python3 scripts/mitsuba_loft.py --layout gallery --out gallery --spp 512
     python3 scripts/mitsuba_loft.py --layout bedroom --out bedroom --spp 512
+    python3 scripts/mitsuba_loft.py --layout atelier --out atelier --spp 256
 
 `loft`: a glossy textured floor, one one-sided ceiling panel, a copper cylinder (metal,
 σ 0.25), a rough aluminium box (metal, σ 0.45), a glossy red sphere (dielectric, σ 0.15), a
@@ -226,6 +227,48 @@ def bedroom_objects(lo, hi):
     ]
 
 
+def atelier_objects(lo, hi):
+    """A fifth layout, for issue 55 (σ on rooms nobody tuned on): a plank floor whose roughness
+    changes in 2 m tiles (σ 0.3 / 0.65) independently of its wood checker, a rough brick-red wall
+    (σ 1), a glossy painted wall (σ 0.4), a bright plaster sphere (σ 1), a near-black glossy box
+    (σ 0.1), two metals of different roughness (steel σ 0.2, copper σ 0.6), a shelf (σ 0.7), a
+    checkered rug (σ 0.9), a window panel on the back wall and a ceiling square."""
+    c = lambda x, y, z: np.array([x, y, z], float)
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    floor, ceiling, wall_xm, wall_xp, wall_zm, wall_zp = shell(lo, hi)
+    zp, py, ry = z0 + 0.01, y1 - 0.01, y0 + 0.005
+    window = quad(c(-1.2, 1.1, zp), c(0.2, 1.1, zp), c(0.2, 2.0, zp), c(-1.2, 2.0, zp))
+    lamp = quad(c(0.8, py, 0.4), c(1.2, py, 0.4), c(1.2, py, 0.8), c(0.8, py, 0.8))
+    rug = quad(c(-0.4, ry, 1.8), c(1.2, ry, 1.8), c(1.2, ry, 0.6), c(-0.4, ry, 0.6))
+    planks = {"type": "checker", "color0": [0.55, 0.40, 0.26], "color1": [0.42, 0.29, 0.18],
+              "uv_scale": [10.0, 4.0]}
+    finish = {"type": "checker", "color0": 0.3, "color1": 0.65, "uv_scale": [1.35, 1.1]}
+    rug_c = {"type": "checker", "color0": [0.75, 0.70, 0.62], "color1": [0.30, 0.35, 0.45],
+             "uv_scale": [4.0, 3.0]}
+    return [
+        ("floor", floor, dict(base_color=planks, roughness=finish, metallic=0.0)),
+        ("ceiling", ceiling, dict(base_color=[0.90, 0.90, 0.88], roughness=1.0, metallic=0.0)),
+        ("wall_brick_x-", wall_xm, dict(base_color=[0.55, 0.28, 0.20], roughness=1.0, metallic=0.0)),
+        ("wall_gloss_x+", wall_xp, dict(base_color=[0.45, 0.60, 0.52], roughness=0.4, metallic=0.0)),
+        ("wall_back_z-", wall_zm, dict(base_color=[0.78, 0.76, 0.70], roughness=0.9, metallic=0.0)),
+        ("wall_front_z+", wall_zp, dict(base_color=[0.60, 0.55, 0.62], roughness=0.8, metallic=0.0)),
+        ("window", window, dict(radiance=[8.0, 8.5, 9.5])),
+        ("ceiling_lamp", lamp, dict(radiance=[20.0, 18.0, 14.0])),
+        ("rug", rug, dict(base_color=rug_c, roughness=0.9, metallic=0.0)),
+        ("plaster_sphere", sphere([-1.2, 0.3, 1.0], 0.3),
+         dict(base_color=[0.85, 0.84, 0.80], roughness=1.0, metallic=0.0)),
+        ("black_box", box(c(0.6, 0.0, -1.0), c(1.1, 0.45, -0.5)),
+         dict(base_color=[0.03, 0.03, 0.03], roughness=0.1, metallic=0.0)),
+        ("steel_cylinder", outward(cylinder(-1.8, -1.4, 0.25, 0.9), c(-1.8, 0.45, -1.4)),
+         dict(base_color=[0.60, 0.61, 0.62], roughness=0.2, metallic=1.0)),
+        ("copper_box", box(c(1.6, 0.0, 0.9), c(2.1, 0.5, 1.4)),
+         dict(base_color=[0.95, 0.64, 0.54], roughness=0.6, metallic=1.0)),
+        ("shelf", box(c(-2.65, 0.0, -0.8), c(-2.25, 1.6, 0.6)),
+         dict(base_color=[0.50, 0.38, 0.25], roughness=0.7, metallic=0.0)),
+    ]
+
+
 # Each layout: room bounds, its objects (floor, ceiling and four walls first), the relighting
 # sphere light (centre, radius, radiance; at least 1.3 m from every val camera).
 LAYOUTS = {
@@ -235,6 +278,8 @@ LAYOUTS = {
                     relight=([-1.5, 2.5, 1.2], 0.15, [70.0, 66.0, 58.0])),
     "bedroom": dict(lo=[-2.5, 0.0, -2.1], hi=[2.5, 2.6, 2.1], objects=bedroom_objects,
                     relight=([1.0, 2.1, 0.9], 0.15, [70.0, 66.0, 58.0]), camera=(256, 192, 60.0)),
+    "atelier": dict(lo=[-2.7, 0.0, -2.2], hi=[2.7, 2.8, 2.2], objects=atelier_objects,
+                    relight=([-0.5, 2.2, 0.2], 0.15, [70.0, 66.0, 58.0])),
 }
 
 
