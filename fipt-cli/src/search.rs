@@ -68,7 +68,7 @@ pub fn run(a: Args) -> Result<()> {
     );
     for row in &rows {
         let (f, c) = (&row.fitted, &row.choice);
-        // A side of a region divided by colour: `7a`, `7b`; `*` when the sides keep their own.
+        // A side of a divided region: `7a`, `7b`; `*` when the sides keep their own.
         let label = match row.side {
             Some(s) => format!(
                 "{}{}{}",
@@ -107,7 +107,7 @@ pub fn run(a: Args) -> Result<()> {
     for row in rows.iter().filter(|r| r.side == Some(0)) {
         if let Some(w) = &row.whole {
             println!(
-                "region {} divided by colour; both sides together: {}, {}{}",
+                "region {} divided; both sides together: {}, {}{}",
                 row.label,
                 w.roughness.map_or("–".into(), |v| format!("{v:.2}")),
                 w.metallic.map_or("–".into(), |v| format!("{v:.0}")),

@@ -11,10 +11,12 @@ use fipt_core::fsutil::{read_json, write_json_atomic};
 use fipt_core::image::{BadPixelPolicy, Image};
 use fipt_core::shading::{ViewShadings, NUM_LEVELS};
 use fipt_search::divided::{choose_regions, Divided, DividedCells, SideLookup};
+use fipt_search::gloss::gloss_split;
 use fipt_search::split::{colour_split, ColourSplit};
 use fipt_search::{
-    choose, gather_pixels, on_region_edge, profile, sigma_grid, true_base_colours, view_pixels,
-    with_cells_keyed, Albedo, RegionChoice, RegionProfile, RegionSource, SearchConfig, SearchPixel,
+    choose, gather_pixels_keyed, on_region_edge, profile, sigma_grid, true_base_colours,
+    view_pixels, with_cells_keyed, Albedo, RegionChoice, RegionProfile, RegionSource, SearchConfig,
+    SearchPixel,
 };
 use fipt_shading::records::{HitPoint, PrimaryHit};
 use serde::Serialize;
@@ -28,7 +30,8 @@ pub use profile::{profile_rows, ProfileRequest, ProfileRow};
 pub struct Searched {
     pub source: &'static str,
     pub regions: Vec<(i64, RegionChoice)>,
-    /// Regions divided by colour whose sides keep their own decisions (`[search.split]`).
+    /// Regions divided (by colour or by gloss) whose sides keep their own decisions
+    /// (`[search.split]`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub divided: Vec<Divided>,
     #[serde(skip)]
@@ -64,6 +67,8 @@ impl PixelTargets {
 struct Prepared {
     regions: Regions,
     pixels: Vec<SearchPixel>,
+    /// The voxel of each surface cell.
+    voxels: Vec<[i32; 3]>,
     grid: Vec<f32>,
 }
 
@@ -79,10 +84,12 @@ fn prepare(
     else {
         return Ok(None);
     };
-    let (pixels, grid) = search_pixels(&scene.images, records, shadings, &regions, cfg, footprint);
+    let (pixels, voxels, grid) =
+        search_pixels(&scene.images, records, shadings, &regions, cfg, footprint);
     Ok(Some(Prepared {
         regions,
         pixels,
+        voxels,
         grid,
     }))
 }
@@ -114,8 +121,8 @@ fn sigma_candidates(first: Option<&ViewShadings>, cfg: &SearchConfig) -> Vec<f32
     sigma_grid(levels[0], levels[NUM_LEVELS - 1], cfg.roughness_steps)
 }
 
-/// The search's pixels of `regions` (outlines left out with `cfg.drop_edges`) and its σ
-/// candidates.
+/// The search's pixels of `regions` (outlines left out with `cfg.drop_edges`), the voxels of
+/// their cells and the σ candidates.
 fn search_pixels(
     images: &[Image],
     records: &[Vec<Option<HitPoint>>],
@@ -123,10 +130,56 @@ fn search_pixels(
     regions: &Regions,
     cfg: &SearchConfig,
     footprint: f32,
-) -> (Vec<SearchPixel>, Vec<f32>) {
+) -> (Vec<SearchPixel>, Vec<[i32; 3]>, Vec<f32>) {
     let rule = region_rule(images, regions, cfg);
-    let pixels = gather_pixels(records, shadings, cfg.cell_footprints * footprint, &rule);
-    (pixels, sigma_candidates(shadings.first(), cfg))
+    let cell = cfg.cell_footprints * footprint;
+    let (pixels, voxels) = gather_pixels_keyed(records, shadings, cell, &rule);
+    (pixels, voxels, sigma_candidates(shadings.first(), cfg))
+}
+
+/// The regions divided in two: by colour, then by gloss where the colour leaves a region whole
+/// or its colour sides are the shallower division
+/// (none on the bake, where dielectric σ waits for the refined shadings). Prints what the
+/// gloss split measured on each region it could cut.
+#[allow(clippy::too_many_arguments)]
+fn divide(
+    pixels: &[SearchPixel],
+    voxels: &[[i32; 3]],
+    shadings: &[ViewShadings],
+    images: &[Image],
+    grid: &[f32],
+    regions: &Regions,
+    cfg: &SearchConfig,
+    on_bake: bool,
+) -> ColourSplit {
+    if on_bake {
+        return ColourSplit::none(regions.len());
+    }
+    let n = regions.len();
+    let by_colour = colour_split(pixels, shadings, images, n, cfg.min_pixels, &cfg.split);
+    let (split, cuts) = gloss_split(
+        by_colour,
+        pixels,
+        voxels,
+        shadings,
+        images,
+        grid,
+        cfg.min_pixels,
+        &cfg.split,
+    );
+    for c in cuts.iter().filter(|c| c.agreement >= 0.6) {
+        crate::note!(
+            "search: region {} cut by gloss at σ {:.2} / {:.2} ({:.0} % rougher side, halves agree on {:.0} %, depth {:.1} %): {}",
+            regions.labels[c.region as usize],
+            c.sigma[0],
+            c.sigma[1],
+            100.0 * c.share,
+            100.0 * c.agreement,
+            100.0 * c.depth,
+            if c.divided { "divided" } else { "kept whole" }
+        );
+    }
+    split
 }
 
 /// Seeds the share of pixels the search keeps beyond `search.max_pixels`.
@@ -384,7 +437,7 @@ pub fn stage(
     let glossy = choices.iter().filter(|c| c.roughness.is_some()).count();
     let metal = choices.iter().filter(|c| c.metallic > Some(0.5)).count();
     crate::note!(
-        "search: {} regions ({}): {} with a σ target, {} metal, {} divided by colour, in {:.1} s",
+        "search: {} regions ({}): {} with a σ target, {} metal, {} divided, in {:.1} s",
         regions.len(),
         regions.source,
         glossy,
@@ -392,6 +445,9 @@ pub fn stage(
         divided.len(),
         seconds
     );
+    if when != When::Bake {
+        crate::note!("{}", pinning(&regions.labels, &choices, &divided, cfg));
+    }
     Ok(Some(Searched {
         source: regions.source,
         regions: regions.labels.iter().copied().zip(choices).collect(),
@@ -400,6 +456,38 @@ pub fn stage(
         second_sides,
         seconds,
     }))
+}
+
+/// How strongly the views pin each region's σ: σ = 1's cost over the dielectric minimum
+/// (0 %: the views say nothing of σ; tens of %: a lobe they see clearly), beside the decision.
+fn pinning(
+    labels: &[i64],
+    choices: &[RegionChoice],
+    divided: &[Divided],
+    cfg: &SearchConfig,
+) -> String {
+    let d = cfg.metallic.iter().position(|&m| m == 0.0);
+    let entry = |name: String, c: &RegionChoice| {
+        let best = d.and_then(|d| c.best_cost.get(d).copied());
+        let depth = best.map_or(f64::NAN, |b| 100.0 * (c.default_cost / b - 1.0));
+        let sigma = c.roughness.map_or("–".to_string(), |s| format!("{s:.2}"));
+        let metal = if c.metallic > Some(0.5) { " metal" } else { "" };
+        format!("{name} {sigma}{metal} ({depth:.1} %)")
+    };
+    let mut parts = vec![];
+    for (label, c) in labels.iter().zip(choices) {
+        match divided.iter().find(|d| d.label == *label) {
+            Some(d) => {
+                parts.push(entry(format!("{label}a"), &d.sides[0]));
+                parts.push(entry(format!("{label}b"), &d.sides[1]));
+            }
+            None => parts.push(entry(label.to_string(), c)),
+        }
+    }
+    format!(
+        "search: σ per region and how strongly the views pin it (σ = 1's excess over the minimum): {}",
+        parts.join(", ")
+    )
 }
 
 /// Each training pixel's σ and metallic target ([NaN, NaN] where its region has none; none
@@ -484,7 +572,7 @@ fn search_key(
     ))
 }
 
-/// What a search decided: per region, then the regions divided by colour and their cells.
+/// What a search decided: per region, then the divided regions and their cells.
 struct Decisions {
     choices: Vec<RegionChoice>,
     divided: Vec<Divided>,
@@ -511,19 +599,17 @@ fn decide(
     };
     let cfg = if on_bake { &bake_cfg } else { cfg };
     let c = compact_inputs(scene, records, shadings, regions, cfg, footprint)?;
-    // Dielectric σ waits for the refined shadings, and with it the division by colour.
-    let split = if on_bake {
-        ColourSplit::none(regions.len())
-    } else {
-        colour_split(
-            &c.pixels,
-            &c.shadings,
-            &c.images,
-            regions.len(),
-            cfg.min_pixels,
-            &cfg.split,
-        )
-    };
+    // Dielectric σ waits for the refined shadings, and with it the division of regions.
+    let split = divide(
+        &c.pixels,
+        &c.voxels,
+        &c.shadings,
+        &c.images,
+        &c.grid,
+        regions,
+        cfg,
+        on_bake,
+    );
     let (profiles, halves) = fitted_profiles(
         &c.images,
         &c.shadings,

@@ -265,7 +265,7 @@ pub(crate) fn with_segments(
 }
 
 /// Gives the pixels `(view, pixel, k)` on the second side of the k-th region the search divided
-/// by colour a part id of their own (after every id in `ids`).
+/// (by colour or gloss) a part id of their own (after every id in `ids`).
 pub(crate) fn divide_ids(ids: &mut [Vec<i64>], sides: &[(u32, u32, u32)]) {
     let base = ids.iter().flatten().copied().max().unwrap_or(0).max(0) + 1;
     for &(v, i, k) in sides {

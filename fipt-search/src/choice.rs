@@ -137,8 +137,7 @@ pub fn choose(
         && gain >= cfg.interior_gain as f64
         && (!cfg.held_out || halves.is_some_and(|h| holds_out(h, mi, cfg)))
     {
-        si =
-            roughest_within((gain * cfg.interior_tolerance as f64).min(cfg.metal_tolerance as f64));
+        si = roughest_within((gain * cfg.interior_tolerance as f64).min(cfg.interior_cap as f64));
     }
     let rough = !metal
         && si + 1 == n

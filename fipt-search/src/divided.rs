@@ -1,4 +1,4 @@
-//! Regions divided by colour (`[search.split]`, see [`crate::split`]): each
+//! Regions divided by colour or gloss (`[search.split]`, see [`crate::split`], [`crate::gloss`]): each
 //! side's decision, the whole region's, and the side of a training pixel.
 use crate::split::{merged, sides_differ, ColourSplit, SplitConfig};
 use crate::{voxel, RegionChoice, RegionProfile};
@@ -6,7 +6,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
-/// A region divided by colour whose two sides keep their own decisions. The region's own entry
+/// A divided region whose two sides keep their own decisions. The region's own entry
 /// in the search holds the decision for both sides together, which pixels in cells the search
 /// did not see take.
 #[derive(Clone, Debug, Serialize, Deserialize)]

@@ -65,7 +65,7 @@ pub struct SearchConfig {
     /// σ target when σ = 1 costs this fraction more (weaker evidence than
     /// `dielectric_tolerance` asks for) and, with `held_out`, the minimum holds on held-out
     /// views: the roughest σ whose cost exceeds the minimum by at most `interior_tolerance` of
-    /// σ = 1's excess, and by at most `metal_tolerance`. A minimum at the mirror end is what a
+    /// σ = 1's excess, and by at most `interior_cap`. A minimum at the mirror end is what a
     /// mismatched diffuse lobe produces (on `studio-mitsuba` both boxes, whatever their σ); an
     /// interior one a lobe the data has: the glossy floor of `cornell-metal` (14 % below
     /// σ = 1), and the walls and the floor of `studio-mitsuba` (σ 0.85–0.95: 0.3–3 % below
@@ -80,6 +80,14 @@ pub struct SearchConfig {
     /// 0.86–0.92 (true 0.85–0.95), where their minima alone say 0.76–0.88. With 1 and
     /// `interior_gain` 0.05 the rule is the one before 2026-11-25.
     pub interior_tolerance: f32,
+    /// The most the `interior_tolerance` rule may add to the minimum (relative). A deep
+    /// minimum is where the σ is: the glossy parts of five Mitsuba rooms sit at their true σ
+    /// within 0.02 at their minima, and a cap of 2 % (`metal_tolerance`, the rule until
+    /// 2026-11-29) moved them 0.05–0.3 rougher (a lacquer of σ 0.12 to 0.44); shallow minima
+    /// (rough walls, under 2 % below σ = 1) take the same quarter of their gain as before
+    /// (`docs/roughness-rooms.md`).
+    #[serde(default = "default_interior_cap")]
+    pub interior_cap: f32,
     /// The `interior_gain` rule decides every dielectric whose minimum is interior and holds
     /// out, not only those `dielectric_tolerance` would leave at σ = 1. False: a minimum more
     /// than `dielectric_tolerance` below σ = 1 takes the roughest σ within that 25 %, which put
@@ -135,13 +143,17 @@ pub struct SearchConfig {
     /// runs, 182 bytes each with `principled`. 0: every pixel.
     #[serde(default = "default_max_pixels")]
     pub max_pixels: usize,
-    /// Dividing regions of two finishes by colour ([`split`]).
+    /// Dividing regions of two finishes by colour ([`split`]) or by gloss ([`gloss`]).
     #[serde(default)]
     pub split: split::SplitConfig,
 }
 
 fn default_interior_always() -> bool {
     true
+}
+
+fn default_interior_cap() -> f32 {
+    0.005
 }
 
 fn default_held_out_band() -> f32 {
@@ -177,6 +189,7 @@ impl Default for SearchConfig {
             interior_gain: 0.001,
             interior_sigma: 0.1,
             interior_tolerance: 0.25,
+            interior_cap: default_interior_cap(),
             interior_always: true,
             metal_margin: 0.2,
             min_pixels: 200,
@@ -206,6 +219,7 @@ impl SearchConfig {
             ("metal_margin", self.metal_margin, 1.0),
             ("interior_sigma", self.interior_sigma, 1.0),
             ("interior_tolerance", self.interior_tolerance, 1.0),
+            ("interior_cap", self.interior_cap, 1e6),
             ("dielectric_tolerance", self.dielectric_tolerance, 1e6),
             ("metal_tolerance", self.metal_tolerance, 1e6),
             ("interior_gain", self.interior_gain, 1e6),
@@ -421,11 +435,21 @@ pub fn gather_pixels<R: PrimaryHit>(
     cell: f32,
     region_of: &dyn Fn(usize, usize, &R) -> Option<u32>,
 ) -> Vec<SearchPixel> {
+    gather_pixels_keyed(records, shadings, cell, region_of).0
+}
+
+/// [`gather_pixels`] and the voxel of each surface cell.
+pub fn gather_pixels_keyed<R: PrimaryHit>(
+    records: &[Vec<Option<R>>],
+    shadings: &[ViewShadings],
+    cell: f32,
+    region_of: &dyn Fn(usize, usize, &R) -> Option<u32>,
+) -> (Vec<SearchPixel>, Vec<[i32; 3]>) {
     let mut keyed = vec![];
     for (v, (recs, sh)) in records.iter().zip(shadings).enumerate() {
         keyed.extend(view_pixels(v, recs, &sh.valid, region_of));
     }
-    with_cells(&keyed, cell)
+    with_cells_keyed(&keyed, cell)
 }
 
 /// View `v`'s search pixels: every pixel with a hit, `valid` shadings and a region from
@@ -507,7 +531,7 @@ fn oetf_grad(x: f32) -> f32 {
 
 /// (b, c) of the linear model `a·b + c` at (σ, m) for one pixel.
 #[inline]
-fn linear_terms(sh: &ViewShadings, i: usize, sigma: f32, m: f32) -> (Rgb, Rgb) {
+pub(crate) fn linear_terms(sh: &ViewShadings, i: usize, sigma: f32, m: f32) -> (Rgb, Rgb) {
     let (k, t) = level_segment(&sh.levels, sigma);
     let s0 = sh.ls0[i][k] * (1.0 - t) + sh.ls0[i][k + 1] * t;
     let s1 = sh.ls1[i][k] * (1.0 - t) + sh.ls1[i][k + 1] * t;
@@ -546,7 +570,7 @@ impl AlbedoFit {
 }
 
 #[inline]
-fn sq_err(pred: Rgb, gt: Rgb) -> f64 {
+pub(crate) fn sq_err(pred: Rgb, gt: Rgb) -> f64 {
     let e = |p: f32, g: f32| {
         let d = srgb_oetf(p) - srgb_oetf(g);
         (d * d) as f64
@@ -674,6 +698,7 @@ use choice::argmin;
 pub use choice::choose;
 
 pub mod divided;
+pub mod gloss;
 pub mod split;
 
 #[cfg(test)]

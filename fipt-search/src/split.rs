@@ -17,7 +17,7 @@ use fipt_core::shading::ViewShadings;
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
-/// `[search.split]`: dividing regions by colour.
+/// `[search.split]`: dividing regions by colour, and by gloss (`by_gloss`, [`crate::gloss`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SplitConfig {
@@ -34,6 +34,17 @@ pub struct SplitConfig {
     /// their curves' minima lie at least this far apart in σ, on all the views and on each
     /// half of them ([`sides_differ`]).
     pub sigma_gap: f32,
+    /// Also divide the regions the colour leaves whole by where the views place their
+    /// highlights ([`crate::gloss`]): a change of finish that the colour does not follow.
+    pub by_gloss: bool,
+    /// The neighbourhood each surface cell reads for the gloss split: the cells within this
+    /// many cells of it (a cube of edge `2·r + 1`).
+    pub gloss_radius: u32,
+    /// Least share of the cells seen in both halves of the views (even, odd) that the cuts
+    /// made on each half alone put on the same side.
+    pub gloss_agreement: f32,
+    /// Least relative excess of each side's pooled cost curve at the other side's σ.
+    pub gloss_depth: f32,
 }
 
 impl Default for SplitConfig {
@@ -43,6 +54,10 @@ impl Default for SplitConfig {
             separation: 3.6,
             min_share: 0.15,
             sigma_gap: 0.1,
+            by_gloss: true,
+            gloss_radius: 3,
+            gloss_agreement: 0.7,
+            gloss_depth: 0.25,
         }
     }
 }
@@ -60,6 +75,15 @@ impl SplitConfig {
         }
         if !(self.sigma_gap >= 0.0 && self.sigma_gap <= 1.0) {
             return bad("sigma_gap", self.sigma_gap, "[0, 1]");
+        }
+        if self.gloss_radius > 8 {
+            return bad("gloss_radius", self.gloss_radius as f32, "0 … 8");
+        }
+        if !(self.gloss_agreement >= 0.5 && self.gloss_agreement <= 1.0) {
+            return bad("gloss_agreement", self.gloss_agreement, "[0.5, 1]");
+        }
+        if !(self.gloss_depth >= 0.0 && self.gloss_depth <= 10.0) {
+            return bad("gloss_depth", self.gloss_depth, "[0, 10]");
         }
         Ok(())
     }

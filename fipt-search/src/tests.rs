@@ -249,6 +249,16 @@ fn a_strong_minimum_is_kept_and_a_metal_by_hysteresis() {
         Some(0.25)
     );
     assert_eq!(choose(&floor, &cfg, false, None).roughness, Some(0.5));
+    // A lacquer: the next level 1.5 % above the deep minimum. Within `interior_cap` (0.5 %)
+    // it stays at the minimum; the old cap of 2 % took it a level rougher.
+    let lacquer = curve(vec![1.0; 5], vec![0.3, 0.100, 0.1015, 0.200, 0.300]);
+    let held = Some([&lacquer, &lacquer]);
+    assert_eq!(choose(&lacquer, &cfg, false, held).roughness, Some(0.25));
+    let old_cap = SearchConfig {
+        interior_cap: 0.02,
+        ..SearchConfig::default()
+    };
+    assert_eq!(choose(&lacquer, &old_cap, false, held).roughness, Some(0.5));
     let loose = SearchConfig {
         interior_always: false,
         ..SearchConfig::default()

@@ -25,7 +25,7 @@ pub struct ProfileRequest {
 #[derive(Serialize)]
 pub struct ProfileRow {
     pub label: i64,
-    /// The side of a region divided by colour (`[search.split]`), None for a whole region.
+    /// The side of a divided region (`[search.split]`), None for a whole region.
     pub side: Option<u8>,
     /// Whether a divided region's sides keep their own decisions.
     pub sides_kept: Option<bool>,
@@ -133,23 +133,26 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
     let Some(Prepared {
         regions,
         pixels,
+        voxels,
         grid,
     }) = prepare(&scene, &records, &shadings, &cfg, footprint.unwrap_or(0.01))?
     else {
         bail!("no regions");
     };
-    let split_by_colour = colour_split(
+    let split = super::divide(
         &pixels,
+        &voxels,
         &shadings,
         &scene.images,
-        regions.len(),
-        cfg.min_pixels,
-        &cfg.split,
+        &grid,
+        &regions,
+        &cfg,
+        false,
     );
-    let pixels = split_by_colour.apply(&pixels);
-    let n = split_by_colour.regions();
+    let pixels = split.apply(&pixels);
+    let n = split.regions();
     let mut parent: Vec<usize> = (0..regions.len()).collect();
-    for (r, s) in split_by_colour.sub.iter().enumerate() {
+    for (r, s) in split.sub.iter().enumerate() {
         if s.is_some() {
             parent.push(r);
         }
@@ -166,13 +169,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
     let choose_one = |p: &RegionProfile, held: Option<[&RegionProfile; 2]>, _: usize| {
         choose(p, &cfg, false, held)
     };
-    let (whole, kept) = choose_regions(
-        &fitted,
-        halves.as_ref(),
-        &split_by_colour,
-        &cfg.split,
-        &choose_one,
-    );
+    let (whole, kept) = choose_regions(&fitted, halves.as_ref(), &split, &cfg.split, &choose_one);
     let (given, mut part) = reference_profiles(&scene, &pixels, &shadings, n, &grid, &cfg)?;
     let mut rows = vec![];
     for (r, f) in fitted.into_iter().enumerate() {
@@ -184,7 +181,7 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
         });
         let g = given.as_ref().map(|g| g[r].clone());
         let top = parent[r];
-        let side = split_by_colour.sub[top].map(|_| u8::from(r != top));
+        let side = split.sub[top].map(|_| u8::from(r != top));
         rows.push(ProfileRow {
             label: regions.labels[top],
             side,

@@ -1,0 +1,482 @@
+//! Two finishes of one colour in one region. Tiles of two glazes under one wood pattern, a
+//! varnished path worn into a floor: the colour split ([`crate::split`]) cannot see a change of
+//! finish that the colour does not follow, yet the views do, in where the highlights fall.
+//!
+//! Each surface cell's own cost curve over σ (its base colour fitted at every candidate, at
+//! m = 0) says which σ its pixels prefer; alone it is noisy, so each cell reads the curves of
+//! its neighbours in the same region (a cube of `2·gloss_radius + 1` cells) summed with its own.
+//! The cells' preferred σ are cut in two (the weighted 1-D 2-means, exact), each side's pooled
+//! curve gives its σ, and the cells are reassigned to the side whose σ their neighbourhood
+//! prefers until nothing moves. A region divides when the two sides' σ lie `sigma_gap` apart and
+//! the same cut made on each half of the views alone (even, odd) puts at least
+//! `gloss_agreement` of the cells both halves saw on the same side: a cut made by noise is
+//! not reproducible (about half the cells agree), a change of finish is; and when each side's
+//! pooled curve costs `gloss_depth` more at the other side's σ than at its own: light the
+//! shadings get wrong near a lamp also makes a reproducible cut, but a shallow one
+//! (`studio-mitsuba`'s right wall, σ 0.9: 1.2 %). The sides then go
+//! through the same guard as a colour split ([`crate::split::sides_differ`]).
+use super::{sq_err, AlbedoFit, SearchPixel};
+use crate::split::{ColourSplit, SplitConfig};
+use fipt_core::image::Image;
+use fipt_core::shading::ViewShadings;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Which pixels a set of curves reads: all, or one half of the views.
+#[derive(Clone, Copy, PartialEq)]
+enum Views {
+    All,
+    Parity(u32),
+}
+
+impl Views {
+    fn reads(self, p: &SearchPixel) -> bool {
+        match self {
+            Views::All => true,
+            Views::Parity(k) => p.view % 2 == k,
+        }
+    }
+}
+
+/// Per cell (dense id), its cost curve at m = 0 over `grid` (summed squared sRGB error of its
+/// pixels that `views` reads, its base colour fitted at each σ), None without such a pixel.
+fn cell_curves(
+    by_cell: &[Vec<usize>],
+    pixels: &[SearchPixel],
+    shadings: &[ViewShadings],
+    images: &[Image],
+    grid: &[f32],
+    views: Views,
+) -> Vec<Option<Vec<f32>>> {
+    by_cell
+        .par_iter()
+        .map(|members| {
+            let mine: Vec<&SearchPixel> = (members.iter().map(|&j| &pixels[j]))
+                .filter(|p| views.reads(p))
+                .collect();
+            if mine.is_empty() {
+                return None;
+            }
+            let curve = grid.iter().map(|&sigma| {
+                let mut fit = AlbedoFit::default();
+                for p in &mine {
+                    let (v, i) = (p.view as usize, p.pixel as usize);
+                    fit.add(&shadings[v], &images[v], i, sigma, 0.0);
+                }
+                let a = fit.albedo().clamp(Vec3::ZERO, Vec3::ONE);
+                let cost: f64 = (mine.iter())
+                    .map(|p| {
+                        let (v, i) = (p.view as usize, p.pixel as usize);
+                        let (b, c) = super::linear_terms(&shadings[v], i, sigma, 0.0);
+                        sq_err(a * b + c, images[v].data[i])
+                    })
+                    .sum();
+                cost as f32
+            });
+            Some(curve.collect())
+        })
+        .collect()
+}
+
+/// One region's cells: their ids, voxels and pixel counts, and the neighbours of each (the
+/// cells of the region within `radius` voxels, itself included).
+struct RegionCells {
+    ids: Vec<usize>,
+    weight: Vec<f64>,
+    neighbours: Vec<Vec<usize>>,
+}
+
+impl RegionCells {
+    fn new(ids: Vec<usize>, voxels: &[[i32; 3]], by_cell: &[Vec<usize>], radius: i32) -> Self {
+        let at: HashMap<[i32; 3], usize> = (ids.iter().enumerate())
+            .map(|(k, &c)| (voxels[c], k))
+            .collect();
+        let neighbours = (ids.iter())
+            .map(|&c| {
+                let [x, y, z] = voxels[c];
+                let mut near = vec![];
+                for dx in -radius..=radius {
+                    for dy in -radius..=radius {
+                        for dz in -radius..=radius {
+                            if let Some(&k) = at.get(&[x + dx, y + dy, z + dz]) {
+                                near.push(k);
+                            }
+                        }
+                    }
+                }
+                near
+            })
+            .collect();
+        let weight = ids.iter().map(|&c| by_cell[c].len() as f64).collect();
+        RegionCells {
+            ids,
+            weight,
+            neighbours,
+        }
+    }
+}
+
+/// A cut of one region's cells into a glossier side (0) and a rougher one (1): each cell's
+/// side (None: no curve), and each side's σ index.
+struct Cut {
+    side: Vec<Option<u8>>,
+    sigma: [usize; 2],
+    /// How much worse each side's pooled curve does at the other side's σ than at its own
+    /// (relative), the smaller of the two.
+    depth: f64,
+}
+
+fn argmin(v: &[f64]) -> Option<usize> {
+    (v.iter().enumerate())
+        .filter(|x| x.1.is_finite())
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map(|x| x.0)
+}
+
+/// The weighted 1-D 2-means threshold of `values` (value, weight): the cut between two
+/// distinct values with the largest between-side variance; None when all are equal.
+fn threshold(values: &mut [(usize, f64)]) -> Option<usize> {
+    values.sort_unstable_by_key(|v| v.0);
+    let total: f64 = values.iter().map(|v| v.1).sum();
+    let sum: f64 = values.iter().map(|v| v.0 as f64 * v.1).sum();
+    let (mut w0, mut s0, mut best) = (0.0, 0.0, None::<(f64, usize)>);
+    for k in 0..values.len().saturating_sub(1) {
+        w0 += values[k].1;
+        s0 += values[k].0 as f64 * values[k].1;
+        if values[k].0 == values[k + 1].0 || w0 <= 0.0 || total - w0 <= 0.0 {
+            continue;
+        }
+        let (m0, m1) = (s0 / w0, (sum - s0) / (total - w0));
+        let between = w0 * (total - w0) * (m1 - m0) * (m1 - m0);
+        if best.is_none_or(|b| between > b.0) {
+            best = Some((between, values[k].0));
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// The cut of a region's cells from one set of curves (see the module).
+fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>]) -> Option<Cut> {
+    let smoothed: Vec<Option<Vec<f64>>> = (cells.neighbours.iter())
+        .map(|near| {
+            let mut acc: Option<Vec<f64>> = None;
+            for &k in near {
+                let Some(c) = &curves[cells.ids[k]] else {
+                    continue;
+                };
+                let a = acc.get_or_insert_with(|| vec![0.0; c.len()]);
+                for (s, &x) in a.iter_mut().zip(c) {
+                    *s += x as f64;
+                }
+            }
+            acc
+        })
+        .collect();
+    let own = |k: usize| curves[cells.ids[k]].as_ref();
+    let mut local: Vec<(usize, f64)> = (0..cells.ids.len())
+        .filter(|&k| own(k).is_some())
+        .filter_map(|k| Some((argmin(smoothed[k].as_ref()?)?, cells.weight[k])))
+        .collect();
+    let t = threshold(&mut local)?;
+    let mut side: Vec<Option<u8>> = (0..cells.ids.len())
+        .map(|k| {
+            own(k)?;
+            Some(u8::from(argmin(smoothed[k].as_ref()?)? > t))
+        })
+        .collect();
+    let mut sigma = [0usize; 2];
+    for _ in 0..8 {
+        let next = [0, 1].map(|k| pooled(cells, curves, &side, k).as_deref().and_then(argmin));
+        let [Some(a), Some(b)] = next else {
+            return None;
+        };
+        if a >= b {
+            return None;
+        }
+        let moved: Vec<Option<u8>> = (0..side.len())
+            .map(|k| {
+                own(k)?;
+                let s = smoothed[k].as_ref()?;
+                Some(u8::from(s[b] < s[a]))
+            })
+            .collect();
+        let stable = moved == side && [a, b] == sigma;
+        (side, sigma) = (moved, [a, b]);
+        if stable {
+            break;
+        }
+    }
+    let depth = depth(cells, curves, &side)?.1;
+    Some(Cut { side, sigma, depth })
+}
+
+/// The sum of the curves of the cells on side `s`.
+fn pooled(
+    cells: &RegionCells,
+    curves: &[Option<Vec<f32>>],
+    side: &[Option<u8>],
+    s: u8,
+) -> Option<Vec<f64>> {
+    let mut acc: Option<Vec<f64>> = None;
+    for k in (0..side.len()).filter(|&k| side[k] == Some(s)) {
+        let Some(c) = &curves[cells.ids[k]] else {
+            continue;
+        };
+        let a = acc.get_or_insert_with(|| vec![0.0; c.len()]);
+        for (x, &y) in a.iter_mut().zip(c) {
+            *x += y as f64;
+        }
+    }
+    acc
+}
+
+/// Each side's σ index (their pooled curves' minima) and the depth of the division: how much
+/// worse each side's pooled curve does at the other side's σ (relative; the smaller of the
+/// two, 0 when both sides prefer the same σ).
+fn depth(
+    cells: &RegionCells,
+    curves: &[Option<Vec<f32>>],
+    side: &[Option<u8>],
+) -> Option<([usize; 2], f64)> {
+    let p = [0, 1].map(|s| pooled(cells, curves, side, s));
+    let [Some(p0), Some(p1)] = p else {
+        return None;
+    };
+    let (a, b) = (argmin(&p0)?, argmin(&p1)?);
+    let excess = |p: &[f64], own: usize, other: usize| p[other] / p[own].max(1e-30) - 1.0;
+    Some(([a, b], excess(&p0, a, b).min(excess(&p1, b, a))))
+}
+
+/// The weighted share of the cells both cuts saw that they put on the same side.
+fn agreement(cells: &RegionCells, a: &Cut, b: &Cut) -> f64 {
+    let (mut same, mut both) = (0.0, 0.0);
+    for k in 0..cells.ids.len() {
+        if let (Some(x), Some(y)) = (a.side[k], b.side[k]) {
+            both += cells.weight[k];
+            if x == y {
+                same += cells.weight[k];
+            }
+        }
+    }
+    if both > 0.0 {
+        same / both
+    } else {
+        0.0
+    }
+}
+
+/// What the gloss split measured on one region (for `fipt profile` and the logs).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GlossCut {
+    pub region: u32,
+    /// Each side's σ (glossier first), its share of the region's pixels, and the share of
+    /// cells the two halves' cuts agree on.
+    pub sigma: [f32; 2],
+    pub share: f64,
+    pub agreement: f64,
+    /// How much worse each side's curve does at the other side's σ (relative; the smaller).
+    pub depth: f64,
+    /// Whether the region divided.
+    pub divided: bool,
+}
+
+/// `base` (the colour split) with regions divided by gloss where the views say their finish
+/// changes (see the module): a region the colour leaves whole, or one whose colour sides are
+/// a shallower division than the gloss cut (a wood checker over tiles of two finishes); also
+/// what was measured on each region that could be cut.
+#[allow(clippy::too_many_arguments)]
+pub fn gloss_split(
+    base: ColourSplit,
+    pixels: &[SearchPixel],
+    voxels: &[[i32; 3]],
+    shadings: &[ViewShadings],
+    images: &[Image],
+    grid: &[f32],
+    min_pixels: usize,
+    cfg: &SplitConfig,
+) -> (ColourSplit, Vec<GlossCut>) {
+    let regions = base.sub.len();
+    if !cfg.by_gloss || grid.len() < 2 || voxels.is_empty() {
+        return (base, vec![]);
+    }
+    let mut by_cell: Vec<Vec<usize>> = vec![vec![]; voxels.len()];
+    let mut region_of = vec![u32::MAX; voxels.len()];
+    for (j, p) in pixels.iter().enumerate() {
+        by_cell[p.cell as usize].push(j);
+        region_of[p.cell as usize] = p.region;
+    }
+    let sets = [Views::All, Views::Parity(0), Views::Parity(1)]
+        .map(|v| cell_curves(&by_cell, pixels, shadings, images, grid, v));
+    let mut members: Vec<Vec<usize>> = vec![vec![]; regions];
+    for (c, &r) in region_of.iter().enumerate() {
+        if (r as usize) < regions && !by_cell[c].is_empty() {
+            members[r as usize].push(c);
+        }
+    }
+    let mut out = base;
+    out.side.resize(voxels.len().max(out.side.len()), 0);
+    let mut measured = vec![];
+    for (r, ids) in members.into_iter().enumerate() {
+        let n: usize = ids.iter().map(|&c| by_cell[c].len()).sum();
+        if ids.len() < 2 || n < 2 * min_pixels.max(1) {
+            continue;
+        }
+        let cells = RegionCells::new(ids, voxels, &by_cell, cfg.gloss_radius as i32);
+        let Some(found) = measure(&cells, &sets, grid, min_pixels, cfg) else {
+            continue;
+        };
+        let (mut cut, all) = found;
+        // A colour division stands unless the gloss cut is the deeper one.
+        let by_colour = out.sub[r].map(|_| {
+            let side: Vec<Option<u8>> = cells.ids.iter().map(|&c| Some(out.side[c])).collect();
+            depth(&cells, &sets[0], &side).map_or(0.0, |d| d.1)
+        });
+        cut.divided &= by_colour.is_none_or(|d| all.depth > d);
+        cut.region = r as u32;
+        if cut.divided {
+            for (k, &c) in cells.ids.iter().enumerate() {
+                out.side[c] = all.side[k].unwrap_or(0);
+            }
+            out.sub[r] = Some(u32::MAX);
+        }
+        measured.push(cut);
+    }
+    // Second sides numbered after the regions, in region order.
+    let mut next = regions as u32;
+    for s in out.sub.iter_mut().flatten() {
+        *s = next;
+        next += 1;
+    }
+    (out, measured)
+}
+
+/// The gloss cut of one region on all the views and on each half, and whether it divides
+/// the region (`region` is left for the caller).
+fn measure(
+    cells: &RegionCells,
+    sets: &[Vec<Option<Vec<f32>>>; 3],
+    grid: &[f32],
+    min_pixels: usize,
+    cfg: &SplitConfig,
+) -> Option<(GlossCut, Cut)> {
+    let all = cut(cells, &sets[0])?;
+    let agree = match [cut(cells, &sets[1]), cut(cells, &sets[2])] {
+        [Some(a), Some(b)] => agreement(cells, &a, &b),
+        _ => 0.0,
+    };
+    let on = |s: u8| -> f64 {
+        (0..cells.ids.len())
+            .filter(|&k| all.side[k] == Some(s))
+            .map(|k| cells.weight[k])
+            .sum()
+    };
+    let (w0, w1) = (on(0), on(1));
+    let share = w1 / (w0 + w1).max(1e-12);
+    let sigma = all.sigma.map(|k| grid[k]);
+    let divided = agree >= cfg.gloss_agreement as f64
+        && all.depth >= cfg.gloss_depth as f64
+        && share.min(1.0 - share) >= cfg.min_share as f64
+        && w0.min(w1) >= min_pixels as f64
+        && sigma[1] - sigma[0] >= cfg.sigma_gap - 1e-4;
+    let found = GlossCut {
+        region: 0,
+        sigma,
+        share,
+        agreement: agree,
+        depth: all.depth,
+        divided,
+    };
+    Some((found, all))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fipt_core::rng::Pcg32;
+    use fipt_core::shading::{DEFAULT_LEVELS, NUM_LEVELS};
+
+    /// One region of 20 × 20 cells on a plane, one colour with a little variation, its σ
+    /// `sigma(x)` by the cell's column; each cell seen by 12 views, 3 pixels each, of random
+    /// shadings (the factorised model renders the views), with relative noise `noise`.
+    fn plane(
+        sigma: &dyn Fn(i32) -> f32,
+        noise: f32,
+        seed: u64,
+    ) -> (
+        Vec<SearchPixel>,
+        Vec<[i32; 3]>,
+        Vec<ViewShadings>,
+        Vec<Image>,
+    ) {
+        let mut rng = Pcg32::new(seed, 3);
+        let (side, views, per) = (20i32, 12u32, 3usize);
+        let voxels: Vec<[i32; 3]> = (0..side * side).map(|c| [c % side, 0, c / side]).collect();
+        let n = voxels.len() * per;
+        let (mut pixels, mut shadings, mut images) = (vec![], vec![], vec![]);
+        for v in 0..views {
+            let mut sh = ViewShadings::zeros(n, 1, DEFAULT_LEVELS);
+            let mut img = Image::new(n, 1);
+            for i in 0..n {
+                let cell = i / per;
+                sh.valid[i] = true;
+                sh.ld[i] = Vec3::splat(0.5 + rng.next_f32());
+                for l in 0..NUM_LEVELS {
+                    let u = rng.next_f32();
+                    sh.ls0[i][l] = Vec3::splat(0.2 + 3.0 * u * (1.0 - l as f32 / 6.0));
+                    sh.ls1[i][l] = Vec3::splat(0.05 * rng.next_f32());
+                }
+                let base = Vec3::new(0.5, 0.4, 0.3) * (1.0 + 0.05 * rng.next_f32());
+                let (b, c) = super::super::linear_terms(&sh, i, sigma(voxels[cell][0]), 0.0);
+                let e = 1.0 + noise * (2.0 * rng.next_f32() - 1.0);
+                img.data[i] = (base * b + c) * e;
+                pixels.push(SearchPixel {
+                    view: v,
+                    pixel: i as u32,
+                    region: 0,
+                    cell: cell as u32,
+                });
+            }
+            shadings.push(sh);
+            images.push(img);
+        }
+        (pixels, voxels, shadings, images)
+    }
+
+    fn run(sigma: &dyn Fn(i32) -> f32, noise: f32) -> (ColourSplit, Vec<GlossCut>) {
+        let (px, vox, sh, img) = plane(sigma, noise, 11);
+        let grid: Vec<f32> = crate::sigma_grid(DEFAULT_LEVELS[0], 1.0, 50);
+        let cfg = SplitConfig::default();
+        gloss_split(ColourSplit::none(1), &px, &vox, &sh, &img, &grid, 10, &cfg)
+    }
+
+    #[test]
+    fn two_finishes_of_one_colour_divide_along_their_edge() {
+        let (split, cuts) = run(&|x| if x < 8 { 0.25 } else { 0.65 }, 0.02);
+        assert_eq!(split.sub, vec![Some(1)], "{cuts:?}");
+        let c = &cuts[0];
+        assert!((c.sigma[0] - 0.25).abs() < 0.05, "{c:?}");
+        assert!((c.sigma[1] - 0.65).abs() < 0.05, "{c:?}");
+        assert!(c.agreement > 0.9, "{c:?}");
+        // Cells away from the edge are on their finish's side.
+        for x in [0, 5, 11, 19] {
+            let cell = 7 * 20 + x as usize;
+            assert_eq!(split.side[cell], u8::from(x >= 8), "column {x}");
+        }
+    }
+
+    #[test]
+    fn one_finish_with_noise_stays_whole() {
+        for sigma in [0.3f32, 0.7, 1.0] {
+            let (split, cuts) = run(&|_| sigma, 0.05);
+            assert_eq!(split.sub, vec![None], "σ {sigma}: {cuts:?}");
+        }
+    }
+
+    #[test]
+    fn the_threshold_is_the_two_means_cut() {
+        let mut v = vec![(1, 1.0), (2, 1.0), (9, 1.0), (10, 1.0), (3, 1.0)];
+        assert_eq!(threshold(&mut v), Some(3));
+        assert_eq!(threshold(&mut [(4, 1.0), (4, 2.0)]), None);
+    }
+}
