@@ -85,6 +85,8 @@ struct RegionCells {
     ids: Vec<usize>,
     weight: Vec<f64>,
     neighbours: Vec<Vec<usize>>,
+    /// The neighbours within one cell: the edge between two finishes is drawn with these.
+    adjacent: Vec<Vec<usize>>,
 }
 
 impl RegionCells {
@@ -109,10 +111,19 @@ impl RegionCells {
             })
             .collect();
         let weight = ids.iter().map(|&c| by_cell[c].len() as f64).collect();
+        let adjacent = (ids.iter().zip(&neighbours))
+            .map(|(&c, near): (&usize, &Vec<usize>)| {
+                let at = voxels[c];
+                (near.iter().copied())
+                    .filter(|&k| (0..3).all(|d| (voxels[ids[k]][d] - at[d]).abs() <= 1))
+                    .collect()
+            })
+            .collect();
         RegionCells {
             ids,
             weight,
             neighbours,
+            adjacent,
         }
     }
 }
@@ -158,21 +169,7 @@ fn threshold(values: &mut [(usize, f64)]) -> Option<usize> {
 
 /// The cut of a region's cells from one set of curves (see the module).
 fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>]) -> Option<Cut> {
-    let smoothed: Vec<Option<Vec<f64>>> = (cells.neighbours.iter())
-        .map(|near| {
-            let mut acc: Option<Vec<f64>> = None;
-            for &k in near {
-                let Some(c) = &curves[cells.ids[k]] else {
-                    continue;
-                };
-                let a = acc.get_or_insert_with(|| vec![0.0; c.len()]);
-                for (s, &x) in a.iter_mut().zip(c) {
-                    *s += x as f64;
-                }
-            }
-            acc
-        })
-        .collect();
+    let smoothed = smooth(cells, curves, &cells.neighbours);
     let own = |k: usize| curves[cells.ids[k]].as_ref();
     let mut local: Vec<(usize, f64)> = (0..cells.ids.len())
         .filter(|&k| own(k).is_some())
@@ -207,8 +204,43 @@ fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>]) -> Option<Cut> {
             break;
         }
     }
+    // The depth of the cut as the neighbourhoods drew it (drawn finer, a few cells that
+    // prefer the other side by chance would deepen it), then the edge drawn finer: each cell
+    // by its adjacent cells alone.
     let depth = depth(cells, curves, &side)?.1;
+    let fine = smooth(cells, curves, &cells.adjacent);
+    let [a, b] = sigma;
+    side = (0..side.len())
+        .map(|k| {
+            own(k)?;
+            let s = fine[k].as_ref()?;
+            Some(u8::from(s[b] < s[a]))
+        })
+        .collect();
     Some(Cut { side, sigma, depth })
+}
+
+/// Each cell's curve summed with those of its `near` cells.
+fn smooth(
+    cells: &RegionCells,
+    curves: &[Option<Vec<f32>>],
+    near: &[Vec<usize>],
+) -> Vec<Option<Vec<f64>>> {
+    (near.iter())
+        .map(|near| {
+            let mut acc: Option<Vec<f64>> = None;
+            for &k in near {
+                let Some(c) = &curves[cells.ids[k]] else {
+                    continue;
+                };
+                let a = acc.get_or_insert_with(|| vec![0.0; c.len()]);
+                for (s, &x) in a.iter_mut().zip(c) {
+                    *s += x as f64;
+                }
+            }
+            acc
+        })
+        .collect()
 }
 
 /// The sum of the curves of the cells on side `s`.
