@@ -167,7 +167,10 @@ fn divide(
         cfg.min_pixels,
         &cfg.split,
     );
-    for c in cuts.iter().filter(|c| c.agreement >= 0.6) {
+    // A cut the two halves of the views do not reproduce (about half the cells agree) is
+    // noise: only the others are printed.
+    const PRINTED_AGREEMENT: f64 = 0.6;
+    for c in cuts.iter().filter(|c| c.agreement >= PRINTED_AGREEMENT) {
         crate::note!(
             "search: region {} cut by gloss at σ {:.2} / {:.2} ({:.0} % rougher side, halves agree on {:.0} %, depth {:.1} %): {}",
             regions.labels[c.region as usize],

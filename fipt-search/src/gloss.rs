@@ -7,15 +7,17 @@
 //! its neighbours in the same region (a cube of `2·gloss_radius + 1` cells) summed with its own.
 //! The cells' preferred σ are cut in two (the weighted 1-D 2-means, exact), each side's pooled
 //! curve gives its σ, and the cells are reassigned to the side whose σ their neighbourhood
-//! prefers until nothing moves. A region divides when the two sides' σ lie `sigma_gap` apart and
+//! prefers until nothing moves; the edge between them is then drawn by each cell's adjacent
+//! cells alone. A region divides when the two sides' σ lie `sigma_gap` apart and
 //! the same cut made on each half of the views alone (even, odd) puts at least
 //! `gloss_agreement` of the cells both halves saw on the same side: a cut made by noise is
 //! not reproducible (about half the cells agree), a change of finish is; and when each side's
 //! pooled curve costs `gloss_depth` more at the other side's σ than at its own: light the
 //! shadings get wrong near a lamp also makes a reproducible cut, but a shallow one
-//! (`studio-mitsuba`'s right wall, σ 0.9: 1.2 %). The sides then go
-//! through the same guard as a colour split ([`crate::split::sides_differ`]).
-use super::{sq_err, AlbedoFit, SearchPixel};
+//! (`studio-mitsuba`'s right wall, σ 0.9: 1.2 %). The sides then go through the same guard
+//! as a colour split ([`crate::split::sides_differ`]). A region the colour divided takes the
+//! gloss cut when that is the deeper division (a wood checker over tiles of two finishes).
+use super::{argmin, sq_err, AlbedoFit, SearchPixel};
 use crate::split::{ColourSplit, SplitConfig};
 use fipt_core::image::Image;
 use fipt_core::shading::ViewShadings;
@@ -136,13 +138,6 @@ struct Cut {
     /// How much worse each side's pooled curve does at the other side's σ than at its own
     /// (relative), the smaller of the two.
     depth: f64,
-}
-
-fn argmin(v: &[f64]) -> Option<usize> {
-    (v.iter().enumerate())
-        .filter(|x| x.1.is_finite())
-        .min_by(|a, b| a.1.total_cmp(b.1))
-        .map(|x| x.0)
 }
 
 /// The weighted 1-D 2-means threshold of `values` (value, weight): the cut between two
@@ -375,10 +370,8 @@ pub fn gloss_split(
         measured.push(cut);
     }
     // Second sides numbered after the regions, in region order.
-    let mut next = regions as u32;
-    for s in out.sub.iter_mut().flatten() {
+    for (next, s) in (regions as u32..).zip(out.sub.iter_mut().flatten()) {
         *s = next;
-        next += 1;
     }
     (out, measured)
 }

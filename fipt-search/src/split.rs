@@ -34,16 +34,20 @@ pub struct SplitConfig {
     /// their curves' minima lie at least this far apart in σ, on all the views and on each
     /// half of them ([`sides_differ`]).
     pub sigma_gap: f32,
-    /// Also divide the regions the colour leaves whole by where the views place their
-    /// highlights ([`crate::gloss`]): a change of finish that the colour does not follow.
+    /// Also divide regions by where the views place their highlights ([`crate::gloss`]): a
+    /// change of finish that the colour does not follow (a region the colour leaves whole, or
+    /// one whose colour sides are the shallower division).
     pub by_gloss: bool,
     /// The neighbourhood each surface cell reads for the gloss split: the cells within this
     /// many cells of it (a cube of edge `2·r + 1`).
     pub gloss_radius: u32,
     /// Least share of the cells seen in both halves of the views (even, odd) that the cuts
-    /// made on each half alone put on the same side.
+    /// made on each half alone put on the same side: a floor of two finishes 77 %, cuts made
+    /// by noise 60–65 % (`docs/roughness-rooms.md`).
     pub gloss_agreement: f32,
-    /// Least relative excess of each side's pooled cost curve at the other side's σ.
+    /// Least relative excess of each side's pooled cost curve at the other side's σ: a floor
+    /// of σ 0.3 / 0.65 tiles 96 %, every other cut on five Mitsuba rooms (sides of 15 % or
+    /// more) at most 14 %, most under 8 %: shading error makes reproducible but shallow cuts.
     pub gloss_depth: f32,
 }
 
