@@ -42,18 +42,22 @@ impl Views {
 }
 
 /// Per cell (dense id), its cost curve at m = 0 over `grid` (summed squared sRGB error of its
-/// pixels that `views` reads, its base colour fitted at each σ), None without such a pixel.
+/// pixels that `views` reads, its base colour fitted at each σ), None without such a pixel or
+/// where `wanted` says no.
 fn cell_curves(
     by_cell: &[Vec<usize>],
+    wanted: &[bool],
     pixels: &[SearchPixel],
     shadings: &[ViewShadings],
     images: &[Image],
     grid: &[f32],
     views: Views,
 ) -> Vec<Option<Vec<f32>>> {
-    by_cell
-        .par_iter()
-        .map(|members| {
+    (by_cell.par_iter().zip(wanted))
+        .map(|(members, &wanted)| {
+            if !wanted {
+                return None;
+            }
             let mine: Vec<&SearchPixel> = (members.iter().map(|&j| &pixels[j]))
                 .filter(|p| views.reads(p))
                 .collect();
@@ -166,16 +170,20 @@ fn threshold(values: &mut [(usize, f64)]) -> Option<usize> {
 fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>]) -> Option<Cut> {
     let smoothed = smooth(cells, curves, &cells.neighbours);
     let own = |k: usize| curves[cells.ids[k]].as_ref();
-    let mut local: Vec<(usize, f64)> = (0..cells.ids.len())
-        .filter(|&k| own(k).is_some())
-        .filter_map(|k| Some((argmin(smoothed[k].as_ref()?)?, cells.weight[k])))
-        .collect();
-    let t = threshold(&mut local)?;
-    let mut side: Vec<Option<u8>> = (0..cells.ids.len())
+    // Each cell's preferred σ (None without a curve of its own).
+    let preferred: Vec<Option<usize>> = (0..cells.ids.len())
         .map(|k| {
             own(k)?;
-            Some(u8::from(argmin(smoothed[k].as_ref()?)? > t))
+            argmin(smoothed[k].as_ref()?)
         })
+        .collect();
+    let mut local: Vec<(usize, f64)> = (preferred.iter().zip(&cells.weight))
+        .filter_map(|(p, &w)| Some(((*p)?, w)))
+        .collect();
+    let t = threshold(&mut local)?;
+    let mut side: Vec<Option<u8>> = preferred
+        .iter()
+        .map(|p| Some(u8::from((*p)? > t)))
         .collect();
     let mut sigma = [0usize; 2];
     for _ in 0..8 {
@@ -202,7 +210,7 @@ fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>]) -> Option<Cut> {
     // The depth of the cut as the neighbourhoods drew it (drawn finer, a few cells that
     // prefer the other side by chance would deepen it), then the edge drawn finer: each cell
     // by its adjacent cells alone.
-    let depth = depth(cells, curves, &side)?.1;
+    let depth = depth(cells, curves, &side)?;
     let fine = smooth(cells, curves, &cells.adjacent);
     let [a, b] = sigma;
     side = (0..side.len())
@@ -215,39 +223,15 @@ fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>]) -> Option<Cut> {
     Some(Cut { side, sigma, depth })
 }
 
-/// Each cell's curve summed with those of its `near` cells.
-fn smooth(
-    cells: &RegionCells,
+/// The sum of the curves of `cells` (indices into the region's cells); None without one.
+fn summed(
+    region: &RegionCells,
     curves: &[Option<Vec<f32>>],
-    near: &[Vec<usize>],
-) -> Vec<Option<Vec<f64>>> {
-    (near.iter())
-        .map(|near| {
-            let mut acc: Option<Vec<f64>> = None;
-            for &k in near {
-                let Some(c) = &curves[cells.ids[k]] else {
-                    continue;
-                };
-                let a = acc.get_or_insert_with(|| vec![0.0; c.len()]);
-                for (s, &x) in a.iter_mut().zip(c) {
-                    *s += x as f64;
-                }
-            }
-            acc
-        })
-        .collect()
-}
-
-/// The sum of the curves of the cells on side `s`.
-fn pooled(
-    cells: &RegionCells,
-    curves: &[Option<Vec<f32>>],
-    side: &[Option<u8>],
-    s: u8,
+    cells: impl Iterator<Item = usize>,
 ) -> Option<Vec<f64>> {
     let mut acc: Option<Vec<f64>> = None;
-    for k in (0..side.len()).filter(|&k| side[k] == Some(s)) {
-        let Some(c) = &curves[cells.ids[k]] else {
+    for k in cells {
+        let Some(c) = &curves[region.ids[k]] else {
             continue;
         };
         let a = acc.get_or_insert_with(|| vec![0.0; c.len()]);
@@ -258,21 +242,41 @@ fn pooled(
     acc
 }
 
-/// Each side's σ index (their pooled curves' minima) and the depth of the division: how much
-/// worse each side's pooled curve does at the other side's σ (relative; the smaller of the
-/// two, 0 when both sides prefer the same σ).
-fn depth(
+/// Each cell's curve summed with those of its `near` cells.
+fn smooth(
+    cells: &RegionCells,
+    curves: &[Option<Vec<f32>>],
+    near: &[Vec<usize>],
+) -> Vec<Option<Vec<f64>>> {
+    (near.iter())
+        .map(|near| summed(cells, curves, near.iter().copied()))
+        .collect()
+}
+
+/// The sum of the curves of the cells on side `s`.
+fn pooled(
     cells: &RegionCells,
     curves: &[Option<Vec<f32>>],
     side: &[Option<u8>],
-) -> Option<([usize; 2], f64)> {
-    let p = [0, 1].map(|s| pooled(cells, curves, side, s));
-    let [Some(p0), Some(p1)] = p else {
+    s: u8,
+) -> Option<Vec<f64>> {
+    summed(
+        cells,
+        curves,
+        (0..side.len()).filter(|&k| side[k] == Some(s)),
+    )
+}
+
+/// The depth of a division: how much worse each side's pooled curve does at the other side's
+/// σ (its minimum) than at its own (relative; the smaller of the two, 0 when both sides prefer
+/// the same σ).
+fn depth(cells: &RegionCells, curves: &[Option<Vec<f32>>], side: &[Option<u8>]) -> Option<f64> {
+    let [Some(p0), Some(p1)] = [0, 1].map(|s| pooled(cells, curves, side, s)) else {
         return None;
     };
     let (a, b) = (argmin(&p0)?, argmin(&p1)?);
     let excess = |p: &[f64], own: usize, other: usize| p[other] / p[own].max(1e-30) - 1.0;
-    Some(([a, b], excess(&p0, a, b).min(excess(&p1, b, a))))
+    Some(excess(&p0, a, b).min(excess(&p1, b, a)))
 }
 
 /// The weighted share of the cells both cuts saw that they put on the same side.
@@ -333,20 +337,29 @@ pub fn gloss_split(
         by_cell[p.cell as usize].push(j);
         region_of[p.cell as usize] = p.region;
     }
-    let sets = [Views::All, Views::Parity(0), Views::Parity(1)]
-        .map(|v| cell_curves(&by_cell, pixels, shadings, images, grid, v));
     let mut members: Vec<Vec<usize>> = vec![vec![]; regions];
     for (c, &r) in region_of.iter().enumerate() {
         if (r as usize) < regions && !by_cell[c].is_empty() {
             members[r as usize].push(c);
         }
     }
+    // Regions too small to hold two sides are not cut: their cells need no curves.
+    let cuttable: Vec<bool> = (members.iter())
+        .map(|ids| {
+            let n: usize = ids.iter().map(|&c| by_cell[c].len()).sum();
+            ids.len() >= 2 && n >= 2 * min_pixels.max(1)
+        })
+        .collect();
+    let wanted: Vec<bool> = (region_of.iter())
+        .map(|&r| cuttable.get(r as usize) == Some(&true))
+        .collect();
+    let sets = [Views::All, Views::Parity(0), Views::Parity(1)]
+        .map(|v| cell_curves(&by_cell, &wanted, pixels, shadings, images, grid, v));
     let mut out = base;
     out.side.resize(voxels.len().max(out.side.len()), 0);
     let mut measured = vec![];
     for (r, ids) in members.into_iter().enumerate() {
-        let n: usize = ids.iter().map(|&c| by_cell[c].len()).sum();
-        if ids.len() < 2 || n < 2 * min_pixels.max(1) {
+        if !cuttable[r] {
             continue;
         }
         let cells = RegionCells::new(ids, voxels, &by_cell, cfg.gloss_radius as i32);
@@ -357,7 +370,7 @@ pub fn gloss_split(
         // A colour division stands unless the gloss cut is the deeper one.
         let by_colour = out.sub[r].map(|_| {
             let side: Vec<Option<u8>> = cells.ids.iter().map(|&c| Some(out.side[c])).collect();
-            depth(&cells, &sets[0], &side).map_or(0.0, |d| d.1)
+            depth(&cells, &sets[0], &side).unwrap_or(0.0)
         });
         cut.divided &= by_colour.is_none_or(|d| all.depth > d);
         cut.region = r as u32;
