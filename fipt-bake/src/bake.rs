@@ -26,8 +26,8 @@ use fipt_core::image::Image;
 use fipt_core::reflectance::{schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    Progress, RayQuery, Reported, ShadingBaker, Shard, ViewShadings, ViewSink, DEFAULT_LEVELS,
-    NUM_LEVELS,
+    Progress, RayQuery, Reported, Scope, ShadingBaker, Shard, ViewShadings, ViewSink,
+    DEFAULT_LEVELS, NUM_LEVELS,
 };
 use fipt_shading::incident::{IncidentLight, Incoming};
 pub use fipt_shading::records::{
@@ -313,10 +313,17 @@ impl FactorizedBaker {
             .map(|_| ViewShadings::zeros_for(0, 0, levels, poly))
             .collect();
         let (stats, slf) = self
-            .bake_streamed(geometry, views, images, shard, progress, &mut |k, s| {
-                out[k] = s;
-                Ok(())
-            })
+            .bake_streamed(
+                geometry,
+                views,
+                images,
+                shard.into(),
+                progress,
+                &mut |k, s| {
+                    out[k] = s;
+                    Ok(())
+                },
+            )
             .expect("collecting views does not fail");
         (out, stats, slf)
     }
@@ -326,13 +333,15 @@ impl FactorizedBaker {
     /// SLF and the diffuse cache (one entry per surface cell, bounded by the surface area, not
     /// by the number of views). The primary hits are traced again in each of three passes
     /// (the cube and footprint, the SLF and the cells, the shadings); they are a small part of
-    /// the bake's rays. Results are those of a bake that holds every view.
+    /// the bake's rays. Results are those of a bake that holds every view. Of each view's hit
+    /// pixels it shades those `scope.pixels` draws (the others read as misses), each exactly
+    /// as a bake of every pixel would: the SLF and the cache's cells come from every pixel.
     pub fn bake_streamed(
         &self,
         geometry: &dyn RayQuery,
         views: &[View],
         images: &[Image],
-        shard: Shard,
+        scope: Scope,
         progress: Progress,
         sink: ViewSink,
     ) -> fipt_core::Result<(BakeStats, Option<SurfaceLightField>)> {
@@ -343,7 +352,7 @@ impl FactorizedBaker {
         let t = Instant::now();
         let summary = HitsSummary::of(geometry, views, 1.1);
         stats.seconds_primary = t.elapsed().as_secs_f64();
-        let selected = shard.mask(views.len());
+        let selected = scope.shard.mask(views.len());
         let model = self.model;
         let Some(cube) = summary.cube else {
             for (k, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
@@ -368,7 +377,7 @@ impl FactorizedBaker {
             SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels),
             DiffuseCells::new(cube.min, cell),
             use_cache,
-            &selected,
+            scope,
             |_| true,
             0,
         );
@@ -391,7 +400,7 @@ impl FactorizedBaker {
         let spec_per_pixel: u32 = cfg.specular_samples.iter().sum();
         stats.rays_specular = stats.valid_pixels as u64 * spec_per_pixel as u64;
         let cached = cached.as_ref().map(|c| (&cells, c));
-        let pass = (views, &selected[..], cached);
+        let pass = (views, scope, cached);
         self.shade_views(&light, pass, &mut stats, progress, sink)?;
         Ok((stats, Some(slf)))
     }
@@ -471,17 +480,18 @@ impl FactorizedBaker {
         })
     }
 
-    /// The shadings of the selected `views` (`pass`: the views, which are selected, the cache's
-    /// cells and their Ld if cached), one view at a time, each handed to `sink`.
+    /// The shadings of the selected `views` (`pass`: the views, which views and pixels are
+    /// computed, the cache's cells and their Ld if cached), one view at a time, each handed to
+    /// `sink`.
     fn shade_views(
         &self,
         light: &SlfLight,
-        pass: (&[View], &[bool], Option<(&DiffuseCells, &CellShading)>),
+        pass: (&[View], Scope, Option<(&DiffuseCells, &CellShading)>),
         stats: &mut BakeStats,
         progress: Progress,
         sink: ViewSink,
     ) -> fipt_core::Result<()> {
-        let (views, selected, cached) = pass;
+        let (views, scope, cached) = pass;
         let (cfg, model, geometry) = (&self.config, self.model, light.geometry);
         let total_work = stats.valid_pixels * 2;
         let done = AtomicUsize::new(0);
@@ -489,8 +499,13 @@ impl FactorizedBaker {
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             progress(d, total_work);
         };
-        for (vi, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
-            let r = primary_records(geometry, v);
+        for (vi, v) in views
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| scope.shard.contains(*k))
+        {
+            let mut r = primary_records(geometry, v);
+            scope.pixels.clear_undrawn(vi, &mut r);
             let hit = r.iter().flatten().count();
             let mut s = empty_view_shadings(v, &r, cfg.levels, model);
             let t = Instant::now();
@@ -604,12 +619,12 @@ impl ShadingBaker for FactorizedBaker {
         geometry: &dyn RayQuery,
         views: &[View],
         images: &[Image],
-        shard: Shard,
+        scope: Scope,
         progress: Progress,
         sink: ViewSink,
     ) -> fipt_core::Result<serde_json::Value> {
         check_counts("bake", views, images)?;
-        let (stats, _) = self.bake_streamed(geometry, views, images, shard, progress, sink)?;
+        let (stats, _) = self.bake_streamed(geometry, views, images, scope, progress, sink)?;
         Ok(serde_json::to_value(stats).unwrap_or_default())
     }
 }

@@ -13,7 +13,7 @@
 //! have no σ polynomial (FIPT's model), version 2 when they do (`principled`).
 use crate::bake::BakeConfig;
 use fipt_core::fsutil::{hash_files, read_json, write_bytes_atomic, write_json_atomic};
-use fipt_core::shading::{Shard, ViewShadings, NUM_LEVELS};
+use fipt_core::shading::{PixelDraw, Shard, ViewShadings, NUM_LEVELS};
 use fipt_core::{CoreError, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -50,6 +50,10 @@ pub struct BakeManifest {
     /// Empty in manifests written before it existed (then not checked).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub hashes: BTreeMap<usize, String>,
+    /// The hit pixels computed: every one (absent), or the share a run drew for what it reads
+    /// (`fipt_core::shading::PixelDraw`); the others read as misses.
+    #[serde(default, skip_serializing_if = "PixelDraw::is_all")]
+    pub pixels: PixelDraw,
 }
 
 /// Path of view `k`'s file.
@@ -354,6 +358,8 @@ pub struct StoredShadings {
     pub dir: PathBuf,
     pub split: String,
     pub views: usize,
+    /// The hit pixels the stage computed; the others read as misses.
+    pub pixels: PixelDraw,
 }
 
 impl StoredShadings {
@@ -363,6 +369,7 @@ impl StoredShadings {
             dir: dir.to_path_buf(),
             split: manifest.split.clone(),
             views: manifest.views,
+            pixels: manifest.pixels,
         }
     }
 
@@ -454,9 +461,11 @@ pub fn mismatch(
 /// deterministic, so equal fingerprints mean equal shadings). Later stages key on it.
 pub fn fingerprint(m: &BakeManifest) -> String {
     let settings = fipt_core::fsutil::hash_json(&m.config);
-    fipt_core::fsutil::hash_bytes(
-        format!("{}|{}|{}|{settings}", m.version, m.baker, m.inputs_hash).as_bytes(),
-    )
+    let mut key = format!("{}|{}|{}|{settings}", m.version, m.baker, m.inputs_hash);
+    if !m.pixels.is_all() {
+        key += &format!("|{}|{}", m.pixels.seed, m.pixels.share);
+    }
+    fipt_core::fsutil::hash_bytes(key.as_bytes())
 }
 
 /// Why a stored result keyed by `key` (see [`load_keyed`]) cannot be reused (None when it can).

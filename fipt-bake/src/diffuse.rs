@@ -409,7 +409,20 @@ impl DiffuseCells {
     /// Adds one view's pixels (views in order: sequential assignment keeps the entry order, and
     /// so results, deterministic); `used` marks their cells as needed (a shard's views).
     pub fn add_view(&mut self, records: &[Option<PixelRecord>], used: bool) {
-        for rec in records.iter().flatten() {
+        self.add_view_where(records, |_| used);
+    }
+
+    /// [`DiffuseCells::add_view`] with the cells of the pixels `used` accepts (by index in
+    /// the view) marked used: every hit pixel still shapes its cell (its mean point and
+    /// normal), so the cells, their order and their sample streams do not depend on which
+    /// pixels a stage computes.
+    pub fn add_view_where(
+        &mut self,
+        records: &[Option<PixelRecord>],
+        used: impl Fn(usize) -> bool,
+    ) {
+        for (i, rec) in records.iter().enumerate() {
+            let Some(rec) = rec else { continue };
             let key = self.key(rec);
             let entries = &mut self.entries;
             let id = *self.index.entry(key).or_insert_with(|| {
@@ -429,7 +442,7 @@ impl DiffuseCells {
             if self.used.len() < self.entries.len() {
                 self.used.resize(self.entries.len(), false);
             }
-            self.used[id as usize] |= used;
+            self.used[id as usize] |= used(i);
         }
     }
 

@@ -10,7 +10,7 @@ use fipt_core::dataset::View;
 use fipt_core::image::Image;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
-use fipt_core::shading::{RayQuery, ViewShadings, NUM_LEVELS};
+use fipt_core::shading::{RayQuery, Scope, ViewShadings, NUM_LEVELS};
 use fipt_shading::incident::IncidentLight;
 use fipt_shading::records::{primary_records, PixelRecord};
 use glam::Vec3;
@@ -71,9 +71,10 @@ pub(crate) fn specular_mixture_view<L: IncidentLight + Sync>(
 }
 
 /// The SLF (from the hit pixels `keep` accepts, less those within `margin` pixels of a hit
-/// pixel it rejects) and the diffuse cache's cells (when `cached`; the cells of the
-/// `selected` views' pixels marked used), built one view at a time, the selected views'
-/// (pixels, hit pixels), and how many hit pixels `keep` accepts the margin left out.
+/// pixel it rejects) and the diffuse cache's cells (when `cached`; the cells of the pixels
+/// `scope` asks for marked used), built one view at a time from every pixel, the selected
+/// views' (pixels, hit pixels `scope` asks for), and how many hit pixels `keep` accepts the
+/// margin left out.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn slf_and_cells(
     geometry: &dyn RayQuery,
@@ -82,10 +83,11 @@ pub(crate) fn slf_and_cells(
     mut slf: SlfBuilder,
     mut cells: DiffuseCells,
     cached: bool,
-    selected: &[bool],
+    scope: Scope,
     keep: impl Fn(&PixelRecord) -> bool,
     margin: usize,
 ) -> (SurfaceLightField, DiffuseCells, usize, usize, usize) {
+    let draw = scope.pixels;
     let (mut pixels, mut hit, mut bled) = (0, 0, 0);
     for (k, (v, img)) in views.iter().zip(images).enumerate() {
         let r = primary_records(geometry, v);
@@ -102,12 +104,15 @@ pub(crate) fn slf_and_cells(
                 _ => {}
             }
         }
+        let selected = scope.shard.contains(k);
         if cached {
-            cells.add_view(&r, selected[k]);
+            cells.add_view_where(&r, |i| selected && draw.keeps(k, i));
         }
-        if selected[k] {
+        if selected {
             pixels += r.len();
-            hit += r.iter().flatten().count();
+            hit += (r.iter().enumerate())
+                .filter(|(i, rec)| rec.is_some() && draw.keeps(k, *i))
+                .count();
         }
     }
     (slf.finish(), cells.finish(), pixels, hit, bled)

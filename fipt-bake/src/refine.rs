@@ -29,8 +29,8 @@ use fipt_core::dataset::View;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    Progress, RayQuery, RefineInputs, Reported, ShadingRefiner, Shard, SurfaceHit, ViewShadings,
-    ViewSink, DEFAULT_LEVELS, NUM_LEVELS,
+    Progress, RayQuery, RefineInputs, Reported, Scope, ShadingRefiner, Shard, SurfaceHit,
+    ViewShadings, ViewSink, DEFAULT_LEVELS, NUM_LEVELS,
 };
 use fipt_core::CoreError;
 use fipt_geom::{Mesh, TriangleSampler};
@@ -504,7 +504,7 @@ impl PathGrownRefiner {
         let mut out: Vec<ViewShadings> = (inputs.views.iter())
             .map(|_| ViewShadings::zeros_for(0, 0, self.config.levels, poly))
             .collect();
-        let stats = self.refine_streamed(inputs, shard, progress, &mut |k, s| {
+        let stats = self.refine_streamed(inputs, shard.into(), progress, &mut |k, s| {
             out[k] = s;
             Ok(())
         })?;
@@ -514,11 +514,14 @@ impl PathGrownRefiner {
     /// The refinement of `shard`'s views, each view handed to `sink` as soon as it is done (in
     /// view order) and dropped: it holds one view's hits and shadings at a time beside the SLF,
     /// the material cache and the diffuse cache (all bounded by the surface area, not by the
-    /// number of views). The primary hits are traced again per pass instead of held.
+    /// number of views). The primary hits are traced again per pass instead of held. Of each
+    /// view's hit pixels it shades those `scope.pixels` draws (the others read as misses),
+    /// each exactly as a refinement of every pixel would: the SLF, the material cache and the
+    /// diffuse cache's cells come from every pixel.
     pub fn refine_streamed(
         &self,
         inputs: &RefineInputs,
-        shard: Shard,
+        scope: Scope,
         progress: Progress,
         sink: ViewSink,
     ) -> fipt_core::Result<RefineStats> {
@@ -539,7 +542,7 @@ impl PathGrownRefiner {
                 "the mesh holds degenerate triangles: pass the mesh as loaded (degenerate triangles dropped)",
             ));
         }
-        let selected = shard.mask(views.len());
+        let selected = scope.shard.mask(views.len());
         let model = self.model;
         let summary = HitsSummary::of(geometry, views, 1.1);
         let Some(cube) = summary.cube else {
@@ -563,7 +566,7 @@ impl PathGrownRefiner {
             SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels),
             DiffuseCells::new(cube.min, footprint * cfg.cache_cell_scale.max(1e-3)),
             use_cache,
-            &selected,
+            scope,
             |r| !emitting[r.hit.tri as usize],
             cfg.slf_light_margin as usize,
         );
@@ -595,7 +598,7 @@ impl PathGrownRefiner {
         stats.seconds_diffuse = t.elapsed().as_secs_f64();
         let total = stats.pixels * 2;
         let cached = cached.as_ref().map(|c| (&cells, c));
-        pass.shade_views(views, &selected, cached, total, &mut stats, progress, sink)?;
+        pass.shade_views(views, scope, cached, total, &mut stats, progress, sink)?;
         stats.take_counters(&light.counters);
         Ok(stats)
     }
@@ -694,7 +697,7 @@ impl ViewPass<'_> {
     fn shade_views(
         &self,
         views: &[View],
-        selected: &[bool],
+        scope: Scope,
         cached: Option<(&DiffuseCells, &CellShading)>,
         total: usize,
         stats: &mut RefineStats,
@@ -713,8 +716,13 @@ impl ViewPass<'_> {
             seed,
             model,
         };
-        for (vi, v) in views.iter().enumerate().filter(|(k, _)| selected[*k]) {
-            let r = primary_records(self.geometry, v);
+        for (vi, v) in views
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| scope.shard.contains(*k))
+        {
+            let mut r = primary_records(self.geometry, v);
+            scope.pixels.clear_undrawn(vi, &mut r);
             let hit = r.iter().flatten().count();
             let mut s = empty_view_shadings(v, &r, cfg.levels, model);
             let t = Instant::now();
@@ -765,11 +773,11 @@ impl ShadingRefiner for PathGrownRefiner {
     fn refine_into(
         &self,
         inputs: &RefineInputs,
-        shard: Shard,
+        scope: Scope,
         progress: Progress,
         sink: ViewSink,
     ) -> fipt_core::Result<serde_json::Value> {
-        let stats = self.refine_streamed(inputs, shard, progress, sink)?;
+        let stats = self.refine_streamed(inputs, scope, progress, sink)?;
         Ok(serde_json::to_value(stats).unwrap_or_default())
     }
 }

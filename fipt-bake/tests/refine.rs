@@ -13,13 +13,17 @@ use fipt_core::field::{Material, MaterialField};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::metrics::srgb_psnr;
 use fipt_core::rng::Pcg32;
-use fipt_core::shading::{RefineInputs, ShadingRefiner, ViewShadings, DEFAULT_LEVELS};
+use fipt_core::shading::{
+    PixelDraw, RefineInputs, Scope, ShadingRefiner, Shard, ViewShadings, DEFAULT_LEVELS,
+};
 use fipt_geom::{Geometry, Mesh};
 use fipt_shading::field_surfaces::FieldSurfaces;
 use fipt_shading::render::RenderConfig;
 use fipt_synth::{build, write_dataset, SynthOptions};
 use glam::Vec3;
 use std::f32::consts::PI;
+
+mod common;
 
 /// The same material everywhere.
 struct Uniform(Material);
@@ -377,6 +381,24 @@ fn refined_shadings_raise_the_closure_psnr() {
     let (refined, stats) = refiner.refine_detailed(&inputs, &|_, _| {}).unwrap();
     let again = refiner.refine(&inputs, &|_, _| {}).unwrap();
     assert_eq!(refined, again.output, "refinement must be deterministic");
+    // A drawn share: those pixels exactly as refined whole, the others misses.
+    let draw = PixelDraw::new(3, Some(0.25));
+    let mut kept = 0;
+    refiner
+        .refine_into(
+            &inputs,
+            Scope {
+                shard: Shard::ALL,
+                pixels: draw,
+            },
+            &|_, _| {},
+            &mut |k, s| {
+                kept += common::check_drawn(k, &s, &refined[k], draw).0;
+                Ok(())
+            },
+        )
+        .unwrap();
+    assert!(kept > 0);
     // The contract carries the same statistics as the detailed call.
     assert_eq!(again.report["rays"], serde_json::json!(stats.rays));
     let no_light = PathGrownRefiner::new(RefineConfig {

@@ -1,17 +1,21 @@
 //! The bake hands its views over one at a time (`ShadingBaker::bake_into`): each view once, in
-//! order, equal bit for bit to the views of a whole bake, a shard's views only, and a sink's
-//! error stops the bake.
+//! order, equal bit for bit to the views of a whole bake, a shard's views only, a draw's pixels
+//! only (each as the whole bake has it), and a sink's error stops the bake.
 use fipt_bake::bake::{BakeConfig, FactorizedBaker};
 use fipt_core::dataset::{Dataset, View};
 use fipt_core::image::{BadPixelPolicy, Image};
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::{
-    Progress, RayQuery, Reported, ShadingBaker, Shard, ViewShadings, DEFAULT_LEVELS,
+    PixelDraw, Progress, RayQuery, Reported, Scope, ShadingBaker, Shard, ViewShadings,
+    DEFAULT_LEVELS,
 };
 use fipt_core::CoreError;
 use fipt_geom::{Geometry, Mesh};
 use fipt_shading::render::RenderConfig;
 use fipt_synth::{build, write_dataset, SynthOptions};
+
+mod common;
+use common::check_drawn;
 
 fn scene(name: &str) -> (Geometry, Vec<View>, Vec<Image>) {
     let dir = std::env::temp_dir().join(format!("fipt-stream-{name}-{}", std::process::id()));
@@ -40,16 +44,16 @@ fn scene(name: &str) -> (Geometry, Vec<View>, Vec<Image>) {
     (geo, views, images)
 }
 
-/// The views `baker.bake_into` hands over for `shard`, with their indices.
+/// The views `baker.bake_into` hands over for `scope`, with their indices.
 fn handed(
     baker: &dyn ShadingBaker,
     scene: &(Geometry, Vec<View>, Images),
-    shard: Shard,
+    scope: impl Into<Scope>,
 ) -> Vec<(usize, ViewShadings)> {
     let mut got = vec![];
     let (geo, views, images) = scene;
     baker
-        .bake_into(geo, views, images, shard, &|_, _| {}, &mut |k, s| {
+        .bake_into(geo, views, images, scope.into(), &|_, _| {}, &mut |k, s| {
             got.push((k, s));
             Ok(())
         })
@@ -101,7 +105,7 @@ fn a_sinks_error_stops_the_bake() {
             &geo,
             &views,
             &images,
-            Shard::ALL,
+            Shard::ALL.into(),
             &|_, _| {},
             &mut |k, _| {
                 calls += 1;
@@ -147,4 +151,47 @@ fn the_default_hands_over_a_whole_bakes_shard() {
     let part = handed(&Constant, &scene, Shard::new(0, 2).unwrap());
     let got: Vec<(usize, f32)> = part.iter().map(|(k, s)| (*k, s.ld[0].x)).collect();
     assert_eq!(got, [(0, 0.0), (2, 2.0), (4, 4.0), (6, 6.0)]);
+}
+
+/// A bake of a drawn share computes those pixels exactly as a bake of every pixel does (the
+/// SLF and the diffuse cache's cells come from every pixel; sample streams are keyed by pixel)
+/// and leaves the others as misses, with and without the cache, in a shard too.
+#[test]
+fn a_draw_bakes_its_pixels_as_a_whole_bake_and_no_others() {
+    let scene = scene("draw");
+    let (geo, views, images) = &scene;
+    let draw = PixelDraw::new(7, Some(0.3));
+    for (model, cache) in [
+        (ReflectanceModel::Principled, true),
+        (ReflectanceModel::Fipt, false),
+    ] {
+        let cfg = BakeConfig {
+            diffuse_cache: cache,
+            ..BakeConfig::fast()
+        };
+        let baker = FactorizedBaker::new(cfg).with_model(model);
+        let whole = baker.bake(geo, views, images, &|_, _| {}).unwrap().output;
+        let (mut kept, mut out) = (0, 0);
+        for shard in [Shard::ALL, Shard::new(1, 2).unwrap()] {
+            let got = handed(
+                &baker,
+                &scene,
+                Scope {
+                    shard,
+                    pixels: draw,
+                },
+            );
+            assert!(got.iter().all(|(k, _)| shard.contains(*k)));
+            for (k, s) in &got {
+                let (a, b) = check_drawn(*k, s, &whole[*k], draw);
+                (kept, out) = (kept + a, out + b);
+            }
+        }
+        let share = kept as f64 / (kept + out) as f64;
+        assert!(
+            (share - 0.3).abs() < 0.05,
+            "{model:?}: {kept} of {} drawn",
+            kept + out
+        );
+    }
 }

@@ -236,6 +236,116 @@ impl std::fmt::Display for Shard {
     }
 }
 
+/// Which hit pixels of its views a per-view stage computes: every one ([`PixelDraw::ALL`]) or
+/// the uniform random `share` that [`crate::rng::pixel_kept`] keeps from (`seed`, view,
+/// pixel). Draws with one seed nest: a pixel drawn at one share is drawn at every larger one,
+/// so a stage computed for a draw serves every consumer whose own share (same seed) is no
+/// larger. A run draws before its bake the union of what its consumers will read (the
+/// training set's and the search's shares), so that the bake and the refinement pay for
+/// those pixels only.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PixelDraw {
+    pub seed: u64,
+    /// In (0, 1]; 1: every pixel.
+    pub share: f64,
+}
+
+impl Default for PixelDraw {
+    fn default() -> Self {
+        PixelDraw::ALL
+    }
+}
+
+impl PixelDraw {
+    /// Every pixel.
+    pub const ALL: PixelDraw = PixelDraw {
+        seed: 0,
+        share: 1.0,
+    };
+
+    /// The draw of `share` from `seed`; every pixel when `share` is None or at least 1.
+    pub fn new(seed: u64, share: Option<f64>) -> PixelDraw {
+        match share {
+            Some(share) if share < 1.0 => PixelDraw {
+                seed,
+                share: share.max(0.0),
+            },
+            _ => PixelDraw::ALL,
+        }
+    }
+
+    /// Whether every pixel is drawn.
+    pub fn is_all(&self) -> bool {
+        self.share >= 1.0
+    }
+
+    /// Whether pixel `pixel` of view `view` is drawn.
+    #[inline]
+    pub fn keeps(&self, view: usize, pixel: usize) -> bool {
+        crate::rng::pixel_kept(self.seed, view, pixel, self.share)
+    }
+
+    /// Whether every pixel `other` draws is drawn here.
+    pub fn covers(&self, other: &PixelDraw) -> bool {
+        self.is_all() || (self.seed == other.seed && self.share >= other.share)
+    }
+
+    /// View `view`'s per-pixel entries with those not drawn set to None (a miss, to a stage).
+    pub fn clear_undrawn<T>(&self, view: usize, pixels: &mut [Option<T>]) {
+        if self.is_all() {
+            return;
+        }
+        for (i, p) in pixels.iter_mut().enumerate() {
+            if p.is_some() && !self.keeps(view, i) {
+                *p = None;
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for PixelDraw {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.is_all() {
+            write!(f, "every pixel")
+        } else {
+            write!(
+                f,
+                "a {:.2} % share (seed {})",
+                100.0 * self.share,
+                self.seed
+            )
+        }
+    }
+}
+
+/// What a per-view stage computes: `shard`'s views, and of their hit pixels those `pixels`
+/// draws. A stage may compute more (a superset is correct, not faster); the pixels it leaves
+/// out read as misses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scope {
+    pub shard: Shard,
+    pub pixels: PixelDraw,
+}
+
+impl Scope {
+    /// Every view, every pixel.
+    pub const ALL: Scope = Scope {
+        shard: Shard::ALL,
+        pixels: PixelDraw::ALL,
+    };
+}
+
+impl From<Shard> for Scope {
+    /// Every pixel of `shard`'s views.
+    fn from(shard: Shard) -> Scope {
+        Scope {
+            shard,
+            pixels: PixelDraw::ALL,
+        }
+    }
+}
+
 /// Computes the shadings of the training views (initial bake, method §4.2).
 pub trait ShadingBaker {
     /// A short name for reports.
@@ -271,20 +381,22 @@ pub trait ShadingBaker {
     }
 
     /// [`ShadingBaker::bake_shard`] handing each of `shard`'s views to `sink` as it is done;
-    /// returns the report. The default bakes the shard, then hands its views over; a baker
-    /// that can hold one view at a time overrides it (the stage's memory then does not grow
-    /// with the number of views).
+    /// returns the report. Of those views' hit pixels it computes at least those
+    /// `scope.pixels` draws; the others may read as misses. The default bakes every pixel of
+    /// the shard, then hands its views over; a baker that can hold one view at a time and
+    /// skip pixels overrides it (the stage's memory then does not grow with the number of
+    /// views, nor its time with the pixels no one reads).
     fn bake_into(
         &self,
         geometry: &dyn RayQuery,
         views: &[View],
         images: &[Image],
-        shard: Shard,
+        scope: Scope,
         progress: Progress,
         sink: ViewSink,
     ) -> Result<serde_json::Value> {
-        let baked = self.bake_shard(geometry, views, images, shard, progress)?;
-        hand_over(baked, shard, sink)
+        let baked = self.bake_shard(geometry, views, images, scope.shard, progress)?;
+        hand_over(baked, scope.shard, sink)
     }
 }
 
@@ -344,17 +456,19 @@ pub trait ShadingRefiner {
         self.refine(inputs, progress)
     }
 
-    /// [`ShadingRefiner::refine_shard`] handing each of `shard`'s views to `sink` as it is
-    /// done; returns the report. The default refines the shard, then hands its views over.
+    /// [`ShadingRefiner::refine_shard`] handing each of `scope.shard`'s views to `sink` as it
+    /// is done, with at least the hit pixels `scope.pixels` draws computed (the others may
+    /// read as misses); returns the report. The default refines every pixel of the shard,
+    /// then hands its views over.
     fn refine_into(
         &self,
         inputs: &RefineInputs,
-        shard: Shard,
+        scope: Scope,
         progress: Progress,
         sink: ViewSink,
     ) -> Result<serde_json::Value> {
-        let refined = self.refine_shard(inputs, shard, progress)?;
-        hand_over(refined, shard, sink)
+        let refined = self.refine_shard(inputs, scope.shard, progress)?;
+        hand_over(refined, scope.shard, sink)
     }
 }
 
@@ -434,5 +548,54 @@ mod tests {
             assert!(lerp_levels(&DEFAULT_LEVELS, &v, s).is_finite());
         }
         assert_eq!(lerp_levels(&DEFAULT_LEVELS, &v, 5.0), v[5]);
+    }
+
+    /// A draw keeps its share of the pixels (within 4 standard deviations), the draws of one
+    /// seed nest (what a smaller share keeps, a larger one keeps), `covers` says so, and the
+    /// pixels not drawn become misses.
+    #[test]
+    fn draws_keep_their_share_and_nest() {
+        let (views, pixels) = (4, 5_000);
+        let all = (views * pixels) as f64;
+        let count = |d: &PixelDraw| {
+            (0..views)
+                .flat_map(|v| (0..pixels).map(move |i| (v, i)))
+                .filter(|&(v, i)| d.keeps(v, i))
+                .count() as f64
+        };
+        for share in [0.01, 0.13, 0.5, 0.9] {
+            let d = PixelDraw::new(11, Some(share));
+            let sd = (all * share * (1.0 - share)).sqrt();
+            assert!((count(&d) - all * share).abs() < 4.0 * sd, "share {share}");
+        }
+        let (small, large) = (PixelDraw::new(11, Some(0.2)), PixelDraw::new(11, Some(0.6)));
+        for v in 0..views {
+            for i in 0..pixels {
+                assert!(
+                    !small.keeps(v, i) || large.keeps(v, i),
+                    "view {v} pixel {i}"
+                );
+            }
+        }
+        assert!(large.covers(&small) && !small.covers(&large));
+        assert!(
+            !PixelDraw::new(12, Some(0.6)).covers(&small),
+            "another seed draws others"
+        );
+        assert!(PixelDraw::ALL.covers(&small) && !small.covers(&PixelDraw::ALL));
+        assert_eq!(PixelDraw::new(11, Some(1.0)), PixelDraw::ALL);
+        assert_eq!(PixelDraw::new(11, None), PixelDraw::ALL);
+        let mut row: Vec<Option<u32>> = (0..1000).map(|i| (i % 7 != 0).then_some(i)).collect();
+        small.clear_undrawn(2, &mut row);
+        for (i, p) in row.iter().enumerate() {
+            assert_eq!(p.is_some(), i % 7 != 0 && small.keeps(2, i), "pixel {i}");
+        }
+        let mut same: Vec<Option<u32>> = vec![Some(1); 10];
+        PixelDraw::ALL.clear_undrawn(0, &mut same);
+        assert!(same.iter().all(Option::is_some));
+        assert_eq!(
+            Scope::from(Shard::new(1, 2).unwrap()).pixels,
+            PixelDraw::ALL
+        );
     }
 }

@@ -11,8 +11,7 @@ use fipt_core::image::BadPixelPolicy;
 use fipt_core::image::Image;
 use fipt_core::presets::Presets;
 use fipt_core::reflectance::ReflectanceModel;
-use fipt_core::shading::ShadingBaker;
-use fipt_core::shading::Shard;
+use fipt_core::shading::{PixelDraw, Scope, ShadingBaker, Shard};
 use std::path::{Path, PathBuf};
 
 /// `fipt bake`: the bake alone, into `out/bake/`.
@@ -102,7 +101,8 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
     let _lock = crate::request::lock(&a.out, a.shard, "fipt bake")?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels, &Default::default())?;
     let dir = a.out.join("bake");
-    match stage(&scene, baker.as_ref(), &settings, &dir, a.force, a.shard) {
+    let scope = a.shard.into();
+    match stage(&scene, baker.as_ref(), &settings, &dir, a.force, scope) {
         Err(e) if e.is_stopped() => Ok(BakeOutcome::Stopped(e.to_string())),
         Err(e) => Err(e),
         Ok(_) => Ok(BakeOutcome::Wrote(dir)),
@@ -110,28 +110,38 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
 }
 
 /// The bake stage with `baker` (built from `settings`): reuses a finished bake of the same
-/// inputs, baker and settings in `dir` unless `force` (merging finished shards first);
-/// otherwise bakes, saves (manifest last) and writes previews of Ld. With a `shard` other
-/// than all, bakes and saves that shard's views and returns [`PipelineError::Stopped`].
+/// inputs, baker and settings in `dir` that holds the pixels `scope` draws, unless `force`
+/// (merging finished shards first); otherwise bakes, saves (manifest last) and writes
+/// previews of Ld. With a shard other than all, bakes and saves that shard's views and
+/// returns [`PipelineError::Stopped`].
 pub fn stage(
     scene: &LoadedScene,
     baker: &dyn ShadingBaker,
     settings: &serde_json::Value,
     dir: &Path,
     force: bool,
-    shard: Shard,
+    scope: Scope,
 ) -> Result<(BakeManifest, StoredShadings)> {
-    let name = baker.name().to_string();
-    let check = |m: &BakeManifest| mismatch(m, &scene.cache_key, settings, &name);
+    let (name, shard, draw) = (baker.name().to_string(), scope.shard, scope.pixels);
+    let check = |m: &BakeManifest| {
+        mismatch(m, &scene.cache_key, settings, &name).or_else(|| uncovered(&m.pixels, &draw))
+    };
+    let current = || -> Result<std::result::Result<_, String>> {
+        Ok(load_if_current(dir, &scene.cache_key, settings, &name)?
+            .and_then(|done| uncovered(&done.0.pixels, &draw).map_or(Ok(done), Err)))
+    };
     if !force {
         // A finished bake is reused as it is; shard manifests beside it are stale.
-        if let Ok(done) = load_if_current(dir, &scene.cache_key, settings, &name)? {
+        if let Ok(done) = current()? {
             fipt_bake::bake_store::clear_shard_manifests(dir);
             return Ok(reusing(dir, done));
         }
-        let mut part = |k: Shard| stage(scene, baker, settings, dir, false, k).map(|_| ());
+        let mut part = |k: Shard| {
+            let one = Scope { shard: k, ..scope };
+            stage(scene, baker, settings, dir, false, one).map(|_| ())
+        };
         crate::shard::merge(dir, "bake", shard, check, Some(&mut part))?;
-        match load_if_current(dir, &scene.cache_key, settings, &name)? {
+        match current()? {
             Ok(done) => return Ok(reusing(dir, done)),
             Err(why) => crate::note!("baking: {why}"),
         }
@@ -140,6 +150,9 @@ pub fn stage(
         return Err(crate::shard::done(dir, "bake", shard, check).into());
     }
     let split = scene.ds.train();
+    if !draw.is_all() {
+        crate::note!("baking {draw} of the hit pixels: what the training set and the search will read (train.set_cap, search.max_pixels)");
+    }
     let pb = bar(1, "bake");
     let st = Stage::start("bake");
     // Each view is written (with its preview of Ld) as soon as it is baked, and let go.
@@ -149,7 +162,7 @@ pub fn stage(
         &scene.geometry,
         &split.views,
         &scene.images,
-        shard,
+        scope,
         &|d, t| {
             pb.set_length(t as u64);
             pb.set_position(d as u64);
@@ -180,6 +193,7 @@ pub fn stage(
         height: scene.ds.height,
         stats: report.clone(),
         seconds_total: secs,
+        pixels: draw,
     };
     finish(dir, &manifest, shard)?;
     if !shard.is_all() {
@@ -188,6 +202,13 @@ pub fn stage(
     let stored = StoredShadings::of(dir, &manifest);
     note_stats(&manifest.baker, report, secs);
     Ok((manifest, stored))
+}
+
+/// Why shadings computed for the pixels `stored` draws cannot serve a stage that reads those
+/// `wanted` draws (None when they can).
+pub(crate) fn uncovered(stored: &PixelDraw, wanted: &PixelDraw) -> Option<String> {
+    (!stored.covers(wanted))
+        .then(|| format!("it holds {stored} of the hit pixels; this run reads {wanted}"))
 }
 
 /// A finished bake, reused (and said so).

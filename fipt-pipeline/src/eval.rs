@@ -473,10 +473,11 @@ pub fn evaluate_run(scene: &Path, out: &Path) -> Result<serde_json::Value> {
 /// The closure of shadings against the training views: mean over views of the sRGB PSNR of
 /// kd·Ld + ks·Ls0(σ) + Ls1(σ) with the ground-truth materials, off the emitters (None without
 /// ground truth). It measures the shadings alone: exact shadings reproduce the views but for
-/// the renderer's noise.
+/// the renderer's noise. Over the hit pixels `draw` draws (those the run reads).
 pub fn closure_psnr(
     scene: &crate::scene::LoadedScene,
     sh: &dyn fipt_bake::bake_store::ShadingViews,
+    draw: &fipt_core::shading::PixelDraw,
 ) -> Result<Option<f64>> {
     let ds = &scene.ds;
     let split = ds.train();
@@ -509,7 +510,7 @@ pub fn closure_psnr(
             .map(|i| s.reflected(i, kd.data[i], ks.data[i], ro.data[i].x))
             .collect();
         let mask: Vec<bool> = (0..kd.data.len())
-            .map(|i| s.valid[i] && le.data[i].max_element() <= 0.0)
+            .map(|i| s.valid[i] && le.data[i].max_element() <= 0.0 && draw.keeps(k, i))
             .collect();
         sum +=
             fipt_core::metrics::srgb_psnr(&pred, &scene.images[k].data, Some(&mask)).unwrap_or(0.0);

@@ -9,7 +9,7 @@ use crate::outputs::{extract_emitters, has_ground_truth};
 use crate::rounds::{planned_rounds, Rounds, RoundsContext};
 use crate::run_config::RunConfig;
 use fipt_core::fit::{FitInputs, FitParts, Fitted, MaterialFitter};
-use fipt_core::shading::Progress;
+use fipt_core::shading::{PixelDraw, Progress, Scope};
 use std::time::Instant;
 
 /// FIPT's rounds. Its settings are the run config's `[bake]` (for the `slf` baker), `[search]`,
@@ -67,7 +67,7 @@ fn fit_rounds(
         scene,
         records,
         first.field.as_ref(),
-        Some(&first.shadings),
+        Some((&first.shadings, first.draw)),
         parts.extractor,
     )?;
     mark("emitters", t);
@@ -90,6 +90,7 @@ fn fit_rounds(
         records,
         footprint: *footprint,
         emitters: &emitters,
+        draw: first.draw,
         has_gt: first.has_gt,
         refiner: parts.refiner,
         refine_settings: parts.refine_settings,
@@ -136,6 +137,8 @@ fn past_sharded_stages(host: &Host) -> Result<()> {
 /// What the first round leaves for the rest of a FIPT run.
 struct FirstRound {
     bake: fipt_bake::bake_store::BakeManifest,
+    /// The hit pixels the run reads of its shadings.
+    draw: PixelDraw,
     has_gt: bool,
     searched: Option<crate::search::Searched>,
     searches: Vec<serde_json::Value>,
@@ -154,17 +157,22 @@ fn first_round(
 ) -> Result<FirstRound> {
     let (a, cfg, scene) = (&host.request, &host.cfg, &host.scene);
     let t = crate::observe::begin("bake");
+    let (records, footprint) = host.hits();
+    let draw = crate::draw::plan(scene, records, cfg)?;
+    let scope = Scope {
+        shard: a.sharding().shard,
+        pixels: draw,
+    };
     let (bake, shadings) = crate::bake::stage(
         scene,
         parts.baker,
         parts.bake_settings,
         &a.out.join("bake"),
         a.force,
-        a.sharding().shard,
+        scope,
     )?;
     mark("bake", t);
     let has_gt = has_ground_truth(scene);
-    let (records, footprint) = host.hits();
     let mut searches = vec![];
     let t = crate::observe::begin("search");
     let bake_id = fipt_bake::bake_store::fingerprint(&bake);
@@ -172,13 +180,14 @@ fn first_round(
         shadings: &shadings,
         id: &bake_id,
         force: a.force,
+        seed: cfg.train.seed,
     };
     let searched = crate::search::on_bake(scene, records, on, &cfg.search, *footprint)?;
     if searched.is_some() {
         mark("search", t);
     }
     // The closure of the shadings with the true materials (with ground truth).
-    let closure = bake_closure(scene, &shadings, has_gt)?;
+    let closure = bake_closure(scene, &shadings, &draw, has_gt)?;
     let t = crate::observe::begin("train");
     let trainer = (parts.trainer)(parts.train_settings)?;
     let on = crate::train::TrainOn {
@@ -199,6 +208,7 @@ fn first_round(
     }
     Ok(FirstRound {
         bake,
+        draw,
         has_gt,
         searched,
         searches,
@@ -213,12 +223,13 @@ fn first_round(
 fn bake_closure(
     scene: &crate::scene::LoadedScene,
     shadings: &fipt_bake::bake_store::StoredShadings,
+    draw: &PixelDraw,
     has_gt: bool,
 ) -> Result<Vec<serde_json::Value>> {
     Ok(if has_gt {
         vec![serde_json::json!({
             "shadings": "bake",
-            "psnr_db": crate::eval::closure_psnr(scene, shadings)?,
+            "psnr_db": crate::eval::closure_psnr(scene, shadings, draw)?,
         })]
     } else {
         vec![]

@@ -271,7 +271,7 @@ fn bake_for(
         p.bake_settings,
         bake,
         a.force,
-        a.shard,
+        a.shard.into(),
     )?;
     stages.mark("bake", t);
     Ok(Some(sh.1))
@@ -321,7 +321,13 @@ fn emitters_stage(
     let t = crate::observe::begin("emitters");
     let emitters = match emitters {
         Some(e) => e,
-        None => extract_emitters(scene, &host.hits().0, field, shadings, extractor)?,
+        None => extract_emitters(
+            scene,
+            &host.hits().0,
+            field,
+            shadings.map(|s| (s, fipt_core::shading::PixelDraw::ALL)),
+            extractor,
+        )?,
     };
     let user_emitters = write_emitters(a, scene, &emitters)?;
     // FIPT extracts its emitters inside its fit, and reports that stage itself.

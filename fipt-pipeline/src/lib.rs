@@ -22,6 +22,7 @@ pub mod capture;
 pub mod components;
 pub mod config;
 pub mod degrade;
+mod draw;
 pub mod error;
 pub mod eval;
 pub mod eval_at;

@@ -7,6 +7,7 @@ use crate::run_config::RunConfig;
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs, PixelHit, PixelHits};
 use fipt_core::fsutil::{read_json, write_bytes_atomic, write_json_atomic};
 use fipt_core::image::ExrPrecision;
+use fipt_core::shading::PixelDraw;
 use fipt_shading::records::HitPoint;
 use fipt_shading::render::RenderConfig;
 use fipt_shading::scene::Scene as RenderScene;
@@ -529,7 +530,7 @@ pub(crate) fn extract_emitters(
     scene: &crate::scene::LoadedScene,
     records: &[Vec<Option<HitPoint>>],
     field: &dyn fipt_core::field::MaterialField,
-    shadings: Option<&dyn fipt_bake::bake_store::ShadingViews>,
+    shadings: Option<(&dyn fipt_bake::bake_store::ShadingViews, PixelDraw)>,
     extractor: &dyn EmitterExtractor,
 ) -> Result<Vec<Emitter>> {
     let mesh = &scene.geometry.mesh;
@@ -551,8 +552,9 @@ pub(crate) fn extract_emitters(
 struct TrainingHits<'a> {
     scene: &'a crate::scene::LoadedScene,
     records: &'a [Vec<Option<HitPoint>>],
-    /// The initial shadings, for each pixel's bound on reflected light.
-    shadings: Option<&'a dyn fipt_bake::bake_store::ShadingViews>,
+    /// The initial shadings, for each pixel's bound on reflected light, at the pixels drawn
+    /// (those the run reads: the bound is the same whether the bake holds more).
+    shadings: Option<(&'a dyn fipt_bake::bake_store::ShadingViews, PixelDraw)>,
 }
 
 impl PixelHits for TrainingHits<'_> {
@@ -560,9 +562,9 @@ impl PixelHits for TrainingHits<'_> {
         let mesh = &self.scene.geometry.mesh;
         let views = &self.scene.ds.train().views;
         for (v, (recs, img)) in self.records.iter().zip(&self.scene.images).enumerate() {
-            let most = match self.shadings {
-                Some(s) => Some(max_reflected_view(&*s.get(v)?)),
-                None => None,
+            let (most, draw) = match self.shadings {
+                Some((s, draw)) => (Some(max_reflected_view(&*s.get(v)?)), draw),
+                None => (None, PixelDraw::ALL),
             };
             let eye = views.get(v).map(|view| view.camera.origin);
             let w = img.width.max(1);
@@ -582,7 +584,9 @@ impl PixelHits for TrainingHits<'_> {
                 f(&PixelHit {
                     triangle: r.tri,
                     radiance: *l,
-                    max_reflected: most.as_ref().and_then(|m| m.get(i).copied().flatten()),
+                    max_reflected: (most.as_ref())
+                        .filter(|_| draw.keeps(v, i))
+                        .and_then(|m| m.get(i).copied().flatten()),
                     at: Some([v as u32, (i % w) as u32, (i / w) as u32]),
                     front,
                 });

@@ -13,8 +13,7 @@ use fipt_bake::refine::RefineStats;
 use fipt_core::emitter::Emitter;
 use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{hash_bytes, read_json, write_json_atomic};
-use fipt_core::shading::Shard;
-use fipt_core::shading::{RefineInputs, ShadingRefiner};
+use fipt_core::shading::{PixelDraw, RefineInputs, Scope, ShadingRefiner, Shard};
 use std::path::Path;
 
 /// A finished refinement: its shadings (on disk), their fingerprint and what the rays met.
@@ -37,17 +36,19 @@ pub fn stage(
     dir: &Path,
     force: bool,
     sharding: Sharding,
+    draw: PixelDraw,
 ) -> Result<Refined> {
     let name = refiner.name().to_string();
     let shard = sharding.shard;
-    let key = hash_bytes(
-        format!(
-            "{}|{field_id}|{}",
-            serde_json::to_string(settings)?,
-            serde_json::to_string(emitters)?
-        )
-        .as_bytes(),
+    let mut key = format!(
+        "{}|{field_id}|{}",
+        serde_json::to_string(settings)?,
+        serde_json::to_string(emitters)?
     );
+    if !draw.is_all() {
+        key += &format!("|{}|{}", draw.seed, draw.share);
+    }
+    let key = hash_bytes(key.as_bytes());
     let stats_path = dir.join("refine_stats.json");
     let check = |m: &BakeManifest| keyed_mismatch(m, &scene.cache_key, &name, &key);
     let reused = |m: BakeManifest, shadings| -> Refined {
@@ -79,7 +80,7 @@ pub fn stage(
             };
             let args = (field, field_id, emitters, refiner, settings);
             stage(
-                scene, args.0, args.1, args.2, args.3, args.4, dir, false, one,
+                scene, args.0, args.1, args.2, args.3, args.4, dir, false, one, draw,
             )
             .map(|_| ())
         };
@@ -119,7 +120,11 @@ pub fn stage(
         settings,
         dir,
     };
-    compute(&job, &name, key, shard)
+    let scope = Scope {
+        shard,
+        pixels: draw,
+    };
+    compute(&job, &name, key, scope)
 }
 
 /// What one refinement computes from.
@@ -135,7 +140,8 @@ struct Job<'a> {
 
 /// Refines `shard`'s views, each written as soon as it is done, then the manifest (a shard's
 /// ends the process's work on the stage with `shard::done`).
-fn compute(job: &Job, name: &str, key: String, shard: Shard) -> Result<Refined> {
+fn compute(job: &Job, name: &str, key: String, scope: Scope) -> Result<Refined> {
+    let shard = scope.shard;
     let (scene, refiner, dir) = (job.scene, job.refiner, job.dir);
     let stats_path = dir.join("refine_stats.json");
     let check = |m: &BakeManifest| keyed_mismatch(m, &scene.cache_key, name, &key);
@@ -157,7 +163,7 @@ fn compute(job: &Job, name: &str, key: String, shard: Shard) -> Result<Refined> 
     let mut written = 0;
     let stats = refiner.refine_into(
         &inputs,
-        shard,
+        scope,
         &|d, t| {
             pb.set_length(t as u64);
             pb.set_position(d as u64);
@@ -183,6 +189,7 @@ fn compute(job: &Job, name: &str, key: String, shard: Shard) -> Result<Refined> 
         height: scene.ds.height,
         stats: Default::default(),
         seconds_total: secs,
+        pixels: scope.pixels,
     };
     if !shard.is_all() {
         let manifest = BakeManifest {

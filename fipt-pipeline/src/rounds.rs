@@ -70,6 +70,8 @@ pub(crate) struct RoundsContext<'a> {
     pub(crate) records: &'a [Vec<Option<HitPoint>>],
     pub(crate) footprint: f32,
     pub(crate) emitters: &'a [Emitter],
+    /// The hit pixels the run reads of its shadings ([`crate::draw`]).
+    pub(crate) draw: fipt_core::shading::PixelDraw,
     pub(crate) has_gt: bool,
     pub(crate) refiner: &'a dyn ShadingRefiner,
     pub(crate) refine_settings: &'a serde_json::Value,
@@ -137,12 +139,13 @@ pub(crate) fn refinement_rounds(
             &ctx.out.join(format!("refine{r}")),
             ctx.force,
             ctx.sharding,
+            ctx.draw,
         )?;
         mark("refine", t);
         if ctx.has_gt {
             st.closure.push(serde_json::json!({
                 "shadings": format!("refine{r}"),
-                "psnr_db": crate::eval::closure_psnr(ctx.scene, &refined.shadings)?,
+                "psnr_db": crate::eval::closure_psnr(ctx.scene, &refined.shadings, &ctx.draw)?,
             }));
         }
         let t = crate::observe::begin("search");
@@ -155,6 +158,7 @@ pub(crate) fn refinement_rounds(
             shadings: &refined.shadings,
             id: &refined.key,
             force: ctx.force,
+            seed: cfg.train.seed,
         };
         st.searched = crate::search::stage(
             ctx.scene,

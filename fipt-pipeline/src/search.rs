@@ -185,8 +185,50 @@ fn divide(
     split
 }
 
-/// Seeds the share of pixels the search keeps beyond `search.max_pixels`.
-const SEARCH_SEED: u64 = 0x5EA2C4;
+/// The hits on a region (the shadings' validity is known view by view), and the share of them
+/// the search keeps: 1, or `search.max_pixels` of them.
+fn candidates_and_share(
+    records: &[Vec<Option<HitPoint>>],
+    regions: &Regions,
+    cfg: &SearchConfig,
+) -> (usize, f64) {
+    let candidates: usize = (regions.ids.iter().zip(records))
+        .map(|(ids, recs)| {
+            (ids.iter().zip(recs))
+                .filter(|(r, h)| r.is_some() && h.is_some())
+                .count()
+        })
+        .sum();
+    let share = match cfg.max_pixels {
+        0 => 1.0,
+        m => m as f64 / candidates.max(1) as f64,
+    };
+    (candidates, share)
+}
+
+/// The share of the hit pixels the search will keep (`search.max_pixels`; drawn from the run's
+/// `train.seed`), before any shading exists: 1 when it keeps every one, None when it does not
+/// run. `hits`: every view's hits (when no more than the cap, the regions are not read).
+pub(crate) fn drawn_share(
+    scene: &LoadedScene,
+    records: &[Vec<Option<HitPoint>>],
+    cfg: &SearchConfig,
+    hits: usize,
+) -> Result<Option<f64>> {
+    if !cfg.enabled || cfg.regions == fipt_search::RegionSource::None {
+        return Ok(None);
+    }
+    if cfg.max_pixels == 0 || hits <= cfg.max_pixels {
+        return Ok(Some(1.0));
+    }
+    let Some(regions) = crate::regions::load(scene, records, cfg.regions, cfg.mesh_angle_deg)?
+    else {
+        return Ok(None);
+    };
+    Ok(Some(
+        candidates_and_share(records, &regions, cfg).1.min(1.0),
+    ))
+}
 
 /// What the search reads, and nothing more.
 struct Compact {
@@ -206,24 +248,21 @@ struct Compact {
 fn compact_inputs(
     scene: &LoadedScene,
     records: &[Vec<Option<HitPoint>>],
-    stored: &StoredShadings,
+    on: &SearchOn,
     regions: &Regions,
     cfg: &SearchConfig,
     footprint: f32,
 ) -> Result<Compact> {
+    let (stored, seed) = (on.shadings, on.seed);
     let rule = region_rule(&scene.images, regions, cfg);
-    // The share from the hits on a region (the shadings' validity is known view by view).
-    let candidates: usize = (regions.ids.iter().zip(records))
-        .map(|(ids, recs)| {
-            (ids.iter().zip(recs))
-                .filter(|(r, h)| r.is_some() && h.is_some())
-                .count()
-        })
-        .sum();
-    let share = match cfg.max_pixels {
-        0 => 1.0,
-        m => m as f64 / candidates.max(1) as f64,
-    };
+    let (candidates, share) = candidates_and_share(records, regions, cfg);
+    let wanted = fipt_core::shading::PixelDraw::new(seed, Some(share));
+    if let Some(why) = crate::bake::uncovered(&stored.pixels, &wanted) {
+        crate::bail!(
+            "the shadings in {}: {why} (search.max_pixels, train.seed): run with the settings that made them, or with --force",
+            stored.dir.display()
+        );
+    }
     // Pixels a view's mask leaves out (people, screens) say nothing of the materials.
     let masked = |v: usize, i: usize| {
         scene
@@ -235,7 +274,7 @@ fn compact_inputs(
     let keep = |v: usize, i: usize, h: &HitPoint| {
         rule(v, i, h)
             .filter(|_| !masked(v, i))
-            .filter(|_| fipt_core::rng::pixel_kept(SEARCH_SEED, v, i, share))
+            .filter(|_| fipt_core::rng::pixel_kept(seed, v, i, share))
     };
     let (mut keyed, mut shadings, mut images) = (vec![], vec![], vec![]);
     // One buffer for every view's file, and only the kept pixels decoded (a whole view
@@ -312,12 +351,15 @@ fn fitted_profiles(
     (fitted(pixels), halves)
 }
 
-/// The shadings a search reads: where they are, their fingerprint, and whether a search kept
-/// beside them may be reused (not with `--force`).
+/// The shadings a search reads: where they are, their fingerprint, whether a search kept
+/// beside them may be reused (not with `--force`), and the seed its share of the pixels is
+/// drawn from beyond `search.max_pixels` (the run's `train.seed`: the share then nests with
+/// the training set's, and the pixels drawn before the bake hold both).
 pub struct SearchOn<'a> {
     pub shadings: &'a StoredShadings,
     pub id: &'a str,
     pub force: bool,
+    pub seed: u64,
 }
 
 /// A finished search kept beside its shadings (`search.json`): what it was keyed on and what
@@ -407,14 +449,7 @@ pub fn stage(
         None => {
             let t = std::time::Instant::now();
             let found = decide(
-                scene,
-                records,
-                on.shadings,
-                cfg,
-                footprint,
-                previous,
-                when,
-                &regions,
+                scene, records, &on, cfg, footprint, previous, when, &regions,
             )?;
             let seconds = t.elapsed().as_secs_f64();
             let keep = KeptSearch {
@@ -566,13 +601,17 @@ fn search_key(
         "footprint": footprint,
         "previous": previous,
     });
-    Ok(format!(
+    let mut key = format!(
         "{}|{}|{}|{}",
         on.id,
         fipt_core::fsutil::hash_json(&settings),
         regions.source,
         ids.hex()
-    ))
+    );
+    if on.seed != 0 {
+        key += &format!("|seed {}", on.seed);
+    }
+    Ok(key)
 }
 
 /// What a search decided: per region, then the divided regions and their cells.
@@ -588,7 +627,7 @@ struct Decisions {
 fn decide(
     scene: &LoadedScene,
     records: &[Vec<Option<HitPoint>>],
-    shadings: &StoredShadings,
+    on: &SearchOn,
     cfg: &SearchConfig,
     footprint: f32,
     previous: Option<&Searched>,
@@ -601,7 +640,7 @@ fn decide(
         ..cfg.clone()
     };
     let cfg = if on_bake { &bake_cfg } else { cfg };
-    let c = compact_inputs(scene, records, shadings, regions, cfg, footprint)?;
+    let c = compact_inputs(scene, records, on, regions, cfg, footprint)?;
     // Dielectric σ waits for the refined shadings, and with it the division of regions.
     let split = divide(
         &c.pixels,

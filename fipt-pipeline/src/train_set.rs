@@ -53,6 +53,8 @@ struct SetPoints<'a> {
     /// The median pixel footprint of every view's hits, as
     /// [`fipt_shading::records::view_footprint`] finds it, from the same pass.
     footprint: Option<f32>,
+    /// The hits the bleed mask left out, of how many.
+    bled: (usize, usize),
 }
 
 impl<'a> SetPoints<'a> {
@@ -67,6 +69,7 @@ impl<'a> SetPoints<'a> {
             keep: None,
             hits: 0,
             footprint: None,
+            bled: (0, 0),
         };
         let (mut dropped, mut all, mut foot) = (0usize, 0usize, vec![]);
         for v in 0..scene.images.len() {
@@ -75,13 +78,19 @@ impl<'a> SetPoints<'a> {
         }
         pick.hits = all - dropped;
         pick.footprint = fipt_shading::records::median(foot);
-        if let Some((radius, contrast, _)) = bleed {
+        pick.bled = (dropped, all);
+        pick
+    }
+
+    /// Says how many hits the bleed mask left out.
+    fn note_bleed(&self) {
+        let (dropped, all) = self.bled;
+        if let Some((radius, contrast, _)) = self.bleed {
             crate::note!(
                 "training set: {dropped} of {all} pixels ({:.2} %) left out within {radius} px of one {contrast}× brighter (train.bleed_radius, bleed_contrast)",
                 100.0 * dropped as f64 / all.max(1) as f64,
             );
         }
-        pick
     }
 
     /// View `v`'s hits left after the clipped and bleed masks, and before the bleed mask;
@@ -96,10 +105,15 @@ impl<'a> SetPoints<'a> {
     /// so that about `limit` remain (`train.set_cap`); returns the hits before the share when
     /// there is one.
     fn limit(&mut self, limit: Option<usize>, seed: u64) -> Option<usize> {
+        self.keep = Some((seed, self.share(limit)?));
+        Some(self.hits)
+    }
+
+    /// The share of the hits kept so that about `limit` remain; None when all are.
+    fn share(&self, limit: Option<usize>) -> Option<f64> {
         let all = self.hits;
         let limit = limit.filter(|&l| all > l)?;
-        self.keep = Some((seed, limit as f64 / all as f64));
-        Some(all)
+        Some(limit as f64 / all as f64)
     }
 
     /// View `v`'s points after the masks, before the share; `seen` is told of every pixel
@@ -304,6 +318,16 @@ pub(crate) fn targets_fingerprint(data: &TrainingSet) -> String {
     fipt_core::fsutil::hash_bytes(&bytes)
 }
 
+/// The share of the hit pixels the training set will keep (`train.set_cap`, drawn from
+/// `train.seed`), before any shading exists: 1 when it keeps every one. `hits`: the views'
+/// hits before the masks (when no more than the cap, the masks' pass is spared).
+pub(crate) fn drawn_share(scene: &LoadedScene, cfg: &TrainConfig, hits: usize) -> f64 {
+    match cfg.set_limit().filter(|&l| hits > l) {
+        Some(limit) => SetPoints::new(scene, cfg).share(Some(limit)).unwrap_or(1.0),
+        None => 1.0,
+    }
+}
+
 /// The training set of a round: the training views' pixels that hit the mesh, less the clipped
 /// ones off the lights, the bleed beside bright edges and those over the set's limit, with
 /// their shadings, segments and the search's targets.
@@ -322,8 +346,16 @@ pub(crate) fn build_set(
     search: Option<&Searched>,
 ) -> Result<BuiltSet> {
     let mut pick = SetPoints::new(scene, cfg);
+    pick.note_bleed();
     let footprint = pick.footprint;
     let before = pick.limit(cfg.set_limit(), cfg.seed);
+    let wanted = fipt_core::shading::PixelDraw::new(cfg.seed, pick.keep.map(|k| k.1));
+    if let Some(why) = crate::bake::uncovered(&shadings.pixels, &wanted) {
+        bail!(
+            "the shadings in {}: {why} (train.set_cap, train.seed): run with the settings that made them, or with --force",
+            shadings.dir.display()
+        );
+    }
     // The box of the kept points (as `Bounds::around` takes it: finite points), and their
     // count (the set's arrays are reserved once).
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
