@@ -382,7 +382,8 @@ fn re_render(
     out: &Path,
     recovered: &Recovered,
 ) -> Result<()> {
-    let total: usize = scene.ds.splits.iter().map(|s| s.views.len()).sum();
+    let chosen = rendered_views(scene, cfg, out)?;
+    let total = chosen.len();
     let progress_path = out.join("views").join("render.json");
     let mut progress = RenderProgress::open(scene, cfg, out, recovered);
     let is_done = |p: &Option<RenderProgress>, split: &str, k: usize, exr: &Path| {
@@ -393,10 +394,9 @@ fn re_render(
             .join(split)
             .join(format!("{k:03}_render.exr"))
     };
-    let done: std::collections::HashSet<(String, usize)> = (scene.ds.splits.iter())
-        .flat_map(|s| s.views.iter().map(move |v| (s, v.index)))
-        .filter(|(s, k)| is_done(&progress, &s.name, *k, &exr_of(&s.name, *k)))
-        .map(|(s, k)| (s.name.clone(), k))
+    let done: std::collections::HashSet<(String, usize)> = (chosen.iter())
+        .filter(|(s, k)| is_done(&progress, s, *k, &exr_of(s, *k)))
+        .cloned()
         .collect();
     let reused = done.len();
     if reused > 0 {
@@ -427,6 +427,7 @@ fn re_render(
     )?;
     let rscene = RenderScene::new(scene.geometry.mesh.clone(), surfaces);
     let pb = crate::observe::bar(total as u64, "re-render");
+    let (mut rays, mut traced) = (0u64, 0f64);
     for (si, s) in scene.ds.splits.iter().enumerate() {
         let dir = out.join("views").join(&s.name);
         let rc = RenderConfig {
@@ -449,13 +450,17 @@ fn re_render(
         for v in &s.views {
             let k = v.index;
             let exr = exr_of(&s.name, k);
+            if !chosen.contains(&(s.name.clone(), k)) {
+                continue;
+            }
             pb.inc(1);
             if done.contains(&(s.name.clone(), k)) {
                 continue;
             }
             let key = ((si as u64) << 32) + v.index as u64;
             let t_view = std::time::Instant::now();
-            re_render_view(&at, v, key, &exr)?;
+            rays += re_render_view(&at, v, key, &exr)?;
+            traced += t_view.elapsed().as_secs_f64();
             if let Some(p) = &mut progress {
                 p.done.retain(|d| !(d.0 == s.name && d.1 == k));
                 p.done.push((s.name.clone(), k));
@@ -467,7 +472,61 @@ fn re_render(
         }
     }
     pb.finish_and_clear();
+    if rays > 0 {
+        crate::note!(
+            "re-render: {:.2} Mrays/s ({rays} closest-hit and shadow rays in {traced:.1} s, denoising and writing included); `fipt bench --suite bake --scene SCENE` gives the BVH's raw incoherent rate",
+            rays as f64 / traced.max(1e-9) / 1e6
+        );
+    }
     Ok(())
+}
+
+/// The (split, view) pairs the re-render covers: every view but the training views beyond
+/// `render.train_pixels` ([`crate::run_config::ReRenderConfig::train_views`]), said so; the
+/// re-renders a previous run left of the others are removed (they would be another field's).
+fn rendered_views(
+    scene: &crate::scene::LoadedScene,
+    cfg: &RunConfig,
+    out: &Path,
+) -> Result<std::collections::HashSet<(String, usize)>> {
+    let train = scene.ds.train();
+    let mut chosen = std::collections::HashSet::new();
+    for s in &scene.ds.splits {
+        let keep = if s.name == train.name {
+            cfg.render
+                .train_views(s.views.len(), scene.ds.width * scene.ds.height)
+        } else {
+            vec![true; s.views.len()]
+        };
+        for (v, keep) in s.views.iter().zip(&keep) {
+            if *keep {
+                chosen.insert((s.name.clone(), v.index));
+                continue;
+            }
+            let dir = out.join("views").join(&s.name);
+            for suffix in ["render", "render_raw"] {
+                for p in [
+                    dir.join(format!("{:03}_{suffix}.exr", v.index)),
+                    dir.join("preview")
+                        .join(format!("{:03}_{suffix}.png", v.index)),
+                ] {
+                    if p.is_file() {
+                        std::fs::remove_file(&p).map_err(|e| fipt_core::CoreError::io(&p, e))?;
+                    }
+                }
+            }
+        }
+        let n = keep.iter().filter(|k| **k).count();
+        if n < s.views.len() {
+            crate::note!(
+                "re-render: {n} of {} {} views, evenly spaced (render.train_pixels = {}; 0 for every one)",
+                s.views.len(),
+                s.name,
+                cfg.render.train_pixels
+            );
+        }
+    }
+    Ok(chosen)
 }
 
 /// Where and how a run's views are re-rendered.
@@ -480,19 +539,19 @@ struct ReRenderAt<'a, S: fipt_shading::scene::SurfaceModel> {
 }
 
 /// Renders view `v` (stream `key`), denoised unless switched off, and writes `exr`, the raw
-/// render beside it and their previews.
+/// render beside it and their previews; returns the rays its paths cast.
 fn re_render_view<S: fipt_shading::scene::SurfaceModel>(
     at: &ReRenderAt<S>,
     v: &fipt_core::dataset::View,
     key: u64,
     exr: &Path,
-) -> Result<()> {
+) -> Result<u64> {
     let (k, dir) = (v.index, at.dir);
     let dn = fipt_shading::denoise::DenoiseConfig {
         passes: if at.denoise { 5 } else { 0 },
         ..Default::default()
     };
-    let (mut img, mut raw, _) =
+    let (mut img, mut raw, stats) =
         fipt_shading::denoise::render_denoised(at.rscene, &v.camera, at.rc, key, &dn, &|_| {});
     img.write_png(&dir.join("preview").join(format!("{k:03}_render.png")), 1.0)?;
     for p in img.data.iter_mut().chain(raw.data.iter_mut()) {
@@ -509,7 +568,7 @@ fn re_render_view<S: fipt_shading::scene::SurfaceModel>(
         std::fs::remove_file(&raw_exr).map_err(|e| fipt_core::CoreError::io(&raw_exr, e))?;
     }
     img.write_exr(exr, ExrPrecision::F32)?;
-    Ok(())
+    Ok(stats.rays)
 }
 
 /// What each pixel of one view could at most reflect under its shadings (a white surface,

@@ -115,6 +115,13 @@ pub struct ReRenderConfig {
     pub val_spp: u32,
     pub max_bounces: u32,
     pub seed: u64,
+    /// At most this many training-view pixels are re-rendered (views evenly spaced in index
+    /// order, the first always among them); 0: every training view. The training views'
+    /// re-renders show the fit to the photographs; the novel (val) views are always all
+    /// re-rendered. 2 M: `studio-mitsuba`, `room` and `cornell` keep every view; 200 views of
+    /// 640 × 480 keep 6, which made 90 % of the re-render's time (`docs/scaling.md`).
+    #[serde(default = "default_train_pixels")]
+    pub train_pixels: u64,
     /// Denoise the re-renders (`_render.exr`), keeping the raw ones beside them
     /// (`_render_raw.exr`); off: `_render.exr` is the raw render.
     #[serde(default = "default_denoise")]
@@ -123,6 +130,26 @@ pub struct ReRenderConfig {
 
 fn default_denoise() -> bool {
     true
+}
+
+fn default_train_pixels() -> u64 {
+    2_000_000
+}
+
+impl ReRenderConfig {
+    /// Which of `views` training views of `pixels` pixels each are re-rendered
+    /// (`train_pixels`): all, or as many as fit, evenly spaced from the first.
+    pub fn train_views(&self, views: usize, pixels: usize) -> Vec<bool> {
+        let fit = match self.train_pixels {
+            0 => views,
+            cap => ((cap / pixels.max(1) as u64) as usize).clamp(1, views.max(1)),
+        };
+        let mut chosen = vec![false; views];
+        for j in 0..fit.min(views) {
+            chosen[j * views / fit] = true;
+        }
+        chosen
+    }
 }
 
 impl ReRenderConfig {
@@ -171,6 +198,7 @@ impl RunConfig {
                 },
                 max_bounces: 7,
                 seed: 0,
+                train_pixels: default_train_pixels(),
                 denoise: name != "reference",
             },
             search: if name == "reference" {
@@ -244,3 +272,30 @@ impl RoundsConfig {
 
 /// The most samples per pixel of a render (and of `[render] spp`).
 pub const MAX_SPP: u32 = 65_536;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The training views re-rendered: every one without a budget or under it; else as many
+    /// as the budget holds, evenly spaced from the first, and never none.
+    #[test]
+    fn the_training_re_render_budget_picks_evenly_spaced_views() {
+        let with = |train_pixels| ReRenderConfig {
+            train_pixels,
+            ..RunConfig::preset("fast").unwrap().render
+        };
+        let picked = |cap, views, pixels| -> Vec<usize> {
+            let chosen = with(cap).train_views(views, pixels);
+            assert_eq!(chosen.len(), views);
+            (0..views).filter(|&k| chosen[k]).collect()
+        };
+        assert_eq!(picked(0, 5, 100), [0, 1, 2, 3, 4]);
+        assert_eq!(picked(500, 5, 100), [0, 1, 2, 3, 4]);
+        assert_eq!(picked(10_000, 5, 100), [0, 1, 2, 3, 4]);
+        assert_eq!(picked(350, 10, 100), [0, 3, 6]);
+        assert_eq!(picked(50, 10, 100), [0]);
+        assert_eq!(picked(2_000_000, 200, 640 * 480).len(), 6);
+        assert!(picked(350, 0, 100).is_empty());
+    }
+}
