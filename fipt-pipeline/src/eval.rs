@@ -13,6 +13,7 @@ use fipt_core::fsutil::write_json_atomic;
 use fipt_core::image::Image;
 use fipt_core::metrics::psnr;
 use glam::Vec3;
+use rayon::prelude::*;
 use std::path::Path;
 
 /// A pixel is *observed* when at least this many training pixels fall in its surface cell.
@@ -181,12 +182,22 @@ pub fn evaluate_scaled(
             ds,
             split: s,
             dir: &dir,
-            out,
             scales,
             display,
         };
-        for v in &s.views {
-            score_view(&at, v, &mut acc)?;
+        // The views are read and scored on every core, a few at a time, and added in view
+        // order (the sums are those of one view after another).
+        let chunk = 2 * rayon::current_num_threads().max(1);
+        for views in s.views.chunks(chunk) {
+            let scored = (views.par_iter())
+                .map(|v| score_view(&at, v))
+                .collect::<Result<Vec<_>>>()?;
+            // Written in view order too (each write is a moment of `fipt_core::chaos`).
+            for view in scored.into_iter().flatten() {
+                let (k, kd, kd_gt, valid) = &view.kd_error;
+                write_kd_error(out, &s.name, *k, kd, kd_gt, valid)?;
+                view.add_to(&mut acc);
+            }
         }
         splits.insert(s.name.clone(), acc.to_json(&names, display));
     }
@@ -246,13 +257,75 @@ struct SplitAt<'a> {
     ds: &'a Dataset,
     split: &'a fipt_core::dataset::Split,
     dir: &'a Path,
-    out: &'a Path,
     scales: Scales,
     display: f32,
 }
 
-/// Scores view `v` of a split into `acc` (views without kd and σ ground truth are skipped).
-fn score_view(at: &SplitAt, v: &fipt_core::dataset::View, acc: &mut SplitScores) -> Result<()> {
+/// One view's scores, and the per-pixel maps its parts are scored on, to add to its split's.
+struct ViewScore {
+    row: serde_json::Value,
+    kd: Option<f64>,
+    albedo: Option<f64>,
+    roughness: Option<f64>,
+    roughness_constant: Option<f64>,
+    iou: Option<f64>,
+    log_l2: f64,
+    render: Option<f64>,
+    render_raw: Option<f64>,
+    /// kd and σ PSNR on observed pixels and their share, when the run wrote `_observed.exr`.
+    observed: Option<[Option<f64>; 3]>,
+    metal: [usize; 4],
+    /// Part ids (IndexMA), valid, diffuse, kd, true kd, σ, true σ, metallic (predicted, true).
+    parts: Option<PartMaps>,
+    /// What the kd error map is drawn from: the view, kd, true kd, the valid pixels.
+    kd_error: (usize, Image, Image, Vec<bool>),
+}
+
+type PartMaps = (
+    Vec<i64>,
+    Vec<bool>,
+    Vec<bool>,
+    [Vec<Vec3>; 4],
+    Option<(Vec<Vec3>, Vec<Vec3>)>,
+);
+
+impl ViewScore {
+    /// Adds this view's scores to its split's, after the views before it.
+    fn add_to(self, acc: &mut SplitScores) {
+        for (a, b) in acc.metal.iter_mut().zip(self.metal) {
+            *a += b;
+        }
+        acc.roughness_constant.push(self.roughness_constant);
+        if let Some((ids, valid, diffuse, [kd, kd_gt, sigma, sigma_gt], m)) = &self.parts {
+            acc.parts.add(&ViewMaps {
+                ids,
+                valid,
+                diffuse,
+                kd,
+                kd_gt,
+                sigma,
+                sigma_gt,
+                metallic: m.as_ref().map(|(p, g)| (&p[..], &g[..])),
+            });
+        }
+        if let Some([kd, sigma, share]) = self.observed {
+            acc.kd_observed.push(kd);
+            acc.roughness_observed.push(sigma);
+            acc.observed_share.push(share);
+        }
+        acc.render.push(self.render);
+        acc.render_raw.push(self.render_raw);
+        acc.kd.push(self.kd);
+        acc.albedo.push(self.albedo);
+        acc.roughness.push(self.roughness);
+        acc.iou.push(self.iou);
+        acc.log_l2.push(Some(self.log_l2));
+        acc.rows.push(self.row);
+    }
+}
+
+/// Scores view `v` of a split (None for a view without kd and σ ground truth).
+fn score_view(at: &SplitAt, v: &fipt_core::dataset::View) -> Result<Option<ViewScore>> {
     let (ds, s, dir) = (at.ds, at.split, at.dir);
     let k = v.index;
     let pred = |name: &str| -> Result<Image> {
@@ -268,7 +341,7 @@ fn score_view(at: &SplitAt, v: &fipt_core::dataset::View, acc: &mut SplitScores)
         same_size(img, ds, &s.gt_path(kind, k)).map(Some)
     };
     let (Some(kd_gt), Some(r_gt)) = (gt(GtKind::DiffCol)?, gt(GtKind::Roughness)?) else {
-        return Ok(());
+        return Ok(None);
     };
     let emit_gt = gt(GtKind::Emit)?;
     let mut kd = pred("kd")?;
@@ -305,15 +378,15 @@ fn score_view(at: &SplitAt, v: &fipt_core::dataset::View, acc: &mut SplitScores)
         .as_ref()
         .zip(m.as_ref())
         .map(|(g, p)| (&p.data[..], &g.data[..]));
+    let mut metal = [0; 4];
     if let Some((p, g)) = metallic {
-        count_metal(&mut acc.metal, &valid, p, g);
+        count_metal(&mut metal, &valid, p, g);
     }
     let cl = |v: Vec3| Vec3::splat(v.x.clamp(0.2, 1.0));
     let r_pred: Vec<Vec3> = rough.data.iter().map(|&v| cl(v)).collect();
     let r_true: Vec<Vec3> = r_gt.data.iter().map(|&v| cl(q8(v))).collect();
     let r_p = psnr(&r_pred, &r_true, Some(&valid), 1.0);
-    acc.roughness_constant
-        .push(psnr(&[Vec3::ONE].repeat(n), &r_true, Some(&valid), 1.0));
+    let r_const = psnr(&[Vec3::ONE].repeat(n), &r_true, Some(&valid), 1.0);
     let maps = ViewMaps {
         ids: &[],
         valid: &valid,
@@ -324,26 +397,40 @@ fn score_view(at: &SplitAt, v: &fipt_core::dataset::View, acc: &mut SplitScores)
         sigma_gt: &r_true,
         metallic,
     };
-    if let Some(ids) = ds.load_ids(s, GtKind::IndexMA, k)? {
-        acc.parts.add(&ViewMaps { ids: &ids, ..maps });
-    }
-    score_observed(at, k, &maps, acc)?;
+    let observed = score_observed(at, k, &maps)?;
+    let ids = ds.load_ids(s, GtKind::IndexMA, k)?;
     let (iou, log2) = emission_scores(&emis, emit_gt.as_ref());
     let scale = [at.display, at.scales.radiance];
     let render_p = render_score(ds, v, dir, scale, &s.name, "render")?;
     // The re-render before denoising, where it was kept.
     let raw_p = render_score(ds, v, dir, scale, &s.name, "render_raw")?;
     let log_l2 = log2 / (3 * n) as f64;
-    write_kd_error(at.out, &s.name, k, &kd, &kd_gt, &valid)?;
-    acc.render.push(render_p);
-    acc.render_raw.push(raw_p);
-    acc.kd.push(kd_p);
-    acc.albedo.push(alb_p);
-    acc.roughness.push(r_p);
-    acc.iou.push(iou);
-    acc.log_l2.push(Some(log_l2));
-    acc.rows.push(serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p, "render_raw_psnr": raw_p}));
-    Ok(())
+    let kd_error = (k, kd, kd_gt, valid.clone());
+    let metallic = m_gt.zip(m).map(|(g, p)| (p.data, g.data));
+    let parts = ids.map(|ids| {
+        (
+            ids,
+            valid,
+            diffuse,
+            [kd_clamped, kd_q8, r_pred, r_true],
+            metallic,
+        )
+    });
+    Ok(Some(ViewScore {
+        row: serde_json::json!({"view": k, "kd_psnr": kd_p, "albedo_psnr": alb_p, "roughness_psnr": r_p, "emission_iou": iou, "emission_log_l2": log_l2, "render_psnr": render_p, "render_raw_psnr": raw_p}),
+        kd: kd_p,
+        albedo: alb_p,
+        roughness: r_p,
+        roughness_constant: r_const,
+        iou,
+        log_l2,
+        render: render_p,
+        render_raw: raw_p,
+        observed,
+        metal,
+        parts,
+        kd_error,
+    }))
 }
 
 /// PSNR of kd + ks (clamped to [0, 1]) against the albedo ground truth on the valid pixels.
@@ -360,10 +447,10 @@ fn albedo_psnr(kd: &Image, ks: &Image, truth: &Image, valid: &[bool]) -> Option<
 
 /// kd and σ on observed pixels: surface cells that at least OBSERVED_MIN training pixels saw
 /// (`_observed.exr` of `fipt run`), where the run wrote one.
-fn score_observed(at: &SplitAt, k: usize, maps: &ViewMaps, acc: &mut SplitScores) -> Result<()> {
+fn score_observed(at: &SplitAt, k: usize, maps: &ViewMaps) -> Result<Option<[Option<f64>; 3]>> {
     let obs_path = at.dir.join(format!("{k:03}_observed.exr"));
     if !obs_path.is_file() {
-        return Ok(());
+        return Ok(None);
     }
     let o =
         Image::read_exr(&obs_path).with_context(|| format!("reading {}", obs_path.display()))?;
@@ -372,14 +459,12 @@ fn score_observed(at: &SplitAt, k: usize, maps: &ViewMaps, acc: &mut SplitScores
     let seen = |i: usize| o.data[i].x >= OBSERVED_MIN;
     let od: Vec<bool> = (0..n).map(|i| maps.diffuse[i] && seen(i)).collect();
     let ov: Vec<bool> = (0..n).map(|i| maps.valid[i] && seen(i)).collect();
-    acc.kd_observed
-        .push(psnr(maps.kd, maps.kd_gt, Some(&od), 1.0));
-    acc.roughness_observed
-        .push(psnr(maps.sigma, maps.sigma_gt, Some(&ov), 1.0));
     let nv = maps.valid.iter().filter(|&&v| v).count();
-    acc.observed_share
-        .push((nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64));
-    Ok(())
+    Ok(Some([
+        psnr(maps.kd, maps.kd_gt, Some(&od), 1.0),
+        psnr(maps.sigma, maps.sigma_gt, Some(&ov), 1.0),
+        (nv > 0).then(|| ov.iter().filter(|&&v| v).count() as f64 / nv as f64),
+    ]))
 }
 
 /// Adds a view's metal pixels (true metallic ≥ 0.5) and those predicted ≥ 0.8, and its

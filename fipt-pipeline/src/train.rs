@@ -21,7 +21,6 @@ use fipt_neural::train::render_factorized;
 use fipt_neural::{NeuralField, TrainConfig};
 pub use fipt_shading::records::view_points;
 use glam::Vec3;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -589,8 +588,7 @@ pub fn export_views(
             }
             maps.push(("render", img));
         }
-        // The maps are encoded and written on every core (one map each).
-        maps.par_iter_mut().try_for_each(|(name, img)| {
+        for (name, img) in &mut maps {
             let k = v.index;
             let radiance = matches!(*name, "emission" | "render");
             if radiance && radiance_scale != 1.0 {
@@ -608,8 +606,8 @@ pub fn export_views(
             img.write_png(
                 &dir.join("preview").join(format!("{k:03}_{name}.png")),
                 exposure,
-            )
-        })?;
+            )?;
+        }
     }
     Ok(())
 }

@@ -159,7 +159,20 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
     photo.clip /= exposure;
     for split in &ds.splits {
         let maps_dir = run.join("views").join(&split.name);
-        for v in split.views.iter().take(opts.views) {
+        // The views with a re-render first (a run re-renders a share of many training views,
+        // `[render] train_pixels`).
+        let rendered = |v: &&fipt_core::dataset::View| {
+            maps_dir
+                .join(format!("{:03}_render.exr", v.index))
+                .is_file()
+        };
+        let any = split.views.iter().any(|v| rendered(&v));
+        for v in split
+            .views
+            .iter()
+            .filter(|v| !any || rendered(v))
+            .take(opts.views)
+        {
             let k = v.index;
             let input = normalised(ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0);
             let input_png = pics.join(format!("inputs/{}_{k:03}.png", split.name));
