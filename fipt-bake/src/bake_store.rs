@@ -461,11 +461,8 @@ pub fn mismatch(
 /// deterministic, so equal fingerprints mean equal shadings). Later stages key on it.
 pub fn fingerprint(m: &BakeManifest) -> String {
     let settings = fipt_core::fsutil::hash_json(&m.config);
-    let mut key = format!("{}|{}|{}|{settings}", m.version, m.baker, m.inputs_hash);
-    if !m.pixels.is_all() {
-        key += &format!("|{}|{}", m.pixels.seed, m.pixels.share);
-    }
-    fipt_core::fsutil::hash_bytes(key.as_bytes())
+    let key = format!("{}|{}|{}|{settings}", m.version, m.baker, m.inputs_hash);
+    fipt_core::fsutil::hash_bytes((key + &m.pixels.key_tag()).as_bytes())
 }
 
 /// Why a stored result keyed by `key` (see [`load_keyed`]) cannot be reused (None when it can).

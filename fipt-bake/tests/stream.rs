@@ -63,21 +63,32 @@ fn handed(
 
 type Images = Vec<Image>;
 
+/// The `fast` baker of `model` (with or without the diffuse cache) and its bake of every view.
+fn whole_bake(
+    scene: &(Geometry, Vec<View>, Images),
+    model: ReflectanceModel,
+    cache: bool,
+) -> (FactorizedBaker, Vec<ViewShadings>) {
+    let cfg = BakeConfig {
+        diffuse_cache: cache,
+        ..BakeConfig::fast()
+    };
+    let baker = FactorizedBaker::new(cfg).with_model(model);
+    let (geo, views, images) = scene;
+    let whole = baker.bake(geo, views, images, &|_, _| {}).unwrap().output;
+    (baker, whole)
+}
+
 #[test]
 fn views_are_handed_over_once_in_order_and_equal_a_whole_bake() {
     let scene = scene("order");
-    let (geo, views, images) = &scene;
+    let views = &scene.1;
     for (model, cache) in [
         (ReflectanceModel::Principled, true),
         (ReflectanceModel::Fipt, true),
         (ReflectanceModel::Fipt, false),
     ] {
-        let cfg = BakeConfig {
-            diffuse_cache: cache,
-            ..BakeConfig::fast()
-        };
-        let baker = FactorizedBaker::new(cfg).with_model(model);
-        let whole = baker.bake(geo, views, images, &|_, _| {}).unwrap().output;
+        let (baker, whole) = whole_bake(&scene, model, cache);
         assert_eq!(whole.len(), views.len());
         let all = handed(&baker, &scene, Shard::ALL);
         let order: Vec<usize> = all.iter().map(|(k, _)| *k).collect();
@@ -159,18 +170,12 @@ fn the_default_hands_over_a_whole_bakes_shard() {
 #[test]
 fn a_draw_bakes_its_pixels_as_a_whole_bake_and_no_others() {
     let scene = scene("draw");
-    let (geo, views, images) = &scene;
     let draw = PixelDraw::new(7, Some(0.3));
     for (model, cache) in [
         (ReflectanceModel::Principled, true),
         (ReflectanceModel::Fipt, false),
     ] {
-        let cfg = BakeConfig {
-            diffuse_cache: cache,
-            ..BakeConfig::fast()
-        };
-        let baker = FactorizedBaker::new(cfg).with_model(model);
-        let whole = baker.bake(geo, views, images, &|_, _| {}).unwrap().output;
+        let (baker, whole) = whole_bake(&scene, model, cache);
         let (mut kept, mut out) = (0, 0);
         for shard in [Shard::ALL, Shard::new(1, 2).unwrap()] {
             let got = handed(

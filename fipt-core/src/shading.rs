@@ -286,6 +286,16 @@ impl PixelDraw {
         crate::rng::pixel_kept(self.seed, view, pixel, self.share)
     }
 
+    /// What a cache key adds for this draw: nothing for every pixel (keys of stages made
+    /// before draws existed stay valid), else its seed and share.
+    pub fn key_tag(&self) -> String {
+        if self.is_all() {
+            String::new()
+        } else {
+            format!("|{}|{}", self.seed, self.share)
+        }
+    }
+
     /// Whether every pixel `other` draws is drawn here.
     pub fn covers(&self, other: &PixelDraw) -> bool {
         self.is_all() || (self.seed == other.seed && self.share >= other.share)

@@ -40,14 +40,12 @@ pub fn stage(
 ) -> Result<Refined> {
     let name = refiner.name().to_string();
     let shard = sharding.shard;
-    let mut key = format!(
-        "{}|{field_id}|{}",
+    let key = format!(
+        "{}|{field_id}|{}{}",
         serde_json::to_string(settings)?,
-        serde_json::to_string(emitters)?
+        serde_json::to_string(emitters)?,
+        draw.key_tag()
     );
-    if !draw.is_all() {
-        key += &format!("|{}|{}", draw.seed, draw.share);
-    }
     let key = hash_bytes(key.as_bytes());
     let stats_path = dir.join("refine_stats.json");
     let check = |m: &BakeManifest| keyed_mismatch(m, &scene.cache_key, &name, &key);

@@ -7,7 +7,8 @@ use fipt_core::shading::Shard;
 use fipt_pipeline::bake::{bake_only, BakeRequest};
 use fipt_pipeline::run::{run, RunOutcome, RunRequest};
 use fipt_pipeline::Components;
-use fipt_synth::{build, write_dataset, SynthOptions};
+
+mod common;
 use std::path::Path;
 
 fn read(p: &Path) -> Vec<u8> {
@@ -22,22 +23,9 @@ fn manifest(dir: &Path) -> serde_json::Value {
 fn a_run_bakes_what_it_reads_and_gets_what_a_whole_bake_gives() {
     let dir = std::env::temp_dir().join(format!("fipt-pipeline-drawn-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let scene = dir.join("scene");
-    let mut opts = SynthOptions::defaults("cornell");
-    (opts.train_views, opts.val_views, opts.width, opts.height) = (4, 1, 24, 16);
-    opts.render.spp = 8;
-    write_dataset(build("cornell").unwrap(), &scene, &opts, &|_, _| {}).unwrap();
     // 1,536 pixels: the set keeps 512 (0.01 × 100 × 512), the search 300.
-    let config = dir.join("run.toml");
-    std::fs::write(
-        &config,
-        "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
-         [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
-         [search]\nmax_pixels = 300\n\
-         [train]\nsteps = 100\nbatch = 512\nset_cap = 0.01\n[train.field]\nmlp_width = 16\nmask_width = 16\n\
-         [train.field.grid]\nlevels = 4\n[render]\nspp = 2\nval_spp = 2\nmax_bounces = 3\nseed = 0\n",
-    )
-    .unwrap();
+    let extra = "[search]\nmax_pixels = 300\n[train]\nsteps = 100\nbatch = 512\nset_cap = 0.01\n";
+    let (scene, config) = common::tiny_run(&dir, 4, extra);
     let components = Components::builtin();
     let finish = |out: &Path| {
         let mut request = RunRequest::new(&scene, out, "fast");

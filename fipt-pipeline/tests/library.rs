@@ -3,7 +3,8 @@
 use fipt_pipeline::observe::{Observer, ProgressSink};
 use fipt_pipeline::run::{run, RunOutcome, RunRequest};
 use fipt_pipeline::Components;
-use fipt_synth::{build, write_dataset, SynthOptions};
+
+mod common;
 use std::sync::Mutex;
 
 /// Everything the pipeline said: notes, finished stages, progress indicators opened.
@@ -51,20 +52,7 @@ fn a_run_through_the_library_is_heard_and_reused() {
     ))));
     let dir = std::env::temp_dir().join(format!("fipt-pipeline-lib-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let scene = dir.join("scene");
-    let mut opts = SynthOptions::defaults("cornell");
-    (opts.train_views, opts.val_views, opts.width, opts.height) = (3, 1, 24, 16);
-    opts.render.spp = 8;
-    write_dataset(build("cornell").unwrap(), &scene, &opts, &|_, _| {}).unwrap();
-    let config = dir.join("run.toml");
-    std::fs::write(
-        &config,
-        "[bake]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\n\
-         [refine]\ndiffuse_samples = 8\nspecular_samples = [4, 4, 4, 4, 4, 4]\nlight_samples = 4\n\
-         [train]\nsteps = 100\nbatch = 512\n[train.field]\nmlp_width = 16\nmask_width = 16\n\
-         [train.field.grid]\nlevels = 4\n[render]\nspp = 2\nval_spp = 2\nmax_bounces = 3\nseed = 0\n",
-    )
-    .unwrap();
+    let (scene, config) = common::tiny_run(&dir, 3, "[train]\nsteps = 100\nbatch = 512\n");
     let mut request = RunRequest::new(&scene, dir.join("out"), "fast");
     request.config = Some(config);
 
