@@ -36,7 +36,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
             "--suite bake needs --scene DIR (e.g. the output of `fipt synth room`)".into(),
         ));
     };
-    let mut scene = fipt_pipeline::scene::load(dir, BadPixelPolicy::Reject, &Default::default())?;
+    let mut scene = fipt_capture::scene::load(dir, BadPixelPolicy::Reject, &Default::default())?;
     let n = views.unwrap_or(scene.images.len()).min(scene.images.len());
     scene.images.truncate(n);
     scene.ds.splits[0].views.truncate(n);
@@ -61,7 +61,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
         let secs = t.elapsed().as_secs_f64();
         let rays = (stats.rays_diffuse + stats.rays_specular) as f64;
         let closure =
-            fipt_pipeline::eval::closure_psnr(&scene, &sh, &fipt_core::shading::PixelDraw::ALL)?;
+            fipt_eval::eval::closure_psnr(&scene, &sh, &fipt_core::shading::PixelDraw::ALL)?;
         fipt_pipeline::note!(
             "{name:<20} {secs:>7.1} s  diffuse {:>6.1} s  specular {:>6.1} s  {:>8.0} px/s  {:>5.2} Mrays/s ({:.0} % of raw)  closure {}",
             stats.seconds_diffuse,

@@ -28,7 +28,7 @@ pub enum BenchError {
     #[error(transparent)]
     Candle(#[from] candle_core::Error),
     #[error(transparent)]
-    Pipeline(#[from] fipt_pipeline::PipelineError),
+    Pipeline(#[from] fipt_pipeline::RunError),
     /// A request the suite cannot measure; the message says what it needs.
     #[error("{0}")]
     Invalid(String),

@@ -1,6 +1,6 @@
 //! `fipt degrade SRC --out DST`: fipt-pipeline's capture simulator, with its options parsed.
 use anyhow::{bail, Result};
-use fipt_pipeline::degrade::{degrade, CopyLayout, DegradeRequest, LdrMode, Meter, ViewFormat};
+use fipt_capture::degrade::{degrade, CopyLayout, DegradeRequest, LdrMode, Meter, ViewFormat};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -159,7 +159,7 @@ pub fn run(a: Args) -> Result<()> {
     );
     println!(
         "what was done to each view: {}",
-        req.out.join(fipt_pipeline::degrade::RECORD_FILE).display()
+        req.out.join(fipt_capture::degrade::RECORD_FILE).display()
     );
     Ok(())
 }
@@ -171,5 +171,5 @@ enum MeterArg {
 }
 
 fn parse_tone(s: &str) -> Result<fipt_core::capture::Response, String> {
-    fipt_pipeline::degrade::tone_curve(s)
+    fipt_capture::degrade::tone_curve(s)
 }

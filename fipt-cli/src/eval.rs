@@ -81,7 +81,7 @@ pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
         );
         return Ok(());
     }
-    let m = fipt_pipeline::eval::evaluate_run(&a.scene, &a.out)?;
+    let m = fipt_eval::eval::evaluate_run(&a.scene, &a.out)?;
     print_metrics(&m);
     println!("wrote {}", a.out.join("metrics.json").display());
     Ok(())

@@ -42,7 +42,7 @@ pub fn run(a: Args) -> Result<()> {
     let opts = fipt_core::capture_layout::OpenOptions {
         downscale: a.downscale,
     };
-    let sum = fipt_pipeline::inspect::inspect(&a.scene, a.bad_pixels.into(), opts)?;
+    let sum = fipt_capture::inspect::inspect(&a.scene, a.bad_pixels.into(), opts)?;
     // With --json, stdout holds the JSON alone; the human summary goes to stderr.
     let json = a.json;
     macro_rules! say {
@@ -182,7 +182,7 @@ pub fn run(a: Args) -> Result<()> {
         sum.edges.median_px,
         sum.edges.views_off.len(),
         sum.edges.shifts.len(),
-        fipt_pipeline::capture::EDGE_OFF_PX
+        fipt_capture::capture::EDGE_OFF_PX
     );
     if sum.warnings.is_empty() {
         say!("warnings     none");
@@ -199,7 +199,7 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 /// The line on the camera's response, where one was fitted.
-fn response_line(r: Option<&fipt_pipeline::capture::ResponseFit>) -> Option<String> {
+fn response_line(r: Option<&fipt_capture::capture::ResponseFit>) -> Option<String> {
     r.map(|r| format!(
         "response     {} (fitted on {} surface series, gains {}; departs from sRGB by {:.3} RMS; views disagree by {:.2} 8-bit steps RMS under sRGB, {:.2} under the fit)",
         r.outcome, r.series, r.gains, r.departure, r.residual_srgb, r.residual_fitted

@@ -275,7 +275,7 @@ fn a_phone_tone_curve_is_fitted_and_an_srgb_camera_stays_srgb() {
     let s = fitted_response(&src, &dir.join("scurve"), "scurve:1.5");
     assert_eq!(s["outcome"], "fitted", "{s}");
     // The fitted curve against the true one, both at 1 at stored 230, over 0 … 230.
-    let truth = match fipt_pipeline::degrade::tone_curve("scurve:1.5").unwrap() {
+    let truth = match fipt_capture::degrade::tone_curve("scurve:1.5").unwrap() {
         fipt_core::capture::Response::Table(t) => t,
         _ => unreachable!(),
     };

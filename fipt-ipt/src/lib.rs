@@ -34,19 +34,19 @@ pub const NAME: &str = "ipt";
 /// `components` with the `ipt` method registered; its settings are `[plugins.ipt]`, laid over
 /// the preset's ([`IptConfig::preset`]).
 pub fn register(components: fipt_pipeline::Components) -> fipt_pipeline::Components {
-    use fipt_pipeline::error::PipelineError;
+    use fipt_pipeline::error::RunError;
     components.with_fitter(
         NAME,
         "inverse path tracing: materials per part (or triangle) and emission per triangle optimised jointly through a differentiable path tracer (settings: [plugins.ipt], defaults per preset)",
         Box::new(|v, preset| {
             let base = IptConfig::preset(preset).ok_or_else(|| {
-                PipelineError::invalid(format!(
+                RunError::invalid(format!(
                     "unknown preset `{preset}` (use one of {})",
                     fipt_pipeline::config::PRESETS
                 ))
             })?;
             let config: IptConfig = fipt_pipeline::config::lay_over(base, v.clone())?;
-            config.validate().map_err(PipelineError::invalid)?;
+            config.validate().map_err(RunError::invalid)?;
             Ok(Box::new(Ipt { config }))
         }),
     )

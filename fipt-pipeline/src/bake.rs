@@ -113,7 +113,7 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
 /// inputs, baker and settings in `dir` that holds the pixels `scope` draws, unless `force`
 /// (merging finished shards first); otherwise bakes, saves (manifest last) and writes
 /// previews of Ld. With a shard other than all, bakes and saves that shard's views and
-/// returns [`PipelineError::Stopped`].
+/// returns [`RunError::Stopped`].
 pub fn stage(
     scene: &LoadedScene,
     baker: &dyn ShadingBaker,

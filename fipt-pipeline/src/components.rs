@@ -99,7 +99,7 @@ impl Components {
             "the surface light field of the views and the factorised shadings (settings: [bake])",
             Box::new(|v, model| {
                 let config: fipt_bake::bake::BakeConfig = serde_json::from_value(v.clone())?;
-                config.validate().map_err(crate::error::PipelineError::invalid)?;
+                config.validate().map_err(crate::error::RunError::invalid)?;
                 Ok(Box::new(
                     fipt_bake::bake::FactorizedBaker::new(config).with_model(model),
                 ))
@@ -110,7 +110,7 @@ impl Components {
             "paths grown through glossy surfaces, the SLF at rough ones, emitter sampling (settings: [refine])",
             Box::new(|v, model| {
                 let config: fipt_bake::refine::RefineConfig = serde_json::from_value(v.clone())?;
-                config.validate().map_err(crate::error::PipelineError::invalid)?;
+                config.validate().map_err(crate::error::RunError::invalid)?;
                 Ok(Box::new(
                     fipt_bake::refine::PathGrownRefiner::new(config).with_model(model),
                 ))
@@ -139,7 +139,7 @@ impl Components {
             "the trained emission mask averaged per triangle, radiance medians, connected lights (settings: [emitters])",
             Box::new(|v| {
                 let config: fipt_emitter::MaskExtractorConfig = serde_json::from_value(v.clone())?;
-                config.validate().map_err(crate::error::PipelineError::invalid)?;
+                config.validate().map_err(crate::error::RunError::invalid)?;
                 Ok(Box::new(fipt_emitter::MaskExtractor { config }))
             }),
         )

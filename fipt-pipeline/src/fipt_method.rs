@@ -3,7 +3,7 @@
 //! emitters (through the run's extractor); then the refine → search → train rounds (through the
 //! run's refiner) that the scene needs. Its stages reuse what an earlier run of the folder
 //! computed (`OUT/bake`, `OUT/train*`, `OUT/refine*`) and report their times one by one.
-use crate::error::{PipelineError, Result};
+use crate::error::{Result, RunError};
 use crate::fit::Host;
 use crate::outputs::{extract_emitters, has_ground_truth};
 use crate::rounds::{planned_rounds, Rounds, RoundsContext};
@@ -128,7 +128,7 @@ fn past_sharded_stages(host: &Host) -> Result<()> {
     if shard.is_all() {
         return Ok(());
     }
-    Err(PipelineError::Stopped(format!(
+    Err(RunError::Stopped(format!(
         "shard {shard}: every sharded stage in {} is done; the rest (maps, re-renders) runs without --shard",
         host.request.out.display()
     )))

@@ -2,7 +2,7 @@
 //! rounds are the built-in `fipt`): load → (bake, when the fitter asks for it) → fit →
 //! emitters (the fitter's, or the run's extractor on the fitted field) → maps → re-renders →
 //! report (→ eval), with the outputs of every method in the same places.
-use crate::error::{PipelineError, Result};
+use crate::error::{Result, RunError};
 use crate::outputs::{
     emitters_summary, evaluate_if_gt, extend, extract_emitters, report_header, write_emitters_obj,
     write_views, RunOutcome, RunSummary, StageReport,
@@ -58,11 +58,11 @@ impl Host {
 }
 
 /// A method's error back as the run's own (FIPT's stops and settings errors stay what they are).
-fn from_method(e: fipt_core::CoreError) -> PipelineError {
+fn from_method(e: fipt_core::CoreError) -> RunError {
     match e {
-        fipt_core::CoreError::Component(b) => match b.downcast::<PipelineError>() {
+        fipt_core::CoreError::Component(b) => match b.downcast::<RunError>() {
             Ok(p) => *p,
-            Err(b) => PipelineError::Component(b),
+            Err(b) => RunError::Component(b),
         },
         e => e.into(),
     }
@@ -164,7 +164,7 @@ fn load_checked(
 ) -> Result<LoadedScene> {
     let scene = crate::scene::load(&a.scene, a.bad_pixels, &cfg.capture)?;
     crate::scene::check_coverage(&scene)?;
-    (extractor.check(scene.geometry.mesh.triangles.len())).map_err(PipelineError::invalid)?;
+    (extractor.check(scene.geometry.mesh.triangles.len())).map_err(RunError::invalid)?;
     Ok(scene)
 }
 

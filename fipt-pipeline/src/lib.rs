@@ -15,25 +15,23 @@
 //! if let RunOutcome::Finished(s) = run(&request, &fipt_pipeline::Components::builtin())? {
 //!     println!("{} lights in {:.0} s", s.lights, s.seconds);
 //! }
-//! # Ok::<(), fipt_pipeline::PipelineError>(())
+//! # Ok::<(), fipt_pipeline::RunError>(())
 //! ```
 pub mod bake;
-pub mod capture;
+use fipt_capture::capture;
 pub mod components;
-pub mod config;
-pub mod degrade;
+pub use fipt_run::config;
+#[cfg(test)]
+mod config_tests;
 mod draw;
-pub mod error;
-pub mod eval;
+use fipt_eval::eval;
+pub use fipt_run::error;
 pub mod eval_at;
-mod eval_parts;
 pub mod fipt_method;
 pub mod fit;
-pub mod inspect;
-pub mod light_scale;
 pub mod memory;
-pub mod names;
-pub mod observe;
+pub use fipt_run::names;
+pub use fipt_run::observe;
 pub mod outputs;
 mod parent;
 pub mod recovered;
@@ -45,13 +43,14 @@ pub mod request;
 pub mod rounds;
 pub mod run;
 pub mod run_config;
-pub mod scene;
+use fipt_capture::scene;
 pub mod search;
 pub mod shard;
 pub mod sweep;
-mod sweep_plot;
+use fipt_eval::sweep_plot;
 pub mod train;
 pub(crate) mod train_set;
 
 pub use components::Components;
-pub use error::{describe, Context, PipelineError, Result};
+pub use fipt_run::{bail, err, note};
+pub use fipt_run::{describe, Context, Result, RunError};

@@ -62,24 +62,9 @@ pub struct RunOutput {
     pub emitters: Vec<Emitter>,
 }
 
-/// How the run whose `report.json` is `report` read its scene (`[capture] downscale`).
-pub fn open_options_of(report: &serde_json::Value) -> fipt_core::capture_layout::OpenOptions {
-    let n = report["settings"]["capture"]["downscale"]
-        .as_u64()
-        .unwrap_or(1);
-    fipt_core::capture_layout::OpenOptions {
-        downscale: (n as usize).max(1),
-    }
-}
+pub use fipt_capture::scene::{open_options_of, run_open_options};
 
-/// How the run in `out` read its scene (as stored when its report cannot be read).
-pub fn run_open_options(out: &Path) -> fipt_core::capture_layout::OpenOptions {
-    fipt_core::fsutil::read_json::<serde_json::Value>(&out.join("report.json"))
-        .map(|r| open_options_of(&r))
-        .unwrap_or_default()
-}
-
-fn not_a_run(dir: &Path, why: &str) -> crate::error::PipelineError {
+fn not_a_run(dir: &Path, why: &str) -> crate::error::RunError {
     crate::err!(
         "{}: not a finished `fipt run` output folder ({why}); run `fipt run <scene> --out {}` first",
         dir.display(),
@@ -238,7 +223,7 @@ pub fn export_run(
     };
     checked
         .validate()
-        .map_err(crate::error::PipelineError::invalid)?;
+        .map_err(crate::error::RunError::invalid)?;
     crate::memory::check_bytes(
         "the export's texture atlas (--max-atlas²)",
         checked.atlas_bytes(),

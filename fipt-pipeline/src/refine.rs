@@ -1,7 +1,7 @@
 //! The path-grown refinement stage of `fipt run`: re-computes the shadings of the training
 //! views from the last round's field and the extracted emitters, stored like a bake in
 //! `OUT/refine<k>/` (manifest last), keyed by the settings and the upstream fingerprints.
-use crate::error::{PipelineError, Result};
+use crate::error::{Result, RunError};
 use crate::observe::{bar, Stage};
 use crate::scene::LoadedScene;
 use crate::shard::Sharding;
@@ -100,7 +100,7 @@ pub fn stage(
         }
     }
     if sharding.stop_before_refine && shard.is_all() {
-        return Err(PipelineError::Stopped(format!(
+        return Err(RunError::Stopped(format!(
             "stopped before the refinement in {} (--stop-before refine): run `fipt run … --shard K/N` for every K, then `fipt run` again",
             dir.display()
         ))

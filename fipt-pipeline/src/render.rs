@@ -1,7 +1,7 @@
 //! Path-traced views (`fipt render`) of a recovered scene (a `fipt run` output folder) or of a
 //! mesh with given materials, from any cameras, optionally relit by a lights file.
 use crate::bail;
-use crate::error::{Context, PipelineError, Result};
+use crate::error::{Context, Result, RunError};
 use crate::observe::{bar, Stage};
 use crate::recovered::RunOutput;
 use fipt_core::camera::Camera;
@@ -119,17 +119,17 @@ pub fn render_request(a: &RenderRequest, components: &crate::Components) -> Resu
 fn check_sizes(a: &RenderRequest) -> Result<()> {
     use fipt_core::range::check;
     check_spp(a.spp)?;
-    check("--max-bounces", a.max_bounces, 0, 64).map_err(PipelineError::invalid)?;
+    check("--max-bounces", a.max_bounces, 0, 64).map_err(RunError::invalid)?;
     if let Some((w, h)) = a.size {
-        check("--size W", w, 1, 16_384).map_err(PipelineError::invalid)?;
-        check("--size H", h, 1, 16_384).map_err(PipelineError::invalid)?;
+        check("--size W", w, 1, 16_384).map_err(RunError::invalid)?;
+        check("--size H", h, 1, 16_384).map_err(RunError::invalid)?;
     }
     Ok(())
 }
 
 /// `--spp` within 1..=[`MAX_SPP`].
 pub(crate) fn check_spp(spp: u32) -> Result<()> {
-    fipt_core::range::check("--spp", spp, 1, MAX_SPP).map_err(PipelineError::invalid)?;
+    fipt_core::range::check("--spp", spp, 1, MAX_SPP).map_err(RunError::invalid)?;
     Ok(())
 }
 
@@ -287,7 +287,7 @@ fn render_all<S: SurfaceModel>(
         MAX_PATHS,
         "paths",
     )
-    .map_err(PipelineError::invalid)?;
+    .map_err(RunError::invalid)?;
     let mut scenes = Vec::new();
     for l in &sets {
         scenes.push(build_scene(a, mesh.clone(), surfaces, emitters, cams, *l)?);

@@ -2,7 +2,7 @@
 //! per-view maps → re-render → report (→ eval when ground truth exists). Every stage writes
 //! its results atomically and a manifest last; re-running skips finished stages and resumes an
 //! interrupted training.
-use crate::error::{PipelineError, Result};
+use crate::error::{Result, RunError};
 use crate::names::Kind;
 pub use crate::outputs::{RunOutcome, RunSummary};
 pub use crate::request::{lock, RunRequest};
@@ -97,9 +97,9 @@ pub(crate) fn check(
     components: &crate::Components,
 ) -> Result<Checked> {
     cfg.train.validate()?;
-    cfg.search.validate().map_err(PipelineError::invalid)?;
-    cfg.rounds.validate().map_err(PipelineError::invalid)?;
-    cfg.render.validate().map_err(PipelineError::invalid)?;
+    cfg.search.validate().map_err(RunError::invalid)?;
+    cfg.rounds.validate().map_err(RunError::invalid)?;
+    cfg.render.validate().map_err(RunError::invalid)?;
     let p = &cfg.pipeline;
     let settings = |kind, name: &str| components.settings_of(kind, name, cfg);
     let extractor =

@@ -4,7 +4,7 @@
 //! manifests. A shard run stops once its part is written; the stages in between (training)
 //! run on one machine. `scripts/slurm/fipt-sharded.sh` drives it.
 use crate::bail;
-use crate::error::{PipelineError, Result};
+use crate::error::{Result, RunError};
 use fipt_bake::bake_store::{merge_shards, BakeManifest, ShardState};
 use fipt_core::shading::Shard;
 use std::path::Path;
@@ -27,7 +27,7 @@ pub(crate) fn check_handed_over(
 
 /// Merges the finished shards of the stage in `dir` (named `what`) when all are present.
 /// A plain run (`shard` = all) that finds a partial set computes the missing shards here with
-/// `compute` (each returns [`PipelineError::Stopped`] once its views are written), then
+/// `compute` (each returns [`RunError::Stopped`] once its views are written), then
 /// merges: the shards already done are kept, and a set left by an abandoned job array is no
 /// dead end. With `compute` None (a run told to stop before the stage), the set is left as it
 /// is. A shard run goes on to compute its part.
@@ -72,14 +72,14 @@ pub fn merge(
     Ok(())
 }
 
-/// The [`PipelineError::Stopped`] of a shard run that wrote (or found) its part of `what`:
+/// The [`RunError::Stopped`] of a shard run that wrote (or found) its part of `what`:
 /// not a failure; it says what is done and what comes next.
 pub fn done(
     dir: &Path,
     what: &str,
     shard: Shard,
     check: impl Fn(&BakeManifest) -> Option<String>,
-) -> PipelineError {
+) -> RunError {
     let state = merge_shards(dir, check);
     let next = match state {
         Ok(ShardState::Merged { count }) => format!("all {count} shards are done and merged"),
@@ -94,7 +94,7 @@ pub fn done(
         Ok(ShardState::None) => "its manifest is not in place".into(),
         Err(e) => format!("merging failed: {e}"),
     };
-    PipelineError::Stopped(format!(
+    RunError::Stopped(format!(
         "shard {shard} of the {what} is in {} ({next}); a `fipt run` without --shard goes on from there",
         dir.display()
     ))

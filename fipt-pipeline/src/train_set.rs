@@ -382,10 +382,10 @@ pub(crate) fn build_set(
     let views = scene.images.len();
     let mut data = TrainingSet::from_view_points(
         (views, hits),
-        |v| Ok::<_, crate::PipelineError>(pick.view(v)),
+        |v| Ok::<_, crate::RunError>(pick.view(v)),
         &scene.images,
         &bounds,
-        |k| shadings.view(k).map_err(crate::PipelineError::from),
+        |k| shadings.view(k).map_err(crate::RunError::from),
     )?;
     data.footprint = footprint;
     let lights = data.lights();

@@ -120,8 +120,7 @@ fn profile_inputs(
         edge_contrast: a.edge_contrast,
         ..SearchConfig::default()
     };
-    cfg.validate()
-        .map_err(crate::error::PipelineError::invalid)?;
+    cfg.validate().map_err(crate::error::RunError::invalid)?;
     Ok((scene, shadings, cfg))
 }
 

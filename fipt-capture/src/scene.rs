@@ -202,3 +202,20 @@ pub fn check_coverage(scene: &LoadedScene) -> Result<()> {
     }
     Ok(())
 }
+
+/// How the run whose `report.json` is `report` read its scene (`[capture] downscale`).
+pub fn open_options_of(report: &serde_json::Value) -> fipt_core::capture_layout::OpenOptions {
+    let n = report["settings"]["capture"]["downscale"]
+        .as_u64()
+        .unwrap_or(1);
+    fipt_core::capture_layout::OpenOptions {
+        downscale: (n as usize).max(1),
+    }
+}
+
+/// How the run in `out` read its scene (as stored when its report cannot be read).
+pub fn run_open_options(out: &Path) -> fipt_core::capture_layout::OpenOptions {
+    fipt_core::fsutil::read_json::<serde_json::Value>(&out.join("report.json"))
+        .map(|r| open_options_of(&r))
+        .unwrap_or_default()
+}

@@ -517,7 +517,7 @@ fn write_kd_error(
 /// `fipt eval`: evaluates the outputs in `out` against `scene`'s ground truth, after checking
 /// that they are of this scene; writes and returns `metrics.json`.
 pub fn evaluate_run(scene: &Path, out: &Path) -> Result<serde_json::Value> {
-    let ds = Dataset::open_with(scene, crate::recovered::run_open_options(out))
+    let ds = Dataset::open_with(scene, fipt_capture::scene::run_open_options(out))
         .with_context(|| format!("opening scene {}", scene.display()))?;
     if !ds.splits.iter().any(|s| s.has_gt(GtKind::DiffCol)) {
         crate::bail!(

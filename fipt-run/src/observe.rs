@@ -92,7 +92,7 @@ pub fn reused(computed_seconds: Option<f64>) {
 }
 
 /// What [`reused`] said since the stage began (and forgets it).
-pub(crate) fn take_reused() -> Option<f64> {
+pub fn take_reused() -> Option<f64> {
     REUSED.with(|r| r.take())
 }
 

@@ -1,13 +1,13 @@
-//! The one error type of `fipt-pipeline`: a component crate's error, a setting or input the
+//! The one error type of a fipt run (the host, its stages, the capture analysis, the evaluation): a component crate's error, a setting or input the
 //! run refuses, a shard that finished its part, each with the context it happened in.
 use std::fmt::Display;
 
 /// Everything a stage, a request or a registered component can fail with.
 ///
-/// The message of [`PipelineError::Invalid`] names the setting or file and the fix;
-/// [`PipelineError::Context`] says what the run was doing when its source failed.
+/// The message of [`RunError::Invalid`] names the setting or file and the fix;
+/// [`RunError::Context`] says what the run was doing when its source failed.
 #[derive(Debug, thiserror::Error)]
-pub enum PipelineError {
+pub enum RunError {
     #[error(transparent)]
     Core(#[from] fipt_core::CoreError),
     #[error(transparent)]
@@ -42,29 +42,29 @@ pub enum PipelineError {
     Context {
         context: String,
         #[source]
-        source: Box<PipelineError>,
+        source: Box<RunError>,
     },
 }
 
-/// `Result` with [`PipelineError`].
-pub type Result<T, E = PipelineError> = std::result::Result<T, E>;
+/// `Result` with [`RunError`].
+pub type Result<T, E = RunError> = std::result::Result<T, E>;
 
-impl PipelineError {
+impl RunError {
     /// A setting or input the run cannot use.
     pub fn invalid(message: impl Into<String>) -> Self {
-        PipelineError::Invalid(message.into())
+        RunError::Invalid(message.into())
     }
 
     /// A registered component's own error (a plug-in crate's error type).
     pub fn component(e: impl std::error::Error + Send + Sync + 'static) -> Self {
-        PipelineError::Component(Box::new(e))
+        RunError::Component(Box::new(e))
     }
 
-    /// Whether this is (or wraps) a shard's [`PipelineError::Stopped`].
+    /// Whether this is (or wraps) a shard's [`RunError::Stopped`].
     pub fn is_stopped(&self) -> bool {
         match self {
-            PipelineError::Stopped(_) => true,
-            PipelineError::Context { source, .. } => source.is_stopped(),
+            RunError::Stopped(_) => true,
+            RunError::Context { source, .. } => source.is_stopped(),
             _ => false,
         }
     }
@@ -76,15 +76,15 @@ pub trait Context<T> {
     fn with_context<C: Display, F: FnOnce() -> C>(self, context: F) -> Result<T>;
 }
 
-impl<T, E: Into<PipelineError>> Context<T> for std::result::Result<T, E> {
+impl<T, E: Into<RunError>> Context<T> for std::result::Result<T, E> {
     fn context<C: Display>(self, context: C) -> Result<T> {
-        self.map_err(|e| PipelineError::Context {
+        self.map_err(|e| RunError::Context {
             context: context.to_string(),
             source: Box::new(e.into()),
         })
     }
     fn with_context<C: Display, F: FnOnce() -> C>(self, context: F) -> Result<T> {
-        self.map_err(|e| PipelineError::Context {
+        self.map_err(|e| RunError::Context {
             context: context().to_string(),
             source: Box::new(e.into()),
         })
@@ -93,20 +93,20 @@ impl<T, E: Into<PipelineError>> Context<T> for std::result::Result<T, E> {
 
 impl<T> Context<T> for Option<T> {
     fn context<C: Display>(self, context: C) -> Result<T> {
-        self.ok_or_else(|| PipelineError::Invalid(context.to_string()))
+        self.ok_or_else(|| RunError::Invalid(context.to_string()))
     }
     fn with_context<C: Display, F: FnOnce() -> C>(self, context: F) -> Result<T> {
-        self.ok_or_else(|| PipelineError::Invalid(context().to_string()))
+        self.ok_or_else(|| RunError::Invalid(context().to_string()))
     }
 }
 
-/// A [`PipelineError::Invalid`] from a format string.
+/// A [`RunError::Invalid`] from a format string.
 #[macro_export]
 macro_rules! err {
-    ($($arg:tt)*) => { $crate::error::PipelineError::Invalid(format!($($arg)*)) };
+    ($($arg:tt)*) => { $crate::error::RunError::Invalid(format!($($arg)*)) };
 }
 
-/// Returns a [`PipelineError::Invalid`] from a format string.
+/// Returns a [`RunError::Invalid`] from a format string.
 #[macro_export]
 macro_rules! bail {
     ($($arg:tt)*) => { return Err($crate::err!($($arg)*)) };
@@ -147,10 +147,10 @@ mod tests {
 
     #[test]
     fn a_stopped_shard_is_seen_through_its_context() {
-        let e: Result<()> = Err(PipelineError::Stopped("shard 1/2 done".into()));
+        let e: Result<()> = Err(RunError::Stopped("shard 1/2 done".into()));
         let e = e.context("the bake").unwrap_err();
         assert!(e.is_stopped());
-        assert!(!PipelineError::invalid("x").is_stopped());
+        assert!(!RunError::invalid("x").is_stopped());
         let e: Result<()> = Err(err!("bad {}", 1));
         assert_eq!(e.unwrap_err().to_string(), "bad 1");
     }

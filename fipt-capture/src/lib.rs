@@ -1,0 +1,18 @@
+//! A capture as the stages read it, and what the views say about it, usable without a run:
+//!
+//! * [`scene::load`]: the dataset, the mesh's BVH, the training images decoded and restored
+//!   (exposures, a fitted response, clipped lights), the inputs' fingerprint and the cache key;
+//! * [`capture`]: the checks behind it (pose convention, LDR and clipping, exposure gains, the
+//!   camera's response, misregistered edges) and their report;
+//! * [`light_scale`]: the radiance of lights that clip in every view, bounded by what they light;
+//! * [`inspect`]: `fipt info`'s summary of a scene folder;
+//! * [`degrade`]: capture-like copies of a rendered scene (`fipt degrade`).
+//!
+//! Errors and notes are the run's own ([`fipt_run::RunError`], [`fipt_run::observe`]).
+pub mod capture;
+pub mod degrade;
+pub mod inspect;
+pub mod light_scale;
+pub mod scene;
+
+use fipt_run::{bail, err, error, note, observe};

@@ -1,0 +1,148 @@
+//! The config loader's tests on the stages' own settings (moved with the loader to fipt-run, which knows no stage).
+#![cfg(test)]
+use fipt_bake::bake::BakeConfig;
+use fipt_core::presets::Presets;
+use fipt_run::config::*;
+
+#[test]
+fn file_keys_override_the_preset_and_unknown_keys_fail() {
+    let dir = std::env::temp_dir().join(format!("fipt-cfg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("bake.toml");
+    std::fs::write(&p, "diffuse_samples = 32\nsampler = \"independent\"\n").unwrap();
+    let c = load(BakeConfig::fast(), Some(&p)).unwrap();
+    assert_eq!(c.diffuse_samples, 32);
+    assert_eq!(
+        c.specular_samples,
+        BakeConfig::fast().specular_samples,
+        "preset kept for absent keys"
+    );
+    assert_eq!(c.sampler, fipt_bake::bake::SamplerKind::Independent);
+    // A run config's [bake] section serves `fipt bake` too.
+    std::fs::write(
+        &p,
+        "[model]\nbrdf = \"fipt\"\n[bake]\ndiffuse_samples = 48\n",
+    )
+    .unwrap();
+    let c: BakeConfig = load_preset_section("fast", BakeConfig::preset, Some(&p), "bake").unwrap();
+    assert_eq!(c.diffuse_samples, 48);
+    // `fipt bake` chooses the baker as `fipt run` does: `slf` with `[bake]` without a
+    // `[pipeline]` table, else the table's baker with its own section.
+    let (name, settings) =
+        crate::bake::chosen_baker("fast", Some(&p), &crate::Components::builtin()).unwrap();
+    assert_eq!(
+        (name.as_str(), settings["diffuse_samples"].as_u64()),
+        ("slf", Some(48))
+    );
+    std::fs::write(
+        &p,
+        "[pipeline]\nbaker = \"mine\"\n[plugins.mine]\nrays = 3\n[bake]\ndiffuse_samples = 48\n",
+    )
+    .unwrap();
+    let (name, settings) =
+        crate::bake::chosen_baker("fast", Some(&p), &crate::Components::builtin()).unwrap();
+    assert_eq!(
+        (name.as_str(), &settings),
+        ("mine", &serde_json::json!({"rays": 3}))
+    );
+    let err = crate::Components::builtin()
+        .baker(&name, &settings, Default::default())
+        .err()
+        .unwrap();
+    assert!(
+        err.to_string()
+            .contains("baker = \"mine\" is not registered"),
+        "{err}"
+    );
+    std::fs::write(
+        &p,
+        "[pipeline]\nbaker = \"slf\"\n[bake]\ndiffuse_samples = 40\n",
+    )
+    .unwrap();
+    let (name, settings) =
+        crate::bake::chosen_baker("fast", Some(&p), &crate::Components::builtin()).unwrap();
+    assert_eq!(
+        (name.as_str(), settings["diffuse_samples"].as_u64()),
+        ("slf", Some(40))
+    );
+    assert_eq!(
+        settings["specular_samples"],
+        serde_json::json!(BakeConfig::fast().specular_samples),
+        "the preset's bake settings under the file's"
+    );
+    // `fipt train` checks its bake against the same baker, by its implementation's name
+    // and these settings; a run config of another method is refused.
+    let c = crate::Components::builtin();
+    let (imp, same) = crate::bake::run_baker("fast", Some(&p), &c)
+        .unwrap()
+        .unwrap();
+    assert_eq!((imp.as_str(), &same), ("fipt-slf/principled", &settings));
+    std::fs::write(&p, "[pipeline]\nmethod = \"ipt\"\n").unwrap();
+    let err = crate::bake::run_baker("fast", Some(&p), &c)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("trains FIPT's field"), "{err}");
+    // A value of the wrong type names its key.
+    std::fs::write(&p, "[bake]\ndiffuse_samples = \"many\"\n").unwrap();
+    assert!(crate::bake::run_baker("fast", Some(&p), &c)
+        .unwrap()
+        .is_none());
+    let err = format!(
+        "{:#}",
+        load_preset_section("fast", BakeConfig::preset, Some(&p), "bake").unwrap_err()
+    );
+    assert!(
+        err.contains("`diffuse_samples`") && err.contains("many"),
+        "{err}"
+    );
+    std::fs::write(&p, "difuse_samples = 32\n").unwrap();
+    let err = format!("{:#}", load(BakeConfig::default(), Some(&p)).unwrap_err());
+    assert!(
+        err.contains("bake.toml") && err.contains("difuse_samples"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Every stage knows every preset name, and an unknown one names the valid ones.
+#[test]
+fn every_stage_knows_every_preset() {
+    use crate::run_config::RunConfig;
+    use fipt_bake::refine::RefineConfig;
+    use fipt_neural::TrainConfig;
+    for name in PRESETS.split(", ") {
+        assert!(BakeConfig::preset(name).is_some(), "bake: {name}");
+        assert_eq!(
+            BakeConfig::preset(name).unwrap().validate(),
+            Ok(()),
+            "{name}"
+        );
+        assert_eq!(
+            RefineConfig::preset(name).unwrap().validate(),
+            Ok(()),
+            "{name}"
+        );
+        assert!(TrainConfig::preset(name).is_some(), "train: {name}");
+        assert!(RefineConfig::preset(name).is_some(), "refine: {name}");
+        assert!(RunConfig::preset(name).is_some(), "run: {name}");
+    }
+    let err = load_preset("papr", RunConfig::preset, None)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("`papr`") && err.contains(PRESETS), "{err}");
+    // `paper` departs from `reference` only where this project measured better.
+    let (p, r) = (
+        RunConfig::preset("paper").unwrap(),
+        RunConfig::preset("reference").unwrap(),
+    );
+    assert_eq!(
+        (p.train.steps, p.train.batch, p.train.field.grid.levels),
+        (r.train.steps, r.train.batch, r.train.field.grid.levels)
+    );
+    assert_eq!(
+        (p.rounds.refinements, p.rounds.warm_start),
+        (r.rounds.refinements, r.rounds.warm_start)
+    );
+    assert_eq!(p.bake.diffuse_samples, r.bake.diffuse_samples);
+    assert_eq!(p.refine.specular_samples, r.refine.specular_samples);
+}
