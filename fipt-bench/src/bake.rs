@@ -60,8 +60,11 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
             baker.bake_detailed(&scene.geometry, &split.views, &scene.images, &|_, _| {});
         let secs = t.elapsed().as_secs_f64();
         let rays = (stats.rays_diffuse + stats.rays_specular) as f64;
-        let closure =
-            fipt_eval::eval::closure_psnr(&scene, &sh, &fipt_core::shading::PixelDraw::ALL)?;
+        let closure = fipt_eval::eval::closure_psnr(
+            &fipt_capture::scene::SceneRef::loaded(&scene),
+            &sh,
+            &fipt_core::shading::PixelDraw::ALL,
+        )?;
         fipt_pipeline::note!(
             "{name:<20} {secs:>7.1} s  diffuse {:>6.1} s  specular {:>6.1} s  {:>8.0} px/s  {:>5.2} Mrays/s ({:.0} % of raw)  closure {}",
             stats.seconds_diffuse,

@@ -3,8 +3,11 @@ use crate::capture::CaptureConfig;
 use crate::error::{Context, Result};
 use crate::observe::Stage;
 use fipt_core::dataset::Dataset;
+use fipt_core::fit::FitInputs;
 use fipt_core::image::{BadPixelPolicy, Image};
+use fipt_core::shading::RayQuery;
 use fipt_geom::{Geometry, Mesh};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -23,6 +26,61 @@ pub struct LoadedScene {
     pub cache_key: String,
     /// The views as a capture: LDR or not, clipped pixels, fitted exposures, warnings.
     pub capture: crate::capture::CaptureReport,
+}
+
+/// A loaded scene, borrowed: what FIPT's stages and the run's outputs read, from a
+/// [`LoadedScene`] or from a fit's inputs ([`FitInputs::scene`], under any host that fills it).
+/// Geometry only through [`RayQuery`] and the mesh's arrays.
+#[derive(Clone, Copy)]
+pub struct SceneRef<'a> {
+    /// Every split, the image size, the ground truth when the scene has it.
+    pub ds: &'a Dataset,
+    pub geometry: &'a dyn RayQuery,
+    /// The mesh's vertex positions and triangles (what triangle ids index).
+    pub positions: &'a [Vec3],
+    pub triangles: &'a [[u32; 3]],
+    /// The training views' images / `exposure`, in the training split's order.
+    pub images: &'a [Image],
+    /// What the stages' caches key on.
+    pub cache_key: &'a str,
+    pub exposure: f32,
+    /// Per training view and pixel: clipped pixels the material loss leaves out, and pixels
+    /// the view's mask leaves out (each empty when there are none).
+    pub left_out: &'a [Vec<bool>],
+    pub masked: &'a [Vec<bool>],
+}
+
+impl<'a> SceneRef<'a> {
+    /// The scene of a fit's inputs; None when the host gave no [`FitInputs::scene`].
+    pub fn of(inputs: &FitInputs<'a>) -> Option<Self> {
+        let s = inputs.scene?;
+        Some(SceneRef {
+            ds: s.dataset,
+            geometry: inputs.geometry,
+            positions: inputs.positions,
+            triangles: inputs.triangles,
+            images: inputs.images,
+            cache_key: s.cache_key,
+            exposure: s.exposure,
+            left_out: s.left_out,
+            masked: s.masked,
+        })
+    }
+
+    /// A loaded scene, borrowed.
+    pub fn loaded(s: &'a LoadedScene) -> Self {
+        SceneRef {
+            ds: &s.ds,
+            geometry: &s.geometry,
+            positions: &s.geometry.mesh.positions,
+            triangles: &s.geometry.mesh.triangles,
+            images: &s.images,
+            cache_key: &s.cache_key,
+            exposure: s.exposure,
+            left_out: &s.capture.left_out,
+            masked: &s.capture.masked,
+        }
+    }
 }
 
 /// The fingerprint of a scene's inputs: the mesh, the training cameras and images (what every

@@ -2,7 +2,7 @@
 //! [`MaterialField`] (and, when it estimates them, the emitters). `fipt run` chooses one by name
 //! (`[pipeline] method`), FIPT's own bake → train → refine rounds included; the maps, emitters,
 //! re-renders, report and evaluation after it are the same for every method.
-use crate::dataset::View;
+use crate::dataset::{Dataset, View};
 use crate::emitter::{Emitter, EmitterExtractor};
 use crate::error::Result;
 use crate::field::MaterialField;
@@ -69,6 +69,28 @@ impl<'a> FitRun<'a> {
     }
 }
 
+/// What the host knows of the scene beyond the training views, for a method that reads more
+/// than its inputs' views and images (FIPT's rounds: the ground truth for its closure figures,
+/// the part maps for its regions, the key its stages' caches share with the run).
+#[derive(Clone, Copy)]
+pub struct FitScene<'a> {
+    /// The scene's dataset: every split, the image size, the ground truth when it has one. Its
+    /// training split's views are [`FitInputs::views`].
+    pub dataset: &'a Dataset,
+    /// What caches of the fit key on: the inputs' fingerprint and how the views were decoded
+    /// (exposures, a fitted response, restored lights, shifts onto the mesh).
+    pub cache_key: &'a str,
+    /// The views' working scale: [`FitInputs::images`] hold the views / `exposure`; radiance
+    /// results are multiplied by it where they are written.
+    pub exposure: f32,
+    /// Per training view and pixel, true where the material loss leaves the pixel out
+    /// (clipped, but not on a light: its radiance is only bounded below); empty: none.
+    pub left_out: &'a [Vec<bool>],
+    /// Per training view and pixel, true where the view's mask leaves the pixel out (people,
+    /// screens); empty: no masks.
+    pub masked: &'a [Vec<bool>],
+}
+
 /// What a fitter works from.
 pub struct FitInputs<'a> {
     pub geometry: &'a dyn RayQuery,
@@ -86,6 +108,8 @@ pub struct FitInputs<'a> {
     pub segments: Option<&'a [Vec<i64>]>,
     /// The run's reflectance model (`[model] brdf`).
     pub model: ReflectanceModel,
+    /// The scene around the views, when the host has it (`fipt run` always does).
+    pub scene: Option<FitScene<'a>>,
     /// A folder of the fitter's own (checkpoints, resume); it exists.
     pub dir: &'a Path,
     /// The run's baker, refiner and extractor; None outside a run (a test of the method alone).

@@ -560,7 +560,7 @@ pub fn evaluate_run(scene: &Path, out: &Path) -> Result<serde_json::Value> {
 /// ground truth). It measures the shadings alone: exact shadings reproduce the views but for
 /// the renderer's noise. Over the hit pixels `draw` draws (those the run reads).
 pub fn closure_psnr(
-    scene: &crate::scene::LoadedScene,
+    scene: &crate::scene::SceneRef,
     sh: &dyn fipt_bake::bake_store::ShadingViews,
     draw: &fipt_core::shading::PixelDraw,
 ) -> Result<Option<f64>> {

@@ -86,8 +86,7 @@ impl Mesh {
     /// Unit geometric normal of triangle `i` (right-hand rule on the stored winding).
     #[inline]
     pub fn face_normal(&self, i: usize) -> Vec3 {
-        let [a, b, c] = self.vertices(i);
-        (b - a).cross(c - a).normalize()
+        face_normal(self.vertices(i))
     }
 
     /// Area of triangle `i`.
@@ -257,6 +256,11 @@ pub(crate) fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
     for k in 1..poly.len().saturating_sub(1) {
         out.push([poly[0], poly[k], poly[k + 1]]);
     }
+}
+
+/// The unit normal of the triangle `[a, b, c]` (counter-clockwise side).
+pub fn face_normal([a, b, c]: [Vec3; 3]) -> Vec3 {
+    (b - a).cross(c - a).normalize()
 }
 
 #[cfg(test)]

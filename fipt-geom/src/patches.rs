@@ -1,7 +1,8 @@
 //! Smooth patches of a mesh: triangles joined across shared edges whose faces bend by less than
 //! a given angle. A box falls into its six faces, a tessellated sphere stays one patch, a room's
 //! walls separate at their corners. Used as material regions when a scene has no segmentation.
-use crate::mesh::Mesh;
+use crate::mesh::{face_normal, Mesh};
+use glam::Vec3;
 use std::collections::HashMap;
 
 /// Patch id of every triangle (dense, in order of first triangle) and the number of patches.
@@ -18,20 +19,42 @@ pub fn patches_among(
     max_angle_deg: f32,
     joins: impl Fn(u32) -> bool,
 ) -> (Vec<u32>, usize) {
-    let n = mesh.triangles.len();
+    patches_of(&mesh.positions, &mesh.triangles, max_angle_deg, joins)
+}
+
+/// [`smooth_patches`] of a mesh given as its vertex positions and triangles.
+pub fn smooth_patches_of(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    max_angle_deg: f32,
+) -> (Vec<u32>, usize) {
+    patches_of(positions, triangles, max_angle_deg, |_| true)
+}
+
+/// [`patches_among`] of a mesh given as its vertex positions and triangles.
+pub fn patches_of(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    max_angle_deg: f32,
+    joins: impl Fn(u32) -> bool,
+) -> (Vec<u32>, usize) {
+    let n = triangles.len();
     let key = |v: u32| {
-        let p = mesh.positions[v as usize];
+        let p = positions[v as usize];
         [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
     };
     let mut edges: HashMap<([u32; 3], [u32; 3]), Vec<u32>> = HashMap::new();
-    for (t, tri) in mesh.triangles.iter().enumerate() {
+    for (t, tri) in triangles.iter().enumerate() {
         for e in 0..3 {
             let (a, b) = (key(tri[e]), key(tri[(e + 1) % 3]));
             let k = if a <= b { (a, b) } else { (b, a) };
             edges.entry(k).or_default().push(t as u32);
         }
     }
-    let normals: Vec<_> = (0..n).map(|t| mesh.face_normal(t)).collect();
+    let normals: Vec<_> = triangles
+        .iter()
+        .map(|t| face_normal(t.map(|v| positions[v as usize])))
+        .collect();
     let cos_max = max_angle_deg.to_radians().cos();
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn find(parent: &mut [u32], mut x: u32) -> u32 {

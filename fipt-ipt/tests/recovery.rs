@@ -38,6 +38,7 @@ fn inputs<'a>(fx: &'a common::Fixture, dir: &'a std::path::Path) -> FitInputs<'a
         shadings: None,
         segments: Some(&fx.parts),
         model: ReflectanceModel::Fipt,
+        scene: None,
         dir,
         parts: None,
         run: fipt_core::fit::FitRun::new(dir),

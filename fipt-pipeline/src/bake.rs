@@ -1,7 +1,7 @@
 //! The bake stage: cached by inputs, baker and settings; sharded by views; `fipt bake` alone.
 use crate::error::Result;
 use crate::observe::{bar, Stage};
-use crate::scene::LoadedScene;
+use crate::scene::SceneRef;
 use fipt_bake::bake::{BakeConfig, BakeStats};
 use fipt_bake::bake_store::{
     begin, finish, load_if_current, mismatch, shard_done, write_view, BakeManifest, StoredShadings,
@@ -102,7 +102,14 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
     let scene = crate::scene::load(&a.scene, a.bad_pixels, &Default::default())?;
     let dir = a.out.join("bake");
     let scope = a.shard.into();
-    match stage(&scene, baker.as_ref(), &settings, &dir, a.force, scope) {
+    match stage(
+        &SceneRef::loaded(&scene),
+        baker.as_ref(),
+        &settings,
+        &dir,
+        a.force,
+        scope,
+    ) {
         Err(e) if e.is_stopped() => Ok(BakeOutcome::Stopped(e.to_string())),
         Err(e) => Err(e),
         Ok(_) => Ok(BakeOutcome::Wrote(dir)),
@@ -115,7 +122,7 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
 /// previews of Ld. With a shard other than all, bakes and saves that shard's views and
 /// returns [`RunError::Stopped`].
 pub fn stage(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     baker: &dyn ShadingBaker,
     settings: &serde_json::Value,
     dir: &Path,
@@ -159,7 +166,7 @@ pub fn stage(
     begin(dir, shard)?;
     let mut written = 0;
     let report = baker.bake_into(
-        &scene.geometry,
+        scene.geometry,
         &split.views,
         &scene.images,
         scope,
@@ -185,7 +192,7 @@ pub fn stage(
         hashes: Default::default(),
         version: FORMAT_VERSION,
         baker: name.clone(),
-        inputs_hash: scene.cache_key.clone(),
+        inputs_hash: scene.cache_key.to_string(),
         config: settings.clone(),
         split: split.name.clone(),
         views: split.views.len(),

@@ -11,13 +11,13 @@
 //! (a `fipt bake` of the whole scene, reused) or the drawn ones.
 use crate::error::Result;
 use crate::run_config::RunConfig;
-use crate::scene::LoadedScene;
+use crate::scene::SceneRef;
 use fipt_core::shading::PixelDraw;
 use fipt_shading::records::HitPoint;
 
 /// The pixels the run with `cfg` will read of `scene`'s training views (`records`: their hits).
 pub(crate) fn plan(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
     cfg: &RunConfig,
 ) -> Result<PixelDraw> {

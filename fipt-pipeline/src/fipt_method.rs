@@ -8,6 +8,7 @@ use crate::fit::Host;
 use crate::outputs::{extract_emitters, has_ground_truth};
 use crate::rounds::{planned_rounds, Rounds, RoundsContext};
 use crate::run_config::RunConfig;
+use crate::scene::SceneRef;
 use fipt_core::fit::{FitInputs, FitParts, Fitted, MaterialFitter};
 use fipt_core::shading::{PixelDraw, Progress, Scope};
 use std::time::Instant;
@@ -33,6 +34,11 @@ impl MaterialFitter for Fipt {
                     "method `fipt` runs under `fipt run` (it reads the run's scene and settings)"
                 )
             })?;
+            let scene = SceneRef::of(inputs).ok_or_else(|| {
+                crate::err!(
+                    "method `fipt` needs the scene around the views (`FitInputs::scene`: the dataset, the cache key, the exposure)"
+                )
+            })?;
             let parts = inputs.parts.ok_or_else(|| {
                 crate::err!("method `fipt` needs the run's baker, refiner and extractor")
             })?;
@@ -41,7 +47,7 @@ impl MaterialFitter for Fipt {
                     done(stage, t)
                 }
             };
-            fit_rounds(host, parts, &mark)
+            fit_rounds(host, &scene, parts, &mark)
         };
         method().map_err(|e| fipt_core::CoreError::Component(Box::new(e)))
     }
@@ -50,17 +56,18 @@ impl MaterialFitter for Fipt {
 /// The bake, the first round, the emitters and the refinement rounds.
 fn fit_rounds(
     host: &Host,
+    scene: &SceneRef,
     parts: FitParts,
     mark: &dyn Fn(&'static str, Instant),
 ) -> Result<Fitted> {
-    let (a, cfg, scene) = (&host.request, &host.cfg, &host.scene);
+    let (a, cfg) = (&host.request, &host.cfg);
     let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
     let memory = crate::memory::check(pixels, cfg)?;
     let caveats = crate::fit::caveats([parts.baker.caveats(), parts.refiner.caveats()]);
     if let Some(c) = &caveats {
         crate::note!("{c}");
     }
-    let mut first = first_round(host, parts, mark)?;
+    let mut first = first_round(host, scene, parts, mark)?;
     let (records, footprint) = host.hits();
     let t = crate::observe::begin("emitters");
     let emitters = extract_emitters(
@@ -152,10 +159,11 @@ struct FirstRound {
 /// FIPT's first round: the bake, the search on its shadings and the first training.
 fn first_round(
     host: &Host,
+    scene: &SceneRef,
     parts: FitParts,
     mark: &dyn Fn(&'static str, Instant),
 ) -> Result<FirstRound> {
-    let (a, cfg, scene) = (&host.request, &host.cfg, &host.scene);
+    let (a, cfg) = (&host.request, &host.cfg);
     let t = crate::observe::begin("bake");
     let (records, footprint) = host.hits();
     let draw = crate::draw::plan(scene, records, cfg)?;
@@ -172,7 +180,7 @@ fn first_round(
         scope,
     )?;
     mark("bake", t);
-    let has_gt = has_ground_truth(scene);
+    let has_gt = has_ground_truth(scene.ds);
     let mut searches = vec![];
     let t = crate::observe::begin("search");
     let bake_id = fipt_bake::bake_store::fingerprint(&bake);
@@ -221,7 +229,7 @@ fn first_round(
 
 /// The closure of the bake's shadings with the true materials (empty without ground truth).
 fn bake_closure(
-    scene: &crate::scene::LoadedScene,
+    scene: &crate::scene::SceneRef,
     shadings: &fipt_bake::bake_store::StoredShadings,
     draw: &PixelDraw,
     has_gt: bool,

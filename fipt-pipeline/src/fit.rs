@@ -13,7 +13,7 @@ use crate::scene::LoadedScene;
 use crate::Components;
 use fipt_core::dataset::GtKind;
 use fipt_core::emitter::{Emitter, EmitterExtractor};
-use fipt_core::fit::{FitInputs, FitParts, FitRun, Fitted, MaterialFitter};
+use fipt_core::fit::{FitInputs, FitParts, FitRun, FitScene, Fitted, MaterialFitter};
 use fipt_core::fsutil::write_json_atomic;
 use fipt_shading::records::{hit_points_and_footprint, HitPoint};
 use std::sync::{Mutex, OnceLock};
@@ -77,7 +77,7 @@ fn segments_for(scene: &LoadedScene, fitter: &dyn MaterialFitter) -> Result<Opti
     [GtKind::IndexMA, GtKind::Segmentation]
         .into_iter()
         .find(|&k| split.has_gt(k))
-        .map(|k| crate::regions::split_ids(scene, k))
+        .map(|k| crate::regions::split_ids(&crate::scene::SceneRef::loaded(scene), k))
         .transpose()
 }
 
@@ -130,6 +130,13 @@ fn fit_views(
             shadings: all.as_deref(),
             segments,
             model: cfg.model.brdf,
+            scene: Some(FitScene {
+                dataset: &scene.ds,
+                cache_key: &scene.cache_key,
+                exposure: scene.exposure,
+                left_out: &scene.capture.left_out,
+                masked: &scene.capture.masked,
+            }),
             dir: &dir,
             parts: Some(parts.parts),
             run: FitRun {
@@ -266,7 +273,7 @@ fn bake_for(
     let t = crate::observe::begin("bake");
     let bake = &a.out.join("bake");
     let sh = crate::bake::stage(
-        &host.scene,
+        &crate::scene::SceneRef::loaded(&host.scene),
         p.baker,
         p.bake_settings,
         bake,
@@ -322,7 +329,7 @@ fn emitters_stage(
     let emitters = match emitters {
         Some(e) => e,
         None => extract_emitters(
-            scene,
+            &crate::scene::SceneRef::loaded(scene),
             &host.hits().0,
             field,
             shadings.map(|s| (s, fipt_core::shading::PixelDraw::ALL)),

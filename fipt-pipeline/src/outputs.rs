@@ -70,10 +70,8 @@ pub(crate) fn computed_total(stages: &[StageReport]) -> Option<f64> {
 }
 
 /// Whether the scene has ground truth to evaluate against (`DiffCol/` in a split).
-pub(crate) fn has_ground_truth(scene: &crate::scene::LoadedScene) -> bool {
-    scene
-        .ds
-        .splits
+pub(crate) fn has_ground_truth(ds: &fipt_core::dataset::Dataset) -> bool {
+    ds.splits
         .iter()
         .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol))
 }
@@ -95,7 +93,7 @@ pub(crate) fn evaluate_if_gt(
     out: &Path,
     mark: &mut dyn FnMut(&'static str, std::time::Instant),
 ) -> Result<Option<serde_json::Value>> {
-    if !has_ground_truth(scene) {
+    if !has_ground_truth(&scene.ds) {
         return Ok(None);
     }
     let t = crate::observe::begin("eval");
@@ -586,21 +584,20 @@ pub(crate) fn max_reflected_view(sh: &fipt_core::shading::ViewShadings) -> Vec<O
 /// shadings say each pixel could at most reflect, [`max_reflected_view`]). The pixels are built
 /// one view at a time as the extractor visits them ([`TrainingHits`]).
 pub(crate) fn extract_emitters(
-    scene: &crate::scene::LoadedScene,
+    scene: &crate::scene::SceneRef,
     records: &[Vec<Option<HitPoint>>],
     field: &dyn fipt_core::field::MaterialField,
     shadings: Option<(&dyn fipt_bake::bake_store::ShadingViews, PixelDraw)>,
     extractor: &dyn EmitterExtractor,
 ) -> Result<Vec<Emitter>> {
-    let mesh = &scene.geometry.mesh;
     let hits = TrainingHits {
-        scene,
+        scene: *scene,
         records,
         shadings,
     };
     Ok(extractor.extract(&EmitterInputs {
-        positions: &mesh.positions,
-        triangles: &mesh.triangles,
+        positions: scene.positions,
+        triangles: scene.triangles,
         field,
         pixel_hits: &hits,
     })?)
@@ -609,7 +606,7 @@ pub(crate) fn extract_emitters(
 /// The training pixels that hit the mesh, built view by view when visited: a scene's pixels
 /// are never held all at once (52 bytes each: 3.2 GB for 200 views of 640×480).
 struct TrainingHits<'a> {
-    scene: &'a crate::scene::LoadedScene,
+    scene: crate::scene::SceneRef<'a>,
     records: &'a [Vec<Option<HitPoint>>],
     /// The initial shadings, for each pixel's bound on reflected light, at the pixels drawn
     /// (those the run reads: the bound is the same whether the bake holds more).
@@ -618,9 +615,9 @@ struct TrainingHits<'a> {
 
 impl PixelHits for TrainingHits<'_> {
     fn visit(&self, f: &mut dyn FnMut(&PixelHit)) -> fipt_core::Result<()> {
-        let mesh = &self.scene.geometry.mesh;
+        let (positions, triangles) = (self.scene.positions, self.scene.triangles);
         let views = &self.scene.ds.train().views;
-        for (v, (recs, img)) in self.records.iter().zip(&self.scene.images).enumerate() {
+        for (v, (recs, img)) in self.records.iter().zip(self.scene.images).enumerate() {
             let (most, draw) = match self.shadings {
                 Some((s, draw)) => (Some(max_reflected_view(&*s.get(v)?)), draw),
                 None => (None, PixelDraw::ALL),
@@ -633,10 +630,9 @@ impl PixelHits for TrainingHits<'_> {
                 };
                 // The winding normal against the direction to the camera: the side seen.
                 let front = eye.and_then(|eye| {
-                    let [a, b, c] = mesh
-                        .triangles
+                    let [a, b, c] = triangles
                         .get(r.tri as usize)?
-                        .map(|k| mesh.positions[k as usize]);
+                        .map(|k| positions[k as usize]);
                     let d = (b - a).cross(c - a).dot(eye - r.p);
                     (d != 0.0).then_some(d > 0.0)
                 });

@@ -3,7 +3,7 @@
 //! `OUT/refine<k>/` (manifest last), keyed by the settings and the upstream fingerprints.
 use crate::error::{Result, RunError};
 use crate::observe::{bar, Stage};
-use crate::scene::LoadedScene;
+use crate::scene::SceneRef;
 use crate::shard::Sharding;
 use fipt_bake::bake_store::{
     begin, finish, keyed_mismatch, load_keyed, shard_done, write_view, BakeManifest,
@@ -27,7 +27,7 @@ pub struct Refined {
 
 /// Runs (or reuses) the refinement of the field fingerprinted `field_id` with `emitters`.
 pub fn stage(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     field: &dyn MaterialField,
     field_id: &str,
     emitters: &[Emitter],
@@ -127,7 +127,7 @@ pub fn stage(
 
 /// What one refinement computes from.
 struct Job<'a> {
-    scene: &'a LoadedScene,
+    scene: &'a SceneRef<'a>,
     field: &'a dyn MaterialField,
     field_id: &'a str,
     emitters: &'a [Emitter],
@@ -144,11 +144,10 @@ fn compute(job: &Job, name: &str, key: String, scope: Scope) -> Result<Refined> 
     let stats_path = dir.join("refine_stats.json");
     let check = |m: &BakeManifest| keyed_mismatch(m, &scene.cache_key, name, &key);
     let split = scene.ds.train();
-    let mesh = &scene.geometry.mesh;
     let inputs = RefineInputs {
-        geometry: &scene.geometry,
-        positions: &mesh.positions,
-        triangles: &mesh.triangles,
+        geometry: scene.geometry,
+        positions: scene.positions,
+        triangles: scene.triangles,
         views: &split.views,
         images: &scene.images,
         field: job.field,
@@ -179,7 +178,7 @@ fn compute(job: &Job, name: &str, key: String, scope: Scope) -> Result<Refined> 
         hashes: Default::default(),
         version: FORMAT_VERSION,
         baker: name.to_string(),
-        inputs_hash: scene.cache_key.clone(),
+        inputs_hash: scene.cache_key.to_string(),
         config: serde_json::json!({ "key": key, "settings": job.settings, "field": job.field_id }),
         split: split.name.clone(),
         views: split.views.len(),

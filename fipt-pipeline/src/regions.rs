@@ -2,7 +2,7 @@
 //! its semantic classes (`segmentation/`), or smooth patches of the mesh.
 use crate::bail;
 use crate::error::{Context, Result};
-use crate::scene::LoadedScene;
+use crate::scene::SceneRef;
 use fipt_core::dataset::GtKind;
 use fipt_search::RegionSource;
 use fipt_shading::records::HitPoint;
@@ -24,13 +24,13 @@ impl Regions {
 }
 
 /// The id maps (`IndexMA/` or `segmentation/`) of every training view, in view order.
-pub fn split_ids(scene: &LoadedScene, kind: GtKind) -> Result<Vec<Vec<i64>>> {
+pub fn split_ids(scene: &SceneRef, kind: GtKind) -> Result<Vec<Vec<i64>>> {
     let all: Vec<usize> = (0..scene.ds.train().views.len()).collect();
     view_ids(scene, kind, &all)
 }
 
 /// The id maps of the training views `views`, in their order (read in parallel).
-fn view_ids(scene: &LoadedScene, kind: GtKind, views: &[usize]) -> Result<Vec<Vec<i64>>> {
+fn view_ids(scene: &SceneRef, kind: GtKind, views: &[usize]) -> Result<Vec<Vec<i64>>> {
     let split = scene.ds.train();
     views
         .par_iter()
@@ -47,7 +47,7 @@ fn view_ids(scene: &LoadedScene, kind: GtKind, views: &[usize]) -> Result<Vec<Ve
 
 /// The regions `source` asks for (None for `none`).
 pub fn load(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
     source: RegionSource,
     mesh_angle_deg: f32,
@@ -74,7 +74,8 @@ pub fn load(
         ),
         };
     let Some(kind) = kind else {
-        let (patch, n) = fipt_geom::patches::smooth_patches(&scene.geometry.mesh, mesh_angle_deg);
+        let (patch, n) =
+            fipt_geom::patches::smooth_patches_of(scene.positions, scene.triangles, mesh_angle_deg);
         let ids = records
             .iter()
             .map(|recs| {

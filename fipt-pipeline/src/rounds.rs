@@ -63,7 +63,7 @@ pub(crate) fn refine_plan(
 
 /// What the refinement rounds read.
 pub(crate) struct RoundsContext<'a> {
-    pub(crate) scene: &'a crate::scene::LoadedScene,
+    pub(crate) scene: &'a crate::scene::SceneRef<'a>,
     pub(crate) cfg: &'a RunConfig,
     pub(crate) out: &'a Path,
     pub(crate) force: bool,

@@ -4,7 +4,7 @@
 use crate::bail;
 use crate::error::Result;
 use crate::regions::Regions;
-use crate::scene::LoadedScene;
+use crate::scene::SceneRef;
 use fipt_bake::bake_store::StoredShadings;
 use fipt_core::color::luminance;
 use fipt_core::fsutil::{read_json, write_json_atomic};
@@ -74,7 +74,7 @@ struct Prepared {
 
 /// The search's pixels, regions and σ grid for `shadings`.
 fn prepare(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
     shadings: &[ViewShadings],
     cfg: &SearchConfig,
@@ -210,7 +210,7 @@ fn candidates_and_share(
 /// `train.seed`), before any shading exists: 1 when it keeps every one, None when it does not
 /// run. `hits`: every view's hits (when no more than the cap, the regions are not read).
 pub(crate) fn drawn_share(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
     cfg: &SearchConfig,
     hits: usize,
@@ -246,7 +246,7 @@ struct Compact {
 /// are read from disk in turn and cut down to the pixels the search uses, at most
 /// `cfg.max_pixels` of them (a uniform random share beyond).
 fn compact_inputs(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
     on: &SearchOn,
     regions: &Regions,
@@ -264,13 +264,7 @@ fn compact_inputs(
         );
     }
     // Pixels a view's mask leaves out (people, screens) say nothing of the materials.
-    let masked = |v: usize, i: usize| {
-        scene
-            .capture
-            .masked
-            .get(v)
-            .is_some_and(|m| m.get(i) == Some(&true))
-    };
+    let masked = |v: usize, i: usize| scene.masked.get(v).is_some_and(|m| m.get(i) == Some(&true));
     let keep = |v: usize, i: usize, h: &HitPoint| {
         rule(v, i, h)
             .filter(|_| !masked(v, i))
@@ -379,7 +373,7 @@ struct KeptSearch {
 /// Runs the search (None when it is off or has no regions; the reason is printed).
 /// The search on the initial bake, when `cfg.on_bake` asks for it.
 pub fn on_bake(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
     on: SearchOn,
     cfg: &SearchConfig,
@@ -409,7 +403,7 @@ pub enum When {
 /// made with the same shadings, settings, regions and previous decisions (a resumed run does
 /// not read every view's shadings again), else run and kept there.
 pub fn stage(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
     on: SearchOn,
     cfg: &SearchConfig,
@@ -625,7 +619,7 @@ struct Decisions {
 /// pixels' shadings are held, see [`compact_inputs`]).
 #[allow(clippy::too_many_arguments)]
 fn decide(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
     on: &SearchOn,
     cfg: &SearchConfig,

@@ -4,7 +4,7 @@ use crate::bail;
 use crate::error::{Context, Result};
 use crate::observe::{bar, Stage};
 use crate::run_config::RunConfig;
-use crate::scene::LoadedScene;
+use crate::scene::SceneRef;
 use crate::search::Searched;
 use crate::train_set::{build_set, second_sides, segment_ids, BuiltSet};
 use fipt_bake::bake::primary_records;
@@ -211,7 +211,7 @@ pub fn train_only(a: TrainRequest, components: &crate::Components) -> Result<Pat
     };
     let dir = a.out.join("train");
     let on = TrainOn {
-        scene: &scene,
+        scene: &SceneRef::loaded(&scene),
         shadings: &stored,
         shadings_id: &fingerprint(&bake),
         set: &cfg,
@@ -229,7 +229,7 @@ pub fn train_only(a: TrainRequest, components: &crate::Components) -> Result<Pat
 /// `fipt train`'s per-view maps; on the training views also the field's factorised re-render
 /// when the field is the hash-grid trainer's (it reads the shadings).
 fn export_train_views(
-    scene: &LoadedScene,
+    scene: &crate::scene::LoadedScene,
     field: &dyn MaterialField,
     stored: &StoredShadings,
     dir: &Path,
@@ -267,7 +267,7 @@ fn export_train_views(
 
 /// What a training round is given.
 pub(crate) struct TrainOn<'a> {
-    pub(crate) scene: &'a LoadedScene,
+    pub(crate) scene: &'a SceneRef<'a>,
     /// The shadings, and their fingerprint.
     pub(crate) shadings: &'a StoredShadings,
     pub(crate) shadings_id: &'a str,

@@ -3,7 +3,7 @@
 //! shadings, segments and the search's targets.
 use crate::bail;
 use crate::error::Result;
-use crate::scene::LoadedScene;
+use crate::scene::SceneRef;
 use crate::search::Searched;
 use fipt_bake::bake_store::StoredShadings;
 use fipt_core::dataset::GtKind;
@@ -42,7 +42,7 @@ fn keep_at_most(points: &mut [Vec<Option<Vec3>>], limit: usize, seed: u64) -> us
 /// ([`fipt_core::image::bleed_mask`]: `train.bleed_radius`, `bleed_contrast`), or outside the
 /// uniform share [`SetPoints::limit`] keeps. Only one view's points are held at a time.
 struct SetPoints<'a> {
-    scene: &'a LoadedScene,
+    scene: &'a SceneRef<'a>,
     /// (radius, contrast, floor: 1 % of the median luminance over every training view, so
     /// that a view into a dark corner, whose noise is no edge, keeps its pixels).
     bleed: Option<(usize, f32, f32)>,
@@ -58,7 +58,7 @@ struct SetPoints<'a> {
 }
 
 impl<'a> SetPoints<'a> {
-    fn new(scene: &'a LoadedScene, cfg: &TrainConfig) -> Self {
+    fn new(scene: &'a SceneRef<'a>, cfg: &TrainConfig) -> Self {
         let bleed = (cfg.bleed_radius > 0).then(|| {
             let median = fipt_core::image::median_luminance(&scene.images);
             (cfg.bleed_radius as usize, cfg.bleed_contrast, 0.01 * median)
@@ -126,14 +126,14 @@ impl<'a> SetPoints<'a> {
     ) -> Vec<Option<Vec3>> {
         let scene = self.scene;
         let view = &scene.ds.train().views[v];
-        let records = fipt_shading::records::primary_records(&scene.geometry, view);
+        let records = fipt_shading::records::primary_records(scene.geometry, view);
         if let Some(foot) = foot {
             fipt_shading::records::push_footprints(view, &records, foot);
         }
         let mut pts: Vec<Option<Vec3>> = records.iter().map(|r| r.map(|r| r.hit.p)).collect();
         drop(records);
         // Clipped pixels off the lights: their radiance is only bounded below.
-        if let Some(out) = scene.capture.left_out.get(v) {
+        if let Some(out) = scene.left_out.get(v) {
             for (p, _) in pts.iter_mut().zip(out).filter(|(_, o)| **o) {
                 *p = None;
             }
@@ -189,7 +189,7 @@ const MESH_SEGMENT_ANGLE_DEG: f32 = 30.0;
 
 /// The ids the segment prior reads as `source` asks (None: no prior), with a fingerprint.
 pub(crate) fn segment_ids(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     source: SegmentSource,
 ) -> Result<Option<(SegmentKind, String)>> {
     let split = scene.ds.train();
@@ -227,16 +227,19 @@ pub(crate) fn segment_ids(
 }
 
 /// Per training view and pixel, the mesh patch its centre ray hits (−1: none).
-fn mesh_patch_ids(scene: &LoadedScene) -> Vec<Vec<i64>> {
-    let (patch, _) =
-        fipt_geom::patches::smooth_patches(&scene.geometry.mesh, MESH_SEGMENT_ANGLE_DEG);
+fn mesh_patch_ids(scene: &SceneRef) -> Vec<Vec<i64>> {
+    let (patch, _) = fipt_geom::patches::smooth_patches_of(
+        scene.positions,
+        scene.triangles,
+        MESH_SEGMENT_ANGLE_DEG,
+    );
     scene
         .ds
         .train()
         .views
         .par_iter()
         .map(|view| {
-            fipt_shading::records::hit_points(&scene.geometry, view)
+            fipt_shading::records::hit_points(scene.geometry, view)
                 .iter()
                 .map(|h| h.map_or(-1, |h| patch[h.tri as usize] as i64))
                 .collect()
@@ -246,7 +249,7 @@ fn mesh_patch_ids(scene: &LoadedScene) -> Vec<Vec<i64>> {
 
 /// Attaches the ids `found` by [`segment_ids`] to the training set.
 pub(crate) fn with_segments(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     data: TrainingSet,
     found: Option<&(SegmentKind, String)>,
     search: Option<&Searched>,
@@ -321,7 +324,7 @@ pub(crate) fn targets_fingerprint(data: &TrainingSet) -> String {
 /// The share of the hit pixels the training set will keep (`train.set_cap`, drawn from
 /// `train.seed`), before any shading exists: 1 when it keeps every one. `hits`: the views'
 /// hits before the masks (when no more than the cap, the masks' pass is spared).
-pub(crate) fn drawn_share(scene: &LoadedScene, cfg: &TrainConfig, hits: usize) -> f64 {
+pub(crate) fn drawn_share(scene: &SceneRef, cfg: &TrainConfig, hits: usize) -> f64 {
     match cfg.set_limit().filter(|&l| hits > l) {
         Some(limit) => SetPoints::new(scene, cfg).share(Some(limit)).unwrap_or(1.0),
         None => 1.0,
@@ -339,7 +342,7 @@ pub(crate) struct BuiltSet {
 }
 
 pub(crate) fn build_set(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     shadings: &StoredShadings,
     cfg: &TrainConfig,
     segments: Option<&(SegmentKind, String)>,

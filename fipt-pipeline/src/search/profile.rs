@@ -58,7 +58,7 @@ fn empty_profile() -> RegionProfile {
 /// The regions' profiles with the ground truth's base colour (kd for dielectrics, ks for
 /// metals; None without ground truth), and with one fitted base colour per region.
 fn reference_profiles(
-    scene: &LoadedScene,
+    scene: &SceneRef,
     pixels: &[SearchPixel],
     shadings: &[ViewShadings],
     n: usize,
@@ -125,10 +125,11 @@ fn profile_inputs(
 }
 
 pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
-    let (scene, shadings, cfg) = profile_inputs(a)?;
+    let (loaded, shadings, cfg) = profile_inputs(a)?;
+    let scene = crate::scene::SceneRef::loaded(&loaded);
     let split = scene.ds.train();
     let (records, footprint) =
-        fipt_shading::records::hit_points_and_footprint(&scene.geometry, &split.views);
+        fipt_shading::records::hit_points_and_footprint(scene.geometry, &split.views);
     let Some(Prepared {
         regions,
         pixels,
