@@ -10,7 +10,6 @@ use crate::image::Image;
 use crate::reflectance::ReflectanceModel;
 use crate::shading::{Progress, RayQuery, ShadingBaker, ShadingRefiner, Shard, ViewShadings};
 use glam::Vec3;
-use std::any::Any;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -40,7 +39,7 @@ pub type MakeTrainer<'a> =
 /// memory then go in `report.json`'s `stages`).
 pub type StageDone<'a> = &'a (dyn Fn(&'static str, Instant) + Sync);
 
-/// The run around a fit: its folder, what the user asked of it, and the host's own context.
+/// The run around a fit: its folder and what the user asked of it.
 pub struct FitRun<'a> {
     /// The run's output folder (the method's own folder, [`FitInputs::dir`], is inside it).
     pub out: &'a Path,
@@ -50,21 +49,20 @@ pub struct FitRun<'a> {
     pub shard: Shard,
     /// Where the method reports its stages; None: the fit is one stage, `fit`.
     pub stage_done: Option<StageDone<'a>>,
-    /// The host's own context, for a method built against that host (under `fipt run`:
-    /// `fipt_pipeline::fipt::Host`, the loaded scene with the run's config and request); None
-    /// from other hosts. A method from outside reads the typed fields of [`FitInputs`].
-    pub host: Option<&'a (dyn Any + Sync)>,
+    /// A stage the user asked the method to stop before (`fipt run --stop-before refine`:
+    /// FIPT's refinement, for a job array to compute it); None: run to the end.
+    pub stop_before: Option<&'a str>,
 }
 
 impl<'a> FitRun<'a> {
-    /// A plain run in `out`: reuse allowed, every view, one stage, no host context.
+    /// A plain run in `out`: reuse allowed, every view, one stage, no scene, no stop.
     pub fn new(out: &'a Path) -> Self {
         FitRun {
             out,
             force: false,
             shard: Shard::ALL,
             stage_done: None,
-            host: None,
+            stop_before: None,
         }
     }
 }

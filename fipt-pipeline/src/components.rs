@@ -76,12 +76,25 @@ pub struct Components {
     trainers: BTreeMap<String, Entry<TrainerFactory>>,
     /// The run config's own table holding a component's settings (the built-ins'; kept when
     /// one is registered again); the others read `[plugins.<name>]`.
-    sections: BTreeMap<(Kind, String), &'static str>,
+    sections: BTreeMap<(Kind, String), Tables>,
 }
 
 pub use crate::names::{
     FIPT_METHOD, HASH_GRID_TRAINER, MASK_EXTRACTOR, PATH_GROWN_REFINER, SLF_BAKER,
 };
+
+/// The run config's tables a component reads: one (its value is the settings) or several (an
+/// object of them, by table name).
+#[derive(Clone, Copy)]
+enum Tables {
+    One(&'static str),
+    Several(&'static [&'static str]),
+}
+
+/// FIPT's tables: its own `[search]` and `[rounds]`, and what it reads of `[train]` (the
+/// training set's share, seed and targets, the steps asked), `[refine]` (`rough_threshold`) and
+/// `[model]` whichever trainer and refiner run.
+pub const FIPT_TABLES: &[&str] = &["search", "rounds", "train", "refine", "model"];
 
 impl Components {
     /// The components of the `fipt` binary.
@@ -128,10 +141,8 @@ impl Components {
             FIPT_METHOD,
             "bake, search, train, emitters, refine rounds (settings: [bake], [search], [train], [rounds], [refine], [emitters])",
             Box::new(|v, _preset| {
-                if v.as_object().is_some_and(|o| !o.is_empty()) {
-                    bail!("[plugins.fipt]: FIPT's settings are the run config's [bake], [search], [train], [rounds], [refine] and [emitters] tables; move them there");
-                }
-                Ok(Box::new(crate::fipt_method::Fipt))
+                let settings = serde_json::from_value(v.clone())?;
+                Ok(Box::new(crate::fipt_method::Fipt::new(settings)))
             }),
         )
         .with_extractor(
@@ -143,6 +154,7 @@ impl Components {
                 Ok(Box::new(fipt_emitter::MaskExtractor { config }))
             }),
         )
+        .in_tables(Kind::Method, FIPT_METHOD, FIPT_TABLES)
         .in_section(Kind::Baker, SLF_BAKER, "bake")
         .in_section(Kind::Refiner, PATH_GROWN_REFINER, "refine")
         .in_section(Kind::Trainer, HASH_GRID_TRAINER, "train")
@@ -152,7 +164,16 @@ impl Components {
     /// Gives the registered component `name` of `kind` the run config's table `section` for
     /// its settings (a built-in's own table) instead of `[plugins.<name>]`.
     fn in_section(mut self, kind: Kind, name: &str, section: &'static str) -> Self {
-        self.sections.insert((kind, name.to_string()), section);
+        self.sections
+            .insert((kind, name.to_string()), Tables::One(section));
+        self
+    }
+
+    /// Gives the registered component `name` of `kind` the run config's tables `tables`, as
+    /// one object keyed by table, for its settings.
+    fn in_tables(mut self, kind: Kind, name: &str, tables: &'static [&'static str]) -> Self {
+        self.sections
+            .insert((kind, name.to_string()), Tables::Several(tables));
         self
     }
 
@@ -166,9 +187,31 @@ impl Components {
         cfg: &crate::run_config::RunConfig,
     ) -> Result<serde_json::Value> {
         let section = self.sections.get(&(kind, name.to_string()));
+        let tables = match section {
+            None => return Ok(cfg.plugin_settings(name)),
+            Some(Tables::One(table)) => vec![*table],
+            Some(Tables::Several(tables)) => tables.to_vec(),
+        };
+        if cfg
+            .plugin_settings(name)
+            .as_object()
+            .is_some_and(|o| !o.is_empty())
+        {
+            let list: Vec<String> = tables.iter().map(|t| format!("[{t}]")).collect();
+            bail!(
+                "[plugins.{name}]: {name}'s settings are the run config's {} tables; move them there",
+                list.join(", ")
+            );
+        }
         match section {
-            Some(&table) => cfg.section(table),
-            None => Ok(cfg.plugin_settings(name)),
+            Some(Tables::One(table)) => cfg.section(table),
+            _ => {
+                let mut all = serde_json::Map::new();
+                for t in tables {
+                    all.insert(t.to_string(), cfg.section(t)?);
+                }
+                Ok(serde_json::Value::Object(all))
+            }
         }
     }
 

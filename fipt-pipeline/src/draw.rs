@@ -10,7 +10,6 @@
 //! the drawn pixels only, so a run reads the same values whether its bake holds every pixel
 //! (a `fipt bake` of the whole scene, reused) or the drawn ones.
 use crate::error::Result;
-use crate::run_config::RunConfig;
 use crate::scene::SceneRef;
 use fipt_core::shading::PixelDraw;
 use fipt_shading::records::HitPoint;
@@ -19,7 +18,7 @@ use fipt_shading::records::HitPoint;
 pub(crate) fn plan(
     scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
-    cfg: &RunConfig,
+    cfg: &crate::fipt_method::FiptSettings,
 ) -> Result<PixelDraw> {
     let hits: usize = records.iter().map(|r| r.iter().flatten().count()).sum();
     let train = crate::train_set::drawn_share(scene, &cfg.train, hits);

@@ -4,18 +4,64 @@
 //! run's refiner) that the scene needs. Its stages reuse what an earlier run of the folder
 //! computed (`OUT/bake`, `OUT/train*`, `OUT/refine*`) and report their times one by one.
 use crate::error::{Result, RunError};
-use crate::fit::Host;
 use crate::outputs::{extract_emitters, has_ground_truth};
 use crate::rounds::{planned_rounds, Rounds, RoundsContext};
-use crate::run_config::RunConfig;
+use crate::run_config::{ModelConfig, RoundsConfig, RunConfig};
 use crate::scene::SceneRef;
+use crate::shard::Sharding;
+use fipt_bake::refine::RefineConfig;
 use fipt_core::fit::{FitInputs, FitParts, Fitted, MaterialFitter};
 use fipt_core::shading::{PixelDraw, Progress, Scope};
+use fipt_neural::TrainConfig;
+use fipt_search::SearchConfig;
+use fipt_shading::records::{hit_points_and_footprint, HitPoint};
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// FIPT's rounds. Its settings are the run config's `[bake]` (for the `slf` baker), `[search]`,
-/// `[train]`, `[rounds]`, `[refine]` and `[emitters]`; it runs under `fipt run` only.
-pub struct Fipt;
+/// FIPT's rounds, on what [`FitInputs`] holds (its scene, [`FitInputs::scene`], included).
+pub struct Fipt {
+    settings: FiptSettings,
+}
+
+/// FIPT's settings: the run config's tables [`crate::components::FIPT_TABLES`], read by its
+/// factory. The baker, refiner, trainer and extractor read their own ([`FitParts`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FiptSettings {
+    pub search: SearchConfig,
+    pub rounds: RoundsConfig,
+    /// The training set's share, seed and targets, the steps asked (whichever trainer runs).
+    pub train: TrainConfig,
+    /// `rough_threshold`: whether the refinement rounds run (whichever refiner runs).
+    pub refine: RefineConfig,
+    pub model: ModelConfig,
+}
+
+impl FiptSettings {
+    /// FIPT's tables of a run config.
+    pub fn of(cfg: &RunConfig) -> Self {
+        FiptSettings {
+            search: cfg.search.clone(),
+            rounds: cfg.rounds.clone(),
+            train: cfg.train.clone(),
+            refine: cfg.refine.clone(),
+            model: cfg.model.clone(),
+        }
+    }
+}
+
+impl Fipt {
+    pub fn new(settings: FiptSettings) -> Self {
+        Fipt { settings }
+    }
+}
+
+/// What FIPT's stages read of the run around them: its folder, `--force`, the shard.
+pub(crate) struct Run<'a> {
+    pub out: &'a std::path::Path,
+    pub force: bool,
+    pub sharding: Sharding,
+}
 
 impl MaterialFitter for Fipt {
     fn name(&self) -> &str {
@@ -29,11 +75,6 @@ impl MaterialFitter for Fipt {
 
     fn fit(&self, inputs: &FitInputs, _progress: Progress) -> fipt_core::Result<Fitted> {
         let method = || {
-            let host = Host::of(inputs).ok_or_else(|| {
-                crate::err!(
-                    "method `fipt` runs under `fipt run` (it reads the run's scene and settings)"
-                )
-            })?;
             let scene = SceneRef::of(inputs).ok_or_else(|| {
                 crate::err!(
                     "method `fipt` needs the scene around the views (`FitInputs::scene`: the dataset, the cache key, the exposure)"
@@ -47,28 +88,48 @@ impl MaterialFitter for Fipt {
                     done(stage, t)
                 }
             };
-            fit_rounds(host, &scene, parts, &mark)
+            let run = Run {
+                out: inputs.run.out,
+                force: inputs.run.force,
+                sharding: Sharding {
+                    shard: inputs.run.shard,
+                    stop_before_refine: inputs.run.stop_before == Some("refine"),
+                },
+            };
+            let (records, footprint) = hit_points_and_footprint(scene.geometry, inputs.views);
+            let hits = (records, footprint.unwrap_or(0.01));
+            let on = On {
+                cfg: &self.settings,
+                run: &run,
+                scene: &scene,
+                hits: &hits,
+            };
+            fit_rounds(&on, parts, &mark)
         };
         method().map_err(|e| fipt_core::CoreError::Component(Box::new(e)))
     }
 }
 
 /// The bake, the first round, the emitters and the refinement rounds.
-fn fit_rounds(
-    host: &Host,
-    scene: &SceneRef,
-    parts: FitParts,
-    mark: &dyn Fn(&'static str, Instant),
-) -> Result<Fitted> {
-    let (a, cfg) = (&host.request, &host.cfg);
+/// What FIPT's fit works on: its settings, the run, the scene and its training views'
+/// primary hits with their median footprint.
+struct On<'a> {
+    cfg: &'a FiptSettings,
+    run: &'a Run<'a>,
+    scene: &'a SceneRef<'a>,
+    hits: &'a (Vec<Vec<Option<HitPoint>>>, f32),
+}
+
+fn fit_rounds(on: &On, parts: FitParts, mark: &dyn Fn(&'static str, Instant)) -> Result<Fitted> {
+    let (a, cfg, scene) = (on.run, on.cfg, on.scene);
     let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
     let memory = crate::memory::check(pixels, cfg)?;
     let caveats = crate::fit::caveats([parts.baker.caveats(), parts.refiner.caveats()]);
     if let Some(c) = &caveats {
         crate::note!("{c}");
     }
-    let mut first = first_round(host, scene, parts, mark)?;
-    let (records, footprint) = host.hits();
+    let mut first = first_round(on, parts, mark)?;
+    let (records, footprint) = on.hits;
     let t = crate::observe::begin("emitters");
     let emitters = extract_emitters(
         scene,
@@ -92,7 +153,7 @@ fn fit_rounds(
     let ctx = RoundsContext {
         scene,
         cfg,
-        out: &a.out,
+        out: a.out,
         force: a.force,
         records,
         footprint: *footprint,
@@ -103,11 +164,11 @@ fn fit_rounds(
         refine_settings: parts.refine_settings,
         trainer: parts.trainer,
         train_settings: parts.train_settings,
-        sharding: a.sharding(),
+        sharding: a.sharding,
     };
     let mut mark_mut = |stage: &'static str, t: Instant| mark(stage, t);
     let (refine_plan, done_rounds) = planned_rounds(&ctx, &mut state, &mut mark_mut)?;
-    past_sharded_stages(host)?;
+    past_sharded_stages(a)?;
     let (field, train) = (state.field, state.train);
     let report = serde_json::json!({
         "bake": { "stats": first.bake.stats, "seconds": first.bake.seconds_total },
@@ -124,20 +185,20 @@ fn fit_rounds(
     }
     fitted.modeled = Some(modeled);
     fitted.id = (!a.force).then(|| train.fingerprint());
-    let dir = crate::rounds::train_dir(&a.out, done_rounds);
+    let dir = crate::rounds::train_dir(a.out, done_rounds);
     fitted.field_file = train.field_files.first().map(|f| dir.join(f));
     Ok(fitted)
 }
 
 /// A shard run stops once the sharded stages are behind it.
-fn past_sharded_stages(host: &Host) -> Result<()> {
-    let shard = host.request.sharding().shard;
+fn past_sharded_stages(a: &Run) -> Result<()> {
+    let shard = a.sharding.shard;
     if shard.is_all() {
         return Ok(());
     }
     Err(RunError::Stopped(format!(
         "shard {shard}: every sharded stage in {} is done; the rest (maps, re-renders) runs without --shard",
-        host.request.out.display()
+        a.out.display()
     )))
 }
 
@@ -158,17 +219,16 @@ struct FirstRound {
 
 /// FIPT's first round: the bake, the search on its shadings and the first training.
 fn first_round(
-    host: &Host,
-    scene: &SceneRef,
+    on: &On,
     parts: FitParts,
     mark: &dyn Fn(&'static str, Instant),
 ) -> Result<FirstRound> {
-    let (a, cfg) = (&host.request, &host.cfg);
+    let (a, cfg, scene) = (on.run, on.cfg, on.scene);
     let t = crate::observe::begin("bake");
-    let (records, footprint) = host.hits();
+    let (records, footprint) = on.hits;
     let draw = crate::draw::plan(scene, records, cfg)?;
     let scope = Scope {
-        shard: a.sharding().shard,
+        shard: a.sharding.shard,
         pixels: draw,
     };
     let (bake, shadings) = crate::bake::stage(
@@ -207,7 +267,7 @@ fn first_round(
         settings: parts.train_settings,
         search: searched.as_ref(),
     };
-    let must_reuse = !a.sharding().shard.is_all();
+    let must_reuse = !a.sharding.shard.is_all();
     let (field, train, _) =
         crate::train::stage(&on, &a.out.join("train"), a.force, None, must_reuse)?;
     mark("train", t);
@@ -246,7 +306,7 @@ fn bake_closure(
 
 /// What `report.json`'s `modeled` says of FIPT's parts, and why.
 fn modeled(
-    cfg: &RunConfig,
+    cfg: &FiptSettings,
     refine_plan: &Result<String, String>,
     train: &crate::train::TrainManifest,
 ) -> serde_json::Value {
@@ -274,7 +334,7 @@ fn modeled(
 
 /// What the last training round did, against what was asked (the trainer's `steps`, `batch`,
 /// `max_passes`, `min_steps` and `emitter_material` settings, where it has them).
-fn training(cfg: &RunConfig, train: &crate::train::TrainManifest) -> String {
+fn training(cfg: &FiptSettings, train: &crate::train::TrainManifest) -> String {
     let t = &train.config;
     let num = |k: &str| t.get(k).and_then(|v| v.as_f64());
     let mut training = match (num("steps"), num("batch")) {

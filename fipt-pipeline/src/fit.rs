@@ -40,12 +40,6 @@ pub struct Host {
 }
 
 impl Host {
-    /// The host of a fit's inputs, when it runs under `fipt run`.
-    pub fn of<'a>(inputs: &FitInputs<'a>) -> Option<&'a Host> {
-        let host: &'a dyn std::any::Any = inputs.run.host?;
-        host.downcast_ref::<Host>()
-    }
-
     /// The training views' primary hits and their median pixel footprint.
     pub fn hits(&self) -> &TrainHits {
         self.hits.get_or_init(|| {
@@ -144,7 +138,7 @@ fn fit_views(
                 force: a.force,
                 shard: a.sharding().shard,
                 stage_done: Some(&mark),
-                host: Some(host),
+                stop_before: a.stop_before_refine.then_some("refine"),
             },
         },
         // The bar appears with the fitter's first progress (FIPT's stages have bars of their own).

@@ -7,12 +7,11 @@
 //! warned about.
 use crate::bail;
 use crate::error::Result;
-use crate::run_config::RunConfig;
 use fipt_core::memory::{available_bytes, gib};
 use fipt_core::shading::NUM_LEVELS;
 
 /// Estimated bytes of a run on `pixels` training pixels, by part.
-pub fn estimate(pixels: u64, cfg: &RunConfig) -> Vec<(&'static str, u64)> {
+pub fn estimate(pixels: u64, cfg: &crate::fipt_method::FiptSettings) -> Vec<(&'static str, u64)> {
     let poly = cfg.model.brdf.diffuse_depends_on_roughness() as u64;
     // Ld, Ld1/Ld2 for principled, Ls0 and Ls1 at every level.
     let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
@@ -43,7 +42,7 @@ pub fn estimate(pixels: u64, cfg: &RunConfig) -> Vec<(&'static str, u64)> {
 }
 
 /// Refuses a run whose estimate exceeds the memory available.
-pub fn check(pixels: u64, cfg: &RunConfig) -> Result<u64> {
+pub fn check(pixels: u64, cfg: &crate::fipt_method::FiptSettings) -> Result<u64> {
     let parts = estimate(pixels, cfg);
     let total: u64 = parts.iter().map(|p| p.1).sum();
     let Some(avail) = available_bytes() else {
@@ -88,6 +87,8 @@ pub fn check_bytes(what: &str, bytes: u64) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fipt_method::FiptSettings;
+    use crate::run_config::RunConfig;
 
     fn part(parts: &[(&'static str, u64)], name: &str) -> u64 {
         parts.iter().find(|p| p.0 == name).unwrap().1
@@ -98,7 +99,7 @@ mod tests {
     #[test]
     fn the_caps_bound_the_estimate_of_a_large_scene() {
         let pixels = 200 * 640 * 480;
-        let cfg = RunConfig::preset("fast").unwrap();
+        let cfg = FiptSettings::of(&RunConfig::preset("fast").unwrap());
         let capped = part(&estimate(pixels, &cfg), "training set or search");
         let set = cfg.train.set_limit().unwrap() as u64;
         let searched = cfg.search.max_pixels as u64;

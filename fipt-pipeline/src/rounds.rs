@@ -3,7 +3,7 @@
 //! settle.
 use crate::error::Result;
 pub use crate::run_config::RoundsConfig;
-use crate::run_config::RunConfig;
+
 use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;
 use fipt_core::shading::ShadingRefiner;
@@ -38,7 +38,7 @@ pub(crate) fn field_lit_share(stats: &serde_json::Value) -> Option<f64> {
 
 /// Whether the refinement rounds run (Ok: what they do) or why not (Err).
 pub(crate) fn refine_plan(
-    cfg: &RunConfig,
+    cfg: &crate::fipt_method::FiptSettings,
     emitters: &[Emitter],
     glossy: f64,
 ) -> Result<String, String> {
@@ -64,7 +64,7 @@ pub(crate) fn refine_plan(
 /// What the refinement rounds read.
 pub(crate) struct RoundsContext<'a> {
     pub(crate) scene: &'a crate::scene::SceneRef<'a>,
-    pub(crate) cfg: &'a RunConfig,
+    pub(crate) cfg: &'a crate::fipt_method::FiptSettings,
     pub(crate) out: &'a Path,
     pub(crate) force: bool,
     pub(crate) records: &'a [Vec<Option<HitPoint>>],
