@@ -123,7 +123,7 @@ struct On<'a> {
 fn fit_rounds(on: &On, parts: FitParts, mark: &dyn Fn(&'static str, Instant)) -> Result<Fitted> {
     let (a, cfg, scene) = (on.run, on.cfg, on.scene);
     let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
-    let memory = crate::memory::check(pixels, cfg)?;
+    let memory = crate::fipt_memory::check(pixels, cfg)?;
     let caveats = crate::fit::caveats([parts.baker.caveats(), parts.refiner.caveats()]);
     if let Some(c) = &caveats {
         crate::note!("{c}");

@@ -71,7 +71,7 @@ fn segments_for(scene: &LoadedScene, fitter: &dyn MaterialFitter) -> Result<Opti
     [GtKind::IndexMA, GtKind::Segmentation]
         .into_iter()
         .find(|&k| split.has_gt(k))
-        .map(|k| crate::regions::split_ids(&crate::scene::SceneRef::loaded(scene), k))
+        .map(|k| crate::segments::split_ids(&crate::scene::SceneRef::loaded(scene), k))
         .transpose()
 }
 

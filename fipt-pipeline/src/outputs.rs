@@ -318,7 +318,7 @@ pub(crate) fn write_views(
         }
     }
     for s in &scene.ds.splits {
-        crate::train::export_views(
+        crate::maps::export_views(
             field,
             &scene.geometry,
             &s.views,

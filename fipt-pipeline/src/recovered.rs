@@ -137,7 +137,7 @@ impl RunOutput {
     pub fn field_dir(&self) -> PathBuf {
         let (fit, old) = (&self.report["fit"]["rounds"], &self.report["rounds"]);
         let rounds = fit.as_array().or(old.as_array()).map_or(0, Vec::len);
-        crate::rounds::train_dir(&self.dir, rounds as u32)
+        crate::trained::train_dir(&self.dir, rounds as u32)
     }
 
     /// Loads the recovered material field (runs of the `fipt` method), through the trainer
@@ -151,13 +151,13 @@ impl RunOutput {
             );
         }
         let dir = self.field_dir();
-        if let Some(why) = crate::train::field_changed(&dir) {
+        if let Some(why) = crate::trained::field_changed(&dir) {
             bail!(
                 "{why}: run `fipt run` on {} again (it trains that round again and redoes what follows)",
                 self.dir.display()
             );
         }
-        let manifest: crate::train::TrainManifest =
+        let manifest: crate::trained::TrainManifest =
             fipt_core::fsutil::read_json(&dir.join("manifest.json"))
                 .with_context(|| format!("reading the training round in {}", dir.display()))?;
         let trainer = (components.trainer(&manifest.trainer, &manifest.config))

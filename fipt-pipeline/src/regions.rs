@@ -1,12 +1,11 @@
 //! Material regions of the training pixels for the search: the scene's part ids (`IndexMA/`),
 //! its semantic classes (`segmentation/`), or smooth patches of the mesh.
 use crate::bail;
-use crate::error::{Context, Result};
+use crate::error::Result;
 use crate::scene::SceneRef;
 use fipt_core::dataset::GtKind;
 use fipt_search::RegionSource;
 use fipt_shading::records::HitPoint;
-use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 /// Dense region ids per training pixel (`ids[v][i]`, None: no region), the label of each
@@ -23,27 +22,8 @@ impl Regions {
     }
 }
 
-/// The id maps (`IndexMA/` or `segmentation/`) of every training view, in view order.
-pub fn split_ids(scene: &SceneRef, kind: GtKind) -> Result<Vec<Vec<i64>>> {
-    let all: Vec<usize> = (0..scene.ds.train().views.len()).collect();
-    view_ids(scene, kind, &all)
-}
-
-/// The id maps of the training views `views`, in their order (read in parallel).
-fn view_ids(scene: &SceneRef, kind: GtKind, views: &[usize]) -> Result<Vec<Vec<i64>>> {
-    let split = scene.ds.train();
-    views
-        .par_iter()
-        .copied()
-        .map(|k| {
-            scene
-                .ds
-                .load_ids(split, kind, k)
-                .map(|v| v.unwrap_or_default())
-        })
-        .collect::<Result<Vec<_>, _>>()
-        .with_context(|| format!("reading the ids in {}/", kind.folder()))
-}
+pub use crate::segments::split_ids;
+use crate::segments::view_ids;
 
 /// The regions `source` asks for (None for `none`).
 pub fn load(

@@ -232,7 +232,7 @@ fn exact_maps(
             emission.insert(*t, glam::Vec3::from(*l));
         }
     }
-    crate::train::export_views(
+    crate::maps::export_views(
         field,
         geometry,
         &views,

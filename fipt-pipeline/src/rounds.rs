@@ -10,15 +10,9 @@ use fipt_core::shading::ShadingRefiner;
 use fipt_shading::records::HitPoint;
 use glam::Vec3;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// The folder of the training after `round` refinements: `train`, then `train1`, `train2`, …
-pub fn train_dir(out: &Path, round: u32) -> PathBuf {
-    match round {
-        0 => out.join("train"),
-        r => out.join(format!("train{r}")),
-    }
-}
+pub use crate::trained::train_dir;
 
 /// The share of a refinement's secondary rays that met surfaces whose light the field's
 /// materials decide (grown through glossy or unobserved rough surfaces), from its report

@@ -6,7 +6,7 @@ use crate::error::{Result, RunError};
 use crate::names::Kind;
 pub use crate::outputs::{RunOutcome, RunSummary};
 pub use crate::request::{lock, RunRequest};
-pub use crate::rounds::RoundsConfig;
+pub use crate::run_config::RoundsConfig;
 pub use crate::run_config::{ModelConfig, PipelineConfig, ReRenderConfig, RunConfig};
 
 /// `fipt run`: the configured method's stages, each reused when done, into `a.out`.

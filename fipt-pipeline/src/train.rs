@@ -1,28 +1,22 @@
 //! `fipt train <scene> --out OUT`: fit the material field to the bake in OUT/bake, write the
 //! checkpoint to OUT/train/ and per-view maps to OUT/train/views/<split>/.
 use crate::bail;
-use crate::error::{Context, Result};
+use crate::error::Result;
+pub use crate::maps::export_views;
 use crate::observe::{bar, Stage};
 use crate::run_config::RunConfig;
 use crate::scene::SceneRef;
 use crate::search::Searched;
 use crate::train_set::{build_set, second_sides, segment_ids, BuiltSet};
-use fipt_bake::bake::primary_records;
+pub use crate::trained::{field_changed, TrainManifest, FIELD_FILE};
 use fipt_bake::bake_store::{fingerprint, load_for_inputs, load_if_current, StoredShadings};
-use fipt_core::dataset::View;
 use fipt_core::field::MaterialField;
 use fipt_core::fsutil::{read_json, write_json_atomic};
-use fipt_core::image::{BadPixelPolicy, ExrPrecision, Image};
+use fipt_core::image::BadPixelPolicy;
 use fipt_core::presets::Presets;
-use fipt_core::shading::ViewShadings;
 use fipt_core::trainer::{FieldTrainer, TrainRound};
-use fipt_geom::Geometry;
-use fipt_neural::train::render_factorized;
 use fipt_neural::{NeuralField, TrainConfig};
 pub use fipt_shading::records::view_points;
-use glam::Vec3;
-use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// `fipt train`: the training alone, on the bake in `out/bake/`.
@@ -40,92 +34,6 @@ pub struct TrainRequest {
     pub bad_pixels: BadPixelPolicy,
     /// Train afresh even if a finished or resumable run exists.
     pub force: bool,
-}
-
-/// What a finished training stage wrote, read back by later runs (written last).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct TrainManifest {
-    pub inputs: String,
-    /// [`request_key`]: what decided this training before its set was built (empty in
-    /// manifests written before it existed).
-    #[serde(default)]
-    pub request: String,
-    /// The trainer (`[pipeline] trainer`; `hash-grid` in manifests written before trainers
-    /// were chosen by name).
-    #[serde(default = "hash_grid")]
-    pub trainer: String,
-    /// The settings the training ran with, as the trainer sized them for the set.
-    pub config: serde_json::Value,
-    /// [`TrainManifest::fingerprint`], computed when the training finished (a float read back
-    /// from JSON may differ in its last bit, so it is not recomputed from `config`; empty in
-    /// manifests written before 2026-11-28, whose fingerprint is recomputed as it was then).
-    #[serde(default)]
-    pub fingerprint: String,
-    pub pixels: usize,
-    /// Hit pixels that `train.set_cap` left out of the training set.
-    #[serde(default)]
-    pub pixels_left_out: usize,
-    /// Training pixels over [`fipt_core::training_set::UNREFLECTABLE`]× brighter than any
-    /// reflection their shadings allow (a light's); with `emitter_material = false` they train
-    /// the emission mask only.
-    #[serde(default)]
-    pub pixels_lights: usize,
-    pub seconds: f64,
-    /// What the trainer said it did (the hash-grid trainer: parameters, steps/s, timings,
-    /// last losses).
-    #[serde(default)]
-    pub report: serde_json::Value,
-    /// The files of the round's folder that hold the field.
-    #[serde(default = "field_files")]
-    pub field_files: Vec<String>,
-    /// The content hash of `field_files` when the training finished, checked before the field
-    /// is reused or rendered (empty in manifests written before it existed: not checked).
-    #[serde(default)]
-    pub field_hash: String,
-}
-
-fn hash_grid() -> String {
-    crate::names::HASH_GRID_TRAINER.to_string()
-}
-
-fn field_files() -> Vec<String> {
-    vec![FIELD_FILE.to_string()]
-}
-
-/// Why the field in `dir` is not the one its training wrote (None when it is, or when its
-/// manifest records no hash).
-pub fn field_changed(dir: &Path) -> Option<String> {
-    let m = read_json::<TrainManifest>(&dir.join("manifest.json")).ok()?;
-    let files: Vec<PathBuf> = m.field_files.iter().map(|f| dir.join(f)).collect();
-    let now = fipt_core::fsutil::hash_files(&files).unwrap_or_else(|e| e.to_string());
-    (!m.field_hash.is_empty() && now != m.field_hash).then(|| {
-        format!(
-            "{} was changed after its training wrote it (content hash {now}, recorded {})",
-            files.first().map_or(dir, |f| f.as_path()).display(),
-            m.field_hash
-        )
-    })
-}
-
-/// The hash-grid trainer's field file in a training folder.
-pub use fipt_neural::trainer::FIELD_FILE;
-
-impl TrainManifest {
-    /// What the trained field is a function of: its inputs, trainer and settings (training
-    /// is deterministic). Later stages key on it.
-    pub fn fingerprint(&self) -> String {
-        if !self.fingerprint.is_empty() {
-            return self.fingerprint.clone();
-        }
-        // Written before trainers were plug-ins: the hash-grid trainer's settings, hashed as
-        // they were then (typed, in their fields' order), so that the stages after it are reused.
-        let typed = serde_json::from_value::<TrainConfig>(self.config.clone());
-        let cfg = typed.map_or_else(
-            |_| self.config.to_string(),
-            |c| serde_json::to_string(&c).unwrap_or_default(),
-        );
-        fipt_core::fsutil::hash_bytes(format!("{}|{cfg}", self.inputs).as_bytes())
-    }
 }
 
 /// The fingerprint of a training of `inputs` by `trainer` with `settings`.
@@ -521,93 +429,4 @@ fn train_and_record(
     };
     write_json_atomic(&dir.join("manifest.json"), &manifest)?;
     Ok((trained.field, manifest))
-}
-
-/// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view,
-/// `_emission.exr` (emitted radiance of the given emitter triangles) when `emission` is given, and
-/// `_render.exr` where shadings exist: the trained model's prediction
-/// (1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT.
-pub fn export_views(
-    field: &dyn MaterialField,
-    geometry: &Geometry,
-    views: &[View],
-    factorized: Option<(&NeuralField, &[ViewShadings], &[Image])>,
-    emission: Option<&HashMap<u32, Vec3>>,
-    observed: Option<&fipt_search::CellCounts>,
-    radiance_scale: f32,
-    dir: &Path,
-) -> Result<()> {
-    for (vi, v) in views.iter().enumerate() {
-        let (w, h) = (v.camera.width, v.camera.height);
-        let recs = primary_records(geometry, v);
-        let hit: Vec<usize> = (0..w * h).filter(|&i| recs[i].is_some()).collect();
-        let pts: Vec<Vec3> = hit.iter().map(|&i| recs[i].unwrap().hit.p).collect();
-        let mats = field.materials(&pts).context("querying the field")?;
-        let alpha = field.emission_mask(&pts).context("querying the field")?;
-        let mut maps: Vec<(&str, Image)> = ["kd", "ks", "roughness", "metallic", "emission_mask"]
-            .iter()
-            .map(|n| (*n, Image::new(w, h)))
-            .collect();
-        for (j, &i) in hit.iter().enumerate() {
-            let m = &mats[j];
-            maps[0].1.data[i] = m.kd();
-            maps[1].1.data[i] = m.ks();
-            maps[2].1.data[i] = Vec3::splat(m.roughness);
-            maps[3].1.data[i] = Vec3::splat(m.metallic);
-            maps[4].1.data[i] = Vec3::splat(alpha[j]);
-        }
-        if let Some(em) = emission {
-            let mut img = Image::new(w, h);
-            for &i in &hit {
-                if let Some(l) = em.get(&recs[i].unwrap().hit.tri) {
-                    img.data[i] = *l;
-                }
-            }
-            maps.push(("emission", img));
-        }
-        if let Some(counts) = observed {
-            let mut img = Image::new(w, h);
-            for &i in &hit {
-                img.data[i] = Vec3::splat(counts.count(recs[i].unwrap().hit.p) as f32);
-            }
-            maps.push(("observed", img));
-        }
-        if let Some((field, sh, imgs)) = factorized {
-            let s = &sh[vi];
-            let idx: Vec<usize> = hit.iter().copied().filter(|&i| s.valid[i]).collect();
-            let unit = field.to_unit(
-                &idx.iter()
-                    .map(|&i| recs[i].unwrap().hit.p)
-                    .collect::<Vec<_>>(),
-            );
-            let (render, al) = render_factorized(field, &unit, s, &idx)?;
-            let mut img = Image::new(w, h);
-            for (j, &i) in idx.iter().enumerate() {
-                let r = Vec3::from(render[j]);
-                img.data[i] = r * (1.0 - al[j]) + imgs[vi].data[i] * al[j];
-            }
-            maps.push(("render", img));
-        }
-        for (name, img) in &mut maps {
-            let k = v.index;
-            let radiance = matches!(*name, "emission" | "render");
-            if radiance && radiance_scale != 1.0 {
-                for p in &mut img.data {
-                    *p *= radiance_scale;
-                }
-            }
-            img.write_exr(&dir.join(format!("{k:03}_{name}.exr")), ExrPrecision::F32)?;
-            // Counts: white at 64 training pixels a cell; radiance at the working exposure.
-            let exposure = match *name {
-                "observed" => 1.0 / 64.0,
-                _ if radiance => 1.0 / radiance_scale,
-                _ => 1.0,
-            };
-            img.write_png(
-                &dir.join("preview").join(format!("{k:03}_{name}.png")),
-                exposure,
-            )?;
-        }
-    }
-    Ok(())
 }

@@ -1,0 +1,104 @@
+//! The per-view maps every run writes (`views/<split>/`): kd, ks, roughness, metallic,
+//! emission mask and emission, the observation counts, the factorised re-render where
+//! shadings exist.
+use crate::error::{Context, Result};
+use fipt_bake::bake::primary_records;
+use fipt_core::dataset::View;
+use fipt_core::field::MaterialField;
+use fipt_core::image::{ExrPrecision, Image};
+use fipt_core::shading::ViewShadings;
+use fipt_geom::Geometry;
+use fipt_neural::train::render_factorized;
+use fipt_neural::NeuralField;
+use glam::Vec3;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view,
+/// `_emission.exr` (emitted radiance of the given emitter triangles) when `emission` is given, and
+/// `_render.exr` where shadings exist: the trained model's prediction
+/// (1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT.
+pub fn export_views(
+    field: &dyn MaterialField,
+    geometry: &Geometry,
+    views: &[View],
+    factorized: Option<(&NeuralField, &[ViewShadings], &[Image])>,
+    emission: Option<&HashMap<u32, Vec3>>,
+    observed: Option<&fipt_search::CellCounts>,
+    radiance_scale: f32,
+    dir: &Path,
+) -> Result<()> {
+    for (vi, v) in views.iter().enumerate() {
+        let (w, h) = (v.camera.width, v.camera.height);
+        let recs = primary_records(geometry, v);
+        let hit: Vec<usize> = (0..w * h).filter(|&i| recs[i].is_some()).collect();
+        let pts: Vec<Vec3> = hit.iter().map(|&i| recs[i].unwrap().hit.p).collect();
+        let mats = field.materials(&pts).context("querying the field")?;
+        let alpha = field.emission_mask(&pts).context("querying the field")?;
+        let mut maps: Vec<(&str, Image)> = ["kd", "ks", "roughness", "metallic", "emission_mask"]
+            .iter()
+            .map(|n| (*n, Image::new(w, h)))
+            .collect();
+        for (j, &i) in hit.iter().enumerate() {
+            let m = &mats[j];
+            maps[0].1.data[i] = m.kd();
+            maps[1].1.data[i] = m.ks();
+            maps[2].1.data[i] = Vec3::splat(m.roughness);
+            maps[3].1.data[i] = Vec3::splat(m.metallic);
+            maps[4].1.data[i] = Vec3::splat(alpha[j]);
+        }
+        if let Some(em) = emission {
+            let mut img = Image::new(w, h);
+            for &i in &hit {
+                if let Some(l) = em.get(&recs[i].unwrap().hit.tri) {
+                    img.data[i] = *l;
+                }
+            }
+            maps.push(("emission", img));
+        }
+        if let Some(counts) = observed {
+            let mut img = Image::new(w, h);
+            for &i in &hit {
+                img.data[i] = Vec3::splat(counts.count(recs[i].unwrap().hit.p) as f32);
+            }
+            maps.push(("observed", img));
+        }
+        if let Some((field, sh, imgs)) = factorized {
+            let s = &sh[vi];
+            let idx: Vec<usize> = hit.iter().copied().filter(|&i| s.valid[i]).collect();
+            let unit = field.to_unit(
+                &idx.iter()
+                    .map(|&i| recs[i].unwrap().hit.p)
+                    .collect::<Vec<_>>(),
+            );
+            let (render, al) = render_factorized(field, &unit, s, &idx)?;
+            let mut img = Image::new(w, h);
+            for (j, &i) in idx.iter().enumerate() {
+                let r = Vec3::from(render[j]);
+                img.data[i] = r * (1.0 - al[j]) + imgs[vi].data[i] * al[j];
+            }
+            maps.push(("render", img));
+        }
+        for (name, img) in &mut maps {
+            let k = v.index;
+            let radiance = matches!(*name, "emission" | "render");
+            if radiance && radiance_scale != 1.0 {
+                for p in &mut img.data {
+                    *p *= radiance_scale;
+                }
+            }
+            img.write_exr(&dir.join(format!("{k:03}_{name}.exr")), ExrPrecision::F32)?;
+            // Counts: white at 64 training pixels a cell; radiance at the working exposure.
+            let exposure = match *name {
+                "observed" => 1.0 / 64.0,
+                _ if radiance => 1.0 / radiance_scale,
+                _ => 1.0,
+            };
+            img.write_png(
+                &dir.join("preview").join(format!("{k:03}_{name}.png")),
+                exposure,
+            )?;
+        }
+    }
+    Ok(())
+}
