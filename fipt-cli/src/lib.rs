@@ -24,11 +24,12 @@ mod train;
 pub use clap::{Parser, Subcommand};
 pub use fipt_pipeline::{describe, Components};
 
-/// The `fipt` binary's components: the pipeline's built-ins (`fipt`, `slf`, `path-grown`,
-/// `mask`) and the inverse-path-tracing baseline `ipt`, registered by `fipt-ipt` as a plug-in
-/// from outside registers its own.
+/// The `fipt` binary's components: the pipeline's built-ins (`slf`, `path-grown`, `hash-grid`,
+/// `mask`), FIPT's method `fipt` (registered by `fipt-method`) and the inverse-path-tracing
+/// baseline `ipt` (registered by `fipt-ipt`), each registered as a plug-in from outside
+/// registers its own.
 pub fn components() -> Components {
-    fipt_ipt::register(Components::builtin())
+    fipt_ipt::register(fipt_method::register(Components::builtin()))
 }
 
 #[derive(Parser)]

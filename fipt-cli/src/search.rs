@@ -2,7 +2,7 @@
 //! ground truth's base colour beside the fitted one when the scene has it).
 use crate::info::Policy;
 use anyhow::Result;
-use fipt_pipeline::search::{given_summary, profile_rows, ProfileRequest};
+use fipt_method::search::{given_summary, profile_rows, ProfileRequest};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

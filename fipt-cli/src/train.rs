@@ -2,7 +2,7 @@
 //! checkpoint to OUT/train/ and per-view maps to OUT/train/views/<split>/.
 use crate::info::Policy;
 use anyhow::Result;
-use fipt_pipeline::train::TrainRequest;
+use fipt_method::train::TrainRequest;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -32,7 +32,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
-    let dir = fipt_pipeline::train::train_only(
+    let dir = fipt_method::train::train_only(
         TrainRequest {
             scene: a.scene,
             out: a.out,

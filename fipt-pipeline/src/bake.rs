@@ -213,7 +213,7 @@ pub fn stage(
 
 /// Why shadings computed for the pixels `stored` draws cannot serve a stage that reads those
 /// `wanted` draws (None when they can).
-pub(crate) fn uncovered(stored: &PixelDraw, wanted: &PixelDraw) -> Option<String> {
+pub fn uncovered(stored: &PixelDraw, wanted: &PixelDraw) -> Option<String> {
     (!stored.covers(wanted))
         .then(|| format!("it holds {stored} of the hit pixels; this run reads {wanted}"))
 }

@@ -91,11 +91,6 @@ enum Tables {
     Several(&'static [&'static str]),
 }
 
-/// FIPT's tables: its own `[search]` and `[rounds]`, and what it reads of `[train]` (the
-/// training set's share, seed and targets, the steps asked), `[refine]` (`rough_threshold`) and
-/// `[model]` whichever trainer and refiner run.
-pub const FIPT_TABLES: &[&str] = &["search", "rounds", "train", "refine", "model"];
-
 impl Components {
     /// The components of the `fipt` binary.
     pub fn builtin() -> Self {
@@ -137,14 +132,6 @@ impl Components {
                 Ok(Box::new(fipt_neural::HashGridTrainer::new(config)?))
             }),
         )
-        .with_fitter(
-            FIPT_METHOD,
-            "bake, search, train, emitters, refine rounds (settings: [bake], [search], [train], [rounds], [refine], [emitters])",
-            Box::new(|v, _preset| {
-                let settings = serde_json::from_value(v.clone())?;
-                Ok(Box::new(crate::fipt_method::Fipt::new(settings)))
-            }),
-        )
         .with_extractor(
             MASK_EXTRACTOR,
             "the trained emission mask averaged per triangle, radiance medians, connected lights (settings: [emitters])",
@@ -154,7 +141,6 @@ impl Components {
                 Ok(Box::new(fipt_emitter::MaskExtractor { config }))
             }),
         )
-        .in_tables(Kind::Method, FIPT_METHOD, FIPT_TABLES)
         .in_section(Kind::Baker, SLF_BAKER, "bake")
         .in_section(Kind::Refiner, PATH_GROWN_REFINER, "refine")
         .in_section(Kind::Trainer, HASH_GRID_TRAINER, "train")
@@ -171,7 +157,7 @@ impl Components {
 
     /// Gives the registered component `name` of `kind` the run config's tables `tables`, as
     /// one object keyed by table, for its settings.
-    fn in_tables(mut self, kind: Kind, name: &str, tables: &'static [&'static str]) -> Self {
+    pub fn with_tables(mut self, kind: Kind, name: &str, tables: &'static [&'static str]) -> Self {
         self.sections
             .insert((kind, name.to_string()), Tables::Several(tables));
         self

@@ -170,7 +170,7 @@ fn load_checked(
 }
 
 /// The caveats of the components whose work a run uses, without repeats, as one sentence.
-pub(crate) fn caveats(lists: impl IntoIterator<Item = Vec<String>>) -> Option<String> {
+pub fn caveats(lists: impl IntoIterator<Item = Vec<String>>) -> Option<String> {
     let mut all: Vec<String> = vec![];
     for c in lists.into_iter().flatten() {
         if !all.contains(&c) {

@@ -4,31 +4,23 @@
 //! chooses by name from its tagged config.
 //!
 //! It sees components only through the traits (`ShadingBaker`, `ShadingRefiner`,
-//! `EmitterExtractor`, `MaterialFitter`, `MaterialField`); it prints nothing (what it has to
+//! `EmitterExtractor`, `FieldTrainer`, `MaterialFitter`, `MaterialField`); it prints nothing (what it has to
 //! say goes to the [`observe::Observer`] the program installs). The `fipt` binary (fipt-cli)
 //! parses arguments into a [`run::RunRequest`], calls [`run::run`] and prints the
-//! [`run::RunSummary`]; a program of one's own does the same:
-//!
-//! ```no_run
-//! use fipt_pipeline::run::{run, RunOutcome, RunRequest};
-//! let request = RunRequest::new("scenes/room", "out/room", "fast");
-//! if let RunOutcome::Finished(s) = run(&request, &fipt_pipeline::Components::builtin())? {
-//!     println!("{} lights in {:.0} s", s.lights, s.seconds);
-//! }
-//! # Ok::<(), fipt_pipeline::RunError>(())
-//! ```
+//! [`run::RunSummary`]. The host knows no method: `Components::builtin()` holds the default
+//! baker, refiner, trainer and extractor, and a method registers itself as a plug-in does
+//! (FIPT's `fipt_method::register`, IPT's `fipt_ipt::register`; the `fipt` binary's
+//! `fipt_cli::components()` has both). A program of one's own does the same as the binary
+//! (see `fipt_method`'s example).
 pub mod bake;
 use fipt_capture::capture;
 pub mod components;
 pub use fipt_run::config;
 #[cfg(test)]
 mod config_tests;
-mod draw;
 use fipt_eval::eval;
 pub use fipt_run::error;
 pub mod eval_at;
-pub mod fipt_memory;
-pub mod fipt_method;
 pub mod fit;
 pub mod maps;
 pub mod memory;
@@ -39,21 +31,15 @@ pub use fipt_run::observe;
 pub mod outputs;
 mod parent;
 pub mod recovered;
-pub mod refine;
-pub mod regions;
 pub mod render;
 pub mod report;
 pub mod request;
-pub mod rounds;
 pub mod run;
 pub mod run_config;
 use fipt_capture::scene;
-pub mod search;
 pub mod shard;
 pub mod sweep;
 use fipt_eval::sweep_plot;
-pub mod train;
-pub(crate) mod train_set;
 
 pub use components::Components;
 pub use fipt_run::{bail, err, note};

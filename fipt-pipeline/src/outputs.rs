@@ -70,7 +70,7 @@ pub(crate) fn computed_total(stages: &[StageReport]) -> Option<f64> {
 }
 
 /// Whether the scene has ground truth to evaluate against (`DiffCol/` in a split).
-pub(crate) fn has_ground_truth(ds: &fipt_core::dataset::Dataset) -> bool {
+pub fn has_ground_truth(ds: &fipt_core::dataset::Dataset) -> bool {
     ds.splits
         .iter()
         .any(|s| s.has_gt(fipt_core::dataset::GtKind::DiffCol))
@@ -583,7 +583,7 @@ pub(crate) fn max_reflected_view(sh: &fipt_core::shading::ViewShadings) -> Vec<O
 /// Emitter extraction from the field's mask and the training pixels (with what the initial
 /// shadings say each pixel could at most reflect, [`max_reflected_view`]). The pixels are built
 /// one view at a time as the extractor visits them ([`TrainingHits`]).
-pub(crate) fn extract_emitters(
+pub fn extract_emitters(
     scene: &crate::scene::SceneRef,
     records: &[Vec<Option<HitPoint>>],
     field: &dyn fipt_core::field::MaterialField,

@@ -12,7 +12,7 @@ pub fn split_ids(scene: &SceneRef, kind: GtKind) -> Result<Vec<Vec<i64>>> {
 }
 
 /// The id maps of the training views `views`, in their order (read in parallel).
-pub(crate) fn view_ids(scene: &SceneRef, kind: GtKind, views: &[usize]) -> Result<Vec<Vec<i64>>> {
+pub fn view_ids(scene: &SceneRef, kind: GtKind, views: &[usize]) -> Result<Vec<Vec<i64>>> {
     let split = scene.ds.train();
     views
         .par_iter()

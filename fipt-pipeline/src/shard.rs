@@ -11,7 +11,7 @@ use std::path::Path;
 
 /// Refuses a per-view stage whose component (`what` `name`) handed over `written` views when
 /// `shard` of `views` asked for another number.
-pub(crate) fn check_handed_over(
+pub fn check_handed_over(
     what: &str,
     name: &str,
     written: usize,

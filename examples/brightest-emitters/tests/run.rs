@@ -2,14 +2,14 @@
 //! "brightest"` finds the ceiling light (its 2 triangles, radiance (17, 12, 4)) and the report
 //! names the component; an unknown setting is an error naming it.
 use brightest_emitters::register;
-use fipt_cli::{run_args, Components};
+use fipt_cli::run_args;
 
 #[test]
 fn the_plugged_extractor_finds_the_light_through_fipt_run() {
     let dir = std::env::temp_dir().join(format!("fipt-plugin-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let (scene, out) = (dir.join("scene"), dir.join("out"));
-    let c = register(Components::builtin());
+    let c = register(fipt_cli::components());
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
     run_args(
         [
@@ -89,7 +89,7 @@ fn the_plugged_extractor_finds_the_light_through_fipt_run() {
             "--config",
             &s(&cfg),
         ],
-        &Components::builtin(),
+        &fipt_cli::components(),
     )
     .unwrap_err();
     assert!(format!("{err:#}").contains("not registered"), "{err:#}");

@@ -47,7 +47,7 @@ fn the_external_model_runs_through_fipt_run_and_recovers_its_albedo() {
     let dir = std::env::temp_dir().join(format!("fipt-oren-nayar-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let scene = dir.join("scene");
-    let c = register(Components::builtin());
+    let c = register(fipt_cli::components());
     let synth = [
         "fipt",
         "synth",

@@ -20,7 +20,7 @@ fn setup(name: &str, head: &str) -> Setup {
     let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let (scene, out, cfg) = (dir.join("scene"), dir.join("out"), dir.join("run.toml"));
-    let c = register(Components::builtin());
+    let c = register(fipt_cli::components());
     let size = [
         "--views",
         "8",
@@ -255,7 +255,7 @@ fn the_plugged_trainer_runs_in_fipts_rounds_and_reloads_its_field() {
     ];
     run_args(export, &c).unwrap();
     assert!(std::fs::read_dir(&glb).unwrap().count() > 0);
-    let err = run_args(export, &Components::builtin()).unwrap_err();
+    let err = run_args(export, &fipt_cli::components()).unwrap_err();
     assert!(format!("{err:#}").contains("voxel-table"), "{err:#}");
     // `fipt train` trains with the run config's trainer (on the bake alone: no search
     // targets); the maps come without the hash-grid field's factorised re-render, and `--steps`

@@ -1,4 +1,4 @@
-//! The pipeline without the CLI: a run through `fipt_pipeline::run::run` on a tiny generated
+//! The pipeline without the CLI, FIPT registered by its crate: a run through `fipt_pipeline::run::run` on a tiny generated
 //! scene, heard by an observer of our own; a second run reuses every stage.
 use fipt_pipeline::observe::{Observer, ProgressSink};
 use fipt_pipeline::run::{run, RunOutcome, RunRequest};
@@ -56,7 +56,9 @@ fn a_run_through_the_library_is_heard_and_reused() {
     let mut request = RunRequest::new(&scene, dir.join("out"), "fast");
     request.config = Some(config);
 
-    let RunOutcome::Finished(first) = run(&request, &Components::builtin()).unwrap() else {
+    let RunOutcome::Finished(first) =
+        run(&request, &fipt_method::register(Components::builtin())).unwrap()
+    else {
         panic!("an unsharded run finishes");
     };
     assert_eq!(first.method, "fipt");
@@ -89,7 +91,9 @@ fn a_run_through_the_library_is_heard_and_reused() {
     assert!(take(&heard.notes).iter().any(|n| n.starts_with("light 0:")));
 
     // Again: the bake and the training are reused, not redone.
-    let RunOutcome::Finished(_) = run(&request, &Components::builtin()).unwrap() else {
+    let RunOutcome::Finished(_) =
+        run(&request, &fipt_method::register(Components::builtin())).unwrap()
+    else {
         panic!("finishes");
     };
     let notes = take(&heard.notes);

@@ -23,7 +23,7 @@ pub struct Fipt {
     settings: FiptSettings,
 }
 
-/// FIPT's settings: the run config's tables [`crate::components::FIPT_TABLES`], read by its
+/// FIPT's settings: the run config's tables [`crate::FIPT_TABLES`], read by its
 /// factory. The baker, refiner, trainer and extractor read their own ([`FitParts`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -123,7 +123,7 @@ struct On<'a> {
 fn fit_rounds(on: &On, parts: FitParts, mark: &dyn Fn(&'static str, Instant)) -> Result<Fitted> {
     let (a, cfg, scene) = (on.run, on.cfg, on.scene);
     let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
-    let memory = crate::fipt_memory::check(pixels, cfg)?;
+    let memory = crate::memory::check(pixels, cfg)?;
     let caveats = crate::fit::caveats([parts.baker.caveats(), parts.refiner.caveats()]);
     if let Some(c) = &caveats {
         crate::note!("{c}");
