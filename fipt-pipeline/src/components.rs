@@ -232,10 +232,15 @@ impl Components {
         preset: &str,
     ) -> Result<Box<dyn MaterialFitter>> {
         let Some(e) = self.fitters.get(name) else {
-            bail!(
-                "[pipeline] method = \"{name}\" is not registered (this binary has: {})",
-                self.method_names().join(", ")
-            );
+            let has = match self.method_names() {
+                names if names.is_empty() => {
+                    "none: a method registers itself, e.g. \
+                    `fipt_method::register(Components::builtin())`, or use `fipt_cli::components()`"
+                        .to_string()
+                }
+                names => names.join(", "),
+            };
+            bail!("[pipeline] method = \"{name}\" is not registered (this binary has: {has})");
         };
         (e.factory)(settings, preset)
             .map_err(|err| crate::err!("settings of method `{name}`: {err:#}"))
@@ -422,5 +427,17 @@ mod tests {
         bad["stepz"] = 3.into();
         let err = format!("{:#}", c.trainer("hash-grid", &bad).err().unwrap());
         assert!(err.contains("stepz"), "{err}");
+    }
+
+    /// The host registers no method: asking for one says how to register it.
+    #[test]
+    fn the_host_knows_no_method() {
+        let c = Components::builtin();
+        assert!(c.method_names().is_empty());
+        let err = c
+            .fitter("fipt", &serde_json::json!({}), "fast")
+            .err()
+            .unwrap();
+        assert!(err.to_string().contains("fipt_method::register"), "{err}");
     }
 }

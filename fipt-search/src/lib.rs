@@ -1,5 +1,5 @@
 //! `fipt-search`: FIPT's material search over the factorised shadings (the algorithm; the run's
-//! stage around it, with its caches and regions, is `fipt_pipeline::search`). It imports the
+//! stage around it, with its caches and regions, is `fipt_method::search`). It imports the
 //! shadings' types and the primary hits, never the pipeline: per region, the image loss as a function of
 //! roughness σ and metallic m, and the (σ, m) it prefers.
 //!
