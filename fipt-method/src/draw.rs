@@ -18,7 +18,7 @@ use fipt_shading::records::HitPoint;
 pub(crate) fn plan(
     scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
-    cfg: &crate::method::FiptSettings,
+    cfg: &crate::settings::FiptSettings,
 ) -> Result<PixelDraw> {
     let hits: usize = records.iter().map(|r| r.iter().flatten().count()).sum();
     let train = crate::train_set::drawn_share(scene, &cfg.train, hits);

@@ -23,10 +23,12 @@ pub mod refine;
 pub mod regions;
 pub mod rounds;
 pub mod search;
+pub mod settings;
 pub mod train;
 pub(crate) mod train_set;
 
-pub use method::{Fipt, FiptSettings};
+pub use method::Fipt;
+pub use settings::FiptSettings;
 
 use fipt_capture::scene;
 use fipt_eval::eval;

@@ -11,7 +11,7 @@ use fipt_core::memory::{available_bytes, gib};
 use fipt_core::shading::NUM_LEVELS;
 
 /// Estimated bytes of a run on `pixels` training pixels, by part.
-pub fn estimate(pixels: u64, cfg: &crate::method::FiptSettings) -> Vec<(&'static str, u64)> {
+pub fn estimate(pixels: u64, cfg: &crate::settings::FiptSettings) -> Vec<(&'static str, u64)> {
     let poly = cfg.model.brdf.diffuse_depends_on_roughness() as u64;
     // Ld, Ld1/Ld2 for principled, Ls0 and Ls1 at every level.
     let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
@@ -42,7 +42,7 @@ pub fn estimate(pixels: u64, cfg: &crate::method::FiptSettings) -> Vec<(&'static
 }
 
 /// Refuses a run whose estimate exceeds the memory available.
-pub fn check(pixels: u64, cfg: &crate::method::FiptSettings) -> Result<u64> {
+pub fn check(pixels: u64, cfg: &crate::settings::FiptSettings) -> Result<u64> {
     let parts = estimate(pixels, cfg);
     let total: u64 = parts.iter().map(|p| p.1).sum();
     let Some(avail) = available_bytes() else {
@@ -74,8 +74,8 @@ pub fn check(pixels: u64, cfg: &crate::method::FiptSettings) -> Result<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::FiptSettings;
     use crate::run_config::RunConfig;
+    use crate::settings::FiptSettings;
 
     fn part(parts: &[(&'static str, u64)], name: &str) -> u64 {
         parts.iter().find(|p| p.0 == name).unwrap().1

@@ -6,48 +6,17 @@
 use crate::error::{Result, RunError};
 use crate::outputs::{extract_emitters, has_ground_truth};
 use crate::rounds::{planned_rounds, Rounds, RoundsContext};
-use crate::run_config::{ModelConfig, RoundsConfig, RunConfig};
 use crate::scene::SceneRef;
+use crate::settings::FiptSettings;
 use crate::shard::Sharding;
-use fipt_bake::refine::RefineConfig;
 use fipt_core::fit::{FitInputs, FitParts, Fitted, MaterialFitter};
 use fipt_core::shading::{PixelDraw, Progress, Scope};
-use fipt_neural::TrainConfig;
-use fipt_search::SearchConfig;
 use fipt_shading::records::{hit_points_and_footprint, HitPoint};
-use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// FIPT's rounds, on what [`FitInputs`] holds (its scene, [`FitInputs::scene`], included).
 pub struct Fipt {
     settings: FiptSettings,
-}
-
-/// FIPT's settings: the run config's tables [`crate::FIPT_TABLES`], read by its
-/// factory. The baker, refiner, trainer and extractor read their own ([`FitParts`]).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FiptSettings {
-    pub search: SearchConfig,
-    pub rounds: RoundsConfig,
-    /// The training set's share, seed and targets, the steps asked (whichever trainer runs).
-    pub train: TrainConfig,
-    /// `rough_threshold`: whether the refinement rounds run (whichever refiner runs).
-    pub refine: RefineConfig,
-    pub model: ModelConfig,
-}
-
-impl FiptSettings {
-    /// FIPT's tables of a run config.
-    pub fn of(cfg: &RunConfig) -> Self {
-        FiptSettings {
-            search: cfg.search.clone(),
-            rounds: cfg.rounds.clone(),
-            train: cfg.train.clone(),
-            refine: cfg.refine.clone(),
-            model: cfg.model.clone(),
-        }
-    }
 }
 
 impl Fipt {

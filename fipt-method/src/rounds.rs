@@ -32,7 +32,7 @@ pub(crate) fn field_lit_share(stats: &serde_json::Value) -> Option<f64> {
 
 /// Whether the refinement rounds run (Ok: what they do) or why not (Err).
 pub(crate) fn refine_plan(
-    cfg: &crate::method::FiptSettings,
+    cfg: &crate::settings::FiptSettings,
     emitters: &[Emitter],
     glossy: f64,
 ) -> Result<String, String> {
@@ -58,7 +58,7 @@ pub(crate) fn refine_plan(
 /// What the refinement rounds read.
 pub(crate) struct RoundsContext<'a> {
     pub(crate) scene: &'a crate::scene::SceneRef<'a>,
-    pub(crate) cfg: &'a crate::method::FiptSettings,
+    pub(crate) cfg: &'a crate::settings::FiptSettings,
     pub(crate) out: &'a Path,
     pub(crate) force: bool,
     pub(crate) records: &'a [Vec<Option<HitPoint>>],
