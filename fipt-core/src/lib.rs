@@ -1,6 +1,9 @@
 //! # fipt-core
 //!
-//! The plain data and the contracts of fipt-rs, shared by every other crate:
+//! The plain data and the contracts of fipt-rs, shared by every other crate. The data layers
+//! below it are crates of their own, re-exported here at the same paths: `fipt-data` (the
+//! error, atomic files, colour, images, EXIF, captures' response) and `fipt-dataset`
+//! (cameras, lenses, the scene layouts):
 //!
 //! * [`image::Image`]: linear RGB images with EXR (f32/half, channels by name) and sRGB PNG I/O;
 //! * [`camera::Camera`]: pinhole cameras in both pose conventions users have
@@ -31,36 +34,34 @@
 //! assert!(dir.z > 0.99);
 //! ```
 pub mod brdf;
-pub mod camera;
-pub mod camera_files;
-pub mod capture;
-pub mod capture_layout;
-pub mod chaos;
-pub mod colmap;
-pub mod color;
+pub use fipt_data::capture;
+pub use fipt_data::chaos;
+pub use fipt_data::color;
+pub use fipt_dataset::camera;
+pub use fipt_dataset::camera_files;
+pub use fipt_dataset::capture_layout;
+pub use fipt_dataset::colmap;
 pub mod cube;
-pub mod dataset;
-pub mod distortion;
+pub use fipt_dataset::dataset;
+pub use fipt_dataset::distortion;
 pub mod emitter;
-pub mod error;
-pub mod exif;
+pub use fipt_data::error;
+pub use fipt_data::exif;
 pub mod external_model;
 pub mod field;
 pub mod fit;
-pub mod fsutil;
-pub mod image;
+pub use fipt_data::fsutil;
+pub use fipt_data::image;
 pub mod lock;
 pub mod materials;
 pub mod memory;
 pub mod metrics;
-pub mod nerfstudio;
+pub use fipt_dataset::nerfstudio;
 pub mod presets;
 pub mod range;
 pub mod reflectance;
 pub mod rng;
 pub mod shading;
-#[cfg(test)]
-mod test_temp;
 pub mod trainer;
 pub mod training_set;
 pub mod view_stats;

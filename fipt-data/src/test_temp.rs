@@ -1,11 +1,11 @@
-//! A scratch folder for fipt-core's unit tests, removed when dropped.
+//! A scratch folder for the data crates' unit tests, removed when dropped.
 use std::path::PathBuf;
 
 /// A temporary folder (unique per process, call and time), removed when dropped.
-pub(crate) struct Temp(pub PathBuf);
+pub struct Temp(pub PathBuf);
 
 impl Temp {
-    pub(crate) fn new() -> Temp {
+    pub fn new() -> Temp {
         static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
         let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let t = std::time::SystemTime::now()
