@@ -38,7 +38,7 @@ enum Fit {
 
 pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
     if let Some(cams) = &a.cameras_from {
-        use fipt_pipeline::eval_at::{evaluate_at, render_dir, EvalAtRequest, FitScales};
+        use fipt_eval::eval_at::{evaluate_at, render_dir, EvalAtRequest, FitScales};
         let same = |p: &PathBuf| p.canonicalize().ok();
         if same(cams) != same(&a.scene) {
             anyhow::bail!(

@@ -25,11 +25,12 @@ pub use clap::{Parser, Subcommand};
 pub use fipt_pipeline::{describe, Components};
 
 /// The `fipt` binary's components: the pipeline's built-ins (`slf`, `path-grown`, `hash-grid`,
-/// `mask`), FIPT's method `fipt` (registered by `fipt-method`) and the inverse-path-tracing
-/// baseline `ipt` (registered by `fipt-ipt`), each registered as a plug-in from outside
-/// registers its own.
+/// `mask`), FIPT's method `fipt` (registered by `fipt-method`), the inverse-path-tracing
+/// baseline `ipt` (registered by `fipt-ipt`) and the scoring of runs against ground truth
+/// (registered by `fipt-eval`), each registered as a plug-in from outside registers its own.
 pub fn components() -> Components {
-    fipt_ipt::register(fipt_method::register(Components::builtin()))
+    let methods = fipt_ipt::register(fipt_method::register(Components::builtin()));
+    fipt_eval::register(methods)
 }
 
 #[derive(Parser)]

@@ -1,7 +1,7 @@
 //! `fipt sweep <scene> --out DIR [--grid sweep.toml] [--quick]`: arguments and the printed
-//! table; the grid, the runs and the CSV and plot are `fipt_pipeline::sweep`.
+//! table; the grid, the runs and the CSV and plot are `fipt_eval::sweep`.
 use anyhow::{Context, Result};
-use fipt_pipeline::sweep::{sweep, SweepRequest};
+use fipt_eval::sweep::{sweep, SweepRequest};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

@@ -9,7 +9,8 @@
 //!
 //! ```no_run
 //! use fipt_pipeline::run::{run, RunOutcome, RunRequest};
-//! let components = fipt_method::register(fipt_pipeline::Components::builtin());
+//! let builtin = fipt_pipeline::Components::builtin();
+//! let components = fipt_eval::register(fipt_method::register(builtin));
 //! let request = RunRequest::new("scenes/room", "out/room", "fast");
 //! if let RunOutcome::Finished(s) = run(&request, &components)? {
 //!     println!("{} lights in {:.0} s", s.lights, s.seconds);

@@ -26,7 +26,7 @@ fn a_run_bakes_what_it_reads_and_gets_what_a_whole_bake_gives() {
     // 1,536 pixels: the set keeps 512 (0.01 × 100 × 512), the search 300.
     let extra = "[search]\nmax_pixels = 300\n[train]\nsteps = 100\nbatch = 512\nset_cap = 0.01\n";
     let (scene, config) = common::tiny_run(&dir, 4, extra);
-    let components = fipt_method::register(Components::builtin());
+    let components = fipt_eval::register(fipt_method::register(Components::builtin()));
     let finish = |out: &Path| {
         let mut request = RunRequest::new(&scene, out, "fast");
         request.config = Some(config.clone());

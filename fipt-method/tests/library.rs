@@ -56,9 +56,11 @@ fn a_run_through_the_library_is_heard_and_reused() {
     let mut request = RunRequest::new(&scene, dir.join("out"), "fast");
     request.config = Some(config);
 
-    let RunOutcome::Finished(first) =
-        run(&request, &fipt_method::register(Components::builtin())).unwrap()
-    else {
+    let RunOutcome::Finished(first) = run(
+        &request,
+        &fipt_eval::register(fipt_method::register(Components::builtin())),
+    )
+    .unwrap() else {
         panic!("an unsharded run finishes");
     };
     assert_eq!(first.method, "fipt");
@@ -91,9 +93,11 @@ fn a_run_through_the_library_is_heard_and_reused() {
     assert!(take(&heard.notes).iter().any(|n| n.starts_with("light 0:")));
 
     // Again: the bake and the training are reused, not redone.
-    let RunOutcome::Finished(_) =
-        run(&request, &fipt_method::register(Components::builtin())).unwrap()
-    else {
+    let RunOutcome::Finished(_) = run(
+        &request,
+        &fipt_eval::register(fipt_method::register(Components::builtin())),
+    )
+    .unwrap() else {
         panic!("finishes");
     };
     let notes = take(&heard.notes);

@@ -77,7 +77,18 @@ pub struct Components {
     /// The run config's own table holding a component's settings (the built-ins'; kept when
     /// one is registered again); the others read `[plugins.<name>]`.
     sections: BTreeMap<(Kind, String), Tables>,
+    /// What scores a finished run against the scene's ground truth (`metrics.json`); None:
+    /// no scoring (`fipt_eval::register` adds it).
+    evaluator: Option<Evaluator>,
 }
+
+/// Scores the outputs in a run folder against the scene's ground truth, the views having been
+/// divided by the given exposure scale; writes and returns `metrics.json`.
+pub type Evaluator = Box<
+    dyn Fn(&fipt_core::dataset::Dataset, &std::path::Path, f32) -> Result<serde_json::Value>
+        + Send
+        + Sync,
+>;
 
 pub use crate::names::{
     FIPT_METHOD, HASH_GRID_TRAINER, MASK_EXTRACTOR, PATH_GROWN_REFINER, SLF_BAKER,
@@ -101,6 +112,7 @@ impl Components {
             refiners: BTreeMap::new(),
             trainers: BTreeMap::new(),
             sections: BTreeMap::new(),
+            evaluator: None,
         }
         .with_baker(
             SLF_BAKER,
@@ -199,6 +211,17 @@ impl Components {
                 Ok(serde_json::Value::Object(all))
             }
         }
+    }
+
+    /// Registers (or replaces) what scores a finished run against ground truth.
+    pub fn with_evaluator(mut self, evaluator: Evaluator) -> Self {
+        self.evaluator = Some(evaluator);
+        self
+    }
+
+    /// What scores a finished run, when one is registered.
+    pub fn evaluator(&self) -> Option<&Evaluator> {
+        self.evaluator.as_ref()
     }
 
     /// Registers (or replaces) the emitter extractor `name`.

@@ -229,7 +229,7 @@ pub fn run(
         id,
     };
     write_views(scene, cfg, &a.out, recovered, Some(&observed), &mut mark)?;
-    let metrics = evaluate_if_gt(scene, &a.out, &mut mark)?;
+    let metrics = evaluate_if_gt(scene, &a.out, components.evaluator(), &mut mark)?;
     let stages = stages.take();
     let mut report = report_header(a, scene, cfg, &stages, t_all);
     let what = Ran {

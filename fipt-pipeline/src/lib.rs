@@ -18,9 +18,7 @@ pub mod components;
 pub use fipt_run::config;
 #[cfg(test)]
 mod config_tests;
-use fipt_eval::eval;
 pub use fipt_run::error;
-pub mod eval_at;
 pub mod fit;
 pub mod maps;
 pub mod memory;
@@ -29,7 +27,7 @@ pub mod trained;
 pub use fipt_run::names;
 pub use fipt_run::observe;
 pub mod outputs;
-mod parent;
+pub mod parent;
 pub mod recovered;
 pub mod render;
 pub mod report;
@@ -38,8 +36,6 @@ pub mod run;
 pub mod run_config;
 use fipt_capture::scene;
 pub mod shard;
-pub mod sweep;
-use fipt_eval::sweep_plot;
 
 pub use components::Components;
 pub use fipt_run::{bail, err, note};

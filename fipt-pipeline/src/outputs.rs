@@ -91,13 +91,20 @@ pub(crate) fn run_warnings(scene: &crate::scene::LoadedScene, emitters: &[Emitte
 pub(crate) fn evaluate_if_gt(
     scene: &crate::scene::LoadedScene,
     out: &Path,
+    evaluator: Option<&crate::components::Evaluator>,
     mark: &mut dyn FnMut(&'static str, std::time::Instant),
 ) -> Result<Option<serde_json::Value>> {
     if !has_ground_truth(&scene.ds) {
         return Ok(None);
     }
+    let Some(evaluate) = evaluator else {
+        crate::note!(
+            "warning: the scene has ground truth but no evaluator is registered (`fipt_eval::register`): metrics.json not written"
+        );
+        return Ok(None);
+    };
     let t = crate::observe::begin("eval");
-    let m = crate::eval::evaluate(&scene.ds, out, scene.exposure)?;
+    let m = evaluate(&scene.ds, out, scene.exposure)?;
     mark("eval", t);
     Ok(Some(m))
 }

@@ -128,7 +128,7 @@ fn check_sizes(a: &RenderRequest) -> Result<()> {
 }
 
 /// `--spp` within 1..=[`MAX_SPP`].
-pub(crate) fn check_spp(spp: u32) -> Result<()> {
+pub fn check_spp(spp: u32) -> Result<()> {
     fipt_core::range::check("--spp", spp, 1, MAX_SPP).map_err(RunError::invalid)?;
     Ok(())
 }
@@ -141,7 +141,7 @@ pub const MAX_PATHS: f64 = 1e11;
 
 /// [`render_request`] into a folder the caller holds (`fipt eval` renders into its run's
 /// `eval/` under the run's lock).
-pub(crate) fn render_unchecked(
+pub fn render_unchecked(
     a: &RenderRequest,
     components: &crate::Components,
 ) -> Result<RenderSummary> {

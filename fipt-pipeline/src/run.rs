@@ -80,7 +80,7 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
 }
 
 /// A run's components built from its checked settings.
-pub(crate) struct Checked {
+pub struct Checked {
     extractor: Box<dyn fipt_core::emitter::EmitterExtractor>,
     baker: Box<dyn fipt_core::shading::ShadingBaker>,
     refiner: Box<dyn fipt_core::shading::ShadingRefiner>,
@@ -91,11 +91,7 @@ pub(crate) struct Checked {
 
 /// Every setting of `cfg` in its range and every component it names built (a misspelt name or
 /// bad plug-in settings fail here, before any work; `fipt sweep` checks each grid point so).
-pub(crate) fn check(
-    cfg: &RunConfig,
-    preset: &str,
-    components: &crate::Components,
-) -> Result<Checked> {
+pub fn check(cfg: &RunConfig, preset: &str, components: &crate::Components) -> Result<Checked> {
     cfg.train.validate()?;
     cfg.search.validate().map_err(RunError::invalid)?;
     cfg.rounds.validate().map_err(RunError::invalid)?;

@@ -277,11 +277,12 @@ pub fn sweep(a: &SweepRequest, components: &crate::Components) -> Result<SweepSu
     // The whole grid is checked before its first point runs.
     for (name, preset, overrides) in &points {
         let origin = a.out.join(format!("{name}.toml"));
-        let cfg = crate::config::load_preset(preset, crate::run::RunConfig::preset, None)
-            .and_then(|base| {
-                crate::config::load_text(base, &overrides_toml(overrides), &origin, None)
-            })
-            .and_then(|cfg| crate::run::check(&cfg, preset, components).map(|_| ()));
+        let cfg =
+            crate::config::load_preset(preset, fipt_pipeline::run_config::RunConfig::preset, None)
+                .and_then(|base| {
+                    crate::config::load_text(base, &overrides_toml(overrides), &origin, None)
+                })
+                .and_then(|cfg| crate::run::check(&cfg, preset, components).map(|_| ()));
         cfg.with_context(|| format!("grid point {name} (preset {preset})"))?;
     }
     // Its own lock file: the points' runs below take theirs in their folders.
