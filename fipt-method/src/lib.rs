@@ -49,7 +49,7 @@ pub fn register(components: Components) -> Components {
     components
         .with_fitter(
             FIPT_METHOD,
-            "bake, search, train, emitters, refine rounds (settings: [bake], [search], [train], [rounds], [refine], [emitters])",
+            "bake, search, train, emitters, refine rounds (settings: [search], [rounds], [train], [refine], [model]; the baker, refiner, trainer and extractor read their own)",
             Box::new(|v, _preset| {
                 let settings: FiptSettings = serde_json::from_value(v.clone())?;
                 Ok(Box::new(Fipt::new(settings)))

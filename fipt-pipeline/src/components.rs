@@ -1,11 +1,11 @@
 //! The components `fipt run` composes, chosen by name in the run config: the built-in ones and
 //! those a binary registers (a plug-in crate builds its own `fipt` with
-//! `fipt_cli::main_with(Components::builtin().with_extractor(…))`; see
-//! `examples/brightest-emitters`).
+//! `fipt_cli::main_with(fipt_cli::components().with_extractor(…))`; see
+//! `examples/brightest-emitters`). The host registers no method and no evaluator.
 //!
 //! | kind | chosen by | built in |
 //! |---|---|---|
-//! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | `fipt`: bake → search → train → emitters → (refine → search → train) × rounds (`fipt_method::Fipt`); `ipt` is registered by crate `fipt-ipt` (`fipt_ipt::register`), as any method from outside |
+//! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | none in the host: `fipt` (bake → search → train → emitters → (refine → search → train) × rounds) is registered by crate `fipt-method` (`fipt_method::register`, settings `[search]`, `[rounds]`, `[train]`, `[refine]`, `[model]`), `ipt` by crate `fipt-ipt` (`fipt_ipt::register`), as any method from outside |
 //! | shading baker (`fipt_core::shading::ShadingBaker`), in `fipt`'s rounds | `[pipeline] baker` | `slf`: the surface-light-field bake, settings `[bake]` |
 //! | shading refiner (`fipt_core::shading::ShadingRefiner`), in `fipt`'s rounds | `[pipeline] refiner` | `path-grown`: the path-grown refinement, settings `[refine]` |
 //! | field trainer (`fipt_core::trainer::FieldTrainer`), in `fipt`'s rounds | `[pipeline] trainer` | `hash-grid`: the hash-grid + MLP field (`fipt_neural::HashGridTrainer`), settings `[train]` |
@@ -13,7 +13,8 @@
 //! | reflectance model (`fipt_core::reflectance::ReflectanceFormulas`; built-ins a closed enum) | `[model] brdf`, `--brdf` | `principled`, `fipt` |
 //!
 //! A registered component's settings are the run config's `[plugins.<name>]` table (a
-//! built-in's: its own table, `[bake]`, `[refine]`, `[train]` or `[emitters]`), passed to its
+//! built-in's: its own table, `[bake]`, `[refine]`, `[train]` or `[emitters]`; a component
+//! registered with `with_tables`: those tables as one object), passed to its
 //! factory as JSON (the factory validates them and names the bad key); `settings_of` finds them.
 use crate::bail;
 use crate::error::Result;
@@ -103,7 +104,8 @@ enum Tables {
 }
 
 impl Components {
-    /// The components of the `fipt` binary.
+    /// The host's defaults: the `slf` baker, `path-grown` refiner, `hash-grid` trainer and
+    /// `mask` extractor; no method and no evaluator (`fipt_cli::components()` adds them).
     pub fn builtin() -> Self {
         Components {
             extractors: BTreeMap::new(),
