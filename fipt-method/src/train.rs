@@ -78,10 +78,10 @@ fn chosen_trainer(
 }
 
 /// The training alone (`fipt train`); returns the folder written. With a run config, the bake
-/// must be the one its `[pipeline] baker` and settings make ([`crate::bake::run_baker`]), and
+/// must be the one its `[pipeline] baker` and settings make ([`run_baker`]), and
 /// the trainer is its `[pipeline] trainer`.
 pub fn train_only(a: TrainRequest, components: &crate::Components) -> Result<PathBuf> {
-    let wanted = crate::bake::run_baker(&a.preset, a.config.as_deref(), components)?;
+    let wanted = run_baker(&a.preset, a.config.as_deref(), components)?;
     let mut cfg: TrainConfig = crate::config::load_preset_section(
         &a.preset,
         TrainConfig::preset,
@@ -429,4 +429,63 @@ fn train_and_record(
     };
     write_json_atomic(&dir.join("manifest.json"), &manifest)?;
     Ok((trained.field, manifest))
+}
+
+/// What `fipt train` checks its bake against: with a run config (a file with a `[pipeline]`
+/// table), the name and settings of the baker `fipt run` would use (its bake is reused only if
+/// it is that one); None otherwise (any finished bake of the inputs). A run config whose method
+/// is not FIPT's is refused: `fipt train` trains FIPT's field.
+fn run_baker(
+    preset: &str,
+    file: Option<&Path>,
+    components: &crate::Components,
+) -> Result<Option<(String, serde_json::Value)>> {
+    let Some(path) = file.filter(|p| crate::config::has_table(p, "pipeline").unwrap_or(false))
+    else {
+        return Ok(None);
+    };
+    let cfg = crate::config::load_preset(preset, crate::run_config::RunConfig::preset, Some(path))?;
+    let method = &cfg.pipeline.method;
+    if method != crate::names::FIPT_METHOD {
+        crate::bail!(
+            "{}: [pipeline] method = \"{method}\": `fipt train` trains FIPT's field; run the method with `fipt run --config {}`",
+            path.display(),
+            path.display()
+        );
+    }
+    let name = &cfg.pipeline.baker;
+    let settings = components.settings_of(crate::names::Kind::Baker, name, &cfg)?;
+    let baker = components.baker(name, &settings, cfg.model.brdf)?;
+    Ok(Some((baker.name().to_string(), settings)))
+}
+
+#[cfg(test)]
+mod run_baker_tests {
+    use super::run_baker;
+    use fipt_pipeline::Components;
+
+    /// `fipt train` checks its bake against the baker a run would use, by its
+    /// implementation's name and settings; a run config of another method is refused, and a
+    /// plain bake config checks nothing.
+    #[test]
+    fn fipt_train_checks_its_bake_against_the_runs_baker() {
+        let dir = std::env::temp_dir().join(format!("fipt-run-baker-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("run.toml");
+        std::fs::write(
+            &p,
+            "[pipeline]\nbaker = \"slf\"\n[bake]\ndiffuse_samples = 40\n",
+        )
+        .unwrap();
+        let c = Components::builtin();
+        let (_, settings) = fipt_pipeline::bake::chosen_baker("fast", Some(&p), &c).unwrap();
+        let (imp, same) = run_baker("fast", Some(&p), &c).unwrap().unwrap();
+        assert_eq!((imp.as_str(), &same), ("fipt-slf/principled", &settings));
+        std::fs::write(&p, "[pipeline]\nmethod = \"ipt\"\n").unwrap();
+        let err = run_baker("fast", Some(&p), &c).unwrap_err().to_string();
+        assert!(err.contains("trains FIPT's field"), "{err}");
+        std::fs::write(&p, "[bake]\ndiffuse_samples = \"many\"\n").unwrap();
+        assert!(run_baker("fast", Some(&p), &c).unwrap().is_none());
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

@@ -65,34 +65,6 @@ pub fn chosen_baker(
     ))
 }
 
-/// What `fipt train` checks its bake against: with a run config (a file with a `[pipeline]`
-/// table), the name and settings of the baker `fipt run` would use (its bake is reused only if
-/// it is that one); None otherwise (any finished bake of the inputs). A run config whose method
-/// is not FIPT's is refused: `fipt train` trains FIPT's field.
-pub fn run_baker(
-    preset: &str,
-    file: Option<&Path>,
-    components: &crate::Components,
-) -> Result<Option<(String, serde_json::Value)>> {
-    let Some(path) = file.filter(|p| crate::config::has_table(p, "pipeline").unwrap_or(false))
-    else {
-        return Ok(None);
-    };
-    let cfg = crate::config::load_preset(preset, crate::run_config::RunConfig::preset, Some(path))?;
-    let method = &cfg.pipeline.method;
-    if method != crate::names::FIPT_METHOD {
-        crate::bail!(
-            "{}: [pipeline] method = \"{method}\": `fipt train` trains FIPT's field; run the method with `fipt run --config {}`",
-            path.display(),
-            path.display()
-        );
-    }
-    let name = &cfg.pipeline.baker;
-    let settings = components.settings_of(crate::names::Kind::Baker, name, &cfg)?;
-    let baker = components.baker(name, &settings, cfg.model.brdf)?;
-    Ok(Some((baker.name().to_string(), settings)))
-}
-
 /// The bake alone (`fipt bake`), with the baker a run would use ([`chosen_baker`]).
 pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeOutcome> {
     let (name, settings) = chosen_baker(&a.preset, a.config.as_deref(), components)?;
