@@ -29,9 +29,9 @@ pub struct Parts<'a> {
 /// The training views' primary hits and their median pixel footprint.
 pub type TrainHits = (Vec<Vec<Option<HitPoint>>>, f32);
 
-/// What `fipt run` hands a method built into it ([`FitRun::host`]): the loaded scene, the run's
-/// config and request, and the training views' primary hits, computed once for whoever needs
-/// them first (FIPT's search and extraction, the run's extractor, the `observed` maps).
+/// What `fipt run` holds while it runs: the loaded scene, the run's config and request, and the
+/// training views' primary hits, computed when first needed (the run's extractor, the
+/// `observed` maps). A method sees none of it: it gets `FitInputs`.
 pub struct Host {
     pub scene: LoadedScene,
     pub cfg: RunConfig,
