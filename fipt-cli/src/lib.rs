@@ -1,7 +1,9 @@
 //! The `fipt` command-line tool as a library: argument parsing and printing over fipt-pipeline
-//! (the stages, their order, caching and the registry of components, `Components`, that
-//! `fipt run` composes by name). The `fipt` binary is `main_with(components())`: the
-//! pipeline's built-ins with the IPT baseline registered by its crate; a crate that brings its own component (an emitter
+//! (the host: stage order, caching and the registry of components, `Components`, that
+//! `fipt run` composes by name), fipt-method, fipt-eval and fipt-capture. The `fipt` binary is
+//! `main_with(components())`: the pipeline's built-ins (`slf`, `path-grown`, `hash-grid`,
+//! `mask`) with FIPT (`fipt_method::register`), the IPT baseline (`fipt_ipt::register`) and
+//! the scoring (`fipt_eval::register`) registered by their crates; a crate that brings its own component (an emitter
 //! extractor, …) builds its own binary the same way with the component registered, and every
 //! subcommand, preset and file layout stays as it is (see `examples/brightest-emitters`).
 mod bake;

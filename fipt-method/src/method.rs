@@ -1,4 +1,5 @@
-//! FIPT (method §4) as the built-in method `fipt`, a [`MaterialFitter`] like any other: the bake
+//! FIPT (method §4) as the method `fipt` (registered by `fipt_method::register`), a
+//! [`MaterialFitter`] like any other: the bake
 //! (through the run's baker), the material search on its shadings and the first training; the
 //! emitters (through the run's extractor); then the refine → search → train rounds (through the
 //! run's refiner) that the scene needs. Its stages reuse what an earlier run of the folder

@@ -1,5 +1,5 @@
 //! `fipt run`'s one path, for every method (`[pipeline] method`, a [`MaterialFitter`]; FIPT's
-//! rounds are the built-in `fipt`): load → (bake, when the fitter asks for it) → fit →
+//! rounds are `fipt`, registered by crate fipt-method): load → (bake, when the fitter asks for it) → fit →
 //! emitters (the fitter's, or the run's extractor on the fitted field) → maps → re-renders →
 //! report (→ eval), with the outputs of every method in the same places.
 use crate::error::{Result, RunError};

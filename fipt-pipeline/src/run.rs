@@ -1,5 +1,6 @@
-//! `fipt run <scene> --out OUT`: bake → train → extract emitters → (refine → train) × rounds →
-//! per-view maps → re-render → report (→ eval when ground truth exists). Every stage writes
+//! `fipt run <scene> --out OUT`: load → (a bake, if the method asks for one) → the registered
+//! method's fit (FIPT's: bake → train → emitters → (refine → train) × rounds) → emitters →
+//! per-view maps → re-render → eval (with ground truth and an evaluator registered) → report. Every stage writes
 //! its results atomically and a manifest last; re-running skips finished stages and resumes an
 //! interrupted training.
 use crate::error::{Result, RunError};

@@ -10,7 +10,8 @@ pub const PATH_GROWN_REFINER: &str = "path-grown";
 /// The built-in emitter extractor's name.
 pub const MASK_EXTRACTOR: &str = "mask";
 
-/// FIPT's method's name (`fipt_method::Fipt`, registered by `Components::builtin`).
+/// FIPT's method's name (`fipt_method::Fipt`, registered by `fipt_method::register`;
+/// `Components::builtin()` has no method), the default `[pipeline] method`.
 pub const FIPT_METHOD: &str = "fipt";
 
 /// The built-in field trainer's name (`fipt_neural::HashGridTrainer`).
