@@ -103,6 +103,15 @@ enum Tables {
     Several(&'static [&'static str]),
 }
 
+impl Tables {
+    fn names(&self) -> &[&'static str] {
+        match self {
+            Tables::One(table) => std::slice::from_ref(table),
+            Tables::Several(tables) => tables,
+        }
+    }
+}
+
 impl Components {
     /// The host's defaults: the `slf` baker, `path-grown` refiner, `hash-grid` trainer and
     /// `mask` extractor; no method and no evaluator (`fipt_cli::components()` adds them).
@@ -186,33 +195,26 @@ impl Components {
         name: &str,
         cfg: &crate::run_config::RunConfig,
     ) -> Result<serde_json::Value> {
-        let section = self.sections.get(&(kind, name.to_string()));
-        let tables = match section {
-            None => return Ok(cfg.plugin_settings(name)),
-            Some(Tables::One(table)) => vec![*table],
-            Some(Tables::Several(tables)) => tables.to_vec(),
+        let Some(&tables) = self.sections.get(&(kind, name.to_string())) else {
+            return Ok(cfg.plugin_settings(name));
         };
+        let names = tables.names();
         if cfg
             .plugin_settings(name)
             .as_object()
             .is_some_and(|o| !o.is_empty())
         {
-            let list: Vec<String> = tables.iter().map(|t| format!("[{t}]")).collect();
+            let list: Vec<String> = names.iter().map(|t| format!("[{t}]")).collect();
             bail!(
                 "[plugins.{name}]: {name}'s settings are the run config's {} tables; move them there",
                 list.join(", ")
             );
         }
-        match section {
-            Some(Tables::One(table)) => cfg.section(table),
-            _ => {
-                let mut all = serde_json::Map::new();
-                for t in tables {
-                    all.insert(t.to_string(), cfg.section(t)?);
-                }
-                Ok(serde_json::Value::Object(all))
-            }
-        }
+        let mut found = cfg.sections(names)?;
+        Ok(match tables {
+            Tables::One(table) => found.remove(table).unwrap_or_default(),
+            Tables::Several(_) => serde_json::Value::Object(found),
+        })
     }
 
     /// Registers (or replaces) what scores a finished run against ground truth.

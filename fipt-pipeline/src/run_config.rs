@@ -72,14 +72,20 @@ impl Default for PipelineConfig {
 }
 
 impl RunConfig {
-    /// The table `name` of the config (`bake`, `train`, …) as JSON, for the component whose
-    /// settings it holds.
-    pub(crate) fn section(&self, name: &str) -> Result<serde_json::Value> {
+    /// The tables `names` of the config (`bake`, `train`, …) as JSON, by name, for the
+    /// component whose settings they hold (the config serialised once).
+    pub(crate) fn sections(
+        &self,
+        names: &[&str],
+    ) -> Result<serde_json::Map<String, serde_json::Value>> {
         let mut all = serde_json::to_value(self)?;
-        match all.get_mut(name) {
-            Some(v) => Ok(v.take()),
-            None => crate::bail!("the run config has no [{name}] table"),
-        }
+        names
+            .iter()
+            .map(|&name| match all.get_mut(name) {
+                Some(v) => Ok((name.to_string(), v.take())),
+                None => crate::bail!("the run config has no [{name}] table"),
+            })
+            .collect()
     }
 
     /// `[plugins.<name>]` (an empty table when absent).
