@@ -152,6 +152,34 @@ impl Fitted {
     }
 }
 
+/// Which of the run's [`FitParts`] a method builds its fit from; the run lists their settings in
+/// `report.json` as used. The baker of a method that [`MaterialFitter::needs_shadings`], and
+/// the extractor of one that returns no emitters, are used by the run itself and count anyway.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PartsUsed {
+    pub baker: bool,
+    pub refiner: bool,
+    pub trainer: bool,
+    pub extractor: bool,
+}
+
+impl PartsUsed {
+    /// None of them (a method that works alone).
+    pub const NONE: PartsUsed = PartsUsed {
+        baker: false,
+        refiner: false,
+        trainer: false,
+        extractor: false,
+    };
+    /// All four (FIPT's rounds).
+    pub const ALL: PartsUsed = PartsUsed {
+        baker: true,
+        refiner: true,
+        trainer: true,
+        extractor: true,
+    };
+}
+
 /// A method that fits a material field to the training views.
 pub trait MaterialFitter {
     /// A short name for reports.
@@ -161,6 +189,10 @@ pub trait MaterialFitter {
     /// Whether the run should load the scene's part or class ids ([`FitInputs::segments`]).
     fn wants_segments(&self) -> bool {
         false
+    }
+    /// Which of [`FitInputs::parts`] it composes (none unless it says so).
+    fn parts_used(&self) -> PartsUsed {
+        PartsUsed::NONE
     }
     /// Fits the field; `progress(done, total)` as the work goes.
     fn fit(&self, inputs: &FitInputs, progress: Progress) -> Result<Fitted>;

@@ -25,3 +25,12 @@ pub trait Presets: Sized {
         }
     }
 }
+
+/// Whether `name` is a preset every stage knows (`paper`, `reference`, `balanced` or its alias
+/// `default`, `fast`).
+pub fn is_known(name: &str) -> bool {
+    matches!(
+        name,
+        "paper" | "reference" | "balanced" | "default" | "fast"
+    )
+}

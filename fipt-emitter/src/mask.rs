@@ -56,6 +56,19 @@ impl Default for MaskExtractorConfig {
     }
 }
 
+/// The same extraction in every preset (the reference's threshold and samples).
+impl fipt_core::presets::Presets for MaskExtractorConfig {
+    fn paper() -> Self {
+        Self::default()
+    }
+    fn balanced() -> Self {
+        Self::default()
+    }
+    fn fast() -> Self {
+        Self::default()
+    }
+}
+
 impl MaskExtractorConfig {
     /// Refuses a negative threshold (above the mask's largest value no triangle emits: the
     /// extraction off) and more than 100,000 samples per triangle (the reference takes 100;

@@ -33,6 +33,7 @@ pub use settings::FiptSettings;
 
 use fipt_capture::scene;
 use fipt_eval::eval;
+use fipt_pipeline::components::Table;
 use fipt_pipeline::names::{Kind, FIPT_METHOD};
 use fipt_pipeline::{bake, fit, maps, outputs, run_config, segments, shard, trained};
 use fipt_pipeline::{Components, RunError};
@@ -40,18 +41,23 @@ use fipt_run::{bail, config, err, error, names, note, observe};
 
 /// FIPT's tables of the run config, handed to its factory as one object: its own `[search]`
 /// and `[rounds]`, and what it reads of `[train]` (the training set's share, seed and targets,
-/// the steps asked), `[refine]` (`rough_threshold`) and `[model]` whichever trainer and refiner
-/// run.
-pub const FIPT_TABLES: &[&str] = &["search", "rounds", "train", "refine", "model"];
+/// the steps asked) and `[refine]` (`rough_threshold`) whichever trainer and refiner run.
+pub const FIPT_TABLES: &[Table] = &[
+    Table::of::<fipt_search::SearchConfig>("search"),
+    Table::of::<settings::RoundsConfig>("rounds"),
+    fipt_pipeline::components::TRAIN_TABLE,
+    fipt_pipeline::components::REFINE_TABLE,
+];
 
 /// `components` with FIPT registered as method `fipt`, its settings [`FIPT_TABLES`].
 pub fn register(components: Components) -> Components {
     components
         .with_fitter(
             FIPT_METHOD,
-            "bake, search, train, emitters, refine rounds (settings: [search], [rounds], [train], [refine], [model]; the baker, refiner, trainer and extractor read their own)",
+            "bake, search, train, emitters, refine rounds (settings: [search], [rounds], [train], [refine]; the baker, refiner, trainer and extractor read their own)",
             Box::new(|v, _preset| {
-                let settings: FiptSettings = serde_json::from_value(v.clone())?;
+                let settings: FiptSettings = config::typed(v.clone())?;
+                settings.validate()?;
                 Ok(Box::new(Fipt::new(settings)))
             }),
         )

@@ -8,11 +8,16 @@
 use crate::bail;
 use crate::error::Result;
 use fipt_core::memory::{available_bytes, gib};
+use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::NUM_LEVELS;
 
 /// Estimated bytes of a run on `pixels` training pixels, by part.
-pub fn estimate(pixels: u64, cfg: &crate::settings::FiptSettings) -> Vec<(&'static str, u64)> {
-    let poly = cfg.model.brdf.diffuse_depends_on_roughness() as u64;
+pub fn estimate(
+    pixels: u64,
+    cfg: &crate::settings::FiptSettings,
+    model: ReflectanceModel,
+) -> Vec<(&'static str, u64)> {
+    let poly = model.diffuse_depends_on_roughness() as u64;
     // Ld, Ld1/Ld2 for principled, Ls0 and Ls1 at every level.
     let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
     // The search's copy adds the valid flag, on at most `search.max_pixels` pixels; the
@@ -42,8 +47,12 @@ pub fn estimate(pixels: u64, cfg: &crate::settings::FiptSettings) -> Vec<(&'stat
 }
 
 /// Refuses a run whose estimate exceeds the memory available.
-pub fn check(pixels: u64, cfg: &crate::settings::FiptSettings) -> Result<u64> {
-    let parts = estimate(pixels, cfg);
+pub fn check(
+    pixels: u64,
+    cfg: &crate::settings::FiptSettings,
+    model: ReflectanceModel,
+) -> Result<u64> {
+    let parts = estimate(pixels, cfg, model);
     let total: u64 = parts.iter().map(|p| p.1).sum();
     let Some(avail) = available_bytes() else {
         return Ok(total);
@@ -74,7 +83,6 @@ pub fn check(pixels: u64, cfg: &crate::settings::FiptSettings) -> Result<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::run_config::RunConfig;
     use crate::settings::FiptSettings;
 
     fn part(parts: &[(&'static str, u64)], name: &str) -> u64 {
@@ -86,13 +94,14 @@ mod tests {
     #[test]
     fn the_caps_bound_the_estimate_of_a_large_scene() {
         let pixels = 200 * 640 * 480;
-        let cfg = FiptSettings::of(&RunConfig::preset("fast").unwrap());
-        let capped = part(&estimate(pixels, &cfg), "training set or search");
+        let cfg = FiptSettings::preset("fast").unwrap();
+        let model = ReflectanceModel::Principled;
+        let capped = part(&estimate(pixels, &cfg, model), "training set or search");
         let set = cfg.train.set_limit().unwrap() as u64;
         let searched = cfg.search.max_pixels as u64;
         assert!(set < pixels && searched < pixels);
         // Per pixel: the search's shadings and valid flag; the training set's 52 bytes more.
-        let poly = cfg.model.brdf.diffuse_depends_on_roughness() as u64;
+        let poly = model.diffuse_depends_on_roughness() as u64;
         let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
         assert_eq!(
             capped,
@@ -101,11 +110,11 @@ mod tests {
         let mut open = cfg.clone();
         open.search.max_pixels = 0;
         open.train.set_cap = 0.0;
-        let uncapped = part(&estimate(pixels, &open), "training set or search");
+        let uncapped = part(&estimate(pixels, &open, model), "training set or search");
         assert_eq!(uncapped, pixels * (shadings + 52));
         assert!(capped * 5 < uncapped, "{capped} vs {uncapped}");
         assert_eq!(
-            part(&estimate(pixels, &cfg), "hits and images"),
+            part(&estimate(pixels, &cfg, model), "hits and images"),
             pixels * 36
         );
     }

@@ -10,7 +10,7 @@ use crate::rounds::{planned_rounds, Rounds, RoundsContext};
 use crate::scene::SceneRef;
 use crate::settings::FiptSettings;
 use crate::shard::Sharding;
-use fipt_core::fit::{FitInputs, FitParts, Fitted, MaterialFitter};
+use fipt_core::fit::{FitInputs, FitParts, Fitted, MaterialFitter, PartsUsed};
 use fipt_core::shading::{PixelDraw, Progress, Scope};
 use fipt_shading::records::{hit_points_and_footprint, HitPoint};
 use std::time::Instant;
@@ -43,6 +43,11 @@ impl MaterialFitter for Fipt {
         false
     }
 
+    /// FIPT composes the run's baker, refiner, trainer and extractor.
+    fn parts_used(&self) -> PartsUsed {
+        PartsUsed::ALL
+    }
+
     fn fit(&self, inputs: &FitInputs, _progress: Progress) -> fipt_core::Result<Fitted> {
         let method = || {
             let scene = SceneRef::of(inputs).ok_or_else(|| {
@@ -73,6 +78,7 @@ impl MaterialFitter for Fipt {
                 run: &run,
                 scene: &scene,
                 hits: &hits,
+                model: inputs.model,
             };
             fit_rounds(&on, parts, &mark)
         };
@@ -88,12 +94,14 @@ struct On<'a> {
     run: &'a Run<'a>,
     scene: &'a SceneRef<'a>,
     hits: &'a (Vec<Vec<Option<HitPoint>>>, f32),
+    /// The run's reflectance model.
+    model: fipt_core::reflectance::ReflectanceModel,
 }
 
 fn fit_rounds(on: &On, parts: FitParts, mark: &dyn Fn(&'static str, Instant)) -> Result<Fitted> {
     let (a, cfg, scene) = (on.run, on.cfg, on.scene);
     let pixels = scene.images.iter().map(|i| i.data.len() as u64).sum();
-    let memory = crate::memory::check(pixels, cfg)?;
+    let memory = crate::memory::check(pixels, cfg, on.model)?;
     let caveats = crate::fit::caveats([parts.baker.caveats(), parts.refiner.caveats()]);
     if let Some(c) = &caveats {
         crate::note!("{c}");

@@ -2,7 +2,7 @@
 //! plan (whether they run and why), the loop, and the extra round that lets small scenes
 //! settle.
 use crate::error::Result;
-pub use crate::run_config::RoundsConfig;
+pub use crate::settings::RoundsConfig;
 
 use crate::shard::Sharding;
 use fipt_core::emitter::Emitter;

@@ -56,7 +56,8 @@ fn chosen_trainer(
         Some(path) => {
             let cfg = crate::config::load_preset(&a.preset, RunConfig::preset, Some(path))?;
             let name = cfg.pipeline.trainer.clone();
-            let settings = components.settings_of(crate::names::Kind::Trainer, &name, &cfg)?;
+            let settings =
+                components.settings_of(crate::names::Kind::Trainer, &name, &cfg, &a.preset)?;
             (name, settings)
         }
         None => (
@@ -454,7 +455,7 @@ fn run_baker(
         );
     }
     let name = &cfg.pipeline.baker;
-    let settings = components.settings_of(crate::names::Kind::Baker, name, &cfg)?;
+    let settings = components.settings_of(crate::names::Kind::Baker, name, &cfg, preset)?;
     let baker = components.baker(name, &settings, cfg.model.brdf)?;
     Ok(Some((baker.name().to_string(), settings)))
 }

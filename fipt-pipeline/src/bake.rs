@@ -1,15 +1,16 @@
 //! The bake stage: cached by inputs, baker and settings; sharded by views; `fipt bake` alone.
 use crate::error::Result;
+use crate::names::Kind;
 use crate::observe::{bar, Stage};
+use crate::run_config::RunConfig;
 use crate::scene::SceneRef;
-use fipt_bake::bake::{BakeConfig, BakeStats};
+use fipt_bake::bake::BakeStats;
 use fipt_bake::bake_store::{
     begin, finish, load_if_current, mismatch, shard_done, write_view, BakeManifest, StoredShadings,
     FORMAT_VERSION,
 };
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::image::Image;
-use fipt_core::presets::Presets;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::shading::{PixelDraw, Scope, ShadingBaker, Shard};
 use std::path::{Path, PathBuf};
@@ -42,33 +43,39 @@ pub enum BakeOutcome {
 }
 
 /// The baker `fipt bake` uses and its settings, as `fipt run` would choose them: from a run
-/// config (a file with a `[pipeline]` table), its `baker` with that baker's section (`[bake]`
-/// for `slf`, else `[plugins.<name>]`); otherwise the built-in `slf` with the file's bake
-/// settings (a plain bake config, or a run config's `[bake]`) over the preset's.
+/// config (a file with a `[pipeline]` table), its `baker` with that baker's settings;
+/// otherwise the default baker with the file's settings (a plain config of that baker, or a
+/// run config's table of it, `[bake]` for `slf`) over the preset's.
 pub fn chosen_baker(
     preset: &str,
     file: Option<&Path>,
     components: &crate::Components,
 ) -> Result<(String, serde_json::Value)> {
-    if let Some(path) = file.filter(|p| crate::config::has_table(p, "pipeline").unwrap_or(false)) {
-        let cfg =
-            crate::config::load_preset(preset, crate::run_config::RunConfig::preset, Some(path))?;
-        let name = cfg.pipeline.baker.clone();
-        let settings = components.settings_of(crate::names::Kind::Baker, &name, &cfg)?;
-        return Ok((name, settings));
+    let mut cfg = crate::config::load_preset(preset, RunConfig::preset, None)?;
+    if let Some(path) = file {
+        let value = crate::config::read_value(path)?;
+        if value.get("pipeline").is_some_and(|t| t.is_object()) {
+            cfg = crate::config::load_preset(preset, RunConfig::preset, Some(path))?;
+        } else if let Some(table) = components.table_of(Kind::Baker, &cfg.pipeline.baker) {
+            let own = value.get(table).filter(|t| t.is_object());
+            let settings = own.cloned().unwrap_or(value);
+            cfg.tables.insert(table.to_string(), settings);
+        }
     }
-    let cfg: BakeConfig =
-        crate::config::load_preset_section(preset, BakeConfig::preset, file, "bake")?;
-    Ok((
-        crate::run_config::PipelineConfig::default().baker,
-        serde_json::to_value(&cfg)?,
-    ))
+    let name = cfg.pipeline.baker.clone();
+    let settings = components.settings_of(Kind::Baker, &name, &cfg, preset)?;
+    Ok((name, settings))
 }
 
 /// The bake alone (`fipt bake`), with the baker a run would use ([`chosen_baker`]).
 pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeOutcome> {
     let (name, settings) = chosen_baker(&a.preset, a.config.as_deref(), components)?;
-    let baker = components.baker(&name, &settings, a.brdf)?;
+    let baker = components
+        .baker(&name, &settings, a.brdf)
+        .map_err(|e| match &a.config {
+            Some(file) => crate::err!("{}: {e:#}", file.display()),
+            None => e,
+        })?;
     fipt_core::lock::refuse_nested_run(&a.out)?;
     let _lock = crate::request::lock(&a.out, a.shard, "fipt bake")?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels, &Default::default())?;

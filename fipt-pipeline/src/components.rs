@@ -20,6 +20,7 @@ use crate::bail;
 use crate::error::Result;
 use fipt_core::emitter::EmitterExtractor;
 use fipt_core::fit::MaterialFitter;
+use fipt_core::presets::Presets;
 use fipt_core::reflectance::{ReflectanceFormulas, ReflectanceModel};
 use fipt_core::shading::{ShadingBaker, ShadingRefiner};
 use fipt_core::trainer::FieldTrainer;
@@ -95,16 +96,65 @@ pub use crate::names::{
     FIPT_METHOD, HASH_GRID_TRAINER, MASK_EXTRACTOR, PATH_GROWN_REFINER, SLF_BAKER,
 };
 
+/// `[bake]`: the `slf` baker's settings.
+pub const BAKE_TABLE: Table = Table::of::<fipt_bake::bake::BakeConfig>("bake");
+/// `[refine]`: the `path-grown` refiner's settings (FIPT reads its `rough_threshold` too).
+pub const REFINE_TABLE: Table = Table::of::<fipt_bake::refine::RefineConfig>("refine");
+/// `[train]`: the `hash-grid` trainer's settings (FIPT reads its training set's share, seed
+/// and targets too).
+pub const TRAIN_TABLE: Table = Table::of::<fipt_neural::TrainConfig>("train");
+/// `[emitters]`: the `mask` extractor's settings.
+pub const EMITTERS_TABLE: Table = Table::of::<fipt_emitter::MaskExtractorConfig>("emitters");
+
+/// A table of the run config that a component reads (`[bake]`, `[search]`, …): its name and
+/// its values in each preset. The host keeps what a file writes there as written; the
+/// component's factory gets the preset's values with the file's laid over them and types them,
+/// once.
+#[derive(Clone, Copy)]
+pub struct Table {
+    pub name: &'static str,
+    defaults: fn(&str) -> Option<serde_json::Value>,
+}
+
+impl Table {
+    /// Table `name`, holding settings of type `T` (its presets are `T`'s).
+    pub const fn of<T: Presets + serde::Serialize>(name: &'static str) -> Table {
+        Table {
+            name,
+            defaults: preset_value::<T>,
+        }
+    }
+
+    /// The table's values in preset `preset` with `over` (what the run config wrote) laid
+    /// over them.
+    fn value(&self, preset: &str, over: Option<&serde_json::Value>) -> Result<serde_json::Value> {
+        let Some(mut v) = (self.defaults)(preset) else {
+            bail!(
+                "unknown preset `{preset}` (use one of {})",
+                fipt_run::config::PRESETS
+            );
+        };
+        if let Some(over) = over {
+            fipt_run::config::merge(&mut v, over.clone());
+        }
+        Ok(v)
+    }
+}
+
+fn preset_value<T: Presets + serde::Serialize>(preset: &str) -> Option<serde_json::Value> {
+    T::preset(preset).and_then(|t| serde_json::to_value(t).ok())
+}
+
 /// The run config's tables a component reads: one (its value is the settings) or several (an
 /// object of them, by table name).
 #[derive(Clone, Copy)]
 enum Tables {
-    One(&'static str),
-    Several(&'static [&'static str]),
+    One(Table),
+    Several(&'static [Table]),
 }
 
 impl Tables {
-    fn names(&self) -> &[&'static str] {
+    fn list(&self) -> &[Table] {
         match self {
             Tables::One(table) => std::slice::from_ref(table),
             Tables::Several(tables) => tables,
@@ -129,7 +179,7 @@ impl Components {
             SLF_BAKER,
             "the surface light field of the views and the factorised shadings (settings: [bake])",
             Box::new(|v, model| {
-                let config: fipt_bake::bake::BakeConfig = serde_json::from_value(v.clone())?;
+                let config: fipt_bake::bake::BakeConfig = fipt_run::config::typed(v.clone())?;
                 config.validate().map_err(crate::error::RunError::invalid)?;
                 Ok(Box::new(
                     fipt_bake::bake::FactorizedBaker::new(config).with_model(model),
@@ -140,7 +190,7 @@ impl Components {
             PATH_GROWN_REFINER,
             "paths grown through glossy surfaces, the SLF at rough ones, emitter sampling (settings: [refine])",
             Box::new(|v, model| {
-                let config: fipt_bake::refine::RefineConfig = serde_json::from_value(v.clone())?;
+                let config: fipt_bake::refine::RefineConfig = fipt_run::config::typed(v.clone())?;
                 config.validate().map_err(crate::error::RunError::invalid)?;
                 Ok(Box::new(
                     fipt_bake::refine::PathGrownRefiner::new(config).with_model(model),
@@ -151,7 +201,7 @@ impl Components {
             HASH_GRID_TRAINER,
             "a multiresolution hash grid and MLPs trained with the factorised image loss, checkpointed and resumed (settings: [train])",
             Box::new(|v| {
-                let config: fipt_neural::TrainConfig = serde_json::from_value(v.clone())?;
+                let config: fipt_neural::TrainConfig = fipt_run::config::typed(v.clone())?;
                 Ok(Box::new(fipt_neural::HashGridTrainer::new(config)?))
             }),
         )
@@ -159,62 +209,126 @@ impl Components {
             MASK_EXTRACTOR,
             "the trained emission mask averaged per triangle, radiance medians, connected lights (settings: [emitters])",
             Box::new(|v| {
-                let config: fipt_emitter::MaskExtractorConfig = serde_json::from_value(v.clone())?;
+                let config: fipt_emitter::MaskExtractorConfig = fipt_run::config::typed(v.clone())?;
                 config.validate().map_err(crate::error::RunError::invalid)?;
                 Ok(Box::new(fipt_emitter::MaskExtractor { config }))
             }),
         )
-        .in_section(Kind::Baker, SLF_BAKER, "bake")
-        .in_section(Kind::Refiner, PATH_GROWN_REFINER, "refine")
-        .in_section(Kind::Trainer, HASH_GRID_TRAINER, "train")
-        .in_section(Kind::Extractor, MASK_EXTRACTOR, "emitters")
+        .with_table(Kind::Baker, SLF_BAKER, BAKE_TABLE)
+        .with_table(Kind::Refiner, PATH_GROWN_REFINER, REFINE_TABLE)
+        .with_table(Kind::Trainer, HASH_GRID_TRAINER, TRAIN_TABLE)
+        .with_table(Kind::Extractor, MASK_EXTRACTOR, EMITTERS_TABLE)
     }
 
-    /// Gives the registered component `name` of `kind` the run config's table `section` for
-    /// its settings (a built-in's own table) instead of `[plugins.<name>]`.
-    fn in_section(mut self, kind: Kind, name: &str, section: &'static str) -> Self {
+    /// Gives the registered component `name` of `kind` the run config's table `table` for
+    /// its settings (the table's value) instead of `[plugins.<name>]`.
+    pub fn with_table(mut self, kind: Kind, name: &str, table: Table) -> Self {
         self.sections
-            .insert((kind, name.to_string()), Tables::One(section));
+            .insert((kind, name.to_string()), Tables::One(table));
         self
     }
 
     /// Gives the registered component `name` of `kind` the run config's tables `tables`, as
     /// one object keyed by table, for its settings.
-    pub fn with_tables(mut self, kind: Kind, name: &str, tables: &'static [&'static str]) -> Self {
+    pub fn with_tables(mut self, kind: Kind, name: &str, tables: &'static [Table]) -> Self {
         self.sections
             .insert((kind, name.to_string()), Tables::Several(tables));
         self
     }
 
-    /// The settings of component `name` of `kind` in `cfg`: a built-in's own table (`[bake]`,
-    /// `[refine]`, `[train]`, `[emitters]`), anything else's `[plugins.<name>]` (an empty table
-    /// when absent).
+    /// The one table component `name` of `kind` reads its settings from (`[bake]` for the `slf`
+    /// baker); None for a component with several or with `[plugins.<name>]`.
+    pub fn table_of(&self, kind: Kind, name: &str) -> Option<&'static str> {
+        match self.sections.get(&(kind, name.to_string())) {
+            Some(Tables::One(t)) => Some(t.name),
+            _ => None,
+        }
+    }
+
+    /// Where component `name` of `kind` reads its settings: `[bake]`, `[search], [rounds]`,
+    /// `[plugins.<name>]`.
+    fn where_from(&self, kind: Kind, name: &str) -> String {
+        match self.sections.get(&(kind, name.to_string())) {
+            Some(t) => {
+                let list: Vec<String> = t.list().iter().map(|t| format!("[{}]", t.name)).collect();
+                list.join(", ")
+            }
+            None => format!("[plugins.{name}]"),
+        }
+    }
+
+    /// The names of the tables some registered component reads.
+    pub fn table_names(&self) -> std::collections::BTreeSet<&'static str> {
+        let tables = self.sections.values().flat_map(|t| t.list().iter());
+        tables.map(|t| t.name).collect()
+    }
+
+    /// The settings of component `name` of `kind` in `cfg` under `preset`: the preset's values
+    /// of its tables with `cfg`'s laid over them (one table's value, or an object of its
+    /// tables), or, for a component without tables, `[plugins.<name>]` (an empty table when
+    /// absent; its factory lays it over its own defaults).
     pub fn settings_of(
         &self,
         kind: Kind,
         name: &str,
         cfg: &crate::run_config::RunConfig,
+        preset: &str,
     ) -> Result<serde_json::Value> {
         let Some(&tables) = self.sections.get(&(kind, name.to_string())) else {
             return Ok(cfg.plugin_settings(name));
         };
-        let names = tables.names();
         if cfg
             .plugin_settings(name)
             .as_object()
             .is_some_and(|o| !o.is_empty())
         {
-            let list: Vec<String> = names.iter().map(|t| format!("[{t}]")).collect();
+            let list: Vec<String> = tables
+                .list()
+                .iter()
+                .map(|t| format!("[{}]", t.name))
+                .collect();
             bail!(
                 "[plugins.{name}]: {name}'s settings are the run config's {} tables; move them there",
                 list.join(", ")
             );
         }
-        let mut found = cfg.sections(names)?;
+        let value = |t: &Table| t.value(preset, cfg.tables.get(t.name));
         Ok(match tables {
-            Tables::One(table) => found.remove(table).unwrap_or_default(),
-            Tables::Several(_) => serde_json::Value::Object(found),
+            Tables::One(table) => value(&table)?,
+            Tables::Several(list) => serde_json::Value::Object(
+                list.iter()
+                    .map(|t| Ok((t.name.to_string(), value(t)?)))
+                    .collect::<Result<_>>()?,
+            ),
         })
+    }
+
+    /// Puts the `settings` of component `name` of `kind` ([`Self::settings_of`]) into
+    /// `report`, `report.json`'s `settings`: each of its tables by name, a plug-in's under
+    /// `plugins.<name>`.
+    pub fn report_settings(
+        &self,
+        kind: Kind,
+        name: &str,
+        settings: &serde_json::Value,
+        report: &mut serde_json::Map<String, serde_json::Value>,
+    ) {
+        match self.sections.get(&(kind, name.to_string())) {
+            Some(Tables::One(t)) => {
+                report.insert(t.name.to_string(), settings.clone());
+            }
+            Some(Tables::Several(list)) => {
+                for t in list.iter() {
+                    report.insert(t.name.to_string(), settings[t.name].clone());
+                }
+            }
+            None => {
+                let plugins = report
+                    .entry("plugins")
+                    .or_insert_with(|| serde_json::json!({}));
+                plugins[name] = settings.clone();
+            }
+        }
     }
 
     /// Registers (or replaces) what scores a finished run against ground truth.
@@ -269,8 +383,12 @@ impl Components {
             };
             bail!("[pipeline] method = \"{name}\" is not registered (this binary has: {has})");
         };
-        (e.factory)(settings, preset)
-            .map_err(|err| crate::err!("settings of method `{name}`: {err:#}"))
+        (e.factory)(settings, preset).map_err(|err| {
+            crate::err!(
+                "settings of method `{name}` ({}): {err:#}",
+                self.where_from(Kind::Method, name)
+            )
+        })
     }
 
     /// Registers (or replaces) the shading baker `name`.
@@ -303,7 +421,12 @@ impl Components {
                 self.trainers.keys().cloned().collect::<Vec<_>>().join(", ")
             );
         };
-        (e.factory)(settings).map_err(|err| crate::err!("settings of trainer `{name}`: {err:#}"))
+        (e.factory)(settings).map_err(|err| {
+            crate::err!(
+                "settings of trainer `{name}` ({}): {err:#}",
+                self.where_from(Kind::Trainer, name)
+            )
+        })
     }
 
     /// The baker `name` built from `settings` for `model`.
@@ -319,8 +442,12 @@ impl Components {
                 self.bakers.keys().cloned().collect::<Vec<_>>().join(", ")
             );
         };
-        (e.factory)(settings, model)
-            .map_err(|err| crate::err!("settings of baker `{name}`: {err:#}"))
+        (e.factory)(settings, model).map_err(|err| {
+            crate::err!(
+                "settings of baker `{name}` ({}): {err:#}",
+                self.where_from(Kind::Baker, name)
+            )
+        })
     }
 
     /// The refiner `name` built from `settings` for `model`.
@@ -336,8 +463,12 @@ impl Components {
                 self.refiners.keys().cloned().collect::<Vec<_>>().join(", ")
             );
         };
-        (e.factory)(settings, model)
-            .map_err(|err| crate::err!("settings of refiner `{name}`: {err:#}"))
+        (e.factory)(settings, model).map_err(|err| {
+            crate::err!(
+                "settings of refiner `{name}` ({}): {err:#}",
+                self.where_from(Kind::Refiner, name)
+            )
+        })
     }
 
     /// Registers the external reflectance model `model` (process-wide: `[model] brdf` and
@@ -408,7 +539,12 @@ impl Components {
                 self.extractor_names().join(", ")
             );
         };
-        (e.factory)(settings).map_err(|err| crate::err!("settings of extractor `{name}`: {err:#}"))
+        (e.factory)(settings).map_err(|err| {
+            crate::err!(
+                "settings of extractor `{name}` ({}): {err:#}",
+                self.where_from(Kind::Extractor, name)
+            )
+        })
     }
 }
 

@@ -95,6 +95,7 @@ fn every_stage_knows_every_preset() {
     use crate::run_config::RunConfig;
     use fipt_bake::refine::RefineConfig;
     use fipt_neural::TrainConfig;
+    use fipt_search::SearchConfig;
     for name in PRESETS.split(", ") {
         assert!(BakeConfig::preset(name).is_some(), "bake: {name}");
         assert_eq!(
@@ -110,24 +111,73 @@ fn every_stage_knows_every_preset() {
         assert!(TrainConfig::preset(name).is_some(), "train: {name}");
         assert!(RefineConfig::preset(name).is_some(), "refine: {name}");
         assert!(RunConfig::preset(name).is_some(), "run: {name}");
+        assert_eq!(SearchConfig::preset(name).unwrap().validate(), Ok(()));
     }
     let err = load_preset("papr", RunConfig::preset, None)
         .unwrap_err()
         .to_string();
     assert!(err.contains("`papr`") && err.contains(PRESETS), "{err}");
     // `paper` departs from `reference` only where this project measured better.
-    let (p, r) = (
-        RunConfig::preset("paper").unwrap(),
-        RunConfig::preset("reference").unwrap(),
+    let (p, r) = (TrainConfig::paper(), TrainConfig::reference());
+    assert_eq!(
+        (p.steps, p.batch, p.field.grid.levels),
+        (r.steps, r.batch, r.field.grid.levels)
     );
     assert_eq!(
-        (p.train.steps, p.train.batch, p.train.field.grid.levels),
-        (r.train.steps, r.train.batch, r.train.field.grid.levels)
+        BakeConfig::paper().diffuse_samples,
+        BakeConfig::reference().diffuse_samples
     );
     assert_eq!(
-        (p.rounds.refinements, p.rounds.warm_start),
-        (r.rounds.refinements, r.rounds.warm_start)
+        RefineConfig::paper().specular_samples,
+        RefineConfig::reference().specular_samples
     );
-    assert_eq!(p.bake.diffuse_samples, r.bake.diffuse_samples);
-    assert_eq!(p.refine.specular_samples, r.refine.specular_samples);
+}
+
+/// The host types its own sections only: a component's table is kept as written and reaches
+/// its factory over the preset's values; a table that no component reads is refused by name.
+#[test]
+fn component_tables_reach_their_factories_and_unknown_ones_fail() {
+    use crate::names::Kind;
+    use crate::run_config::RunConfig;
+    let c = crate::Components::builtin();
+    let mut cfg = RunConfig::preset("fast").unwrap();
+    cfg.tables
+        .insert("bake".into(), serde_json::json!({"diffuse_samples": 40}));
+    let bake = c.settings_of(Kind::Baker, "slf", &cfg, "fast").unwrap();
+    assert_eq!(bake["diffuse_samples"], 40);
+    assert_eq!(
+        bake["specular_samples"],
+        serde_json::json!(BakeConfig::fast().specular_samples)
+    );
+    // The preset decides the values the file leaves out.
+    let paper = c.settings_of(Kind::Baker, "slf", &cfg, "paper").unwrap();
+    assert_eq!(
+        paper["specular_samples"],
+        serde_json::json!(BakeConfig::paper().specular_samples)
+    );
+    // Every component but the method (the host registers none) builds from them.
+    let err = crate::run::check(&cfg, "fast", &c)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(err.contains("method = \"fipt\" is not registered"), "{err}");
+    // A misspelt key of a table is named by the factory that reads it.
+    cfg.tables
+        .insert("bake".into(), serde_json::json!({"difuse_samples": 40}));
+    let err = format!("{:#}", crate::run::check(&cfg, "fast", &c).err().unwrap());
+    assert!(
+        err.contains("difuse_samples") && err.contains("[bake]"),
+        "{err}"
+    );
+    // A table no registered component reads names those that are read.
+    cfg.tables.remove("bake");
+    cfg.tables.insert("bkae".into(), serde_json::json!({}));
+    let err = crate::run::check(&cfg, "fast", &c)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        err.contains("`bkae`") && err.contains("[bake]") && err.contains("[render]"),
+        "{err}"
+    );
 }

@@ -186,6 +186,7 @@ pub fn run(
     cfg: &RunConfig,
     components: &Components,
     parts: Parts,
+    checked: &crate::run::Checked,
 ) -> Result<RunOutcome> {
     let t_all = Instant::now();
     let stages = Stages(Mutex::new(vec![]));
@@ -218,6 +219,9 @@ pub fn run(
     } = fitted;
     let field = field.as_ref();
     let shadings_for = shadings.as_ref().map(|s| s as _);
+    let mut used = parts.fitter.parts_used();
+    used.baker |= shadings.is_some();
+    used.extractor |= emitters.is_none();
     let (emitters, user_emitters) =
         emitters_stage(&host, p.extractor, field, emitters, shadings_for, &stages)?;
     let warnings = crate::outputs::run_warnings(scene, &emitters);
@@ -231,7 +235,8 @@ pub fn run(
     write_views(scene, cfg, &a.out, recovered, Some(&observed), &mut mark)?;
     let metrics = evaluate_if_gt(scene, &a.out, components.evaluator(), &mut mark)?;
     let stages = stages.take();
-    let mut report = report_header(a, scene, cfg, &stages, t_all);
+    let settings = checked.report(cfg, components, used);
+    let mut report = report_header(a, scene, settings, &stages, t_all);
     let what = Ran {
         cfg,
         components,
@@ -338,12 +343,16 @@ fn emitters_stage(
     Ok((emitters, user_emitters))
 }
 
-/// Observation counts per surface cell of the search (`search.cell_footprints` footprints),
-/// over the training views' hits: the `observed` maps.
+/// The side of the `observed` maps' cells, in the training views' median pixel footprints (the
+/// size of FIPT's search cells in every preset).
+pub const OBSERVED_CELL_FOOTPRINTS: f32 = 4.0;
+
+/// Observation counts per surface cell ([`OBSERVED_CELL_FOOTPRINTS`] footprints), over the
+/// training views' hits: the `observed` maps.
 fn observed_cells(host: &Host) -> fipt_search::CellCounts {
     let (records, footprint) = host.hits();
     let points = records.iter().flatten().flatten().map(|r| r.p);
-    fipt_search::CellCounts::new(points, host.cfg.search.cell_footprints * footprint)
+    fipt_search::CellCounts::new(points, OBSERVED_CELL_FOOTPRINTS * footprint)
 }
 
 /// Writes `emitters.json` (at the views' own scale; the stages work at the normalised one) and

@@ -145,13 +145,13 @@ pub(crate) fn mark_status_after(
     Ok(())
 }
 
-/// The part of `report.json` every method writes: version, scene, preset, settings, the size of
-/// the inputs, the stages' times and the whole run's, and the run's peak RSS
-/// ([`StageReport::run_peak`]).
+/// The part of `report.json` every method writes: version, scene, preset, settings (the host's
+/// and those of the components the run used), the size of the inputs, the stages' times and
+/// the whole run's, and the run's peak RSS ([`StageReport::run_peak`]).
 pub(crate) fn report_header(
     a: &RunRequest,
     scene: &crate::scene::LoadedScene,
-    cfg: &RunConfig,
+    settings: serde_json::Value,
     stages: &[StageReport],
     t_all: std::time::Instant,
 ) -> serde_json::Value {
@@ -166,7 +166,7 @@ pub(crate) fn report_header(
         "scene": a.scene,
         "inputs_hash": scene.inputs_hash,
         "preset": a.preset,
-        "settings": cfg,
+        "settings": settings,
         "inputs": {
             "train_views": scene.ds.train().views.len(),
             "width": scene.ds.width,

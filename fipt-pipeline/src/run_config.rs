@@ -1,28 +1,17 @@
-//! The settings of a run (`RunConfig`: every stage's section, the components, the model, the
-//! capture handling), typed once with `deny_unknown_fields`, and the presets' values.
+//! The host's settings of a run (`RunConfig`: `[render]`, `[model]`, `[pipeline]`,
+//! `[capture]`), typed with `deny_unknown_fields`, and the presets' values; the components'
+//! tables (`[bake]`, `[train]`, `[search]`, `[plugins.<name>]`, …) kept as written, each typed
+//! by the factory of the component that reads it ([`crate::Components::settings_of`]).
 use crate::error::Result;
-use fipt_bake::bake::BakeConfig;
-use fipt_bake::refine::RefineConfig;
-use fipt_core::presets::Presets;
 use fipt_core::reflectance::ReflectanceModel;
-use fipt_emitter::MaskExtractorConfig;
-use fipt_neural::TrainConfig;
-use fipt_search::SearchConfig;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
-/// All settings of a run.
+/// All settings of a run: the host's sections typed, the components' tables as the file gave
+/// them (a table no registered component reads is refused by [`crate::run::check`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct RunConfig {
-    pub bake: BakeConfig,
-    pub train: TrainConfig,
-    pub emitters: MaskExtractorConfig,
-    pub refine: RefineConfig,
-    pub rounds: RoundsConfig,
     pub render: ReRenderConfig,
-    /// The material search before each training round (absent: as the preset).
-    #[serde(default)]
-    pub search: SearchConfig,
     /// The reflectance model fitted (absent: as the preset).
     #[serde(default)]
     pub model: ModelConfig,
@@ -34,7 +23,11 @@ pub struct RunConfig {
     pub capture: crate::capture::CaptureConfig,
     /// Settings of registered plug-in components, by name (`[plugins.<name>]`).
     #[serde(default)]
-    pub plugins: std::collections::BTreeMap<String, serde_json::Value>,
+    pub plugins: BTreeMap<String, serde_json::Value>,
+    /// The components' own tables as written (`[bake]`, `[train]`, `[search]`, …; absent:
+    /// the preset's values, which the component that reads the table gives).
+    #[serde(flatten)]
+    pub tables: BTreeMap<String, serde_json::Value>,
 }
 
 /// `[pipeline]`: the components `fipt run` composes, by registered name
@@ -42,8 +35,9 @@ pub struct RunConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PipelineConfig {
-    /// The method: `fipt` (built in: bake, search, train, emitters, refinement rounds) or a
-    /// registered fitter's name (settings `[plugins.<name>]`).
+    /// The method: a registered fitter's name (`fipt`, the default, registered by crate
+    /// fipt-method with its tables `[search]`, `[rounds]`, `[train]`, `[refine]`; `ipt`;
+    /// another's settings `[plugins.<name>]`).
     pub method: String,
     /// The shading baker: `slf` (built in, settings `[bake]`) or a plug-in's name.
     pub baker: String,
@@ -72,21 +66,9 @@ impl Default for PipelineConfig {
 }
 
 impl RunConfig {
-    /// The tables `names` of the config (`bake`, `train`, …) as JSON, by name, for the
-    /// component whose settings they hold (the config serialised once).
-    pub(crate) fn sections(
-        &self,
-        names: &[&str],
-    ) -> Result<serde_json::Map<String, serde_json::Value>> {
-        let mut all = serde_json::to_value(self)?;
-        names
-            .iter()
-            .map(|&name| match all.get_mut(name) {
-                Some(v) => Ok((name.to_string(), v.take())),
-                None => crate::bail!("the run config has no [{name}] table"),
-            })
-            .collect()
-    }
+    /// The host's own tables (typed here); every other table belongs to a component.
+    pub const HOST_TABLES: &'static [&'static str] =
+        &["render", "model", "pipeline", "capture", "plugins"];
 
     /// `[plugins.<name>]` (an empty table when absent).
     pub(crate) fn plugin_settings(&self, name: &str) -> serde_json::Value {
@@ -169,25 +151,13 @@ impl ReRenderConfig {
 }
 
 impl RunConfig {
+    /// The host's sections of preset `name` (the components' tables empty: each component
+    /// gives its own preset values); None for an unknown name.
     pub fn preset(name: &str) -> Option<Self> {
+        if !fipt_core::presets::is_known(name) {
+            return None;
+        }
         Some(RunConfig {
-            bake: BakeConfig::preset(name)?,
-            train: TrainConfig::preset(name)?,
-            emitters: MaskExtractorConfig::default(),
-            refine: RefineConfig::preset(name)?,
-            rounds: RoundsConfig {
-                refinements: if matches!(name, "paper" | "reference") {
-                    2
-                } else {
-                    1
-                },
-                // Fresh networks after 10,000-step rounds: on `room`, `paper` warm-started
-                // (30,000 steps on one field) scored val kd 25.1 dB, afresh 27.7 dB.
-                warm_start: !matches!(name, "paper" | "reference"),
-                roughness_prior: (name != "reference").then_some(0.0),
-                settle_share: 0.15,
-                settle_rounds: u32::from(matches!(name, "balanced" | "fast")),
-            },
             render: ReRenderConfig {
                 // Denoised (`docs/denoise.md`): on `studio-mitsuba`'s val views 16 spp read
                 // 33.6 dB and 64 spp 34.9, against 30.8 for the raw 256 spp of before and 34.0
@@ -207,11 +177,6 @@ impl RunConfig {
                 train_pixels: default_train_pixels(),
                 denoise: name != "reference",
             },
-            search: if name == "reference" {
-                SearchConfig::off()
-            } else {
-                SearchConfig::default()
-            },
             // The renderer's model of the data we did not make: on `studio-mitsuba` (Mitsuba's
             // `principled`) val kd 29.6 dB against 26.8 under FIPT's model (`room`, rendered with
             // FIPT's model: 27.4 against 29.8). `reference` keeps the method's model.
@@ -225,54 +190,8 @@ impl RunConfig {
             pipeline: PipelineConfig::default(),
             capture: Default::default(),
             plugins: Default::default(),
+            tables: Default::default(),
         })
-    }
-}
-
-/// The refine → train rounds after the first training round.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RoundsConfig {
-    /// Number of refine → train rounds (the reference: 2; 0 = the initial bake only).
-    pub refinements: u32,
-    /// Start each later training round from the previous round's field (the reference
-    /// starts afresh).
-    pub warm_start: bool,
-    /// `train.roughness_prior` (the σ pull) in the training rounds after a refinement; absent:
-    /// as in `[train]`. 0 in `balanced` and `fast`: the first round needs the pull (σ would
-    /// absorb the one-bounce bake's noise and make most of the room "glossy", so that path
-    /// growing costs 8×), the refined shadings are clean enough for σ to follow the
-    /// highlights, from a warm start at σ ≈ 1.
-    #[serde(default)]
-    pub roughness_prior: Option<f32>,
-    /// Up to `settle_rounds` further rounds after the planned ones, each while more than
-    /// `settle_share` of the last refinement's secondary rays met surfaces whose light the
-    /// field's materials decide (paths grown through glossy surfaces or rough ones no view
-    /// saw). There the refined Ld carries the last round's albedo error back into the next
-    /// round: on the default `cornell` (12 views of 64×48) 35 % of the rays, and one round
-    /// leaves kd 10 % low; `room` and `studio-mitsuba` have 5–7 %. 0 rounds: off.
-    #[serde(default)]
-    pub settle_share: f32,
-    #[serde(default)]
-    pub settle_rounds: u32,
-}
-
-impl RoundsConfig {
-    /// Range checks, with the key and the allowed range in the message.
-    pub fn validate(&self) -> Result<(), String> {
-        if !(0.0..=1.0).contains(&self.settle_share) {
-            return Err(format!(
-                "rounds.settle_share = {} (use [0, 1])",
-                self.settle_share
-            ));
-        }
-        if self.settle_rounds > 4 || self.refinements > 16 {
-            return Err(format!(
-                "rounds.refinements = {}, rounds.settle_rounds = {} (use at most 16 and 4)",
-                self.refinements, self.settle_rounds
-            ));
-        }
-        Ok(())
     }
 }
 

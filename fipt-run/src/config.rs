@@ -4,7 +4,9 @@ use crate::error::{Context, Result};
 use serde::{de::DeserializeOwned, Serialize};
 use std::path::Path;
 
-fn merge(base: &mut serde_json::Value, over: serde_json::Value) {
+/// Lays the keys of `over` onto `base`, table by table (a key of `over` replaces `base`'s,
+/// a table is laid over the table of the same name).
+pub fn merge(base: &mut serde_json::Value, over: serde_json::Value) {
     match (base, over) {
         (serde_json::Value::Object(b), serde_json::Value::Object(o)) => {
             for (k, v) in o {
@@ -63,7 +65,7 @@ pub fn load<T: Serialize + DeserializeOwned>(preset: T, file: Option<&Path>) -> 
 pub fn lay_over<T: Serialize + DeserializeOwned>(preset: T, over: serde_json::Value) -> Result<T> {
     let mut base = serde_json::to_value(&preset)?;
     merge(&mut base, over);
-    serde_path_to_error::deserialize(base).map_err(|e| crate::err!("`{}`: {}", e.path(), e.inner()))
+    typed(base)
 }
 
 fn load_with<T: Serialize + DeserializeOwned>(
@@ -77,11 +79,23 @@ fn load_with<T: Serialize + DeserializeOwned>(
     load_text(preset, &text, path, section)
 }
 
-/// Whether the config `path` (TOML, or JSON for `.json`) has a top-level table `key`.
-pub fn has_table(path: &Path, key: &str) -> Result<bool> {
+/// `value` typed as `T`; an unknown or mistyped key is an error naming its path
+/// (`search.roughness_steps`: …).
+pub fn typed<T: DeserializeOwned>(value: serde_json::Value) -> Result<T> {
+    serde_path_to_error::deserialize(value)
+        .map_err(|e| crate::err!("`{}`: {}", e.path(), e.inner()))
+}
+
+/// The config `path` (TOML, or JSON for `.json`) as a value.
+pub fn read_value(path: &Path) -> Result<serde_json::Value> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    Ok(parse(&text, path)?.get(key).is_some_and(|t| t.is_object()))
+    parse(&text, path)
+}
+
+/// Whether the config `path` (TOML, or JSON for `.json`) has a top-level table `key`.
+pub fn has_table(path: &Path, key: &str) -> Result<bool> {
+    Ok(read_value(path)?.get(key).is_some_and(|t| t.is_object()))
 }
 
 /// The text of a config as a value (TOML, or JSON for `.json`; `path` names it in errors).

@@ -263,6 +263,22 @@ impl SearchConfig {
     }
 }
 
+/// The search in every preset but `reference`, which keeps the reference's behaviour (off).
+impl fipt_core::presets::Presets for SearchConfig {
+    fn paper() -> Self {
+        SearchConfig::default()
+    }
+    fn balanced() -> Self {
+        SearchConfig::default()
+    }
+    fn fast() -> Self {
+        SearchConfig::default()
+    }
+    fn reference() -> Self {
+        SearchConfig::off()
+    }
+}
+
 /// One training pixel taking part in the search.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SearchPixel {
