@@ -247,6 +247,13 @@ pub fn run(
         caveats: caveats(shadings.is_some().then(|| p.baker.caveats())),
         exposure: scene.exposure,
     };
+    // Where the field is stored, for `fipt render` and `export` to load it back through the
+    // trainer its folder's manifest names.
+    let stored = field_file.as_deref().and_then(|f| f.parent());
+    if let Some(dir) = stored.filter(|d| d.join("manifest.json").is_file()) {
+        let rel = dir.strip_prefix(&a.out).unwrap_or(dir);
+        report["field_dir"] = rel.to_string_lossy().into();
+    }
     let lights = emitters.len();
     let own = [fit_report, modeled.unwrap_or_else(|| what.modeled())];
     extend(

@@ -120,7 +120,7 @@ impl RunOutput {
         };
         let method = report["settings"]["pipeline"]["method"]
             .as_str()
-            .unwrap_or("fipt")
+            .unwrap_or(crate::names::FIPT_METHOD)
             .to_string();
         Ok(RunOutput {
             dir: dir.to_path_buf(),
@@ -132,25 +132,34 @@ impl RunOutput {
         })
     }
 
-    /// The folder of the final material field: `train{r}` after r refinement rounds (the
-    /// method's report, `fit.rounds`; top-level `rounds` in runs made before FIPT was a method).
-    pub fn field_dir(&self) -> PathBuf {
+    /// The folder of the final material field: `report.json`'s `field_dir` (the folder of the
+    /// file the method stored its field in, with the training round's manifest); for runs
+    /// made before the report said so, `train{r}` after the r refinement rounds the report
+    /// lists (`fit.rounds`; top-level `rounds` before FIPT was a method). None: the method
+    /// stored no field there (a folder may hold an earlier run's rounds beside it).
+    pub fn field_dir(&self) -> Option<PathBuf> {
+        if let Some(rel) = self.report["field_dir"].as_str() {
+            return Some(self.dir.join(rel));
+        }
         let (fit, old) = (&self.report["fit"]["rounds"], &self.report["rounds"]);
-        let rounds = fit.as_array().or(old.as_array()).map_or(0, Vec::len);
-        crate::trained::train_dir(&self.dir, rounds as u32)
+        let rounds = fit.as_array().or(old.as_array())?.len();
+        Some(crate::trained::train_dir(&self.dir, rounds as u32))
     }
 
-    /// Loads the recovered material field (runs of the `fipt` method), through the trainer
-    /// that trained it (its round's manifest names it; `components` must have it).
+    /// Loads the recovered material field through the trainer that trained it (its round's
+    /// manifest names it; `components` must have it): runs of a method that stores its field
+    /// in a trainer's round folder (FIPT's do).
     pub fn field(&self, components: &crate::Components) -> Result<Box<dyn MaterialField>> {
-        if self.method != "fipt" {
+        let Some(dir) = self
+            .field_dir()
+            .filter(|d| d.join("manifest.json").is_file())
+        else {
             bail!(
-                "{}: the material field of method `{}` cannot be reloaded; only `fipt` runs' fields (trainN/) can",
+                "{}: method `{}` stored no material field that can be reloaded (report.json names no `field_dir` holding a training round's manifest.json)",
                 self.dir.display(),
                 self.method
             );
-        }
-        let dir = self.field_dir();
+        };
         if let Some(why) = crate::trained::field_changed(&dir) {
             bail!(
                 "{why}: run `fipt run` on {} again (it trains that round again and redoes what follows)",
