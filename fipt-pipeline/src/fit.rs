@@ -186,7 +186,7 @@ pub fn run(
     cfg: &RunConfig,
     components: &Components,
     parts: Parts,
-    checked: &crate::run::Checked,
+    checked: &crate::check::Checked,
 ) -> Result<RunOutcome> {
     let t_all = Instant::now();
     let stages = Stages(Mutex::new(vec![]));

@@ -13,6 +13,7 @@
 //! `fipt_cli::components()` has both). A program of one's own does the same as the binary
 //! (see `fipt_method`'s example).
 pub mod bake;
+pub mod check;
 use fipt_capture::capture;
 pub mod components;
 pub use fipt_run::config;
