@@ -20,14 +20,15 @@ pub fn estimate(
     let poly = model.diffuse_depends_on_roughness() as u64;
     // Ld, Ld1/Ld2 for principled, Ls0 and Ls1 at every level.
     let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
-    // The search's copy adds the valid flag, on at most `search.max_pixels` pixels; the
-    // training set the image value, the position, the Morton code, the origin, the segment
-    // and the search target, on at most `train.set_cap · steps · batch` pixels.
+    // The search's copy adds the valid flag, and its cost curves the cell order and what the
+    // loss reads of the pixel's value (8 + 36 bytes), on at most `search.max_pixels` pixels;
+    // the training set the image value, the position, the Morton code, the origin, the
+    // segment and the search target, on at most `train.set_cap · steps · batch` pixels.
     let searched = match cfg.search.max_pixels {
         0 => pixels,
         m => pixels.min(m as u64),
     };
-    let search = searched * (shadings + 1);
+    let search = searched * (shadings + 1 + 44);
     let kept = cfg
         .train
         .set_limit()
@@ -105,7 +106,7 @@ mod tests {
         let shadings = 12 * (1 + 2 * poly + 2 * NUM_LEVELS as u64);
         assert_eq!(
             capped,
-            (searched * (shadings + 1)).max(set * (shadings + 52))
+            (searched * (shadings + 45)).max(set * (shadings + 52))
         );
         let mut open = cfg.clone();
         open.search.max_pixels = 0;

@@ -17,7 +17,7 @@
 //! (`studio-mitsuba`'s right wall, σ 0.9: 1.2 %). The sides then go through the same guard
 //! as a colour split ([`crate::split::sides_differ`]). A region the colour divided takes the
 //! gloss cut when that is the deeper division (a wood checker over tiles of two finishes).
-use super::{argmin, sq_err, AlbedoFit, SearchPixel};
+use super::{argmin, AlbedoFit, Observed, SearchPixel};
 use crate::split::{ColourSplit, SplitConfig};
 use fipt_core::image::Image;
 use fipt_core::shading::ViewShadings;
@@ -58,25 +58,31 @@ fn cell_curves(
             if !wanted {
                 return None;
             }
-            let mine: Vec<&SearchPixel> = (members.iter().map(|&j| &pixels[j]))
-                .filter(|p| views.reads(p))
+            let mine: Vec<usize> = (members.iter().copied())
+                .filter(|&j| views.reads(&pixels[j]))
                 .collect();
             if mine.is_empty() {
                 return None;
             }
+            let observed: Vec<Observed> = (mine.iter())
+                .map(|&j| {
+                    Observed::of(images[pixels[j].view as usize].data[pixels[j].pixel as usize])
+                })
+                .collect();
+            let mut terms: Vec<(Vec3, Vec3)> = Vec::with_capacity(mine.len());
             let curve = grid.iter().map(|&sigma| {
+                terms.clear();
+                terms.extend(mine.iter().map(|&j| {
+                    let (v, i) = (pixels[j].view as usize, pixels[j].pixel as usize);
+                    super::linear_terms(&shadings[v], i, sigma, 0.0)
+                }));
                 let mut fit = AlbedoFit::default();
-                for p in &mine {
-                    let (v, i) = (p.view as usize, p.pixel as usize);
-                    fit.add(&shadings[v], &images[v], i, sigma, 0.0);
+                for (o, &(b, c)) in observed.iter().zip(&terms) {
+                    fit.add_terms(o, b, c);
                 }
                 let a = fit.albedo().clamp(Vec3::ZERO, Vec3::ONE);
-                let cost: f64 = (mine.iter())
-                    .map(|p| {
-                        let (v, i) = (p.view as usize, p.pixel as usize);
-                        let (b, c) = super::linear_terms(&shadings[v], i, sigma, 0.0);
-                        sq_err(a * b + c, images[v].data[i])
-                    })
+                let cost: f64 = (observed.iter().zip(&terms))
+                    .map(|(o, &(b, c))| o.sq_err(a * b + c))
                     .sum();
                 cost as f32
             });
