@@ -6,25 +6,21 @@
 //! manifest (the stage is redone) or a complete one. A re-run with the same inputs and settings
 //! reuses the files; any change invalidates them.
 //!
-//! `.fsh` format (little endian): magic `FIPTSHD\0`, u32 version, u32 width, u32 height,
-//! u32 levels, f32 × levels, u8 × pixels (valid), f32 × 3 × pixels (Ld),
-//! [version 2 only: f32 × 3 × 2 × pixels (Ld1, Ld2: the diffuse shading's σ polynomial)],
-//! f32 × 3 × levels × pixels (Ls0), the same for Ls1. Version 1 is written when the shadings
-//! have no σ polynomial (FIPT's model), version 2 when they do (`principled`).
+//! The `.fsh` format of a view's file, dense or holding the valid pixels only: [`crate::fsh`].
 use crate::bake::BakeConfig;
 use fipt_core::fsutil::{hash_files, read_json, write_bytes_atomic, write_json_atomic};
-use fipt_core::shading::{PixelDraw, Shard, ViewShadings, NUM_LEVELS};
+use fipt_core::shading::{PixelDraw, Shard, ViewShadings};
 use fipt_core::{CoreError, Result};
-use glam::Vec3;
 use serde::{Deserialize, Serialize};
+
+use crate::fsh::{damaged, Layout, HEAD};
+pub use crate::fsh::{decode, encode, ViewFile};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-const MAGIC: &[u8; 8] = b"FIPTSHD\0";
-/// Version of the `.fsh` format (without the diffuse σ polynomial) and of the manifest.
+/// Version of the manifest (and of the first `.fsh` files; the files' own versions are
+/// [`crate::fsh`]'s).
 pub const FORMAT_VERSION: u32 = 1;
-/// Version of `.fsh` files that carry the diffuse σ polynomial.
-const FORMAT_VERSION_POLY: u32 = 2;
 
 /// What a stored bake was computed from and how.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -59,206 +55,6 @@ pub struct BakeManifest {
 /// Path of view `k`'s file.
 pub fn view_path(dir: &Path, split: &str, k: usize) -> PathBuf {
     dir.join(split).join(format!("{k:03}.fsh"))
-}
-
-/// Encodes one view's shadings.
-pub fn encode(s: &ViewShadings) -> Vec<u8> {
-    let n = s.width * s.height;
-    let poly = !s.ld_poly.is_empty();
-    let mut out = Vec::with_capacity(
-        28 + NUM_LEVELS * 4 + n * (1 + 12 * (1 + 2 * poly as usize + 2 * NUM_LEVELS)),
-    );
-    out.extend_from_slice(MAGIC);
-    for v in [
-        if poly {
-            FORMAT_VERSION_POLY
-        } else {
-            FORMAT_VERSION
-        },
-        s.width as u32,
-        s.height as u32,
-        NUM_LEVELS as u32,
-    ] {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
-    for l in s.levels {
-        out.extend_from_slice(&l.to_le_bytes());
-    }
-    out.extend(s.valid.iter().map(|&v| v as u8));
-    let mut put = |v: Vec3| {
-        for c in v.to_array() {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-    };
-    s.ld.iter().for_each(|&v| put(v));
-    s.ld_poly.iter().flatten().for_each(|&v| put(v));
-    s.ls0.iter().flatten().for_each(|&v| put(v));
-    s.ls1.iter().flatten().for_each(|&v| put(v));
-    out
-}
-
-/// What a `.fsh` header says: (width, height, whether the σ polynomial is stored, pixels,
-/// the file's length in bytes). `bytes` needs only the first 24.
-fn header(bytes: &[u8], path: &Path) -> Result<(usize, usize, bool, usize, usize)> {
-    if bytes.len() < 24 || &bytes[..8] != MAGIC {
-        return Err(damaged(path, "wrong magic"));
-    }
-    let u = |i: usize| u32::from_le_bytes(bytes[8 + 4 * i..12 + 4 * i].try_into().unwrap());
-    let (ver, w, h, nl) = (u(0), u(1) as usize, u(2) as usize, u(3) as usize);
-    if !(ver == FORMAT_VERSION || ver == FORMAT_VERSION_POLY) || nl != NUM_LEVELS {
-        return Err(damaged(path, &format!("version {ver} with {nl} levels")));
-    }
-    let poly = ver == FORMAT_VERSION_POLY;
-    // Checked: a corrupt size must not wrap around to a plausible length.
-    let sizes = w.checked_mul(h).and_then(|n| {
-        let per = 12usize.checked_mul(1 + 2 * poly as usize + 2 * nl)?;
-        Some((
-            n,
-            (24 + 4 * nl)
-                .checked_add(n)?
-                .checked_add(n.checked_mul(per)?)?,
-        ))
-    });
-    let Some((n, expected)) = sizes else {
-        return Err(damaged(path, &format!("a {w}x{h} header")));
-    };
-    Ok((w, h, poly, n, expected))
-}
-
-fn damaged(path: &Path, m: &str) -> CoreError {
-    CoreError::invalid(
-        path,
-        format!("not a valid shading file: {m} (delete it to re-bake)"),
-    )
-}
-
-/// One view's stored shadings as read from its file, checked; pixels are decoded on demand.
-pub struct ViewFile<'b> {
-    bytes: &'b [u8],
-    width: usize,
-    height: usize,
-    levels: [f32; NUM_LEVELS],
-    poly: bool,
-    n: usize,
-}
-
-impl<'b> ViewFile<'b> {
-    fn new(bytes: &'b [u8], path: &Path) -> Result<Self> {
-        let (width, height, poly, n, expected) = header(bytes, path)?;
-        if bytes.len() != expected {
-            return Err(damaged(
-                path,
-                &format!("{} bytes, expected {expected} (truncated?)", bytes.len()),
-            ));
-        }
-        let mut levels = [0.0; NUM_LEVELS];
-        for (l, c) in levels.iter_mut().zip(bytes[24..].chunks_exact(4)) {
-            *l = f32::from_le_bytes(c.try_into().unwrap());
-        }
-        Ok(ViewFile {
-            bytes,
-            width,
-            height,
-            levels,
-            poly,
-            n,
-        })
-    }
-
-    /// (width, height) of the view.
-    pub fn size(&self) -> (usize, usize) {
-        (self.width, self.height)
-    }
-
-    /// Whether each pixel's shadings are valid.
-    pub fn valid(&self) -> Vec<bool> {
-        let off = 24 + 4 * NUM_LEVELS;
-        self.bytes[off..off + self.n]
-            .iter()
-            .map(|&b| b != 0)
-            .collect()
-    }
-
-    /// The pixels `idx` alone, as [`ViewShadings::select`] gives them from the decoded view.
-    pub fn select(&self, idx: &[u32]) -> ViewShadings {
-        let b = self.bytes;
-        let f = |off: usize| f32::from_le_bytes(b[off..off + 4].try_into().unwrap());
-        let vec3 = |off: usize| Vec3::new(f(off), f(off + 4), f(off + 8));
-        let valid_at = 24 + 4 * NUM_LEVELS;
-        let ld_at = valid_at + self.n;
-        let poly_at = ld_at + 12 * self.n;
-        let ls0_at = poly_at + if self.poly { 24 * self.n } else { 0 };
-        let ls1_at = ls0_at + 12 * NUM_LEVELS * self.n;
-        let px = idx.iter().map(|&i| i as usize);
-        let levels = |at: usize, i: usize| -> [Vec3; NUM_LEVELS] {
-            std::array::from_fn(|l| vec3(at + 12 * (NUM_LEVELS * i + l)))
-        };
-        ViewShadings {
-            width: idx.len(),
-            height: 1,
-            levels: self.levels,
-            ld: px.clone().map(|i| vec3(ld_at + 12 * i)).collect(),
-            ld_poly: if self.poly {
-                px.clone()
-                    .map(|i| [vec3(poly_at + 24 * i), vec3(poly_at + 24 * i + 12)])
-                    .collect()
-            } else {
-                vec![]
-            },
-            ls0: px.clone().map(|i| levels(ls0_at, i)).collect(),
-            ls1: px.clone().map(|i| levels(ls1_at, i)).collect(),
-            valid: px.map(|i| b[valid_at + i] != 0).collect(),
-        }
-    }
-}
-
-/// Decodes one view's shadings; `path` names the file in errors.
-pub fn decode(bytes: &[u8], path: &Path) -> Result<ViewShadings> {
-    let (w, h, poly, n, expected) = header(bytes, path)?;
-    if bytes.len() != expected {
-        return Err(damaged(
-            path,
-            &format!("{} bytes, expected {expected} (truncated?)", bytes.len()),
-        ));
-    }
-    let f = |off: usize| f32::from_le_bytes(bytes[off..off + 4].try_into().unwrap());
-    let mut off = 24;
-    let mut levels = [0.0; NUM_LEVELS];
-    for l in levels.iter_mut() {
-        *l = f(off);
-        off += 4;
-    }
-    let valid = bytes[off..off + n].iter().map(|&b| b != 0).collect();
-    off += n;
-    let vec3 = |off: &mut usize| {
-        let v = Vec3::new(f(*off), f(*off + 4), f(*off + 8));
-        *off += 12;
-        v
-    };
-    let ld = (0..n).map(|_| vec3(&mut off)).collect();
-    let ld_poly = if poly {
-        (0..n)
-            .map(|_| std::array::from_fn(|_| vec3(&mut off)))
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let ls0 = (0..n)
-        .map(|_| std::array::from_fn(|_| vec3(&mut off)))
-        .collect();
-    let ls1 = (0..n)
-        .map(|_| std::array::from_fn(|_| vec3(&mut off)))
-        .collect();
-    Ok(ViewShadings {
-        width: w,
-        height: h,
-        levels,
-        ld,
-        ld_poly,
-        ls0,
-        ls1,
-        valid,
-    })
 }
 
 /// Writes every view's file, then the manifest.
@@ -403,14 +199,15 @@ impl StoredShadings {
         use std::io::Read;
         for k in 0..self.views {
             let p = view_path(&self.dir, &self.split, k);
-            let mut head = [0u8; 24];
+            let mut head = [0u8; HEAD];
             let len = std::fs::File::open(&p)
                 .and_then(|mut f| {
-                    f.read_exact(&mut head)?;
-                    Ok(f.metadata()?.len())
+                    let read = f.read(&mut head)?;
+                    Ok((read, f.metadata()?.len()))
                 })
                 .map_err(|e| CoreError::io(&p, e))?;
-            let expected = header(&head, &p)?.4;
+            let (read, len) = len;
+            let expected = Layout::of(&head[..read], &p)?.len;
             if len != expected as u64 {
                 return Err(damaged(
                     &p,
@@ -547,52 +344,6 @@ fn load_checked(
         Ok(None) => Ok(Ok((m, stored))),
         Ok(Some(why)) => Ok(Err(why)),
         Err(e) => Ok(Err(format!("a stored view cannot be read ({e})"))),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use fipt_core::shading::DEFAULT_LEVELS;
-
-    #[test]
-    fn binary_round_trip_is_exact_and_truncation_is_named() {
-        let mut s = ViewShadings::zeros(5, 3, DEFAULT_LEVELS);
-        for i in 0..15 {
-            s.valid[i] = i % 3 != 0;
-            s.ld[i] = Vec3::new(i as f32, 1e-6, 1e5);
-            for l in 0..NUM_LEVELS {
-                s.ls0[i][l] = Vec3::splat((i * l) as f32 * 0.25);
-                s.ls1[i][l] = Vec3::new(l as f32, -0.0, 3.5);
-            }
-        }
-        let b = encode(&s);
-        assert_eq!(decode(&b, Path::new("x.fsh")).unwrap(), s);
-        // With the diffuse σ polynomial (version 2).
-        let mut p = s.clone();
-        p.ld_poly = (0..15)
-            .map(|i| [Vec3::splat(i as f32), Vec3::new(-1.0, 2e-7, 3e4)])
-            .collect();
-        let bp = encode(&p);
-        assert_eq!(bp.len(), b.len() + 15 * 24);
-        assert_eq!(decode(&bp, Path::new("x.fsh")).unwrap(), p);
-        // Pixels selected from the file equal the same pixels of the decoded view.
-        for (bytes, view) in [(&b, &s), (&bp, &p)] {
-            let file = ViewFile::new(bytes, Path::new("x.fsh")).unwrap();
-            assert_eq!(file.valid(), view.valid);
-            assert_eq!(file.size(), (5, 3));
-            let idx = [14, 0, 7, 7, 3];
-            assert_eq!(file.select(&idx), view.select(&idx));
-            assert_eq!(file.select(&[]), view.select(&[]));
-        }
-        assert!(ViewFile::new(&b[..b.len() - 1], Path::new("x.fsh")).is_err());
-        let err = decode(&b[..b.len() - 4], Path::new("v/003.fsh"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains("v/003.fsh") && err.contains("truncated"),
-            "{err}"
-        );
     }
 }
 

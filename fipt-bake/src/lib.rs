@@ -21,6 +21,7 @@
 pub mod bake;
 pub mod bake_store;
 pub mod diffuse;
+pub mod fsh;
 pub mod limits;
 mod passes;
 pub mod refine;

@@ -3,7 +3,6 @@
 //! EXR read/write (float32 or half, channels found by name) and sRGB PNG previews.
 use crate::color::{srgb_oetf, Rgb};
 use crate::error::{CoreError, Result};
-use crate::fsutil::write_atomic;
 use glam::Vec3;
 use std::path::Path;
 
@@ -252,13 +251,17 @@ impl Image {
     /// Writes an RGB EXR (ZIP compression), atomically. Half precision saturates at ±65504
     /// (no infinities are written); use `F32` for radiance.
     pub fn write_exr(&self, path: &Path, precision: ExrPrecision) -> Result<()> {
+        let bytes = self.exr_bytes(precision, path)?;
+        crate::fsutil::write_bytes_atomic(path, &bytes)
+    }
+
+    /// The bytes of [`Image::write_exr`]'s file (`path` names it in errors), to encode apart
+    /// from writing (several images encoded at once, written in order).
+    pub fn exr_bytes(&self, precision: ExrPrecision, path: &Path) -> Result<Vec<u8>> {
         use exr::prelude::*;
         let (w, h) = (self.width, self.height);
-        let map_err = |e: exr::error::Error, p: &Path| CoreError::ImageWrite {
-            path: p.to_path_buf(),
-            message: e.to_string(),
-        };
-        write_atomic(path, |tmp| match precision {
+        let mut out = std::io::Cursor::new(Vec::new());
+        let written = match precision {
             ExrPrecision::F32 => {
                 let ch = SpecificChannels::rgb(|pos: Vec2<usize>| {
                     let p = self.data[pos.y() * w + pos.x()];
@@ -266,8 +269,7 @@ impl Image {
                 });
                 exr::image::Image::from_encoded_channels((w, h), Encoding::SMALL_LOSSLESS, ch)
                     .write()
-                    .to_file(tmp)
-                    .map_err(|e| map_err(e, path))
+                    .to_buffered(&mut out)
             }
             ExrPrecision::F16 => {
                 let ch = SpecificChannels::rgb(|pos: Vec2<usize>| {
@@ -277,10 +279,14 @@ impl Image {
                 });
                 exr::image::Image::from_encoded_channels((w, h), Encoding::SMALL_LOSSLESS, ch)
                     .write()
-                    .to_file(tmp)
-                    .map_err(|e| map_err(e, path))
+                    .to_buffered(&mut out)
             }
-        })
+        };
+        written.map_err(|e| CoreError::ImageWrite {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        Ok(out.into_inner())
     }
 
     /// 8-bit sRGB pixels after multiplying by `exposure` (clamped to [0, 1]); NaN shows as magenta.
@@ -301,21 +307,27 @@ impl Image {
 
     /// Writes an sRGB PNG preview (linear values × `exposure`, clamped), atomically.
     pub fn write_png(&self, path: &Path, exposure: f32) -> Result<()> {
-        let bytes = self.to_srgb8(exposure);
-        write_atomic(path, |tmp| {
-            image::save_buffer_with_format(
-                tmp,
-                &bytes,
-                self.width as u32,
-                self.height as u32,
-                image::ColorType::Rgb8,
-                image::ImageFormat::Png,
-            )
-            .map_err(|e| CoreError::ImageWrite {
-                path: path.to_path_buf(),
-                message: e.to_string(),
-            })
-        })
+        let bytes = self.png_bytes(exposure, path)?;
+        crate::fsutil::write_bytes_atomic(path, &bytes)
+    }
+
+    /// The bytes of [`Image::write_png`]'s file (`path` names it in errors).
+    pub fn png_bytes(&self, exposure: f32, path: &Path) -> Result<Vec<u8>> {
+        let pixels = self.to_srgb8(exposure);
+        let mut out = std::io::Cursor::new(Vec::new());
+        image::write_buffer_with_format(
+            &mut out,
+            &pixels,
+            self.width as u32,
+            self.height as u32,
+            image::ColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| CoreError::ImageWrite {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        Ok(out.into_inner())
     }
 
     /// Reads an 8-bit PNG (sRGB values are returned as stored, divided by 255).

@@ -11,13 +11,19 @@ use fipt_geom::Geometry;
 use fipt_neural::train::render_factorized;
 use fipt_neural::NeuralField;
 use glam::Vec3;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
+
+/// Views whose maps are computed and encoded at once (on every core), then written in order.
+const VIEWS_AT_ONCE: usize = 8;
 
 /// Writes `{k:03}_kd|ks|roughness|metallic|emission_mask.exr` (+ PNG previews) per view,
 /// `_emission.exr` (emitted radiance of the given emitter triangles) when `emission` is given, and
 /// `_render.exr` where shadings exist: the trained model's prediction
-/// (1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT.
+/// (1 − α)·(kd·Ld + ks·Ls0(σ) + Ls1(σ)) + α·GT. Views are computed and encoded several at once
+/// and their files written one after another, in view order.
+#[allow(clippy::too_many_arguments)]
 pub fn export_views(
     field: &dyn MaterialField,
     geometry: &Geometry,
@@ -28,13 +34,53 @@ pub fn export_views(
     radiance_scale: f32,
     dir: &Path,
 ) -> Result<()> {
-    for (vi, v) in views.iter().enumerate() {
+    let at = |vi: usize| ViewMaps {
+        field,
+        geometry,
+        vi,
+        view: &views[vi],
+        factorized,
+        emission,
+        observed,
+    };
+    let first: Vec<usize> = (0..views.len()).step_by(VIEWS_AT_ONCE).collect();
+    for start in first {
+        let end = (start + VIEWS_AT_ONCE).min(views.len());
+        let files: Vec<Vec<(std::path::PathBuf, Vec<u8>)>> = (start..end)
+            .into_par_iter()
+            .map(|vi| encode_maps(views[vi].index, at(vi).maps()?, radiance_scale, dir))
+            .collect::<Result<_>>()?;
+        for (path, bytes) in files.iter().flatten() {
+            fipt_core::fsutil::write_bytes_atomic(path, bytes)?;
+        }
+    }
+    Ok(())
+}
+
+/// One view's maps and what they are computed from.
+struct ViewMaps<'a> {
+    field: &'a dyn MaterialField,
+    geometry: &'a Geometry,
+    vi: usize,
+    view: &'a View,
+    factorized: Option<(&'a NeuralField, &'a [ViewShadings], &'a [Image])>,
+    emission: Option<&'a HashMap<u32, Vec3>>,
+    observed: Option<&'a fipt_search::CellCounts>,
+}
+
+impl ViewMaps<'_> {
+    /// The view's maps, by name.
+    fn maps(&self) -> Result<Vec<(&'static str, Image)>> {
+        let v = self.view;
         let (w, h) = (v.camera.width, v.camera.height);
-        let recs = primary_records(geometry, v);
+        let recs = primary_records(self.geometry, v);
         let hit: Vec<usize> = (0..w * h).filter(|&i| recs[i].is_some()).collect();
         let pts: Vec<Vec3> = hit.iter().map(|&i| recs[i].unwrap().hit.p).collect();
-        let mats = field.materials(&pts).context("querying the field")?;
-        let alpha = field.emission_mask(&pts).context("querying the field")?;
+        let mats = self.field.materials(&pts).context("querying the field")?;
+        let alpha = self
+            .field
+            .emission_mask(&pts)
+            .context("querying the field")?;
         let mut maps: Vec<(&str, Image)> = ["kd", "ks", "roughness", "metallic", "emission_mask"]
             .iter()
             .map(|n| (*n, Image::new(w, h)))
@@ -47,7 +93,7 @@ pub fn export_views(
             maps[3].1.data[i] = Vec3::splat(m.metallic);
             maps[4].1.data[i] = Vec3::splat(alpha[j]);
         }
-        if let Some(em) = emission {
+        if let Some(em) = self.emission {
             let mut img = Image::new(w, h);
             for &i in &hit {
                 if let Some(l) = em.get(&recs[i].unwrap().hit.tri) {
@@ -56,15 +102,15 @@ pub fn export_views(
             }
             maps.push(("emission", img));
         }
-        if let Some(counts) = observed {
+        if let Some(counts) = self.observed {
             let mut img = Image::new(w, h);
             for &i in &hit {
                 img.data[i] = Vec3::splat(counts.count(recs[i].unwrap().hit.p) as f32);
             }
             maps.push(("observed", img));
         }
-        if let Some((field, sh, imgs)) = factorized {
-            let s = &sh[vi];
+        if let Some((field, sh, imgs)) = self.factorized {
+            let s = &sh[self.vi];
             let idx: Vec<usize> = hit.iter().copied().filter(|&i| s.valid[i]).collect();
             let unit = field.to_unit(
                 &idx.iter()
@@ -75,30 +121,40 @@ pub fn export_views(
             let mut img = Image::new(w, h);
             for (j, &i) in idx.iter().enumerate() {
                 let r = Vec3::from(render[j]);
-                img.data[i] = r * (1.0 - al[j]) + imgs[vi].data[i] * al[j];
+                img.data[i] = r * (1.0 - al[j]) + imgs[self.vi].data[i] * al[j];
             }
             maps.push(("render", img));
         }
-        for (name, img) in &mut maps {
-            let k = v.index;
-            let radiance = matches!(*name, "emission" | "render");
-            if radiance && radiance_scale != 1.0 {
-                for p in &mut img.data {
-                    *p *= radiance_scale;
-                }
-            }
-            img.write_exr(&dir.join(format!("{k:03}_{name}.exr")), ExrPrecision::F32)?;
-            // Counts: white at 64 training pixels a cell; radiance at the working exposure.
-            let exposure = match *name {
-                "observed" => 1.0 / 64.0,
-                _ if radiance => 1.0 / radiance_scale,
-                _ => 1.0,
-            };
-            img.write_png(
-                &dir.join("preview").join(format!("{k:03}_{name}.png")),
-                exposure,
-            )?;
-        }
+        Ok(maps)
     }
-    Ok(())
+}
+
+/// The files of view `k`'s maps: each map's EXR and PNG preview, radiance maps scaled by
+/// `radiance_scale`.
+fn encode_maps(
+    k: usize,
+    mut maps: Vec<(&'static str, Image)>,
+    radiance_scale: f32,
+    dir: &Path,
+) -> Result<Vec<(std::path::PathBuf, Vec<u8>)>> {
+    let mut files = vec![];
+    for (name, img) in &mut maps {
+        let radiance = matches!(*name, "emission" | "render");
+        if radiance && radiance_scale != 1.0 {
+            for p in &mut img.data {
+                *p *= radiance_scale;
+            }
+        }
+        let exr = dir.join(format!("{k:03}_{name}.exr"));
+        files.push((exr.clone(), img.exr_bytes(ExrPrecision::F32, &exr)?));
+        // Counts: white at 64 training pixels a cell; radiance at the working exposure.
+        let exposure = match *name {
+            "observed" => 1.0 / 64.0,
+            _ if radiance => 1.0 / radiance_scale,
+            _ => 1.0,
+        };
+        let png = dir.join("preview").join(format!("{k:03}_{name}.png"));
+        files.push((png.clone(), img.png_bytes(exposure, &png)?));
+    }
+    Ok(files)
 }
