@@ -5,17 +5,19 @@
 //!
 //! | kind | chosen by | built in |
 //! |---|---|---|
-//! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | none in the host: `fipt` (bake → search → train → emitters → (refine → search → train) × rounds) is registered by crate `fipt-method` (`fipt_method::register`, settings `[search]`, `[rounds]`, `[train]`, `[refine]`, `[model]`), `ipt` by crate `fipt-ipt` (`fipt_ipt::register`), as any method from outside |
+//! | method (`fipt_core::fit::MaterialFitter`) | `[pipeline] method` | none in the host: `fipt` (bake → search → train → emitters → (refine → search → train) × rounds) is registered by crate `fipt-method` (`fipt_method::register`, settings `[search]`, `[rounds]`, `[train]`, `[refine]`), `ipt` by crate `fipt-ipt` (`fipt_ipt::register`), as any method from outside |
 //! | shading baker (`fipt_core::shading::ShadingBaker`), in `fipt`'s rounds | `[pipeline] baker` | `slf`: the surface-light-field bake, settings `[bake]` |
 //! | shading refiner (`fipt_core::shading::ShadingRefiner`), in `fipt`'s rounds | `[pipeline] refiner` | `path-grown`: the path-grown refinement, settings `[refine]` |
 //! | field trainer (`fipt_core::trainer::FieldTrainer`), in `fipt`'s rounds | `[pipeline] trainer` | `hash-grid`: the hash-grid + MLP field (`fipt_neural::HashGridTrainer`), settings `[train]` |
 //! | emitter extractor (`fipt_core::emitter::EmitterExtractor`) | `[pipeline] extractor` | `mask`: the emission-mask extractor, settings `[emitters]` |
 //! | reflectance model (`fipt_core::reflectance::ReflectanceFormulas`; built-ins a closed enum) | `[model] brdf`, `--brdf` | `principled`, `fipt` |
 //!
-//! A registered component's settings are the run config's `[plugins.<name>]` table (a
-//! built-in's: its own table, `[bake]`, `[refine]`, `[train]` or `[emitters]`; a component
-//! registered with `with_tables`: those tables as one object), passed to its
-//! factory as JSON (the factory validates them and names the bad key); `settings_of` finds them.
+//! A registered component's settings are the run config's `[plugins.<name>]` table as written
+//! (a method's factory also gets the preset's name), or, for one registered with
+//! `with_table` / `with_tables` (the built-ins: `[bake]`, `[refine]`, `[train]`,
+//! `[emitters]`; FIPT: four tables as one object), the preset's values of its tables
+//! ([`Table`]) with the run config's laid over them. `settings_of` finds them; the factory
+//! types them, once, and names a bad key.
 use crate::bail;
 use crate::error::Result;
 use fipt_core::emitter::EmitterExtractor;
