@@ -4,7 +4,6 @@ use crate::bail;
 use crate::error::Result;
 pub use crate::maps::export_views;
 use crate::observe::{bar, Stage};
-use crate::run_config::RunConfig;
 use crate::scene::SceneRef;
 use crate::search::Searched;
 use crate::train_set::{build_set, second_sides, segment_ids, BuiltSet};
@@ -54,7 +53,7 @@ fn chosen_trainer(
     let with_pipeline = file.filter(|p| crate::config::has_table(p, "pipeline").unwrap_or(false));
     let (name, mut settings) = match with_pipeline {
         Some(path) => {
-            let cfg = crate::config::load_preset(&a.preset, RunConfig::preset, Some(path))?;
+            let cfg = fipt_pipeline::check::load(&a.preset, Some(path), components)?;
             let name = cfg.pipeline.trainer.clone();
             let settings =
                 components.settings_of(crate::names::Kind::Trainer, &name, &cfg, &a.preset)?;
@@ -445,7 +444,7 @@ fn run_baker(
     else {
         return Ok(None);
     };
-    let cfg = crate::config::load_preset(preset, crate::run_config::RunConfig::preset, Some(path))?;
+    let cfg = fipt_pipeline::check::load(preset, Some(path), components)?;
     let method = &cfg.pipeline.method;
     if method != crate::names::FIPT_METHOD {
         crate::bail!(

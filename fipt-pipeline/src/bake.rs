@@ -55,7 +55,7 @@ pub fn chosen_baker(
     if let Some(path) = file {
         let value = crate::config::read_value(path)?;
         if value.get("pipeline").is_some_and(|t| t.is_object()) {
-            cfg = crate::config::load_preset(preset, RunConfig::preset, Some(path))?;
+            cfg = crate::check::load(preset, Some(path), components)?;
         } else if let Some(table) = components.table_of(Kind::Baker, &cfg.pipeline.baker) {
             let own = value.get(table).filter(|t| t.is_object());
             let settings = own.cloned().unwrap_or(value);

@@ -95,6 +95,22 @@ pub fn check(cfg: &RunConfig, preset: &str, components: &crate::Components) -> R
     })
 }
 
+/// The run config of preset `preset` with `file` laid over it, a table that no registered
+/// component reads refused with the file named (`fipt run`, and `fipt bake` and `fipt train`
+/// given a run config).
+pub fn load(
+    preset: &str,
+    file: Option<&std::path::Path>,
+    components: &crate::Components,
+) -> Result<RunConfig> {
+    let cfg = crate::config::load_preset(preset, RunConfig::preset, file)?;
+    check_tables(&cfg, components).map_err(|e| match file {
+        Some(file) => crate::err!("{}: {e:#}", file.display()),
+        None => e,
+    })?;
+    Ok(cfg)
+}
+
 /// Refuses a table of `cfg` that neither the host nor any registered component reads.
 fn check_tables(cfg: &RunConfig, components: &crate::Components) -> Result<()> {
     let known = components.table_names();

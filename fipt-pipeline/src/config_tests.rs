@@ -54,6 +54,16 @@ fn file_keys_override_the_preset_and_unknown_keys_fail() {
             .contains("baker = \"mine\" is not registered"),
         "{err}"
     );
+    // A run config's table that no component reads is refused, the file named.
+    std::fs::write(
+        &p,
+        "[pipeline]\nbaker = \"slf\"\n[bkae]\ndiffuse_samples = 40\n",
+    )
+    .unwrap();
+    let err = crate::bake::chosen_baker("fast", Some(&p), &crate::Components::builtin())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("bake.toml") && err.contains("`bkae`"), "{err}");
     std::fs::write(
         &p,
         "[pipeline]\nbaker = \"slf\"\n[bake]\ndiffuse_samples = 40\n",

@@ -12,8 +12,7 @@ pub use crate::run_config::{ModelConfig, PipelineConfig, ReRenderConfig, RunConf
 /// `fipt run`: the configured method's stages, each reused when done, into `a.out`.
 pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome> {
     crate::parent::die_with_parent();
-    let mut cfg: RunConfig =
-        crate::config::load_preset(&a.preset, RunConfig::preset, a.config.as_deref())?;
+    let mut cfg: RunConfig = crate::check::load(&a.preset, a.config.as_deref(), components)?;
     if let Some(m) = &a.method {
         cfg.pipeline.method = m.clone();
     }
