@@ -72,10 +72,7 @@ pub fn bake_only(a: BakeRequest, components: &crate::Components) -> Result<BakeO
     let (name, settings) = chosen_baker(&a.preset, a.config.as_deref(), components)?;
     let baker = components
         .baker(&name, &settings, a.brdf)
-        .map_err(|e| match &a.config {
-            Some(file) => crate::err!("{}: {e:#}", file.display()),
-            None => e,
-        })?;
+        .map_err(crate::check::in_file(a.config.as_deref()))?;
     fipt_core::lock::refuse_nested_run(&a.out)?;
     let _lock = crate::request::lock(&a.out, a.shard, "fipt bake")?;
     let scene = crate::scene::load(&a.scene, a.bad_pixels, &Default::default())?;

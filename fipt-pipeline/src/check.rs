@@ -1,6 +1,7 @@
 //! A run's settings checked before any work: every table read by a registered component (or
 //! the host), every named component built from its settings ([`check`]), and what
 //! `report.json` lists of them ([`Checked::report`]).
+use crate::components::bracketed;
 use crate::error::{Result, RunError};
 use crate::names::Kind;
 use crate::run_config::RunConfig;
@@ -104,11 +105,16 @@ pub fn load(
     components: &crate::Components,
 ) -> Result<RunConfig> {
     let cfg = crate::config::load_preset(preset, RunConfig::preset, file)?;
-    check_tables(&cfg, components).map_err(|e| match file {
+    check_tables(&cfg, components).map_err(in_file(file))?;
+    Ok(cfg)
+}
+
+/// An error about the settings of config `file` (None: the preset alone) with the file named.
+pub(crate) fn in_file(file: Option<&std::path::Path>) -> impl Fn(RunError) -> RunError + '_ {
+    move |e| match file {
         Some(file) => crate::err!("{}: {e:#}", file.display()),
         None => e,
-    })?;
-    Ok(cfg)
+    }
 }
 
 /// Refuses a table of `cfg` that neither the host nor any registered component reads.
@@ -117,12 +123,6 @@ fn check_tables(cfg: &RunConfig, components: &crate::Components) -> Result<()> {
     let Some(unknown) = cfg.tables.keys().find(|k| !known.contains(k.as_str())) else {
         return Ok(());
     };
-    let list = |names: &mut dyn Iterator<Item = &str>| -> String {
-        names
-            .map(|t| format!("[{t}]"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
     let what = if cfg.tables[unknown].is_object() {
         "table"
     } else {
@@ -130,7 +130,7 @@ fn check_tables(cfg: &RunConfig, components: &crate::Components) -> Result<()> {
     };
     crate::bail!(
         "unknown {what} `{unknown}`: the run reads {}, its components {} (a plug-in's settings go in [plugins.<name>])",
-        list(&mut RunConfig::HOST_TABLES.iter().copied()),
-        list(&mut known.into_iter())
+        bracketed(RunConfig::HOST_TABLES.iter().copied()),
+        bracketed(known)
     )
 }

@@ -143,6 +143,12 @@ impl Table {
     }
 }
 
+/// Table names as a config writes them: `[bake], [search]`.
+pub(crate) fn bracketed<'a>(names: impl IntoIterator<Item = &'a str>) -> String {
+    let names: Vec<String> = names.into_iter().map(|t| format!("[{t}]")).collect();
+    names.join(", ")
+}
+
 fn preset_value<T: Presets + serde::Serialize>(preset: &str) -> Option<serde_json::Value> {
     T::preset(preset).and_then(|t| serde_json::to_value(t).ok())
 }
@@ -251,10 +257,7 @@ impl Components {
     /// `[plugins.<name>]`.
     fn where_from(&self, kind: Kind, name: &str) -> String {
         match self.sections.get(&(kind, name.to_string())) {
-            Some(t) => {
-                let list: Vec<String> = t.list().iter().map(|t| format!("[{}]", t.name)).collect();
-                list.join(", ")
-            }
+            Some(t) => bracketed(t.list().iter().map(|t| t.name)),
             None => format!("[plugins.{name}]"),
         }
     }
@@ -284,14 +287,9 @@ impl Components {
             .as_object()
             .is_some_and(|o| !o.is_empty())
         {
-            let list: Vec<String> = tables
-                .list()
-                .iter()
-                .map(|t| format!("[{}]", t.name))
-                .collect();
             bail!(
                 "[plugins.{name}]: {name}'s settings are the run config's {} tables; move them there",
-                list.join(", ")
+                self.where_from(kind, name)
             );
         }
         let value = |t: &Table| t.value(preset, cfg.tables.get(t.name));

@@ -22,10 +22,8 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
     if cfg.capture.downscale == 0 {
         crate::bail!("[capture] downscale = 0: give a factor of 1 (as stored) or more");
     }
-    let checked = check(&cfg, &a.preset, components).map_err(|e| match &a.config {
-        Some(file) => crate::err!("{}: {e:#}", file.display()),
-        None => e,
-    })?;
+    let checked =
+        check(&cfg, &a.preset, components).map_err(crate::check::in_file(a.config.as_deref()))?;
     let Checked {
         extractor,
         baker,
