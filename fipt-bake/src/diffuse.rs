@@ -15,6 +15,7 @@
 use crate::stream::SampleStream;
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
+use fipt_core::hash::GridMap as HashMap;
 use fipt_core::reflectance::{schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, ViewShadings};
@@ -23,7 +24,6 @@ use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming};
 use fipt_shading::records::PixelRecord;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::collections::HashMap;
 use std::f32::consts::FRAC_1_PI;
 
 /// View-independent integrals of the incident light at a point (each an estimate of
@@ -389,7 +389,7 @@ impl DiffuseCells {
     pub fn new(origin: Vec3, cell: f32) -> Self {
         DiffuseCells {
             entries: vec![],
-            index: HashMap::new(),
+            index: HashMap::default(),
             origin,
             inv: 1.0 / cell,
             used: vec![],

@@ -3,37 +3,12 @@
 //! for the incident radiance at secondary hits during the initial bake.
 use fipt_core::color::Rgb;
 use glam::{DVec3, Vec3};
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
 
-/// A fast hasher for `u64` voxel keys (multiplicative, Fibonacci).
-#[derive(Default, Clone, Copy)]
-pub struct VoxelHasher(u64);
+/// The voxel maps' hasher (`fipt_core::hash`).
+pub use fipt_core::hash::GridHasher as VoxelHasher;
 
-impl Hasher for VoxelHasher {
-    #[inline]
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    #[inline]
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = (self.0.rotate_left(5) ^ b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        }
-    }
-    #[inline]
-    fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0 ^ v)
-            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            .rotate_left(29);
-    }
-    #[inline]
-    fn write_u32(&mut self, v: u32) {
-        self.write_u64(v as u64)
-    }
-}
-
-pub type VoxelMap<V> = HashMap<u64, V, BuildHasherDefault<VoxelHasher>>;
+/// A map keyed by packed voxel coordinates.
+pub type VoxelMap<V> = fipt_core::hash::GridMap<u64, V>;
 
 /// The cube the SLF covers: all primary hit points, enlarged ×1.1 about their centre.
 pub use fipt_core::cube::Cube;

@@ -50,6 +50,7 @@ pub use fipt_data::exif;
 pub mod external_model;
 pub mod field;
 pub mod fit;
+pub mod hash;
 pub use fipt_data::fsutil;
 pub use fipt_data::image;
 pub mod lock;

@@ -14,11 +14,12 @@ use crate::scene::SurfaceModel;
 use fipt_core::color::Rgb;
 use fipt_core::emitter::{EmitSide, Emitter};
 use fipt_core::field::{Material, MaterialField};
+use fipt_core::hash::GridMap as HashMap;
 use fipt_core::materials::SurfacePoint;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
 use glam::Vec3;
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 
 /// A voxel and the side its surface faces ([`facing`]).
 type Key = (i32, i32, i32, u8);
@@ -237,8 +238,8 @@ impl FieldSurfaces {
         };
         // Point sums per voxel, and observed points per (voxel, triangle): emitters' points
         // say nothing of the surfaces around them.
-        let mut acc: HashMap<Key, (Vec3, u32)> = HashMap::new();
-        let mut on_triangle: HashMap<(Key, u32), u32> = HashMap::new();
+        let mut acc: HashMap<Key, (Vec3, u32)> = HashMap::default();
+        let mut on_triangle: HashMap<(Key, u32), u32> = HashMap::default();
         points(&mut |p, t, seen| {
             let k = key(p, t);
             let e = acc.entry(k).or_insert((Vec3::ZERO, 0));
@@ -249,7 +250,8 @@ impl FieldSurfaces {
             }
         });
         // Each voxel's point nearest its mean.
-        let mut nearest: HashMap<Key, (f32, Vec3)> = HashMap::with_capacity(acc.len());
+        let mut nearest: HashMap<Key, (f32, Vec3)> =
+            HashMap::with_capacity_and_hasher(acc.len(), Default::default());
         points(&mut |p, t, _| {
             let k = key(p, t);
             let d = p.distance_squared(acc[&k].0 / acc[&k].1 as f32);
