@@ -99,7 +99,7 @@ pub fn estimate(
     let mut slf = SlfBuilder::with_fallback(cube, 128, 3);
     for (v, hv) in hits.iter().enumerate() {
         for (i, h) in hv.iter().enumerate() {
-            if let Some(h) = h.filter(|h| !is_light.contains(&h.tri) && !skip[v][i]) {
+            if let Some(h) = h.filter(|h| !is_light.contains(&h.tri()) && !skip[v][i]) {
                 slf.add(h.p, images[v].data[i]);
             }
         }
@@ -165,8 +165,8 @@ impl Surfaces<'_> {
                         let i = y * w + x;
                         let Some(hit) = hits[v][i].filter(|h| {
                             !skip[v][i]
-                                && !self.is_light.contains(&h.tri)
-                                && !self.near_light.contains(&h.tri)
+                                && !self.is_light.contains(&h.tri())
+                                && !self.near_light.contains(&h.tri())
                         }) else {
                             continue;
                         };
@@ -189,7 +189,7 @@ impl Surfaces<'_> {
         hit: fipt_shading::records::HitPoint,
         seen: Vec3,
     ) -> Sample {
-        let mut n = self.geometry.mesh.face_normal(hit.tri as usize);
+        let mut n = self.geometry.mesh.face_normal(hit.tri() as usize);
         if n.dot(eye - hit.p) < 0.0 {
             n = -n;
         }
@@ -205,7 +205,7 @@ impl Surfaces<'_> {
             .collect();
         Sample {
             at,
-            patch: self.patch[hit.tri as usize],
+            patch: self.patch[hit.tri() as usize],
             i: seen,
             a,
             d,
@@ -247,9 +247,9 @@ fn light_sides(
     let mut votes: HashMap<u32, (u32, u32)> = HashMap::new();
     for (v, hv) in hits.iter().enumerate() {
         let eye = views[v].camera.origin;
-        for h in hv.iter().flatten().filter(|h| is_light.contains(&h.tri)) {
-            let front = mesh.face_normal(h.tri as usize).dot(eye - h.p) > 0.0;
-            let e = votes.entry(h.tri).or_default();
+        for h in hv.iter().flatten().filter(|h| is_light.contains(&h.tri())) {
+            let front = mesh.face_normal(h.tri() as usize).dot(eye - h.p) > 0.0;
+            let e = votes.entry(h.tri()).or_default();
             if front {
                 e.0 += 1
             } else {

@@ -235,21 +235,63 @@ impl TrainingSet {
 
     /// Attaches segment ids: `ids[v][i]` is the id of pixel `i` of view `v` (a part or
     /// semantic id as stored in the scene; negative for none). Ids are renumbered densely.
-    pub fn with_segments(mut self, ids: &[Vec<i64>]) -> Result<Self> {
-        let mut dense: std::collections::BTreeMap<i64, u32> = Default::default();
-        for (v, view) in ids.iter().enumerate() {
-            if view.len() != ids.first().map_or(0, |f| f.len()) {
-                return Err(CoreError::config(
-                    "segments",
-                    format!("view {v} has {} ids, view 0 {}", view.len(), ids[0].len()),
-                ));
-            }
+    pub fn with_segments(self, ids: &[Vec<i64>]) -> Result<Self> {
+        self.with_segments_by(ids.len(), |views| {
+            Ok(views.iter().map(|&v| ids[v].clone()).collect())
+        })
+    }
+
+    /// [`TrainingSet::with_segments`] with the ids read a few views at a time: `ids_of(views)`
+    /// gives those views' ids (of `n_views`), so that every view's ids need not be held at
+    /// once (8 bytes a pixel of every view). A set whose pixels are grouped by view (as
+    /// built) reads each view once.
+    pub fn with_segments_by(
+        mut self,
+        n_views: usize,
+        mut ids_of: impl FnMut(&[usize]) -> Result<Vec<Vec<i64>>>,
+    ) -> Result<Self> {
+        const CHUNK: usize = 16;
+        // The views in order of first appearance, and where each first appears.
+        let mut first = std::collections::BTreeMap::new();
+        let mut views: Vec<usize> = vec![];
+        for &(v, _) in &self.origin {
+            first.entry(v as usize).or_insert_with(|| {
+                views.push(v as usize);
+                views.len() - 1
+            });
         }
+        if let Some(&v) = views.iter().find(|&&v| v >= n_views) {
+            return Err(CoreError::config(
+                "segments",
+                format!("no ids for view {v}: one id per pixel of every view is needed"),
+            ));
+        }
+        let mut dense: std::collections::BTreeMap<i64, u32> = Default::default();
+        let mut held: Vec<(usize, Vec<i64>)> = vec![];
+        let mut width = None;
         let mut segment = Vec::with_capacity(self.len());
         for &(v, i) in &self.origin {
-            let id = ids
-                .get(v as usize)
-                .and_then(|view| view.get(i as usize))
+            let v = v as usize;
+            if !held.iter().any(|h| h.0 == v) {
+                let at = first[&v];
+                let chunk = &views[at..(at + CHUNK).min(views.len())];
+                let read = ids_of(chunk)?;
+                held = chunk.iter().copied().zip(read).collect();
+                for (w, view) in &held {
+                    match width {
+                        None => width = Some((*w, view.len())),
+                        Some((w0, n)) if n != view.len() => {
+                            return Err(CoreError::config(
+                                "segments",
+                                format!("view {w} has {} ids, view {w0} {n}", view.len()),
+                            ))
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            let id = (held.iter().find(|h| h.0 == v))
+                .and_then(|h| h.1.get(i as usize))
                 .copied()
                 .ok_or_else(|| {
                     CoreError::config(
@@ -305,6 +347,18 @@ impl TrainingSet {
         Ok(s)
     }
 
+    /// [`TrainingSet::with_classes`] with the ids read a few views at a time, as
+    /// [`TrainingSet::with_segments_by`].
+    pub fn with_classes_by(
+        self,
+        n_views: usize,
+        ids_of: impl FnMut(&[usize]) -> Result<Vec<Vec<i64>>>,
+    ) -> Result<Self> {
+        let mut s = self.with_segments_by(n_views, ids_of)?;
+        s.semantic = true;
+        Ok(s)
+    }
+
     pub fn len(&self) -> usize {
         self.unit.len()
     }
@@ -316,5 +370,76 @@ impl TrainingSet {
         (0..self.len())
             .filter(|&j| unreflectable(self.ld[j], &self.ls0[j], &self.ls1[j], self.gt[j]))
             .count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A set of `origin` alone (what the segment ids read).
+    fn set_of(origin: Vec<(u32, u32)>) -> TrainingSet {
+        TrainingSet {
+            bounds: Cube::around([Vec3::ZERO, Vec3::ONE], 1.0).unwrap(),
+            views: 41,
+            footprint: None,
+            levels: crate::shading::DEFAULT_LEVELS,
+            unit: vec![[0.0; 3]; origin.len()],
+            ld: vec![],
+            ld_poly: vec![],
+            ls0: vec![],
+            ls1: vec![],
+            gt: vec![],
+            origin,
+            morton: vec![],
+            segment: vec![],
+            segments: 0,
+            semantic: false,
+            target: vec![],
+        }
+    }
+
+    /// Read a few views at a time, the ids number the segments as read all at once, in the
+    /// set's order or any other, and each view is read once when the set goes view by view.
+    #[test]
+    fn ids_read_by_chunks_number_the_segments_as_all_at_once() {
+        let ids: Vec<Vec<i64>> = (0..40)
+            .map(|v| (0..12).map(|i| ((v * 7 + i * 3) % 11) as i64 - 1).collect())
+            .collect();
+        let ordered: Vec<(u32, u32)> = (0..40u32)
+            .filter(|v| v % 3 != 1)
+            .flat_map(|v| {
+                (0..12u32)
+                    .filter(move |i| (v + i) % 2 == 0)
+                    .map(move |i| (v, i))
+            })
+            .collect();
+        let mut shuffled = ordered.clone();
+        shuffled.reverse();
+        shuffled.swap(3, 40);
+        for origin in [ordered, shuffled] {
+            let all = set_of(origin.clone()).with_segments(&ids).unwrap();
+            let mut reads = vec![0; ids.len()];
+            let by = set_of(origin.clone())
+                .with_segments_by(ids.len(), |views| {
+                    views.iter().for_each(|&v| reads[v] += 1);
+                    Ok(views.iter().map(|&v| ids[v].clone()).collect())
+                })
+                .unwrap();
+            assert_eq!((by.segment, by.segments), (all.segment, all.segments));
+            // The swap took a pixel out of its view's group: one view at most is read twice.
+            assert!(reads.iter().all(|&n| n <= 2), "{reads:?}");
+            assert!(reads.iter().filter(|&&n| n == 2).count() <= 1, "{reads:?}");
+        }
+        // A view past the ids, and a view of another width, are errors naming them.
+        let e = set_of(vec![(41, 0)]).with_segments(&ids).err().unwrap();
+        assert!(e.to_string().contains("view 41"), "{e}");
+        let mut uneven = ids.clone();
+        uneven[2].push(0);
+        let e = set_of(vec![(0, 0), (2, 0)])
+            .with_segments(&uneven)
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("view 2 has 13 ids"), "{e}");
     }
 }

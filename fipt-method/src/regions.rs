@@ -11,12 +11,23 @@ use std::collections::BTreeMap;
 /// Dense region ids per training pixel (`ids[v][i]`, None: no region), the label of each
 /// region (the scene's id, or the patch number), and where they came from.
 pub struct Regions {
-    pub ids: Vec<Vec<Option<u32>>>,
+    /// Per training view and pixel, the region's index ([`Regions::NONE`] for none): 4 bytes
+    /// a pixel (an `Option<u32>` took 8).
+    pub ids: Vec<Vec<u32>>,
     pub labels: Vec<i64>,
     pub source: &'static str,
 }
 
 impl Regions {
+    /// A pixel on no region.
+    pub const NONE: u32 = u32::MAX;
+
+    /// Pixel `i` of view `v`'s region.
+    #[inline]
+    pub fn id(&self, v: usize, i: usize) -> Option<u32> {
+        Some(self.ids[v][i]).filter(|&r| r != Self::NONE)
+    }
+
     pub fn len(&self) -> usize {
         self.labels.len()
     }
@@ -60,7 +71,7 @@ pub fn load(
             .iter()
             .map(|recs| {
                 recs.iter()
-                    .map(|r| r.map(|r| patch[r.tri as usize]))
+                    .map(|r| r.map_or(Regions::NONE, |r| patch[r.tri() as usize]))
                     .collect()
             })
             .collect();
@@ -84,7 +95,11 @@ pub fn load(
                 let next = dense.len() as u32;
                 dense.entry(id).or_insert(next);
             }
-            ids.push(view.iter().map(|id| dense.get(id).copied()).collect());
+            ids.push(
+                (view.iter())
+                    .map(|id| dense.get(id).copied().unwrap_or(Regions::NONE))
+                    .collect(),
+            );
         }
     }
     let mut labels = vec![0; dense.len()];

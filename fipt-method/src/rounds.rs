@@ -154,6 +154,12 @@ pub(crate) fn refinement_rounds(
             force: ctx.force,
             seed: cfg.train.seed,
         };
+        // The next search reads the previous one's decisions only: its per-pixel targets
+        // (4 bytes a pixel of every view) go before the new ones are made.
+        if let Some(s) = st.searched.as_mut() {
+            s.targets = Default::default();
+            s.second_sides = vec![];
+        }
         st.searched = crate::search::stage(
             ctx.scene,
             ctx.records,

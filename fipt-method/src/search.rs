@@ -45,6 +45,7 @@ pub struct Searched {
 
 /// Each training pixel's search target (σ*, m*; NaN where its region has none), as an index
 /// into the few distinct targets: 4 bytes a pixel where an `Option<[f32; 2]>` took 12.
+#[derive(Default)]
 pub struct PixelTargets {
     /// The regions' choices in region order, then each divided region's two sides.
     pub table: Vec<[f32; 2]>,
@@ -103,7 +104,7 @@ fn region_rule<'a>(
 ) -> impl Fn(usize, usize, &HitPoint) -> Option<u32> + 'a {
     move |v, i, _| {
         let (ids, img) = (&regions.ids[v], &images[v]);
-        let region = ids[i]?;
+        let region = regions.id(v, i)?;
         if cfg.drop_edges {
             let floor = cfg.edge_contrast * luminance(img.data[i]);
             let brighter = |j: usize| luminance(img.data[j]) >= floor;
@@ -195,7 +196,7 @@ fn candidates_and_share(
     let candidates: usize = (regions.ids.iter().zip(records))
         .map(|(ids, recs)| {
             (ids.iter().zip(recs))
-                .filter(|(r, h)| r.is_some() && h.is_some())
+                .filter(|(&r, h)| r != Regions::NONE && h.is_some())
                 .count()
         })
         .sum();
@@ -549,9 +550,10 @@ fn pixel_targets(
         .map(|(v, (ids, recs))| {
             (ids.iter().zip(recs).enumerate())
                 .map(|(i, (r, h))| {
-                    let Some(r) = *r else {
+                    let r = *r;
+                    if r == Regions::NONE {
                         return PixelTargets::NONE;
-                    };
+                    }
                     let Some((k, side)) = h.and_then(|h| sides.side(r, h.point())) else {
                         return r;
                     };
@@ -578,9 +580,7 @@ fn search_key(
     // Hashed piece by piece (the bytes of every pixel's id together took 4 bytes a pixel).
     let mut ids = fipt_core::fsutil::Fnv::new();
     for view in &regions.ids {
-        let bytes: Vec<u8> = (view.iter())
-            .flat_map(|r| r.map_or(u32::MAX, |r| r).to_le_bytes())
-            .collect();
+        let bytes: Vec<u8> = (view.iter()).flat_map(|r| r.to_le_bytes()).collect();
         ids.feed(&bytes);
     }
     for l in &regions.labels {

@@ -226,25 +226,47 @@ pub(crate) fn segment_ids(
     Ok(Some((seg, format!("{}:{hash}", kind.folder()))))
 }
 
-/// Per training view and pixel, the mesh patch its centre ray hits (−1: none).
-fn mesh_patch_ids(scene: &SceneRef) -> Vec<Vec<i64>> {
-    let (patch, _) = fipt_geom::patches::smooth_patches_of(
-        scene.positions,
-        scene.triangles,
-        MESH_SEGMENT_ANGLE_DEG,
-    );
-    scene
-        .ds
-        .train()
-        .views
-        .par_iter()
-        .map(|view| {
-            fipt_shading::records::hit_points(scene.geometry, view)
-                .iter()
-                .map(|h| h.map_or(-1, |h| patch[h.tri as usize] as i64))
-                .collect()
-        })
-        .collect()
+/// The ids of the training views `views`, read when the set reaches them (every view's ids
+/// at once took 8 bytes a pixel of every view): a part or class id, or the mesh patch the
+/// pixel centre's ray hits (−1: none).
+struct ViewIds<'a> {
+    scene: &'a SceneRef<'a>,
+    kind: SegmentKind,
+    /// Each triangle's smooth patch, for [`SegmentKind::Mesh`].
+    patch: Vec<u32>,
+    /// The search's second sides, by view: (pixel, k).
+    sides: std::collections::BTreeMap<u32, Vec<(u32, u32)>>,
+    /// The id of the second side of divided region k is `base + k`: above every id.
+    base: i64,
+}
+
+impl ViewIds<'_> {
+    fn read(&self, views: &[usize]) -> Result<Vec<Vec<i64>>> {
+        let mut ids = match self.kind {
+            SegmentKind::Parts => crate::segments::view_ids(self.scene, GtKind::IndexMA, views)?,
+            SegmentKind::Classes => {
+                crate::segments::view_ids(self.scene, GtKind::Segmentation, views)?
+            }
+            SegmentKind::Mesh => {
+                let train = &self.scene.ds.train().views;
+                views
+                    .par_iter()
+                    .map(|&v| {
+                        fipt_shading::records::hit_points(self.scene.geometry, &train[v])
+                            .iter()
+                            .map(|h| h.map_or(-1, |h| self.patch[h.tri() as usize] as i64))
+                            .collect()
+                    })
+                    .collect()
+            }
+        };
+        for (&v, ids) in views.iter().zip(&mut ids) {
+            if let Some(sides) = self.sides.get(&(v as u32)) {
+                divide_ids(ids, sides, self.base);
+            }
+        }
+        Ok(ids)
+    }
 }
 
 /// Attaches the ids `found` by [`segment_ids`] to the training set.
@@ -257,20 +279,40 @@ pub(crate) fn with_segments(
     let Some((kind, _)) = found else {
         return Ok(data);
     };
-    let mut ids = match kind {
-        SegmentKind::Parts => crate::regions::split_ids(scene, GtKind::IndexMA)?,
-        SegmentKind::Classes => crate::regions::split_ids(scene, GtKind::Segmentation)?,
-        SegmentKind::Mesh => mesh_patch_ids(scene),
+    let (patch, patches) = if *kind == SegmentKind::Mesh {
+        fipt_geom::patches::smooth_patches_of(
+            scene.positions,
+            scene.triangles,
+            MESH_SEGMENT_ANGLE_DEG,
+        )
+    } else {
+        (vec![], 0)
     };
-    if let Some(sides) = second_sides(search, *kind) {
-        divide_ids(&mut ids, sides);
+    let mut sides = std::collections::BTreeMap::<u32, Vec<(u32, u32)>>::new();
+    for &(v, i, k) in second_sides(search, *kind).into_iter().flatten() {
+        sides.entry(v).or_default().push((i, k));
     }
+    // Above every id: the patches' count, or the search's labels (the same parts, as
+    // `second_sides` requires). The ids are renumbered densely in order of appearance, so
+    // any base above them gives the same set.
+    let labels = search.map_or(0, |s| s.regions.iter().map(|r| r.0).max().unwrap_or(0));
+    let reader = ViewIds {
+        scene,
+        kind: *kind,
+        patch,
+        sides,
+        base: (patches as i64).max(labels).max(0) + 1,
+    };
+    let n = scene.ds.train().views.len();
+    let read = |views: &[usize]| {
+        (reader.read(views)).map_err(|e| fipt_core::CoreError::Component(Box::new(e)))
+    };
     Ok(if *kind == SegmentKind::Classes {
-        let d = data.with_classes(&ids)?;
+        let d = data.with_classes_by(n, read)?;
         crate::note!("semantic prior on {} classes (segmentation/)", d.segments);
         d
     } else {
-        let d = data.with_segments(&ids)?;
+        let d = data.with_segments_by(n, read)?;
         let from = if *kind == SegmentKind::Parts {
             "parts (IndexMA/)"
         } else {
@@ -281,15 +323,11 @@ pub(crate) fn with_segments(
     })
 }
 
-/// Gives the pixels `(view, pixel, k)` on the second side of the k-th region the search divided
-/// (by colour or gloss) a part id of their own (after every id in `ids`).
-pub(crate) fn divide_ids(ids: &mut [Vec<i64>], sides: &[(u32, u32, u32)]) {
-    let base = ids.iter().flatten().copied().max().unwrap_or(0).max(0) + 1;
-    for &(v, i, k) in sides {
-        if let Some(id) = ids
-            .get_mut(v as usize)
-            .and_then(|view| view.get_mut(i as usize))
-        {
+/// Gives the pixels `(pixel, k)` of one view on the second side of the k-th region the search
+/// divided (by colour or gloss) the id `base + k` (`base`: above every id of the scene).
+fn divide_ids(ids: &mut [i64], sides: &[(u32, u32)], base: i64) {
+    for &(i, k) in sides {
+        if let Some(id) = ids.get_mut(i as usize) {
             *id = base + k as i64;
         }
     }
@@ -419,16 +457,13 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
-    /// A divided region's second side gets a part id after every other; the first side, the
-    /// background (-1) and pixels out of range are left alone.
+    /// A divided region's second side gets an id of its own per region (`base + k`); the
+    /// first side, the background (-1) and pixels out of range are left alone.
     #[test]
     fn second_sides_become_parts_of_their_own() {
-        let mut ids = vec![vec![0, 3, 3, -1], vec![3, 3, 5, 0]];
-        divide_ids(
-            &mut ids,
-            &[(0, 2, 0), (1, 0, 0), (1, 2, 1), (7, 0, 0), (0, 99, 0)],
-        );
-        assert_eq!(ids, vec![vec![0, 3, 6, -1], vec![6, 3, 7, 0]]);
+        let mut ids = vec![3, 3, 5, 0, -1];
+        divide_ids(&mut ids, &[(0, 0), (2, 1), (99, 0)], 6);
+        assert_eq!(ids, vec![6, 3, 7, 0, -1]);
     }
 
     /// The set keeps about `limit` of its hits, the same ones for the same seed, a uniform

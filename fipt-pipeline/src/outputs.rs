@@ -638,13 +638,13 @@ impl PixelHits for TrainingHits<'_> {
                 // The winding normal against the direction to the camera: the side seen.
                 let front = eye.and_then(|eye| {
                     let [a, b, c] = triangles
-                        .get(r.tri as usize)?
+                        .get(r.tri() as usize)?
                         .map(|k| positions[k as usize]);
                     let d = (b - a).cross(c - a).dot(eye - r.p);
                     (d != 0.0).then_some(d > 0.0)
                 });
                 f(&PixelHit {
-                    triangle: r.tri,
+                    triangle: r.tri(),
                     radiance: *l,
                     max_reflected: (most.as_ref())
                         .filter(|_| draw.keeps(v, i))

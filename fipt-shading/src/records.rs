@@ -35,11 +35,30 @@ impl PrimaryHit for PixelRecord {
 }
 
 /// A primary hit's point and triangle alone: 16 bytes where a [`PixelRecord`] takes 80, for
-/// the hits that a whole run keeps.
+/// the hits that a whole run keeps. The triangle is kept as `tri + 1` in a `NonZeroU32`, so
+/// that `Option<HitPoint>` takes 16 bytes too (20 with a plain `u32`: 1.2 GB instead of 1 GB
+/// for the 61 M hits of 200 views of 640 × 480).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HitPoint {
     pub p: Vec3,
-    pub tri: u32,
+    tri_plus_one: std::num::NonZeroU32,
+}
+
+impl HitPoint {
+    /// The hit at `p` on triangle `tri` (any index but `u32::MAX`, which no mesh reaches).
+    #[inline]
+    pub fn new(p: Vec3, tri: u32) -> HitPoint {
+        HitPoint {
+            p,
+            tri_plus_one: std::num::NonZeroU32::new(tri.wrapping_add(1))
+                .expect("a triangle index below u32::MAX"),
+        }
+    }
+    /// The triangle hit.
+    #[inline]
+    pub fn tri(&self) -> u32 {
+        self.tri_plus_one.get() - 1
+    }
 }
 
 impl PrimaryHit for HitPoint {
@@ -47,7 +66,7 @@ impl PrimaryHit for HitPoint {
         self.p
     }
     fn triangle(&self) -> u32 {
-        self.tri
+        self.tri()
     }
 }
 
@@ -62,12 +81,11 @@ pub fn hit_points(geometry: &dyn RayQuery, view: &View) -> Vec<Option<HitPoint>>
 /// The hit points of one view's primary `records`, in an allocation of their own size.
 fn points_of(records: &[Option<PixelRecord>]) -> Vec<Option<HitPoint>> {
     let mut hits = Vec::with_capacity(records.len());
-    hits.extend(records.iter().map(|r| {
-        r.as_ref().map(|r| HitPoint {
-            p: r.hit.p,
-            tri: r.hit.tri,
-        })
-    }));
+    hits.extend(
+        records
+            .iter()
+            .map(|r| r.as_ref().map(|r| HitPoint::new(r.hit.p, r.hit.tri))),
+    );
     hits
 }
 

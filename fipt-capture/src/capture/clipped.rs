@@ -123,7 +123,7 @@ fn find_lights(
         .map(|v| {
             fipt_shading::records::hit_points(geometry, v)
                 .into_iter()
-                .map(|h| h.map(|h| h.tri))
+                .map(|h| h.map(|h| h.tri()))
                 .collect()
         })
         .collect();

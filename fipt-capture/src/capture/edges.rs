@@ -104,7 +104,7 @@ fn mesh_edges(
 ) -> Option<Vec<(i32, i32, bool)>> {
     let (w, h) = (img.width, img.height);
     let depth = |i: usize| hits[i].map(|x| (x.p - view.camera.origin).length());
-    let key = |i: usize| hits[i].map(|x| patch[x.tri as usize]);
+    let key = |i: usize| hits[i].map(|x| patch[x.tri() as usize]);
     let mut edges = vec![];
     for y in 0..h - 1 {
         for x in 0..w - 1 {
