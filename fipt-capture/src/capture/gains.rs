@@ -243,6 +243,9 @@ pub(super) fn cell_sums<const N: usize>(
 
 /// Alternating least squares of y(view, cell) = g(view) + r(cell), with each view's g the
 /// median of its residuals (robust to highlights) and the g's mean 0; from `start` if given.
+/// At most 100 rounds; it stops early at a fixed point (a round that leaves every g as it
+/// was, bit for bit, would leave them so for good). Cells and views are solved in parallel:
+/// each value is computed as one thread would, so the result does not depend on the threads.
 pub(super) fn alternate(
     obs: &[&Vec<(usize, f64)>],
     nv: usize,
@@ -250,24 +253,36 @@ pub(super) fn alternate(
 ) -> (Vec<f64>, Vec<f64>) {
     let mut g = start.unwrap_or_else(|| vec![0f64; nv]);
     let mut radiance = vec![0f64; obs.len()];
+    // Each view's observations: (cell, y), in cell order.
+    let mut by_view: Vec<Vec<(usize, f64)>> = vec![vec![]; nv];
+    for (c, o) in obs.iter().enumerate() {
+        for &(v, y) in o.iter() {
+            by_view[v].push((c, y));
+        }
+    }
     for _ in 0..100 {
-        for (c, o) in obs.iter().enumerate() {
-            radiance[c] = o.iter().map(|(v, y)| y - g[*v]).sum::<f64>() / o.len() as f64;
+        radiance.par_iter_mut().zip(obs).for_each(|(r, o)| {
+            *r = o.iter().map(|(v, y)| y - g[*v]).sum::<f64>() / o.len() as f64;
+        });
+        let mut next: Vec<f64> = by_view
+            .par_iter()
+            .zip(&g)
+            .map(|(seen, &old)| {
+                if seen.is_empty() {
+                    return old;
+                }
+                let mut res: Vec<f64> = seen.iter().map(|&(c, y)| y - radiance[c]).collect();
+                let m = res.len() / 2;
+                *res.select_nth_unstable_by(m, f64::total_cmp).1
+            })
+            .collect();
+        let mean = next.iter().sum::<f64>() / nv as f64;
+        next.iter_mut().for_each(|x| *x -= mean);
+        let settled = next.iter().zip(&g).all(|(a, b)| a.to_bits() == b.to_bits());
+        g = next;
+        if settled {
+            break;
         }
-        let mut res: Vec<Vec<f64>> = vec![vec![]; nv];
-        for (c, o) in obs.iter().enumerate() {
-            for (v, y) in o.iter() {
-                res[*v].push(y - radiance[c]);
-            }
-        }
-        for v in 0..nv {
-            if !res[v].is_empty() {
-                let m = res[v].len() / 2;
-                g[v] = *res[v].select_nth_unstable_by(m, f64::total_cmp).1;
-            }
-        }
-        let mean = g.iter().sum::<f64>() / nv as f64;
-        g.iter_mut().for_each(|x| *x -= mean);
     }
     (g, radiance)
 }
