@@ -22,14 +22,14 @@ use glam::Vec3;
 use std::collections::VecDeque;
 
 /// A voxel and the side its surface faces ([`facing`]).
-type Key = (i32, i32, i32, u8);
+use crate::voxel_table::{Key, VoxelTable};
 
 /// No triangle: a point whose triangle is unknown (it still gets a voxel).
 pub const NO_TRIANGLE: u32 = u32::MAX;
 
 pub struct FieldSurfaces {
     cell: f32,
-    voxels: HashMap<Key, SurfacePoint>,
+    voxels: VoxelTable,
     tri_facing: Vec<u8>,
     per_triangle: Vec<SurfacePoint>,
     emission: Vec<Rgb>,
@@ -264,13 +264,13 @@ impl FieldSurfaces {
         keys.sort_unstable();
         let centers: Vec<Vec3> = keys.iter().map(|k| nearest[k].1).collect();
         let mats = field.materials(&centers)?;
-        let voxels: HashMap<Key, SurfacePoint> =
-            keys.into_iter().zip(mats.iter().map(to_surface)).collect();
+        let voxels = VoxelTable::new(keys.into_iter().zip(mats.iter().copied()));
         let mut per_tri = vec![MeanSurface::default(); mesh.triangles.len()];
         let mut votes: Vec<_> = on_triangle.into_iter().collect();
         votes.sort_unstable();
         for ((k, t), n) in votes {
-            per_tri[t as usize].add(&voxels[&k], n as f64);
+            let m = voxels.get(&k).expect("every voted voxel is held");
+            per_tri[t as usize].add(&to_surface(&m), n as f64);
         }
         let per_triangle = triangle_fallbacks(mesh, per_tri, || {
             let centroids: Vec<Vec3> = (0..mesh.triangles.len())
@@ -367,10 +367,13 @@ impl SurfaceModel for FieldSurfaces {
                 ..Default::default()
             };
         }
-        self.voxels
+        match self
+            .voxels
             .get(&voxel_key(p, self.cell, &self.tri_facing, tri))
-            .copied()
-            .unwrap_or(self.per_triangle[tri as usize])
+        {
+            Some(m) => to_surface(&m),
+            None => self.per_triangle[tri as usize],
+        }
     }
     fn emission(&self, tri: u32) -> Rgb {
         self.emission[tri as usize]

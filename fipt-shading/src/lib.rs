@@ -40,5 +40,6 @@ pub mod relight;
 pub mod render;
 pub mod scene;
 pub mod scene_edits;
+mod voxel_table;
 
 pub use error::{Result, ShadingError};
