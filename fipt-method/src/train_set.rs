@@ -71,10 +71,21 @@ impl<'a> SetPoints<'a> {
             footprint: None,
             bled: (0, 0),
         };
+        // A few views at a time on every core (the footprints' median does not depend on
+        // their order).
         let (mut dropped, mut all, mut foot) = (0usize, 0usize, vec![]);
-        for v in 0..scene.images.len() {
-            let (kept, hit) = pick.masked(v, &mut foot);
-            (dropped, all) = (dropped + hit - kept, all + hit);
+        for chunk in view_chunks(scene.images.len()) {
+            let masked: Vec<_> = (chunk.into_par_iter())
+                .map(|v| {
+                    let mut foot = vec![];
+                    let (kept, hit) = pick.masked(v, &mut foot);
+                    (kept, hit, foot)
+                })
+                .collect();
+            for (kept, hit, f) in masked {
+                (dropped, all) = (dropped + hit - kept, all + hit);
+                foot.extend(f);
+            }
         }
         pick.hits = all - dropped;
         pick.footprint = fipt_shading::records::median(foot);
@@ -160,6 +171,12 @@ impl<'a> SetPoints<'a> {
         }
         pts
     }
+}
+
+/// The views `0..n` in chunks of a few views per core: what one parallel pass holds at once.
+fn view_chunks(n: usize) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let k = 2 * rayon::current_num_threads().max(1);
+    (0..n).step_by(k).map(move |a| a..(a + k).min(n))
 }
 
 /// Where the segment prior's ids come from.
@@ -399,16 +416,29 @@ pub(crate) fn build_set(
     }
     // The box of the kept points (as `Bounds::around` takes it: finite points), and their
     // count (the set's arrays are reserved once).
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    let mut hits = 0usize;
-    for v in 0..scene.images.len() {
-        for p in pick.view(v).into_iter().flatten() {
-            hits += 1;
-            if p.is_finite() {
-                (lo, hi) = (lo.min(p), hi.max(p));
+    let (lo, hi, hits) = (0..scene.images.len())
+        .into_par_iter()
+        .map(|v| {
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            let mut hits = 0usize;
+            for p in pick.view(v).into_iter().flatten() {
+                hits += 1;
+                if p.is_finite() {
+                    (lo, hi) = (lo.min(p), hi.max(p));
+                }
             }
-        }
-    }
+            (lo, hi, hits)
+        })
+        .reduce(
+            || {
+                (
+                    Vec3::splat(f32::INFINITY),
+                    Vec3::splat(f32::NEG_INFINITY),
+                    0,
+                )
+            },
+            |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2),
+        );
     let left_out = before.map_or(0, |all| {
         crate::note!(
             "training set: {hits} of {all} pixels kept ({:.1} %): a round draws at most {} (train.set_cap × steps × batch)",
@@ -421,12 +451,38 @@ pub(crate) fn build_set(
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
     let views = scene.images.len();
+    // Each view's points and shadings are made a few views at a time on every core, and the
+    // set takes them in view order.
+    let ahead = std::cell::RefCell::new(std::collections::VecDeque::new());
+    let fetch = |v: usize| -> Result<()> {
+        let mut q = ahead.borrow_mut();
+        if q.front().is_some_and(|f: &(usize, _, _)| f.0 == v) {
+            return Ok(());
+        }
+        q.clear();
+        let chunk: Vec<usize> = (v..views)
+            .take(rayon::current_num_threads().max(1))
+            .collect();
+        let got = (chunk.par_iter())
+            .map(|&k| Ok((k, pick.view(k), shadings.view(k)?)))
+            .collect::<Result<Vec<_>>>()?;
+        q.extend(got);
+        Ok(())
+    };
     let mut data = TrainingSet::from_view_points(
         (views, hits),
-        |v| Ok::<_, crate::RunError>(pick.view(v)),
+        |v| {
+            fetch(v)?;
+            let mut q = ahead.borrow_mut();
+            Ok::<_, crate::RunError>(std::mem::take(&mut q[0].1))
+        },
         &scene.images,
         &bounds,
-        |k| shadings.view(k).map_err(crate::RunError::from),
+        |v| {
+            fetch(v)?;
+            let (_, _, sh) = ahead.borrow_mut().pop_front().expect("fetched");
+            Ok(sh)
+        },
     )?;
     data.footprint = footprint;
     let lights = data.lights();
