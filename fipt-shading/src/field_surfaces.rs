@@ -22,14 +22,14 @@ use glam::Vec3;
 use std::collections::VecDeque;
 
 /// A voxel and the side its surface faces ([`facing`]).
-use crate::voxel_table::{Key, VoxelTable};
+use crate::material_table::{Key, MaterialTable};
 
 /// No triangle: a point whose triangle is unknown (it still gets a voxel).
 pub const NO_TRIANGLE: u32 = u32::MAX;
 
 pub struct FieldSurfaces {
     cell: f32,
-    voxels: VoxelTable,
+    voxels: MaterialTable,
     tri_facing: Vec<u8>,
     per_triangle: Vec<SurfacePoint>,
     emission: Vec<Rgb>,
@@ -264,7 +264,7 @@ impl FieldSurfaces {
         keys.sort_unstable();
         let centers: Vec<Vec3> = keys.iter().map(|k| nearest[k].1).collect();
         let mats = field.materials(&centers)?;
-        let voxels = VoxelTable::new(keys.into_iter().zip(mats.iter().copied()));
+        let voxels = MaterialTable::new(keys.into_iter().zip(mats.iter().copied()));
         let mut per_tri = vec![MeanSurface::default(); mesh.triangles.len()];
         let mut votes: Vec<_> = on_triangle.into_iter().collect();
         votes.sort_unstable();

@@ -35,11 +35,11 @@ pub mod error;
 pub mod field_surfaces;
 pub mod incident;
 pub mod lights;
+mod material_table;
 pub mod records;
 pub mod relight;
 pub mod render;
 pub mod scene;
 pub mod scene_edits;
-mod voxel_table;
 
 pub use error::{Result, ShadingError};

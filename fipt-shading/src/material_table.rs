@@ -35,17 +35,17 @@ const VACANT: Slot = Slot {
 };
 
 /// See the module's notes.
-pub(crate) struct VoxelTable {
+pub(crate) struct MaterialTable {
     slots: Vec<Slot>,
     mask: usize,
     len: usize,
 }
 
-impl VoxelTable {
+impl MaterialTable {
     /// The table of `entries` (distinct keys; a repeated key keeps its first material).
     pub(crate) fn new(entries: impl ExactSizeIterator<Item = (Key, Material)>) -> Self {
         let n = (2 * entries.len()).max(16).next_power_of_two();
-        let mut t = VoxelTable {
+        let mut t = MaterialTable {
             slots: vec![VACANT; n],
             mask: n - 1,
             len: 0,
@@ -128,7 +128,7 @@ mod tests {
             .iter()
             .enumerate()
             .map(|(i, &k)| (k, mat(i as f32 / 3000.0)));
-        let t = VoxelTable::new(
+        let t = MaterialTable::new(
             entries
                 .chain([(keys[5], mat(0.9))])
                 .collect::<Vec<_>>()
@@ -148,7 +148,7 @@ mod tests {
         ] {
             assert!(t.get(&k).is_none(), "{k:?}");
         }
-        assert!(VoxelTable::new(std::iter::empty())
+        assert!(MaterialTable::new(std::iter::empty())
             .get(&(0, 0, 0, 0))
             .is_none());
     }
