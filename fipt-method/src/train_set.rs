@@ -386,6 +386,78 @@ pub(crate) fn drawn_share(scene: &SceneRef, cfg: &TrainConfig, hits: usize) -> f
     }
 }
 
+/// The box of the points `pick` keeps over views `0..views` (as `Bounds::around` takes it:
+/// finite points) and their count, the views on every core.
+fn kept_bounds(pick: &SetPoints, views: usize) -> (Vec3, Vec3, usize) {
+    (0..views)
+        .into_par_iter()
+        .map(|v| {
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            let mut hits = 0usize;
+            for p in pick.view(v).into_iter().flatten() {
+                hits += 1;
+                if p.is_finite() {
+                    (lo, hi) = (lo.min(p), hi.max(p));
+                }
+            }
+            (lo, hi, hits)
+        })
+        .reduce(
+            || {
+                (
+                    Vec3::splat(f32::INFINITY),
+                    Vec3::splat(f32::NEG_INFINITY),
+                    0,
+                )
+            },
+            |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2),
+        )
+}
+
+/// The training set of the points `pick` keeps and their stored shadings: each view's points
+/// and shadings are made a few views at a time on every core, and the set takes them in view
+/// order.
+fn gather(
+    pick: &SetPoints,
+    shadings: &StoredShadings,
+    images: &[fipt_core::image::Image],
+    bounds: &Bounds,
+    hits: usize,
+) -> Result<TrainingSet> {
+    let views = images.len();
+    let ahead = std::cell::RefCell::new(std::collections::VecDeque::new());
+    let fetch = |v: usize| -> Result<()> {
+        let mut q = ahead.borrow_mut();
+        if q.front().is_some_and(|f: &(usize, _, _)| f.0 == v) {
+            return Ok(());
+        }
+        q.clear();
+        let chunk: Vec<usize> = (v..views)
+            .take(rayon::current_num_threads().max(1))
+            .collect();
+        let got = (chunk.par_iter())
+            .map(|&k| Ok((k, pick.view(k), shadings.view(k)?)))
+            .collect::<Result<Vec<_>>>()?;
+        q.extend(got);
+        Ok(())
+    };
+    TrainingSet::from_view_points(
+        (views, hits),
+        |v| {
+            fetch(v)?;
+            let mut q = ahead.borrow_mut();
+            Ok::<_, crate::RunError>(std::mem::take(&mut q[0].1))
+        },
+        images,
+        bounds,
+        |v| {
+            fetch(v)?;
+            let (_, _, sh) = ahead.borrow_mut().pop_front().expect("fetched");
+            Ok(sh)
+        },
+    )
+}
+
 /// The training set of a round: the training views' pixels that hit the mesh, less the clipped
 /// ones off the lights, the bleed beside bright edges and those over the set's limit, with
 /// their shadings, segments and the search's targets.
@@ -416,29 +488,7 @@ pub(crate) fn build_set(
     }
     // The box of the kept points (as `Bounds::around` takes it: finite points), and their
     // count (the set's arrays are reserved once).
-    let (lo, hi, hits) = (0..scene.images.len())
-        .into_par_iter()
-        .map(|v| {
-            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-            let mut hits = 0usize;
-            for p in pick.view(v).into_iter().flatten() {
-                hits += 1;
-                if p.is_finite() {
-                    (lo, hi) = (lo.min(p), hi.max(p));
-                }
-            }
-            (lo, hi, hits)
-        })
-        .reduce(
-            || {
-                (
-                    Vec3::splat(f32::INFINITY),
-                    Vec3::splat(f32::NEG_INFINITY),
-                    0,
-                )
-            },
-            |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2),
-        );
+    let (lo, hi, hits) = kept_bounds(&pick, scene.images.len());
     let left_out = before.map_or(0, |all| {
         crate::note!(
             "training set: {hits} of {all} pixels kept ({:.1} %): a round draws at most {} (train.set_cap × steps × batch)",
@@ -450,40 +500,7 @@ pub(crate) fn build_set(
     let Some(bounds) = Bounds::around([lo, hi], 1.1) else {
         bail!("no training pixel hits the mesh: check the poses (`fipt info`)")
     };
-    let views = scene.images.len();
-    // Each view's points and shadings are made a few views at a time on every core, and the
-    // set takes them in view order.
-    let ahead = std::cell::RefCell::new(std::collections::VecDeque::new());
-    let fetch = |v: usize| -> Result<()> {
-        let mut q = ahead.borrow_mut();
-        if q.front().is_some_and(|f: &(usize, _, _)| f.0 == v) {
-            return Ok(());
-        }
-        q.clear();
-        let chunk: Vec<usize> = (v..views)
-            .take(rayon::current_num_threads().max(1))
-            .collect();
-        let got = (chunk.par_iter())
-            .map(|&k| Ok((k, pick.view(k), shadings.view(k)?)))
-            .collect::<Result<Vec<_>>>()?;
-        q.extend(got);
-        Ok(())
-    };
-    let mut data = TrainingSet::from_view_points(
-        (views, hits),
-        |v| {
-            fetch(v)?;
-            let mut q = ahead.borrow_mut();
-            Ok::<_, crate::RunError>(std::mem::take(&mut q[0].1))
-        },
-        &scene.images,
-        &bounds,
-        |v| {
-            fetch(v)?;
-            let (_, _, sh) = ahead.borrow_mut().pop_front().expect("fetched");
-            Ok(sh)
-        },
-    )?;
+    let mut data = gather(&pick, shadings, &scene.images, &bounds, hits)?;
     data.footprint = footprint;
     let lights = data.lights();
     if !cfg.emitter_material {
