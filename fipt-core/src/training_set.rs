@@ -272,35 +272,42 @@ impl TrainingSet {
         let mut segment = Vec::with_capacity(self.len());
         for &(v, i) in &self.origin {
             let v = v as usize;
-            if !held.iter().any(|h| h.0 == v) {
-                let at = first[&v];
-                let chunk = &views[at..(at + CHUNK).min(views.len())];
-                let read = ids_of(chunk)?;
-                held = chunk.iter().copied().zip(read).collect();
-                for (w, view) in &held {
-                    match width {
-                        None => width = Some((*w, view.len())),
-                        Some((w0, n)) if n != view.len() => {
-                            return Err(CoreError::config(
-                                "segments",
-                                format!("view {w} has {} ids, view {w0} {n}", view.len()),
-                            ))
-                        }
-                        _ => {}
+            let h = match held.iter().position(|h| h.0 == v) {
+                Some(h) => h,
+                None => {
+                    let at = first[&v];
+                    let chunk = &views[at..(at + CHUNK).min(views.len())];
+                    let read = ids_of(chunk)?;
+                    if read.len() != chunk.len() {
+                        return Err(CoreError::config(
+                            "segments",
+                            format!("{} views' ids given for {}", read.len(), chunk.len()),
+                        ));
                     }
+                    held = chunk.iter().copied().zip(read).collect();
+                    for (w, view) in &held {
+                        match width {
+                            None => width = Some((*w, view.len())),
+                            Some((w0, n)) if n != view.len() => {
+                                return Err(CoreError::config(
+                                    "segments",
+                                    format!("view {w} has {} ids, view {w0} {n}", view.len()),
+                                ))
+                            }
+                            _ => {}
+                        }
+                    }
+                    0 // the chunk starts at view v
                 }
-            }
-            let id = (held.iter().find(|h| h.0 == v))
-                .and_then(|h| h.1.get(i as usize))
-                .copied()
-                .ok_or_else(|| {
-                    CoreError::config(
-                        "segments",
-                        format!(
-                            "no id for pixel {i} of view {v}: one id per pixel of every view is needed"
-                        ),
-                    )
-                })?;
+            };
+            let id = (held[h].1.get(i as usize)).copied().ok_or_else(|| {
+                CoreError::config(
+                    "segments",
+                    format!(
+                        "no id for pixel {i} of view {v}: one id per pixel of every view is needed"
+                    ),
+                )
+            })?;
             segment.push(if id < 0 {
                 NO_SEGMENT
             } else {

@@ -512,8 +512,8 @@ pub fn with_cells_keyed(keyed: &[KeyedPixel], cell: f32) -> (Vec<SearchPixel>, V
 }
 
 /// Whether pixel `i` of a view (`width` pixels a row, region `ids` per pixel) has a neighbour
-/// among the 8 around it whose region differs from its own (None counts as a region of its
-/// own; neighbours off the image do not count) and that `counts` (e.g. one much brighter).
+/// among the 8 around it whose region differs from its own (no region, None or a sentinel
+/// id, counts as a region of its own; neighbours off the image do not count) and that `counts` (e.g. one much brighter).
 pub fn on_region_edge<T: PartialEq>(
     ids: &[T],
     width: usize,

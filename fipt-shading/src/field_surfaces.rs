@@ -10,6 +10,7 @@
 //! itself is not asked there: a network extrapolates far from its training points (on the
 //! tiny `cornell`, albedo 1.0 on the hidden faces of the blocks and the ceiling above the
 //! light), and paths that bounce off such surfaces brightened the refined Ld by 6 %.
+use crate::material_table::{Key, MaterialTable};
 use crate::scene::SurfaceModel;
 use fipt_core::color::Rgb;
 use fipt_core::emitter::{EmitSide, Emitter};
@@ -20,9 +21,6 @@ use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
 use glam::Vec3;
 use std::collections::VecDeque;
-
-/// A voxel and the side its surface faces ([`facing`]).
-use crate::material_table::{Key, MaterialTable};
 
 /// No triangle: a point whose triangle is unknown (it still gets a voxel).
 pub const NO_TRIANGLE: u32 = u32::MAX;
@@ -307,7 +305,7 @@ impl FieldSurfaces {
     ) -> fipt_core::Result<Self> {
         let tri_facing = facings(mesh);
         let key = |p: Vec3, t: u32| voxel_key(p, cell, &tri_facing, t);
-        let seen: std::collections::HashSet<Key> = observed
+        let seen: fipt_core::hash::GridSet<Key> = observed
             .iter()
             .filter(|(p, _)| p.is_finite())
             .map(|&(p, t)| key(p, t))

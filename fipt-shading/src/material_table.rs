@@ -10,7 +10,7 @@ use fipt_core::hash::GridBuild;
 use glam::Vec3;
 use std::hash::BuildHasher;
 
-/// (voxel x, y, z, facing side of the triangle).
+/// A voxel (x, y, z) and the side its surface faces (`field_surfaces::facing`).
 pub(crate) type Key = (i32, i32, i32, u8);
 
 #[derive(Clone, Copy)]
