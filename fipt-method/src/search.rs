@@ -311,8 +311,9 @@ fn compact_inputs(
 /// Every region's profile on each half of the views (even, odd), for `held_out`.
 type Halves = Option<[Vec<RegionProfile>; 2]>;
 
-/// The fitted profiles of every region, and with `halves` the same on each half of the views
-/// (not wanted on the bake, where dielectric σ waits for the refined shadings).
+/// The fitted profiles of every region, with their one-colour rows (`one_colour_below`), and
+/// with `cfg.held_out` the same on each half of the views. Neither is wanted on the bake
+/// (`refined` false), where dielectric σ waits for the refined shadings.
 fn fitted_profiles(
     images: &[Image],
     shadings: &[ViewShadings],
@@ -320,8 +321,9 @@ fn fitted_profiles(
     pixels: &[SearchPixel],
     grid: &[f32],
     cfg: &SearchConfig,
-    halves: bool,
+    refined: bool,
 ) -> (Vec<RegionProfile>, Halves) {
+    let halves = cfg.held_out && refined;
     let fitted = |pixels: &[SearchPixel]| {
         profile(
             pixels,
@@ -343,7 +345,13 @@ fn fitted_profiles(
             fitted(&half)
         })
     });
-    (fitted(pixels), halves)
+    let whole = fitted(pixels);
+    let whole = if refined && cfg.one_colour_below > 0.0 {
+        fipt_search::with_one_colour(whole, pixels, shadings, images, grid)
+    } else {
+        whole
+    };
+    (whole, halves)
 }
 
 /// The shadings a search reads: where they are, their fingerprint, whether a search kept
@@ -653,7 +661,7 @@ fn decide(
         &split.apply(&c.pixels),
         &c.grid,
         cfg,
-        cfg.held_out && !on_bake,
+        !on_bake,
     );
     // What the previous search said of a region (as a whole or on either side).
     let previously = |label: i64, test: &dyn Fn(&RegionChoice) -> bool| {

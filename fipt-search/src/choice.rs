@@ -11,6 +11,31 @@ pub(super) fn argmin(v: &[f64]) -> Option<usize> {
         .map(|(i, _)| i)
 }
 
+/// The σ of faint gloss (`one_colour_below`): on the region's one-colour curve, the roughest
+/// σ within `interior_tolerance` of σ = 1's excess over the minimum (at most `interior_cap`).
+/// None without that curve, when its minimum lies under `interior_sigma` (a mirror-end
+/// minimum: a diffuse lobe that is not the data's), or when it is not faint itself.
+fn one_colour_sigma(p: &RegionProfile, cfg: &SearchConfig) -> Option<f32> {
+    let c = &p.one_colour;
+    let n = p.sigma.len();
+    if c.len() != n || n == 0 {
+        return None;
+    }
+    let b = argmin(c)?;
+    if p.sigma[b] < cfg.interior_sigma {
+        return None;
+    }
+    let gain = c[n - 1] / c[b] - 1.0;
+    // Deep gloss on one colour that a colour per cell does not see is the colour's variation
+    // (a patch of two materials, a texture), not a lobe.
+    if !(gain < cfg.one_colour_below as f64) {
+        return None;
+    }
+    let limit = c[b] * (1.0 + (gain * cfg.interior_tolerance as f64).min(cfg.interior_cap as f64));
+    let s = (b..n).rev().find(|&s| c[s] <= limit).unwrap_or(b);
+    Some(p.sigma[s])
+}
+
 /// Whether the σ each half's profile prefers (at metallic candidate `mi`) is an interior one
 /// that beats σ = 1 by `interior_gain` on the other half, or (`held_out_band`) both halves
 /// prefer interior σ within the band of each other.
@@ -131,6 +156,15 @@ pub fn choose(
     let n = p.sigma.len();
     let mut si = roughest_within(tol as f64);
     let gain = p.cost[mi][n - 1] / p.cost[mi][b] - 1.0;
+    if !metal && gain < cfg.one_colour_below as f64 {
+        if let Some(sigma) = one_colour_sigma(p, cfg) {
+            return RegionChoice {
+                roughness: Some(sigma),
+                metallic: Some(p.metallic[mi]),
+                ..fallback
+            };
+        }
+    }
     if !metal
         && (si + 1 == n || cfg.interior_always)
         && p.sigma[b] >= cfg.interior_sigma

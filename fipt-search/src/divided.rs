@@ -122,6 +122,7 @@ mod tests {
                 .map(|i| 1.0 + 0.5 * (i as f64 - min_at as f64).abs())
                 .collect()],
             gain: vec![],
+            one_colour: vec![],
         }
     }
 

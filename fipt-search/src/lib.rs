@@ -143,9 +143,26 @@ pub struct SearchConfig {
     /// runs, 182 bytes each with `principled`. 0: every pixel.
     #[serde(default = "default_max_pixels")]
     pub max_pixels: usize,
+    /// A dielectric whose fitted curve has σ = 1 less than this fraction above its minimum
+    /// (faint gloss: rough walls, plaster, cloth) takes its σ from the curve with one base
+    /// colour for the whole region ([`RegionProfile::one_colour`]), by the `interior_tolerance`
+    /// and `interior_cap` rule, and always gets a target. A base colour per surface cell
+    /// absorbs the broad glow a rough lobe spreads over a surface, which leaves only the
+    /// within-cell view dependence as evidence: faint, and pulled glossy by noise and pose
+    /// error (the minima of five Mitsuba rooms' rough parts 0.05–0.2 below the truth, their
+    /// one-colour minima nearer; `docs/roughness-rooms.md`, *Faint gloss*). The held-out and
+    /// band tests that then decided turned on two halves' minima. A one-colour curve whose
+    /// minimum lies at the mirror end (a diffuse lobe that is not the data's) or that is not
+    /// faint itself (a patch of two colours) falls back to those rules. 0: off.
+    #[serde(default = "default_one_colour_below")]
+    pub one_colour_below: f32,
     /// Dividing regions of two finishes by colour ([`split`]) or by gloss ([`gloss`]).
     #[serde(default)]
     pub split: split::SplitConfig,
+}
+
+fn default_one_colour_below() -> f32 {
+    0.02
 }
 
 fn default_interior_always() -> bool {
@@ -201,6 +218,7 @@ impl Default for SearchConfig {
             held_out_band: default_held_out_band(),
             rough_band: default_held_out_band(),
             max_pixels: default_max_pixels(),
+            one_colour_below: default_one_colour_below(),
             split: split::SplitConfig::default(),
         }
     }
@@ -225,6 +243,7 @@ impl SearchConfig {
             ("interior_gain", self.interior_gain, 1e6),
             ("held_out_band", self.held_out_band, 1.0),
             ("rough_band", self.rough_band, 1.0),
+            ("one_colour_below", self.one_colour_below, 1e6),
             ("edge_contrast", self.edge_contrast, 1e6),
         ];
         for (key, v, hi) in ranges {
@@ -312,6 +331,10 @@ pub struct RegionProfile {
     /// the right amount of light; 1.1: they miss a tenth of it).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub gain: Vec<Vec<f64>>,
+    /// The dielectric row (m = 0) with one base colour for the whole region instead of one
+    /// per surface cell, where the search computed it (`one_colour_below`; empty elsewhere).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub one_colour: Vec<f64>,
 }
 
 /// What the search decided for a region, with the evidence. None: no target (too few pixels,
@@ -748,8 +771,39 @@ pub fn profile(
                     .map(|c| c.iter().map(|x| x.1).collect())
                     .collect(),
             },
+            one_colour: vec![],
         })
         .collect()
+}
+
+/// Each region's profile with its [`RegionProfile::one_colour`] row: `pixels` profiled again
+/// with the whole region as one surface cell, at m = 0 only.
+pub fn with_one_colour(
+    mut profiles: Vec<RegionProfile>,
+    pixels: &[SearchPixel],
+    shadings: &[ViewShadings],
+    images: &[Image],
+    sigma: &[f32],
+) -> Vec<RegionProfile> {
+    let whole: Vec<SearchPixel> = (pixels.iter())
+        .map(|p| SearchPixel {
+            cell: p.region,
+            ..*p
+        })
+        .collect();
+    let one = profile(
+        &whole,
+        shadings,
+        images,
+        profiles.len(),
+        sigma,
+        &[0.0],
+        Albedo::Fitted,
+    );
+    for (p, o) in profiles.iter_mut().zip(one) {
+        p.one_colour = o.cost.into_iter().next().unwrap_or_default();
+    }
+    profiles
 }
 
 mod choice;

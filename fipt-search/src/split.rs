@@ -301,6 +301,9 @@ pub fn merged(a: &RegionProfile, b: &RegionProfile) -> RegionProfile {
         metallic: a.metallic.clone(),
         cost: rows(&a.cost, &b.cost),
         gain: rows(&a.gain, &b.gain),
+        one_colour: rows(&vec![a.one_colour.clone()], &vec![b.one_colour.clone()])
+            .pop()
+            .unwrap_or_default(),
     }
 }
 
@@ -435,6 +438,7 @@ mod tests {
                 .map(|i| 1.0 + (i as f64 - min_at as f64).abs())
                 .collect()],
             gain: vec![],
+            one_colour: vec![],
         };
         let pick = |s: f32| RegionChoice {
             region: 0,

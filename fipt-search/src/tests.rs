@@ -111,6 +111,7 @@ fn curve(metal: Vec<f64>, dielectric: Vec<f64>) -> RegionProfile {
         metallic: vec![0.0, 1.0],
         cost: vec![dielectric, metal],
         gain: vec![],
+        one_colour: vec![],
     }
 }
 
@@ -394,5 +395,63 @@ fn settings_out_of_range_are_refused_with_their_key() {
             ..d()
         },
         "mesh_angle_deg",
+    );
+}
+
+#[test]
+fn faint_gloss_is_decided_on_one_colour_whatever_the_halves_say() {
+    let cfg = SearchConfig::default();
+    let with_one = |p: RegionProfile, one: Vec<f64>| RegionProfile {
+        one_colour: one,
+        ..p
+    };
+    // A rough wall: per cell its minimum is at 0.5, 0.2 % below σ = 1 (faint); with one
+    // colour the minimum is at 0.75, 1 % below σ = 1. The roughest within a quarter of that
+    // 1 % on the one-colour curve: 0.75 (σ = 1 is 0.75 % above it).
+    let wall = with_one(
+        curve(vec![1.0; 5], vec![0.2, 0.1001, 0.1000, 0.1001, 0.1002]),
+        vec![0.3, 0.1008, 0.1004, 0.1000, 0.1010],
+    );
+    // Halves that agree, that disagree, and none: the same target every time (before, the
+    // disagreeing halves left the wall without one, and the training took it to σ ≈ 1).
+    let agree = wall.clone();
+    let apart = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1003, 0.1004, 0.1002]);
+    for halves in [Some([&agree, &agree]), Some([&wall, &apart]), None] {
+        assert_eq!(choose(&wall, &cfg, false, halves).roughness, Some(0.75));
+    }
+    let off = SearchConfig {
+        one_colour_below: 0.0,
+        ..cfg.clone()
+    };
+    assert_eq!(
+        choose(&wall, &off, false, Some([&wall, &apart])).roughness,
+        None
+    );
+    assert_eq!(
+        choose(&wall, &off, false, Some([&wall, &agree])).roughness,
+        Some(0.5)
+    );
+    // A flat one-colour curve whose minimum is σ = 1: σ = 1, a target.
+    let plaster = with_one(wall.clone(), vec![0.3, 0.1003, 0.1002, 0.1001, 0.1000]);
+    assert_eq!(choose(&plaster, &cfg, false, None).roughness, Some(1.0));
+    // The one-colour curve falls back to the rules of a colour per cell when its minimum is
+    // at the mirror end (a diffuse lobe that is not the data's) or when it is deep (two
+    // colours in one patch, not a lobe): here the disagreeing halves leave no target.
+    for one in [
+        vec![0.1000, 0.1004, 0.1006, 0.1008, 0.1010],
+        vec![0.3, 0.1000, 0.1100, 0.1200, 0.1300],
+    ] {
+        let p = with_one(wall.clone(), one);
+        assert_eq!(choose(&p, &cfg, false, Some([&p, &apart])).roughness, None);
+    }
+    // Gloss a colour per cell sees (3 % below σ = 1) is decided as before: the one-colour
+    // curve is not read.
+    let glossy = with_one(
+        curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1010, 0.1020, 0.1030]),
+        vec![0.3, 0.1008, 0.1004, 0.1000, 0.1010],
+    );
+    assert_eq!(
+        choose(&glossy, &cfg, false, Some([&glossy, &glossy])).roughness,
+        Some(0.25)
     );
 }

@@ -51,6 +51,7 @@ fn empty_profile() -> RegionProfile {
         metallic: vec![],
         cost: vec![],
         gain: vec![],
+        one_colour: vec![],
     }
 }
 
@@ -157,15 +158,8 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
             parent.push(r);
         }
     }
-    let (fitted, mut halves) = fitted_profiles(
-        &scene.images,
-        &shadings,
-        n,
-        &pixels,
-        &grid,
-        &cfg,
-        cfg.held_out,
-    );
+    let (fitted, mut halves) =
+        fitted_profiles(&scene.images, &shadings, n, &pixels, &grid, &cfg, true);
     let choose_one = |p: &RegionProfile, held: Option<[&RegionProfile; 2]>, _: usize| {
         choose(p, &cfg, false, held)
     };
