@@ -11,11 +11,14 @@ pub(super) fn argmin(v: &[f64]) -> Option<usize> {
         .map(|(i, _)| i)
 }
 
-/// The σ of faint gloss (`one_colour_below`): on the region's one-colour curve, the roughest
-/// σ within `interior_tolerance` of σ = 1's excess over the minimum (at most `interior_cap`).
-/// None without that curve, when its minimum lies under `interior_sigma` (a mirror-end
-/// minimum: a diffuse lobe that is not the data's), or when it is not faint itself.
-fn one_colour_sigma(p: &RegionProfile, cfg: &SearchConfig) -> Option<f32> {
+/// Faint gloss (`one_colour_below`) on the region's one-colour curve: the glossiest σ of the
+/// run of candidates around its minimum that cost within `interior_gain` of it (a glossier σ is one the curve
+/// rejects by the least gain the search counts as evidence), and the roughest within
+/// `interior_tolerance` of σ = 1's excess over the minimum (at most `interior_cap`). None
+/// without that curve, when its minimum lies under `interior_sigma` (a mirror-end minimum: a
+/// diffuse lobe that is not the data's), or when it is not faint itself (a patch of two
+/// colours).
+fn one_colour_sigma(p: &RegionProfile, cfg: &SearchConfig) -> Option<(f32, f32)> {
     let c = &p.one_colour;
     let n = p.sigma.len();
     if c.len() != n || n == 0 {
@@ -31,9 +34,14 @@ fn one_colour_sigma(p: &RegionProfile, cfg: &SearchConfig) -> Option<f32> {
     if !(gain < cfg.one_colour_below as f64) {
         return None;
     }
+    let admitted = c[b] * (1.0 + cfg.interior_gain as f64);
+    let mut glossiest = b;
+    while glossiest > 0 && c[glossiest - 1] <= admitted {
+        glossiest -= 1;
+    }
     let limit = c[b] * (1.0 + (gain * cfg.interior_tolerance as f64).min(cfg.interior_cap as f64));
-    let s = (b..n).rev().find(|&s| c[s] <= limit).unwrap_or(b);
-    Some(p.sigma[s])
+    let roughest = (b..n).rev().find(|&s| c[s] <= limit).unwrap_or(b);
+    Some((p.sigma[glossiest], p.sigma[roughest]))
 }
 
 /// Whether the σ each half's profile prefers (at metallic candidate `mi`) is an interior one
@@ -81,7 +89,9 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
 /// minimum lies within `rough_band` of it: then the roughest); a
 /// dielectric whose minimum is interior, beats σ = 1 by `interior_gain` and holds out takes the
 /// `interior_tolerance` rule instead (with `interior_always` off, only when the first rule
-/// left it at σ = 1). No target on too few pixels.
+/// left it at σ = 1). A faint dielectric (`one_colour_below`) reads no glossier than its
+/// one-colour curve admits, and where these rules leave it without a target it takes that
+/// curve's. No target on too few pixels.
 ///
 /// `was_metal`: the previous search (on earlier shadings) called this region metal; it stays
 /// metal unless the dielectric answer beats it by `metal_margin` (hysteresis: the margin is
@@ -156,15 +166,6 @@ pub fn choose(
     let n = p.sigma.len();
     let mut si = roughest_within(tol as f64);
     let gain = p.cost[mi][n - 1] / p.cost[mi][b] - 1.0;
-    if !metal && gain < cfg.one_colour_below as f64 {
-        if let Some(sigma) = one_colour_sigma(p, cfg) {
-            return RegionChoice {
-                roughness: Some(sigma),
-                metallic: Some(p.metallic[mi]),
-                ..fallback
-            };
-        }
-    }
     if !metal
         && (si + 1 == n || cfg.interior_always)
         && p.sigma[b] >= cfg.interior_sigma
@@ -177,8 +178,14 @@ pub fn choose(
         && si + 1 == n
         && cfg.rough_band > 0.0
         && p.sigma[b] >= p.sigma[n - 1] - cfg.rough_band - 1e-6;
+    let mut roughness = (metal || si + 1 < n || rough).then_some(p.sigma[si]);
+    if !metal && gain < cfg.one_colour_below as f64 {
+        if let Some((glossiest, lifted)) = one_colour_sigma(p, cfg) {
+            roughness = Some(roughness.map_or(lifted, |s| s.max(glossiest)));
+        }
+    }
     RegionChoice {
-        roughness: (metal || si + 1 < n || rough).then_some(p.sigma[si]),
+        roughness,
         metallic: Some(p.metallic[mi]),
         ..fallback
     }

@@ -144,16 +144,15 @@ pub struct SearchConfig {
     #[serde(default = "default_max_pixels")]
     pub max_pixels: usize,
     /// A dielectric whose fitted curve has σ = 1 less than this fraction above its minimum
-    /// (faint gloss: rough walls, plaster, cloth) takes its σ from the curve with one base
-    /// colour for the whole region ([`RegionProfile::one_colour`]), by the `interior_tolerance`
-    /// and `interior_cap` rule, and always gets a target. A base colour per surface cell
-    /// absorbs the broad glow a rough lobe spreads over a surface, which leaves only the
-    /// within-cell view dependence as evidence: faint, and pulled glossy by noise and pose
-    /// error (the minima of five Mitsuba rooms' rough parts 0.05–0.2 below the truth, their
-    /// one-colour minima nearer; `docs/roughness-rooms.md`, *Faint gloss*). The held-out and
-    /// band tests that then decided turned on two halves' minima. A one-colour curve whose
-    /// minimum lies at the mirror end (a diffuse lobe that is not the data's) or that is not
-    /// faint itself (a patch of two colours) falls back to those rules. 0: off.
+    /// (faint gloss: rough walls, plaster, cloth) is also profiled with one base colour for
+    /// the whole region ([`RegionProfile::one_colour`]). Its σ is then no glossier than the
+    /// glossiest σ within `interior_gain` of that curve's minimum, and where the rules above leave it without a target (halves that disagree)
+    /// it takes that curve's, by the `interior_tolerance` and `interior_cap` rule. A base
+    /// colour per surface cell absorbs the broad glow a rough lobe spreads over a surface,
+    /// which leaves only the within-cell view dependence as evidence: faint, and pulled
+    /// glossy by noise and pose error (`docs/roughness-rooms.md`, *Faint gloss*). A one-colour
+    /// curve whose minimum lies at the mirror end (a diffuse lobe that is not the data's) or
+    /// that is not faint itself (a patch of two colours) is not read. 0: off.
     #[serde(default = "default_one_colour_below")]
     pub one_colour_below: f32,
     /// Dividing regions of two finishes by colour ([`split`]) or by gloss ([`gloss`]).

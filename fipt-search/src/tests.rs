@@ -399,24 +399,24 @@ fn settings_out_of_range_are_refused_with_their_key() {
 }
 
 #[test]
-fn faint_gloss_is_decided_on_one_colour_whatever_the_halves_say() {
+fn faint_gloss_reads_no_glossier_than_one_colour_and_always_gets_a_target() {
     let cfg = SearchConfig::default();
     let with_one = |p: RegionProfile, one: Vec<f64>| RegionProfile {
         one_colour: one,
         ..p
     };
     // A rough wall: per cell its minimum is at 0.5, 0.2 % below σ = 1 (faint); with one
-    // colour the minimum is at 0.75, 1 % below σ = 1. The roughest within a quarter of that
-    // 1 % on the one-colour curve: 0.75 (σ = 1 is 0.75 % above it).
+    // colour the minimum is at 0.75, 1 % below σ = 1.
     let wall = with_one(
         curve(vec![1.0; 5], vec![0.2, 0.1001, 0.1000, 0.1001, 0.1002]),
         vec![0.3, 0.1008, 0.1004, 0.1000, 0.1010],
     );
-    // Halves that agree, that disagree, and none: the same target every time (before, the
-    // disagreeing halves left the wall without one, and the training took it to σ ≈ 1).
-    let agree = wall.clone();
+    // Halves that agree: the per-cell rule says 0.5, which the one-colour curve rejects (0.4 %
+    // above its minimum, more than `interior_gain`): 0.75, the glossiest σ it admits. Halves that disagree, or none: the per-cell rules leave no target (the training
+    // took such walls to σ ≈ 1 or below); the one-colour curve's rule gives one, the
+    // roughest within a quarter of its 1 %: 0.75 again.
     let apart = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1003, 0.1004, 0.1002]);
-    for halves in [Some([&agree, &agree]), Some([&wall, &apart]), None] {
+    for halves in [Some([&wall, &wall]), Some([&wall, &apart]), None] {
         assert_eq!(choose(&wall, &cfg, false, halves).roughness, Some(0.75));
     }
     let off = SearchConfig {
@@ -428,15 +428,28 @@ fn faint_gloss_is_decided_on_one_colour_whatever_the_halves_say() {
         None
     );
     assert_eq!(
-        choose(&wall, &off, false, Some([&wall, &agree])).roughness,
+        choose(&wall, &off, false, Some([&wall, &wall])).roughness,
         Some(0.5)
     );
-    // A flat one-colour curve whose minimum is σ = 1: σ = 1, a target.
+    // A per-cell answer the one-colour curve admits (0.5, within 0.1 % of its minimum at
+    // 0.75) is kept.
+    let admits = with_one(wall.clone(), vec![0.3, 0.1008, 0.10005, 0.1000, 0.1010]);
+    assert_eq!(
+        choose(&admits, &cfg, false, Some([&admits, &admits])).roughness,
+        Some(0.5)
+    );
+    // Never glossier than the per-cell rule: a one-colour minimum at 0.25 leaves its 0.5.
+    let low = with_one(wall.clone(), vec![0.3, 0.1000, 0.1004, 0.1006, 0.1010]);
+    assert_eq!(
+        choose(&low, &cfg, false, Some([&low, &low])).roughness,
+        Some(0.5)
+    );
+    // A flat one-colour curve whose minimum is σ = 1: σ = 1.
     let plaster = with_one(wall.clone(), vec![0.3, 0.1003, 0.1002, 0.1001, 0.1000]);
     assert_eq!(choose(&plaster, &cfg, false, None).roughness, Some(1.0));
-    // The one-colour curve falls back to the rules of a colour per cell when its minimum is
-    // at the mirror end (a diffuse lobe that is not the data's) or when it is deep (two
-    // colours in one patch, not a lobe): here the disagreeing halves leave no target.
+    // The one-colour curve is not read when its minimum is at the mirror end (a diffuse lobe
+    // that is not the data's) or when it is deep (two colours in one patch, not a lobe):
+    // here the disagreeing halves leave no target, as without it.
     for one in [
         vec![0.1000, 0.1004, 0.1006, 0.1008, 0.1010],
         vec![0.3, 0.1000, 0.1100, 0.1200, 0.1300],
