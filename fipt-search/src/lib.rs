@@ -786,6 +786,16 @@ pub fn profile(
         .collect()
 }
 
+/// `pixels` with each region as one surface cell (one base colour fitted per region).
+pub fn one_cell_per_region(pixels: &[SearchPixel]) -> Vec<SearchPixel> {
+    (pixels.iter())
+        .map(|p| SearchPixel {
+            cell: p.region,
+            ..*p
+        })
+        .collect()
+}
+
 /// Each region's profile with its [`RegionProfile::one_colour`] row: `pixels` profiled again
 /// with the whole region as one surface cell, at m = 0 only.
 pub fn with_one_colour(
@@ -795,14 +805,8 @@ pub fn with_one_colour(
     images: &[Image],
     sigma: &[f32],
 ) -> Vec<RegionProfile> {
-    let whole: Vec<SearchPixel> = (pixels.iter())
-        .map(|p| SearchPixel {
-            cell: p.region,
-            ..*p
-        })
-        .collect();
     let one = profile(
-        &whole,
+        &one_cell_per_region(pixels),
         shadings,
         images,
         profiles.len(),

@@ -81,15 +81,8 @@ fn reference_profiles(
         None
     };
     // One base colour per region: every pixel of a region in one cell.
-    let per_part: Vec<SearchPixel> = pixels
-        .iter()
-        .map(|p| SearchPixel {
-            cell: p.region,
-            ..*p
-        })
-        .collect();
     let part = profile(
-        &per_part,
+        &fipt_search::one_cell_per_region(pixels),
         shadings,
         &scene.images,
         n,
