@@ -153,10 +153,10 @@ pub struct SearchConfig {
     /// glossy by noise and pose error (`docs/roughness-rooms.md`, *Faint gloss*). A one-colour
     /// curve whose minimum lies at the mirror end (a diffuse lobe that is not the data's) or
     /// that is not faint itself (a patch of two colours) is not read. 0 (the default): off.
-    /// An ablation, off because on five Mitsuba rooms at 0.02 it moved val σ by +0.75 dB
-    /// (`atelier`'s brick wall 0.88 → 0.96 for 1.0), 0, 0, −0.6 and −0.9 (`loft`'s and
-    /// `gallery`'s walls a step too rough: their one-colour minima sit 0.08 and 0.15 above the
-    /// truth); the one-colour curve is no less biased than the per-cell one.
+    /// An ablation, off because on five Mitsuba rooms and a capture copy at 0.02 it moved val
+    /// σ by +0.75 dB (`atelier`'s brick wall 0.88 → 0.96 for 1.0), 0, 0, −0.6, −0.9 and −0.3
+    /// (`loft`'s and `gallery`'s walls a step too rough: their one-colour minima sit 0.08 and
+    /// 0.15 above the truth); the one-colour curve is no less biased than the per-cell one.
     /// Left out of the serialised settings when off, so that searches kept by runs before it
     /// existed (keyed on the settings) are reused.
     #[serde(default = "default_one_colour_below", skip_serializing_if = "is_off")]
