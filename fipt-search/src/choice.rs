@@ -12,11 +12,11 @@ pub(super) fn argmin(v: &[f64]) -> Option<usize> {
 }
 
 /// Faint gloss (`one_colour_below`) on the region's one-colour curve: the glossiest σ of the
-/// run of candidates around its minimum that cost within `interior_gain` of it (a glossier σ is one the curve
-/// rejects by the least gain the search counts as evidence), and the roughest within
-/// `interior_tolerance` of σ = 1's excess over the minimum (at most `interior_cap`). None
-/// without that curve, when its minimum lies under `interior_sigma` (a mirror-end minimum: a
-/// diffuse lobe that is not the data's), or when it is not faint itself (a patch of two
+/// run of candidates around its minimum that cost within `interior_gain` of it (a glossier σ is
+/// one the curve rejects by the least gain the search counts as evidence), and the roughest
+/// within `interior_tolerance` of σ = 1's excess over the minimum (at most `interior_cap`).
+/// None without that curve, when its minimum lies under `interior_sigma` (a mirror-end minimum:
+/// a diffuse lobe that is not the data's), or when it is not faint itself (a patch of two
 /// colours).
 fn one_colour_sigma(p: &RegionProfile, cfg: &SearchConfig) -> Option<(f32, f32)> {
     let c = &p.one_colour;

@@ -143,22 +143,24 @@ pub struct SearchConfig {
     /// runs, 182 bytes each with `principled`. 0: every pixel.
     #[serde(default = "default_max_pixels")]
     pub max_pixels: usize,
-    /// With a value above 0, a dielectric whose fitted curve has σ = 1 less than this fraction
-    /// above its minimum (faint gloss: rough walls, plaster, cloth) is also profiled with one base colour for
-    /// the whole region ([`RegionProfile::one_colour`]). Its σ is then no glossier than the
-    /// glossiest σ within `interior_gain` of that curve's minimum, and where the rules above leave it without a target (halves that disagree)
-    /// it takes that curve's, by the `interior_tolerance` and `interior_cap` rule. A base
-    /// colour per surface cell absorbs the broad glow a rough lobe spreads over a surface,
-    /// which leaves only the within-cell view dependence as evidence: faint, and pulled
-    /// glossy by noise and pose error (`docs/roughness-rooms.md`, *Faint gloss*). A one-colour
-    /// curve whose minimum lies at the mirror end (a diffuse lobe that is not the data's) or
-    /// that is not faint itself (a patch of two colours) is not read. 0 (the default): off.
-    /// An ablation, off because on five Mitsuba rooms and a capture copy at 0.02 it moved val
-    /// σ by +0.75 dB (`atelier`'s brick wall 0.88 → 0.96 for 1.0), 0, 0, −0.6, −0.9 and −0.3
-    /// (`loft`'s and `gallery`'s walls a step too rough: their one-colour minima sit 0.08 and
-    /// 0.15 above the truth); the one-colour curve is no less biased than the per-cell one.
-    /// Left out of the serialised settings when off, so that searches kept by runs before it
-    /// existed (keyed on the settings) are reused.
+    /// With a value above 0, a dielectric whose fitted curve has σ = 1 less than this
+    /// fraction above its minimum (faint gloss: rough walls, plaster, cloth) is also
+    /// profiled with one base colour for the whole region ([`RegionProfile::one_colour`]).
+    /// Its σ is then no glossier than the glossiest σ within `interior_gain` of that
+    /// curve's minimum, and where the rules above leave it without a target (halves that
+    /// disagree) it takes that curve's, by the `interior_tolerance` and `interior_cap`
+    /// rule. A base colour per surface cell absorbs the broad glow a rough lobe spreads
+    /// over a surface, which leaves only the within-cell view dependence as evidence:
+    /// faint, and pulled glossy by noise and pose error (`docs/roughness-rooms.md`, *Faint
+    /// gloss on one colour*). A one-colour curve whose minimum lies at the mirror end (a
+    /// diffuse lobe that is not the data's) or that is not faint itself (a patch of two
+    /// colours) is not read. 0 (the default): off. An ablation, off because on five Mitsuba
+    /// rooms and a capture copy at 0.02 it moved val σ by +0.75 dB (`atelier`'s brick wall
+    /// 0.88 → 0.96 for 1.0), 0, 0, −0.6, −0.9 and −0.3 (`loft`'s and `gallery`'s walls a
+    /// step too rough: their one-colour minima sit 0.08 and 0.15 above the truth); the
+    /// one-colour curve is no less biased than the per-cell one.
+    /// Left out of the serialised settings when off, so that searches kept by runs before
+    /// it existed (keyed on the settings) are reused.
     #[serde(default = "default_one_colour_below", skip_serializing_if = "is_off")]
     pub one_colour_below: f32,
     /// Dividing regions of two finishes by colour ([`split`]) or by gloss ([`gloss`]).
