@@ -788,43 +788,12 @@ pub fn profile(
         .collect()
 }
 
-/// `pixels` with each region as one surface cell (one base colour fitted per region).
-pub fn one_cell_per_region(pixels: &[SearchPixel]) -> Vec<SearchPixel> {
-    (pixels.iter())
-        .map(|p| SearchPixel {
-            cell: p.region,
-            ..*p
-        })
-        .collect()
-}
-
-/// Each region's profile with its [`RegionProfile::one_colour`] row: `pixels` profiled again
-/// with the whole region as one surface cell, at m = 0 only.
-pub fn with_one_colour(
-    mut profiles: Vec<RegionProfile>,
-    pixels: &[SearchPixel],
-    shadings: &[ViewShadings],
-    images: &[Image],
-    sigma: &[f32],
-) -> Vec<RegionProfile> {
-    let one = profile(
-        &one_cell_per_region(pixels),
-        shadings,
-        images,
-        profiles.len(),
-        sigma,
-        &[0.0],
-        Albedo::Fitted,
-    );
-    for (p, o) in profiles.iter_mut().zip(one) {
-        p.one_colour = o.cost.into_iter().next().unwrap_or_default();
-    }
-    profiles
-}
-
 mod choice;
 use choice::argmin;
 pub use choice::choose;
+
+mod one_colour;
+pub use one_colour::{one_cell_per_region, with_one_colour};
 
 pub mod divided;
 pub mod gloss;
