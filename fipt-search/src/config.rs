@@ -1,0 +1,285 @@
+//! The search's settings (`[search]` in a run config): the decision rules' tolerances, where
+//! regions come from, and the presets.
+use crate::split;
+use serde::{Deserialize, Serialize};
+
+/// Settings of the search (`[search]` in a run config).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SearchConfig {
+    /// Run the search and pull the training towards its answer (false: the pull to σ = 1,
+    /// m = 0 of `[train]`).
+    pub enabled: bool,
+    /// Search on the initial bake too (before the first training round). The bake's one-bounce
+    /// shadings are noisier, so there the search only acts on overwhelming evidence: metals
+    /// whose cost is below `bake_metal_margin` of the dielectric one, and no dielectric σ
+    /// targets. Metals found before the first round are what makes the refinement grow paths
+    /// through them (val kd +1.0 dB on `studio-mitsuba`, +0.6 dB on `room`, against the refined shadings only).
+    pub on_bake: bool,
+    /// `metal_margin` on the bake. Measured metal/dielectric cost ratios on bakes: true metals
+    /// 0.05–0.34 (`studio-mitsuba`, `room`, `cornell-metal`), false ones 0.41–0.60 (walls of a
+    /// 12-view cornell baked with 8 GGX samples a level; `cornell-metal`'s `fast` bake).
+    pub bake_metal_margin: f32,
+    /// σ candidates: this many values evenly spaced over the bake's levels' range.
+    pub roughness_steps: usize,
+    /// Metallic candidates.
+    pub metallic: Vec<f32>,
+    /// Edge of a surface cell (the pixels whose albedo is fitted together) in median pixel
+    /// footprints.
+    pub cell_footprints: f32,
+    /// A dielectric region's σ is the roughest whose cost is within this fraction of its
+    /// minimum; when that is the roughest candidate, the search sets no σ target (the training
+    /// decides). A 4 % specular lobe leaves dielectrics little σ evidence, and a diffuse lobe
+    /// that is not the data's (Mitsuba's Burley diffuse against FIPT's Lambert) makes up
+    /// gains of the same size: on `studio-mitsuba` the diffuse box (σ 1) costs 13 % less as a
+    /// mirror (README, *Why σ and metallic did not move*).
+    pub dielectric_tolerance: f32,
+    /// The same for metal regions, whose lobe carries all their light.
+    pub metal_tolerance: f32,
+    /// A dielectric whose minimum lies inside the σ range (at least `interior_sigma`) gets a
+    /// σ target when σ = 1 costs this fraction more (weaker evidence than
+    /// `dielectric_tolerance` asks for) and, with `held_out`, the minimum holds on held-out
+    /// views: the roughest σ whose cost exceeds the minimum by at most `interior_tolerance` of
+    /// σ = 1's excess, and by at most `interior_cap`. A minimum at the mirror end is what a
+    /// mismatched diffuse lobe produces (on `studio-mitsuba` both boxes, whatever their σ); an
+    /// interior one a lobe the data has: the glossy floor of `cornell-metal` (14 % below
+    /// σ = 1), and the walls and the floor of `studio-mitsuba` (σ 0.85–0.95: 0.3–3 % below
+    /// σ = 1 at 0.76–0.88 once `drop_edges` leaves out the ceiling's false minimum). Gains of
+    /// 1–5 % are also what the noise of a small bake makes (a 12-view cornell at 48×36 with 8
+    /// GGX samples a level: 9 of 10 regions got a target without `held_out`, 4 with it and
+    /// `edge_contrast`; docs/material-search.md §7).
+    pub interior_gain: f32,
+    /// See `interior_gain`.
+    pub interior_sigma: f32,
+    /// See `interior_gain`: 0.25 puts the walls and the floor of `studio-mitsuba` at
+    /// 0.86–0.92 (true 0.85–0.95), where their minima alone say 0.76–0.88. With 1 and
+    /// `interior_gain` 0.05 the rule is the one before 2026-11-25.
+    pub interior_tolerance: f32,
+    /// The most the `interior_tolerance` rule may add to the minimum (relative). A deep
+    /// minimum is where the σ is: the glossy parts of five Mitsuba rooms sit at their true σ
+    /// within 0.02 at their minima, and a cap of 2 % (`metal_tolerance`, the rule until
+    /// 2026-11-29) moved them 0.05–0.3 rougher (a lacquer of σ 0.12 to 0.44); shallow minima
+    /// (rough walls, under 2 % below σ = 1) take the same quarter of their gain as before
+    /// (`docs/roughness-rooms.md`).
+    #[serde(default = "default_interior_cap")]
+    pub interior_cap: f32,
+    /// The `interior_gain` rule decides every dielectric whose minimum is interior and holds
+    /// out, not only those `dielectric_tolerance` would leave at σ = 1. False: a minimum more
+    /// than `dielectric_tolerance` below σ = 1 takes the roughest σ within that 25 %, which put
+    /// `loft-mitsuba`'s glossy floor (σ 0.35, minimum at 0.36) at 0.74 and `studio-mitsuba`'s
+    /// glossy box (0.30, minimum at 0.32) at 0.48 (`docs/loft-mitsuba.md`).
+    #[serde(default = "default_interior_always")]
+    pub interior_always: bool,
+    /// A region is metal when its best metal cost is below its best dielectric cost by at
+    /// least this fraction.
+    pub metal_margin: f32,
+    /// Regions with fewer pixels keep σ = 1, m = 0.
+    pub min_pixels: usize,
+    /// Where regions come from: `auto` (part ids, else semantic classes, else the mesh),
+    /// `parts`, `semantic`, `mesh` (smooth connected patches of the mesh) or `none` (one region
+    /// per surface cell is too noisy to decide: the search is then skipped).
+    pub regions: RegionSource,
+    /// Largest dihedral angle (degrees) across which a mesh patch grows (`regions = "mesh"`).
+    pub mesh_angle_deg: f32,
+    /// Leave out pixels with a neighbour (of the 8 around it in its view) in another region or
+    /// in none that is `edge_contrast` times brighter. A camera's pixel integrates its whole
+    /// footprint, so at a region's outline it mixes two surfaces (the ceiling's ring around a
+    /// panel light), while the region, the shadings and the fitted colour are those of the
+    /// pixel's centre.
+    pub drop_edges: bool,
+    /// With `drop_edges`: only a neighbour at least this many times brighter (luminance of the
+    /// view) makes a pixel an outline pixel; 0: every neighbour in another region. With 0, on
+    /// small images the outlines take too much of small regions (a 12-view `cornell-metal` at
+    /// 64×48 without segmentation lost its metal block: recall 0.96 → 0.28); with 4 it keeps
+    /// it (0.96), and on `studio-mitsuba` it drops 1 % of the ceiling's pixels, enough to move
+    /// the ceiling's minimum from 0.60 to 1.00.
+    pub edge_contrast: f32,
+    /// A target from the `interior_gain` rule also has to hold on held-out views: the views
+    /// split into two halves (even and odd), each profiled alone, and the σ that each half
+    /// prefers (above the lowest candidate) must beat σ = 1 by `interior_gain` on the other
+    /// half. Minima made by the noise of a small bake do not carry over.
+    pub held_out: bool,
+    /// A second way to hold out, for noisy views: the σ each half prefers lies inside the
+    /// range (above the mirror end, below σ = 1) and the two lie within this distance of each
+    /// other, however shallow each half's minimum. Pose error and pixel noise add a cost that
+    /// no σ explains, so a wall whose gloss half the views barely see (`studio-mitsuba`'s right
+    /// wall, σ 0.9, in a capture-like copy: halves at 0.78 and 0.82, the second 0.02 % below
+    /// σ = 1) failed the `interior_gain` test and fell to σ ≈ 1 (`docs/captures.md`). 0: off.
+    #[serde(default = "default_held_out_band")]
+    pub held_out_band: f32,
+    /// A dielectric left without a target whose minimum lies within this distance of the
+    /// roughest candidate gets the roughest as its target, not the training's choice: a
+    /// surface without gloss gives σ no gradient but noise, and the training alone let
+    /// `studio-mitsuba`'s diffuse box (σ 1) drift to 0.91 in capture-like copies. 0: off.
+    #[serde(default = "default_held_out_band")]
+    pub rough_band: f32,
+    /// At most this many pixels take part (a uniform random share of them beyond it, the
+    /// same for the same views); only they and their shadings are held while the search
+    /// runs, 182 bytes each with `principled`. 0: every pixel.
+    #[serde(default = "default_max_pixels")]
+    pub max_pixels: usize,
+    /// With a value above 0, a dielectric whose fitted curve has σ = 1 less than this
+    /// fraction above its minimum (faint gloss: rough walls, plaster, cloth) is also
+    /// profiled with one base colour for the whole region ([`RegionProfile::one_colour`](crate::RegionProfile::one_colour)).
+    /// Its σ is then no glossier than the glossiest σ within `interior_gain` of that
+    /// curve's minimum, and where the rules above leave it without a target (halves that
+    /// disagree) it takes that curve's, by the `interior_tolerance` and `interior_cap`
+    /// rule. A base colour per surface cell absorbs the broad glow a rough lobe spreads
+    /// over a surface, which leaves only the within-cell view dependence as evidence:
+    /// faint, and pulled glossy by noise and pose error (`docs/roughness-rooms.md`, *Faint
+    /// gloss on one colour*). A one-colour curve whose minimum lies at the mirror end (a
+    /// diffuse lobe that is not the data's) or that is not faint itself (a patch of two
+    /// colours) is not read. 0 (the default): off. An ablation, off because on five Mitsuba
+    /// rooms and a capture copy at 0.02 it moved val σ by +0.75 dB (`atelier`'s brick wall
+    /// 0.88 → 0.96 for 1.0), 0, 0, −0.6, −0.9 and −0.3 (`loft`'s and `gallery`'s walls a
+    /// step too rough: their one-colour minima sit 0.08 and 0.15 above the truth); the
+    /// one-colour curve is no less biased than the per-cell one.
+    /// Left out of the serialised settings when off, so that searches kept by runs before
+    /// it existed (keyed on the settings) are reused.
+    #[serde(default = "default_one_colour_below", skip_serializing_if = "is_off")]
+    pub one_colour_below: f32,
+    /// Dividing regions of two finishes by colour ([`split`](crate::split)) or by gloss ([`gloss`](crate::gloss)).
+    #[serde(default)]
+    pub split: split::SplitConfig,
+}
+
+fn default_one_colour_below() -> f32 {
+    0.0
+}
+
+fn is_off(v: &f32) -> bool {
+    *v == 0.0
+}
+
+fn default_interior_always() -> bool {
+    true
+}
+
+fn default_interior_cap() -> f32 {
+    0.005
+}
+
+fn default_held_out_band() -> f32 {
+    0.1
+}
+
+fn default_max_pixels() -> usize {
+    8_000_000
+}
+
+/// Where the search's regions come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RegionSource {
+    Auto,
+    Parts,
+    Semantic,
+    Mesh,
+    None,
+}
+
+impl Default for SearchConfig {
+    fn default() -> Self {
+        SearchConfig {
+            enabled: true,
+            on_bake: true,
+            bake_metal_margin: 0.6,
+            roughness_steps: 50,
+            metallic: vec![0.0, 1.0],
+            cell_footprints: 4.0,
+            dielectric_tolerance: 0.25,
+            metal_tolerance: 0.02,
+            interior_gain: 0.001,
+            interior_sigma: 0.1,
+            interior_tolerance: 0.25,
+            interior_cap: default_interior_cap(),
+            interior_always: true,
+            metal_margin: 0.2,
+            min_pixels: 200,
+            regions: RegionSource::Auto,
+            mesh_angle_deg: 30.0,
+            drop_edges: true,
+            edge_contrast: 4.0,
+            held_out: true,
+            held_out_band: default_held_out_band(),
+            rough_band: default_held_out_band(),
+            max_pixels: default_max_pixels(),
+            one_colour_below: default_one_colour_below(),
+            split: split::SplitConfig::default(),
+        }
+    }
+}
+
+impl SearchConfig {
+    /// Range checks of every setting, naming the key and the range (`search.<key> = v (use
+    /// …)`).
+    pub fn validate(&self) -> Result<(), String> {
+        let bad = |key: &str, v: &dyn std::fmt::Display, range: &str| {
+            Err(format!("search.{key} = {v} (use {range})"))
+        };
+        let unit = |v: f32| (0.0..=1.0).contains(&v);
+        let ranges = [
+            ("bake_metal_margin", self.bake_metal_margin, 1.0),
+            ("metal_margin", self.metal_margin, 1.0),
+            ("interior_sigma", self.interior_sigma, 1.0),
+            ("interior_tolerance", self.interior_tolerance, 1.0),
+            ("interior_cap", self.interior_cap, 1e6),
+            ("dielectric_tolerance", self.dielectric_tolerance, 1e6),
+            ("metal_tolerance", self.metal_tolerance, 1e6),
+            ("interior_gain", self.interior_gain, 1e6),
+            ("held_out_band", self.held_out_band, 1.0),
+            ("rough_band", self.rough_band, 1.0),
+            ("one_colour_below", self.one_colour_below, 1e6),
+            ("edge_contrast", self.edge_contrast, 1e6),
+        ];
+        for (key, v, hi) in ranges {
+            if !(v >= 0.0 && v <= hi) {
+                return bad(key, &v, &format!("[0, {hi}]"));
+            }
+        }
+        if !(2..=10_000).contains(&self.roughness_steps) {
+            return bad("roughness_steps", &self.roughness_steps, "2..=10000");
+        }
+        if self.metallic.is_empty()
+            || self.metallic.len() > 100
+            || !self.metallic.iter().all(|&m| unit(m))
+        {
+            return bad(
+                "metallic",
+                &format!("{:?}", self.metallic),
+                "1 to 100 values in [0, 1]",
+            );
+        }
+        if !(self.cell_footprints > 0.0 && self.cell_footprints <= 1e4) {
+            return bad("cell_footprints", &self.cell_footprints, "(0, 1e4]");
+        }
+        if !(0.0..=180.0).contains(&self.mesh_angle_deg) {
+            return bad("mesh_angle_deg", &self.mesh_angle_deg, "[0, 180]");
+        }
+        self.split.validate()
+    }
+
+    /// The search off (the reference's behaviour).
+    pub fn off() -> Self {
+        SearchConfig {
+            enabled: false,
+            ..Default::default()
+        }
+    }
+}
+
+/// The search in every preset but `reference`, which keeps the reference's behaviour (off).
+impl fipt_core::presets::Presets for SearchConfig {
+    fn paper() -> Self {
+        SearchConfig::default()
+    }
+    fn balanced() -> Self {
+        SearchConfig::default()
+    }
+    fn fast() -> Self {
+        SearchConfig::default()
+    }
+    fn reference() -> Self {
+        SearchConfig::off()
+    }
+}
