@@ -29,7 +29,7 @@ use fipt_core::dataset::View;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    Progress, RayQuery, RefineInputs, Reported, Scope, ShadingRefiner, Shard, SurfaceHit,
+    PixelDraw, Progress, RayQuery, RefineInputs, Reported, Scope, ShadingRefiner, Shard, SurfaceHit,
     ViewShadings, ViewSink, DEFAULT_LEVELS, NUM_LEVELS,
 };
 use fipt_core::CoreError;
@@ -68,6 +68,12 @@ pub struct RefineConfig {
     /// Integrate Ld once per surface cell of `cache_cell_scale` pixel footprints. Default true.
     pub diffuse_cache: bool,
     pub cache_cell_scale: f32,
+    /// The most the cache's cell edge grows by where a run refines a drawn share of the pixels
+    /// (`Scope::pixels`): the edge is `cache_cell_scale` × √(1 / share), at most this many
+    /// times, so that a cell holds about as many drawn pixels as a cell of a whole refinement
+    /// holds pixels and the diffuse integrals follow the pixels read, not the views. 1: cells
+    /// of one size whatever the draw. Default 4. Every pixel drawn: no growth.
+    pub cache_cell_growth: f32,
     /// Voxel edge of the material cache, in pixel footprints. Default 2.
     pub material_cell_scale: f32,
     /// "independent" or "stratified" sample directions. Default stratified.
@@ -97,6 +103,7 @@ impl Default for RefineConfig {
             slf_fallback_levels: 3,
             diffuse_cache: true,
             cache_cell_scale: 1.0,
+            cache_cell_growth: 4.0,
             material_cell_scale: 2.0,
             sampler: SamplerKind::Stratified,
             seed: 1,
@@ -165,6 +172,12 @@ impl RefineConfig {
                 crate::limits::MAX_SAMPLES
             ));
         }
+        if !(self.cache_cell_growth >= 1.0 && self.cache_cell_growth <= 100.0) {
+            return Err(format!(
+                "[refine] cache_cell_growth = {}: use [1, 100] (1: no growth)",
+                self.cache_cell_growth
+            ));
+        }
         if !(self.material_cell_scale > 0.0 && self.material_cell_scale <= 1e3) {
             return Err(format!(
                 "[refine] material_cell_scale = {}: use (0, 1000]",
@@ -172,6 +185,17 @@ impl RefineConfig {
             ));
         }
         Ok(())
+    }
+
+    /// The diffuse cache's cell edge in pixel footprints for a refinement of `draw`'s pixels
+    /// (see [`RefineConfig::cache_cell_growth`]).
+    pub fn cache_cell_for(&self, draw: &PixelDraw) -> f32 {
+        let scale = self.cache_cell_scale.max(1e-3);
+        if draw.is_all() {
+            return scale;
+        }
+        let growth = (1.0 / draw.share.max(1e-12)).sqrt() as f32;
+        scale * growth.clamp(1.0, self.cache_cell_growth.max(1.0))
     }
 }
 
@@ -196,6 +220,9 @@ pub struct RefineStats {
     pub emitter_triangles: usize,
     /// Material-cache voxels.
     pub material_voxels: usize,
+    /// The diffuse cache's cell edge, in pixel footprints ([`RefineConfig::cache_cell_for`]).
+    #[serde(default)]
+    pub cache_cell_footprints: f32,
     /// Hit pixels off the emitters left out of the SLF beside them (`slf_light_margin`).
     #[serde(default)]
     pub slf_margin_pixels: usize,
@@ -559,12 +586,13 @@ impl PathGrownRefiner {
         let emitting = emitting_triangles(mesh.triangles.len(), inputs.emitters);
         // The cache holds moments, which express the built-in lobes only.
         let use_cache = cfg.diffuse_cache && moments_express(model);
+        stats.cache_cell_footprints = cfg.cache_cell_for(&scope.pixels);
         let (slf, cells, _, hit, bled) = slf_and_cells(
             geometry,
             views,
             images,
             SlfBuilder::with_fallback(cube, cfg.slf_resolution, cfg.slf_fallback_levels),
-            DiffuseCells::new(cube.min, footprint * cfg.cache_cell_scale.max(1e-3)),
+            DiffuseCells::new(cube.min, footprint * stats.cache_cell_footprints),
             use_cache,
             scope,
             |r| !emitting[r.hit.tri as usize],

@@ -381,24 +381,41 @@ fn refined_shadings_raise_the_closure_psnr() {
     let (refined, stats) = refiner.refine_detailed(&inputs, &|_, _| {}).unwrap();
     let again = refiner.refine(&inputs, &|_, _| {}).unwrap();
     assert_eq!(refined, again.output, "refinement must be deterministic");
-    // A drawn share: those pixels exactly as refined whole, the others misses.
+    // A drawn share: its pixels exactly as a whole refinement with the diffuse cache's cells
+    // grown by √(1 / 0.25) = 2 gives them, the others misses; with no growth, as `refined`.
     let draw = PixelDraw::new(3, Some(0.25));
-    let mut kept = 0;
-    refiner
-        .refine_into(
-            &inputs,
-            Scope {
-                shard: Shard::ALL,
-                pixels: draw,
-            },
-            &|_, _| {},
-            &mut |k, s| {
-                kept += common::check_drawn(k, &s, &refined[k], draw).0;
-                Ok(())
-            },
-        )
-        .unwrap();
-    assert!(kept > 0);
+    assert_eq!(RefineConfig::default().cache_cell_for(&draw), 2.0);
+    assert_eq!(RefineConfig::default().cache_cell_for(&PixelDraw::ALL), 1.0);
+    let grown = PathGrownRefiner::new(RefineConfig {
+        cache_cell_scale: 2.0,
+        ..Default::default()
+    })
+    .refine(&inputs, &|_, _| {})
+    .unwrap()
+    .output;
+    assert_ne!(grown, refined, "cells twice as wide give another Ld");
+    let fixed = RefineConfig {
+        cache_cell_growth: 1.0,
+        ..Default::default()
+    };
+    for (cfg, whole) in [(RefineConfig::default(), &grown), (fixed, &refined)] {
+        let mut kept = 0;
+        PathGrownRefiner::new(cfg)
+            .refine_into(
+                &inputs,
+                Scope {
+                    shard: Shard::ALL,
+                    pixels: draw,
+                },
+                &|_, _| {},
+                &mut |k, s| {
+                    kept += common::check_drawn(k, &s, &whole[k], draw).0;
+                    Ok(())
+                },
+            )
+            .unwrap();
+        assert!(kept > 0);
+    }
     // The contract carries the same statistics as the detailed call.
     assert_eq!(again.report["rays"], serde_json::json!(stats.rays));
     let no_light = PathGrownRefiner::new(RefineConfig {

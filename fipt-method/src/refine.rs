@@ -223,10 +223,15 @@ fn print_stats(name: &str, report: &serde_json::Value, secs: f64) {
         stats.rays
     );
     crate::note!(
-        "refine: setup {:.1} s, diffuse {:.1} s ({} cells), specular {:.1} s; secondary rays: {} to emitters, {} SLF at rough surfaces, {} grown through glossy ones, {} through unobserved rough ones, {} left the scene",
+        "refine: setup {:.1} s, diffuse {:.1} s ({} cells{}), specular {:.1} s; secondary rays: {} to emitters, {} SLF at rough surfaces, {} grown through glossy ones, {} through unobserved rough ones, {} left the scene",
         stats.seconds_setup,
         stats.seconds_diffuse,
         stats.cache_entries,
+        if stats.cache_cell_footprints > 0.0 {
+            format!(" of {:.2} pixel footprints", stats.cache_cell_footprints)
+        } else {
+            String::new()
+        },
         stats.seconds_specular,
         stats.secondary_emitter,
         stats.secondary_slf,

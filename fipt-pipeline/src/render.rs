@@ -395,7 +395,7 @@ fn render_views<S: SurfaceModel>(
         .sum();
     let pb = bar(total, "render");
     let st = Stage::start("render");
-    let (mut rays, mut nonfinite) = (0u64, 0u64);
+    let (mut rays, mut nonfinite, mut traced) = (0u64, 0u64, 0f64);
     let reference = a.reference.as_deref().map(reference_dir).transpose()?;
     let mut rows = Vec::new();
     let mut raw_rows = Vec::new();
@@ -426,6 +426,7 @@ fn render_views<S: SurfaceModel>(
         }
         rays += stats.rays;
         nonfinite += stats.nonfinite;
+        traced += stats.seconds;
         let aovs = render_aovs(scene, &cams[k]);
         match layout {
             Layout::Dataset => {
@@ -439,8 +440,10 @@ fn render_views<S: SurfaceModel>(
     pb.finish_and_clear();
     let secs = st.done();
     crate::note!(
-        "{} views, {:.2} Mrays/s{}",
+        "{} views, {:.2} Mrays/s traced ({:.1} s of path tracing), {:.2} Mrays/s over the {secs:.1} s of the stage{}",
         views.len(),
+        rays as f64 / traced.max(1e-9) / 1e6,
+        traced,
         rays as f64 / secs / 1e6,
         if nonfinite > 0 {
             format!(", {nonfinite} non-finite samples dropped")

@@ -80,6 +80,8 @@ pub struct RenderStats {
     pub rays: u64,
     /// Samples dropped because they were not finite (should be 0).
     pub nonfinite: u64,
+    /// Wall time of the path tracing (not of denoising or writing), seconds.
+    pub seconds: f64,
 }
 
 /// Radiance along one camera ray; returns (radiance, rays cast).
@@ -277,6 +279,7 @@ pub fn trace_variance<S: SurfaceModel>(
     view_key: u64,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Image, Vec<f32>, RenderStats) {
+    let t = std::time::Instant::now();
     let (w, h) = (camera.width, camera.height);
     let rays = AtomicUsize::new(0);
     let nonfinite = AtomicUsize::new(0);
@@ -333,6 +336,7 @@ pub fn trace_variance<S: SurfaceModel>(
         paths: (w * h) as u64 * cfg.spp as u64,
         rays: rays.into_inner() as u64,
         nonfinite: nonfinite.into_inner() as u64,
+        seconds: t.elapsed().as_secs_f64(),
     };
     (img, variance, stats)
 }
