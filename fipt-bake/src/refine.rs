@@ -29,8 +29,8 @@ use fipt_core::dataset::View;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{
-    PixelDraw, Progress, RayQuery, RefineInputs, Reported, Scope, ShadingRefiner, Shard, SurfaceHit,
-    ViewShadings, ViewSink, DEFAULT_LEVELS, NUM_LEVELS,
+    PixelDraw, Progress, RayQuery, RefineInputs, Reported, Scope, ShadingRefiner, Shard,
+    SurfaceHit, ViewShadings, ViewSink, DEFAULT_LEVELS, NUM_LEVELS,
 };
 use fipt_core::CoreError;
 use fipt_geom::{Mesh, TriangleSampler};
