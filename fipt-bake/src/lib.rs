@@ -25,6 +25,7 @@ pub mod fsh;
 pub mod limits;
 mod passes;
 pub mod refine;
+mod refine_config;
 pub mod slf;
 pub mod specular;
 pub mod stream;
