@@ -5,6 +5,7 @@
 //! * [`capture`]: the checks behind it (pose convention, LDR and clipping, exposure gains, the
 //!   camera's response, misregistered edges) and their report;
 //! * [`light_scale`]: the radiance of lights that clip in every view, bounded by what they light;
+//! * [`light_ends`]: the kd map at the ends of a light's range, where the views leave it open;
 //! * [`inspect`]: `fipt info`'s summary of a scene folder;
 //! * [`degrade`]: capture-like copies of a rendered scene (`fipt degrade`).
 //!
@@ -12,6 +13,7 @@
 pub mod capture;
 pub mod degrade;
 pub mod inspect;
+pub mod light_ends;
 pub mod light_scale;
 pub mod scene;
 

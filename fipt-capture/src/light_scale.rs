@@ -15,7 +15,7 @@ use fipt_core::cube::Cube;
 use fipt_core::dataset::View;
 use fipt_core::image::Image;
 use fipt_core::rng::Pcg32;
-use fipt_geom::{offset_ray_origin, Geometry, TriangleSampler};
+use fipt_geom::{Geometry, TriangleSampler};
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -78,7 +78,9 @@ struct Sample {
 }
 
 /// Estimates each light's radiance; `lights` are groups of triangle ids, `skip[v][i]` the
-/// pixels not to use (clipped, or on a light), `level` the clip level.
+/// pixels not to use (clipped, or on a light), `level` the clip level. Also returns the model
+/// of the room's light the estimate measured against (A and each light's D anywhere), which
+/// draws the maps at the ends of a light's range ([`crate::light_ends`]).
 pub fn estimate(
     geometry: &Geometry,
     views: &[View],
@@ -87,7 +89,7 @@ pub fn estimate(
     skip: &[Vec<bool>],
     level: f32,
     seen_clipped: &[f32],
-) -> Option<Vec<LightEstimate>> {
+) -> Option<(Vec<LightEstimate>, crate::light_ends::LightModel)> {
     let mesh = &geometry.mesh;
     let is_light: std::collections::HashSet<u32> = lights.iter().flatten().copied().collect();
     let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
@@ -104,21 +106,23 @@ pub fn estimate(
             }
         }
     }
-    let slf = slf.finish();
     let side = light_sides(geometry, views, &hits, &is_light);
     let samplers: Vec<TriangleSampler> = lights
         .iter()
         .map(|t| TriangleSampler::uniform_area(mesh, t))
         .collect::<Option<_>>()?;
+    let model = crate::light_ends::LightModel {
+        slf: slf.finish(),
+        is_light,
+        side,
+        samplers,
+    };
     let (patch, _) = fipt_geom::patches::smooth_patches(mesh, 30.0);
-    let near_light = touching(mesh, &is_light);
+    let near_light = touching(mesh, &model.is_light);
     let at = Surfaces {
         geometry,
-        slf: &slf,
-        is_light: &is_light,
+        model: &model,
         near_light: &near_light,
-        side: &side,
-        samplers: &samplers,
         patch: &patch,
     };
     let samples = at.samples(views, images, &hits, skip);
@@ -127,19 +131,16 @@ pub fn estimate(
     }
     let mut out = search(&samples, lights, level);
     bound_and_choose(&samples, &mut out, seen_clipped, level);
-    Some(out)
+    Some((out, model))
 }
 
 /// What a sample is measured against: the scene, its lights and its patches.
 struct Surfaces<'a> {
     geometry: &'a Geometry,
-    slf: &'a fipt_bake::slf::SurfaceLightField,
-    is_light: &'a std::collections::HashSet<u32>,
+    model: &'a crate::light_ends::LightModel,
     /// Triangles that touch a light: a lamp's faces seen too rarely clipped to count as the
     /// light, which glow rather than reflect.
     near_light: &'a std::collections::HashSet<u32>,
-    side: &'a HashMap<u32, f32>,
-    samplers: &'a [TriangleSampler],
     patch: &'a [u32],
 }
 
@@ -165,7 +166,7 @@ impl Surfaces<'_> {
                         let i = y * w + x;
                         let Some(hit) = hits[v][i].filter(|h| {
                             !skip[v][i]
-                                && !self.is_light.contains(&h.tri())
+                                && !self.model.is_light.contains(&h.tri())
                                 && !self.near_light.contains(&h.tri())
                         }) else {
                             continue;
@@ -189,20 +190,7 @@ impl Surfaces<'_> {
         hit: fipt_shading::records::HitPoint,
         seen: Vec3,
     ) -> Sample {
-        let mut n = self.geometry.mesh.face_normal(hit.tri() as usize);
-        if n.dot(eye - hit.p) < 0.0 {
-            n = -n;
-        }
-        // The same random numbers at every pixel: A and D vary smoothly along a surface (their
-        // noise does not pass for texture), but for shadows.
-        let mut rng = Pcg32::from_keys(&[0x11a7]);
-        let o = offset_ray_origin(hit.p, n);
-        let a = gather(self.geometry, self.slf, self.is_light, o, n, &mut rng);
-        let d = self
-            .samplers
-            .iter()
-            .map(|s| direct(self.geometry, s, self.side, o, n, &mut rng))
-            .collect();
+        let (a, d) = self.model.parts(self.geometry, eye, hit);
         Sample {
             at,
             patch: self.patch[hit.tri() as usize],
@@ -275,7 +263,7 @@ fn light_sides(
 }
 
 /// A(x): the mean radiance the SLF gives over cosine-distributed directions (lights count 0).
-fn gather(
+pub(crate) fn gather(
     geometry: &Geometry,
     slf: &fipt_bake::slf::SurfaceLightField,
     is_light: &std::collections::HashSet<u32>,
@@ -302,7 +290,7 @@ fn gather(
 
 /// D(x): the Lambertian shading (irradiance / π) a light of unit radiance gives at `o`, each
 /// triangle emitting on the side(s) `side` says it was seen from.
-fn direct(
+pub(crate) fn direct(
     geometry: &Geometry,
     s: &TriangleSampler,
     side: &HashMap<u32, f32>,

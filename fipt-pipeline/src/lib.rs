@@ -21,6 +21,7 @@ pub use fipt_run::config;
 mod config_tests;
 pub use fipt_run::error;
 pub mod fit;
+pub mod light_ends;
 pub mod maps;
 pub mod memory;
 pub mod segments;

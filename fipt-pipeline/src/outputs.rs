@@ -346,6 +346,12 @@ pub(crate) fn write_views(
         st.done();
         mark("re-render", t);
     }
+    let t = crate::observe::begin("light ends");
+    let n = crate::light_ends::write(scene, out, crate::report::VIEWS)?;
+    if n > 0 {
+        crate::note!("kd at the ends of the unpinned lights' ranges: {n} maps");
+        mark("light ends", t);
+    }
     Ok(())
 }
 

@@ -13,10 +13,13 @@ pub fn write(
     Ok(files.last().cloned())
 }
 
+/// Views per split the report at the end of `fipt run` shows.
+pub const VIEWS: usize = 4;
+
 /// The report at the end of `fipt run`: its failure does not fail the run (every result is
 /// already written), it is noted.
 pub fn write_or_warn(out: &Path, ds: &fipt_core::dataset::Dataset) -> Option<PathBuf> {
-    write(out, ds, 4).unwrap_or_else(|e| {
+    write(out, ds, VIEWS).unwrap_or_else(|e| {
         crate::note!("warning: the pictures of the report were not written: {e:#}");
         None
     })

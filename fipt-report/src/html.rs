@@ -184,6 +184,41 @@ fn lights_table(h: &mut String, report: &Value) {
         );
     }
     h.push_str("</table>\n");
+    unpinned_lights(h, report);
+}
+
+/// The lights whose radiance the views leave open: the range they allow and how the value
+/// was chosen; the views above show kd at the range's ends.
+fn unpinned_lights(h: &mut String, report: &Value) {
+    let est = report["capture"]["clipped_lights"]["estimates"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    let open: Vec<(usize, &Value)> = est
+        .iter()
+        .enumerate()
+        .filter(|(_, x)| x["pinned"].as_bool() == Some(false))
+        .collect();
+    if open.is_empty() {
+        return;
+    }
+    let _ = writeln!(h, "<h3>Lights the views do not pin ({})</h3>", open.len());
+    h.push_str("<p>Each clips in every view and its shading does not fix its radiance: it is set to the value least wrong over rooms, inside the range the views allow (clip levels of the views' luminance: at least what the clipping and the brightest surface it lights say, at most what keeps the darkest above albedo 0.02). Beside kd in the views above: kd if it lay at either end, a first-order estimate (the run's kd re-weighted by the light each pixel would receive), not a second run.</p>\n");
+    h.push_str("<table><tr><th>clipped light</th><th>triangles</th><th>chosen (clip levels)</th><th>range</th><th>chosen by</th></tr>\n");
+    for (e, x) in open {
+        let _ = writeln!(
+            h,
+            "<tr><td>{e}</td><td>{}</td><td>{}</td><td>{} … {}</td><td>{}</td></tr>",
+            num(&x["triangles"], 0),
+            num(&x["levels"], 1),
+            num(&x["range"][0], 1),
+            x["range"][1]
+                .as_f64()
+                .map_or("no upper bound".into(), |v| format!("{v:.1}")),
+            esc(x["chosen_by"].as_str().unwrap_or("?"))
+        );
+    }
+    h.push_str("</table>\n");
 }
 
 fn figure(h: &mut String, src: &Option<String>, caption: &str) {
@@ -247,6 +282,13 @@ fn view_block(h: &mut String, v: &ViewPictures) {
             figure(h, gt, &format!("{label} (truth)"));
         }
         h.push_str("</div>");
+        if name == "kd" && !v.light_ends.is_empty() {
+            h.push_str("<div class=\"pair\">");
+            for (png, caption) in &v.light_ends {
+                figure(h, &Some(png.clone()), caption);
+            }
+            h.push_str("</div>");
+        }
     }
     h.push_str("</div>\n");
 }

@@ -102,6 +102,73 @@ pub struct ViewPictures {
     pub maps: Vec<(Option<String>, Option<String>)>,
     /// sRGB PSNR of the re-render against the input.
     pub psnr: Option<f64>,
+    /// kd at the ends of the range of each light the views do not pin (picture, caption).
+    pub light_ends: Vec<(String, String)>,
+}
+
+/// The file stem (in `views/<split>/`, and `preview/` for its PNG) of view `k`'s kd map with
+/// light `light` at the `end` ("lower" or "upper") of its range.
+pub fn light_end_stem(k: usize, light: usize, end: &str) -> String {
+    format!("{k:03}_kd_light{light}_{end}")
+}
+
+/// Pixels whose kd changes by more than this share are counted as changed.
+const CHANGED: f32 = 0.1;
+
+/// View `k`'s pictures of kd at the ends of the unpinned lights' ranges in `maps_dir`, with
+/// captions from the run's `report` (the light's end and chosen value; how much of the view
+/// changes and by how much).
+fn light_end_pictures(
+    run: &Path,
+    maps_dir: &Path,
+    k: usize,
+    report: &serde_json::Value,
+) -> Result<Vec<(String, String)>> {
+    let estimates = report["capture"]["clipped_lights"]["estimates"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    let kd_exr = maps_dir.join(format!("{k:03}_kd.exr"));
+    let mut out = vec![];
+    for (e, x) in estimates.iter().enumerate() {
+        for (end, at) in [("lower", 0), ("upper", 1)] {
+            let stem = light_end_stem(k, e, end);
+            let png = maps_dir.join(format!("preview/{stem}.png"));
+            let exr = maps_dir.join(format!("{stem}.exr"));
+            if !png.is_file() || !exr.is_file() || !kd_exr.is_file() {
+                continue;
+            }
+            let (kd, moved) = (Image::read_exr(&kd_exr)?, Image::read_exr(&exr)?);
+            let lum = |v: glam::Vec3| fipt_core::color::luminance(v);
+            let ratios: Vec<f32> = kd
+                .data
+                .iter()
+                .zip(&moved.data)
+                .filter(|(a, _)| lum(**a) > 1e-4)
+                .map(|(a, b)| lum(*b) / lum(*a))
+                .collect();
+            let mut changed: Vec<f32> = ratios
+                .iter()
+                .copied()
+                .filter(|r| (r - 1.0).abs() > CHANGED)
+                .collect();
+            let change = if changed.is_empty() {
+                "no pixel changes by 10 %".to_string()
+            } else {
+                let share = 100.0 * changed.len() as f64 / ratios.len() as f64;
+                let m = changed.len() / 2;
+                let median = *changed.select_nth_unstable_by(m, f32::total_cmp).1;
+                format!("{share:.0} % of the pixels change by more than 10 %, median ×{median:.2}")
+            };
+            let levels = x["range"][at].as_f64().unwrap_or(f64::NAN);
+            let caption = format!(
+                "kd if clipped light {e} were at the {end} end of its range ({levels:.1} clip levels; chosen {:.1}): {change}",
+                x["levels"].as_f64().unwrap_or(f64::NAN)
+            );
+            out.push((rel(run, &png), caption));
+        }
+    }
+    Ok(out)
 }
 
 /// The error heat map of a re-render: |Δ| of the displayed (sRGB) values, mean over channels,
@@ -134,6 +201,29 @@ fn rel(run: &Path, p: &Path) -> String {
         .replace('\\', "/")
 }
 
+/// The views of `split` a report of `n` views per split shows: the first ones with a
+/// re-render (a run re-renders a share of many training views, `[render] train_pixels`), or
+/// the first ones where none has.
+pub fn shown_views<'a>(
+    run: &Path,
+    split: &'a fipt_core::dataset::Split,
+    n: usize,
+) -> Vec<&'a fipt_core::dataset::View> {
+    let maps_dir = run.join("views").join(&split.name);
+    let rendered = |v: &fipt_core::dataset::View| {
+        maps_dir
+            .join(format!("{:03}_render.exr", v.index))
+            .is_file()
+    };
+    let any = split.views.iter().any(rendered);
+    split
+        .views
+        .iter()
+        .filter(|v| !any || rendered(v))
+        .take(n)
+        .collect()
+}
+
 /// Writes the pictures of the report (inputs, error maps, ground truth as PNG under
 /// `report/`) and returns what each view shows.
 pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<ViewPictures>> {
@@ -141,11 +231,11 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
     let pics = run.join("report");
     // Pictures at the run's working exposure (views far from the canonical one are shown as
     // the pipeline saw them).
-    let exposure = std::fs::read_to_string(run.join("report.json"))
+    let report = std::fs::read_to_string(run.join("report.json"))
         .ok()
         .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .and_then(|r| r["exposure_scale"].as_f64())
-        .unwrap_or(1.0) as f32;
+        .unwrap_or_default();
+    let exposure = report["exposure_scale"].as_f64().unwrap_or(1.0) as f32;
     let normalised = |mut i: Image| {
         if exposure != 1.0 {
             for p in &mut i.data {
@@ -159,20 +249,7 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
     photo.clip /= exposure;
     for split in &ds.splits {
         let maps_dir = run.join("views").join(&split.name);
-        // The views with a re-render first (a run re-renders a share of many training views,
-        // `[render] train_pixels`).
-        let rendered = |v: &&fipt_core::dataset::View| {
-            maps_dir
-                .join(format!("{:03}_render.exr", v.index))
-                .is_file()
-        };
-        let any = split.views.iter().any(|v| rendered(&v));
-        for v in split
-            .views
-            .iter()
-            .filter(|v| !any || rendered(v))
-            .take(opts.views)
-        {
+        for v in shown_views(run, split, opts.views) {
             let k = v.index;
             let input = normalised(ds.load_image(v, fipt_core::image::BadPixelPolicy::Clamp)?.0);
             let input_png = pics.join(format!("inputs/{}_{k:03}.png", split.name));
@@ -234,6 +311,7 @@ pub fn write_pictures(run: &Path, ds: &Dataset, opts: &Options) -> Result<Vec<Vi
                 error,
                 maps,
                 psnr,
+                light_ends: light_end_pictures(run, &maps_dir, k, &report)?,
             });
         }
     }

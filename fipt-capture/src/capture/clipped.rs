@@ -20,6 +20,10 @@ pub struct ClippedLights {
     pub convention: String,
     /// Per connected light, its estimated radiance ([`crate::light_scale`]).
     pub estimates: Vec<crate::light_scale::LightEstimate>,
+    /// The room's light the estimates were measured against (draws the maps at the ends of
+    /// an unpinned light's range); not written.
+    #[serde(skip)]
+    pub model: Option<std::sync::Arc<crate::light_ends::LightModel>>,
 }
 
 /// A connected set of clipped triangles seen by fewer pixels (over all views) is a highlight.
@@ -69,6 +73,8 @@ pub fn restore_clipped_lights(
         level,
         &seen_clipped,
     );
+    let (estimates, model) = estimates.map_or((None, None), |(e, m)| (Some(e), Some(m)));
+    cl.model = model.map(std::sync::Arc::new);
     let mut radiance: HashMap<u32, glam::Vec3> = HashMap::new();
     for (e, tris) in lights.iter().enumerate() {
         let est = estimates.as_ref().and_then(|v| v.get(e));
