@@ -130,6 +130,7 @@ fn light_end_pictures(
         .unwrap_or_default();
     let kd_exr = maps_dir.join(format!("{k:03}_kd.exr"));
     let mut out = vec![];
+    let mut kd: Option<Image> = None;
     for (e, x) in estimates.iter().enumerate() {
         for (end, at) in [("lower", 0), ("upper", 1)] {
             let stem = light_end_stem(k, e, end);
@@ -138,7 +139,12 @@ fn light_end_pictures(
             if !png.is_file() || !exr.is_file() || !kd_exr.is_file() {
                 continue;
             }
-            let (kd, moved) = (Image::read_exr(&kd_exr)?, Image::read_exr(&exr)?);
+            if kd.is_none() {
+                kd = Some(Image::read_exr(&kd_exr)?);
+            }
+            let (Some(kd), moved) = (&kd, Image::read_exr(&exr)?) else {
+                continue;
+            };
             let lum = |v: glam::Vec3| fipt_core::color::luminance(v);
             let ratios: Vec<f32> = kd
                 .data
@@ -158,7 +164,8 @@ fn light_end_pictures(
                 let share = 100.0 * changed.len() as f64 / ratios.len() as f64;
                 let m = changed.len() / 2;
                 let median = *changed.select_nth_unstable_by(m, f32::total_cmp).1;
-                format!("{share:.0} % of the pixels change by more than 10 %, median ×{median:.2}")
+                let digits = usize::from(share < 1.0);
+                format!("{share:.digits$} % of the pixels change by more than 10 %, median ×{median:.2}")
             };
             let levels = x["range"][at].as_f64().unwrap_or(f64::NAN);
             let caption = format!(

@@ -74,7 +74,11 @@ pub fn restore_clipped_lights(
         &seen_clipped,
     );
     let (estimates, model) = estimates.map_or((None, None), |(e, m)| (Some(e), Some(m)));
-    cl.model = model.map(std::sync::Arc::new);
+    // Kept only where a light's range is left open (its end maps need it).
+    let open = estimates
+        .as_ref()
+        .is_some_and(|e| !crate::light_ends::ends(e).is_empty());
+    cl.model = model.filter(|_| open).map(std::sync::Arc::new);
     let mut radiance: HashMap<u32, glam::Vec3> = HashMap::new();
     for (e, tris) in lights.iter().enumerate() {
         let est = estimates.as_ref().and_then(|v| v.get(e));
