@@ -115,6 +115,31 @@ pub fn light_end_stem(k: usize, light: usize, end: &str) -> String {
 /// Pixels whose kd changes by more than this share are counted as changed.
 const CHANGED: f32 = 0.1;
 
+/// How much of the view kd changes between `kd` and `moved`: the share of its pixels whose
+/// luminance changes by more than [`CHANGED`], and their median factor.
+fn change(kd: &Image, moved: &Image) -> String {
+    use fipt_core::color::luminance;
+    let ratios: Vec<f32> = kd
+        .data
+        .iter()
+        .zip(&moved.data)
+        .filter(|(a, _)| luminance(**a) > 1e-4)
+        .map(|(a, b)| luminance(*b) / luminance(*a))
+        .collect();
+    let mut changed: Vec<f32> = ratios
+        .iter()
+        .copied()
+        .filter(|r| (r - 1.0).abs() > CHANGED)
+        .collect();
+    if changed.is_empty() {
+        return "no pixel changes by 10 %".into();
+    }
+    let share = 100.0 * changed.len() as f64 / ratios.len() as f64;
+    let digits = usize::from(share < 1.0);
+    let median = fipt_core::image::median(&mut changed);
+    format!("{share:.digits$} % of the pixels change by more than 10 %, median ×{median:.2}")
+}
+
 /// View `k`'s pictures of kd at the ends of the unpinned lights' ranges in `maps_dir`, with
 /// captions from the run's `report` (the light's end and chosen value; how much of the view
 /// changes and by how much).
@@ -129,44 +154,21 @@ fn light_end_pictures(
         .cloned()
         .unwrap_or_default();
     let kd_exr = maps_dir.join(format!("{k:03}_kd.exr"));
+    let open = estimates.iter().any(|x| x["pinned"] == false);
+    if !open || !kd_exr.is_file() {
+        return Ok(vec![]);
+    }
+    let kd = Image::read_exr(&kd_exr)?;
     let mut out = vec![];
-    let mut kd: Option<Image> = None;
     for (e, x) in estimates.iter().enumerate() {
         for (end, at) in [("lower", 0), ("upper", 1)] {
             let stem = light_end_stem(k, e, end);
             let png = maps_dir.join(format!("preview/{stem}.png"));
             let exr = maps_dir.join(format!("{stem}.exr"));
-            if !png.is_file() || !exr.is_file() || !kd_exr.is_file() {
+            if !png.is_file() || !exr.is_file() {
                 continue;
             }
-            if kd.is_none() {
-                kd = Some(Image::read_exr(&kd_exr)?);
-            }
-            let (Some(kd), moved) = (&kd, Image::read_exr(&exr)?) else {
-                continue;
-            };
-            let lum = |v: glam::Vec3| fipt_core::color::luminance(v);
-            let ratios: Vec<f32> = kd
-                .data
-                .iter()
-                .zip(&moved.data)
-                .filter(|(a, _)| lum(**a) > 1e-4)
-                .map(|(a, b)| lum(*b) / lum(*a))
-                .collect();
-            let mut changed: Vec<f32> = ratios
-                .iter()
-                .copied()
-                .filter(|r| (r - 1.0).abs() > CHANGED)
-                .collect();
-            let change = if changed.is_empty() {
-                "no pixel changes by 10 %".to_string()
-            } else {
-                let share = 100.0 * changed.len() as f64 / ratios.len() as f64;
-                let m = changed.len() / 2;
-                let median = *changed.select_nth_unstable_by(m, f32::total_cmp).1;
-                let digits = usize::from(share < 1.0);
-                format!("{share:.digits$} % of the pixels change by more than 10 %, median ×{median:.2}")
-            };
+            let change = change(&kd, &Image::read_exr(&exr)?);
             let levels = x["range"][at].as_f64().unwrap_or(f64::NAN);
             let caption = format!(
                 "kd if clipped light {e} were at the {end} end of its range ({levels:.1} clip levels; chosen {:.1}): {change}",
