@@ -43,7 +43,7 @@ pub fn run(scene_dir: Option<&Path>, views: Option<usize>, out: &Path) -> Result
     let split = scene.ds.train().clone();
     // Raw incoherent throughput on this scene: bounce rays from the views' primary hits.
     let cams: Vec<_> = split.views.iter().map(|v| v.camera.clone()).collect();
-    let (_, inc) = make_rays(&scene.geometry.mesh, &scene.geometry.bvh, &cams);
+    let (_, inc) = make_rays(&scene.geometry.mesh, &scene.geometry.bvh, &cams, 0);
     let bvh = &scene.geometry.bvh;
     let (raw, _) = throughput(&inc, 2, |o, d| bvh.bare_traverse(o, d));
     fipt_pipeline::note!(

@@ -5,12 +5,14 @@
 //! |---|---|
 //! | [`Suite::Rays`] | BVH build, closest-hit Mrays/s (coherent and incoherent, our wrapper beside obvhs's bare traversal), path-tracing speed, thread scaling |
 //! | [`Suite::Bake`] | the shading bake on a scene: pixels/s, Mrays/s against the raw BVH, time per term, and its ablations with their accuracy |
+//! | [`Suite::Render`] | the re-render of a finished run's recovered scene: Mrays/s traced beside the BVH's raw incoherent rate on the same mesh and cameras, interleaved |
 //! | [`Suite::Train`] | material-field training steps/s per preset, split into hash grid / MLP / optimiser, and the custom ops against plain candle |
 //!
 //! Every report holds the process's peak RSS. What a suite has to say while it runs goes to
 //! fipt-pipeline's observer (`fipt_pipeline::observe`).
 mod bake;
 mod rays;
+mod render;
 mod train;
 pub use train::profile_steps;
 
@@ -46,6 +48,8 @@ pub enum Suite {
     Bake,
     /// Training steps per preset, custom ops against plain candle.
     Train,
+    /// The re-render of a finished run beside the BVH's raw rate on the same scene.
+    Render,
 }
 
 /// One benchmark run.
@@ -57,9 +61,10 @@ pub struct BenchRequest {
     pub quick: bool,
     /// Repetitions of each timed measurement of the rays suite (the best is reported).
     pub reps: usize,
-    /// The scene of the bake suite.
+    /// The scene of the bake suite; the finished run folder of the render suite.
     pub scene: Option<PathBuf>,
-    /// The bake suite's first N training views (default all).
+    /// The bake suite's first N training views (default all); the render suite's first N val
+    /// views (default 2).
     pub views: Option<usize>,
 }
 
@@ -69,5 +74,14 @@ pub fn bench(req: &BenchRequest) -> Result<()> {
         Suite::Rays => rays::run(req.quick, req.reps, &req.out),
         Suite::Bake => bake::run(req.scene.as_deref(), req.views, &req.out),
         Suite::Train => train::run(req.quick, &req.out),
+        Suite::Render => render::run(
+            &render::RenderBench {
+                run: req.scene.as_deref(),
+                views: req.views,
+                reps: req.reps,
+                quick: req.quick,
+            },
+            &req.out,
+        ),
     }
 }

@@ -17,8 +17,14 @@ use std::time::Instant;
 
 pub type Rays = Vec<(Vec3, Vec3)>;
 
-/// Camera rays of `views` views and bounce rays from their hits (cosine about the facing normal).
-pub fn make_rays(mesh: &Mesh, bvh: &Bvh, cams: &[fipt_core::camera::Camera]) -> (Rays, Rays) {
+/// Camera rays of `views` views and bounce rays from their hits (cosine about the facing
+/// normal), the bounces drawn from random stream `stream`.
+pub fn make_rays(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    cams: &[fipt_core::camera::Camera],
+    stream: u64,
+) -> (Rays, Rays) {
     let mut coherent = Vec::new();
     for c in cams {
         for j in 0..c.height {
@@ -34,7 +40,7 @@ pub fn make_rays(mesh: &Mesh, bvh: &Bvh, cams: &[fipt_core::camera::Camera]) -> 
             let h = bvh.closest_hit(o, d, 0.0, f32::INFINITY)?;
             let p = hit_point(mesh, &h);
             let n = if h.ng.dot(d) > 0.0 { -h.ng } else { h.ng };
-            let mut rng = Pcg32::new(k as u64, 3);
+            let mut rng = Pcg32::new(k as u64, 3 + stream);
             let w = Frame::from_normal(n).to_world(sample_cosine_hemisphere(rng.next_2d()));
             Some((bvh.offset(p, n), w))
         })
@@ -88,7 +94,7 @@ fn rays_section(
         build = build.min(t.elapsed().as_secs_f64());
     }
     let bvh = bvh.expect("built");
-    let (coh, inc) = make_rays(mesh, &bvh, cams);
+    let (coh, inc) = make_rays(mesh, &bvh, cams, 0);
     let (coh_w, c1) = throughput(&coh, reps, |o, d| wrapper(mesh, &bvh, o, d));
     let (coh_b, c2) = throughput(&coh, reps, |o, d| bvh.bare_traverse(o, d));
     let (inc_w, c3) = throughput(&inc, reps, |o, d| wrapper(mesh, &bvh, o, d));

@@ -14,14 +14,17 @@ pub struct Args {
     /// Repetitions of each timed measurement (the best is reported).
     #[arg(long, default_value_t = 3)]
     reps: usize,
-    /// What to measure: rays (BVH and path tracer), bake (the shading bake on --scene) or train
-    /// (material-field training steps per preset, custom op vs plain candle).
+    /// What to measure: rays (BVH and path tracer), bake (the shading bake on --scene), train
+    /// (material-field training steps per preset, custom op vs plain candle) or render (the
+    /// re-render of the finished run --scene beside the BVH's raw rate on the same scene).
     #[arg(long, value_enum, default_value = "rays")]
     suite: SuiteArg,
-    /// Scene folder for `--suite bake` (e.g. the output of `fipt synth room`).
+    /// Scene folder for `--suite bake` (e.g. the output of `fipt synth room`); a finished run
+    /// folder for `--suite render`.
     #[arg(long)]
     scene: Option<PathBuf>,
-    /// Training views used by `--suite bake` (the first N; default all).
+    /// Training views used by `--suite bake` (the first N; default all); val views rendered by
+    /// `--suite render` (default 2).
     #[arg(long)]
     views: Option<usize>,
 }
@@ -31,6 +34,7 @@ enum SuiteArg {
     Rays,
     Bake,
     Train,
+    Render,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -38,6 +42,7 @@ pub fn run(a: Args) -> Result<()> {
         SuiteArg::Rays => Suite::Rays,
         SuiteArg::Bake => Suite::Bake,
         SuiteArg::Train => Suite::Train,
+        SuiteArg::Render => Suite::Render,
     };
     let request = BenchRequest {
         suite,
