@@ -225,8 +225,8 @@ impl<'a> GrownLight<'a> {
             if let Some(ls) = self.sample_emitter(origin, rng) {
                 let wi = frame.to_local(ls.wi);
                 if wi.z > 0.0 && ls.wi.dot(ng) > 0.0 {
-                    let f = brdf.eval(wo, wi);
-                    let w = power_heuristic(ls.pdf, brdf.pdf(wo, wi));
+                    let (f, brdf_pdf) = brdf.eval_pdf(wo, wi);
+                    let w = power_heuristic(ls.pdf, brdf_pdf);
                     l += beta * f * ls.le * (w / ls.pdf);
                 }
             }

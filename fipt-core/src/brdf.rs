@@ -31,6 +31,12 @@ pub trait Brdf {
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
     /// Samples `wi` from `u_lobe` (lobe choice) and `u` (direction), both uniform in [0, 1).
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>;
+    /// `(eval, pdf)` at once, bit for bit the two calls' values; a model whose two share work
+    /// (the half vector, D) overrides it.
+    #[inline]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        (self.eval(wo, wi), self.pdf(wo, wi))
+    }
 }
 
 /// An orthonormal frame around a normal (Duff et al. 2017 construction).

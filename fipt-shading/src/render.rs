@@ -210,12 +210,12 @@ fn next_event<S: SurfaceModel>(
             let wi = frame.to_local(wi_w);
             let faces = scene.surfaces.emit_side(ls.tri).emits_towards(ls.n, -wi_w);
             if cos_l > 0.0 && faces && wi.z > 0.0 && wi_w.dot(ng) > 0.0 {
-                let f = brdf.eval(wo, wi);
+                let (f, brdf_pdf) = brdf.eval_pdf(wo, wi);
                 if f != Vec3::ZERO {
                     rays += 1;
                     if !scene.bvh.occluded(p_out, wi_w, dist * (1.0 - 1e-4)) {
                         let light_pdf = ls.pdf_area * dist2 / cos_l;
-                        let w = power_heuristic(light_pdf, brdf.pdf(wo, wi));
+                        let w = power_heuristic(light_pdf, brdf_pdf);
                         *l += beta * f * scene.surfaces.emission(ls.tri) * (w / light_pdf);
                     }
                 }

@@ -59,6 +59,14 @@ impl MicrofacetBrdf {
         self.kd == Vec3::ZERO && self.ks == Vec3::ZERO
     }
 
+    /// The half vector, ωo·h and D(h) at (ωo, ωi), both above the horizon: what `eval` and
+    /// `pdf` share.
+    #[inline]
+    fn half(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32, f32) {
+        let h = (wo + wi).normalize();
+        (h, wo.dot(h), ggx_d(h, self.alpha()))
+    }
+
     /// The specular factors (D·G/(4 cos θo), the two Fresnel weights) used by the shading
     /// factorisation: f_spec·cos θi = cos θi · D·G·(ks·(1−m) + m) / (4 cosθi cosθo) with m = (1−ωo·h)⁵.
     #[inline]
@@ -66,11 +74,14 @@ impl MicrofacetBrdf {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return None;
         }
-        let h = (wo + wi).normalize();
-        let voh = wo.dot(h).max(0.0);
-        let d = ggx_d(h, self.alpha());
+        let (_, voh, d) = self.half(wo, wi);
+        Some(self.spec_of(wo, wi, voh, d))
+    }
+
+    #[inline]
+    fn spec_of(&self, wo: Vec3, wi: Vec3, voh: f32, d: f32) -> (f32, f32) {
         let g = self.model.g1(wi.z, self.roughness) * self.model.g1(wo.z, self.roughness);
-        Some((d * g / (4.0 * wo.z), schlick_weight(voh)))
+        (d * g / (4.0 * wo.z), schlick_weight(voh.max(0.0)))
     }
 
     /// The three scalar lobes [d, s0, s1] of f·cos θi = kd·d + ks·s0 + s1 at (ωo, ωi): the
@@ -80,21 +91,39 @@ impl MicrofacetBrdf {
     pub fn lobes(&self, wo: Vec3, wi: Vec3) -> [f32; 3] {
         match self.spec_terms(wo, wi) {
             None => [0.0; 3],
-            Some((dg, m)) => {
-                let [b0, b1, b2] = self.model.diffuse_basis(wo.z, wi.z, wo.dot(wi));
-                let s = self.roughness;
-                let b = b0 + s * (b1 + s * b2);
-                [FRAC_1_PI * wi.z * b, dg * (1.0 - m), dg * m]
-            }
+            Some(spec) => self.lobes_of(wo, wi, spec),
         }
+    }
+
+    #[inline]
+    fn lobes_of(&self, wo: Vec3, wi: Vec3, (dg, m): (f32, f32)) -> [f32; 3] {
+        let [b0, b1, b2] = self.model.diffuse_basis(wo.z, wi.z, wo.dot(wi));
+        let s = self.roughness;
+        let b = b0 + s * (b1 + s * b2);
+        [FRAC_1_PI * wi.z * b, dg * (1.0 - m), dg * m]
+    }
+
+    #[inline]
+    fn combine(&self, [d, s0, s1]: [f32; 3]) -> Rgb {
+        self.kd * d + self.ks * s0 + Vec3::splat(s1)
+    }
+
+    /// The sampling pdf from the shared terms: ½ cosine + ½ GGX half vector.
+    #[inline]
+    fn pdf_of(wi: Vec3, h: Vec3, voh: f32, d: f32) -> f32 {
+        let spec = if voh > 0.0 {
+            d * h.z / (4.0 * voh)
+        } else {
+            0.0
+        };
+        0.5 * wi.z * FRAC_1_PI + 0.5 * spec
     }
 }
 
 impl Brdf for MicrofacetBrdf {
     #[inline]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        let [d, s0, s1] = self.lobes(wo, wi);
-        self.kd * d + self.ks * s0 + Vec3::splat(s1)
+        self.combine(self.lobes(wo, wi))
     }
 
     #[inline]
@@ -102,14 +131,18 @@ impl Brdf for MicrofacetBrdf {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let h = (wo + wi).normalize();
-        let voh = wo.dot(h);
-        let spec = if voh > 0.0 {
-            ggx_d(h, self.alpha()) * h.z / (4.0 * voh)
-        } else {
-            0.0
-        };
-        0.5 * wi.z * FRAC_1_PI + 0.5 * spec
+        let (h, voh, d) = self.half(wo, wi);
+        Self::pdf_of(wi, h, voh, d)
+    }
+
+    #[inline]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (self.combine([0.0; 3]), 0.0);
+        }
+        let (h, voh, d) = self.half(wo, wi);
+        let lobes = self.lobes_of(wo, wi, self.spec_of(wo, wi, voh, d));
+        (self.combine(lobes), Self::pdf_of(wi, h, voh, d))
     }
 
     #[inline]
@@ -132,11 +165,10 @@ impl Brdf for MicrofacetBrdf {
         if wi.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
+        let (f, pdf) = self.eval_pdf(wo, wi);
         if !(pdf > 0.0) || !pdf.is_finite() {
             return None;
         }
-        let f = self.eval(wo, wi);
         Some(BrdfSample {
             wi,
             pdf,

@@ -73,6 +73,13 @@ impl Brdf for BrdfModel {
         }
     }
     #[inline]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        match self {
+            BrdfModel::Microfacet(b) => b.eval_pdf(wo, wi),
+            BrdfModel::Lambert(b) => b.eval_pdf(wo, wi),
+        }
+    }
+    #[inline]
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
         match self {
             BrdfModel::Microfacet(b) => b.sample(wo, u_lobe, u),
