@@ -6,6 +6,7 @@ use crate::rays::{make_rays, throughput};
 use crate::{BenchError, Result};
 use fipt_core::memory::peak_rss_mib;
 use fipt_pipeline::recovered::RunOutput;
+use fipt_pipeline::run_config::ReRenderConfig;
 use fipt_pipeline::Components;
 use fipt_shading::render::{trace_variance, RenderConfig};
 use fipt_shading::scene::Scene;
@@ -60,9 +61,15 @@ pub fn run(b: &RenderBench, out: &Path) -> Result<()> {
         .flat_map(|s| make_rays(&geometry.mesh, &geometry.bvh, &cams, s as u64).1)
         .collect();
     let scene = Scene::new(geometry.mesh.clone(), surfaces);
+    // The re-render stage's own bounces and seed (`report.json`'s settings), at `spp`.
+    let stage: Option<ReRenderConfig> =
+        serde_json::from_value(run.report["settings"]["render"].clone()).ok();
+    let d = RenderConfig::default();
     let cfg = RenderConfig {
         spp,
-        ..Default::default()
+        max_bounces: stage.as_ref().map_or(d.max_bounces, |r| r.max_bounces),
+        seed: stage.as_ref().map_or(d.seed, |r| r.seed),
+        ..d
     };
     let bvh = &scene.bvh;
     let (mut raw, mut traced, mut reps) = (0f64, 0f64, Vec::new());
