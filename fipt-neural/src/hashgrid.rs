@@ -196,24 +196,13 @@ fn for_each_cell(
     }
 }
 
-/// A hint to fetch the cache line of element `at` of `buf` (no effect off x86-64 or out of
-/// range).
+/// A hint to fetch the cache line of element `at` of `buf` (no effect out of range).
 #[inline(always)]
 fn prefetch(buf: &Range<*const f32>, at: usize) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let p = buf.start.wrapping_add(at);
-        if p < buf.end {
-            // SAFETY: a prefetch reads nothing and never faults; the address is within `buf`.
-            unsafe {
-                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                    p as *const i8,
-                )
-            }
-        }
+    let p = buf.start.wrapping_add(at);
+    if p < buf.end {
+        fipt_core::memory::prefetch(p);
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (buf, at);
 }
 
 /// The tables with their gradient and optimiser state.

@@ -197,6 +197,11 @@ impl<S: SurfaceModel> SurfaceModel for EditedSurfaces<S> {
             None => sp,
         }
     }
+    fn prefetch(&self, tri: u32, p: Vec3) {
+        if self.added(tri).is_none() {
+            self.base.prefetch(tri, p);
+        }
+    }
     fn emission(&self, tri: u32) -> Rgb {
         if let Some(a) = self.added(tri) {
             return a.surface.emission;

@@ -15,7 +15,7 @@ use crate::scene::SurfaceModel;
 use fipt_core::color::Rgb;
 use fipt_core::emitter::{EmitSide, Emitter};
 use fipt_core::field::{Material, MaterialField};
-use fipt_core::hash::GridMap as HashMap;
+use fipt_core::hash::{floor_i32, GridMap as HashMap};
 use fipt_core::materials::SurfacePoint;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
@@ -145,9 +145,9 @@ fn facings(mesh: &Mesh) -> Vec<u8> {
 
 /// The voxel of edge `cell` holding `p`, on the side triangle `t` faces (6 for none).
 fn voxel_key(p: Vec3, cell: f32, tri_facing: &[u8], t: u32) -> Key {
-    let q = (p / cell).floor();
+    let q = p / cell;
     let side = tri_facing.get(t as usize).copied().unwrap_or(6);
-    (q.x as i32, q.y as i32, q.z as i32, side)
+    (floor_i32(q.x), floor_i32(q.y), floor_i32(q.z), side)
 }
 
 /// Hands every observed point (position, triangle) to its argument, in a fixed order.
@@ -372,6 +372,11 @@ impl SurfaceModel for FieldSurfaces {
             Some(m) => to_surface(&m),
             None => self.per_triangle[tri as usize],
         }
+    }
+    #[inline]
+    fn prefetch(&self, tri: u32, p: Vec3) {
+        self.voxels
+            .prefetch(&voxel_key(p, self.cell, &self.tri_facing, tri));
     }
     fn emission(&self, tri: u32) -> Rgb {
         self.emission[tri as usize]

@@ -148,6 +148,23 @@ impl MaterialTable {
         }
     }
 
+    /// Starts fetching the slot where a lookup of `k` begins ([`fipt_core::memory::prefetch`]),
+    /// so that work between this and [`MaterialTable::get`] hides the miss.
+    #[inline]
+    pub(crate) fn prefetch(&self, k: &Key) {
+        if let MaterialTable::Packed {
+            slots,
+            mask,
+            origin,
+            ..
+        } = self
+        {
+            if let Some(key) = Self::pack(*origin, k) {
+                fipt_core::memory::prefetch(&slots[home(key) & mask]);
+            }
+        }
+    }
+
     /// Voxels held.
     pub(crate) fn len(&self) -> usize {
         match self {
@@ -198,7 +215,9 @@ mod tests {
         assert!(slots.len() >= 2 * keys.len());
         assert_eq!(std::mem::size_of::<Slot>(), 32);
         assert_eq!(slots.as_ptr() as usize % 32, 0);
+        // A prefetch (of any key: held, absent, outside the span) is a hint only.
         for (i, k) in keys.iter().enumerate() {
+            t.prefetch(k);
             let m = t.get(k).expect("present");
             assert_eq!(m, mat(i as f32 / 3000.0), "{k:?}");
         }
@@ -208,6 +227,7 @@ mod tests {
             (-9, 7, -6, 1),
             (i32::MAX, i32::MIN, 0, 2),
         ] {
+            t.prefetch(&k);
             assert!(t.get(&k).is_none(), "{k:?}");
         }
         assert!(MaterialTable::new(std::iter::empty())
@@ -231,6 +251,7 @@ mod tests {
             assert!(matches!(t, MaterialTable::Wide(_)));
             assert_eq!(t.len(), keys.len());
             for (i, k) in keys.iter().enumerate() {
+                t.prefetch(k);
                 assert_eq!(t.get(k), Some(mat(i as f32 * 0.3)), "{k:?}");
             }
             assert!(t.get(&(5, 5, 5, 0)).is_none());

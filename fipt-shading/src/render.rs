@@ -118,11 +118,10 @@ pub fn trace_path<S: SurfaceModel>(
             break;
         }
         let p = hit_point(&scene.mesh, &hit);
-        let sp = scene.surfaces.surface(tri, p);
-        let brdf = scene.surfaces.brdf(&sp);
-        if brdf.is_black() {
-            break;
-        }
+        // The material lookup is a random memory access: start it, make the frame meanwhile.
+        // (Both break tests below end the path before any random number is drawn, so their
+        // order changes no output.)
+        scene.surfaces.prefetch(tri, p);
         // Two-sided: orient both normals towards the viewer.
         let ng = if cos_ng < 0.0 { -hit.ng } else { hit.ng };
         let mut ns = shading_normal(&scene.mesh, &hit);
@@ -135,6 +134,11 @@ pub fn trace_path<S: SurfaceModel>(
             break;
         }
         let p_out = scene.bvh.offset(p, ng);
+        let sp = scene.surfaces.surface(tri, p);
+        let brdf = scene.surfaces.brdf(&sp);
+        if brdf.is_black() {
+            break;
+        }
         // Next-event estimation: the emitting triangles (MIS with the BRDF), the point lights.
         let at = ShadingPoint {
             brdf: &brdf,

@@ -13,6 +13,10 @@ use glam::Vec3;
 pub trait SurfaceModel: Sync {
     /// Material parameters at point `p` of mesh triangle `tri`.
     fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint;
+    /// A hint that [`SurfaceModel::surface`] will soon be asked at (`tri`, `p`): a model
+    /// whose lookup misses the cache starts fetching here. Changes nothing; none by default.
+    #[inline]
+    fn prefetch(&self, _tri: u32, _p: Vec3) {}
     /// Emitted radiance of triangle `tri` (both sides).
     fn emission(&self, tri: u32) -> Rgb;
     /// Index of the material/part of triangle `tri` (for the `IndexMA` map).
@@ -39,6 +43,9 @@ pub trait SurfaceModel: Sync {
 impl<S: SurfaceModel + ?Sized> SurfaceModel for &S {
     fn surface(&self, tri: u32, p: Vec3) -> SurfacePoint {
         (**self).surface(tri, p)
+    }
+    fn prefetch(&self, tri: u32, p: Vec3) {
+        (**self).prefetch(tri, p)
     }
     fn emission(&self, tri: u32) -> Rgb {
         (**self).emission(tri)
