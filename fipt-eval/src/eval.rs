@@ -185,10 +185,15 @@ pub fn evaluate_scaled(
             scales,
             display,
         };
+        // Where the run mapped a share of the views (`maps.json`), those.
+        let mapped = fipt_pipeline::maps::MapsManifest::read(&dir)?;
+        let views: Vec<&fipt_core::dataset::View> = (s.views.iter())
+            .filter(|v| mapped.as_ref().is_none_or(|m| m.views.contains(&v.index)))
+            .collect();
         // The views are read and scored on every core, a few at a time, and added in view
         // order (the sums are those of one view after another).
         let chunk = 2 * rayon::current_num_threads().max(1);
-        for views in s.views.chunks(chunk) {
+        for views in views.chunks(chunk) {
             let scored = (views.par_iter())
                 .map(|v| score_view(&at, v))
                 .collect::<Result<Vec<_>>>()?;

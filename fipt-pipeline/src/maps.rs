@@ -158,3 +158,99 @@ fn encode_maps(
     }
     Ok(files)
 }
+
+/// The views of a split whose maps a run wrote, where it left some out
+/// (`views/<split>/maps.json`; absent when every view has its maps): `fipt eval` scores
+/// these.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MapsManifest {
+    /// View indices with maps, ascending.
+    pub views: Vec<usize>,
+    /// Views in the split.
+    pub of: usize,
+    /// The budget that chose them (`[render] train_pixels`).
+    pub train_pixels: u64,
+}
+
+impl MapsManifest {
+    pub const FILE: &'static str = "maps.json";
+
+    /// The manifest of the maps in `dir` (`views/<split>`), None where there is none (every
+    /// view mapped).
+    pub fn read(dir: &Path) -> Result<Option<MapsManifest>> {
+        let p = dir.join(Self::FILE);
+        if !p.is_file() {
+            return Ok(None);
+        }
+        fipt_core::fsutil::read_json(&p)
+            .map(Some)
+            .with_context(|| format!("reading {} (remove it to score every view)", p.display()))
+    }
+}
+
+/// The views of `split` that get maps: every view but training views beyond `[render]
+/// train_pixels`, the same ones the re-render covers (so the report shows maps and re-renders
+/// of the same views). Where some are left out, says so, writes [`MapsManifest`] and removes
+/// what a previous run left of theirs (`{k:03}_*` and its previews: another field's maps);
+/// else removes any manifest.
+pub(crate) fn mapped_views(
+    scene: &crate::scene::LoadedScene,
+    render: &crate::run_config::ReRenderConfig,
+    split: &fipt_core::dataset::Split,
+    dir: &Path,
+) -> Result<Vec<View>> {
+    let keep = if split.name == scene.ds.train().name {
+        render.train_views(split.views.len(), scene.ds.width * scene.ds.height)
+    } else {
+        vec![true; split.views.len()]
+    };
+    let manifest = dir.join(MapsManifest::FILE);
+    let views: Vec<View> = (split.views.iter().zip(&keep))
+        .filter(|(_, k)| **k)
+        .map(|(v, _)| v.clone())
+        .collect();
+    if views.len() == split.views.len() {
+        remove_if_present(&manifest)?;
+        return Ok(views);
+    }
+    let left: std::collections::HashSet<String> = (split.views.iter().zip(&keep))
+        .filter(|(_, k)| !**k)
+        .map(|(v, _)| format!("{:03}_", v.index))
+        .collect();
+    for d in [dir.to_path_buf(), dir.join("preview")] {
+        let Ok(entries) = std::fs::read_dir(&d) else {
+            continue;
+        };
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.get(..4).is_some_and(|p| left.contains(p)) {
+                remove_if_present(&e.path())?;
+            }
+        }
+    }
+    crate::note!(
+        "maps: {} of {} {} views, evenly spaced (render.train_pixels = {}; 0 for every one)",
+        views.len(),
+        split.views.len(),
+        split.name,
+        render.train_pixels
+    );
+    let m = MapsManifest {
+        views: views.iter().map(|v| v.index).collect(),
+        of: split.views.len(),
+        train_pixels: render.train_pixels,
+    };
+    std::fs::create_dir_all(dir).map_err(|e| fipt_core::CoreError::io(dir, e))?;
+    fipt_core::fsutil::write_json_atomic(&manifest, &m)?;
+    Ok(views)
+}
+
+fn remove_if_present(p: &Path) -> Result<()> {
+    match std::fs::remove_file(p) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            Err(fipt_core::CoreError::io(p, e).into())
+        }
+        _ => Ok(()),
+    }
+}

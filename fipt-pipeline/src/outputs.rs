@@ -325,15 +325,17 @@ pub(crate) fn write_views(
         }
     }
     for s in &scene.ds.splits {
+        let dir = out.join("views").join(&s.name);
+        let views = crate::maps::mapped_views(scene, &cfg.render, s, &dir)?;
         crate::maps::export_views(
             field,
             &scene.geometry,
-            &s.views,
+            &views,
             None,
             Some(&emission_of),
             observed,
             scene.exposure,
-            &out.join("views").join(&s.name),
+            &dir,
         )?;
     }
     st.done();

@@ -103,10 +103,11 @@ pub struct ReRenderConfig {
     pub val_spp: u32,
     pub max_bounces: u32,
     pub seed: u64,
-    /// At most this many training-view pixels are re-rendered (views evenly spaced in index
-    /// order, the first always among them); 0: every training view. The training views'
-    /// re-renders show the fit to the photographs; the novel (val) views are always all
-    /// re-rendered. 2 M: `studio-mitsuba`, `room` and `cornell` keep every view; 200 views of
+    /// At most this many training-view pixels are re-rendered and mapped (views evenly spaced
+    /// in index order, the first always among them; the same views for both, listed in
+    /// `views/train/maps.json` where some are left out); 0: every training view. The training
+    /// views' re-renders and maps show the fit to the photographs; the novel (val) views are
+    /// always all re-rendered and mapped. 2 M: `studio-mitsuba`, `room` and `cornell` keep every view; 200 views of
     /// 640 × 480 keep 6, which made 90 % of the re-render's time (`docs/scaling.md`).
     #[serde(default = "default_train_pixels")]
     pub train_pixels: u64,

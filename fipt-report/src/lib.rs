@@ -211,26 +211,26 @@ fn rel(run: &Path, p: &Path) -> String {
 }
 
 /// The views of `split` a report of `n` views per split shows: the first ones with a
-/// re-render (a run re-renders a share of many training views, `[render] train_pixels`), or
-/// the first ones where none has.
+/// re-render (a run re-renders and maps a share of many training views, `[render]
+/// train_pixels`), else the first ones with maps (the re-render switched off), else the first.
 pub fn shown_views<'a>(
     run: &Path,
     split: &'a fipt_core::dataset::Split,
     n: usize,
 ) -> Vec<&'a fipt_core::dataset::View> {
     let maps_dir = run.join("views").join(&split.name);
-    let rendered = |v: &fipt_core::dataset::View| {
-        maps_dir
-            .join(format!("{:03}_render.exr", v.index))
-            .is_file()
+    let has = |v: &fipt_core::dataset::View, map: &str| {
+        maps_dir.join(format!("{:03}_{map}.exr", v.index)).is_file()
     };
-    let any = split.views.iter().any(rendered);
-    split
-        .views
-        .iter()
-        .filter(|v| !any || rendered(v))
-        .take(n)
-        .collect()
+    let with =
+        |map: &str| -> Vec<_> { split.views.iter().filter(|v| has(v, map)).take(n).collect() };
+    for map in ["render", "kd"] {
+        let shown = with(map);
+        if !shown.is_empty() {
+            return shown;
+        }
+    }
+    split.views.iter().take(n).collect()
 }
 
 /// Writes the pictures of the report (inputs, error maps, ground truth as PNG under
