@@ -216,7 +216,7 @@ pub(crate) fn mapped_views(
     }
     let left: std::collections::HashSet<String> = (split.views.iter().zip(&keep))
         .filter(|(_, k)| !**k)
-        .map(|(v, _)| format!("{:03}_", v.index))
+        .map(|(v, _)| format!("{:03}", v.index))
         .collect();
     for d in [dir.to_path_buf(), dir.join("preview")] {
         let Ok(entries) = std::fs::read_dir(&d) else {
@@ -224,7 +224,7 @@ pub(crate) fn mapped_views(
         };
         for e in entries.flatten() {
             let name = e.file_name().to_string_lossy().into_owned();
-            if name.get(..4).is_some_and(|p| left.contains(p)) {
+            if name.split_once('_').is_some_and(|(k, _)| left.contains(k)) {
                 remove_if_present(&e.path())?;
             }
         }
