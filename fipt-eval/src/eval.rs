@@ -187,9 +187,15 @@ pub fn evaluate_scaled(
         };
         // Where the run mapped a share of the views (`maps.json`), those.
         let mapped = fipt_pipeline::maps::MapsManifest::read(&dir)?;
-        let views: Vec<&fipt_core::dataset::View> = (s.views.iter())
-            .filter(|v| mapped.as_ref().is_none_or(|m| m.views.contains(&v.index)))
-            .collect();
+        let (views, unmapped): (Vec<&fipt_core::dataset::View>, Vec<_>) = (s.views.iter())
+            .partition(|v| mapped.as_ref().is_none_or(|m| m.views.contains(&v.index)));
+        // A previous evaluation's error maps of views without maps now are another field's.
+        for v in unmapped {
+            let p = error_map_path(out, &s.name, v.index);
+            if p.is_file() {
+                std::fs::remove_file(&p).map_err(|e| fipt_core::CoreError::io(&p, e))?;
+            }
+        }
         // The views are read and scored on every core, a few at a time, and added in view
         // order (the sums are those of one view after another).
         let chunk = 2 * rayon::current_num_threads().max(1);
@@ -488,6 +494,13 @@ fn count_metal(metal: &mut [usize; 4], valid: &[bool], pred: &[Vec3], truth: &[V
 }
 
 /// Writes `OUT/eval/<split>/{k:03}_kd_error_x4.png`: |kd − kd_gt|·4 on the scored pixels.
+/// Where [`write_kd_error`] writes view `k`'s map.
+fn error_map_path(out: &Path, split: &str, k: usize) -> std::path::PathBuf {
+    out.join("eval")
+        .join(split)
+        .join(format!("{k:03}_kd_error_x4.png"))
+}
+
 fn write_kd_error(
     out: &Path,
     split: &str,
@@ -510,12 +523,7 @@ fn write_kd_error(
         height: kd.height,
         data,
     };
-    err.write_png(
-        &out.join("eval")
-            .join(split)
-            .join(format!("{k:03}_kd_error_x4.png")),
-        1.0,
-    )?;
+    err.write_png(&error_map_path(out, split, k), 1.0)?;
     Ok(())
 }
 
