@@ -493,7 +493,6 @@ fn count_metal(metal: &mut [usize; 4], valid: &[bool], pred: &[Vec3], truth: &[V
     }
 }
 
-/// Writes `OUT/eval/<split>/{k:03}_kd_error_x4.png`: |kd − kd_gt|·4 on the scored pixels.
 /// Where [`write_kd_error`] writes view `k`'s map.
 fn error_map_path(out: &Path, split: &str, k: usize) -> std::path::PathBuf {
     out.join("eval")
@@ -501,6 +500,7 @@ fn error_map_path(out: &Path, split: &str, k: usize) -> std::path::PathBuf {
         .join(format!("{k:03}_kd_error_x4.png"))
 }
 
+/// Writes `OUT/eval/<split>/{k:03}_kd_error_x4.png`: |kd − kd_gt|·4 on the scored pixels.
 fn write_kd_error(
     out: &Path,
     split: &str,

@@ -189,6 +189,20 @@ impl MapsManifest {
     }
 }
 
+/// Which views of `split` a run maps and re-renders: every one, but for the training split
+/// those [`crate::run_config::ReRenderConfig::train_views`] keeps.
+pub(crate) fn kept_views(
+    scene: &crate::scene::LoadedScene,
+    render: &crate::run_config::ReRenderConfig,
+    split: &fipt_core::dataset::Split,
+) -> Vec<bool> {
+    if split.name == scene.ds.train().name {
+        render.train_views(split.views.len(), scene.ds.width * scene.ds.height)
+    } else {
+        vec![true; split.views.len()]
+    }
+}
+
 /// The views of `split` that get maps: every view but training views beyond `[render]
 /// train_pixels`, the same ones the re-render covers (so the report shows maps and re-renders
 /// of the same views). Where some are left out, says so, writes [`MapsManifest`] and removes
@@ -200,11 +214,7 @@ pub(crate) fn mapped_views(
     split: &fipt_core::dataset::Split,
     dir: &Path,
 ) -> Result<Vec<View>> {
-    let keep = if split.name == scene.ds.train().name {
-        render.train_views(split.views.len(), scene.ds.width * scene.ds.height)
-    } else {
-        vec![true; split.views.len()]
-    };
+    let keep = kept_views(scene, render, split);
     let manifest = dir.join(MapsManifest::FILE);
     let views: Vec<View> = (split.views.iter().zip(&keep))
         .filter(|(_, k)| **k)

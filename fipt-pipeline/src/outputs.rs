@@ -504,15 +504,9 @@ fn rendered_views(
     cfg: &RunConfig,
     out: &Path,
 ) -> Result<std::collections::HashSet<(String, usize)>> {
-    let train = scene.ds.train();
     let mut chosen = std::collections::HashSet::new();
     for s in &scene.ds.splits {
-        let keep = if s.name == train.name {
-            cfg.render
-                .train_views(s.views.len(), scene.ds.width * scene.ds.height)
-        } else {
-            vec![true; s.views.len()]
-        };
+        let keep = crate::maps::kept_views(scene, &cfg.render, s);
         for (v, keep) in s.views.iter().zip(&keep) {
             if *keep {
                 chosen.insert((s.name.clone(), v.index));

@@ -107,8 +107,9 @@ pub struct ReRenderConfig {
     /// in index order, the first always among them; the same views for both, listed in
     /// `views/train/maps.json` where some are left out); 0: every training view. The training
     /// views' re-renders and maps show the fit to the photographs; the novel (val) views are
-    /// always all re-rendered and mapped. 2 M: `studio-mitsuba`, `room` and `cornell` keep every view; 200 views of
-    /// 640 × 480 keep 6, which made 90 % of the re-render's time (`docs/scaling.md`).
+    /// always all re-rendered and mapped. 2 M: `studio-mitsuba`, `room` and `cornell` keep
+    /// every view; 200 views of 640 × 480 keep 6, which made 90 % of the re-render's time
+    /// (`docs/scaling.md`).
     #[serde(default = "default_train_pixels")]
     pub train_pixels: u64,
     /// Denoise the re-renders (`_render.exr`), keeping the raw ones beside them
