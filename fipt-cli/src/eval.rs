@@ -7,20 +7,25 @@ use std::path::PathBuf;
 pub struct Args {
     /// Scene folder with ground truth.
     scene: PathBuf,
-    /// Output folder of `fipt run`.
+    /// Output folder of `fipt run` (with --ceiling: a new folder for the ceiling's renders).
     out: PathBuf,
+    /// Score the scene's true materials (its scene_parts.json) laid on this copy's mesh (a
+    /// scan made by `fipt degrade --subdivide K --mesh-warp MM`) at the scene's cameras: the
+    /// best a run of the copy can score with that geometry. Writes OUT/metrics.json.
+    #[arg(long, value_name = "COPY", conflicts_with = "cameras_from")]
+    ceiling: Option<PathBuf>,
     /// Score at this scene folder's cameras (the scene itself: a run of a copy made by
     /// `fipt degrade` is scored against its source): the recovered scene is rendered there
     /// into OUT/eval/cameras-from/ and scored.
     #[arg(long, value_name = "SCENE")]
     cameras_from: Option<PathBuf>,
-    /// With --cameras-from: the split to score at (default val).
+    /// With --cameras-from or --ceiling: the split to score at (default val).
     #[arg(long)]
     split: Option<String>,
-    /// With --cameras-from: samples per pixel of the renders.
+    /// With --cameras-from or --ceiling: samples per pixel of the renders.
     #[arg(long, default_value_t = 64)]
     spp: u32,
-    /// With --cameras-from: seed of the renders.
+    /// With --cameras-from or --ceiling: seed of the renders.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// With --cameras-from: fit one global kd scale and one radiance scale before scoring
@@ -37,6 +42,27 @@ enum Fit {
 }
 
 pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
+    if let Some(copy) = &a.ceiling {
+        use fipt_eval::ceiling::{evaluate_ceiling, CeilingRequest};
+        let m = evaluate_ceiling(
+            &CeilingRequest {
+                truth: a.scene.clone(),
+                copy: copy.clone(),
+                out: a.out.clone(),
+                split: a.split,
+                spp: a.spp,
+                seed: a.seed,
+            },
+            components,
+        )?;
+        print_metrics(&m);
+        println!(
+            "the true materials on {}'s mesh; wrote {}",
+            copy.display(),
+            a.out.join("metrics.json").display()
+        );
+        return Ok(());
+    }
     if let Some(cams) = &a.cameras_from {
         use fipt_eval::eval_at::{evaluate_at, render_dir, EvalAtRequest, FitScales};
         let same = |p: &PathBuf| p.canonicalize().ok();

@@ -259,3 +259,60 @@ fn views_off_their_poses_are_shifted_back_onto_the_mesh() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `fipt eval --ceiling`: the true materials on a scan copy's mesh. On the same surface split
+/// finer they score as the ground truth; on a warped one less; a mesh that is no copy of the
+/// scene is refused, naming it.
+#[test]
+fn the_ceiling_of_a_scan_is_exact_on_the_same_surface_and_lower_on_a_warped_one() {
+    let dir = tmp("ceiling");
+    let src = dir.join("scene");
+    synth("cornell", src.to_str().unwrap(), [4, 2, 48, 36, 4], &[]);
+    let mut kd = vec![];
+    for (name, warp) in [("fine", "0"), ("warped", "40")] {
+        let copy = dir.join(name);
+        degrade(
+            &src,
+            &copy,
+            &["--layout", "real", "--subdivide", "1", "--mesh-warp", warp],
+        );
+        let out = dir.join(format!("ceil-{name}"));
+        let (ok, stdout, err) = fipt(&[
+            "eval",
+            src.to_str().unwrap(),
+            out.to_str().unwrap(),
+            "--ceiling",
+            copy.to_str().unwrap(),
+            "--spp",
+            "2",
+        ]);
+        assert!(ok, "{err}");
+        assert!(stdout.contains("true materials on"), "{stdout}");
+        let m = json(&out.join("metrics.json"));
+        assert_eq!(m["val"]["ceiling"]["faces_per_source_face"], 4);
+        kd.push(m["val"]["mean"]["kd_psnr"].as_f64().unwrap());
+    }
+    assert!(
+        kd[0] >= 40.0,
+        "the same surface, split finer: kd {:.2} dB",
+        kd[0]
+    );
+    assert!(
+        kd[1] < kd[0] - 3.0,
+        "warped by 40 mm: kd {:.2} dB, unwarped {:.2}",
+        kd[1],
+        kd[0]
+    );
+    let other = dir.join("other");
+    synth("room", other.to_str().unwrap(), [2, 1, 16, 12, 1], &[]);
+    let out = dir.join("ceil-other");
+    let (ok, _, err) = fipt(&[
+        "eval",
+        src.to_str().unwrap(),
+        out.to_str().unwrap(),
+        "--ceiling",
+        other.to_str().unwrap(),
+    ]);
+    assert!(!ok, "a mesh of another scene is refused");
+    assert!(err.contains("other") && err.contains("power of 4"), "{err}");
+}

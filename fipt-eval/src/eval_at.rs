@@ -109,7 +109,7 @@ pub fn evaluate_at(a: &EvalAtRequest, components: &crate::Components) -> Result<
     Ok(m)
 }
 
-fn pick_split<'a>(ds: &'a Dataset, name: Option<&str>) -> Result<&'a Split> {
+pub(crate) fn pick_split<'a>(ds: &'a Dataset, name: Option<&str>) -> Result<&'a Split> {
     let with_gt = |s: &&Split| s.has_gt(GtKind::DiffCol);
     let found = match name {
         Some(n) => ds.split(n).filter(with_gt),

@@ -7,11 +7,14 @@
 //! * [`eval::closure_psnr`]: how well the shadings with the true materials reproduce the views;
 //! * [`eval_at`]: a run rendered at another scene's cameras and scored there (`fipt eval
 //!   --cameras-from`);
+//! * [`ceiling`]: a scene's true materials on a copy's mesh (a scan), scored at the scene's
+//!   cameras: what that geometry allows (`fipt eval --ceiling`);
 //! * [`sweep`]: runs over presets and settings, their table and speed–accuracy plot
 //!   ([`sweep_plot`]).
 //!
 //! The host scores a run only with an evaluator registered ([`register`]; the `fipt` binary's
 //! `fipt_cli::components()` does).
+pub mod ceiling;
 pub mod eval;
 pub mod eval_at;
 mod eval_parts;

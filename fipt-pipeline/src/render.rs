@@ -88,7 +88,8 @@ pub fn read_cameras(path: &Path, size: Option<(usize, usize)>) -> Result<Vec<Cam
     Ok(read_cam_list(path, &k, w, h)?)
 }
 
-fn mesh_of(source: &Path) -> Result<PathBuf> {
+/// The mesh of `source`: the file itself, or the first of [`MESH_NAMES`] in the folder.
+pub fn mesh_of(source: &Path) -> Result<PathBuf> {
     if !source.is_dir() {
         return Ok(source.to_path_buf());
     }

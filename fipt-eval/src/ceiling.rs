@@ -1,0 +1,199 @@
+//! `fipt eval SRC OUT --ceiling COPY`: what the geometry of a copy allows. A scene's true
+//! materials (its `scene_parts.json`, or `scene_gt.json` of `fipt synth`) are laid on the mesh of a copy made from it (a scan
+//! made by `fipt degrade --subdivide K --mesh-warp MM`, whose faces are the source's, each
+//! split into 4^K in order), rendered at the scene's own cameras and scored against its ground
+//! truth with the protocol of [`crate::eval`]. A run of the copy cannot score better than this
+//! but for noise: its kd and σ maps are looked up on the same mesh, so where the mesh lies off
+//! the true surface they read the material of another point.
+use crate::error::{Context, Result};
+use crate::eval::{evaluate_scaled, Scales};
+use crate::render::{render_unchecked, RenderRequest};
+use fipt_core::dataset::{Dataset, GtKind};
+use fipt_core::materials::{FaceRange, SceneMaterials};
+use fipt_core::reflectance::ReflectanceModel;
+use fipt_geom::Mesh;
+use std::path::{Path, PathBuf};
+
+/// What to score.
+#[derive(Clone, Debug)]
+pub struct CeilingRequest {
+    /// The scene folder with ground truth and `scene_parts.json`.
+    pub truth: PathBuf,
+    /// The copy whose mesh carries the materials (a folder holding a mesh, or a mesh file).
+    pub copy: PathBuf,
+    /// A new folder (or one this command wrote) for the renders and `metrics.json`.
+    pub out: PathBuf,
+    /// The split of `truth` to score at (default `val`).
+    pub split: Option<String>,
+    pub spp: u32,
+    pub seed: u64,
+}
+
+/// The faces of a subdivided copy of a mesh: each range of the source's table times `ratio`.
+pub fn scale_faces(m: &SceneMaterials, ratio: u32) -> SceneMaterials {
+    SceneMaterials {
+        faces: (m.faces.iter())
+            .map(|r| FaceRange {
+                start: r.start * ratio,
+                end: r.end * ratio,
+                material: r.material,
+            })
+            .collect(),
+        note: format!("{} (face ranges × {ratio})", m.note),
+        ..m.clone()
+    }
+}
+
+/// How many faces of the copy stand for each face of the source: a power of 4, or an error
+/// naming both meshes.
+pub fn subdivision_ratio(source_faces: usize, copy_faces: usize, copy: &Path) -> Result<u32> {
+    let mut r = 1usize;
+    while source_faces > 0 && source_faces * r < copy_faces {
+        r *= 4;
+    }
+    if source_faces == 0 || source_faces * r != copy_faces {
+        crate::bail!(
+            "{}: its mesh has {copy_faces} faces, not the source's {source_faces} times a power of 4; the ceiling needs a copy made by `fipt degrade` (its faces in the source's order)",
+            copy.display()
+        );
+    }
+    Ok(r as u32)
+}
+
+/// The map a render in the dataset layout writes, and the name a run's maps give it.
+const MAPS: [(GtKind, &str); 5] = [
+    (GtKind::DiffCol, "kd"),
+    (GtKind::Specular, "ks"),
+    (GtKind::Roughness, "roughness"),
+    (GtKind::Metallic, "metallic"),
+    (GtKind::Emit, "emission"),
+];
+
+/// Renders and scores the ceiling; writes `OUT/metrics.json` and returns it.
+pub fn evaluate_ceiling(
+    a: &CeilingRequest,
+    components: &crate::Components,
+) -> Result<serde_json::Value> {
+    let ds =
+        Dataset::open(&a.truth).with_context(|| format!("opening scene {}", a.truth.display()))?;
+    let split = crate::eval_at::pick_split(&ds, a.split.as_deref())?.clone();
+    let Some(parts) = ["scene_parts.json", "scene_gt.json"]
+        .iter()
+        .map(|n| a.truth.join(n))
+        .find(|p| p.is_file())
+    else {
+        crate::bail!(
+            "{}: no scene_parts.json or scene_gt.json; the ceiling lays the scene's true materials on the copy's mesh",
+            a.truth.display()
+        );
+    };
+    let copy_mesh = crate::render::mesh_of(&a.copy)?;
+    let source_faces = Mesh::load(&ds.mesh)?.num_file_faces;
+    let copy_faces = Mesh::load(&copy_mesh)?.num_file_faces;
+    let ratio = subdivision_ratio(source_faces, copy_faces, &a.copy)?;
+    fipt_core::lock::refuse_owned_output(&a.out, "eval --ceiling", &[fipt_core::lock::Owner::Run])?;
+    std::fs::create_dir_all(&a.out).map_err(|e| fipt_core::CoreError::io(&a.out, e))?;
+    let table = a.out.join("materials.json");
+    let materials = scale_faces(&SceneMaterials::read_any(&parts)?, ratio);
+    fipt_core::fsutil::write_json_atomic(&table, &materials)?;
+    let rendered = a.out.join("render");
+    render_unchecked(
+        &RenderRequest {
+            source: copy_mesh,
+            materials: Some(table),
+            scene: None,
+            cameras: split.cameras_file.clone(),
+            out: rendered.clone(),
+            size: Some((ds.width, ds.height)),
+            spp: a.spp,
+            max_bounces: 5,
+            seed: a.seed,
+            views: None,
+            brdf: Some(ReflectanceModel::Principled),
+            lights: vec![],
+            emitters: None,
+            edits: None,
+            reference: None,
+            denoise: Some(false),
+        },
+        components,
+    )?;
+    let views = a.out.join("views").join(&split.name);
+    std::fs::create_dir_all(&views).map_err(|e| fipt_core::CoreError::io(&views, e))?;
+    for v in &split.views {
+        let k = v.index;
+        let mut moves: Vec<(PathBuf, String)> = (MAPS.iter())
+            .map(|(g, name)| {
+                (
+                    rendered.join(g.folder()).join(g.file_name(k)),
+                    name.to_string(),
+                )
+            })
+            .collect();
+        let image = rendered
+            .join("Image")
+            .join(fipt_core::dataset::image_file_name(k));
+        moves.push((image, "render".into()));
+        for (from, name) in moves {
+            let to = views.join(format!("{k:03}_{name}.exr"));
+            std::fs::rename(&from, &to).map_err(|e| fipt_core::CoreError::io(&from, e))?;
+        }
+    }
+    let only = Dataset {
+        splits: vec![split.clone()],
+        ..ds.clone()
+    };
+    let mut m = evaluate_scaled(&only, &a.out, 1.0, Scales::ONE)?;
+    m[&split.name]["ceiling"] = serde_json::json!({
+        "truth": a.truth,
+        "copy": a.copy,
+        "faces_per_source_face": ratio,
+        "spp": a.spp,
+        "what": "the scene's true materials on the copy's mesh, at the scene's cameras",
+    });
+    fipt_core::fsutil::write_json_atomic(&a.out.join("metrics.json"), &m)?;
+    Ok(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_ratio_is_a_power_of_four_or_an_error_naming_the_copy() {
+        let p = Path::new("copy");
+        assert_eq!(subdivision_ratio(10, 10, p).unwrap(), 1);
+        assert_eq!(subdivision_ratio(10, 160, p).unwrap(), 16);
+        let e = subdivision_ratio(10, 80, p).unwrap_err().to_string();
+        assert!(e.contains("copy") && e.contains("80 faces"), "{e}");
+        assert!(subdivision_ratio(0, 4, p).is_err());
+    }
+
+    #[test]
+    fn face_ranges_scale_and_keep_their_materials() {
+        let m = SceneMaterials {
+            version: 1,
+            materials: vec![],
+            faces: vec![
+                FaceRange {
+                    start: 0,
+                    end: 2,
+                    material: 1,
+                },
+                FaceRange {
+                    start: 2,
+                    end: 5,
+                    material: 0,
+                },
+            ],
+            note: "t".into(),
+        };
+        let s = scale_faces(&m, 16);
+        assert_eq!(
+            (s.faces.iter())
+                .map(|r| (r.start, r.end, r.material))
+                .collect::<Vec<_>>(),
+            vec![(0, 32, 1), (32, 80, 0)]
+        );
+    }
+}
