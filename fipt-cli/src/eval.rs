@@ -9,7 +9,7 @@ pub struct Args {
     scene: PathBuf,
     /// Output folder of `fipt run` (with --ceiling: a new folder for the ceiling's renders).
     out: PathBuf,
-    /// Score the scene's true materials (its scene_parts.json) laid on this copy's mesh (a
+    /// Score the scene's true materials (its scene_parts.json or scene_gt.json) laid on this copy's mesh (a
     /// scan made by `fipt degrade --subdivide K --mesh-warp MM`) at the scene's cameras: the
     /// best a run of the copy can score with that geometry. Writes OUT/metrics.json.
     #[arg(long, value_name = "COPY", conflicts_with = "cameras_from")]

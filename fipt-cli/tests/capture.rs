@@ -315,4 +315,12 @@ fn the_ceiling_of_a_scan_is_exact_on_the_same_surface_and_lower_on_a_warped_one(
     ]);
     assert!(!ok, "a mesh of another scene is refused");
     assert!(err.contains("other") && err.contains("power of 4"), "{err}");
+    let (ok, _, err) = fipt(&[
+        "eval",
+        src.to_str().unwrap(),
+        dir.join("fine").to_str().unwrap(),
+        "--ceiling",
+        dir.join("fine").to_str().unwrap(),
+    ]);
+    assert!(!ok, "a scene folder is not written into: {err}");
 }

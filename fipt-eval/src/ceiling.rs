@@ -91,7 +91,8 @@ pub fn evaluate_ceiling(
     let source_faces = Mesh::load(&ds.mesh)?.num_file_faces;
     let copy_faces = Mesh::load(&copy_mesh)?.num_file_faces;
     let ratio = subdivision_ratio(source_faces, copy_faces, &a.copy)?;
-    fipt_core::lock::refuse_owned_output(&a.out, "eval --ceiling", &[fipt_core::lock::Owner::Run])?;
+    use fipt_core::lock::{refuse_owned_output, Owner};
+    refuse_owned_output(&a.out, "eval --ceiling", &[Owner::Run, Owner::Scene])?;
     std::fs::create_dir_all(&a.out).map_err(|e| fipt_core::CoreError::io(&a.out, e))?;
     let table = a.out.join("materials.json");
     let materials = scale_faces(&SceneMaterials::read_any(&parts)?, ratio);
