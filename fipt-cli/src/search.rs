@@ -29,6 +29,11 @@ pub struct Args {
     /// With --drop-edges: only neighbours this many times brighter count (`[search] edge_contrast`).
     #[arg(long, default_value_t = 0.0)]
     edge_contrast: f32,
+    /// With --drop-edges: a region whose outline is at most this share of its pixels loses
+    /// all its outline pixels, however bright their neighbours (`[search] outline_share`,
+    /// 0.25 in `fipt run`; 0: the contrast alone).
+    #[arg(long, default_value_t = 0.0)]
+    outline_share: f32,
 }
 
 /// The lowest cost over σ at the `mi`-th metallic candidate (NaN when there is none).
@@ -50,6 +55,7 @@ pub fn run(a: Args) -> Result<()> {
         bad_pixels: a.bad_pixels.into(),
         drop_edges: a.drop_edges,
         edge_contrast: a.edge_contrast,
+        outline_share: a.outline_share,
     })?;
     println!(
         "{:>6} {:>7} {:>6} | {:>18} {:>7} | {:>8} {:>8} | {:>9} {:>9} {:>9} | {:>9} {:>9} | chosen σ, m",

@@ -96,19 +96,34 @@ fn prepare(
 }
 
 /// A pixel's search region: its region, unless `cfg.drop_edges` leaves it out as an outline
-/// pixel.
+/// pixel: one with a neighbour `cfg.edge_contrast` times brighter in another region or in
+/// none, or any outline pixel of a region whose outline is a small share of it
+/// ([`fipt_search::small_outlines`]).
 fn region_rule<'a>(
     images: &'a [Image],
     regions: &'a Regions,
     cfg: &'a SearchConfig,
 ) -> impl Fn(usize, usize, &HitPoint) -> Option<u32> + 'a {
+    let whole_outline = if cfg.drop_edges {
+        let widths: Vec<usize> = images.iter().map(|img| img.width).collect();
+        fipt_search::small_outlines(
+            &regions.ids,
+            &widths,
+            regions.len(),
+            Regions::NONE,
+            cfg.outline_share,
+        )
+    } else {
+        vec![]
+    };
     move |v, i, _| {
         let (ids, img) = (&regions.ids[v], &images[v]);
         let region = regions.id(v, i)?;
         if cfg.drop_edges {
+            let any = whole_outline[region as usize];
             let floor = cfg.edge_contrast * luminance(img.data[i]);
-            let brighter = |j: usize| luminance(img.data[j]) >= floor;
-            if on_region_edge(ids, img.width, i, &brighter) {
+            let counts = |j: usize| any || luminance(img.data[j]) >= floor;
+            if on_region_edge(ids, img.width, i, &counts) {
                 return None;
             }
         }

@@ -265,6 +265,47 @@ pub fn with_cells_keyed(keyed: &[KeyedPixel], cell: f32) -> (Vec<SearchPixel>, V
     (pixels, voxels)
 }
 
+/// Per region of `n` (ids per view and pixel, `widths` of the views, `none` for no region):
+/// whether its outline pixels ([`on_region_edge`] with every neighbour counting) are at most
+/// `share` of its pixels over all views, so that leaving all of them out keeps most of it. A
+/// camera's pixel on a silhouette mixes the object with what lies behind it. False for every
+/// region when `share` is 0, and for a region without pixels.
+pub fn small_outlines(
+    ids: &[Vec<u32>],
+    widths: &[usize],
+    n: usize,
+    none: u32,
+    share: f32,
+) -> Vec<bool> {
+    use rayon::prelude::*;
+    if share <= 0.0 {
+        return vec![false; n];
+    }
+    let add = |mut a: Vec<[u64; 2]>, b: Vec<[u64; 2]>| {
+        a.iter_mut().zip(b).for_each(|(x, y)| {
+            x[0] += y[0];
+            x[1] += y[1];
+        });
+        a
+    };
+    let counts = (ids.par_iter().zip(widths))
+        .map(|(ids, &width)| {
+            let mut c = vec![[0u64; 2]; n];
+            for (i, &r) in ids.iter().enumerate() {
+                if let Some(c) = c.get_mut(r as usize).filter(|_| r != none) {
+                    c[0] += 1;
+                    c[1] += on_region_edge(ids, width, i, &|_| true) as u64;
+                }
+            }
+            c
+        })
+        .reduce(|| vec![[0u64; 2]; n], add);
+    counts
+        .iter()
+        .map(|&[all, edge]| all > 0 && edge as f64 <= f64::from(share) * all as f64)
+        .collect()
+}
+
 /// Whether pixel `i` of a view (`width` pixels a row, region `ids` per pixel) has a neighbour
 /// among the 8 around it whose region differs from its own (no region, None or a sentinel
 /// id, counts as a region of its own; neighbours off the image do not count) and that `counts` (e.g. one much brighter).

@@ -468,3 +468,34 @@ fn faint_gloss_reads_no_glossier_than_one_colour_and_always_gets_a_target() {
         Some(0.25)
     );
 }
+
+#[test]
+fn small_outlines_are_those_under_the_share() {
+    // An 8×8 view: region 0 a 6×6 square (20 of its 36 pixels on its outline), region 1 the
+    // ring around it, region 2 absent, a pixel of no region (u32::MAX) in the ring.
+    let (w, none) = (8, u32::MAX);
+    let mut ids: Vec<u32> = (0..64)
+        .map(|i| u32::from(!(1..7).contains(&(i % w)) || !(1..7).contains(&(i / w))))
+        .collect();
+    ids[0] = none;
+    let views = vec![ids.clone(), ids];
+    let widths = [w, w];
+    // Region 0: every pixel of the 6×6 square's border (20 of 36) touches the ring.
+    assert_eq!(
+        small_outlines(&views, &widths, 3, none, 0.56),
+        vec![true, false, false]
+    );
+    assert_eq!(
+        small_outlines(&views, &widths, 3, none, 0.55),
+        vec![false, false, false]
+    );
+    // The ring: all 27 of its pixels... those next to the square or to the pixel of none.
+    assert_eq!(
+        small_outlines(&views, &widths, 3, none, 1.0),
+        vec![true, true, false]
+    );
+    assert_eq!(
+        small_outlines(&views, &widths, 3, none, 0.0),
+        vec![false; 3]
+    );
+}

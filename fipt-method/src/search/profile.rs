@@ -18,6 +18,8 @@ pub struct ProfileRequest {
     pub drop_edges: bool,
     /// With `drop_edges`: only neighbours this many times brighter count.
     pub edge_contrast: f32,
+    /// With `drop_edges`: `[search] outline_share`.
+    pub outline_share: f32,
 }
 
 /// One region of `fipt profile`: its cost curves with the fitted albedo, with the true one
@@ -112,6 +114,7 @@ fn profile_inputs(
         regions,
         drop_edges: a.drop_edges,
         edge_contrast: a.edge_contrast,
+        outline_share: a.outline_share,
         ..SearchConfig::default()
     };
     cfg.validate().map_err(crate::error::RunError::invalid)?;
