@@ -106,13 +106,11 @@ fn region_rule<'a>(
 ) -> impl Fn(usize, usize, &HitPoint) -> Option<u32> + 'a {
     let whole_outline = if cfg.drop_edges {
         let widths: Vec<usize> = images.iter().map(|img| img.width).collect();
-        fipt_search::small_outlines(
-            &regions.ids,
-            &widths,
-            regions.len(),
-            Regions::NONE,
-            cfg.outline_share,
-        )
+        let shares =
+            fipt_search::outline_shares(&regions.ids, &widths, regions.len(), Regions::NONE);
+        let small = fipt_search::small_outlines(&shares, cfg.outline_share);
+        note_small_outlines(&regions.labels, &shares, &small);
+        small
     } else {
         vec![]
     };
@@ -129,6 +127,30 @@ fn region_rule<'a>(
         }
         Some(region)
     }
+}
+
+/// Prints the regions whose whole outline the search leaves out, with its share of their
+/// pixels (the first 12).
+fn note_small_outlines(labels: &[i64], shares: &[Option<f64>], small: &[bool]) {
+    const LISTED: usize = 12;
+    let listed: Vec<String> = (labels.iter().zip(shares).zip(small))
+        .filter(|(_, &small)| small)
+        .map(|((label, share), _)| format!("{label} ({:.0} %)", 100.0 * share.unwrap_or(0.0)))
+        .collect();
+    if listed.is_empty() {
+        return;
+    }
+    let more = listed.len().saturating_sub(LISTED);
+    crate::note!(
+        "search: the whole outline left out on {} region(s) (its share of their pixels): {}{}",
+        listed.len(),
+        listed[..listed.len().min(LISTED)].join(", "),
+        if more > 0 {
+            format!(", and {more} more")
+        } else {
+            String::new()
+        }
+    );
 }
 
 /// The σ candidates of the search on shadings of these levels.

@@ -265,22 +265,30 @@ pub fn with_cells_keyed(keyed: &[KeyedPixel], cell: f32) -> (Vec<SearchPixel>, V
     (pixels, voxels)
 }
 
+/// Per region, from its [`outline_shares`]: whether its outline is at most `share` of its
+/// pixels over all views, so that leaving all of the outline out keeps most of it. A camera's
+/// pixel on a silhouette mixes the object with what lies behind it. False for every region
+/// when `share` is 0, and for a region without pixels.
+pub fn small_outlines(shares: &[Option<f64>], share: f32) -> Vec<bool> {
+    (shares.iter())
+        .map(|s| share > 0.0 && s.is_some_and(|s| s <= f64::from(share)))
+        .collect()
+}
+
 /// Per region of `n` (ids per view and pixel, `widths` of the views, `none` for no region):
-/// whether its outline pixels ([`on_region_edge`] with every neighbour counting) are at most
-/// `share` of its pixels over all views, so that leaving all of them out keeps most of it. A
-/// camera's pixel on a silhouette mixes the object with what lies behind it. False for every
-/// region when `share` is 0, and for a region without pixels.
-pub fn small_outlines(
-    ids: &[Vec<u32>],
-    widths: &[usize],
-    n: usize,
-    none: u32,
-    share: f32,
-) -> Vec<bool> {
+/// the share of its pixels over all views that lie on its outline ([`on_region_edge`] with
+/// every neighbour counting: one of the 8 in another region or in none); None for a region
+/// without pixels.
+pub fn outline_shares(ids: &[Vec<u32>], widths: &[usize], n: usize, none: u32) -> Vec<Option<f64>> {
+    outline_counts(ids, widths, n, none)
+        .iter()
+        .map(|&[all, edge]| (all > 0).then(|| edge as f64 / all as f64))
+        .collect()
+}
+
+/// Per region of `n`: its pixels over all views and those of them on its outline.
+fn outline_counts(ids: &[Vec<u32>], widths: &[usize], n: usize, none: u32) -> Vec<[u64; 2]> {
     use rayon::prelude::*;
-    if share <= 0.0 {
-        return vec![false; n];
-    }
     let add = |mut a: Vec<[u64; 2]>, b: Vec<[u64; 2]>| {
         a.iter_mut().zip(b).for_each(|(x, y)| {
             x[0] += y[0];
@@ -288,7 +296,7 @@ pub fn small_outlines(
         });
         a
     };
-    let counts = (ids.par_iter().zip(widths))
+    (ids.par_iter().zip(widths))
         .map(|(ids, &width)| {
             let mut c = vec![[0u64; 2]; n];
             for (i, &r) in ids.iter().enumerate() {
@@ -299,11 +307,7 @@ pub fn small_outlines(
             }
             c
         })
-        .reduce(|| vec![[0u64; 2]; n], add);
-    counts
-        .iter()
-        .map(|&[all, edge]| all > 0 && edge as f64 <= f64::from(share) * all as f64)
-        .collect()
+        .reduce(|| vec![[0u64; 2]; n], add)
 }
 
 /// Whether pixel `i` of a view (`width` pixels a row, region `ids` per pixel) has a neighbour

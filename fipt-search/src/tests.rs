@@ -480,22 +480,14 @@ fn small_outlines_are_those_under_the_share() {
     ids[0] = none;
     let views = vec![ids.clone(), ids];
     let widths = [w, w];
+    let shares = outline_shares(&views, &widths, 3, none);
+    assert_eq!(shares[0], Some(20.0 / 36.0));
+    assert_eq!(shares[1], Some(1.0));
+    assert_eq!(shares[2], None);
     // Region 0: every pixel of the 6×6 square's border (20 of 36) touches the ring.
-    assert_eq!(
-        small_outlines(&views, &widths, 3, none, 0.56),
-        vec![true, false, false]
-    );
-    assert_eq!(
-        small_outlines(&views, &widths, 3, none, 0.55),
-        vec![false, false, false]
-    );
+    assert_eq!(small_outlines(&shares, 0.56), vec![true, false, false]);
+    assert_eq!(small_outlines(&shares, 0.55), vec![false, false, false]);
     // The ring: all 27 of its pixels... those next to the square or to the pixel of none.
-    assert_eq!(
-        small_outlines(&views, &widths, 3, none, 1.0),
-        vec![true, true, false]
-    );
-    assert_eq!(
-        small_outlines(&views, &widths, 3, none, 0.0),
-        vec![false; 3]
-    );
+    assert_eq!(small_outlines(&shares, 1.0), vec![true, true, false]);
+    assert_eq!(small_outlines(&shares, 0.0), vec![false; 3]);
 }
