@@ -31,7 +31,7 @@ pub struct Args {
     edge_contrast: f32,
     /// With --drop-edges: a region whose outline is at most this share of its pixels loses
     /// all its outline pixels, however bright their neighbours (`[search] outline_share`,
-    /// 0.25 in `fipt run`; 0: the contrast alone).
+    /// 0 in `fipt run`: the contrast alone).
     #[arg(long, default_value_t = 0.0)]
     outline_share: f32,
 }
