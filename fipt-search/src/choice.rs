@@ -89,7 +89,8 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
 /// minimum lies within `rough_band` of it: then the roughest); a
 /// dielectric whose minimum is interior, beats σ = 1 by `interior_gain` and holds out takes the
 /// `interior_tolerance` rule instead (with `interior_always` off, only when the first rule
-/// left it at σ = 1). A faint dielectric (`one_colour_below`) reads no glossier than its
+/// left it at σ = 1); one whose interior minimum does not hold out, the midpoint of that
+/// rule's σ and the roughest (`hedge_disputed`), where nothing below gives one. A faint dielectric (`one_colour_below`) reads no glossier than its
 /// one-colour curve admits, and where these rules leave it without a target it takes that
 /// curve's. No target on too few pixels.
 ///
@@ -166,23 +167,25 @@ pub fn choose(
     let n = p.sigma.len();
     let mut si = roughest_within(tol as f64);
     let gain = p.cost[mi][n - 1] / p.cost[mi][b] - 1.0;
-    if !metal
+    let interior = !metal
         && (si + 1 == n || cfg.interior_always)
         && p.sigma[b] >= cfg.interior_sigma
-        && gain >= cfg.interior_gain as f64
-        && (!cfg.held_out || halves.is_some_and(|h| holds_out(h, mi, cfg)))
-    {
-        si = roughest_within((gain * cfg.interior_tolerance as f64).min(cfg.interior_cap as f64));
+        && gain >= cfg.interior_gain as f64;
+    let interior_si =
+        || roughest_within((gain * cfg.interior_tolerance as f64).min(cfg.interior_cap as f64));
+    if interior && (!cfg.held_out || halves.is_some_and(|h| holds_out(h, mi, cfg))) {
+        si = interior_si();
     }
-    let rough = !metal
-        && si + 1 == n
-        && cfg.rough_band > 0.0
-        && p.sigma[b] >= p.sigma[n - 1] - cfg.rough_band - 1e-6;
+    let near_roughest = p.sigma[b] >= p.sigma[n - 1] - cfg.rough_band - 1e-6;
+    let rough = !metal && si + 1 == n && cfg.rough_band > 0.0 && near_roughest;
     let mut roughness = (metal || si + 1 < n || rough).then_some(p.sigma[si]);
     if !metal && gain < cfg.one_colour_below as f64 {
         if let Some((glossiest, lifted)) = one_colour_sigma(p, cfg) {
             roughness = Some(roughness.map_or(lifted, |s| s.max(glossiest)));
         }
+    }
+    if roughness.is_none() && interior && cfg.hedge_disputed && !near_roughest {
+        roughness = Some(0.5 * (p.sigma[interior_si()] + p.sigma[n - 1]));
     }
     RegionChoice {
         roughness,

@@ -125,6 +125,16 @@ pub struct SearchConfig {
     /// `studio-mitsuba`'s diffuse box (σ 1) drift to 0.91 in capture-like copies. 0: off.
     #[serde(default = "default_held_out_band")]
     pub rough_band: f32,
+    /// A dielectric whose minimum is interior (at least `interior_sigma`, beating σ = 1 by
+    /// `interior_gain`, more than `rough_band` below the roughest candidate) but does not
+    /// hold out on the halves gets the midpoint of the interior rule's σ and the roughest
+    /// candidate as its target, not none. The views then say the surface is glossier than
+    /// σ = 1 on the whole but not where; without a target the training took such walls to
+    /// 0.99 (`loft`'s right wall, σ 0.85, once its pixels changed by 2 %: 30.1 → 16.8 dB), and
+    /// the midpoint's worst error over the two readings is half of either's
+    /// (`docs/roughness-rooms.md`, *Disputed minima*). false: no target, as before 2026-12-04.
+    #[serde(default = "default_true")]
+    pub hedge_disputed: bool,
     /// At most this many pixels take part (a uniform random share of them beyond it, the
     /// same for the same views); only they and their shadings are held while the search
     /// runs, 182 bytes each with `principled`. 0: every pixel.
@@ -175,6 +185,10 @@ fn default_held_out_band() -> f32 {
     0.1
 }
 
+fn default_true() -> bool {
+    true
+}
+
 fn default_outline_share() -> f32 {
     0.0
 }
@@ -220,6 +234,7 @@ impl Default for SearchConfig {
             held_out: true,
             held_out_band: default_held_out_band(),
             rough_band: default_held_out_band(),
+            hedge_disputed: true,
             max_pixels: default_max_pixels(),
             one_colour_below: default_one_colour_below(),
             split: split::SplitConfig::default(),

@@ -136,10 +136,20 @@ fn the_choice_needs_its_margins_and_both_halves_of_the_views() {
         choose(&wall, &cfg, false, Some([&wall, &other])).roughness,
         Some(0.5)
     );
-    // Noise: one half's minimum (σ 0.25) costs more than σ = 1 on the other half.
+    // Noise: one half's minimum (σ 0.25) costs more than σ = 1 on the other half. The
+    // minimum is disputed: the midpoint of the interior rule's 0.5 and σ = 1
+    // (`hedge_disputed`); none without it.
     let noise = curve(vec![1.0; 5], vec![0.2, 0.1020, 0.1000, 0.1004, 0.1010]);
     assert_eq!(
         choose(&wall, &cfg, false, Some([&wall, &noise])).roughness,
+        Some(0.75)
+    );
+    let no_hedge = SearchConfig {
+        hedge_disputed: false,
+        ..cfg.clone()
+    };
+    assert_eq!(
+        choose(&wall, &no_hedge, false, Some([&wall, &noise])).roughness,
         None
     );
 }
@@ -166,9 +176,17 @@ fn a_capture_half_holds_out_within_the_band_and_near_one_means_one() {
         held_out_band: 0.0,
         ..cfg.clone()
     };
+    // Not held out: the midpoint of the interior rule's 0.6 and σ = 1, or none without
+    // `hedge_disputed`.
+    let no_hedge = |c: &SearchConfig| SearchConfig {
+        hedge_disputed: false,
+        ..c.clone()
+    };
     for (c, half) in [(&cfg, &apart), (&no_band, &flat)] {
+        let disputed = choose(&whole, c, false, Some([&whole, half])).roughness;
+        assert!((disputed.unwrap() - 0.8).abs() < 1e-6, "{disputed:?}");
         assert_eq!(
-            choose(&whole, c, false, Some([&whole, half])).roughness,
+            choose(&whole, &no_hedge(c), false, Some([&whole, half])).roughness,
             None
         );
     }
@@ -184,12 +202,18 @@ fn a_capture_half_holds_out_within_the_band_and_near_one_means_one() {
         choose(&whole, &cfg, false, Some([&whole, &flat])).roughness,
         Some(1.0)
     );
+    // Without `rough_band` the minimum at 0.95 is a disputed one (midway to σ = 1); without
+    // the hedge too, none.
     let no_rough = SearchConfig {
         rough_band: 0.0,
         ..cfg.clone()
     };
     assert_eq!(
         choose(&whole, &no_rough, false, Some([&whole, &flat])).roughness,
+        Some(0.975)
+    );
+    assert_eq!(
+        choose(&whole, &no_hedge(&no_rough), false, Some([&whole, &flat])).roughness,
         None
     );
 }
@@ -217,8 +241,9 @@ fn a_lacquer_half_holds_out_and_the_held_out_check_decides() {
         choose(&whole, &cfg, false, Some([&whole, &end])).roughness,
         Some(0.5)
     );
-    // Without halves the held-out check cannot pass; without the check the curve decides.
-    assert_eq!(choose(&wall, &cfg, false, None).roughness, None);
+    // Without halves the held-out check cannot pass (the minimum is disputed: midway to
+    // σ = 1); without the check the curve decides.
+    assert_eq!(choose(&wall, &cfg, false, None).roughness, Some(0.75));
     let trusting = SearchConfig {
         held_out: false,
         ..SearchConfig::default()
@@ -422,10 +447,24 @@ fn faint_gloss_reads_no_glossier_than_one_colour_and_always_gets_a_target() {
     for halves in [Some([&wall, &wall]), Some([&wall, &apart]), None] {
         assert_eq!(choose(&wall, &cfg, false, halves).roughness, Some(0.75));
     }
-    let off = SearchConfig::default();
+    let off = SearchConfig {
+        hedge_disputed: false,
+        ..SearchConfig::default()
+    };
     assert_eq!(
         choose(&wall, &off, false, Some([&wall, &apart])).roughness,
         None
+    );
+    // By default the disputed minimum (0.5) takes the midpoint to σ = 1 instead.
+    assert_eq!(
+        choose(
+            &wall,
+            &SearchConfig::default(),
+            false,
+            Some([&wall, &apart])
+        )
+        .roughness,
+        Some(0.75)
     );
     assert_eq!(
         choose(&wall, &off, false, Some([&wall, &wall])).roughness,
@@ -449,13 +488,16 @@ fn faint_gloss_reads_no_glossier_than_one_colour_and_always_gets_a_target() {
     assert_eq!(choose(&plaster, &cfg, false, None).roughness, Some(1.0));
     // The one-colour curve is not read when its minimum is at the mirror end (a diffuse lobe
     // that is not the data's) or when it is deep (two colours in one patch, not a lobe):
-    // here the disagreeing halves leave no target, as without it.
+    // here the disagreeing halves leave the disputed minimum's midpoint, as without it.
     for one in [
         vec![0.1000, 0.1004, 0.1006, 0.1008, 0.1010],
         vec![0.3, 0.1000, 0.1100, 0.1200, 0.1300],
     ] {
         let p = with_one(wall.clone(), one);
-        assert_eq!(choose(&p, &cfg, false, Some([&p, &apart])).roughness, None);
+        assert_eq!(
+            choose(&p, &cfg, false, Some([&p, &apart])).roughness,
+            Some(0.75)
+        );
     }
     // Gloss a colour per cell sees (3 % below σ = 1) is decided as before: the one-colour
     // curve is not read.
