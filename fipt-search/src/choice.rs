@@ -89,10 +89,11 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
 /// minimum lies within `rough_band` of it: then the roughest); a
 /// dielectric whose minimum is interior, beats σ = 1 by `interior_gain` and holds out takes the
 /// `interior_tolerance` rule instead (with `interior_always` off, only when the first rule
-/// left it at σ = 1); one whose interior minimum does not hold out, the midpoint of that
-/// rule's σ and the roughest (`hedge_disputed`), where nothing below gives one. A faint dielectric (`one_colour_below`) reads no glossier than its
+/// left it at σ = 1). A faint dielectric (`one_colour_below`) reads no glossier than its
 /// one-colour curve admits, and where these rules leave it without a target it takes that
-/// curve's. No target on too few pixels.
+/// curve's. One still without a target whose interior minimum did not hold out takes the
+/// midpoint of the interior rule's σ and the roughest (`hedge_disputed`). No target on too
+/// few pixels.
 ///
 /// `was_metal`: the previous search (on earlier shadings) called this region metal; it stays
 /// metal unless the dielectric answer beats it by `metal_margin` (hysteresis: the margin is
