@@ -104,7 +104,7 @@ fn region_rule<'a>(
     regions: &'a Regions,
     cfg: &'a SearchConfig,
 ) -> impl Fn(usize, usize, &HitPoint) -> Option<u32> + 'a {
-    let whole_outline = if cfg.drop_edges {
+    let whole_outline = if cfg.drop_edges && cfg.outline_share > 0.0 {
         let widths: Vec<usize> = images.iter().map(|img| img.width).collect();
         let shares =
             fipt_search::outline_shares(&regions.ids, &widths, regions.len(), Regions::NONE);
@@ -118,7 +118,7 @@ fn region_rule<'a>(
         let (ids, img) = (&regions.ids[v], &images[v]);
         let region = regions.id(v, i)?;
         if cfg.drop_edges {
-            let any = whole_outline[region as usize];
+            let any = whole_outline.get(region as usize) == Some(&true);
             let floor = cfg.edge_contrast * luminance(img.data[i]);
             let counts = |j: usize| any || luminance(img.data[j]) >= floor;
             if on_region_edge(ids, img.width, i, &counts) {
