@@ -13,31 +13,12 @@ The settings are the defaults of `SearchConfig` (dielectric_tolerance 0.25, inte
 0.001, interior_sigma 0.1, interior_tolerance 0.25, interior_cap 0.005, held_out_band 0.1,
 rough_band 0.1).
 """
-import json
 import math
 import sys
 
+from replay_sigma_rules import argmin, load
+
 DRIFT = 0.99
-
-
-def load(name, src, prof):
-    parts = json.load(open(f"{src}/scene_parts.json"))["objects"]
-    out = []
-    for r in json.load(open(prof)):
-        o = parts[r["label"]]
-        if o.get("type") == "emitter" or r["side"] is not None:
-            continue
-        if isinstance(o["roughness"], dict) or isinstance(o["metallic"], dict) or o["metallic"] > 0.5:
-            continue
-        if (r["choice"]["metallic"] or 0) > 0.5:
-            continue
-        out.append(dict(room=name, name=o["name"], truth=o["roughness"], r=r))
-    return out
-
-
-def argmin(c):
-    f = [(x, i) for i, x in enumerate(c) if x == x]
-    return min(f)[1] if f else None
 
 
 def roughest_within(c, b, tol):
@@ -83,7 +64,7 @@ def choose(r, hedge):
 def score(items, rule):
     per = {}
     for x in items:
-        p, v = x["r"]["fitted"]["pixels"], rule(x)
+        p, v = x["row"]["fitted"]["pixels"], rule(x)
         e = (min(max(DRIFT if v is None else v, 0.2), 1) - min(max(x["truth"], 0.2), 1)) ** 2
         a = per.setdefault(x["room"], [0.0, 0])
         a[0] += p * e
@@ -98,11 +79,11 @@ if __name__ == "__main__":
         src, _, prof = rest.rpartition(":")
         items += load(name, src, prof)
     for x in items:
-        run, plain, hedged = x["r"]["choice"]["roughness"], choose(x["r"], False), choose(x["r"], True)
+        run, plain, hedged = x["row"]["choice"]["roughness"], choose(x["row"], False), choose(x["row"], True)
         if (run is None) != (plain is None) or (run is not None and abs(run - plain) > 0.011):
             print(f"replay differs: {x['room']} {x['name']}: run {run}, replay {plain}")
         if hedged != plain:
             print(f"hedged: {x['room']} {x['name']} (true {x['truth']}): {plain} -> {hedged:.2f}")
-    print("as run ", score(items, lambda x: x["r"]["choice"]["roughness"]))
-    print("replay ", score(items, lambda x: choose(x["r"], False)))
-    print("hedged ", score(items, lambda x: choose(x["r"], True)))
+    print("as run ", score(items, lambda x: x["row"]["choice"]["roughness"]))
+    print("replay ", score(items, lambda x: choose(x["row"], False)))
+    print("hedged ", score(items, lambda x: choose(x["row"], True)))

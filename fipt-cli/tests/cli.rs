@@ -505,12 +505,7 @@ fn a_run_killed_mid_training_resumes_to_the_same_outputs() {
     assert!(ok, "{err}");
     // Killed once the first checkpoint exists, then re-run.
     let cut = tmp("kill-cut");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fipt"))
-        .args(["run", d, "--out", cut.to_str().unwrap(), "--config", c])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = spawn_quiet(&["run", d, "--out", cut.to_str().unwrap(), "--config", c]);
     let ckpt = cut.join("train/checkpoint.json");
     let t0 = std::time::Instant::now();
     while !ckpt.is_file() && t0.elapsed().as_secs() < 120 {

@@ -3,7 +3,7 @@
 //! run's measured length (one per eighth, at a seeded random point inside it), so every stage
 //! is hit: load, bake, search, training, emitters, refinement, maps, re-render, report.
 mod common;
-use common::{fipt, tiny_resumable_scene, tmp, walk};
+use common::{fipt, spawn_quiet, tiny_resumable_scene, tmp, walk};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -98,12 +98,7 @@ fn a_run_killed_at_random_moments_of_every_stage_resumes_to_the_same_outputs() {
 /// `fipt run` of scene `d` into `out` with config `c`, killed `at` seconds after its start
 /// unless it has ended by then: its exit status and how long it ran.
 fn run_until(d: &str, out: &std::path::Path, c: &str, at: f64) -> (std::process::ExitStatus, f64) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fipt"))
-        .args(["run", d, "--out", out.to_str().unwrap(), "--config", c])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = spawn_quiet(&["run", d, "--out", out.to_str().unwrap(), "--config", c]);
     let t = Instant::now();
     while t.elapsed().as_secs_f64() < at {
         if let Some(status) = child.try_wait().unwrap() {

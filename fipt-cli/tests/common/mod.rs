@@ -18,6 +18,16 @@ pub fn fipt(args: &[&str]) -> (bool, String, String) {
     )
 }
 
+/// `fipt ARGS` started with its output discarded, for a test to watch, kill or wait for.
+pub fn spawn_quiet(args: &[&str]) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_fipt"))
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("start fipt")
+}
+
 /// `fipt run SCENE --out OUT --config CFG`, which must succeed; its stdout.
 pub fn run(scene: &std::path::Path, out: &std::path::Path, cfg: &std::path::Path) -> String {
     let (ok, stdout, err) = fipt(&[
