@@ -29,7 +29,7 @@ use fipt_core::shading::{
     Progress, RayQuery, Reported, Scope, ShadingBaker, Shard, ViewShadings, ViewSink,
     DEFAULT_LEVELS, NUM_LEVELS,
 };
-use fipt_shading::incident::{IncidentLight, Incoming};
+use fipt_shading::incident::{IncidentLight, Incoming, Pending};
 pub use fipt_shading::records::{
     empty_shadings, empty_shadings_of, empty_view_shadings, median_footprint, primary_records,
     HitsSummary, PixelRecord,
@@ -195,9 +195,26 @@ impl SlfLight<'_> {
 
 impl IncidentLight for SlfLight<'_> {
     #[inline]
-    fn incoming(&self, origin: Vec3, dir: Vec3, _rng: &mut Pcg32) -> Incoming {
-        self.at_hit(origin, dir)
-            .map_or(Incoming::Miss, Incoming::Radiance)
+    fn incoming(&self, origin: Vec3, dir: Vec3, rng: &mut Pcg32) -> Incoming {
+        self.finish(self.begin(origin, dir, rng), rng)
+    }
+    /// The hit, with its voxel's cache lines requested; `finish` reads them.
+    #[inline]
+    fn begin(&self, origin: Vec3, dir: Vec3, _rng: &mut Pcg32) -> Pending {
+        match self.geometry.intersect(origin, dir) {
+            Some(hit) => {
+                self.slf.prefetch(hit.p);
+                Pending::Hit { hit, dir }
+            }
+            None => Pending::Ready(Incoming::Miss),
+        }
+    }
+    #[inline]
+    fn finish(&self, pending: Pending, _rng: &mut Pcg32) -> Incoming {
+        match pending {
+            Pending::Ready(i) => i,
+            Pending::Hit { hit, .. } => Incoming::Radiance(self.slf.lookup(hit.p)),
+        }
     }
 }
 

@@ -20,7 +20,7 @@ use fipt_core::reflectance::{schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, ViewShadings};
 use fipt_shading::brdf::sample_cosine_hemisphere;
-use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming};
+use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming, Pending};
 use fipt_shading::records::PixelRecord;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -301,14 +301,12 @@ fn estimate<L: IncidentLight, S: DiffuseSum>(
     // hits, which the lamp's own samples do not suffer from.
     if n > 0 {
         let mut s = empty();
-        for _ in 0..n {
-            let wl = sample_cosine_hemisphere(stream.next());
-            let wi = frame.to_world(wl);
-            if wi.dot(ng) <= 0.0 {
-                continue;
-            }
-            let l = match light.incoming(origin, wi, rng) {
-                Incoming::Miss => continue,
+        // One sample in flight, as in the specular mixture: its light's memory is fetched while
+        // the next sample's ray is traced; the samples are added in the order drawn.
+        let mut in_flight: Option<(Vec3, f32, Pending)> = None;
+        let mut settle = |(wi, cos, pending): (Vec3, f32, Pending), rng: &mut Pcg32| {
+            let l = match light.finish(pending, rng) {
+                Incoming::Miss => return,
                 Incoming::Radiance(l) => l,
                 Incoming::Emitter { le, light_pdf } if n_light > 0 => {
                     let p_cos = wi.dot(ns).max(0.0) * FRAC_1_PI;
@@ -316,7 +314,21 @@ fn estimate<L: IncidentLight, S: DiffuseSum>(
                 }
                 Incoming::Emitter { le, .. } => le,
             };
-            s.add(wi, wl.z, l);
+            s.add(wi, cos, l);
+        };
+        for _ in 0..n {
+            let wl = sample_cosine_hemisphere(stream.next());
+            let wi = frame.to_world(wl);
+            if wi.dot(ng) <= 0.0 {
+                continue;
+            }
+            let begun = (wi, wl.z, light.begin(origin, wi, rng));
+            if let Some(previous) = in_flight.replace(begun) {
+                settle(previous, rng);
+            }
+        }
+        if let Some(last) = in_flight.take() {
+            settle(last, rng);
         }
         s.scale(1.0 / n as f32);
         sum.accumulate(&s);

@@ -35,7 +35,7 @@ use fipt_core::CoreError;
 use fipt_geom::{Mesh, TriangleSampler};
 use fipt_shading::brdf::MicrofacetBrdf;
 use fipt_shading::field_surfaces::FieldSurfaces;
-use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming, LightSample};
+use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming, LightSample, Pending};
 use fipt_shading::scene::SurfaceModel;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -264,24 +264,41 @@ impl<'a> GrownLight<'a> {
 
 impl IncidentLight for GrownLight<'_> {
     fn incoming(&self, origin: Vec3, dir: Vec3, rng: &mut Pcg32) -> Incoming {
+        self.finish(self.begin(origin, dir, rng), rng)
+    }
+
+    /// The first hit, an emitter's answer at once; at a surface, its material's and its SLF
+    /// voxel's memory requested for `finish`, which grows the path (and draws from `rng`).
+    #[inline]
+    fn begin(&self, origin: Vec3, dir: Vec3, _rng: &mut Pcg32) -> Pending {
         self.counters.get().rays.fetch_add(1, Ordering::Relaxed);
         let Some(hit) = self.geometry.intersect(origin, dir) else {
             self.counters.get().miss.fetch_add(1, Ordering::Relaxed);
-            return Incoming::Miss;
+            return Pending::Ready(Incoming::Miss);
         };
         let le = self.surfaces.emission(hit.tri);
         if le != Vec3::ZERO && !self.surfaces.emit_side(hit.tri).emits_towards(hit.ng, -dir) {
             // A light's dark side: black, and it reflects nothing.
-            return Incoming::Radiance(Vec3::ZERO);
+            return Pending::Ready(Incoming::Radiance(Vec3::ZERO));
         }
         if le != Vec3::ZERO {
             self.counters.get().emitter.fetch_add(1, Ordering::Relaxed);
-            return Incoming::Emitter {
+            return Pending::Ready(Incoming::Emitter {
                 le,
                 light_pdf: self.light_pdf(hit.tri, hit.t, hit.ng.dot(dir).abs()),
-            };
+            });
         }
-        Incoming::Radiance(self.outgoing(hit, dir, rng))
+        self.surfaces.prefetch(hit.tri, hit.p);
+        self.slf.prefetch(hit.p);
+        Pending::Hit { hit, dir }
+    }
+
+    #[inline]
+    fn finish(&self, pending: Pending, rng: &mut Pcg32) -> Incoming {
+        match pending {
+            Pending::Ready(i) => i,
+            Pending::Hit { hit, dir } => Incoming::Radiance(self.outgoing(hit, dir, rng)),
+        }
     }
 
     fn has_emitters(&self) -> bool {

@@ -67,6 +67,19 @@ impl BrickGrid {
         (brick.mask[i >> 6] >> (i & 63) & 1 == 1).then(|| brick.vals[i])
     }
 
+    /// Starts loading the cache lines `get(x, y, z)` reads (the brick's mask word and value).
+    #[inline]
+    fn prefetch(&self, x: u64, y: u64, z: u64) {
+        let b = self.blocks[(((z >> 3) * self.nb + (y >> 3)) * self.nb + (x >> 3)) as usize];
+        if b == u32::MAX {
+            return;
+        }
+        let brick = &self.bricks[b as usize];
+        let i = (((z & 7) << 6) | ((y & 7) << 3) | (x & 7)) as usize;
+        fipt_core::memory::prefetch(&brick.mask[i >> 6]);
+        fipt_core::memory::prefetch(&brick.vals[i]);
+    }
+
     fn occupied(&self) -> usize {
         self.bricks
             .iter()
@@ -130,6 +143,21 @@ impl SurfaceLightField {
             z >>= 1;
         }
         Vec3::ZERO
+    }
+
+    /// Starts loading the full-resolution voxel that [`SurfaceLightField::lookup`] of `p` reads
+    /// first (a hint: no effect on any answer).
+    #[inline]
+    pub fn prefetch(&self, p: Vec3) {
+        let q = (p - self.cube.min) * self.inv_cell;
+        if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
+            return;
+        }
+        let (x, y, z) = (q.x as u64, q.y as u64, q.z as u64);
+        let r = self.resolution as u64;
+        if x < r && y < r && z < r {
+            self.levels[0].prefetch(x, y, z);
+        }
     }
 
     /// Whether the full-resolution voxel containing `p` holds radiance.

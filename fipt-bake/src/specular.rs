@@ -6,7 +6,7 @@ use fipt_core::color::Rgb;
 use fipt_core::reflectance::{ggx_d, schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, NUM_LEVELS};
-use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming};
+use fipt_shading::incident::{power_heuristic, IncidentLight, Incoming, Pending};
 use glam::{Vec2, Vec3};
 
 /// Reflects `wo` about the half vector `h` (local frame): (local ωi, ωo·h, world ωi), or None
@@ -93,31 +93,44 @@ pub fn specular_shading_mixture<L: IncidentLight>(
             / (4.0 * voh);
         (d, q)
     };
+    // One sample in flight: its light is begun (the ray traced, its radiance's memory
+    // requested) before the previous sample's is finished and added, so the fetch overlaps the
+    // next ray. The samples are added in the order they are drawn, as one at a time would.
+    let mut in_flight: Option<(Vec3, Vec3, f32, Pending)> = None;
+    let mut settle = |(h, wi, voh, pending): (Vec3, Vec3, f32, Pending), rng: &mut Pcg32| {
+        let li = match light.finish(pending, rng) {
+            Incoming::Miss => return,
+            Incoming::Radiance(l) => (l, 0.0),
+            Incoming::Emitter { le, light_pdf } => (le, light_pdf),
+        };
+        if li.0 == Vec3::ZERO {
+            return;
+        }
+        let (d, q) = mixture_pdf(h, voh);
+        if !(q > 0.0) {
+            return;
+        }
+        let w = if n_light > 0 && li.1 > 0.0 {
+            power_heuristic(q / n_brdf, li.1)
+        } else {
+            1.0
+        };
+        add(wi, voh, &d, li.0, w / q);
+    };
     for k in 0..NUM_LEVELS {
         for _ in 0..counts[k] {
             let h = sample_ggx_h(alphas[k], streams[k].next());
             let Some((wi, voh, wi_w)) = reflect_about(&frame, ng, wo, h) else {
                 continue;
             };
-            let li = match light.incoming(origin, wi_w, rng) {
-                Incoming::Miss => continue,
-                Incoming::Radiance(l) => (l, 0.0),
-                Incoming::Emitter { le, light_pdf } => (le, light_pdf),
-            };
-            if li.0 == Vec3::ZERO {
-                continue;
+            let begun = (h, wi, voh, light.begin(origin, wi_w, rng));
+            if let Some(previous) = in_flight.replace(begun) {
+                settle(previous, rng);
             }
-            let (d, q) = mixture_pdf(h, voh);
-            if !(q > 0.0) {
-                continue;
-            }
-            let w = if n_light > 0 && li.1 > 0.0 {
-                power_heuristic(q / n_brdf, li.1)
-            } else {
-                1.0
-            };
-            add(wi, voh, &d, li.0, w / q);
         }
+    }
+    if let Some(last) = in_flight.take() {
+        settle(last, rng);
     }
     for _ in 0..n_light {
         let Some(ls) = light.sample_emitter(origin, rng) else {

@@ -8,6 +8,7 @@
 //! importance sampling (power heuristic), so one code path serves both.
 use fipt_core::color::Rgb;
 use fipt_core::rng::Pcg32;
+use fipt_core::shading::SurfaceHit;
 use glam::Vec3;
 
 /// What arrives along a ray.
@@ -20,6 +21,16 @@ pub enum Incoming {
     Emitter { le: Rgb, light_pdf: f32 },
     /// Radiance that light sampling cannot produce (reflected light).
     Radiance(Rgb),
+}
+
+/// What [`IncidentLight::begin`] leaves for [`IncidentLight::finish`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Pending {
+    /// The answer, already known.
+    Ready(Incoming),
+    /// The ray's first surface hit and its direction: the memory the answer reads there is
+    /// being fetched.
+    Hit { hit: SurfaceHit, dir: Vec3 },
 }
 
 /// A point sampled on an emitter, seen from a shading point.
@@ -40,6 +51,30 @@ pub trait IncidentLight: Sync {
     /// What arrives at `origin` (already offset off the surface) from the unit direction `dir`.
     /// `rng` drives any path continuation.
     fn incoming(&self, origin: Vec3, dir: Vec3, rng: &mut Pcg32) -> Incoming;
+    /// [`IncidentLight::incoming`] in two halves, for an estimator with other work to do in
+    /// between (the next sample's ray) while the answer's memory is fetched. `finish(begin(…))`
+    /// is `incoming(…)`, bit for bit. A light draws from `rng` in one half only (the refinement's
+    /// in `finish`, where its paths grow), so that an estimator that begins the next sample
+    /// before it finishes this one draws the same numbers in the same order as one that does
+    /// not. By default `begin` does all the work.
+    fn begin(&self, origin: Vec3, dir: Vec3, rng: &mut Pcg32) -> Pending {
+        Pending::Ready(self.incoming(origin, dir, rng))
+    }
+    /// The second half of [`IncidentLight::begin`]. A light whose `begin` returns
+    /// [`Pending::Hit`] overrides it; the default knows only [`Pending::Ready`] (and reads a
+    /// hit as a miss).
+    fn finish(&self, pending: Pending, _rng: &mut Pcg32) -> Incoming {
+        match pending {
+            Pending::Ready(i) => i,
+            Pending::Hit { .. } => {
+                debug_assert!(
+                    false,
+                    "a light that begins with Pending::Hit must finish it"
+                );
+                Incoming::Miss
+            }
+        }
+    }
     /// Whether the light has emitters to sample.
     fn has_emitters(&self) -> bool {
         false
