@@ -43,10 +43,45 @@ impl SampleStream {
             SamplerKind::Stratified => {
                 let k = self.k as f64;
                 self.k += 1;
-                let u = (self.shift.x as f64 + k * R2_A1).fract() as f32;
-                let v = (self.shift.y as f64 + k * R2_A2).fract() as f32;
+                let u = fract_nonneg(self.shift.x as f64 + k * R2_A1) as f32;
+                let v = fract_nonneg(self.shift.y as f64 + k * R2_A2) as f32;
                 Vec2::new(u.min(0.999_999_94), v.min(0.999_999_94))
             }
         }
+    }
+}
+
+/// `x.fract()` for x ≥ 0 (and NaN), bit for bit, without `trunc`: an x86-64 build without
+/// SSE4.1 makes `f64::fract` a library call, 1.4 % of the bake's samples.
+#[inline(always)]
+fn fract_nonneg(x: f64) -> f64 {
+    x - (x as u64) as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fract_nonneg_is_fract_bit_for_bit() {
+        let mut rng = Pcg32::new(11, 2);
+        let mut xs = vec![
+            0.0,
+            0.5,
+            1.0,
+            1.0 - f64::EPSILON,
+            2f64.powi(52) + 0.5,
+            2f64.powi(53),
+            1e18,
+        ];
+        for k in 0..100_000u32 {
+            let shift = rng.next_2d();
+            xs.push(shift.x as f64 + k as f64 * R2_A1);
+            xs.push(shift.y as f64 + (k as f64) * 1e6 * R2_A2);
+        }
+        for x in xs {
+            assert_eq!(fract_nonneg(x).to_bits(), x.fract().to_bits(), "{x}");
+        }
+        assert!(fract_nonneg(f64::NAN).is_nan());
     }
 }
