@@ -56,28 +56,30 @@ impl BrickGrid {
         g
     }
 
+    /// The brick holding voxel (x, y, z) and the voxel's index in it (None: no brick there).
+    #[inline]
+    fn locate(&self, x: u64, y: u64, z: u64) -> Option<(&Brick, usize)> {
+        let b = self.blocks[(((z >> 3) * self.nb + (y >> 3)) * self.nb + (x >> 3)) as usize];
+        let i = (((z & 7) << 6) | ((y & 7) << 3) | (x & 7)) as usize;
+        (b != u32::MAX).then(|| (&self.bricks[b as usize], i))
+    }
+
     #[inline]
     fn get(&self, x: u64, y: u64, z: u64) -> Option<Rgb> {
-        let b = self.blocks[(((z >> 3) * self.nb + (y >> 3)) * self.nb + (x >> 3)) as usize];
-        if b == u32::MAX {
-            return None;
-        }
-        let brick = &self.bricks[b as usize];
-        let i = (((z & 7) << 6) | ((y & 7) << 3) | (x & 7)) as usize;
+        let (brick, i) = self.locate(x, y, z)?;
         (brick.mask[i >> 6] >> (i & 63) & 1 == 1).then(|| brick.vals[i])
     }
 
-    /// Starts loading the cache lines `get(x, y, z)` reads (the brick's mask word and value).
+    /// Starts loading the cache lines `get(x, y, z)` reads: the brick's mask word and the
+    /// value's 12 bytes (one in eight straddles two lines).
     #[inline]
     fn prefetch(&self, x: u64, y: u64, z: u64) {
-        let b = self.blocks[(((z >> 3) * self.nb + (y >> 3)) * self.nb + (x >> 3)) as usize];
-        if b == u32::MAX {
-            return;
+        if let Some((brick, i)) = self.locate(x, y, z) {
+            let value = &brick.vals[i] as *const Rgb;
+            fipt_core::memory::prefetch(&brick.mask[i >> 6]);
+            fipt_core::memory::prefetch(value);
+            fipt_core::memory::prefetch(value.cast::<u8>().wrapping_add(11));
         }
-        let brick = &self.bricks[b as usize];
-        let i = (((z & 7) << 6) | ((y & 7) << 3) | (x & 7)) as usize;
-        fipt_core::memory::prefetch(&brick.mask[i >> 6]);
-        fipt_core::memory::prefetch(&brick.vals[i]);
     }
 
     fn occupied(&self) -> usize {
@@ -125,15 +127,9 @@ impl SurfaceLightField {
     /// 0 when none is occupied or `p` is outside.
     #[inline]
     pub fn lookup(&self, p: Vec3) -> Rgb {
-        let q = (p - self.cube.min) * self.inv_cell;
-        if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
+        let Some((mut x, mut y, mut z)) = self.cell_of(p) else {
             return Vec3::ZERO;
-        }
-        let (mut x, mut y, mut z) = (q.x as u64, q.y as u64, q.z as u64);
-        let r = self.resolution as u64;
-        if x >= r || y >= r || z >= r {
-            return Vec3::ZERO;
-        }
+        };
         for level in &self.levels {
             if let Some(v) = level.get(x, y, z) {
                 return v;
@@ -149,25 +145,21 @@ impl SurfaceLightField {
     /// first (a hint: no effect on any answer).
     #[inline]
     pub fn prefetch(&self, p: Vec3) {
-        let q = (p - self.cube.min) * self.inv_cell;
-        if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
-            return;
-        }
-        let (x, y, z) = (q.x as u64, q.y as u64, q.z as u64);
-        let r = self.resolution as u64;
-        if x < r && y < r && z < r {
+        if let Some((x, y, z)) = self.cell_of(p) {
             self.levels[0].prefetch(x, y, z);
         }
     }
 
+    /// The full-resolution voxel coordinates of `p` (None outside the cube).
+    #[inline]
+    fn cell_of(&self, p: Vec3) -> Option<(u64, u64, u64)> {
+        voxel_cell(self.cube.min, self.inv_cell, self.resolution, p)
+    }
+
     /// Whether the full-resolution voxel containing `p` holds radiance.
     pub fn occupied_at(&self, p: Vec3) -> bool {
-        let r = self.resolution as u64;
-        self.voxel(p).is_some_and(|k| {
-            self.levels[0]
-                .get(k % r, (k / r) % r, k / (r * r))
-                .is_some()
-        })
+        self.cell_of(p)
+            .is_some_and(|(x, y, z)| self.levels[0].get(x, y, z).is_some())
     }
 
     /// Number of occupied full-resolution voxels.
@@ -182,18 +174,23 @@ impl SurfaceLightField {
     }
 }
 
+/// The voxel coordinates of `p` in a grid of `res`³ voxels of edge 1 / `inv_cell` from `min`
+/// (None outside it): the one place the SLF and its builder place a point.
 #[inline]
-fn voxel_key(min: Vec3, inv_cell: f32, res: u32, p: Vec3) -> Option<u64> {
+fn voxel_cell(min: Vec3, inv_cell: f32, res: u32, p: Vec3) -> Option<(u64, u64, u64)> {
     let q = (p - min) * inv_cell;
     if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
         return None;
     }
     let (x, y, z) = (q.x as u64, q.y as u64, q.z as u64);
     let r = res as u64;
-    if x >= r || y >= r || z >= r {
-        return None;
-    }
-    Some((z * r + y) * r + x)
+    (x < r && y < r && z < r).then_some((x, y, z))
+}
+
+#[inline]
+fn voxel_key(min: Vec3, inv_cell: f32, res: u32, p: Vec3) -> Option<u64> {
+    let r = res as u64;
+    voxel_cell(min, inv_cell, res, p).map(|(x, y, z)| (z * r + y) * r + x)
 }
 
 /// Accumulates radiance samples into voxels.

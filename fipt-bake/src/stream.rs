@@ -51,8 +51,10 @@ impl SampleStream {
     }
 }
 
-/// `x.fract()` for x ≥ 0 (and NaN), bit for bit, without `trunc`: an x86-64 build without
-/// SSE4.1 makes `f64::fract` a library call, 1.4 % of the bake's samples.
+/// `x.fract()` for +0 ≤ x < 2⁶⁴ (and NaN), bit for bit, without `trunc`: an x86-64 build
+/// without SSE4.1 makes `f64::fract` a library call, 1.4 % of the bake's samples. The lattice's
+/// values are such (a shift in [0, 1) plus k times a positive constant). Not for −0, ∞ or
+/// larger values.
 #[inline(always)]
 fn fract_nonneg(x: f64) -> f64 {
     x - (x as u64) as f64

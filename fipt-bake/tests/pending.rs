@@ -114,12 +114,14 @@ fn the_slf_light_reads_the_voxel_at_the_hit() {
     );
 }
 
-/// Ls0/Ls1 at every level and the diffuse moments at the point `i` of the sphere, as text.
+/// Ls0/Ls1 at every level and the diffuse moments at the point `i` of the sphere, with
+/// `n_light` emitter samples each, as text.
 fn shadings<L: IncidentLight>(
     light: &L,
     geo: &Geometry,
     i: u64,
     model: ReflectanceModel,
+    n_light: u32,
 ) -> String {
     let mut rng = Pcg32::new(5, i);
     let d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
@@ -137,7 +139,7 @@ fn shadings<L: IncidentLight>(
         wo,
         &DEFAULT_LEVELS,
         &[16; 6],
-        0,
+        n_light,
         &mut st,
         &mut rng,
         model,
@@ -147,7 +149,9 @@ fn shadings<L: IncidentLight>(
         "point {i}: all black"
     );
     let mut st = SampleStream::new(SamplerKind::Stratified, &[i]);
-    let m = diffuse_moments(light, geo, hit.p, n, n, 64, 0, &mut st, &mut rng, true);
+    let m = diffuse_moments(
+        light, geo, hit.p, n, n, 64, n_light, &mut st, &mut rng, true,
+    );
     format!("{l0:?} {l1:?} {m:?}")
 }
 
@@ -165,8 +169,8 @@ fn estimators_with_a_sample_in_flight_equal_one_at_a_time() {
     for i in 0..40 {
         for model in ReflectanceModel::ALL {
             assert_eq!(
-                shadings(&light, &geo, i, model),
-                shadings(&eager, &geo, i, model),
+                shadings(&light, &geo, i, model, 0),
+                shadings(&eager, &geo, i, model, 0),
                 "point {i}, {model}"
             );
         }
@@ -199,10 +203,13 @@ fn grown_paths_with_a_sample_in_flight_equal_one_at_a_time() {
     assert!(light.has_emitters());
     for i in 0..40 {
         let model = ReflectanceModel::ALL[i as usize % ReflectanceModel::ALL.len()];
-        assert_eq!(
-            shadings(&light, &geo, i, model),
-            shadings(&eager, &geo, i, model),
-            "point {i}, {model}"
-        );
+        // With and without emitter samples (drawn after the GGX and cosine samples).
+        for n_light in [0, 8] {
+            assert_eq!(
+                shadings(&light, &geo, i, model, n_light),
+                shadings(&eager, &geo, i, model, n_light),
+                "point {i}, {model}, {n_light} light samples"
+            );
+        }
     }
 }

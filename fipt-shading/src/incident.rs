@@ -1,11 +1,13 @@
 //! Incident light as the shading estimators see it: what arrives at a point from a direction,
 //! and (when the scene has known emitters) points sampled on them for next-event estimation.
 //!
-//! The initial bake's light is the SLF alone ([`crate::bake::SlfLight`]: no emitters, so no
-//! light samples); the path-grown refinement's light ([`crate::refine`]) knows the extracted
-//! emitters, stops at rough surfaces with the SLF and grows paths through glossy ones. The
-//! estimators in [`crate::bake`] combine BRDF samples and light samples by multiple
-//! importance sampling (power heuristic), so one code path serves both.
+//! The initial bake's light is the SLF alone (`fipt_bake::bake::SlfLight`: no emitters, so no
+//! light samples); the path-grown refinement's light (`fipt_bake::refine::GrownLight`) knows
+//! the extracted emitters, stops at rough surfaces with the SLF and grows paths through glossy
+//! ones. The bake's estimators combine BRDF samples and light samples by multiple importance
+//! sampling (power heuristic), so one code path serves both. They ask in two halves
+//! ([`IncidentLight::begin`], [`IncidentLight::finish`]) with one sample in flight, so that a
+//! sample's memory fetch overlaps the next sample's ray.
 use fipt_core::color::Rgb;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::SurfaceHit;
@@ -53,26 +55,28 @@ pub trait IncidentLight: Sync {
     fn incoming(&self, origin: Vec3, dir: Vec3, rng: &mut Pcg32) -> Incoming;
     /// [`IncidentLight::incoming`] in two halves, for an estimator with other work to do in
     /// between (the next sample's ray) while the answer's memory is fetched. `finish(begin(…))`
-    /// is `incoming(…)`, bit for bit. A light draws from `rng` in one half only (the refinement's
-    /// in `finish`, where its paths grow), so that an estimator that begins the next sample
+    /// is `incoming(…)`, bit for bit. Every call draws from `rng` in the same half (the
+    /// refinement's light in `finish`, where its paths grow; or never), and an estimator draws
+    /// nothing itself between a `begin` and its `finish`: then one that begins the next sample
     /// before it finishes this one draws the same numbers in the same order as one that does
-    /// not. By default `begin` does all the work.
+    /// not.
+    ///
+    /// By default `begin` does all the work through `incoming`. A light that overrides `begin`
+    /// to return [`Pending::Hit`] must override `finish` too; only such a light may write its
+    /// `incoming` as `finish(begin(…))` (with the defaults that recurses without end).
     fn begin(&self, origin: Vec3, dir: Vec3, rng: &mut Pcg32) -> Pending {
         Pending::Ready(self.incoming(origin, dir, rng))
     }
-    /// The second half of [`IncidentLight::begin`]. A light whose `begin` returns
-    /// [`Pending::Hit`] overrides it; the default knows only [`Pending::Ready`] (and reads a
-    /// hit as a miss).
+    /// The second half of [`IncidentLight::begin`]. The default knows only
+    /// [`Pending::Ready`]: a hit reaching it is a light that overrode `begin` and not `finish`,
+    /// a bug that stops the program with the light's type named.
     fn finish(&self, pending: Pending, _rng: &mut Pcg32) -> Incoming {
         match pending {
             Pending::Ready(i) => i,
-            Pending::Hit { .. } => {
-                debug_assert!(
-                    false,
-                    "a light that begins with Pending::Hit must finish it"
-                );
-                Incoming::Miss
-            }
+            Pending::Hit { .. } => panic!(
+                "{} returns Pending::Hit from IncidentLight::begin but does not override finish",
+                std::any::type_name::<Self>()
+            ),
         }
     }
     /// Whether the light has emitters to sample.
@@ -102,6 +106,54 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A light that answers in `begin` (the default halves).
+    struct Constant;
+    impl IncidentLight for Constant {
+        fn incoming(&self, _: Vec3, _: Vec3, _: &mut Pcg32) -> Incoming {
+            Incoming::Radiance(Vec3::new(1.0, 2.0, 3.0))
+        }
+    }
+
+    /// A light that overrides `begin` to leave a hit and forgets `finish`.
+    struct Forgetful;
+    impl IncidentLight for Forgetful {
+        fn incoming(&self, _: Vec3, _: Vec3, _: &mut Pcg32) -> Incoming {
+            Incoming::Miss
+        }
+        fn begin(&self, origin: Vec3, dir: Vec3, _: &mut Pcg32) -> Pending {
+            let hit = SurfaceHit {
+                t: 1.0,
+                tri: 0,
+                p: origin + dir,
+                ng: -dir,
+                ns: -dir,
+            };
+            Pending::Hit { hit, dir }
+        }
+    }
+
+    #[test]
+    fn the_default_halves_give_incoming() {
+        let mut rng = Pcg32::new(1, 1);
+        let p = Constant.begin(Vec3::ZERO, Vec3::Z, &mut rng);
+        assert_eq!(
+            p,
+            Pending::Ready(Constant.incoming(Vec3::ZERO, Vec3::Z, &mut rng))
+        );
+        assert_eq!(
+            Constant.finish(p, &mut rng),
+            Incoming::Radiance(Vec3::new(1.0, 2.0, 3.0))
+        );
+    }
+
+    #[test]
+    #[should_panic(expected = "Forgetful returns Pending::Hit from IncidentLight::begin")]
+    fn a_hit_left_to_the_default_finish_names_the_light() {
+        let mut rng = Pcg32::new(1, 1);
+        let p = Forgetful.begin(Vec3::ZERO, Vec3::Z, &mut rng);
+        Forgetful.finish(p, &mut rng);
+    }
 
     #[test]
     fn power_heuristic_weights_sum_to_one_and_handle_extremes() {
