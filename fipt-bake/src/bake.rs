@@ -173,6 +173,7 @@ pub fn build_slf(
 }
 
 /// Incident radiance from the SLF: the voxel radiance at the closest hit, 0 on a miss.
+#[derive(Clone, Copy)]
 pub struct SlfLight<'a> {
     pub geometry: &'a dyn RayQuery,
     pub slf: &'a SurfaceLightField,

@@ -162,10 +162,7 @@ fn estimators_with_a_sample_in_flight_equal_one_at_a_time() {
         geometry: &geo,
         slf: &slf,
     };
-    let eager = Eager(SlfLight {
-        geometry: &geo,
-        slf: &slf,
-    });
+    let eager = Eager(light);
     for i in 0..40 {
         for model in ReflectanceModel::ALL {
             assert_eq!(
