@@ -163,11 +163,10 @@ pub fn build_slf(
     let cube = Cube::around(records.iter().flatten().flatten().map(|r| r.hit.p), 1.1)?;
     let mut b = SlfBuilder::with_fallback(cube, resolution, fallback_levels);
     for (recs, img) in records.iter().zip(images) {
-        for (r, l) in recs.iter().zip(&img.data) {
-            if let Some(r) = r.as_ref().filter(|r| keep(r)) {
-                b.add(r.hit.p, *l);
-            }
-        }
+        let kept: Vec<(Vec3, Rgb)> = (recs.iter().zip(&img.data))
+            .filter_map(|(r, l)| r.as_ref().filter(|r| keep(r)).map(|r| (r.hit.p, *l)))
+            .collect();
+        b.add_all(&kept);
     }
     Some(b.finish())
 }

@@ -16,6 +16,7 @@ use crate::stream::SampleStream;
 use fipt_core::brdf::Frame;
 use fipt_core::color::Rgb;
 use fipt_core::hash::GridMap as HashMap;
+use fipt_core::parted::PartedMap;
 use fipt_core::reflectance::{schlick_weight, ReflectanceModel};
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{RayQuery, ViewShadings};
@@ -379,6 +380,8 @@ pub struct DiffuseCells {
     inv: f32,
     /// Per cell: whether a pixel of a view added with `used` true falls in it.
     used: Vec<bool>,
+    /// The cells (and whether used) while views are added, filled on every thread.
+    building: PartedMap<CellKey, (DiffuseCell, bool)>,
     finished: bool,
 }
 
@@ -387,6 +390,16 @@ struct CellKey {
     tri: u32,
     side: bool,
     cell: [i32; 3],
+}
+
+/// The cell of a pixel's hit, on the lattice of edge `1 / inv` anchored at `origin`.
+fn cell_key(origin: Vec3, inv: f32, rec: &PixelRecord) -> CellKey {
+    let q = ((rec.hit.p - origin) * inv).floor();
+    CellKey {
+        tri: rec.hit.tri,
+        side: rec.ng.dot(rec.hit.ng) > 0.0,
+        cell: [q.x as i32, q.y as i32, q.z as i32],
+    }
 }
 
 /// The integrated cache: one colour per cell under Lambert (15× smaller), all the moments
@@ -405,21 +418,14 @@ impl DiffuseCells {
             origin,
             inv: 1.0 / cell,
             used: vec![],
+            building: PartedMap::new(),
             finished: false,
         }
     }
 
-    fn key(&self, rec: &PixelRecord) -> CellKey {
-        let q = ((rec.hit.p - self.origin) * self.inv).floor();
-        CellKey {
-            tri: rec.hit.tri,
-            side: rec.ng.dot(rec.hit.ng) > 0.0,
-            cell: [q.x as i32, q.y as i32, q.z as i32],
-        }
-    }
-
-    /// Adds one view's pixels (views in order: sequential assignment keeps the entry order, and
-    /// so results, deterministic); `used` marks their cells as needed (a shard's views).
+    /// Adds one view's pixels (views in order: the cells are numbered by the pixel that first
+    /// met them, whatever the number of threads, so results are deterministic); `used` marks
+    /// their cells as needed (a shard's views).
     pub fn add_view(&mut self, records: &[Option<PixelRecord>], used: bool) {
         self.add_view_where(records, |_| used);
     }
@@ -431,40 +437,48 @@ impl DiffuseCells {
     pub fn add_view_where(
         &mut self,
         records: &[Option<PixelRecord>],
-        used: impl Fn(usize) -> bool,
+        used: impl Fn(usize) -> bool + Sync,
     ) {
-        for (i, rec) in records.iter().enumerate() {
-            let Some(rec) = rec else { continue };
-            let key = self.key(rec);
-            let entries = &mut self.entries;
-            let id = *self.index.entry(key).or_insert_with(|| {
-                entries.push(DiffuseCell {
+        let (origin, inv) = (self.origin, self.inv);
+        self.building.add_all(
+            records,
+            |_, rec| rec.as_ref().map(|rec| cell_key(origin, inv, rec)),
+            |rec| {
+                let rec = rec.as_ref().expect("a keyed pixel hits");
+                let cell = DiffuseCell {
                     tri: rec.hit.tri,
                     p: Vec3::ZERO,
                     ng: rec.ng,
                     ns: Vec3::ZERO,
                     pixels: 0,
-                });
-                entries.len() as u32 - 1
-            });
-            let e = &mut self.entries[id as usize];
-            e.p += rec.hit.p;
-            e.ns += rec.ns;
-            e.pixels += 1;
-            if self.used.len() < self.entries.len() {
-                self.used.resize(self.entries.len(), false);
-            }
-            self.used[id as usize] |= used(i);
-        }
+                };
+                (cell, false)
+            },
+            |(e, u), i, rec| {
+                let rec = rec.as_ref().expect("a keyed pixel hits");
+                e.p += rec.hit.p;
+                e.ns += rec.ns;
+                e.pixels += 1;
+                *u |= used(i);
+            },
+        );
     }
 
-    /// Turns the sums into means; call once every view is added.
+    /// Turns the sums into means, the cells numbered in the order their first pixel came;
+    /// call once every view is added.
     pub fn finish(mut self) -> Self {
-        for e in &mut self.entries {
+        let cells = std::mem::take(&mut self.building).into_first_seen();
+        self.index = HashMap::default();
+        self.index.reserve(cells.len());
+        self.entries = Vec::with_capacity(cells.len());
+        self.used = Vec::with_capacity(cells.len());
+        for (id, (k, (mut e, u))) in cells.into_iter().enumerate() {
             e.p /= e.pixels as f32;
             e.ns = e.ns.normalize_or(e.ng);
+            self.entries.push(e);
+            self.used.push(u);
+            self.index.insert(k, id as u32);
         }
-        self.used.resize(self.entries.len(), false);
         self.finished = true;
         self
     }
@@ -489,10 +503,10 @@ impl DiffuseCells {
     pub fn assign_view(&self, records: &[Option<PixelRecord>]) -> Vec<u32> {
         debug_assert!(self.finished);
         records
-            .iter()
+            .par_iter()
             .map(|r| {
                 r.as_ref()
-                    .and_then(|r| self.index.get(&self.key(r)).copied())
+                    .and_then(|r| self.index.get(&cell_key(self.origin, self.inv, r)).copied())
             })
             .map(|id| id.unwrap_or(u32::MAX))
             .collect()

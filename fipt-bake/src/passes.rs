@@ -97,13 +97,15 @@ pub(crate) fn slf_and_cells(
             let rejected: Vec<bool> = kept.iter().map(|k| *k == Some(false)).collect();
             fipt_core::image::dilate(&rejected, img.width, img.height, margin)
         });
+        let mut observed = Vec::with_capacity(r.len());
         for (i, ((rec, l), k)) in r.iter().zip(&img.data).zip(&kept).enumerate() {
             match (rec, k) {
                 (Some(_), Some(true)) if near.as_ref().is_some_and(|n| n[i]) => bled += 1,
-                (Some(rec), Some(true)) => slf.add(rec.hit.p, *l),
+                (Some(rec), Some(true)) => observed.push((rec.hit.p, *l)),
                 _ => {}
             }
         }
+        slf.add_all(&observed);
         let selected = scope.shard.contains(k);
         if cached {
             cells.add_view_where(&r, |i| selected && draw.keeps(k, i));

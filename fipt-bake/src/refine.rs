@@ -501,11 +501,11 @@ fn material_surfaces(
     cell: f32,
 ) -> fipt_core::Result<FieldSurfaces> {
     let (geometry, views) = (inputs.geometry, inputs.views);
-    let hits = |f: &mut dyn FnMut(Vec3, u32)| {
+    let hits = |f: &mut fipt_shading::field_surfaces::PointSink| {
         for v in views {
-            for r in primary_records(geometry, v).iter().flatten() {
-                f(r.hit.p, r.hit.tri);
-            }
+            let r = primary_records(geometry, v);
+            let pts: Vec<(Vec3, u32)> = r.iter().flatten().map(|r| (r.hit.p, r.hit.tri)).collect();
+            f(&pts);
         }
     };
     FieldSurfaces::build_from(inputs.field, mesh, inputs.emitters, &hits, cell)

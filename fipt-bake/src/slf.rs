@@ -199,7 +199,7 @@ pub struct SlfBuilder {
     resolution: u32,
     inv_cell: f32,
     fallback_levels: u32,
-    sums: VoxelMap<(DVec3, u32)>,
+    sums: fipt_core::parted::PartedMap<u64, (DVec3, u32)>,
 }
 
 impl SlfBuilder {
@@ -216,25 +216,42 @@ impl SlfBuilder {
             resolution,
             inv_cell: resolution as f32 / cube.size,
             fallback_levels,
-            sums: VoxelMap::default(),
+            sums: Default::default(),
         }
     }
 
     /// Adds one observation of radiance `l` at point `p` (ignored outside the cube or if not finite).
     pub fn add(&mut self, p: Vec3, l: Rgb) {
-        if !fipt_core::color::is_finite(l) {
-            return;
-        }
-        if let Some(k) = voxel_key(self.cube.min, self.inv_cell, self.resolution, p) {
-            let e = self.sums.entry(k).or_insert((DVec3::ZERO, 0));
-            e.0 += l.as_dvec3();
-            e.1 += 1;
-        }
+        self.add_all(&[(p, l)]);
+    }
+
+    /// Adds the observations (point, radiance) in order, as [`SlfBuilder::add`] one at a time
+    /// would, on every thread.
+    pub fn add_all(&mut self, observations: &[(Vec3, Rgb)]) {
+        let (min, inv, res) = (self.cube.min, self.inv_cell, self.resolution);
+        self.sums.add_all(
+            observations,
+            |_, &(p, l)| {
+                fipt_core::color::is_finite(l)
+                    .then(|| voxel_key(min, inv, res, p))
+                    .flatten()
+            },
+            |_| (DVec3::ZERO, 0),
+            |e, _, &(_, l)| {
+                e.0 += l.as_dvec3();
+                e.1 += 1;
+            },
+        );
     }
 
     pub fn finish(self) -> SurfaceLightField {
         let mut levels = Vec::new();
-        let mut sums = self.sums;
+        // One map filled in the order the voxels were first met, as a single map filled one
+        // observation at a time: the coarser levels sum in its order.
+        let mut sums: VoxelMap<(DVec3, u32)> = VoxelMap::default();
+        for (k, v) in self.sums.into_first_seen() {
+            sums.insert(k, v);
+        }
         let mut r = self.resolution as u64;
         for level in 0..=self.fallback_levels {
             let coarser = if level < self.fallback_levels {

@@ -51,6 +51,7 @@ pub mod external_model;
 pub mod field;
 pub mod fit;
 pub mod hash;
+pub mod parted;
 pub use fipt_data::fsutil;
 pub use fipt_data::image;
 pub mod lock;

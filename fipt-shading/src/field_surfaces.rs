@@ -15,8 +15,9 @@ use crate::scene::SurfaceModel;
 use fipt_core::color::Rgb;
 use fipt_core::emitter::{EmitSide, Emitter};
 use fipt_core::field::{Material, MaterialField};
-use fipt_core::hash::{floor_i32, GridMap as HashMap};
+use fipt_core::hash::floor_i32;
 use fipt_core::materials::SurfacePoint;
+use fipt_core::parted::PartedMap;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
 use glam::Vec3;
@@ -150,8 +151,12 @@ fn voxel_key(p: Vec3, cell: f32, tri_facing: &[u8], t: u32) -> Key {
     (floor_i32(q.x), floor_i32(q.y), floor_i32(q.z), side)
 }
 
-/// Hands every observed point (position, triangle) to its argument, in a fixed order.
-pub type PointVisitor<'a> = &'a dyn Fn(&mut dyn FnMut(Vec3, u32));
+/// Hands every observed point (position, triangle) to its argument, in batches (a view's
+/// hits, say), in a fixed order.
+pub type PointVisitor<'a> = &'a dyn Fn(&mut PointSink);
+
+/// What a [`PointVisitor`] hands each batch of points to.
+pub type PointSink<'a> = dyn FnMut(&[(Vec3, u32)]) + 'a;
 
 impl FieldSurfaces {
     /// Caches `field` at voxels of edge `cell` occupied by the `observed` points (each with
@@ -181,7 +186,7 @@ impl FieldSurfaces {
         extra: &[(Vec3, u32)],
         cell: f32,
     ) -> fipt_core::Result<Self> {
-        let visit = |f: &mut dyn FnMut(Vec3, u32)| observed.iter().for_each(|&(p, t)| f(p, t));
+        let visit = |f: &mut PointSink| f(observed);
         Self::build_visiting(field, mesh, emitters, &visit, extra, cell)
     }
 
@@ -223,48 +228,62 @@ impl FieldSurfaces {
                 }
             }
         }
-        // Every point (observed, then extra) that is finite, in a fixed order.
-        let points = |f: &mut dyn FnMut(Vec3, u32, bool)| {
-            observed(&mut |p, t| {
-                if p.is_finite() {
-                    f(p, t, true)
-                }
-            });
-            for &(p, t) in extra.iter().filter(|(p, _)| p.is_finite()) {
-                f(p, t, false);
+        // Point sums per voxel, and observed points per (voxel, triangle): emitters' points
+        // say nothing of the surfaces around them. Non-finite points are left out. The maps
+        // fill on every thread, each voxel's points in their order (observed, then extra).
+        let voxel = |&(p, t): &(Vec3, u32)| p.is_finite().then(|| key(p, t));
+        let mut acc: PartedMap<Key, (Vec3, u32)> = PartedMap::new();
+        let mut on_triangle: PartedMap<(Key, u32), u32> = PartedMap::new();
+        let mut sum = |pts: &[(Vec3, u32)], seen: bool| {
+            acc.add_all(
+                pts,
+                |_, pt| voxel(pt),
+                |_| (Vec3::ZERO, 0),
+                |e, _, &(p, _)| {
+                    e.0 += p;
+                    e.1 += 1;
+                },
+            );
+            let lit = |t: u32| emission.get(t as usize) == Some(&Vec3::ZERO);
+            if seen {
+                on_triangle.add_all(
+                    pts,
+                    |_, pt| voxel(pt).filter(|_| lit(pt.1)).map(|k| (k, pt.1)),
+                    |_| 0,
+                    |n, _, _| *n += 1,
+                );
             }
         };
-        // Point sums per voxel, and observed points per (voxel, triangle): emitters' points
-        // say nothing of the surfaces around them.
-        let mut acc: HashMap<Key, (Vec3, u32)> = HashMap::default();
-        let mut on_triangle: HashMap<(Key, u32), u32> = HashMap::default();
-        points(&mut |p, t, seen| {
-            let k = key(p, t);
-            let e = acc.entry(k).or_insert((Vec3::ZERO, 0));
-            e.0 += p;
-            e.1 += 1;
-            if seen && emission.get(t as usize) == Some(&Vec3::ZERO) {
-                *on_triangle.entry((k, t)).or_insert(0) += 1;
-            }
-        });
-        // Each voxel's point nearest its mean.
-        let mut nearest: HashMap<Key, (f32, Vec3)> =
-            HashMap::with_capacity_and_hasher(acc.len(), Default::default());
-        points(&mut |p, t, _| {
-            let k = key(p, t);
-            let d = p.distance_squared(acc[&k].0 / acc[&k].1 as f32);
-            let e = nearest.entry(k).or_insert((f32::INFINITY, p));
-            if d < e.0 {
-                *e = (d, p);
-            }
-        });
-        let mut keys: Vec<Key> = acc.keys().copied().collect();
+        observed(&mut |pts| sum(pts, true));
+        sum(extra, false);
+        // Each voxel's point nearest its mean (the first such point).
+        let mut nearest: PartedMap<Key, (f32, Vec3)> = PartedMap::new();
+        let mut near = |pts: &[(Vec3, u32)]| {
+            nearest.add_all(
+                pts,
+                |_, pt| voxel(pt),
+                |&(p, _)| (f32::INFINITY, p),
+                |e, _, &(p, t)| {
+                    let (s, n) = acc.get(&key(p, t)).expect("every voxel is summed");
+                    let d = p.distance_squared(*s / *n as f32);
+                    if d < e.0 {
+                        *e = (d, p);
+                    }
+                },
+            )
+        };
+        observed(&mut near);
+        near(extra);
+        let mut keys: Vec<Key> = acc.iter().map(|(k, _)| *k).collect();
         keys.sort_unstable();
-        let centers: Vec<Vec3> = keys.iter().map(|k| nearest[k].1).collect();
+        let centers: Vec<Vec3> = keys
+            .iter()
+            .map(|k| nearest.get(k).expect("every voxel has a point").1)
+            .collect();
         let mats = field.materials(&centers)?;
         let voxels = MaterialTable::new(keys.into_iter().zip(mats.iter().copied()));
         let mut per_tri = vec![MeanSurface::default(); mesh.triangles.len()];
-        let mut votes: Vec<_> = on_triangle.into_iter().collect();
+        let mut votes: Vec<((Key, u32), u32)> = on_triangle.iter().map(|(k, n)| (*k, *n)).collect();
         votes.sort_unstable();
         for ((k, t), n) in votes {
             let m = voxels.get(&k).expect("every voted voxel is held");
@@ -305,11 +324,13 @@ impl FieldSurfaces {
     ) -> fipt_core::Result<Self> {
         let tri_facing = facings(mesh);
         let key = |p: Vec3, t: u32| voxel_key(p, cell, &tri_facing, t);
-        let seen: fipt_core::hash::GridSet<Key> = observed
-            .iter()
-            .filter(|(p, _)| p.is_finite())
-            .map(|&(p, t)| key(p, t))
-            .collect();
+        let mut seen: PartedMap<Key, ()> = PartedMap::new();
+        seen.add_all(
+            observed,
+            |_, &(p, t)| p.is_finite().then(|| key(p, t)),
+            |_| (),
+            |_, _, _| {},
+        );
         let area: f64 = (0..mesh.triangles.len()).map(|t| mesh.area(t) as f64).sum();
         let spacing = (cell as f64).max((area / max_fill.max(1) as f64).sqrt());
         let mut fill = Vec::new();
@@ -464,6 +485,38 @@ mod tests {
         assert_eq!(e.kd, Vec3::ZERO);
         assert_eq!(s.emission(1), Vec3::new(2.0, 3.0, 4.0));
         assert_eq!(s.emission(0), Vec3::ZERO);
+    }
+
+    /// The observed points handed in batches of any size (a view's hits at a time) build the
+    /// surfaces one slice of all of them builds, voxel for voxel.
+    #[test]
+    fn batches_of_any_size_build_the_same_surfaces() {
+        let mesh = Mesh::from_triangles(
+            vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 0.0, 1.0)],
+            None,
+            vec![[0, 1, 2]],
+        );
+        // A scatter of points on the triangle, some repeated, one not finite.
+        let mut pts: Vec<(Vec3, u32)> = (0..2000u32)
+            .map(|i| {
+                let u = (i as f32 * 0.618_034).fract() * 0.5;
+                let v = (i as f32 * 0.414_214).fract() * 0.5;
+                (Vec3::new(u, 0.0, v), 0)
+            })
+            .collect();
+        pts.extend_from_within(0..300);
+        pts.push((Vec3::NAN, 0));
+        let whole = FieldSurfaces::build(&Ramp, &mesh, &[], &pts, 0.03).unwrap();
+        for batch in [1, 7, 333] {
+            let visit = |f: &mut PointSink| pts.chunks(batch).for_each(&mut *f);
+            let s = FieldSurfaces::build_from(&Ramp, &mesh, &[], &visit, 0.03).unwrap();
+            assert_eq!(s.voxels(), whole.voxels(), "batches of {batch}");
+            for (p, _) in pts.iter().filter(|(p, _)| p.is_finite()) {
+                assert_eq!(s.surface(0, *p), whole.surface(0, *p), "batches of {batch}");
+            }
+            let off = Vec3::new(0.9, 0.0, 0.05);
+            assert_eq!(s.surface(0, off), whole.surface(0, off));
+        }
     }
 
     /// A triangle no view saw takes the value of the observed triangles it shares a vertex
