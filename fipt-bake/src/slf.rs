@@ -222,7 +222,17 @@ impl SlfBuilder {
 
     /// Adds one observation of radiance `l` at point `p` (ignored outside the cube or if not finite).
     pub fn add(&mut self, p: Vec3, l: Rgb) {
-        self.add_all(&[(p, l)]);
+        let key = fipt_core::color::is_finite(l)
+            .then(|| voxel_key(self.cube.min, self.inv_cell, self.resolution, p))
+            .flatten();
+        self.sums.add_one(
+            key,
+            || (DVec3::ZERO, 0),
+            |e| {
+                e.0 += l.as_dvec3();
+                e.1 += 1;
+            },
+        );
     }
 
     /// Adds the observations (point, radiance) in order, as [`SlfBuilder::add`] one at a time

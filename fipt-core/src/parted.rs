@@ -97,6 +97,23 @@ impl<K: Hash + Eq + Copy + Send + Sync, V: Send + Sync> PartedMap<K, V> {
         self.seen += items.len() as u64;
     }
 
+    /// Adds one item, as [`PartedMap::add_all`] of a batch of one does, without the threads.
+    pub fn add_one(
+        &mut self,
+        key: Option<K>,
+        init: impl FnOnce() -> V,
+        update: impl FnOnce(&mut V),
+    ) {
+        if let Some(k) = key {
+            let (n, seen) = (self.parts.len(), self.seen);
+            let e = self.parts[part_of(&k, n)]
+                .entry(k)
+                .or_insert_with(|| (seen, init()));
+            update(&mut e.1);
+        }
+        self.seen += 1;
+    }
+
     /// The entry of `key`.
     pub fn get(&self, key: &K) -> Option<&V> {
         self.parts[part_of(key, self.parts.len())]
@@ -198,14 +215,29 @@ mod tests {
         ] {
             let mut m = PartedMap::with_parts(parts);
             m.chunk = chunk;
-            for batch in &b {
+            for (bi, batch) in b.iter().enumerate() {
+                if bi % 2 == 1 {
+                    // Every other batch one item at a time.
+                    for &(k, x) in batch {
+                        m.add_one(
+                            (k % 7 != 3).then_some(k),
+                            || (0.0f32, 0u32, k),
+                            |e| {
+                                e.0 += x;
+                                e.1 += 1;
+                            },
+                        );
+                    }
+                    continue;
+                }
                 m.add_all(
                     batch,
                     |i, t| {
                         assert!(std::ptr::eq(&batch[i], t), "the key's index");
                         (t.0 % 7 != 3).then_some(t.0)
                     },
-                    |_| (0.0f32, 0u32),
+                    // The entry remembers the key of the item that made it.
+                    |&(k, _)| (0.0f32, 0u32, k),
                     |e, i, t @ (_, x)| {
                         assert!(std::ptr::eq(&batch[i], t), "the update's index");
                         e.0 += x;
@@ -216,16 +248,18 @@ mod tests {
             assert_eq!(m.len(), want.len(), "{parts} parts");
             for (k, v) in &want {
                 assert_eq!(
-                    m.get(k).map(|v| (v.0.to_bits(), v.1)),
-                    Some((v.0.to_bits(), v.1))
+                    m.get(k).map(|v| (v.0.to_bits(), v.1, v.2)),
+                    Some((v.0.to_bits(), v.1, *k))
                 );
             }
             assert!(!m.contains(&3) && !m.contains(&1000));
-            let got = m.into_first_seen();
-            let bits = |v: &[(i64, (f32, u32))]| -> Vec<(i64, u32, u32)> {
-                v.iter().map(|(k, (x, n))| (*k, x.to_bits(), *n)).collect()
-            };
-            assert_eq!(bits(&got), bits(&want), "{parts} parts");
+            let got: Vec<(i64, u32, u32)> = (m.into_first_seen().into_iter())
+                .map(|(k, (x, n, _))| (k, x.to_bits(), n))
+                .collect();
+            let want: Vec<(i64, u32, u32)> = (want.iter())
+                .map(|(k, (x, n))| (*k, x.to_bits(), *n))
+                .collect();
+            assert_eq!(got, want, "{parts} parts");
         }
     }
 

@@ -244,11 +244,11 @@ impl FieldSurfaces {
                     e.1 += 1;
                 },
             );
-            let lit = |t: u32| emission.get(t as usize) == Some(&Vec3::ZERO);
+            let unlit = |t: u32| emission.get(t as usize) == Some(&Vec3::ZERO);
             if seen {
                 on_triangle.add_all(
                     pts,
-                    |_, pt| voxel(pt).filter(|_| lit(pt.1)).map(|k| (k, pt.1)),
+                    |_, pt| voxel(pt).filter(|_| unlit(pt.1)).map(|k| (k, pt.1)),
                     |_| 0,
                     |n, _, _| *n += 1,
                 );
