@@ -193,6 +193,22 @@ fn voxel_key(min: Vec3, inv_cell: f32, res: u32, p: Vec3) -> Option<u64> {
     voxel_cell(min, inv_cell, res, p).map(|(x, y, z)| (z * r + y) * r + x)
 }
 
+/// The voxel of an observation of radiance `l` at `p` (None outside the grid or if `l` is not
+/// finite).
+#[inline]
+fn observation_key(min: Vec3, inv_cell: f32, res: u32, p: Vec3, l: Rgb) -> Option<u64> {
+    fipt_core::color::is_finite(l)
+        .then(|| voxel_key(min, inv_cell, res, p))
+        .flatten()
+}
+
+/// Adds one observation's radiance to a voxel's (sum, count).
+#[inline]
+fn accumulate(e: &mut (DVec3, u32), l: Rgb) {
+    e.0 += l.as_dvec3();
+    e.1 += 1;
+}
+
 /// Accumulates radiance samples into voxels.
 pub struct SlfBuilder {
     cube: Cube,
@@ -222,17 +238,9 @@ impl SlfBuilder {
 
     /// Adds one observation of radiance `l` at point `p` (ignored outside the cube or if not finite).
     pub fn add(&mut self, p: Vec3, l: Rgb) {
-        let key = fipt_core::color::is_finite(l)
-            .then(|| voxel_key(self.cube.min, self.inv_cell, self.resolution, p))
-            .flatten();
-        self.sums.add_one(
-            key,
-            || (DVec3::ZERO, 0),
-            |e| {
-                e.0 += l.as_dvec3();
-                e.1 += 1;
-            },
-        );
+        let key = observation_key(self.cube.min, self.inv_cell, self.resolution, p, l);
+        self.sums
+            .add_one(key, || (DVec3::ZERO, 0), |e| accumulate(e, l));
     }
 
     /// Adds the observations (point, radiance) in order, as [`SlfBuilder::add`] one at a time
@@ -241,16 +249,9 @@ impl SlfBuilder {
         let (min, inv, res) = (self.cube.min, self.inv_cell, self.resolution);
         self.sums.add_all(
             observations,
-            |_, &(p, l)| {
-                fipt_core::color::is_finite(l)
-                    .then(|| voxel_key(min, inv, res, p))
-                    .flatten()
-            },
+            |_, &(p, l)| observation_key(min, inv, res, p, l),
             |_| (DVec3::ZERO, 0),
-            |e, _, &(_, l)| {
-                e.0 += l.as_dvec3();
-                e.1 += 1;
-            },
+            |e, _, &(_, l)| accumulate(e, l),
         );
     }
 
