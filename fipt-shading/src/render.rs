@@ -88,88 +88,158 @@ pub struct RenderStats {
 pub fn trace_path<S: SurfaceModel>(
     scene: &Scene<S>,
     cfg: &RenderConfig,
-    mut origin: Vec3,
-    mut dir: Vec3,
+    origin: Vec3,
+    dir: Vec3,
     rng: &mut Pcg32,
 ) -> (Rgb, u32) {
-    let mut l = Vec3::ZERO;
-    let mut beta = Vec3::ONE;
-    let mut rays = 0u32;
-    let mut prev_pdf = 0.0f32; // BRDF pdf of the last sampled direction (0 = camera ray)
-    let mut bounce = 0u32;
-    loop {
-        rays += 1;
-        let Some(hit) = scene.bvh.closest_hit(origin, dir, 0.0, f32::INFINITY) else {
-            break;
-        };
-        let tri = hit.tri;
-        let le = scene.surfaces.emission(tri);
-        let wo_w = -dir;
-        let cos_ng = hit.ng.dot(wo_w);
-        if le != Vec3::ZERO && scene.surfaces.emit_side(tri).emits_towards(hit.ng, wo_w) {
-            if prev_pdf == 0.0 {
-                l += beta * le;
-            } else if cos_ng.abs() > 0.0 {
-                let light_pdf = scene.light_pdf_area[tri as usize] * hit.t * hit.t / cos_ng.abs();
-                l += beta * le * power_heuristic(prev_pdf, light_pdf);
-            }
-        }
-        if bounce >= cfg.max_bounces {
+    let mut path = Path::new(origin, dir);
+    while let Some(v) = arrive(scene, cfg, &mut path) {
+        v.prefetch(scene);
+        if !scatter(scene, cfg, &mut path, &v, rng) {
             break;
         }
-        let p = hit_point(&scene.mesh, &hit);
-        // The material lookup is a random memory access: start it, make the frame meanwhile.
-        // (Both break tests below end the path before any random number is drawn, so their
-        // order changes no output.)
-        scene.surfaces.prefetch(tri, p);
-        // Two-sided: orient both normals towards the viewer.
-        let ng = if cos_ng < 0.0 { -hit.ng } else { hit.ng };
-        let mut ns = shading_normal(&scene.mesh, &hit);
-        if ns.dot(ng) < 0.0 {
-            ns = -ns;
-        }
-        let frame = Frame::from_normal(ns);
-        let wo = frame.to_local(wo_w);
-        if wo.z <= 0.0 {
-            break;
-        }
-        let p_out = scene.bvh.offset(p, ng);
-        let sp = scene.surfaces.surface(tri, p);
-        let brdf = scene.surfaces.brdf(&sp);
-        if brdf.is_black() {
-            break;
-        }
-        // Next-event estimation: the emitting triangles (MIS with the BRDF), the point lights.
-        let at = ShadingPoint {
-            brdf: &brdf,
-            frame: &frame,
-            p_out,
-            ng,
-            wo,
-        };
-        rays += next_event(scene, &at, beta, rng, &mut l);
-        // Continue the path by sampling the BRDF.
-        let Some(s) = brdf.sample(wo, rng.next_f32(), rng.next_2d()) else {
-            break;
-        };
-        let wi_w = frame.to_world(s.wi);
-        if wi_w.dot(ng) <= 0.0 {
-            break;
-        }
-        beta *= s.weight;
-        prev_pdf = s.pdf;
-        bounce += 1;
-        if bounce > cfg.rr_start {
-            let q = beta.max_element().min(0.95);
-            if rng.next_f32() >= q {
-                break;
-            }
-            beta /= q;
-        }
-        origin = scene.bvh.offset(p, ng);
-        dir = wi_w;
     }
-    (l, rays)
+    (path.l, path.rays)
+}
+
+/// A camera path between two vertices: what [`arrive`] and [`scatter`] carry on.
+struct Path {
+    /// The next ray.
+    origin: Vec3,
+    dir: Vec3,
+    /// Radiance gathered so far.
+    l: Rgb,
+    /// Throughput.
+    beta: Rgb,
+    /// BRDF pdf of the last sampled direction (0 = camera ray).
+    prev_pdf: f32,
+    bounce: u32,
+    /// Rays cast so far.
+    rays: u32,
+}
+
+impl Path {
+    fn new(origin: Vec3, dir: Vec3) -> Self {
+        Path {
+            origin,
+            dir,
+            l: Vec3::ZERO,
+            beta: Vec3::ONE,
+            prev_pdf: 0.0,
+            bounce: 0,
+            rays: 0,
+        }
+    }
+}
+
+/// A surface a path reached and will scatter from.
+#[derive(Clone, Copy)]
+struct Vertex {
+    hit: fipt_geom::Hit,
+    p: Vec3,
+    /// The geometric normal's cosine with the direction back along the ray.
+    cos_ng: f32,
+}
+
+impl Vertex {
+    /// Starts fetching the vertex's material: the lookup is a random memory access, which
+    /// the frame (and in [`trace_tile`] the other paths' fetches) then hide.
+    #[inline]
+    fn prefetch<S: SurfaceModel>(&self, scene: &Scene<S>) {
+        scene.surfaces.prefetch(self.hit.tri, self.p);
+    }
+}
+
+/// Casts the path's next ray and adds the light it sees emitted there (MIS against the light
+/// sample of the vertex before); the vertex to scatter from, or None where the path ends.
+/// Draws no random number.
+#[inline]
+fn arrive<S: SurfaceModel>(
+    scene: &Scene<S>,
+    cfg: &RenderConfig,
+    path: &mut Path,
+) -> Option<Vertex> {
+    path.rays += 1;
+    let hit = scene
+        .bvh
+        .closest_hit(path.origin, path.dir, 0.0, f32::INFINITY)?;
+    let tri = hit.tri;
+    let le = scene.surfaces.emission(tri);
+    let wo_w = -path.dir;
+    let cos_ng = hit.ng.dot(wo_w);
+    if le != Vec3::ZERO && scene.surfaces.emit_side(tri).emits_towards(hit.ng, wo_w) {
+        if path.prev_pdf == 0.0 {
+            path.l += path.beta * le;
+        } else if cos_ng.abs() > 0.0 {
+            let light_pdf = scene.light_pdf_area[tri as usize] * hit.t * hit.t / cos_ng.abs();
+            path.l += path.beta * le * power_heuristic(path.prev_pdf, light_pdf);
+        }
+    }
+    if path.bounce >= cfg.max_bounces {
+        return None;
+    }
+    let p = hit_point(&scene.mesh, &hit);
+    Some(Vertex { hit, p, cos_ng })
+}
+
+/// Scatters the path at `v`: next-event estimation, then a direction sampled from the BRDF
+/// and Russian roulette; false where the path ends.
+#[inline]
+fn scatter<S: SurfaceModel>(
+    scene: &Scene<S>,
+    cfg: &RenderConfig,
+    path: &mut Path,
+    v: &Vertex,
+    rng: &mut Pcg32,
+) -> bool {
+    let (hit, p) = (&v.hit, v.p);
+    // Two-sided: orient both normals towards the viewer.
+    let ng = if v.cos_ng < 0.0 { -hit.ng } else { hit.ng };
+    let mut ns = shading_normal(&scene.mesh, hit);
+    if ns.dot(ng) < 0.0 {
+        ns = -ns;
+    }
+    let frame = Frame::from_normal(ns);
+    let wo = frame.to_local(-path.dir);
+    if wo.z <= 0.0 {
+        return false;
+    }
+    let p_out = scene.bvh.offset(p, ng);
+    let sp = scene.surfaces.surface(hit.tri, p);
+    let brdf = scene.surfaces.brdf(&sp);
+    if brdf.is_black() {
+        return false;
+    }
+    // Next-event estimation: the emitting triangles (MIS with the BRDF), the point lights.
+    let at = ShadingPoint {
+        brdf: &brdf,
+        frame: &frame,
+        p_out,
+        ng,
+        wo,
+    };
+    path.rays += next_event(scene, &at, path.beta, rng, &mut path.l);
+    // Continue the path by sampling the BRDF.
+    let Some(s) = brdf.sample(wo, rng.next_f32(), rng.next_2d()) else {
+        return false;
+    };
+    let wi_w = frame.to_world(s.wi);
+    if wi_w.dot(ng) <= 0.0 {
+        return false;
+    }
+    path.beta *= s.weight;
+    path.prev_pdf = s.pdf;
+    path.bounce += 1;
+    if path.bounce > cfg.rr_start {
+        let q = path.beta.max_element().min(0.95);
+        if rng.next_f32() >= q {
+            return false;
+        }
+        path.beta /= q;
+    }
+    path.origin = p_out;
+    path.dir = wi_w;
+    true
 }
 
 /// A path vertex as next-event estimation sees it.
@@ -290,37 +360,11 @@ pub fn trace_variance<S: SurfaceModel>(
     let tile_list = tiles(w, h, cfg.tile);
     let results: Vec<Vec<(Rgb, f32)>> = tile_list
         .par_iter()
-        .map(|&(x0, y0, x1, y1)| {
-            let mut out = Vec::with_capacity((x1 - x0) * (y1 - y0));
-            let mut nrays = 0usize;
-            let mut bad = 0usize;
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let mut rng = Pcg32::from_keys(&[cfg.seed, view_key, (y * w + x) as u64]);
-                    let mut sum = Vec3::ZERO;
-                    let mut sq = 0.0f64;
-                    for _ in 0..cfg.spp {
-                        let jitter = rng.next_2d();
-                        let (o, d) = camera.ray(x as f32 + jitter.x, y as f32 + jitter.y);
-                        let (li, r) = trace_path(scene, cfg, o, d, &mut rng);
-                        nrays += r as usize;
-                        if is_finite(li) {
-                            sum += li;
-                            sq += (fipt_core::color::luminance(li) as f64).powi(2);
-                        } else {
-                            bad += 1;
-                        }
-                    }
-                    let n = cfg.spp.max(1) as f32;
-                    let mean = sum / n;
-                    let l = fipt_core::color::luminance(mean) as f64;
-                    let var = ((sq / n as f64 - l * l).max(0.0) / n as f64) as f32;
-                    out.push((mean, var));
-                }
-            }
+        .map(|&rect| {
+            let (out, nrays, bad) = trace_tile(scene, camera, cfg, view_key, rect);
             rays.fetch_add(nrays, Ordering::Relaxed);
             nonfinite.fetch_add(bad, Ordering::Relaxed);
-            progress((x1 - x0) * (y1 - y0));
+            progress(out.len());
             out
         })
         .collect();
@@ -343,6 +387,149 @@ pub fn trace_variance<S: SurfaceModel>(
         seconds: t.elapsed().as_secs_f64(),
     };
     (img, variance, stats)
+}
+
+/// Paths in flight on a thread. Each lane is a pixel whose samples run one after another,
+/// so its random stream is drawn in the order of one path at a time and the image does not
+/// depend on the lanes; the lanes take turns at every vertex, so that one lane's material
+/// fetch is hidden behind the others' traversals.
+const LANES: usize = 16;
+
+/// A pixel being traced, one sample's path at a time.
+struct Lane {
+    /// The pixel's index in its tile, and its coordinates.
+    at: usize,
+    x: usize,
+    y: usize,
+    rng: Pcg32,
+    /// Samples finished, their sum and the sum of their luminances' squares.
+    done: u32,
+    sum: Rgb,
+    sq: f64,
+    path: Path,
+    vertex: Option<Vertex>,
+}
+
+impl Lane {
+    fn new(
+        at: usize,
+        x: usize,
+        y: usize,
+        camera: &Camera,
+        cfg: &RenderConfig,
+        view_key: u64,
+    ) -> Self {
+        let w = camera.width;
+        let rng = Pcg32::from_keys(&[cfg.seed, view_key, (y * w + x) as u64]);
+        let mut lane = Lane {
+            at,
+            x,
+            y,
+            rng,
+            done: 0,
+            sum: Vec3::ZERO,
+            sq: 0.0,
+            path: Path::new(Vec3::ZERO, Vec3::Z),
+            vertex: None,
+        };
+        lane.begin(camera);
+        lane
+    }
+
+    /// Starts the next sample's camera path (a jittered point of the pixel square).
+    fn begin(&mut self, camera: &Camera) {
+        let jitter = self.rng.next_2d();
+        let (o, d) = camera.ray(self.x as f32 + jitter.x, self.y as f32 + jitter.y);
+        self.path = Path::new(o, d);
+    }
+
+    /// Adds the finished path's radiance; false when it was not finite (and is dropped).
+    fn finish_path(&mut self) -> bool {
+        let li = self.path.l;
+        if !is_finite(li) {
+            return false;
+        }
+        self.sum += li;
+        self.sq += (fipt_core::color::luminance(li) as f64).powi(2);
+        true
+    }
+
+    /// The pixel's mean and the variance of its mean luminance.
+    fn result(&self, spp: u32) -> (Rgb, f32) {
+        let n = spp.max(1) as f32;
+        let mean = self.sum / n;
+        let l = fipt_core::color::luminance(mean) as f64;
+        let var = ((self.sq / n as f64 - l * l).max(0.0) / n as f64) as f32;
+        (mean, var)
+    }
+}
+
+/// One tile's pixels (row-major) as (mean, variance of the mean luminance), with the rays
+/// cast and the samples dropped as not finite; [`LANES`] pixels in flight.
+fn trace_tile<S: SurfaceModel>(
+    scene: &Scene<S>,
+    camera: &Camera,
+    cfg: &RenderConfig,
+    view_key: u64,
+    (x0, y0, x1, y1): (usize, usize, usize, usize),
+) -> (Vec<(Rgb, f32)>, usize, usize) {
+    let tw = x1 - x0;
+    let n = tw * (y1 - y0);
+    let mut out = vec![(Vec3::ZERO, 0.0f32); n];
+    if cfg.spp == 0 {
+        return (out, 0, 0);
+    }
+    let (mut nrays, mut bad) = (0usize, 0usize);
+    let mut next = 0usize;
+    let mut take = || {
+        (next < n).then(|| {
+            next += 1;
+            let at = next - 1;
+            Lane::new(at, x0 + at % tw, y0 + at / tw, camera, cfg, view_key)
+        })
+    };
+    let mut lanes: Vec<Lane> = std::iter::from_fn(&mut take).take(LANES).collect();
+    while !lanes.is_empty() {
+        for lane in lanes.iter_mut() {
+            lane.vertex = arrive(scene, cfg, &mut lane.path);
+        }
+        for v in lanes.iter().filter_map(|l| l.vertex.as_ref()) {
+            v.prefetch(scene);
+        }
+        let mut k = 0;
+        while k < lanes.len() {
+            let lane = &mut lanes[k];
+            let goes_on = match lane.vertex.take() {
+                Some(v) => scatter(scene, cfg, &mut lane.path, &v, &mut lane.rng),
+                None => false,
+            };
+            if goes_on {
+                k += 1;
+                continue;
+            }
+            nrays += lane.path.rays as usize;
+            if !lane.finish_path() {
+                bad += 1;
+            }
+            lane.done += 1;
+            if lane.done < cfg.spp {
+                lane.begin(camera);
+                k += 1;
+                continue;
+            }
+            out[lane.at] = lane.result(cfg.spp);
+            match take() {
+                Some(fresh) => {
+                    lanes[k] = fresh;
+                    k += 1;
+                }
+                None => {
+                    lanes.swap_remove(k);
+                }
+            }
+        }
+    }
+    (out, nrays, bad)
 }
 
 /// Per-pixel ground truth at the pixel-centre ray (not anti-aliased). On emitter pixels

@@ -115,6 +115,56 @@ fn renders_are_reproducible_and_views_independent() {
     assert_eq!(a, d);
 }
 
+/// The tracer keeps several pixels' paths in flight on a thread; each pixel still draws its
+/// random stream one path after another, so the image is the one traced pixel by pixel with
+/// `trace_path`, bit for bit, and the ray count the sum of its paths', whatever the tile
+/// (a pixel, fewer pixels than paths in flight, more, the whole image).
+#[test]
+fn paths_in_flight_give_the_image_of_one_path_at_a_time() {
+    use fipt_core::rng::Pcg32;
+    use fipt_shading::render::{trace_path, trace_variance};
+    let scene = furnace(0.7, 1.0);
+    let (w, h) = (13usize, 9usize);
+    let cam = Camera::look_at(Vec3::ZERO, Vec3::X, Vec3::Y, 1.0, w, h);
+    let (view_key, spp) = (5u64, 3u32);
+    let cfg = RenderConfig {
+        spp,
+        max_bounces: 6,
+        rr_start: 0,
+        seed: 11,
+        tile: 1,
+    };
+    let (mut want, mut rays) = (Vec::new(), 0u64);
+    for y in 0..h {
+        for x in 0..w {
+            let mut rng = Pcg32::from_keys(&[cfg.seed, view_key, (y * w + x) as u64]);
+            let mut sum = Vec3::ZERO;
+            for _ in 0..spp {
+                let j = rng.next_2d();
+                let (o, d) = cam.ray(x as f32 + j.x, y as f32 + j.y);
+                let (l, r) = trace_path(&scene, &cfg, o, d, &mut rng);
+                sum += l;
+                rays += r as u64;
+            }
+            want.push(sum / spp as f32);
+        }
+    }
+    for tile in [1, 3, 16, 64] {
+        let (img, _, stats) = trace_variance(
+            &scene,
+            &cam,
+            &RenderConfig {
+                tile,
+                ..cfg.clone()
+            },
+            view_key,
+            &|_| {},
+        );
+        assert_eq!(img.data, want, "tile {tile}");
+        assert_eq!(stats.rays, rays, "tile {tile}");
+    }
+}
+
 #[test]
 fn aovs_report_the_surface_at_pixel_centres() {
     let scene = furnace(0.3, 2.0);
