@@ -1,5 +1,6 @@
 //! The forward path tracer: next-event estimation with MIS (power heuristic), Russian
-//! roulette, reproducible per-pixel random streams, rayon over tiles, and ground-truth AOVs.
+//! roulette, reproducible per-pixel random streams, rayon over tiles with several pixels'
+//! paths in flight on each thread (their material fetches overlap), and ground-truth AOVs.
 use crate::incident::power_heuristic;
 use crate::scene::{Scene, SurfaceModel};
 use fipt_core::brdf::{Brdf, Frame};
