@@ -392,8 +392,9 @@ pub fn trace_variance<S: SurfaceModel>(
 
 /// Paths in flight on a thread. Each lane is a pixel whose samples run one after another,
 /// so its random stream is drawn in the order of one path at a time and the image does not
-/// depend on the lanes; the lanes take turns at every vertex, so that one lane's material
-/// fetch is hidden behind the others' traversals.
+/// depend on the lanes. The lanes take turns: all of them cast their next ray, all their
+/// material fetches are requested together, then each scatters, so that a lane's fetch is
+/// hidden behind the other fetches and the shading of the lanes before it.
 const LANES: usize = 16;
 
 /// A pixel being traced, one sample's path at a time.
@@ -403,7 +404,8 @@ struct Lane {
     x: usize,
     y: usize,
     rng: Pcg32,
-    /// Samples finished, their sum and the sum of their luminances' squares.
+    /// Samples finished (finite or not), and the sum of the finite ones and of their
+    /// luminances' squares.
     done: u32,
     sum: Rgb,
     sq: f64,

@@ -116,15 +116,18 @@ fn renders_are_reproducible_and_views_independent() {
 }
 
 /// The tracer keeps several pixels' paths in flight on a thread; each pixel still draws its
-/// random stream one path after another, so the image is the one traced pixel by pixel with
-/// `trace_path`, bit for bit, and the ray count the sum of its paths', whatever the tile
-/// (a pixel, fewer pixels than paths in flight, more, the whole image).
+/// random stream one path after another, so the image and the variance are those traced
+/// pixel by pixel with `trace_path` (compared bit for bit), and the ray count the sum of its
+/// paths', whatever the tile: a pixel, fewer pixels than paths in flight, more, the whole
+/// image. (That `trace_path` itself traces as before its split into `arrive` and `scatter` is
+/// shown by whole renders, `docs/scaling.md`, *Paths in flight*.)
 #[test]
 fn paths_in_flight_give_the_image_of_one_path_at_a_time() {
+    use fipt_core::color::luminance;
     use fipt_core::rng::Pcg32;
     use fipt_shading::render::{trace_path, trace_variance};
     let scene = furnace(0.7, 1.0);
-    let (w, h) = (13usize, 9usize);
+    let (w, h) = (40usize, 20usize);
     let cam = Camera::look_at(Vec3::ZERO, Vec3::X, Vec3::Y, 1.0, w, h);
     let (view_key, spp) = (5u64, 3u32);
     let cfg = RenderConfig {
@@ -134,34 +137,40 @@ fn paths_in_flight_give_the_image_of_one_path_at_a_time() {
         seed: 11,
         tile: 1,
     };
-    let (mut want, mut rays) = (Vec::new(), 0u64);
+    let (mut want, mut want_var, mut rays) = (Vec::new(), Vec::new(), 0u64);
     for y in 0..h {
         for x in 0..w {
             let mut rng = Pcg32::from_keys(&[cfg.seed, view_key, (y * w + x) as u64]);
-            let mut sum = Vec3::ZERO;
+            let (mut sum, mut sq) = (Vec3::ZERO, 0.0f64);
             for _ in 0..spp {
                 let j = rng.next_2d();
                 let (o, d) = cam.ray(x as f32 + j.x, y as f32 + j.y);
                 let (l, r) = trace_path(&scene, &cfg, o, d, &mut rng);
                 sum += l;
+                sq += (luminance(l) as f64).powi(2);
                 rays += r as u64;
             }
-            want.push(sum / spp as f32);
+            let n = spp as f32;
+            let mean = sum / n;
+            let lm = luminance(mean) as f64;
+            want_var.push((((sq / n as f64 - lm * lm).max(0.0)) / n as f64) as f32);
+            want.push(mean);
         }
     }
+    let bits = |v: &[Vec3]| -> Vec<[u32; 3]> {
+        v.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
+    };
+    let var_bits = |v: &[f32]| -> Vec<u32> { v.iter().map(|x| x.to_bits()).collect() };
     for tile in [1, 3, 16, 64] {
-        let (img, _, stats) = trace_variance(
-            &scene,
-            &cam,
-            &RenderConfig {
-                tile,
-                ..cfg.clone()
-            },
-            view_key,
-            &|_| {},
-        );
-        assert_eq!(img.data, want, "tile {tile}");
+        let cfg = RenderConfig {
+            tile,
+            ..cfg.clone()
+        };
+        let (img, var, stats) = trace_variance(&scene, &cam, &cfg, view_key, &|_| {});
+        assert_eq!(bits(&img.data), bits(&want), "tile {tile}");
+        assert_eq!(var_bits(&var), var_bits(&want_var), "tile {tile}");
         assert_eq!(stats.rays, rays, "tile {tile}");
+        assert_eq!(stats.nonfinite, 0);
     }
 }
 
