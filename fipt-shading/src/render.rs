@@ -446,15 +446,24 @@ impl Lane {
         self.path = Path::new(o, d);
     }
 
-    /// Adds the finished path's radiance; false when it was not finite (and is dropped).
-    fn finish_path(&mut self) -> bool {
+    /// Ends the current path: its rays are added to `rays`, its radiance to the pixel's (a
+    /// radiance that is not finite is dropped and counted in `bad`), and the next sample's
+    /// path begins; false when the pixel has all its `spp` samples.
+    fn end_path(&mut self, camera: &Camera, spp: u32, rays: &mut usize, bad: &mut usize) -> bool {
+        *rays += self.path.rays as usize;
         let li = self.path.l;
-        if !is_finite(li) {
-            return false;
+        if is_finite(li) {
+            self.sum += li;
+            self.sq += (fipt_core::color::luminance(li) as f64).powi(2);
+        } else {
+            *bad += 1;
         }
-        self.sum += li;
-        self.sq += (fipt_core::color::luminance(li) as f64).powi(2);
-        true
+        self.done += 1;
+        if self.done < spp {
+            self.begin(camera);
+            return true;
+        }
+        false
     }
 
     /// The pixel's mean and the variance of its mean luminance.
@@ -468,7 +477,7 @@ impl Lane {
 }
 
 /// One tile's pixels (row-major) as (mean, variance of the mean luminance), with the rays
-/// cast and the samples dropped as not finite; [`LANES`] pixels in flight.
+/// cast and the samples dropped as not finite; at most [`LANES`] pixels in flight.
 fn trace_tile<S: SurfaceModel>(
     scene: &Scene<S>,
     camera: &Camera,
@@ -506,17 +515,7 @@ fn trace_tile<S: SurfaceModel>(
                 Some(v) => scatter(scene, cfg, &mut lane.path, &v, &mut lane.rng),
                 None => false,
             };
-            if goes_on {
-                k += 1;
-                continue;
-            }
-            nrays += lane.path.rays as usize;
-            if !lane.finish_path() {
-                bad += 1;
-            }
-            lane.done += 1;
-            if lane.done < cfg.spp {
-                lane.begin(camera);
+            if goes_on || lane.end_path(camera, cfg.spp, &mut nrays, &mut bad) {
                 k += 1;
                 continue;
             }
