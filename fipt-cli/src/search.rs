@@ -34,6 +34,10 @@ pub struct Args {
     /// 0 in `fipt run`: the contrast alone).
     #[arg(long, default_value_t = 0.0)]
     outline_share: f32,
+    /// Average each pixel's Ld over the pixels within this many of it in its view and region
+    /// (`[search] diffuse_radius`; 0: Ld as refined)
+    #[arg(long, default_value_t = fipt_search::SearchConfig::default().diffuse_radius)]
+    diffuse_radius: u32,
 }
 
 /// The lowest cost over σ at the `mi`-th metallic candidate (NaN when there is none).
@@ -56,6 +60,7 @@ pub fn run(a: Args) -> Result<()> {
         drop_edges: a.drop_edges,
         edge_contrast: a.edge_contrast,
         outline_share: a.outline_share,
+        diffuse_radius: a.diffuse_radius,
     })?;
     println!(
         "{:>6} {:>7} {:>6} | {:>18} {:>7} | {:>8} {:>8} | {:>9} {:>9} {:>9} | {:>9} {:>9} | chosen σ, m",

@@ -21,6 +21,7 @@ use fipt_search::{
 use fipt_shading::records::{HitPoint, PrimaryHit};
 use serde::Serialize;
 
+mod diffuse;
 mod profile;
 pub use profile::{profile_rows, ProfileRequest, ProfileRow};
 
@@ -308,15 +309,29 @@ fn compact_inputs(
             .filter(|_| !masked(v, i))
             .filter(|_| fipt_core::rng::pixel_kept(seed, v, i, share))
     };
+    let limit = diffuse::NEAR_FOOTPRINTS * footprint;
+    let near = |recs: &[Option<HitPoint>], i: usize, j: usize| match (&recs[i], &recs[j]) {
+        (Some(a), Some(b)) => a.point().distance(b.point()) <= limit,
+        _ => false,
+    };
     let (mut keyed, mut shadings, mut images) = (vec![], vec![], vec![]);
     // One buffer for every view's file, and only the kept pixels decoded (a whole view
     // decoded is 181 bytes a pixel, 55 MB at 640 × 480, read and freed for every view).
     let mut buf = vec![];
     for (v, recs) in records.iter().enumerate() {
         let file = stored.read_view(v, &mut buf)?;
-        let mine = view_pixels(v, recs, &file.valid(), &keep);
+        let valid = file.valid();
+        let mine = view_pixels(v, recs, &valid, &keep);
         let idx: Vec<u32> = mine.iter().map(|k| k.1).collect();
-        shadings.push(file.select(&idx));
+        let mut rows = file.select(&idx);
+        let nb = diffuse::Neighbours {
+            radius: cfg.diffuse_radius as usize,
+            region: &|j| regions.id(v, j),
+            valid: &|j| valid[j],
+            near: &|i, j| near(recs, i, j),
+        };
+        diffuse::smooth(&mut rows, &idx, file.size(), &nb, &|ix| file.select(ix));
+        shadings.push(rows);
         let data = idx
             .iter()
             .map(|&i| scene.images[v].data[i as usize])

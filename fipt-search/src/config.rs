@@ -160,9 +160,22 @@ pub struct SearchConfig {
     /// it existed (keyed on the settings) are reused.
     #[serde(default = "default_one_colour_below", skip_serializing_if = "is_off")]
     pub one_colour_below: f32,
+    /// The search reads each pixel's diffuse shading (Ld, and [Ld1, Ld2] under
+    /// `principled`) as the mean over the pixels within this many pixels of it, in the same
+    /// view and region, with valid shadings. Noise in Ld, the regressor of the per-cell base
+    /// colour, pulls faintly glossy surfaces' minima glossy: with the ground truth's
+    /// materials and lights refined, `room`'s walls (σ 0.85–0.95) had their minima at
+    /// 0.62–0.72 with Ld as refined and 0.76–0.82 with 1 (`docs/roughness-rooms.md`, *Where
+    /// rough walls' glossy minima come from*). 0: Ld as refined.
+    #[serde(default = "default_diffuse_radius")]
+    pub diffuse_radius: u32,
     /// Dividing regions of two finishes by colour ([`split`](crate::split)) or by gloss ([`gloss`](crate::gloss)).
     #[serde(default)]
     pub split: split::SplitConfig,
+}
+
+fn default_diffuse_radius() -> u32 {
+    1
 }
 
 fn default_one_colour_below() -> f32 {
@@ -237,6 +250,7 @@ impl Default for SearchConfig {
             hedge_disputed: true,
             max_pixels: default_max_pixels(),
             one_colour_below: default_one_colour_below(),
+            diffuse_radius: default_diffuse_radius(),
             split: split::SplitConfig::default(),
         }
     }
@@ -272,6 +286,9 @@ impl SearchConfig {
         }
         if !(2..=10_000).contains(&self.roughness_steps) {
             return bad("roughness_steps", &self.roughness_steps, "2..=10000");
+        }
+        if self.diffuse_radius > 8 {
+            return bad("diffuse_radius", &self.diffuse_radius, "0..=8");
         }
         if self.metallic.is_empty()
             || self.metallic.len() > 100

@@ -20,6 +20,8 @@ pub struct ProfileRequest {
     pub edge_contrast: f32,
     /// With `drop_edges`: `[search] outline_share`.
     pub outline_share: f32,
+    /// `[search] diffuse_radius`: the pixels over which the search averages Ld.
+    pub diffuse_radius: u32,
 }
 
 /// One region of `fipt profile`: its cost curves with the fitted albedo, with the true one
@@ -115,6 +117,7 @@ fn profile_inputs(
         drop_edges: a.drop_edges,
         edge_contrast: a.edge_contrast,
         outline_share: a.outline_share,
+        diffuse_radius: a.diffuse_radius,
         ..SearchConfig::default()
     };
     cfg.validate().map_err(crate::error::RunError::invalid)?;
@@ -136,6 +139,18 @@ pub fn profile_rows(a: &ProfileRequest) -> Result<Vec<ProfileRow>> {
     else {
         bail!("no regions");
     };
+    let mut shadings = shadings;
+    let limit = diffuse::NEAR_FOOTPRINTS * footprint.unwrap_or(0.01);
+    let near = |v: usize, i: usize, j: usize| match (&records[v][i], &records[v][j]) {
+        (Some(a), Some(b)) => a.point().distance(b.point()) <= limit,
+        _ => false,
+    };
+    diffuse::smooth_views(
+        &mut shadings,
+        cfg.diffuse_radius as usize,
+        &|v, i| regions.id(v, i),
+        &near,
+    );
     let split = super::divide(
         &pixels,
         &voxels,
