@@ -295,17 +295,7 @@ impl MaterialField for TableField {
                         d(i).total_cmp(&d(j))
                     })
                     .unwrap();
-                let sp = self.materials.eval(self.tri_material[best], p);
-                let albedo = if sp.metallic >= 0.999 {
-                    sp.ks
-                } else {
-                    sp.kd / (1.0 - sp.metallic)
-                };
-                Material {
-                    albedo,
-                    roughness: sp.roughness,
-                    metallic: sp.metallic,
-                }
+                Material::of_surface(&self.materials.eval(self.tri_material[best], p))
             })
             .collect())
     }

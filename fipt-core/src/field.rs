@@ -30,6 +30,21 @@ impl Material {
     pub fn ks(&self) -> Rgb {
         crate::reflectance::metallic_workflow(self.albedo, self.metallic).1
     }
+
+    /// The material whose (kd, ks) are a ground-truth surface point's: the base colour is ks
+    /// for a metal, kd / (1 − m) otherwise.
+    pub fn of_surface(sp: &crate::materials::SurfacePoint) -> Material {
+        let albedo = if sp.metallic >= 0.999 {
+            sp.ks
+        } else {
+            sp.kd / (1.0 - sp.metallic).max(1e-3)
+        };
+        Material {
+            albedo,
+            roughness: sp.roughness,
+            metallic: sp.metallic,
+        }
+    }
 }
 
 /// A queryable BRDF field and emission mask.

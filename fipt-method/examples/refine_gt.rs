@@ -42,17 +42,7 @@ impl MaterialField for GtField {
             .iter()
             .map(|&p| {
                 let t = self.loc.nearest(p).unwrap_or(0);
-                let sp = self.table.surface(t, p);
-                let albedo = if sp.metallic >= 0.999 {
-                    sp.ks
-                } else {
-                    sp.kd / (1.0 - sp.metallic).max(1e-3)
-                };
-                Material {
-                    albedo,
-                    roughness: sp.roughness,
-                    metallic: sp.metallic,
-                }
+                Material::of_surface(&self.table.surface(t, p))
             })
             .collect())
     }
