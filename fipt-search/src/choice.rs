@@ -1,6 +1,6 @@
 //! The decision for one region from its cost profile: metal or not, and which σ (the rules of
 //! [`SearchConfig`]: tolerances, the interior rule, held-out halves, the bands).
-use super::{RegionChoice, RegionProfile, SearchConfig};
+use super::{DielectricRule, RegionChoice, RegionProfile, SearchConfig};
 
 /// Index of the smallest finite value (None when there is none).
 pub(super) fn argmin(v: &[f64]) -> Option<usize> {
@@ -95,6 +95,9 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
 /// midpoint of the interior rule's σ and the roughest (`hedge_disputed`). No target on too
 /// few pixels.
 ///
+/// With `dielectric_rule = "minimum"` (the default) a dielectric whose minimum lies at or above
+/// `interior_sigma` takes that minimum, whatever the rules above would lift it to.
+///
 /// `was_metal`: the previous search (on earlier shadings) called this region metal; it stays
 /// metal unless the dielectric answer beats it by `metal_margin` (hysteresis: the margin is
 /// needed to switch either way, so that a small region's decision does not flip on noise).
@@ -176,6 +179,14 @@ pub fn choose(
         || roughest_within((gain * cfg.interior_tolerance as f64).min(cfg.interior_cap as f64));
     if interior && (!cfg.held_out || halves.is_some_and(|h| holds_out(h, mi, cfg))) {
         si = interior_si();
+    }
+    if !metal && cfg.dielectric_rule == DielectricRule::Minimum && p.sigma[b] >= cfg.interior_sigma
+    {
+        return RegionChoice {
+            roughness: Some(p.sigma[b]),
+            metallic: Some(p.metallic[mi]),
+            ..fallback
+        };
     }
     let near_roughest = p.sigma[b] >= p.sigma[n - 1] - cfg.rough_band - 1e-6;
     let rough = !metal && si + 1 == n && cfg.rough_band > 0.0 && near_roughest;

@@ -169,6 +169,15 @@ pub struct SearchConfig {
     /// rough walls' glossy minima come from*). 0: Ld as refined.
     #[serde(default = "default_diffuse_radius")]
     pub diffuse_radius: u32,
+    /// How a dielectric's σ follows from its curve. `minimum` (the default): its minimum,
+    /// when that lies at or above `interior_sigma` (below, a diffuse lobe that is not the
+    /// data's; the rules below decide). `lifted`: the tolerances, the interior rule and its
+    /// quarter-of-the-gain lift, the held-out halves, `rough_band` and `hedge_disputed`,
+    /// which were made to undo the glossy pull of noise in Ld. Replayed on the stored curves
+    /// of five Mitsuba rooms (`docs/roughness-rooms.md`), the minimum with `diffuse_radius =
+    /// 1` scored 28.9 dB against 25.4 for `lifted` with 0 (every room higher), and 21.6 with 0.
+    #[serde(default)]
+    pub dielectric_rule: DielectricRule,
     /// Dividing regions of two finishes by colour ([`split`](crate::split)) or by gloss ([`gloss`](crate::gloss)).
     #[serde(default)]
     pub split: split::SplitConfig,
@@ -208,6 +217,17 @@ fn default_outline_share() -> f32 {
 
 fn default_max_pixels() -> usize {
     8_000_000
+}
+
+/// How a dielectric's σ follows from its cost curve (`[search] dielectric_rule`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DielectricRule {
+    /// The curve's minimum.
+    #[default]
+    Minimum,
+    /// The tolerance, interior, held-out and band rules.
+    Lifted,
 }
 
 /// Where the search's regions come from.
@@ -251,6 +271,7 @@ impl Default for SearchConfig {
             max_pixels: default_max_pixels(),
             one_colour_below: default_one_colour_below(),
             diffuse_radius: default_diffuse_radius(),
+            dielectric_rule: DielectricRule::default(),
             split: split::SplitConfig::default(),
         }
     }

@@ -553,7 +553,7 @@ pub fn profile(
 }
 
 mod config;
-pub use config::{RegionSource, SearchConfig};
+pub use config::{DielectricRule, RegionSource, SearchConfig};
 
 mod choice;
 use choice::argmin;

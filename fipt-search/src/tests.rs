@@ -4,6 +4,15 @@ use super::*;
 use fipt_core::rng::Pcg32;
 use fipt_core::shading::{DEFAULT_LEVELS, NUM_LEVELS};
 
+/// The search's settings with the lifted dielectric rules (`dielectric_rule = "lifted"`), which
+/// these tests check.
+fn lifted() -> SearchConfig {
+    SearchConfig {
+        dielectric_rule: crate::DielectricRule::Lifted,
+        ..SearchConfig::default()
+    }
+}
+
 /// Views rendered by the factorised model itself at (σ, m) with a base colour per cell:
 /// random shadings per pixel, 8 views × 64 pixels, 16 cells of 32 pixels each.
 fn scene(sigma: f32, m: f32) -> (Vec<SearchPixel>, Vec<ViewShadings>, Vec<Image>) {
@@ -83,7 +92,7 @@ fn the_fitted_profile_is_zero_at_the_truth_and_the_choice_finds_it() {
         }
         let cfg = SearchConfig {
             min_pixels: 1,
-            ..Default::default()
+            ..lifted()
         };
         let c = choose(p, &cfg, false, None);
         assert_eq!(c.metallic, Some(m));
@@ -117,7 +126,7 @@ fn curve(metal: Vec<f64>, dielectric: Vec<f64>) -> RegionProfile {
 
 #[test]
 fn the_choice_needs_its_margins_and_both_halves_of_the_views() {
-    let cfg = SearchConfig::default();
+    let cfg = lifted();
     // A mirror-end dielectric minimum 13 % below σ = 1 (the studio's diffuse box): no σ.
     let p = curve(vec![1.0; 5], vec![0.100, 0.110, 0.120, 0.118, 0.113]);
     assert_eq!(choose(&p, &cfg, false, None).roughness, None);
@@ -156,7 +165,7 @@ fn the_choice_needs_its_margins_and_both_halves_of_the_views() {
 
 #[test]
 fn a_capture_half_holds_out_within_the_band_and_near_one_means_one() {
-    let cfg = SearchConfig::default();
+    let cfg = lifted();
     // Pose error and pixel noise (a capture): one half barely sees the gloss, its minimum
     // lies 0.01 % below σ = 1 but where the other half's does (σ 0.5 and 0.6, within
     // `held_out_band`): it holds out. Half a range apart (0.25 and 0.6) it does not, nor
@@ -220,7 +229,7 @@ fn a_capture_half_holds_out_within_the_band_and_near_one_means_one() {
 
 #[test]
 fn a_lacquer_half_holds_out_and_the_held_out_check_decides() {
-    let cfg = SearchConfig::default();
+    let cfg = lifted();
     let wall = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1001, 0.1004, 0.1010]);
     // A lacquer (σ 0.12): the whole's minimum is interior, one half's lies below
     // `interior_sigma` (0.08) but above the mirror end: it holds out. A half whose minimum is
@@ -246,7 +255,7 @@ fn a_lacquer_half_holds_out_and_the_held_out_check_decides() {
     assert_eq!(choose(&wall, &cfg, false, None).roughness, Some(0.75));
     let trusting = SearchConfig {
         held_out: false,
-        ..SearchConfig::default()
+        ..lifted()
     };
     assert_eq!(choose(&wall, &trusting, false, None).roughness, Some(0.5));
     let p = curve(vec![1.0; 5], vec![0.2, 0.1, 0.1, 0.1, 0.10003]);
@@ -262,7 +271,7 @@ fn a_lacquer_half_holds_out_and_the_held_out_check_decides() {
 
 #[test]
 fn a_strong_minimum_is_kept_and_a_metal_by_hysteresis() {
-    let cfg = SearchConfig::default();
+    let cfg = lifted();
     // A strong minimum at the mirror end: the roughest within 25 %.
     let p = curve(vec![1.0; 5], vec![0.100, 0.120, 0.200, 0.300, 0.300]);
     assert_eq!(choose(&p, &cfg, false, None).roughness, Some(0.25));
@@ -282,12 +291,12 @@ fn a_strong_minimum_is_kept_and_a_metal_by_hysteresis() {
     assert_eq!(choose(&lacquer, &cfg, false, held).roughness, Some(0.25));
     let old_cap = SearchConfig {
         interior_cap: 0.02,
-        ..SearchConfig::default()
+        ..lifted()
     };
     assert_eq!(choose(&lacquer, &old_cap, false, held).roughness, Some(0.5));
     let loose = SearchConfig {
         interior_always: false,
-        ..SearchConfig::default()
+        ..lifted()
     };
     assert_eq!(
         choose(&floor, &loose, false, Some([&floor, &floor])).roughness,
@@ -427,7 +436,7 @@ fn settings_out_of_range_are_refused_with_their_key() {
 fn faint_gloss_reads_no_glossier_than_one_colour_and_always_gets_a_target() {
     let cfg = SearchConfig {
         one_colour_below: 0.02,
-        ..SearchConfig::default()
+        ..lifted()
     };
     let with_one = |p: RegionProfile, one: Vec<f64>| RegionProfile {
         one_colour: one,
@@ -449,7 +458,7 @@ fn faint_gloss_reads_no_glossier_than_one_colour_and_always_gets_a_target() {
     }
     let off = SearchConfig {
         hedge_disputed: false,
-        ..SearchConfig::default()
+        ..lifted()
     };
     assert_eq!(
         choose(&wall, &off, false, Some([&wall, &apart])).roughness,
@@ -457,13 +466,7 @@ fn faint_gloss_reads_no_glossier_than_one_colour_and_always_gets_a_target() {
     );
     // By default the disputed minimum (0.5) takes the midpoint to σ = 1 instead.
     assert_eq!(
-        choose(
-            &wall,
-            &SearchConfig::default(),
-            false,
-            Some([&wall, &apart])
-        )
-        .roughness,
+        choose(&wall, &lifted(), false, Some([&wall, &apart])).roughness,
         Some(0.75)
     );
     assert_eq!(
@@ -532,4 +535,40 @@ fn small_outlines_are_those_under_the_share() {
     // The ring: all 27 of its pixels... those next to the square or to the pixel of none.
     assert_eq!(small_outlines(&shares, 1.0), vec![true, true, false]);
     assert_eq!(small_outlines(&shares, 0.0), vec![false; 3]);
+}
+
+#[test]
+fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow() {
+    let cfg = SearchConfig::default();
+    assert_eq!(cfg.dielectric_rule, crate::DielectricRule::Minimum);
+    // A wall's minimum 0.05 % below σ = 1, the halves in dispute: the minimum, where the
+    // lifted rules give the hedge's midpoint.
+    let wall = curve(vec![1.0; 5], vec![0.2, 0.1003, 0.10000, 0.10002, 0.10005]);
+    let noise = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1020, 0.1004, 0.1010]);
+    assert_eq!(
+        choose(&wall, &cfg, false, Some([&wall, &noise])).roughness,
+        Some(0.5)
+    );
+    assert_eq!(choose(&wall, &cfg, false, None).roughness, Some(0.5));
+    assert_ne!(
+        choose(&wall, &lifted(), false, Some([&wall, &noise])).roughness,
+        Some(0.5)
+    );
+    // σ = 1 at the minimum: σ = 1.
+    let rough = curve(vec![1.0; 5], vec![0.2, 0.15, 0.12, 0.11, 0.10]);
+    assert_eq!(choose(&rough, &cfg, false, None).roughness, Some(1.0));
+    // A mirror-end minimum (below `interior_sigma`: a diffuse lobe that is not the data's)
+    // is left to the lifted rules: no σ.
+    let mirror = curve(vec![1.0; 5], vec![0.100, 0.110, 0.120, 0.118, 0.113]);
+    assert_eq!(choose(&mirror, &cfg, false, None).roughness, None);
+    // Metals keep their tolerance rule.
+    let metal = curve(vec![0.05, 0.0500, 0.0501, 0.06, 0.07], vec![1.0; 5]);
+    let m = choose(&metal, &cfg, false, None);
+    assert_eq!((m.metallic, m.roughness), (Some(1.0), Some(0.5)));
+    // Too few pixels: no decision.
+    let small = RegionProfile {
+        pixels: 10,
+        ..wall.clone()
+    };
+    assert_eq!(choose(&small, &cfg, false, None).roughness, None);
 }
