@@ -83,6 +83,17 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
     }
 }
 
+/// Whether each half's minimum (at metallic candidate `mi`) lies within `band` of the whole's
+/// `sigma`: the views pin the minimum rather than their noise (`dielectric_rule = "minimum"`).
+fn halves_agree(halves: [&RegionProfile; 2], mi: usize, sigma: f32, band: f32) -> bool {
+    halves.iter().all(|h| {
+        h.cost
+            .get(mi)
+            .and_then(|row| argmin(row))
+            .is_some_and(|b| (h.sigma[b] - sigma).abs() <= band + 1e-6)
+    })
+}
+
 /// The decision for one region (see [`SearchConfig`]): metal when its best cost beats the best
 /// dielectric one by `metal_margin`; then the roughest σ within the tolerance of the minimum
 /// for that metallic (none for a dielectric whose answer is the roughest candidate, unless its
@@ -96,7 +107,9 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
 /// few pixels.
 ///
 /// With `dielectric_rule = "minimum"` (the default) a dielectric whose minimum lies at or above
-/// `interior_sigma` takes that minimum, whatever the rules above would lift it to.
+/// `interior_sigma` and whose halves' minima (when given) lie within `held_out_band` of it takes
+/// that minimum, whatever the rules above would lift it to; one whose halves disagree is left
+/// to the rules above (noise, not the views, placed its minimum).
 ///
 /// `was_metal`: the previous search (on earlier shadings) called this region metal; it stays
 /// metal unless the dielectric answer beats it by `metal_margin` (hysteresis: the margin is
@@ -180,7 +193,10 @@ pub fn choose(
     if interior && (!cfg.held_out || halves.is_some_and(|h| holds_out(h, mi, cfg))) {
         si = interior_si();
     }
-    if !metal && cfg.dielectric_rule == DielectricRule::Minimum && p.sigma[b] >= cfg.interior_sigma
+    if !metal
+        && cfg.dielectric_rule == DielectricRule::Minimum
+        && p.sigma[b] >= cfg.interior_sigma
+        && halves.is_none_or(|h| halves_agree(h, mi, p.sigma[b], cfg.held_out_band))
     {
         return RegionChoice {
             roughness: Some(p.sigma[b]),

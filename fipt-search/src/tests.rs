@@ -538,21 +538,33 @@ fn small_outlines_are_those_under_the_share() {
 }
 
 #[test]
-fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow() {
+fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_agree() {
     let cfg = SearchConfig::default();
     assert_eq!(cfg.dielectric_rule, crate::DielectricRule::Minimum);
-    // A wall's minimum 0.05 % below σ = 1, the halves in dispute: the minimum, where the
-    // lifted rules give the hedge's midpoint.
+    // A wall's minimum 0.05 % below σ = 1 whose halves agree (0.5 and 0.5 ± the band): the
+    // minimum, where the lifted rules lift it.
     let wall = curve(vec![1.0; 5], vec![0.2, 0.1003, 0.10000, 0.10002, 0.10005]);
-    let noise = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1020, 0.1004, 0.1010]);
+    let near = RegionProfile {
+        sigma: vec![0.02, 0.25, 0.4, 0.75, 1.0],
+        ..curve(vec![1.0; 5], vec![0.2, 0.1003, 0.10000, 0.10002, 0.10005])
+    };
     assert_eq!(
-        choose(&wall, &cfg, false, Some([&wall, &noise])).roughness,
+        choose(&wall, &cfg, false, Some([&wall, &near])).roughness,
         Some(0.5)
     );
     assert_eq!(choose(&wall, &cfg, false, None).roughness, Some(0.5));
     assert_ne!(
-        choose(&wall, &lifted(), false, Some([&wall, &noise])).roughness,
+        choose(&wall, &lifted(), false, Some([&wall, &near])).roughness,
         Some(0.5)
+    );
+    // The same minimum with the halves in dispute (one half's at 0.25): noise placed it, and
+    // the lifted rules decide (here the hedge's midpoint), as with `lifted`.
+    let noise = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1020, 0.1004, 0.1010]);
+    let disputed = choose(&wall, &cfg, false, Some([&wall, &noise])).roughness;
+    assert_ne!(disputed, Some(0.5));
+    assert_eq!(
+        disputed,
+        choose(&wall, &lifted(), false, Some([&wall, &noise])).roughness
     );
     // σ = 1 at the minimum: σ = 1.
     let rough = curve(vec![1.0; 5], vec![0.2, 0.15, 0.12, 0.11, 0.10]);
