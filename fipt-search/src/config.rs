@@ -171,7 +171,9 @@ pub struct SearchConfig {
     pub diffuse_radius: u32,
     /// How a dielectric's σ follows from its curve. `minimum` (the default): its minimum,
     /// when that lies at or above `interior_sigma` (below, a diffuse lobe that is not the
-    /// data's; the rules below decide). `lifted`: the tolerances, the interior rule and its
+    /// data's) and, on a refined search, neither half of the views has its own minimum more
+    /// than `held_out_band` glossier (then noise placed it); otherwise the lifted rules decide.
+    /// `lifted`: the tolerances, the interior rule and its
     /// quarter-of-the-gain lift, the held-out halves, `rough_band` and `hedge_disputed`,
     /// which were made to undo the glossy pull of noise in Ld. Replayed on the stored curves
     /// of five Mitsuba rooms (`docs/roughness-rooms.md`), the minimum with `diffuse_radius =

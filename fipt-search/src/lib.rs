@@ -81,6 +81,10 @@ pub struct RegionChoice {
     pub argmin_sigma: Vec<f32>,
     /// Cost at (σ = 1, m = 0), the default answer.
     pub default_cost: f64,
+    /// Where each half of the views (even, odd) puts its minimum over σ at the chosen
+    /// metallic, when the search profiled the halves: how firmly the views pin σ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub halves_sigma: Option<[f32; 2]>,
 }
 
 /// The base colour a of the metallic workflow from a material's kd, ks and metallic as the

@@ -448,6 +448,7 @@ mod tests {
             best_cost: vec![],
             argmin_sigma: vec![],
             default_cost: f64::NAN,
+            halves_sigma: None,
         };
         let cfg = SplitConfig::default();
         let (a, b) = (curve(1), curve(3));

@@ -541,7 +541,7 @@ fn small_outlines_are_those_under_the_share() {
 fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_agree() {
     let cfg = SearchConfig::default();
     assert_eq!(cfg.dielectric_rule, crate::DielectricRule::Minimum);
-    // A wall's minimum 0.05 % below σ = 1 whose halves agree (0.5 and 0.5 ± the band): the
+    // A wall's minimum 0.05 % below σ = 1 whose halves agree (0.5 and 0.4, the band): the
     // minimum, where the lifted rules lift it.
     let wall = curve(vec![1.0; 5], vec![0.2, 0.1003, 0.10000, 0.10002, 0.10005]);
     let near = RegionProfile {
@@ -557,8 +557,14 @@ fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_
         choose(&wall, &lifted(), false, Some([&wall, &near])).roughness,
         Some(0.5)
     );
-    // The same minimum with the halves in dispute (one half's at 0.25): noise placed it, and
-    // the lifted rules decide (here the hedge's midpoint), as with `lifted`.
+    // One half at σ = 1 (those views caught no highlight): still the minimum.
+    let rough_half = curve(vec![1.0; 5], vec![0.2, 0.15, 0.12, 0.11, 0.10]);
+    assert_eq!(
+        choose(&wall, &cfg, false, Some([&rough_half, &wall])).roughness,
+        Some(0.5)
+    );
+    // One half's minimum glossier by more than the band (0.25): noise placed it, and the
+    // lifted rules decide (here the hedge's midpoint), as with `lifted`.
     let noise = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1020, 0.1004, 0.1010]);
     let disputed = choose(&wall, &cfg, false, Some([&wall, &noise])).roughness;
     assert_ne!(disputed, Some(0.5));
