@@ -171,8 +171,9 @@ pub struct SearchConfig {
     pub diffuse_radius: u32,
     /// How a dielectric's σ follows from its curve. `minimum` (the default): its minimum,
     /// when that lies at or above `interior_sigma` (below, a diffuse lobe that is not the
-    /// data's) and, on a refined search, neither half of the views has its own minimum more
-    /// than `held_out_band` glossier (then noise placed it); otherwise the lifted rules decide.
+    /// data's) and, on a refined search, the halves of the views bear it out (one half's own
+    /// minimum within `held_out_band` of it, neither more than the band glossier); otherwise
+    /// the lifted rules decide.
     /// `lifted`: the tolerances, the interior rule and its
     /// quarter-of-the-gain lift, the held-out halves, `rough_band` and `hedge_disputed`,
     /// which were made to undo the glossy pull of noise in Ld. Replayed on the stored curves

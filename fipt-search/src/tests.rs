@@ -563,6 +563,15 @@ fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_
         choose(&wall, &cfg, false, Some([&rough_half, &wall])).roughness,
         Some(0.5)
     );
+    // Both halves at σ = 1: neither reproduces the whole's minimum; the lifted rules decide.
+    assert_eq!(
+        choose(&wall, &cfg, false, Some([&rough_half, &rough_half])).roughness,
+        choose(&wall, &lifted(), false, Some([&rough_half, &rough_half])).roughness
+    );
+    assert_ne!(
+        choose(&wall, &cfg, false, Some([&rough_half, &rough_half])).roughness,
+        Some(0.5)
+    );
     // One half's minimum glossier by more than the band (0.25): noise placed it, and the
     // lifted rules decide (here the hedge's midpoint), as with `lifted`.
     let noise = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1020, 0.1004, 0.1010]);
