@@ -109,6 +109,35 @@ fn half_minimum(h: &RegionProfile, mi: usize) -> Option<f32> {
         .map(|b| h.sigma[b])
 }
 
+/// The metallic candidate (an index into `p.metallic`): the dielectric one (`dielectric`)
+/// unless another's best cost beats it by `metal_margin`; a region the previous search called
+/// metal (`was_metal`) starts from the metal one when the dielectric does not beat it by the
+/// margin.
+fn metallic_candidate(
+    p: &RegionProfile,
+    best_cost: &[f64],
+    dielectric: usize,
+    was_metal: bool,
+    cfg: &SearchConfig,
+) -> usize {
+    let keep = 1.0 - cfg.metal_margin as f64;
+    let mut mi = dielectric;
+    if was_metal {
+        if let Some(k) = p.metallic.iter().position(|&m| m == 1.0) {
+            if best_cost[k].is_finite() && best_cost[mi] >= best_cost[k] * keep {
+                mi = k;
+            }
+        }
+    }
+    for (k, &c) in best_cost.iter().enumerate() {
+        let base = best_cost[mi];
+        if c.is_finite() && (!base.is_finite() || c < base * keep) {
+            mi = k;
+        }
+    }
+    mi
+}
+
 /// The decision for one region (see [`SearchConfig`]): metal when its best cost beats the best
 /// dielectric one by `metal_margin`; then the roughest σ within the tolerance of the minimum
 /// for that metallic (none for a dielectric whose answer is the roughest candidate, unless its
@@ -165,23 +194,7 @@ pub fn choose(
     if p.pixels < cfg.min_pixels || p.sigma.is_empty() {
         return fallback;
     }
-    // The metallic candidate: the dielectric one unless another beats it by the margin.
-    let mut mi = dielectric.unwrap_or(0);
-    if was_metal {
-        if let Some(k) = p.metallic.iter().position(|&m| m == 1.0) {
-            if best_cost[k].is_finite()
-                && best_cost[mi] >= best_cost[k] * (1.0 - cfg.metal_margin as f64)
-            {
-                mi = k;
-            }
-        }
-    }
-    for (k, &c) in best_cost.iter().enumerate() {
-        let base = best_cost[mi];
-        if c.is_finite() && (!base.is_finite() || c < base * (1.0 - cfg.metal_margin as f64)) {
-            mi = k;
-        }
-    }
+    let mi = metallic_candidate(p, &best_cost, dielectric.unwrap_or(0), was_metal, cfg);
     let Some(b) = best[mi] else {
         return fallback;
     };

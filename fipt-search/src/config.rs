@@ -161,17 +161,19 @@ pub struct SearchConfig {
     #[serde(default = "default_one_colour_below", skip_serializing_if = "is_off")]
     pub one_colour_below: f32,
     /// The search reads each pixel's diffuse shading (Ld, and [Ld1, Ld2] under
-    /// `principled`) as the mean over the pixels within this many pixels of it, in the same
-    /// view and region, with valid shadings. Noise in Ld, the regressor of the per-cell base
+    /// `principled`) as the mean over the pixels within this many rows and columns of it, in
+    /// the same view and region, with valid shadings, whose hits lie within two median pixel
+    /// footprints of its own. Noise in Ld, the regressor of the per-cell base
     /// colour, pulls faintly glossy surfaces' minima glossy: with the ground truth's
     /// materials and lights refined, `room`'s walls (σ 0.85–0.95) had their minima at
-    /// 0.62–0.72 with Ld as refined and 0.76–0.82 with 1 (`docs/roughness-rooms.md`, *Where
+    /// 0.62–0.72 with Ld as refined and 0.74–0.80 with 1 (`docs/roughness-rooms.md`, *Where
     /// rough walls' glossy minima come from*). 0: Ld as refined.
     #[serde(default = "default_diffuse_radius")]
     pub diffuse_radius: u32,
     /// How a dielectric's σ follows from its curve. `minimum` (the default): its minimum,
     /// when that lies at or above `interior_sigma` (below, a diffuse lobe that is not the
-    /// data's) and, on a refined search, the halves of the views bear it out (one half's own
+    /// data's) and, on a refined search with `held_out` (the halves are profiled only then),
+    /// the halves of the views bear it out (one half's own
     /// minimum within `held_out_band` of it, neither more than the band glossier); otherwise
     /// the lifted rules decide.
     /// `lifted`: the tolerances, the interior rule and its

@@ -573,10 +573,13 @@ fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_
         Some(0.5)
     );
     // One half's minimum glossier by more than the band (0.25): noise placed it, and the
-    // lifted rules decide (here the hedge's midpoint), as with `lifted`.
+    // lifted rules decide (here no target: the curve is below `interior_gain`), as with
+    // `lifted`; the choice records where each half put its minimum.
     let noise = curve(vec![1.0; 5], vec![0.2, 0.1000, 0.1020, 0.1004, 0.1010]);
-    let disputed = choose(&wall, &cfg, false, Some([&wall, &noise])).roughness;
-    assert_ne!(disputed, Some(0.5));
+    let c = choose(&wall, &cfg, false, Some([&wall, &noise]));
+    assert_eq!(c.halves_sigma, Some([0.5, 0.25]));
+    let disputed = c.roughness;
+    assert_eq!(disputed, None);
     assert_eq!(
         disputed,
         choose(&wall, &lifted(), false, Some([&wall, &noise])).roughness

@@ -8,7 +8,7 @@
 //! surfaces towards glossier σ. Measured with the ground truth's materials and lights
 //! refined (`docs/roughness-rooms.md`, *Where rough walls' glossy minima come from*): on
 //! `room`'s walls (σ 0.85–0.95) the minima sat at 0.62–0.72 with the Ld as refined and at
-//! 0.76–0.82 with Ld averaged over 3 × 3 pixels of the same region, the glossy parts' minima
+//! 0.74–0.80 with Ld averaged over 3 × 3 pixels of the same region, the glossy parts' minima
 //! unchanged. The light on a wall changes little from one pixel to the next; the estimate's
 //! noise does. The distance bound keeps the mean from reaching across a surface seen at a
 //! grazing angle: there neighbouring pixels lie far apart, and averaging a hot spot's
