@@ -9,6 +9,8 @@ mitsuba (pip install mitsuba numpy). Issue 55's two-finish target: 80 % of each 
 """
 import sys, numpy as np, mitsuba as mi, glob, os
 mi.set_variant('scalar_rgb')
+if len(sys.argv) != 4:
+    sys.exit(__doc__)
 src, run, part = sys.argv[1], sys.argv[2], int(sys.argv[3])
 def rd(p):
     return np.array(mi.Bitmap(p))
