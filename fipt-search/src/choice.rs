@@ -83,8 +83,8 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
     }
 }
 
-/// Whether the halves of the views bear the whole's minimum `sigma` out (at metallic candidate
-/// `mi`, `dielectric_rule = "minimum"`): one half's own minimum lies within `band` of it, and
+/// Whether the halves of the views, whose own minima lie at `a` and `b`, bear the whole's minimum
+/// `sigma` out (`dielectric_rule = "minimum"`): one half's minimum lies within `band` of it, and
 /// neither lies more than `band` glossier. A glossier half is the pull that noise in the
 /// shadings puts on a faint curve, reproduced by one set of views and not the other; a rougher
 /// half is a set of views that caught no highlight of the surface, which says nothing against
@@ -92,10 +92,7 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
 /// `bedroom`'s painted wall (σ 0.45): whole 0.48, halves 0.48 and 1.0 (borne out); the CLI
 /// test's walls (0.9): wholes 0.52–0.66, a half at 0.14–0.46 (not); `atelier`'s capture copy's
 /// back wall (0.9): whole 0.78, halves 1.0 and 0.96 (not).
-fn halves_agree(halves: [&RegionProfile; 2], mi: usize, sigma: f32, band: f32) -> bool {
-    let (Some(a), Some(b)) = (half_minimum(halves[0], mi), half_minimum(halves[1], mi)) else {
-        return false;
-    };
+fn halves_agree([a, b]: [f32; 2], sigma: f32, band: f32) -> bool {
     let near = |s: f32| (s - sigma).abs() <= band + 1e-6;
     let not_glossier = |s: f32| s >= sigma - band - 1e-6;
     (near(a) || near(b)) && not_glossier(a) && not_glossier(b)
@@ -230,7 +227,10 @@ pub fn choose(
     if !metal
         && cfg.dielectric_rule == DielectricRule::Minimum
         && p.sigma[b] >= cfg.interior_sigma
-        && halves.is_none_or(|h| halves_agree(h, mi, p.sigma[b], cfg.held_out_band))
+        && (halves.is_none()
+            || fallback
+                .halves_sigma
+                .is_some_and(|h| halves_agree(h, p.sigma[b], cfg.held_out_band)))
     {
         return RegionChoice {
             roughness: Some(p.sigma[b]),

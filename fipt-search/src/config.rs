@@ -173,12 +173,11 @@ pub struct SearchConfig {
     /// How a dielectric's σ follows from its curve. `minimum` (the default): its minimum,
     /// when that lies at or above `interior_sigma` (below, a diffuse lobe that is not the
     /// data's) and, on a refined search with `held_out` (the halves are profiled only then),
-    /// the halves of the views bear it out (one half's own
-    /// minimum within `held_out_band` of it, neither more than the band glossier); otherwise
-    /// the lifted rules decide.
-    /// `lifted`: the tolerances, the interior rule and its
-    /// quarter-of-the-gain lift, the held-out halves, `rough_band` and `hedge_disputed`,
-    /// which were made to undo the glossy pull of noise in Ld. Replayed on the stored curves
+    /// the halves of the views bear it out (one half's own minimum within `held_out_band` of
+    /// it, neither more than the band glossier); otherwise the lifted rules decide. `lifted`:
+    /// the tolerances, the interior rule and its quarter-of-the-gain lift, the held-out
+    /// halves, `rough_band` and `hedge_disputed`, which were made to undo the glossy pull of
+    /// noise in Ld. Replayed on the stored curves
     /// of five Mitsuba rooms (`docs/roughness-rooms.md`), the minimum with `diffuse_radius =
     /// 1` scored 28.9 dB against 25.4 for `lifted` with 0 (every room higher), and 21.6 with 0.
     #[serde(default)]

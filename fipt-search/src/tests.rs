@@ -585,8 +585,7 @@ fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_
         choose(&wall, &lifted(), false, Some([&wall, &noise])).roughness
     );
     // σ = 1 at the minimum: σ = 1.
-    let rough = curve(vec![1.0; 5], vec![0.2, 0.15, 0.12, 0.11, 0.10]);
-    assert_eq!(choose(&rough, &cfg, false, None).roughness, Some(1.0));
+    assert_eq!(choose(&rough_half, &cfg, false, None).roughness, Some(1.0));
     // A mirror-end minimum (below `interior_sigma`: a diffuse lobe that is not the data's)
     // is left to the lifted rules: no σ.
     let mirror = curve(vec![1.0; 5], vec![0.100, 0.110, 0.120, 0.118, 0.113]);
