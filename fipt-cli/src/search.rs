@@ -34,6 +34,11 @@ pub struct Args {
     /// 0 in `fipt run`: the contrast alone).
     #[arg(long, default_value_t = 0.0)]
     outline_share: f32,
+    /// With --drop-edges: also leave out pixels beside another region whose hit is farther
+    /// than this share of the pixel's distance to the camera: silhouettes
+    /// (`[search] silhouette_gap`; 0: off)
+    #[arg(long, default_value_t = fipt_search::SearchConfig::default().silhouette_gap)]
+    silhouette_gap: f32,
     /// Average each pixel's Ld over the pixels within this many of it in its view and region
     /// (`[search] diffuse_radius`; 0: Ld as refined)
     #[arg(long, default_value_t = fipt_search::SearchConfig::default().diffuse_radius)]
@@ -60,6 +65,7 @@ pub fn run(a: Args) -> Result<()> {
         drop_edges: a.drop_edges,
         edge_contrast: a.edge_contrast,
         outline_share: a.outline_share,
+        silhouette_gap: a.silhouette_gap,
         diffuse_radius: a.diffuse_radius,
     })?;
     println!(

@@ -14,9 +14,9 @@ use fipt_search::divided::{choose_regions, Divided, DividedCells, SideLookup};
 use fipt_search::gloss::gloss_split;
 use fipt_search::split::{colour_split, ColourSplit};
 use fipt_search::{
-    choose, gather_pixels_keyed, on_region_edge, profile, sigma_grid, true_base_colours,
-    view_pixels, with_cells_keyed, Albedo, RegionChoice, RegionProfile, RegionSource, SearchConfig,
-    SearchPixel,
+    choose, gather_pixels_keyed, on_region_edge, on_silhouette, profile, sigma_grid,
+    true_base_colours, view_pixels, with_cells_keyed, Albedo, RegionChoice, RegionProfile,
+    RegionSource, SearchConfig, SearchPixel,
 };
 use fipt_shading::records::{HitPoint, PrimaryHit};
 use serde::Serialize;
@@ -86,8 +86,7 @@ fn prepare(
     else {
         return Ok(None);
     };
-    let (pixels, voxels, grid) =
-        search_pixels(&scene.images, records, shadings, &regions, cfg, footprint);
+    let (pixels, voxels, grid) = search_pixels(scene, records, shadings, &regions, cfg, footprint);
     Ok(Some(Prepared {
         regions,
         pixels,
@@ -99,9 +98,13 @@ fn prepare(
 /// A pixel's search region: its region, unless `cfg.drop_edges` leaves it out as an outline
 /// pixel: one with a neighbour `cfg.edge_contrast` times brighter in another region or in
 /// none, or any outline pixel of a region whose outline is a small share of it
-/// ([`fipt_search::small_outlines`]).
+/// ([`fipt_search::small_outlines`]), or, with `cfg.silhouette_gap`, a pixel beside another
+/// region across an occlusion (its neighbour's hit far from its own, `eyes[v]` the view's
+/// camera centre) of a region whose silhouette is at most [`SILHOUETTE_SHARE`] of it.
 fn region_rule<'a>(
     images: &'a [Image],
+    records: &'a [Vec<Option<HitPoint>>],
+    eyes: Vec<glam::Vec3>,
     regions: &'a Regions,
     cfg: &'a SearchConfig,
 ) -> impl Fn(usize, usize, &HitPoint) -> Option<u32> + 'a {
@@ -111,6 +114,20 @@ fn region_rule<'a>(
             fipt_search::outline_shares(&regions.ids, &widths, regions.len(), Regions::NONE);
         let small = fipt_search::small_outlines(&shares, cfg.outline_share);
         note_small_outlines(&regions.labels, &shares, &small);
+        small
+    } else {
+        vec![]
+    };
+    let gap = cfg.silhouette_gap;
+    let silhouette = move |v: usize, i: usize| {
+        let ids = &regions.ids[v];
+        on_silhouette(ids, &records[v], images[v].width, i, eyes[v], gap)
+    };
+    let silhouettes = if cfg.drop_edges && gap > 0.0 {
+        let shares =
+            fipt_search::region_shares(&regions.ids, regions.len(), Regions::NONE, &silhouette);
+        let small = fipt_search::small_outlines(&shares, SILHOUETTE_SHARE);
+        note_kept_silhouettes(&regions.labels, &shares, &small);
         small
     } else {
         vec![]
@@ -125,8 +142,38 @@ fn region_rule<'a>(
             if on_region_edge(ids, img.width, i, &counts) {
                 return None;
             }
+            if silhouettes.get(region as usize) == Some(&true) && silhouette(v, i) {
+                return None;
+            }
         }
         Some(region)
+    }
+}
+
+/// A region loses its silhouette pixels (`[search] silhouette_gap`) only where they are at
+/// most this share of its pixels over the views: a thin or small region (a lamp's stand at
+/// 160 × 120, 44 % silhouette, lost its metal with them) keeps them.
+const SILHOUETTE_SHARE: f32 = 0.25;
+
+/// The training views' camera centres.
+fn train_eyes(scene: &SceneRef) -> Vec<glam::Vec3> {
+    (scene.ds.train().views.iter())
+        .map(|v| v.camera.origin)
+        .collect()
+}
+
+/// Prints the regions that keep their silhouette pixels (over [`SILHOUETTE_SHARE`] of them).
+fn note_kept_silhouettes(labels: &[i64], shares: &[Option<f64>], small: &[bool]) {
+    let kept: Vec<String> = (labels.iter().zip(shares).zip(small))
+        .filter_map(|((label, share), &small)| Some((label, (*share)?)).filter(|_| !small))
+        .map(|(label, share)| format!("{label} ({:.0} %)", 100.0 * share))
+        .collect();
+    if !kept.is_empty() {
+        crate::note!(
+            "search: {} region(s) keep their silhouette pixels, over a quarter of their pixels: {}",
+            kept.len(),
+            kept.join(", ")
+        );
     }
 }
 
@@ -163,14 +210,14 @@ fn sigma_candidates(first: Option<&ViewShadings>, cfg: &SearchConfig) -> Vec<f32
 /// The search's pixels of `regions` (outlines left out with `cfg.drop_edges`), the voxels of
 /// their cells and the σ candidates.
 fn search_pixels(
-    images: &[Image],
+    scene: &SceneRef,
     records: &[Vec<Option<HitPoint>>],
     shadings: &[ViewShadings],
     regions: &Regions,
     cfg: &SearchConfig,
     footprint: f32,
 ) -> (Vec<SearchPixel>, Vec<[i32; 3]>, Vec<f32>) {
-    let rule = region_rule(images, regions, cfg);
+    let rule = region_rule(&scene.images, records, train_eyes(scene), regions, cfg);
     let cell = cfg.cell_footprints * footprint;
     let (pixels, voxels) = gather_pixels_keyed(records, shadings, cell, &rule);
     (pixels, voxels, sigma_candidates(shadings.first(), cfg))
@@ -293,7 +340,7 @@ fn compact_inputs(
     footprint: f32,
 ) -> Result<Compact> {
     let (stored, seed) = (on.shadings, on.seed);
-    let rule = region_rule(&scene.images, regions, cfg);
+    let rule = region_rule(&scene.images, records, train_eyes(scene), regions, cfg);
     let (candidates, share) = candidates_and_share(records, regions, cfg);
     let wanted = fipt_core::shading::PixelDraw::new(seed, Some(share));
     if let Some(why) = crate::bake::uncovered(&stored.pixels, &wanted) {

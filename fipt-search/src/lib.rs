@@ -284,14 +284,18 @@ pub fn small_outlines(shares: &[Option<f64>], share: f32) -> Vec<bool> {
 /// every neighbour counting: one of the 8 in another region or in none); None for a region
 /// without pixels.
 pub fn outline_shares(ids: &[Vec<u32>], widths: &[usize], n: usize, none: u32) -> Vec<Option<f64>> {
-    outline_counts(ids, widths, n, none)
-        .iter()
-        .map(|&[all, edge]| (all > 0).then(|| edge as f64 / all as f64))
-        .collect()
+    let outline = |v: usize, i: usize| on_region_edge(&ids[v], widths[v], i, &|_| true);
+    region_shares(ids, n, none, &outline)
 }
 
-/// Per region of `n`: its pixels over all views and those of them on its outline.
-fn outline_counts(ids: &[Vec<u32>], widths: &[usize], n: usize, none: u32) -> Vec<[u64; 2]> {
+/// Per region of `n` (ids per view and pixel, `none` for no region): the share of its pixels
+/// over all views for which `on(view, pixel)` holds; None for a region without pixels.
+pub fn region_shares(
+    ids: &[Vec<u32>],
+    n: usize,
+    none: u32,
+    on: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Vec<Option<f64>> {
     use rayon::prelude::*;
     let add = |mut a: Vec<[u64; 2]>, b: Vec<[u64; 2]>| {
         a.iter_mut().zip(b).for_each(|(x, y)| {
@@ -300,18 +304,21 @@ fn outline_counts(ids: &[Vec<u32>], widths: &[usize], n: usize, none: u32) -> Ve
         });
         a
     };
-    (ids.par_iter().zip(widths))
-        .map(|(ids, &width)| {
+    let counts = (ids.par_iter().enumerate())
+        .map(|(v, ids)| {
             let mut c = vec![[0u64; 2]; n];
             for (i, &r) in ids.iter().enumerate() {
                 if let Some(c) = c.get_mut(r as usize).filter(|_| r != none) {
                     c[0] += 1;
-                    c[1] += on_region_edge(ids, width, i, &|_| true) as u64;
+                    c[1] += on(v, i) as u64;
                 }
             }
             c
         })
-        .reduce(|| vec![[0u64; 2]; n], add)
+        .reduce(|| vec![[0u64; 2]; n], add);
+    (counts.iter())
+        .map(|&[all, on]| (all > 0).then(|| on as f64 / all as f64))
+        .collect()
 }
 
 /// Whether pixel `i` of a view (`width` pixels a row, region `ids` per pixel) has a neighbour
@@ -341,6 +348,27 @@ pub fn on_region_edge<T: PartialEq>(
         }
     }
     false
+}
+
+/// Whether pixel `i` of a view (ids and hits per pixel, `width` wide, seen from `eye`) lies
+/// on a silhouette: a neighbour (of the 8) in another region, or in none, has no hit or a hit
+/// farther from pixel i's than `gap` × pixel i's distance to the camera. Across an occlusion a
+/// pixel's footprint mixes two surfaces at different depths; where two regions meet at one
+/// depth (a crease) the neighbours' hits are close and this is false.
+pub fn on_silhouette<T: PartialEq, R: PrimaryHit>(
+    ids: &[T],
+    hits: &[Option<R>],
+    width: usize,
+    i: usize,
+    eye: Vec3,
+    gap: f32,
+) -> bool {
+    let Some(p) = hits[i].as_ref().map(PrimaryHit::point) else {
+        return false;
+    };
+    let far = gap * p.distance(eye);
+    let apart = |j: usize| hits[j].as_ref().is_none_or(|q| q.point().distance(p) > far);
+    on_region_edge(ids, width, i, &apart)
 }
 
 #[inline]

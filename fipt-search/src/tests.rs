@@ -601,3 +601,46 @@ fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_
     };
     assert_eq!(choose(&small, &cfg, false, None).roughness, None);
 }
+
+#[test]
+fn silhouettes_are_occlusions_not_creases() {
+    use fipt_shading::records::HitPoint;
+    // A 6×6 view from the origin looking down +z: region 1 a 2×2 square at depth 1 in front of
+    // region 0 at depth 2 (left half) and region 2 at depth 2 (right half: a crease with 0).
+    let (w, eye) = (6, Vec3::ZERO);
+    let square = |x: usize, y: usize| (2..4).contains(&x) && (2..4).contains(&y);
+    let ids: Vec<u32> = (0..36)
+        .map(|i| match (i % w, i / w) {
+            (x, y) if square(x, y) => 1,
+            (x, _) if x < 3 => 0,
+            _ => 2,
+        })
+        .collect();
+    let hits: Vec<Option<HitPoint>> = (0..36)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32 * 0.01, (i / w) as f32 * 0.01);
+            let z = if ids[i] == 1 { 1.0 } else { 2.0 };
+            Some(HitPoint::new(Vec3::new(x, y, z), 0))
+        })
+        .collect();
+    let sil = |i: usize, gap: f32| on_silhouette(&ids, &hits, w, i, eye, gap);
+    // The square's pixels and the ring around it lie across the occlusion.
+    for i in [14, 15, 20, 21, 7, 28, 13, 22] {
+        assert!(sil(i, 0.05), "pixel {i}");
+    }
+    // Along the crease between regions 0 and 2 (x = 2 | 3, rows 0 and 5), at one depth: not.
+    for i in [2, 3, 32, 33] {
+        assert!(!sil(i, 0.05), "pixel {i}");
+    }
+    // A gap wider than the depth step sees no occlusion; a pixel without a neighbour in
+    // another region is never one; a neighbour of another region without a hit makes one (a
+    // neighbour of its own region does not), and a pixel without a hit is none.
+    assert!(!sil(14, 1.5));
+    assert!(!sil(0, 0.05));
+    let mut holed = hits.clone();
+    holed[2] = None;
+    let holed_sil = |i: usize| on_silhouette(&ids, &holed, w, i, eye, 0.05);
+    assert!(holed_sil(3));
+    assert!(!holed_sil(1));
+    assert!(!holed_sil(2));
+}

@@ -20,6 +20,8 @@ pub struct ProfileRequest {
     pub edge_contrast: f32,
     /// With `drop_edges`: `[search] outline_share`.
     pub outline_share: f32,
+    /// With `drop_edges`: `[search] silhouette_gap`.
+    pub silhouette_gap: f32,
     /// `[search] diffuse_radius`: the pixels over which the search averages Ld.
     pub diffuse_radius: u32,
 }
@@ -117,6 +119,7 @@ fn profile_inputs(
         drop_edges: a.drop_edges,
         edge_contrast: a.edge_contrast,
         outline_share: a.outline_share,
+        silhouette_gap: a.silhouette_gap,
         diffuse_radius: a.diffuse_radius,
         ..SearchConfig::default()
     };
