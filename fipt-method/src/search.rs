@@ -118,10 +118,15 @@ fn region_rule<'a>(
     } else {
         vec![]
     };
-    let gap = cfg.silhouette_gap;
+    let (gap, contrast) = (cfg.silhouette_gap, cfg.silhouette_contrast);
     let silhouette = move |v: usize, i: usize| {
-        let ids = &regions.ids[v];
-        on_silhouette(ids, &records[v], images[v].width, i, eyes[v], gap)
+        let (ids, img) = (&regions.ids[v], &images[v]);
+        let own = luminance(img.data[i]);
+        let apart = |j: usize| {
+            let other = luminance(img.data[j]);
+            other >= contrast * own || own >= contrast * other
+        };
+        on_silhouette(ids, &records[v], img.width, i, eyes[v], gap, &apart)
     };
     let silhouettes = if cfg.drop_edges && gap > 0.0 {
         let shares =
@@ -800,11 +805,12 @@ fn decide(
     }
     let divided = kept
         .into_iter()
-        .map(|(r, sides, pixels)| Divided {
+        .map(|(r, sides, pixels, crossed)| Divided {
             region: r as u32,
             label: regions.labels[r],
             sides,
             pixels,
+            crossed,
         })
         .collect();
     Ok(Decisions {

@@ -1,6 +1,6 @@
 //! Regions divided by colour or gloss (`[search.split]`, see [`crate::split`], [`crate::gloss`]): each
 //! side's decision, the whole region's, and the side of a training pixel.
-use crate::split::{merged, sides_differ, ColourSplit, SplitConfig};
+use crate::split::{crossed, merged, sides_differ, ColourSplit, SplitConfig};
 use crate::{voxel, RegionChoice, RegionProfile};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -18,6 +18,10 @@ pub struct Divided {
     pub sides: [RegionChoice; 2],
     /// Pixels on each side (of the search's).
     pub pixels: [usize; 2],
+    /// Each side's cost at the other side's minimum over its own, minus 1
+    /// ([`crate::split::crossed`]): how firmly each side rejects the other's σ.
+    #[serde(default)]
+    pub crossed: [f32; 2],
 }
 
 /// The surface cells of the divided regions with their side, keyed by voxel.
@@ -29,8 +33,9 @@ pub struct DividedCells {
     pub cells: Vec<Vec<([i32; 3], u8)>>,
 }
 
-/// A region whose sides keep their own decisions: its index, each side's decision and pixels.
-pub type KeptSides = (usize, [RegionChoice; 2], [usize; 2]);
+/// A region whose sides keep their own decisions: its index, each side's decision and pixels,
+/// and how firmly each rejects the other's σ ([`crate::split::crossed`]).
+pub type KeptSides = (usize, [RegionChoice; 2], [usize; 2], [f32; 2]);
 
 /// Decides one profile: `(profile, its halves, the region it belongs to)`.
 pub type ChooseOne<'a> =
@@ -68,7 +73,9 @@ pub fn choose_regions(
             side_halves,
             cfg,
         ) {
-            divided.push((r, sides, [profiles[r].pixels, profiles[s].pixels]));
+            let m = sides[0].metallic.unwrap_or(0.0);
+            let cross = crossed([&profiles[r], &profiles[s]], m);
+            divided.push((r, sides, [profiles[r].pixels, profiles[s].pixels], cross));
         }
         whole.push(c);
     }
@@ -146,12 +153,28 @@ mod tests {
         assert_eq!(whole.len(), 2);
         assert_eq!(whole[0].roughness, Some(0.6));
         assert_eq!(kept.len(), 1);
-        let (r, sides, pixels) = &kept[0];
+        let (r, sides, pixels, crossed) = &kept[0];
         assert_eq!((*r, *pixels), (1, [1000, 1000]));
+        // Each side's cost at the other's minimum: three steps away, 1 + 1.5 over 1.
+        assert_eq!(*crossed, [1.5, 1.5]);
         assert_eq!(
             sides.each_ref().map(|c| c.roughness),
             [Some(0.2), Some(0.8)]
         );
+        // Sides whose minima lie apart but whose curves barely reject the other side's σ (a
+        // region of one finish, two colours): one decision; the same curves deeper divide.
+        let shallow = |region: u32, min_at: usize, step: f64| RegionProfile {
+            cost: vec![(0..5)
+                .map(|i| 1.0 + step * (i as f64 - min_at as f64).abs())
+                .collect()],
+            ..curve(region, min_at)
+        };
+        let flat = [curve(0, 2), shallow(1, 0, 0.005), shallow(2, 3, 0.005)];
+        let (_, kept_flat) = choose_regions(&flat, None, &split, &cfg.split, &choose_one);
+        assert!(kept_flat.is_empty());
+        let deep = [curve(0, 2), shallow(1, 0, 0.1), shallow(2, 3, 0.1)];
+        let (_, kept_deep) = choose_regions(&deep, None, &split, &cfg.split, &choose_one);
+        assert_eq!(kept_deep.len(), 1);
         // Both sides' minima at the same σ: one decision for the region.
         let same = [curve(0, 2), curve(1, 1), curve(2, 1)];
         let (_, kept_same) = choose_regions(&same, None, &split, &cfg.split, &choose_one);
@@ -162,6 +185,7 @@ mod tests {
             label: 7,
             sides: sides.clone(),
             pixels: *pixels,
+            crossed: *crossed,
         }];
         let cells = DividedCells {
             cell: 0.5,

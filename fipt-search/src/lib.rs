@@ -351,10 +351,11 @@ pub fn on_region_edge<T: PartialEq>(
 }
 
 /// Whether pixel `i` of a view (ids and hits per pixel, `width` wide, seen from `eye`) lies
-/// on a silhouette: a neighbour (of the 8) in another region, or in none, has no hit or a hit
-/// farther from pixel i's than `gap` × pixel i's distance to the camera. Across an occlusion a
-/// pixel's footprint mixes two surfaces at different depths; where two regions meet at one
-/// depth (a crease) the neighbours' hits are close and this is false.
+/// on a silhouette: a neighbour (of the 8) in another region, or in none, that `counts` (e.g.
+/// one of another brightness) has no hit or a hit farther from pixel i's than `gap` × pixel
+/// i's distance to the camera. Across an occlusion a pixel's footprint mixes two surfaces at
+/// different depths; where two regions meet at one depth (a crease) the neighbours' hits are
+/// close and this is false.
 pub fn on_silhouette<T: PartialEq, R: PrimaryHit>(
     ids: &[T],
     hits: &[Option<R>],
@@ -362,13 +363,14 @@ pub fn on_silhouette<T: PartialEq, R: PrimaryHit>(
     i: usize,
     eye: Vec3,
     gap: f32,
+    counts: &dyn Fn(usize) -> bool,
 ) -> bool {
     let Some(p) = hits[i].as_ref().map(PrimaryHit::point) else {
         return false;
     };
     let far = gap * p.distance(eye);
     let apart = |j: usize| hits[j].as_ref().is_none_or(|q| q.point().distance(p) > far);
-    on_region_edge(ids, width, i, &apart)
+    on_region_edge(ids, width, i, &|j| apart(j) && counts(j))
 }
 
 #[inline]

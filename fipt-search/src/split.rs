@@ -48,6 +48,7 @@ pub struct SplitConfig {
     /// Least relative excess of each side's pooled cost curve at the other side's σ: a floor
     /// of σ 0.3 / 0.65 tiles 96 %, every other cut on five Mitsuba rooms (sides of 15 % or
     /// more) at most 14 %, most under 8 %: shading error makes reproducible but shallow cuts.
+    /// Colour sides keep their own decisions only with it too ([`sides_differ`]).
     pub gloss_depth: f32,
 }
 
@@ -313,12 +314,40 @@ fn argmin_sigma(p: &RegionProfile, m: f32) -> f32 {
     row.and_then(|r| argmin(r)).map_or(f32::NAN, |i| p.sigma[i])
 }
 
+/// Each side's cost at the other side's minimum (nearest σ candidate, metallic `m`) over its own
+/// minimum, minus 1 (0.02: 2 % above; NaN without a finite minimum): how firmly each side's
+/// views reject the other side's σ.
+pub fn crossed(sides: [&RegionProfile; 2], m: f32) -> [f32; 2] {
+    let excess = |p: &RegionProfile, s: f32| {
+        let Some(row) = p.metallic.iter().position(|&x| x == m).map(|k| &p.cost[k]) else {
+            return f32::NAN;
+        };
+        let (Some(best), Some(at)) = (argmin(row), nearest(&p.sigma, s)) else {
+            return f32::NAN;
+        };
+        (row[at] / row[best] - 1.0) as f32
+    };
+    let [a, b] = sides;
+    [excess(a, argmin_sigma(b, m)), excess(b, argmin_sigma(a, m))]
+}
+
+/// The index of the candidate nearest `s` (None for NaN or no candidates).
+fn nearest(grid: &[f32], s: f32) -> Option<usize> {
+    (0..grid.len())
+        .filter(|_| s.is_finite())
+        .min_by(|&i, &j| (grid[i] - s).abs().total_cmp(&(grid[j] - s).abs()))
+}
+
 /// Whether two sides keep their own decisions `[ca, cb]` (from profiles `[a, b]`): one is metal
 /// and the other is not, or their decisions differ and so do their curves' minima, by
-/// `sigma_gap`, and with `halves` (each side profiled on each half of the views:
+/// `sigma_gap`, each side's cost at the other's minimum lies `gloss_depth` above its own
+/// ([`crossed`]), and with `halves` (each side profiled on each half of the views:
 /// `halves[side][half]`) the minima differ the same way by half the gap on both halves.
 /// Comparing minima, not decisions, keeps a side of weak evidence (whose tolerance rule lands
-/// elsewhere) from dividing a region of one finish.
+/// elsewhere) from dividing a region of one finish; the depth keeps a region of one finish and
+/// two colours whole, whose sides' minima differ by the colour's bias alone (`atelier`'s rug,
+/// σ 0.9: sides at 1.0 and 0.8, each 1.4–1.9 % above its minimum at the other's; floors of
+/// two finishes 41–161 %).
 pub fn sides_differ(
     sides: [&RegionProfile; 2],
     choices: [&RegionChoice; 2],
@@ -340,7 +369,8 @@ pub fn sides_differ(
     if !(whole.abs() >= cfg.sigma_gap - slack) {
         return false;
     }
-    halves.is_none_or(|h| {
+    let firm = crossed(sides, m).iter().all(|&c| c >= cfg.gloss_depth);
+    firm && halves.is_none_or(|h| {
         (0..2).all(|k| {
             let g = gap(h[0][k], h[1][k]);
             g * whole.signum() >= 0.5 * cfg.sigma_gap - slack

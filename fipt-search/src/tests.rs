@@ -623,7 +623,7 @@ fn silhouettes_are_occlusions_not_creases() {
             Some(HitPoint::new(Vec3::new(x, y, z), 0))
         })
         .collect();
-    let sil = |i: usize, gap: f32| on_silhouette(&ids, &hits, w, i, eye, gap);
+    let sil = |i: usize, gap: f32| on_silhouette(&ids, &hits, w, i, eye, gap, &|_| true);
     // The square's pixels and the ring around it lie across the occlusion.
     for i in [14, 15, 20, 21, 7, 28, 13, 22] {
         assert!(sil(i, 0.05), "pixel {i}");
@@ -639,8 +639,12 @@ fn silhouettes_are_occlusions_not_creases() {
     assert!(!sil(0, 0.05));
     let mut holed = hits.clone();
     holed[2] = None;
-    let holed_sil = |i: usize| on_silhouette(&ids, &holed, w, i, eye, 0.05);
+    let holed_sil = |i: usize| on_silhouette(&ids, &holed, w, i, eye, 0.05, &|_| true);
     assert!(holed_sil(3));
     assert!(!holed_sil(1));
     assert!(!holed_sil(2));
+    // Only neighbours that `counts` (e.g. of another brightness) make one.
+    assert!(!on_silhouette(&ids, &hits, w, 14, eye, 0.05, &|_| false));
+    assert!(on_silhouette(&ids, &hits, w, 14, eye, 0.05, &|j| j == 8));
+    assert!(!on_silhouette(&ids, &hits, w, 14, eye, 0.05, &|j| j == 15));
 }
