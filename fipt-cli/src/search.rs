@@ -39,6 +39,10 @@ pub struct Args {
     /// (`[search] silhouette_gap`; 0: off)
     #[arg(long, default_value_t = fipt_search::SearchConfig::default().silhouette_gap)]
     silhouette_gap: f32,
+    /// With --silhouette-gap: only neighbours this many times brighter or darker count
+    /// (`[search] silhouette_contrast`, at least 1)
+    #[arg(long, default_value_t = fipt_search::SearchConfig::default().silhouette_contrast)]
+    silhouette_contrast: f32,
     /// Average each pixel's Ld over the pixels within this many of it in its view and region
     /// (`[search] diffuse_radius`; 0: Ld as refined)
     #[arg(long, default_value_t = fipt_search::SearchConfig::default().diffuse_radius)]
@@ -66,6 +70,7 @@ pub fn run(a: Args) -> Result<()> {
         edge_contrast: a.edge_contrast,
         outline_share: a.outline_share,
         silhouette_gap: a.silhouette_gap,
+        silhouette_contrast: a.silhouette_contrast,
         diffuse_radius: a.diffuse_radius,
     })?;
     println!(

@@ -100,7 +100,8 @@ fn prepare(
 /// none, or any outline pixel of a region whose outline is a small share of it
 /// ([`fipt_search::small_outlines`]), or, with `cfg.silhouette_gap`, a pixel beside another
 /// region across an occlusion (its neighbour's hit far from its own, `eyes[v]` the view's
-/// camera centre) of a region whose silhouette is at most [`SILHOUETTE_SHARE`] of it.
+/// camera centre) and `cfg.silhouette_contrast` times brighter or darker, in a region whose
+/// silhouette is at most [`SILHOUETTE_SHARE`] of it.
 fn region_rule<'a>(
     images: &'a [Image],
     records: &'a [Vec<Option<HitPoint>>],
@@ -121,10 +122,13 @@ fn region_rule<'a>(
     let (gap, contrast) = (cfg.silhouette_gap, cfg.silhouette_contrast);
     let silhouette = move |v: usize, i: usize| {
         let (ids, img) = (&regions.ids[v], &images[v]);
-        let own = luminance(img.data[i]);
+        // Luminances of 0 (or below) compare as a tiny positive value: two black pixels are
+        // alike, a black one beside a lit one contrasts.
+        let lum = |k: usize| luminance(img.data[k]).max(1e-6);
+        let own = lum(i);
         let apart = |j: usize| {
-            let other = luminance(img.data[j]);
-            other >= contrast * own || own >= contrast * other
+            let other = lum(j);
+            other.max(own) >= contrast * other.min(own)
         };
         on_silhouette(ids, &records[v], img.width, i, eyes[v], gap, &apart)
     };

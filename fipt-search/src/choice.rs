@@ -11,6 +11,12 @@ pub(super) fn argmin(v: &[f64]) -> Option<usize> {
         .map(|(i, _)| i)
 }
 
+/// How much a cost curve does worse at candidate `other` than at `own`, relative to `own`
+/// (0.02: 2 % worse; a cost of 0 at `own` counts as 1e-30).
+pub(super) fn excess(row: &[f64], own: usize, other: usize) -> f64 {
+    row[other] / row[own].max(1e-30) - 1.0
+}
+
 /// Faint gloss (`one_colour_below`) on the region's one-colour curve: the glossiest σ of the
 /// run of candidates around its minimum that cost within `interior_gain` of it (a glossier σ is
 /// one the curve rejects by the least gain the search counts as evidence), and the roughest

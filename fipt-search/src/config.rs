@@ -106,17 +106,18 @@ pub struct SearchConfig {
     /// `atelier`; `docs/roughness-rooms.md`, *Silhouettes*).
     #[serde(default = "default_outline_share")]
     pub outline_share: f32,
-    /// With `drop_edges`: also leave out silhouette pixels, however bright their neighbours:
-    /// those with a neighbour (of the 8) in another region, or in none, whose hit lies
-    /// farther from the pixel's own than this share of the pixel's distance to the camera
-    /// (or that has no hit). Across an occlusion the pixel's footprint mixes a surface with
+    /// With `drop_edges`: also leave out silhouette pixels, beside a neighbour however much
+    /// less bright than `edge_contrast` asks (`silhouette_contrast` decides): those with a
+    /// neighbour (of the 8) in another region, or in none, whose hit lies farther from the
+    /// pixel's own than this share of the pixel's distance to the camera (or that has no hit). Across an occlusion the pixel's footprint mixes a surface with
     /// the one behind or in front of it; along a crease, where two regions meet at one depth,
     /// the neighbours' hits are close and the contrast rule alone decides. A region whose
     /// silhouette is over a quarter of its pixels (thin, or small in the images) keeps them.
-    /// On five Mitsuba rooms and a capture copy (balanced) val σ moved +0.27 (`studio-mitsuba`),
-    /// 0.0, +0.16, 0.0, +1.0 (`atelier`: its plaster sphere 0.74 → 0.91 for 1.0) and +1.5 dB
+    /// With `silhouette_contrast` 1.5 and the colour sides' depth, on five Mitsuba rooms and a
+    /// capture copy (balanced) val σ moved +0.70 (`studio-mitsuba`), −0.04, +0.06, −0.01,
+    /// +1.20 (`atelier`: its plaster sphere 0.74 → 0.83 for 1.0) and +0.83 dB
     /// (`docs/roughness-rooms.md`, *Silhouettes by depth*). 0: off.
-    #[serde(default = "default_silhouette_gap", skip_serializing_if = "is_off")]
+    #[serde(default = "default_silhouette_gap")]
     pub silhouette_gap: f32,
     /// With `silhouette_gap`: only a neighbour across the occlusion at least this many times
     /// brighter or darker makes a silhouette pixel (1: any). Mixing costs a pixel a share of
@@ -335,8 +336,10 @@ impl SearchConfig {
             ("edge_contrast", self.edge_contrast, 1e6),
             ("outline_share", self.outline_share, 1.0),
             ("silhouette_gap", self.silhouette_gap, 1e6),
-            ("silhouette_contrast", self.silhouette_contrast, 1e6),
         ];
+        if !(self.silhouette_contrast >= 1.0 && self.silhouette_contrast <= 1e6) {
+            return bad("silhouette_contrast", &self.silhouette_contrast, "[1, 1e6]");
+        }
         for (key, v, hi) in ranges {
             if !(v >= 0.0 && v <= hi) {
                 return bad(key, &v, &format!("[0, {hi}]"));

@@ -19,9 +19,10 @@ pub struct Divided {
     /// Pixels on each side (of the search's).
     pub pixels: [usize; 2],
     /// Each side's cost at the other side's minimum over its own, minus 1
-    /// ([`crate::split::crossed`]): how firmly each side rejects the other's σ.
-    #[serde(default)]
-    pub crossed: [f32; 2],
+    /// ([`crate::split::crossed`]): how firmly each side rejects the other's σ. None where the
+    /// sides differ in metal (they divide on that alone) or a side has no finite minimum.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crossed: Option<[f32; 2]>,
 }
 
 /// The surface cells of the divided regions with their side, keyed by voxel.
@@ -35,7 +36,7 @@ pub struct DividedCells {
 
 /// A region whose sides keep their own decisions: its index, each side's decision and pixels,
 /// and how firmly each rejects the other's σ ([`crate::split::crossed`]).
-pub type KeptSides = (usize, [RegionChoice; 2], [usize; 2], [f32; 2]);
+pub type KeptSides = (usize, [RegionChoice; 2], [usize; 2], Option<[f32; 2]>);
 
 /// Decides one profile: `(profile, its halves, the region it belongs to)`.
 pub type ChooseOne<'a> =
@@ -73,8 +74,10 @@ pub fn choose_regions(
             side_halves,
             cfg,
         ) {
-            let m = sides[0].metallic.unwrap_or(0.0);
-            let cross = crossed([&profiles[r], &profiles[s]], m);
+            let [m0, m1] = sides.each_ref().map(|c| c.metallic.unwrap_or(0.0));
+            let cross = (m0 == m1)
+                .then(|| crossed([&profiles[r], &profiles[s]], m0))
+                .flatten();
             divided.push((r, sides, [profiles[r].pixels, profiles[s].pixels], cross));
         }
         whole.push(c);
@@ -156,7 +159,7 @@ mod tests {
         let (r, sides, pixels, crossed) = &kept[0];
         assert_eq!((*r, *pixels), (1, [1000, 1000]));
         // Each side's cost at the other's minimum: three steps away, 1 + 1.5 over 1.
-        assert_eq!(*crossed, [1.5, 1.5]);
+        assert_eq!(*crossed, Some([1.5, 1.5]));
         assert_eq!(
             sides.each_ref().map(|c| c.roughness),
             [Some(0.2), Some(0.8)]
@@ -170,6 +173,8 @@ mod tests {
             ..curve(region, min_at)
         };
         let flat = [curve(0, 2), shallow(1, 0, 0.005), shallow(2, 3, 0.005)];
+        let flat_sides = [1, 2].map(|k| choose_one(&flat[k], None, 1).roughness);
+        assert_eq!(flat_sides, [Some(0.2), Some(0.8)]);
         let (_, kept_flat) = choose_regions(&flat, None, &split, &cfg.split, &choose_one);
         assert!(kept_flat.is_empty());
         let deep = [curve(0, 2), shallow(1, 0, 0.1), shallow(2, 3, 0.1)];

@@ -17,7 +17,7 @@
 //! (`studio-mitsuba`'s right wall, σ 0.9: 1.2 %). The sides then go through the same guard
 //! as a colour split ([`crate::split::sides_differ`]). A region the colour divided takes the
 //! gloss cut when that is the deeper division (a wood checker over tiles of two finishes).
-use super::{argmin, AlbedoFit, Observed, SearchPixel};
+use super::{argmin, excess, AlbedoFit, Observed, SearchPixel};
 use crate::split::{ColourSplit, SplitConfig};
 use fipt_core::image::Image;
 use fipt_core::shading::ViewShadings;
@@ -281,7 +281,6 @@ fn depth(cells: &RegionCells, curves: &[Option<Vec<f32>>], side: &[Option<u8>]) 
         return None;
     };
     let (a, b) = (argmin(&p0)?, argmin(&p1)?);
-    let excess = |p: &[f64], own: usize, other: usize| p[other] / p[own].max(1e-30) - 1.0;
     Some(excess(&p0, a, b).min(excess(&p1, b, a)))
 }
 

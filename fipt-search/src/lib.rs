@@ -590,8 +590,8 @@ mod config;
 pub use config::{DielectricRule, RegionSource, SearchConfig};
 
 mod choice;
-use choice::argmin;
 pub use choice::choose;
+use choice::{argmin, excess};
 
 mod one_colour;
 pub use one_colour::{one_cell_per_region, with_one_colour};

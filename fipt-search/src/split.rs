@@ -11,7 +11,7 @@
 //! `separation` within-group standard deviations apart along the line between them: one
 //! Gaussian cloud cut in two gives 2.7, a uniform ramp (a colour gradient the shadings did not
 //! explain) 3.5.
-use super::{argmin, AlbedoFit, RegionChoice, RegionProfile, SearchPixel};
+use super::{argmin, excess, AlbedoFit, RegionChoice, RegionProfile, SearchPixel};
 use fipt_core::image::Image;
 use fipt_core::shading::ViewShadings;
 use glam::{DVec3, Vec3};
@@ -48,7 +48,8 @@ pub struct SplitConfig {
     /// Least relative excess of each side's pooled cost curve at the other side's σ: a floor
     /// of σ 0.3 / 0.65 tiles 96 %, every other cut on five Mitsuba rooms (sides of 15 % or
     /// more) at most 14 %, most under 8 %: shading error makes reproducible but shallow cuts.
-    /// Colour sides keep their own decisions only with it too ([`sides_differ`]).
+    /// Colour sides keep their own decisions only with it too, measured on their profiles
+    /// ([`sides_differ`]).
     pub gloss_depth: f32,
 }
 
@@ -315,20 +316,20 @@ fn argmin_sigma(p: &RegionProfile, m: f32) -> f32 {
 }
 
 /// Each side's cost at the other side's minimum (nearest σ candidate, metallic `m`) over its own
-/// minimum, minus 1 (0.02: 2 % above; NaN without a finite minimum): how firmly each side's
-/// views reject the other side's σ.
-pub fn crossed(sides: [&RegionProfile; 2], m: f32) -> [f32; 2] {
-    let excess = |p: &RegionProfile, s: f32| {
-        let Some(row) = p.metallic.iter().position(|&x| x == m).map(|k| &p.cost[k]) else {
-            return f32::NAN;
-        };
-        let (Some(best), Some(at)) = (argmin(row), nearest(&p.sigma, s)) else {
-            return f32::NAN;
-        };
-        (row[at] / row[best] - 1.0) as f32
+/// minimum, minus 1 (0.02: 2 % above): how firmly each side's views reject the other side's σ.
+/// None where a side has no finite minimum at `m`.
+pub fn crossed(sides: [&RegionProfile; 2], m: f32) -> Option<[f32; 2]> {
+    let at = |p: &RegionProfile, s: f32| {
+        let row = p
+            .metallic
+            .iter()
+            .position(|&x| x == m)
+            .map(|k| &p.cost[k])?;
+        let e = excess(row, argmin(row)?, nearest(&p.sigma, s)?) as f32;
+        e.is_finite().then_some(e)
     };
     let [a, b] = sides;
-    [excess(a, argmin_sigma(b, m)), excess(b, argmin_sigma(a, m))]
+    Some([at(a, argmin_sigma(b, m))?, at(b, argmin_sigma(a, m))?])
 }
 
 /// The index of the candidate nearest `s` (None for NaN or no candidates).
@@ -341,7 +342,8 @@ fn nearest(grid: &[f32], s: f32) -> Option<usize> {
 /// Whether two sides keep their own decisions `[ca, cb]` (from profiles `[a, b]`): one is metal
 /// and the other is not, or their decisions differ and so do their curves' minima, by
 /// `sigma_gap`, each side's cost at the other's minimum lies `gloss_depth` above its own
-/// ([`crossed`]), and with `halves` (each side profiled on each half of the views:
+/// ([`crossed`]; gloss cuts, which passed that depth on their pooled per-cell curves, are
+/// checked again here on their sides' profiles), and with `halves` (each side profiled on each half of the views:
 /// `halves[side][half]`) the minima differ the same way by half the gap on both halves.
 /// Comparing minima, not decisions, keeps a side of weak evidence (whose tolerance rule lands
 /// elsewhere) from dividing a region of one finish; the depth keeps a region of one finish and
@@ -369,7 +371,7 @@ pub fn sides_differ(
     if !(whole.abs() >= cfg.sigma_gap - slack) {
         return false;
     }
-    let firm = crossed(sides, m).iter().all(|&c| c >= cfg.gloss_depth);
+    let firm = crossed(sides, m).is_some_and(|c| c.iter().all(|&c| c >= cfg.gloss_depth));
     firm && halves.is_none_or(|h| {
         (0..2).all(|k| {
             let g = gap(h[0][k], h[1][k]);

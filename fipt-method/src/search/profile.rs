@@ -20,8 +20,9 @@ pub struct ProfileRequest {
     pub edge_contrast: f32,
     /// With `drop_edges`: `[search] outline_share`.
     pub outline_share: f32,
-    /// With `drop_edges`: `[search] silhouette_gap`.
+    /// With `drop_edges`: `[search] silhouette_gap` and `silhouette_contrast`.
     pub silhouette_gap: f32,
+    pub silhouette_contrast: f32,
     /// `[search] diffuse_radius`: the pixels over which the search averages Ld.
     pub diffuse_radius: u32,
 }
@@ -120,6 +121,7 @@ fn profile_inputs(
         edge_contrast: a.edge_contrast,
         outline_share: a.outline_share,
         silhouette_gap: a.silhouette_gap,
+        silhouette_contrast: a.silhouette_contrast,
         diffuse_radius: a.diffuse_radius,
         ..SearchConfig::default()
     };
