@@ -309,10 +309,17 @@ pub fn merged(a: &RegionProfile, b: &RegionProfile) -> RegionProfile {
     }
 }
 
+/// The cost curve over σ at metallic `m` (None when `m` is not a candidate).
+fn cost_row(p: &RegionProfile, m: f32) -> Option<&[f64]> {
+    let k = p.metallic.iter().position(|&x| x == m)?;
+    p.cost.get(k).map(Vec::as_slice)
+}
+
 /// The σ of the lowest cost at metallic `m` (NaN without one).
 fn argmin_sigma(p: &RegionProfile, m: f32) -> f32 {
-    let row = p.metallic.iter().position(|&x| x == m).map(|k| &p.cost[k]);
-    row.and_then(|r| argmin(r)).map_or(f32::NAN, |i| p.sigma[i])
+    cost_row(p, m)
+        .and_then(argmin)
+        .map_or(f32::NAN, |i| p.sigma[i])
 }
 
 /// Each side's cost at the other side's minimum (nearest σ candidate, metallic `m`) over its own
@@ -320,11 +327,7 @@ fn argmin_sigma(p: &RegionProfile, m: f32) -> f32 {
 /// None where a side has no finite minimum at `m`.
 pub fn crossed(sides: [&RegionProfile; 2], m: f32) -> Option<[f32; 2]> {
     let at = |p: &RegionProfile, s: f32| {
-        let row = p
-            .metallic
-            .iter()
-            .position(|&x| x == m)
-            .map(|k| &p.cost[k])?;
+        let row = cost_row(p, m)?;
         let e = excess(row, argmin(row)?, nearest(&p.sigma, s)?) as f32;
         e.is_finite().then_some(e)
     };
