@@ -193,6 +193,10 @@ pub struct DegradeRequest {
     pub subdivide: u32,
     /// Largest displacement of the smooth mesh warp, millimetres.
     pub warp_mm: f32,
+    /// A scanner's ripple on top: largest displacement in millimetres (0: none)…
+    pub ripple_mm: f32,
+    /// …and its wavelength in centimetres; the mesh is first refined to edges of a sixth of it.
+    pub ripple_cm: f32,
     pub seed: u64,
 }
 
@@ -215,6 +219,10 @@ pub struct DegradeRecord {
     pub fipt_version: &'static str,
     pub request: DegradeRequest,
     pub triangles: usize,
+    /// With a ripple (the mesh refined): per file face of the source's mesh, the index of its
+    /// first triangle in the copy's (one more entry at the end). `fipt eval --ceiling` reads it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub face_starts: Option<Vec<u32>>,
     pub views: Vec<ViewRecord>,
     /// The copy's views are at 1/gain of the source's radiance (for `ldr = fixed`, one gain).
     pub note: String,
@@ -238,6 +246,20 @@ fn validate(a: &DegradeRequest) -> Result<()> {
     }
     if !finite_in(a.warp_mm, 0.0, 1000.0) {
         bail!("--mesh-warp {}: give millimetres in [0, 1000]", a.warp_mm);
+    }
+    if !finite_in(a.ripple_mm, 0.0, 100.0) || !finite_in(a.ripple_cm, 0.0, 1000.0) {
+        bail!(
+            "--mesh-ripple {},{}: give millimetres in [0, 100] and centimetres in [0, 1000]",
+            a.ripple_mm,
+            a.ripple_cm
+        );
+    }
+    if a.ripple_mm > 0.0 && a.ripple_cm < 1.0 {
+        bail!(
+            "--mesh-ripple {},{}: a wavelength under 1 cm needs edges under 1.7 mm; give at least 1 cm",
+            a.ripple_mm,
+            a.ripple_cm
+        );
     }
     if a.subdivide > 4 {
         bail!(
@@ -306,7 +328,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
             .with_context(|| format!("replacing {}", a.out.display()))?;
     }
     std::fs::create_dir_all(&a.out)?;
-    let triangles = write_mesh(a, &ds)?;
+    let (triangles, face_starts) = write_mesh(a, &ds)?;
     let splits: Vec<&Split> = if a.layout.captures_only() {
         vec![ds.train()]
     } else {
@@ -390,7 +412,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
         }
         st.done();
     }
-    if !a.drop_gt && !a.layout.captures_only() && a.subdivide == 0 {
+    if !a.drop_gt && !a.layout.captures_only() && a.subdivide == 0 && face_starts.is_none() {
         for f in ["scene_gt.json", "scene_parts.json"] {
             if ds.root.join(f).is_file() {
                 std::fs::copy(ds.root.join(f), a.out.join(f))?;
@@ -402,6 +424,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
         fipt_version: env!("CARGO_PKG_VERSION"),
         request: a.clone(),
         triangles,
+        face_starts,
         views,
         note,
     };
@@ -534,26 +557,64 @@ fn resample(img: &Image, src: &Camera, lens_cam: &Camera) -> Image {
     out
 }
 
-/// The mesh, subdivided and warped as asked (copied byte for byte otherwise).
-fn write_mesh(a: &DegradeRequest, ds: &Dataset) -> Result<usize> {
+/// A ripple's mesh refinement: edges of at most this share of its wavelength.
+const RIPPLE_EDGE: f32 = 1.0 / 6.0;
+
+/// Most triangles a rippled copy may have (a scan of a room has about 10⁵ to 10⁶).
+const MAX_TRIANGLES: f64 = 4.0e6;
+
+/// The mesh, subdivided, refined, warped and rippled as asked (copied byte for byte
+/// otherwise); its triangle count and, when refined, each source face's first triangle.
+fn write_mesh(a: &DegradeRequest, ds: &Dataset) -> Result<(usize, Option<Vec<u32>>)> {
     let mesh = fipt_geom::Mesh::load(&ds.mesh)?;
-    if a.subdivide == 0 && a.warp_mm == 0.0 {
+    let ripple = a.ripple_mm > 0.0;
+    if a.subdivide == 0 && a.warp_mm == 0.0 && !ripple {
         let name = ds.mesh.file_name().unwrap_or_default();
         std::fs::copy(&ds.mesh, a.out.join(name))?;
-        return Ok(mesh.triangles.len());
+        return Ok((mesh.triangles.len(), None));
     }
-    let m = mesh
-        .subdivided(a.subdivide)
-        .warped(a.warp_mm / 1000.0, a.seed);
+    let mut m = mesh.subdivided(a.subdivide);
+    let mut starts = None;
+    let mut what = format!("subdivided {}×", a.subdivide);
+    let mut ripple_note = String::new();
+    if ripple {
+        let edge = a.ripple_cm / 100.0 * RIPPLE_EDGE;
+        let area: f64 = (0..m.triangles.len()).map(|t| m.area(t) as f64).sum();
+        // A refined triangle has edges of edge/2 … edge: about edge²/4 of area at least.
+        let estimate = area / (edge as f64 * edge as f64 / 4.0);
+        if estimate > MAX_TRIANGLES {
+            bail!(
+                "--mesh-ripple {},{}: the mesh ({area:.1} m²) would need about {:.1e} triangles of {:.1} cm edges (at most {MAX_TRIANGLES:.0e}); give a longer wavelength",
+                a.ripple_mm,
+                a.ripple_cm,
+                estimate,
+                edge * 100.0
+            );
+        }
+        let (fine, s) = m.refined(edge);
+        // A subdivided mesh's faces map to the source's 4^K at a time.
+        let k = 4u32.pow(a.subdivide) as usize;
+        starts = Some((0..=mesh.num_file_faces).map(|f| s[f * k]).collect());
+        m = fine;
+        what = format!("{what}, refined to edges of {:.2} cm", edge * 100.0);
+        ripple_note = format!(
+            ", rippled by up to {} mm at {} cm",
+            a.ripple_mm, a.ripple_cm
+        );
+    }
+    let m = m.warped(a.warp_mm / 1000.0, a.seed).rippled(
+        a.ripple_mm / 1000.0,
+        a.ripple_cm / 100.0,
+        a.seed,
+    );
     let header = format!(
-        "fipt degrade of {}: subdivided {}×, warped by up to {} mm (seed {})",
+        "fipt degrade of {}: {what}, warped by up to {} mm{ripple_note} (seed {})",
         ds.mesh.display(),
-        a.subdivide,
         a.warp_mm,
         a.seed
     );
     m.write_obj(&a.out.join("scene.obj"), &header)?;
-    Ok(m.triangles.len())
+    Ok((m.triangles.len(), starts))
 }
 
 /// `degrade.json`'s note: how the copy's stored values relate to the source's radiance.

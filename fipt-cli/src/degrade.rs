@@ -64,6 +64,12 @@ pub struct Args {
     /// Warp the mesh smoothly by up to this many millimetres.
     #[arg(long, default_value_t = 0.0)]
     mesh_warp: f32,
+    /// A scanner's ripple on top of the warp: MM,CM (largest displacement in millimetres,
+    /// wavelength in centimetres; it tilts the faces by about 2π·MM/(10·CM) radians). The
+    /// mesh is refined to edges of a sixth of the wavelength first; `fipt eval --ceiling`
+    /// follows the refinement.
+    #[arg(long, value_name = "MM,CM", default_value = "0,0")]
+    mesh_ripple: String,
     #[arg(long, default_value_t = 0)]
     seed: u64,
 }
@@ -102,6 +108,16 @@ pub fn run(a: Args) -> Result<()> {
             a.pose_noise
         );
     };
+    let Some((ripple_mm, ripple_cm)) = a
+        .mesh_ripple
+        .split_once(',')
+        .and_then(|(m, c)| Some((m.trim().parse().ok()?, c.trim().parse().ok()?)))
+    else {
+        bail!(
+            "--mesh-ripple {}: expected MM,CM (e.g. 3,15)",
+            a.mesh_ripple
+        );
+    };
     let req = DegradeRequest {
         source: a.source,
         out: a.out,
@@ -137,6 +153,8 @@ pub fn run(a: Args) -> Result<()> {
         upscale: a.upscale,
         subdivide: a.subdivide,
         warp_mm: a.mesh_warp,
+        ripple_mm,
+        ripple_cm,
         seed: a.seed,
     };
     let rec = degrade(&req)?;

@@ -44,6 +44,71 @@ pub fn scale_faces(m: &SceneMaterials, ratio: u32) -> SceneMaterials {
     }
 }
 
+/// The faces of a refined copy of a mesh: each range of the source's table through `starts`
+/// (per source face, its first face in the copy; one more entry at the end).
+pub fn map_faces(m: &SceneMaterials, starts: &[u32], copy: &Path) -> Result<SceneMaterials> {
+    let at = |f: u32| {
+        starts.get(f as usize).copied().ok_or_else(|| {
+            fipt_run::err!(
+                "{}: degrade.json maps {} source faces, and the scene's table names face {f}",
+                copy.display(),
+                starts.len().saturating_sub(1)
+            )
+        })
+    };
+    let mut faces = Vec::with_capacity(m.faces.len());
+    for r in &m.faces {
+        faces.push(FaceRange {
+            start: at(r.start)?,
+            end: at(r.end)?,
+            material: r.material,
+        });
+    }
+    Ok(SceneMaterials {
+        faces,
+        note: format!("{} (face ranges through the copy's refinement)", m.note),
+        ..m.clone()
+    })
+}
+
+/// A refined copy's face map from its `degrade.json` (`face_starts`), checked against both
+/// meshes; None for a copy without one (subdivided at most: faces × 4^K).
+fn refined_faces(copy: &Path, source_faces: usize, copy_faces: usize) -> Result<Option<Vec<u32>>> {
+    let record = copy.join("degrade.json");
+    if !record.is_file() {
+        return Ok(None);
+    }
+    let text =
+        std::fs::read_to_string(&record).map_err(|e| fipt_core::CoreError::io(&record, e))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        fipt_run::err!(
+            "{}: not JSON ({e}); make the copy again with `fipt degrade`",
+            record.display()
+        )
+    })?;
+    let Some(list) = v.get("face_starts").and_then(|s| s.as_array()) else {
+        return Ok(None);
+    };
+    let starts: Vec<u32> = list
+        .iter()
+        .filter_map(|x| x.as_u64().map(|x| x as u32))
+        .collect();
+    let monotone = starts.windows(2).all(|w| w[0] <= w[1]);
+    if starts.len() != list.len()
+        || starts.len() != source_faces + 1
+        || !monotone
+        || starts.last().copied() != Some(copy_faces as u32)
+    {
+        crate::bail!(
+            "{}: face_starts maps {} faces to {} and does not fit the meshes ({source_faces} source faces, {copy_faces} in the copy); make the copy again with `fipt degrade`",
+            record.display(),
+            starts.len().saturating_sub(1),
+            starts.last().copied().unwrap_or(0)
+        );
+    }
+    Ok(Some(starts))
+}
+
 /// How many faces of the copy stand for each face of the source: a power of 4, or an error
 /// naming both meshes.
 pub fn subdivision_ratio(source_faces: usize, copy_faces: usize, copy: &Path) -> Result<u32> {
@@ -90,12 +155,25 @@ pub fn evaluate_ceiling(
     let copy_mesh = crate::render::mesh_of(&a.copy)?;
     let source_faces = Mesh::load(&ds.mesh)?.num_file_faces;
     let copy_faces = Mesh::load(&copy_mesh)?.num_file_faces;
-    let ratio = subdivision_ratio(source_faces, copy_faces, &a.copy)?;
+    // Per source face its first face in a refined copy, else faces × 4^K: checked here,
+    // before anything is written.
+    let faces = match refined_faces(&a.copy, source_faces, copy_faces)? {
+        Some(s) => Ok(s),
+        None => Err(subdivision_ratio(source_faces, copy_faces, &a.copy)?),
+    };
     use fipt_core::lock::{refuse_owned_output, Owner};
     refuse_owned_output(&a.out, "eval --ceiling", &[Owner::Run, Owner::Scene])?;
     std::fs::create_dir_all(&a.out).map_err(|e| fipt_core::CoreError::io(&a.out, e))?;
     let table = a.out.join("materials.json");
-    let materials = scale_faces(&SceneMaterials::read_any(&parts)?, ratio);
+    let source = SceneMaterials::read_any(&parts)?;
+    // Faces per source face: exact for a subdivided copy, a mean for a refined one.
+    let (materials, ratio) = match faces {
+        Ok(s) => (
+            map_faces(&source, &s, &a.copy)?,
+            serde_json::json!(copy_faces as f64 / source_faces.max(1) as f64),
+        ),
+        Err(r) => (scale_faces(&source, r), serde_json::json!(r)),
+    };
     fipt_core::fsutil::write_json_atomic(&table, &materials)?;
     let rendered = a.out.join("render");
     render_unchecked(

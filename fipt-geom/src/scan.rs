@@ -44,11 +44,33 @@ impl Mesh {
     /// displacement is `amplitude` (metres). Shading normals are recomputed from the faces
     /// (area-weighted, per vertex) when the mesh has them. Deterministic in `seed`.
     pub fn warped(&self, amplitude: f32, seed: u64) -> Mesh {
+        let diag = (self.bounds().max - self.bounds().min).length().max(1e-6);
+        self.displaced(
+            amplitude,
+            |u| diag / (1.5 + 2.5 * u),
+            Pcg32::new(seed, 0x5ca9),
+        )
+    }
+
+    /// A scanner's ripple: the same kind of field as [`Mesh::warped`] with wavelengths of 0.75
+    /// to 1.33 times `wavelength` (metres), largest displacement `amplitude`. It tilts the
+    /// faces by about 2π·amplitude/wavelength; the mesh must be fine enough to carry it
+    /// ([`Mesh::refined`] to a sixth of the wavelength). Deterministic in `seed`.
+    pub fn rippled(&self, amplitude: f32, wavelength: f32, seed: u64) -> Mesh {
+        let l = wavelength.max(1e-6);
+        self.displaced(
+            amplitude,
+            |u| l / (0.75 + 0.58 * u),
+            Pcg32::new(seed, 0x41bb),
+        )
+    }
+
+    /// Every position moved by `WAVES` waves per axis, each of the wavelength `wavelength(u)`
+    /// for a uniform u, scaled so that the largest displacement is `amplitude`.
+    fn displaced(&self, amplitude: f32, wavelength: impl Fn(f32) -> f32, mut rng: Pcg32) -> Mesh {
         if amplitude <= 0.0 || self.positions.is_empty() {
             return self.clone();
         }
-        let diag = (self.bounds().max - self.bounds().min).length().max(1e-6);
-        let mut rng = Pcg32::new(seed, 0x5ca9);
         // (axis, direction k, phase) of each wave.
         let waves: Vec<(usize, Vec3, f32)> = (0..3 * WAVES)
             .map(|i| {
@@ -59,8 +81,7 @@ impl Mesh {
                         break v.normalize();
                     }
                 };
-                let wavelength = diag / (1.5 + 2.5 * rng.next_f32());
-                let k = dir * (std::f32::consts::TAU / wavelength);
+                let k = dir * (std::f32::consts::TAU / wavelength(rng.next_f32()));
                 (i / WAVES, k, std::f32::consts::TAU * rng.next_f32())
             })
             .collect();
@@ -88,6 +109,70 @@ impl Mesh {
         m
     }
 
+    /// Every edge longer than `max_edge` (metres) halved, again and again, until none is: the
+    /// triangles beside a halved edge split in two, three or four, so the surface stays closed
+    /// (both sides of an edge halve it, even across a crease's repeated vertices: they split at
+    /// the same position). The surface and its shading normals stay the same. Returns the mesh
+    /// and, per file face of `self`, the index of its first triangle in it (one more entry at
+    /// the end): a face's triangles are consecutive, in the faces' order.
+    pub fn refined(&self, max_edge: f32) -> (Mesh, Vec<u32>) {
+        let mut pos = self.positions.clone();
+        let mut nor = self.normals.clone();
+        let mut tris = self.triangles.clone();
+        let mut owner = self.face_ids.clone();
+        let long =
+            |pos: &[Vec3], a: u32, b: u32| (pos[a as usize] - pos[b as usize]).length() > max_edge;
+        // Each pass halves the long edges of the previous one: 64 passes are 2^64 times shorter.
+        for _ in 0..64 {
+            if !(max_edge > 0.0)
+                || !tris
+                    .iter()
+                    .any(|t| (0..3).any(|e| long(&pos, t[e], t[(e + 1) % 3])))
+            {
+                break;
+            }
+            let mut mids: std::collections::HashMap<(u32, u32), u32> = Default::default();
+            let (mut next, mut next_owner) = (Vec::with_capacity(tris.len() * 2), vec![]);
+            for (&t, &o) in tris.iter().zip(&owner) {
+                let mut mid = |e: usize| {
+                    let (a, b) = (t[e], t[(e + 1) % 3]);
+                    if !long(&pos, a, b) {
+                        return None;
+                    }
+                    Some(*mids.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                        pos.push((pos[a as usize] + pos[b as usize]) * 0.5);
+                        if let Some(n) = nor.as_mut() {
+                            let v = (n[a as usize] + n[b as usize]).normalize_or(n[a as usize]);
+                            n.push(v);
+                        }
+                        pos.len() as u32 - 1
+                    }))
+                };
+                let m = [mid(0), mid(1), mid(2)];
+                let before = next.len();
+                split_triangle(t, m, &pos, &mut next);
+                next_owner.resize(next.len(), o);
+                debug_assert!(next.len() > before);
+            }
+            tris = next;
+            owner = next_owner;
+        }
+        let mut mesh = Mesh::from_triangles(pos, nor, tris);
+        // from_triangles keeps every triangle of a non-degenerate parent but drops a sliver
+        // it finds degenerate: follow its face ids.
+        let kept: Vec<u32> = mesh.face_ids.iter().map(|&f| owner[f as usize]).collect();
+        let mut starts = vec![0u32; self.num_file_faces + 1];
+        for &o in &kept {
+            starts[o as usize + 1] += 1;
+        }
+        for f in 0..self.num_file_faces {
+            starts[f + 1] += starts[f];
+        }
+        mesh.num_file_faces = mesh.triangles.len();
+        mesh.face_ids = (0..mesh.triangles.len() as u32).collect();
+        (mesh, starts)
+    }
+
     /// Per-vertex normals: the area-weighted sum of the adjacent faces' normals.
     fn face_weighted_normals(&self) -> Vec<Vec3> {
         let mut n = vec![Vec3::ZERO; self.positions.len()];
@@ -106,6 +191,41 @@ impl Mesh {
                     .unwrap_or_else(|| old.map_or(Vec3::Z, |o| o[i]))
             })
             .collect()
+    }
+}
+
+/// Triangle `t` split at the midpoints `m[e]` of its halved edges (edge e from corner e to
+/// e + 1), its corners' order (and so its facing) kept.
+fn split_triangle(t: [u32; 3], m: [Option<u32>; 3], pos: &[Vec3], out: &mut Vec<[u32; 3]>) {
+    match m {
+        [None, None, None] => out.push(t),
+        [Some(ab), Some(bc), Some(ca)] => {
+            let [a, b, c] = t;
+            out.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        _ => {
+            // Rotate so that edge 0 (a→b) is halved and, with two halved, edge 1 (b→c) too.
+            let r = (0..3)
+                .find(|&r| {
+                    m[r].is_some() && (m.iter().flatten().count() == 1 || m[(r + 1) % 3].is_some())
+                })
+                .unwrap_or(0);
+            let [a, b, c] = [t[r], t[(r + 1) % 3], t[(r + 2) % 3]];
+            let (ab, bc) = (m[r].unwrap_or(a), m[(r + 1) % 3]);
+            match bc {
+                None => out.extend([[a, ab, c], [ab, b, c]]),
+                Some(bc) => {
+                    out.push([ab, b, bc]);
+                    // The quad a, ab, bc, c by its shorter diagonal.
+                    let d = |i: u32, j: u32| (pos[i as usize] - pos[j as usize]).length_squared();
+                    if d(a, bc) <= d(ab, c) {
+                        out.extend([[a, ab, bc], [a, bc, c]]);
+                    } else {
+                        out.extend([[a, ab, c], [ab, bc, c]]);
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -158,5 +278,107 @@ mod tests {
         assert_eq!(w.positions[3], w.positions[4], "a shared position splits");
         assert_eq!(w, m.warped(0.008, 7), "not deterministic");
         assert_ne!(w, m.warped(0.008, 8));
+    }
+
+    /// A unit cube, its faces outward; the top face's four corners repeated (a crease's
+    /// own vertices), so its edges are shared by position only.
+    fn cube() -> Mesh {
+        let mut p: Vec<Vec3> = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32))
+            .collect();
+        p.extend([p[4], p[5], p[6], p[7]]); // 8..12: the top's own corners
+        let tris = vec![
+            [0, 2, 1],
+            [1, 2, 3], // z = 0
+            [8, 9, 10],
+            [9, 11, 10], // z = 1 (own vertices)
+            [0, 1, 4],
+            [1, 5, 4], // y = 0
+            [2, 6, 3],
+            [3, 6, 7], // y = 1
+            [0, 4, 2],
+            [2, 4, 6], // x = 0
+            [1, 3, 5],
+            [3, 7, 5], // x = 1
+        ];
+        Mesh::from_triangles(p, None, tris)
+    }
+
+    fn normal(m: &Mesh, t: usize) -> Vec3 {
+        let [a, b, c] = m.triangles[t].map(|i| m.positions[i as usize]);
+        (b - a).cross(c - a).normalize()
+    }
+
+    #[test]
+    fn refinement_halves_long_edges_keeps_the_surface_closed_and_maps_faces() {
+        let src = cube();
+        let (m, starts) = src.refined(0.3);
+        assert_eq!(starts.len(), 13);
+        assert_eq!(starts[0], 0);
+        assert_eq!(*starts.last().unwrap() as usize, m.triangles.len());
+        let key = |v: Vec3| (v * 1024.0).round().as_ivec3().to_array();
+        let mut edges: std::collections::HashMap<_, u32> = Default::default();
+        for t in &m.triangles {
+            for e in 0..3 {
+                let (a, b) = (
+                    m.positions[t[e] as usize],
+                    m.positions[t[(e + 1) % 3] as usize],
+                );
+                assert!(
+                    (a - b).length() <= 0.3 + 1e-6,
+                    "an edge of {}",
+                    (a - b).length()
+                );
+                let (ka, kb) = (key(a), key(b));
+                *edges.entry((ka.min(kb), ka.max(kb))).or_default() += 1;
+            }
+        }
+        // Closed: every edge is met by exactly two triangles (no T-junction, no crack), also
+        // along the top face's repeated corners.
+        assert!(edges.values().all(|&n| n == 2), "an open edge");
+        for f in 0..12 {
+            let (lo, hi) = (starts[f] as usize, starts[f + 1] as usize);
+            assert!(hi > lo);
+            let area: f32 = (lo..hi).map(|t| m.area(t)).sum();
+            assert!((area - src.area(f)).abs() < 1e-5, "face {f}: {area}");
+            for t in lo..hi {
+                assert!(
+                    normal(&m, t).dot(normal(&src, f)) > 0.999,
+                    "face {f} turned"
+                );
+            }
+        }
+        assert_eq!(
+            src.refined(2.0).0.triangles,
+            src.triangles,
+            "nothing to halve"
+        );
+    }
+
+    #[test]
+    fn a_ripple_is_bounded_tilts_the_faces_and_is_deterministic() {
+        let flat = Mesh::from_triangles(
+            vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
+            None,
+            vec![[0, 1, 2], [0, 2, 3]],
+        );
+        let (m, _) = flat.refined(0.2 / 6.0);
+        let (amp, wl) = (0.003, 0.2);
+        let r = m.rippled(amp, wl, 5);
+        let moved = m.positions.iter().zip(&r.positions);
+        let max = moved
+            .map(|(a, b)| (*a - *b).length())
+            .fold(0.0f32, f32::max);
+        assert!((max - amp).abs() < 1e-6, "largest displacement {max}");
+        let slope = std::f32::consts::TAU * amp / wl;
+        let tilt = (0..r.triangles.len())
+            .map(|t| normal(&r, t).angle_between(Vec3::Z))
+            .fold(0.0f32, f32::max);
+        assert!(
+            tilt > 0.2 * slope && tilt < 3.0 * slope,
+            "tilt {tilt} for a slope {slope}"
+        );
+        assert_eq!(r, m.rippled(amp, wl, 5), "not deterministic");
+        assert_eq!(m.rippled(0.0, wl, 5), m, "no ripple moves nothing");
     }
 }
