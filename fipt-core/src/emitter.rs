@@ -219,4 +219,9 @@ pub trait EmitterExtractor {
         let _ = triangles;
         Ok(())
     }
+    /// What the last [`EmitterExtractor::extract`] left out and why, one line each, for the
+    /// run's log (none by default).
+    fn notes(&self) -> Vec<String> {
+        vec![]
+    }
 }

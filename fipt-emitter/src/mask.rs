@@ -106,6 +106,18 @@ impl MaskExtractorConfig {
 /// that no pixel centre hits (the median of their light's pixels).
 pub struct MaskExtractor {
     pub config: MaskExtractorConfig,
+    /// What the last extraction left out ([`EmitterExtractor::notes`]).
+    pub notes: std::sync::Mutex<Vec<String>>,
+}
+
+impl MaskExtractor {
+    /// An extractor of these settings.
+    pub fn new(config: MaskExtractorConfig) -> Self {
+        MaskExtractor {
+            config,
+            notes: Default::default(),
+        }
+    }
 }
 
 fn median(v: &mut [f32]) -> f32 {
@@ -196,6 +208,10 @@ impl EmitterExtractor for MaskExtractor {
 
     /// The emission mask is queried at every sample of every triangle (about 10 M queries a
     /// second on 2 cores): at most 1e10 queries.
+    fn notes(&self) -> Vec<String> {
+        self.notes.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
     fn check(&self, triangles: usize) -> std::result::Result<(), String> {
         let factors = [
             (
@@ -218,9 +234,18 @@ impl EmitterExtractor for MaskExtractor {
         let obs = observed(inp, &mut is_emitter, c.require_unexplained)?;
         // 3. Connected groups: emitter triangles sharing a vertex.
         let mut groups = connected_groups(inp, &is_emitter);
+        let mut notes = vec![];
         if c.drop_outlines {
-            groups = without_outlines(groups, &obs);
+            let (kept, dropped) = without_outlines(groups, &obs);
+            groups = kept;
+            if dropped.0 > 0 {
+                notes.push(format!(
+                    "{} light(s) of {} pixel(s) in all dropped: seen only along the outline of a light with {OUTLINE_RATIO}× their pixels (pose error or a scan's geometry; emitters.drop_outlines)",
+                    dropped.0, dropped.1
+                ));
+            }
         }
+        *self.notes.lock().unwrap_or_else(|e| e.into_inner()) = notes;
         // 4. Radiance per triangle: median of its pixels, else of its light's pixels.
         let seen = seen_radiance(&obs, c.inner_pixels);
         let mut out = Vec::new();
@@ -335,8 +360,12 @@ fn connected_groups(inp: &EmitterInputs, is_emitter: &[bool]) -> Vec<Vec<usize>>
 }
 
 /// The groups but those seen only along a much larger group's outline
-/// ([`MaskExtractorConfig::drop_outlines`]), in their order.
-fn without_outlines(groups: Vec<Vec<usize>>, obs: &HashMap<u32, Vec<PixelHit>>) -> Vec<Vec<usize>> {
+/// ([`MaskExtractorConfig::drop_outlines`]), in their order; and how many were dropped, with
+/// how many pixels.
+fn without_outlines(
+    groups: Vec<Vec<usize>>,
+    obs: &HashMap<u32, Vec<PixelHit>>,
+) -> (Vec<Vec<usize>>, (usize, usize)) {
     let pixels_of = |g: &[usize]| -> Vec<&PixelHit> {
         g.iter()
             .flat_map(|t| obs.get(&(*t as u32)).into_iter().flatten())
@@ -370,9 +399,15 @@ fn without_outlines(groups: Vec<Vec<usize>>, obs: &HashMap<u32, Vec<PixelHit>>) 
         !placed.is_empty() && bordering as f32 >= OUTLINE_SHARE * placed.len() as f32
     };
     let dropped: Vec<bool> = (0..groups.len()).map(outline).collect();
-    (groups.into_iter().zip(dropped))
+    let count = dropped.iter().filter(|&&d| d).count();
+    let pixels = (0..groups.len())
+        .filter(|&k| dropped[k])
+        .map(|k| sizes[k])
+        .sum();
+    let kept = (groups.into_iter().zip(dropped))
         .filter_map(|(g, d)| (!d).then_some(g))
-        .collect()
+        .collect();
+    (kept, (count, pixels))
 }
 
 /// Per emitter triangle: every pixel's radiance, and (with `inner_pixels`) the radiance of its
@@ -557,9 +592,7 @@ mod tests {
         }
         hits.push(hit(2, Vec3::new(100.0, 90.0, 80.0))); // the tiny lamp: one pixel
         hits.push(hit(4, Vec3::splat(0.3))); // floor
-        let ex = MaskExtractor {
-            config: MaskExtractorConfig::default(),
-        };
+        let ex = MaskExtractor::new(MaskExtractorConfig::default());
         let e = ex
             .extract(&EmitterInputs {
                 positions: &pos,
@@ -610,9 +643,7 @@ mod tests {
                 });
             }
         }
-        let mut ex = MaskExtractor {
-            config: MaskExtractorConfig::default(),
-        };
+        let mut ex = MaskExtractor::new(MaskExtractorConfig::default());
         let inp = inputs(&pos, &tris, &field, &hits);
         let e = ex.extract(&inp).unwrap();
         assert_eq!(e.len(), 1, "{e:?}");
@@ -662,9 +693,7 @@ mod tests {
             hit(1, Some(false)),
             hit(2, Some(false)),
         ];
-        let mut ex = MaskExtractor {
-            config: MaskExtractorConfig::default(),
-        };
+        let mut ex = MaskExtractor::new(MaskExtractorConfig::default());
         let inp = inputs(&pos, &tris, &field, &hits);
         let e = ex.extract(&inp).unwrap();
         let light = |t: u32| e.iter().find(|l| l.triangles.contains(&t)).unwrap();
@@ -747,9 +776,7 @@ mod tests {
             hits.push(pixel(0, Vec3::splat(5.0), Some(Vec3::splat(0.5))));
             hits.push(pixel(4, Vec3::splat(0.3), Some(Vec3::splat(0.5))));
         }
-        let mut ex = MaskExtractor {
-            config: MaskExtractorConfig::default(),
-        };
+        let mut ex = MaskExtractor::new(MaskExtractorConfig::default());
         let inp = inputs(&pos, &tris, &field, &hits);
         let e = ex.extract(&inp).unwrap();
         assert_eq!(e.len(), 1, "{e:?}");
@@ -765,16 +792,14 @@ mod tests {
         let (pos, tris) = scene();
         let field = BoxMask(Vec3::splat(100.0), Vec3::splat(101.0));
         let hits = vec![pixel(0, Vec3::ONE, None)];
-        let e = MaskExtractor {
-            config: MaskExtractorConfig::default(),
-        }
-        .extract(&EmitterInputs {
-            positions: &pos,
-            triangles: &tris,
-            field: &field,
-            pixel_hits: &hits,
-        })
-        .unwrap();
+        let e = MaskExtractor::new(MaskExtractorConfig::default())
+            .extract(&EmitterInputs {
+                positions: &pos,
+                triangles: &tris,
+                field: &field,
+                pixel_hits: &hits,
+            })
+            .unwrap();
         assert!(e.is_empty());
     }
 
@@ -802,25 +827,26 @@ mod tests {
             hits
         };
         let count = |hits: &Vec<PixelHit>, drop_outlines: bool| {
-            let ex = MaskExtractor {
-                config: MaskExtractorConfig {
-                    drop_outlines,
-                    ..Default::default()
-                },
-            };
-            ex.extract(&inputs(&pos, &tris, &field, hits))
+            let ex = MaskExtractor::new(MaskExtractorConfig {
+                drop_outlines,
+                ..Default::default()
+            });
+            let n = ex
+                .extract(&inputs(&pos, &tris, &field, hits))
                 .unwrap()
-                .len()
+                .len();
+            (n, ex.notes())
         };
-        assert_eq!(
-            count(&hits_with(21), true),
-            1,
-            "a sliver 2 pixels off the edge"
+        let (n, notes) = count(&hits_with(21), true);
+        assert_eq!(n, 1, "a sliver 2 pixels off the edge");
+        assert!(
+            notes.len() == 1 && notes[0].starts_with("1 light(s) of 6 pixel(s)"),
+            "{notes:?}"
         );
-        assert_eq!(count(&hits_with(21), false), 2);
+        assert_eq!(count(&hits_with(21), false), (2, vec![]));
         assert_eq!(
             count(&hits_with(40), true),
-            2,
+            (2, vec![]),
             "a small light apart from it"
         );
     }

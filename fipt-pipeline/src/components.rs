@@ -219,7 +219,7 @@ impl Components {
             Box::new(|v| {
                 let config: fipt_emitter::MaskExtractorConfig = fipt_run::config::typed(v.clone())?;
                 config.validate().map_err(crate::error::RunError::invalid)?;
-                Ok(Box::new(fipt_emitter::MaskExtractor { config }))
+                Ok(Box::new(fipt_emitter::MaskExtractor::new(config)))
             }),
         )
         .with_table(Kind::Baker, SLF_BAKER, BAKE_TABLE)

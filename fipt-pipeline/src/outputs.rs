@@ -606,12 +606,16 @@ pub fn extract_emitters(
         records,
         shadings,
     };
-    Ok(extractor.extract(&EmitterInputs {
+    let emitters = extractor.extract(&EmitterInputs {
         positions: scene.positions,
         triangles: scene.triangles,
         field,
         pixel_hits: &hits,
-    })?)
+    })?;
+    for n in extractor.notes() {
+        crate::note!("emitters: {n}");
+    }
+    Ok(emitters)
 }
 
 /// The training pixels that hit the mesh, built view by view when visited: a scene's pixels
