@@ -592,9 +592,7 @@ fn write_mesh(a: &DegradeRequest, ds: &Dataset) -> Result<(usize, Option<Vec<u32
             );
         }
         let (fine, s) = m.refined(edge);
-        // A subdivided mesh's faces map to the source's 4^K at a time.
-        let k = 4u32.pow(a.subdivide) as usize;
-        starts = Some((0..=mesh.num_file_faces).map(|f| s[f * k]).collect());
+        starts = Some(source_face_starts(&mesh, a.subdivide, &s));
         m = fine;
         what = format!("{what}, refined to edges of {:.2} cm", edge * 100.0);
         ripple_note = format!(
@@ -615,6 +613,23 @@ fn write_mesh(a: &DegradeRequest, ds: &Dataset) -> Result<(usize, Option<Vec<u32
     );
     m.write_obj(&a.out.join("scene.obj"), &header)?;
     Ok((m.triangles.len(), starts))
+}
+
+/// Per file face of `source`, its first triangle in a copy subdivided `levels` times (each kept
+/// triangle into 4^levels, in order) and then refined with `refined_starts`; a face the mesh
+/// dropped as degenerate starts where the next one does.
+fn source_face_starts(source: &fipt_geom::Mesh, levels: u32, refined_starts: &[u32]) -> Vec<u32> {
+    let k = 4usize.pow(levels);
+    let last = refined_starts.len().saturating_sub(1);
+    let mut t = 0;
+    (0..=source.num_file_faces)
+        .map(|f| {
+            while t < source.face_ids.len() && (source.face_ids[t] as usize) < f {
+                t += 1;
+            }
+            refined_starts[(t * k).min(last)]
+        })
+        .collect()
 }
 
 /// `degrade.json`'s note: how the copy's stored values relate to the source's radiance.
