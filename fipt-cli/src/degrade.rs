@@ -97,27 +97,20 @@ enum FormatArg {
     Jpg,
 }
 
+/// Two numbers `A,B` of option `flag`, or an error naming the form expected.
+fn pair(flag: &str, text: &str, form: &str) -> Result<(f32, f32)> {
+    let parsed = text
+        .split_once(',')
+        .and_then(|(x, y)| Some((x.trim().parse().ok()?, y.trim().parse().ok()?)));
+    match parsed {
+        Some(p) => Ok(p),
+        None => bail!("{flag} {text}: expected {form}"),
+    }
+}
+
 pub fn run(a: Args) -> Result<()> {
-    let Some((mm, deg)) = a
-        .pose_noise
-        .split_once(',')
-        .and_then(|(m, d)| Some((m.trim().parse().ok()?, d.trim().parse().ok()?)))
-    else {
-        bail!(
-            "--pose-noise {}: expected MM,DEG (e.g. 5,0.15)",
-            a.pose_noise
-        );
-    };
-    let Some((ripple_mm, ripple_cm)) = a
-        .mesh_ripple
-        .split_once(',')
-        .and_then(|(m, c)| Some((m.trim().parse().ok()?, c.trim().parse().ok()?)))
-    else {
-        bail!(
-            "--mesh-ripple {}: expected MM,CM (e.g. 3,15)",
-            a.mesh_ripple
-        );
-    };
+    let (mm, deg) = pair("--pose-noise", &a.pose_noise, "MM,DEG (e.g. 5,0.15)")?;
+    let (ripple_mm, ripple_cm) = pair("--mesh-ripple", &a.mesh_ripple, "MM,CM (e.g. 3,15)")?;
     let req = DegradeRequest {
         source: a.source,
         out: a.out,

@@ -593,14 +593,7 @@ mod tests {
         hits.push(hit(2, Vec3::new(100.0, 90.0, 80.0))); // the tiny lamp: one pixel
         hits.push(hit(4, Vec3::splat(0.3))); // floor
         let ex = MaskExtractor::new(MaskExtractorConfig::default());
-        let e = ex
-            .extract(&EmitterInputs {
-                positions: &pos,
-                triangles: &tris,
-                field: &field,
-                pixel_hits: &hits,
-            })
-            .unwrap();
+        let e = ex.extract(&inputs(&pos, &tris, &field, &hits)).unwrap();
         assert_eq!(e.len(), 2, "{e:?}");
         let big = e.iter().find(|e| e.triangles.contains(&0)).unwrap();
         assert_eq!(big.triangles, vec![0, 1]);
@@ -793,12 +786,7 @@ mod tests {
         let field = BoxMask(Vec3::splat(100.0), Vec3::splat(101.0));
         let hits = vec![pixel(0, Vec3::ONE, None)];
         let e = MaskExtractor::new(MaskExtractorConfig::default())
-            .extract(&EmitterInputs {
-                positions: &pos,
-                triangles: &tris,
-                field: &field,
-                pixel_hits: &hits,
-            })
+            .extract(&inputs(&pos, &tris, &field, &hits))
             .unwrap();
         assert!(e.is_empty());
     }

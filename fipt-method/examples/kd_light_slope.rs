@@ -52,7 +52,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
         let slope = (xy / c - x / c * y / c) / var;
-        println!("patch {p:4}  pixels {c:8.0}  log Ld spread {:.2}  slope {slope:+.3}", var.sqrt());
+        println!(
+            "patch {p:4}  pixels {c:8.0}  log Ld spread {:.2}  slope {slope:+.3}",
+            var.sqrt()
+        );
         rows.push((c, slope));
     }
     rows.sort_by(|a, b| a.1.total_cmp(&b.1));
