@@ -53,6 +53,8 @@ def main(src, run):
         slope = np.polyfit(x[s], y[s], 1)[0]
         rows.append((int(s.sum()), slope))
         print(f"part {int(i):3d}  pixels {int(s.sum()):7d}  log E spread {x[s].std():.2f}  slope {slope:+.3f}")
+    if not rows:
+        sys.exit(f"{run}: no part of 2,000 pixels or more with light varying across it")
     w = np.array([r[0] for r in rows], dtype=float)
     sl = np.array([r[1] for r in rows])
     order = np.argsort(sl)

@@ -323,12 +323,14 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
     validate(a)?;
     let ds = Dataset::open(&a.source)
         .with_context(|| format!("opening scene {}", a.source.display()))?;
+    // The mesh first: a refused ripple leaves an earlier copy where it was.
+    let mesh = crate::degrade_mesh::prepare_mesh(a, &ds)?;
     if a.out.join(RECORD_FILE).is_file() {
         std::fs::remove_dir_all(&a.out)
             .with_context(|| format!("replacing {}", a.out.display()))?;
     }
     std::fs::create_dir_all(&a.out)?;
-    let (triangles, face_starts) = write_mesh(a, &ds)?;
+    let (triangles, face_starts) = crate::degrade_mesh::write_mesh(a, &ds, mesh)?;
     let splits: Vec<&Split> = if a.layout.captures_only() {
         vec![ds.train()]
     } else {
@@ -555,81 +557,6 @@ fn resample(img: &Image, src: &Camera, lens_cam: &Camera) -> Image {
         }
     }
     out
-}
-
-/// A ripple's mesh refinement: edges of at most this share of its wavelength.
-const RIPPLE_EDGE: f32 = 1.0 / 6.0;
-
-/// Most triangles a rippled copy may have (a scan of a room has about 10⁵ to 10⁶).
-const MAX_TRIANGLES: f64 = 4.0e6;
-
-/// The mesh, subdivided, refined, warped and rippled as asked (copied byte for byte
-/// otherwise); its triangle count and, when refined, each source face's first triangle.
-fn write_mesh(a: &DegradeRequest, ds: &Dataset) -> Result<(usize, Option<Vec<u32>>)> {
-    let mesh = fipt_geom::Mesh::load(&ds.mesh)?;
-    let ripple = a.ripple_mm > 0.0;
-    if a.subdivide == 0 && a.warp_mm == 0.0 && !ripple {
-        let name = ds.mesh.file_name().unwrap_or_default();
-        std::fs::copy(&ds.mesh, a.out.join(name))?;
-        return Ok((mesh.triangles.len(), None));
-    }
-    let mut m = mesh.subdivided(a.subdivide);
-    let mut starts = None;
-    let mut what = format!("subdivided {}×", a.subdivide);
-    let mut ripple_note = String::new();
-    if ripple {
-        let edge = a.ripple_cm / 100.0 * RIPPLE_EDGE;
-        let area: f64 = (0..m.triangles.len()).map(|t| m.area(t) as f64).sum();
-        // A refined triangle has edges of edge/2 … edge: about edge²/4 of area at least.
-        let estimate = area / (edge as f64 * edge as f64 / 4.0);
-        if estimate > MAX_TRIANGLES {
-            bail!(
-                "--mesh-ripple {},{}: the mesh ({area:.1} m²) would need about {:.1e} triangles of {:.1} cm edges (at most {MAX_TRIANGLES:.0e}); give a longer wavelength",
-                a.ripple_mm,
-                a.ripple_cm,
-                estimate,
-                edge * 100.0
-            );
-        }
-        let (fine, s) = m.refined(edge);
-        starts = Some(source_face_starts(&mesh, a.subdivide, &s));
-        m = fine;
-        what = format!("{what}, refined to edges of {:.2} cm", edge * 100.0);
-        ripple_note = format!(
-            ", rippled by up to {} mm at {} cm",
-            a.ripple_mm, a.ripple_cm
-        );
-    }
-    let m = m.warped(a.warp_mm / 1000.0, a.seed).rippled(
-        a.ripple_mm / 1000.0,
-        a.ripple_cm / 100.0,
-        a.seed,
-    );
-    let header = format!(
-        "fipt degrade of {}: {what}, warped by up to {} mm{ripple_note} (seed {})",
-        ds.mesh.display(),
-        a.warp_mm,
-        a.seed
-    );
-    m.write_obj(&a.out.join("scene.obj"), &header)?;
-    Ok((m.triangles.len(), starts))
-}
-
-/// Per file face of `source`, its first triangle in a copy subdivided `levels` times (each kept
-/// triangle into 4^levels, in order) and then refined with `refined_starts`; a face the mesh
-/// dropped as degenerate starts where the next one does.
-fn source_face_starts(source: &fipt_geom::Mesh, levels: u32, refined_starts: &[u32]) -> Vec<u32> {
-    let k = 4usize.pow(levels);
-    let last = refined_starts.len().saturating_sub(1);
-    let mut t = 0;
-    (0..=source.num_file_faces)
-        .map(|f| {
-            while t < source.face_ids.len() && (source.face_ids[t] as usize) < f {
-                t += 1;
-            }
-            refined_starts[(t * k).min(last)]
-        })
-        .collect()
 }
 
 /// `degrade.json`'s note: how the copy's stored values relate to the source's radiance.

@@ -12,6 +12,7 @@
 //! Errors and notes are the run's own ([`fipt_run::RunError`], [`fipt_run::observe`]).
 pub mod capture;
 pub mod degrade;
+mod degrade_mesh;
 pub mod inspect;
 pub mod light_ends;
 pub mod light_scale;

@@ -6,6 +6,7 @@
 //! whose centre ray hits it, and groups connected emitter triangles into lights.
 mod mask;
 
+pub mod outline;
 pub use mask::{MaskExtractor, MaskExtractorConfig};
 
 /// Errors of emitter extraction.

@@ -37,8 +37,10 @@ pub struct MaskExtractorConfig {
     #[serde(default = "yes")]
     pub observed_sides: bool,
     /// Drop a light seen only along the outline of a much larger one: at least
-    /// [`OUTLINE_SHARE`] of its pixels lie within [`OUTLINE_RADIUS`] pixels of a light with
-    /// [`OUTLINE_RATIO`] times its pixels, in the same view. That is the larger light's outline
+    /// [`crate::outline::OUTLINE_SHARE`] of its pixels lie within
+    /// [`crate::outline::OUTLINE_RADIUS`] pixels of a light with
+    /// [`crate::outline::OUTLINE_RATIO`] times its pixels, in the same view, and its bounds
+    /// within [`crate::outline::OUTLINE_GAP`] of that light's. That is the larger light's outline
     /// landing on the surface beside it (pose error, a scan a few millimetres off): on a
     /// scanned `atelier` (1.2 M triangles) nine such slivers, 1–31 pixels each, all within
     /// 3.1 cm of a true light. false: every group is a light (the reference). Needs the
@@ -47,14 +49,6 @@ pub struct MaskExtractorConfig {
     pub drop_outlines: bool,
     pub seed: u64,
 }
-
-/// [`MaskExtractorConfig::drop_outlines`]: the share of a light's pixels that must border a
-/// larger light…
-pub const OUTLINE_SHARE: f32 = 0.75;
-/// …within this many pixels (rows and columns) in their view…
-pub const OUTLINE_RADIUS: i64 = 2;
-/// …that has at least this many times its pixels.
-pub const OUTLINE_RATIO: usize = 10;
 
 fn yes() -> bool {
     true
@@ -206,12 +200,12 @@ impl EmitterExtractor for MaskExtractor {
         "emission-mask"
     }
 
-    /// The emission mask is queried at every sample of every triangle (about 10 M queries a
-    /// second on 2 cores): at most 1e10 queries.
     fn notes(&self) -> Vec<String> {
         self.notes.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
 
+    /// The emission mask is queried at every sample of every triangle (about 10 M queries a
+    /// second on 2 cores): at most 1e10 queries.
     fn check(&self, triangles: usize) -> std::result::Result<(), String> {
         let factors = [
             (
@@ -236,12 +230,14 @@ impl EmitterExtractor for MaskExtractor {
         let mut groups = connected_groups(inp, &is_emitter);
         let mut notes = vec![];
         if c.drop_outlines {
-            let (kept, dropped) = without_outlines(groups, &obs);
+            let (kept, dropped) = crate::outline::without_outlines(inp, groups, &obs);
             groups = kept;
             if dropped.0 > 0 {
                 notes.push(format!(
-                    "{} light(s) of {} pixel(s) in all dropped: seen only along the outline of a light with {OUTLINE_RATIO}× their pixels (pose error or a scan's geometry; emitters.drop_outlines)",
-                    dropped.0, dropped.1
+                    "{} light(s) of {} pixel(s) in all dropped: seen only along the outline of a light with {}× their pixels (pose error or a scan's geometry; emitters.drop_outlines)",
+                    dropped.0,
+                    dropped.1,
+                    crate::outline::OUTLINE_RATIO
                 ));
             }
         }
@@ -357,57 +353,6 @@ fn connected_groups(inp: &EmitterInputs, is_emitter: &[bool]) -> Vec<Vec<usize>>
         groups[g].push(ids[k]);
     }
     groups
-}
-
-/// The groups but those seen only along a much larger group's outline
-/// ([`MaskExtractorConfig::drop_outlines`]), in their order; and how many were dropped, with
-/// how many pixels.
-fn without_outlines(
-    groups: Vec<Vec<usize>>,
-    obs: &HashMap<u32, Vec<PixelHit>>,
-) -> (Vec<Vec<usize>>, (usize, usize)) {
-    let pixels_of = |g: &[usize]| -> Vec<&PixelHit> {
-        g.iter()
-            .flat_map(|t| obs.get(&(*t as u32)).into_iter().flatten())
-            .collect()
-    };
-    let sizes: Vec<usize> = groups.iter().map(|g| pixels_of(g).len()).collect();
-    let mut owner: HashMap<[u32; 3], usize> = HashMap::new();
-    for (k, g) in groups.iter().enumerate() {
-        for h in pixels_of(g) {
-            if let Some(at) = h.at {
-                owner.insert(at, k);
-            }
-        }
-    }
-    let outline = |k: usize| {
-        let placed: Vec<[u32; 3]> = pixels_of(&groups[k]).iter().filter_map(|h| h.at).collect();
-        let larger = |j: usize| j != k && sizes[j] >= OUTLINE_RATIO * sizes[k].max(1);
-        let borders = |&[v, x, y]: &[u32; 3]| {
-            let r = OUTLINE_RADIUS;
-            (-r..=r).any(|dy| {
-                (-r..=r).any(|dx| {
-                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                    (nx >= 0 && ny >= 0)
-                        && owner
-                            .get(&[v, nx as u32, ny as u32])
-                            .is_some_and(|&j| larger(j))
-                })
-            })
-        };
-        let bordering = placed.iter().filter(|a| borders(a)).count();
-        !placed.is_empty() && bordering as f32 >= OUTLINE_SHARE * placed.len() as f32
-    };
-    let dropped: Vec<bool> = (0..groups.len()).map(outline).collect();
-    let count = dropped.iter().filter(|&&d| d).count();
-    let pixels = (0..groups.len())
-        .filter(|&k| dropped[k])
-        .map(|k| sizes[k])
-        .sum();
-    let kept = (groups.into_iter().zip(dropped))
-        .filter_map(|(g, d)| (!d).then_some(g))
-        .collect();
-    (kept, (count, pixels))
 }
 
 /// Per emitter triangle: every pixel's radiance, and (with `inner_pixels`) the radiance of its
@@ -789,53 +734,5 @@ mod tests {
             .extract(&inputs(&pos, &tris, &field, &hits))
             .unwrap();
         assert!(e.is_empty());
-    }
-
-    /// A light of 10×10 pixels and, beside it, a sliver of 6 pixels along its edge on
-    /// another triangle (its outline seen shifted): the sliver is dropped; the same sliver
-    /// far from it in the image is a light; without the rule both are lights.
-    #[test]
-    fn a_sliver_along_a_larger_lights_outline_is_not_a_light() {
-        let (pos, tris) = scene();
-        let field = BoxMask(Vec3::new(-1.0, 1.5, -1.0), Vec3::new(11.0, 2.5, 1.0));
-        let hits_with = |x0: u32| {
-            let mut hits = vec![];
-            for y in 0..10u32 {
-                for x in 0..10u32 {
-                    let mut h = pixel(0, Vec3::splat(5.0), None);
-                    h.at = Some([0, 10 + x, 10 + y]);
-                    hits.push(h);
-                }
-            }
-            for y in 0..6u32 {
-                let mut h = pixel(2, Vec3::splat(3.0), None);
-                h.at = Some([0, x0, 12 + y]);
-                hits.push(h);
-            }
-            hits
-        };
-        let count = |hits: &Vec<PixelHit>, drop_outlines: bool| {
-            let ex = MaskExtractor::new(MaskExtractorConfig {
-                drop_outlines,
-                ..Default::default()
-            });
-            let n = ex
-                .extract(&inputs(&pos, &tris, &field, hits))
-                .unwrap()
-                .len();
-            (n, ex.notes())
-        };
-        let (n, notes) = count(&hits_with(21), true);
-        assert_eq!(n, 1, "a sliver 2 pixels off the edge");
-        assert!(
-            notes.len() == 1 && notes[0].starts_with("1 light(s) of 6 pixel(s)"),
-            "{notes:?}"
-        );
-        assert_eq!(count(&hits_with(21), false), (2, vec![]));
-        assert_eq!(
-            count(&hits_with(40), true),
-            (2, vec![]),
-            "a small light apart from it"
-        );
     }
 }

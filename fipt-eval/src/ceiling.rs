@@ -157,7 +157,9 @@ pub fn evaluate_ceiling(
     let copy_faces = Mesh::load(&copy_mesh)?.num_file_faces;
     // Per source face its first face in a refined copy, else faces × 4^K: checked here,
     // before anything is written.
-    let faces = match refined_faces(&a.copy, source_faces, copy_faces)? {
+    // degrade.json lies beside the copy's mesh (COPY may name the folder or the mesh).
+    let copy_dir = copy_mesh.parent().unwrap_or(&a.copy);
+    let faces = match refined_faces(copy_dir, source_faces, copy_faces)? {
         Some(s) => Ok(s),
         None => Err(subdivision_ratio(source_faces, copy_faces, &a.copy)?),
     };

@@ -157,6 +157,13 @@ impl Mesh {
             tris = next;
             owner = next_owner;
         }
+        debug_assert!(
+            !(max_edge > 0.0)
+                || !tris
+                    .iter()
+                    .any(|t| (0..3).any(|e| long(&pos, t[e], t[(e + 1) % 3]))),
+            "edges longer than {max_edge} after 64 halvings (non-finite positions?)"
+        );
         let mut mesh = Mesh::from_triangles(pos, nor, tris);
         // from_triangles keeps every triangle of a non-degenerate parent but drops a sliver
         // it finds degenerate: follow its face ids.

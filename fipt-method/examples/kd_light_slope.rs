@@ -21,9 +21,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let name = a.get(3).map_or("bake", String::as_str);
     let loaded = fipt_capture::scene::load(&scene, BadPixelPolicy::Reject, &Default::default())?;
     let split = loaded.ds.train();
-    let sh = match bake_store::load_for_inputs(&out.join(name), &loaded.cache_key)? {
+    // The scene is loaded with the default capture settings: a run made with others (its
+    // `[capture]` table) has shadings of other inputs and is refused here.
+    let dir = out.join(name);
+    let sh = match bake_store::load_for_inputs(&dir, &loaded.cache_key)? {
         Ok((_, s)) => s.load_all()?,
-        Err(why) => return Err(why.into()),
+        Err(why) => {
+            let fix = "give a run folder of this scene and its shadings' name (bake, refine1)";
+            return Err(format!("{}: {why}; {fix}", dir.display()).into());
+        }
     };
     let (hits, _) = fipt_shading::records::hit_points_and_footprint(&loaded.geometry, &split.views);
     let (patch, n) = fipt_geom::patches::smooth_patches(&loaded.geometry.mesh, 30.0);
