@@ -449,13 +449,13 @@ fn group_emitter(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use fipt_core::emitter::PixelHit;
     use fipt_core::field::{Material, MaterialField};
 
     /// α = 1 inside a box, 0 elsewhere.
-    struct BoxMask(Vec3, Vec3);
+    pub(crate) struct BoxMask(pub(crate) Vec3, pub(crate) Vec3);
     impl MaterialField for BoxMask {
         fn name(&self) -> &str {
             "box"

@@ -88,30 +88,10 @@ fn bounds_of(inp: &EmitterInputs, g: &[usize]) -> (Vec3, Vec3) {
 
 #[cfg(test)]
 mod tests {
+    use crate::mask::tests::BoxMask;
     use crate::{MaskExtractor, MaskExtractorConfig};
     use fipt_core::emitter::{EmitterExtractor, EmitterInputs, PixelHit};
-    use fipt_core::field::{Material, MaterialField};
     use glam::Vec3;
-
-    /// α = 1 everywhere.
-    struct AllMask;
-    impl MaterialField for AllMask {
-        fn name(&self) -> &str {
-            "all"
-        }
-        fn materials(&self, p: &[Vec3]) -> fipt_core::Result<Vec<Material>> {
-            Ok(p.iter()
-                .map(|_| Material {
-                    albedo: Vec3::splat(0.5),
-                    roughness: 1.0,
-                    metallic: 0.0,
-                })
-                .collect())
-        }
-        fn emission_mask(&self, p: &[Vec3]) -> fipt_core::Result<Vec<f32>> {
-            Ok(vec![1.0; p.len()])
-        }
-    }
 
     /// A 1 m panel (triangles 0, 1), a 2 cm strip beside it on the wall (2, 3) and a small
     /// lamp 3 m away (4, 5); each quad its own vertices.
@@ -155,7 +135,7 @@ mod tests {
         let inp = EmitterInputs {
             positions: &pos,
             triangles: &tris,
-            field: &AllMask,
+            field: &BoxMask(Vec3::splat(-1e9), Vec3::splat(1e9)),
             pixel_hits: hits,
         };
         (ex.extract(&inp).unwrap().len(), ex.notes())
