@@ -30,7 +30,10 @@ pub fn without_outlines(
     };
     let sizes: Vec<usize> = groups.iter().map(|g| pixels_of(g).len()).collect();
     let bounds: Vec<(Vec3, Vec3)> = groups.iter().map(|g| bounds_of(inp, g)).collect();
-    let (lo, hi) = bounds_of(inp, &(0..inp.triangles.len()).collect::<Vec<_>>());
+    let (lo, hi) = (inp.positions.iter()).fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |b, &p| (b.0.min(p), b.1.max(p)),
+    );
     let gap = OUTLINE_GAP * (hi - lo).length();
     let mut owner: HashMap<[u32; 3], usize> = HashMap::new();
     for (k, g) in groups.iter().enumerate() {

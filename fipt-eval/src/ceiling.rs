@@ -44,6 +44,14 @@ pub fn scale_faces(m: &SceneMaterials, ratio: u32) -> SceneMaterials {
     }
 }
 
+/// How a copy's faces stand for the source's.
+enum FaceMap {
+    /// Refined: per source face, its first face in the copy (one more entry at the end).
+    Refined(Vec<u32>),
+    /// Subdivided: this many faces per source face, in order.
+    Subdivided(u32),
+}
+
 /// The faces of a refined copy of a mesh: each range of the source's table through `starts`
 /// (per source face, its first face in the copy; one more entry at the end).
 pub fn map_faces(m: &SceneMaterials, starts: &[u32], copy: &Path) -> Result<SceneMaterials> {
@@ -160,8 +168,8 @@ pub fn evaluate_ceiling(
     // degrade.json lies beside the copy's mesh (COPY may name the folder or the mesh).
     let copy_dir = copy_mesh.parent().unwrap_or(&a.copy);
     let faces = match refined_faces(copy_dir, source_faces, copy_faces)? {
-        Some(s) => Ok(s),
-        None => Err(subdivision_ratio(source_faces, copy_faces, &a.copy)?),
+        Some(starts) => FaceMap::Refined(starts),
+        None => FaceMap::Subdivided(subdivision_ratio(source_faces, copy_faces, &a.copy)?),
     };
     use fipt_core::lock::{refuse_owned_output, Owner};
     refuse_owned_output(&a.out, "eval --ceiling", &[Owner::Run, Owner::Scene])?;
@@ -170,11 +178,11 @@ pub fn evaluate_ceiling(
     let source = SceneMaterials::read_any(&parts)?;
     // Faces per source face: exact for a subdivided copy, a mean for a refined one.
     let (materials, ratio) = match faces {
-        Ok(s) => (
+        FaceMap::Refined(s) => (
             map_faces(&source, &s, &a.copy)?,
             serde_json::json!(copy_faces as f64 / source_faces.max(1) as f64),
         ),
-        Err(r) => (scale_faces(&source, r), serde_json::json!(r)),
+        FaceMap::Subdivided(r) => (scale_faces(&source, r), serde_json::json!(r)),
     };
     fipt_core::fsutil::write_json_atomic(&table, &materials)?;
     let rendered = a.out.join("render");

@@ -122,13 +122,12 @@ impl Mesh {
         let mut owner = self.face_ids.clone();
         let long =
             |pos: &[Vec3], a: u32, b: u32| (pos[a as usize] - pos[b as usize]).length() > max_edge;
-        // Each pass halves the long edges of the previous one: 64 passes are 2^64 times shorter.
+        // Each pass halves the long edges of the previous one (64 passes are 2^64 times
+        // shorter) and the first pass that halves none ends it. A bound that is not positive
+        // halves nothing.
+        let mut finished = !(max_edge > 0.0);
         for _ in 0..64 {
-            if !(max_edge > 0.0)
-                || !tris
-                    .iter()
-                    .any(|t| (0..3).any(|e| long(&pos, t[e], t[(e + 1) % 3])))
-            {
+            if finished {
                 break;
             }
             let mut mids: std::collections::HashMap<(u32, u32), u32> = Default::default();
@@ -149,19 +148,15 @@ impl Mesh {
                     }))
                 };
                 let m = [mid(0), mid(1), mid(2)];
-                let before = next.len();
                 split_triangle(t, m, &pos, &mut next);
                 next_owner.resize(next.len(), o);
-                debug_assert!(next.len() > before);
             }
+            finished = mids.is_empty();
             tris = next;
             owner = next_owner;
         }
         debug_assert!(
-            !(max_edge > 0.0)
-                || !tris
-                    .iter()
-                    .any(|t| (0..3).any(|e| long(&pos, t[e], t[(e + 1) % 3]))),
+            finished,
             "edges longer than {max_edge} after 64 halvings (non-finite positions?)"
         );
         let mut mesh = Mesh::from_triangles(pos, nor, tris);
