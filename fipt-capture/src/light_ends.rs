@@ -54,6 +54,23 @@ impl LightModel {
             .collect();
         (a, d)
     }
+
+    /// The surface points [`Self::parts`] reads A from at the same point (None: a miss or a
+    /// light).
+    pub(crate) fn gathered(
+        &self,
+        geometry: &Geometry,
+        eye: Vec3,
+        hit: fipt_shading::records::HitPoint,
+    ) -> Vec<Option<Vec3>> {
+        let mut n = geometry.mesh.face_normal(hit.tri() as usize);
+        if n.dot(eye - hit.p) < 0.0 {
+            n = -n;
+        }
+        let mut rng = Pcg32::from_keys(&[0x11a7]);
+        let o = offset_ray_origin(hit.p, n);
+        crate::light_scale::gather_points(geometry, &self.is_light, o, n, &mut rng)
+    }
 }
 
 /// One end of one light's range and the factor that turns the run's kd into kd at that end.

@@ -27,8 +27,8 @@ const STRIDE: usize = 4;
 const GATHER: usize = 64;
 const LIGHT_POINTS: usize = 64;
 /// Guesses per light: a log grid from 1 to 10^DECADES clip levels.
-const STEPS: usize = 61;
-const DECADES: f32 = 3.0;
+pub(crate) const STEPS: usize = 61;
+pub(crate) const DECADES: f32 = 3.0;
 /// A curve whose cost at a tenth and at ten times the minimum rises by less than this share
 /// does not pin the radiance.
 const MIN_CONTRAST: f64 = 0.02;
@@ -69,12 +69,12 @@ const MAX_TINT: f32 = 4.0;
 const MIN_PATCH_SAMPLES: usize = 10;
 
 /// One sample: its pixel, patch, observed radiance, A and each light's D.
-struct Sample {
-    at: (usize, usize, usize),
-    patch: u32,
-    i: Vec3,
-    a: Vec3,
-    d: Vec<f32>,
+pub(crate) struct Sample {
+    pub(crate) at: (usize, usize, usize),
+    pub(crate) patch: u32,
+    pub(crate) i: Vec3,
+    pub(crate) a: Vec3,
+    pub(crate) d: Vec<f32>,
 }
 
 /// Estimates each light's radiance; `lights` are groups of triangle ids, `skip[v][i]` the
@@ -90,29 +90,36 @@ pub fn estimate(
     level: f32,
     seen_clipped: &[f32],
 ) -> Option<(Vec<LightEstimate>, crate::light_ends::LightModel)> {
+    let (samples, model) = samples_and_model(geometry, views, images, lights, skip, STRIDE)?;
+    let mut out = search(&samples, lights, level);
+    bound_and_choose(&samples, &mut out, seen_clipped, level);
+    Some((out, model))
+}
+
+/// The model of the room's light (A from the views' surface light field, each light's D) and
+/// the samples measured against it, every `stride`-th pixel each way (none: None).
+pub(crate) fn samples_and_model(
+    geometry: &Geometry,
+    views: &[View],
+    images: &[Image],
+    lights: &[Vec<u32>],
+    skip: &[Vec<bool>],
+    stride: usize,
+) -> Option<(Vec<Sample>, crate::light_ends::LightModel)> {
     let mesh = &geometry.mesh;
     let is_light: std::collections::HashSet<u32> = lights.iter().flatten().copied().collect();
     let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
         .par_iter()
         .map(|v| fipt_shading::records::hit_points(geometry, v))
         .collect();
-    // The surface light field of everything but the lights.
-    let cube = Cube::around(hits.iter().flatten().flatten().map(|h| h.p), 1.1)?;
-    let mut slf = SlfBuilder::with_fallback(cube, 128, 3);
-    for (v, hv) in hits.iter().enumerate() {
-        for (i, h) in hv.iter().enumerate() {
-            if let Some(h) = h.filter(|h| !is_light.contains(&h.tri()) && !skip[v][i]) {
-                slf.add(h.p, images[v].data[i]);
-            }
-        }
-    }
+    let slf = surface_light_field(&hits, images, &is_light, skip, |x| x)?;
     let side = light_sides(geometry, views, &hits, &is_light);
     let samplers: Vec<TriangleSampler> = lights
         .iter()
         .map(|t| TriangleSampler::uniform_area(mesh, t))
         .collect::<Option<_>>()?;
     let model = crate::light_ends::LightModel {
-        slf: slf.finish(),
+        slf,
         is_light,
         side,
         samplers,
@@ -125,13 +132,29 @@ pub fn estimate(
         near_light: &near_light,
         patch: &patch,
     };
-    let samples = at.samples(views, images, &hits, skip);
-    if samples.is_empty() {
-        return None;
+    let samples = at.samples(views, images, &hits, skip, stride);
+    (!samples.is_empty()).then_some((samples, model))
+}
+
+/// The surface light field of everything but the lights and the pixels `skip`, each pixel's
+/// radiance through `f`.
+pub(crate) fn surface_light_field(
+    hits: &Hits,
+    images: &[Image],
+    is_light: &std::collections::HashSet<u32>,
+    skip: &[Vec<bool>],
+    f: impl Fn(Vec3) -> Vec3,
+) -> Option<fipt_bake::slf::SurfaceLightField> {
+    let cube = Cube::around(hits.iter().flatten().flatten().map(|h| h.p), 1.1)?;
+    let mut slf = SlfBuilder::with_fallback(cube, 128, 3);
+    for (v, hv) in hits.iter().enumerate() {
+        for (i, h) in hv.iter().enumerate() {
+            if let Some(h) = h.filter(|h| !is_light.contains(&h.tri()) && !skip[v][i]) {
+                slf.add(h.p, f(images[v].data[i]));
+            }
+        }
     }
-    let mut out = search(&samples, lights, level);
-    bound_and_choose(&samples, &mut out, seen_clipped, level);
-    Some((out, model))
+    Some(slf.finish())
 }
 
 /// What a sample is measured against: the scene, its lights and its patches.
@@ -144,16 +167,17 @@ struct Surfaces<'a> {
     patch: &'a [u32],
 }
 
-type Hits = [Vec<Option<fipt_shading::records::HitPoint>>];
+pub(crate) type Hits = [Vec<Option<fipt_shading::records::HitPoint>>];
 
 impl Surfaces<'_> {
-    /// Every STRIDE-th pixel of every view that sees a lit, unclipped surface off the lights.
+    /// Every `stride`-th pixel of every view that sees a lit, unclipped surface off the lights.
     fn samples(
         &self,
         views: &[View],
         images: &[Image],
         hits: &Hits,
         skip: &[Vec<bool>],
+        stride: usize,
     ) -> Vec<Sample> {
         views
             .par_iter()
@@ -161,8 +185,8 @@ impl Surfaces<'_> {
             .flat_map_iter(|(v, view)| {
                 let (w, h) = (view.camera.width, view.camera.height);
                 let mut out = vec![];
-                for y in (STRIDE / 2..h).step_by(STRIDE) {
-                    for x in (STRIDE / 2..w).step_by(STRIDE) {
+                for y in (stride / 2..h).step_by(stride) {
+                    for x in (stride / 2..w).step_by(stride) {
                         let i = y * w + x;
                         let Some(hit) = hits[v][i].filter(|h| {
                             !skip[v][i]
@@ -271,21 +295,50 @@ pub(crate) fn gather(
     n: Vec3,
     rng: &mut Pcg32,
 ) -> Vec3 {
+    gather_each(geometry, slf, is_light, o, n, rng)
+        .into_iter()
+        .sum::<Vec3>()
+        / GATHER as f32
+}
+
+/// The radiance the SLF gives in each of [`GATHER`] cosine-distributed directions (lights and
+/// misses count 0).
+pub(crate) fn gather_each(
+    geometry: &Geometry,
+    slf: &fipt_bake::slf::SurfaceLightField,
+    is_light: &std::collections::HashSet<u32>,
+    o: Vec3,
+    n: Vec3,
+    rng: &mut Pcg32,
+) -> Vec<Vec3> {
+    gather_points(geometry, is_light, o, n, rng)
+        .into_iter()
+        .map(|p| p.map_or(Vec3::ZERO, |p| slf.lookup(p)))
+        .collect()
+}
+
+/// The surface points [`gather_each`] looks up (None: a miss or a light).
+pub(crate) fn gather_points(
+    geometry: &Geometry,
+    is_light: &std::collections::HashSet<u32>,
+    o: Vec3,
+    n: Vec3,
+    rng: &mut Pcg32,
+) -> Vec<Option<Vec3>> {
     let (t, b) = n.any_orthonormal_pair();
-    let mut sum = Vec3::ZERO;
-    for _ in 0..GATHER {
-        let (u1, u2) = (rng.next_f32(), rng.next_f32());
-        let r = u1.sqrt();
-        let phi = std::f32::consts::TAU * u2;
-        let d = t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt();
-        if let Some(h) = geometry.bvh.closest_hit(o, d, 0.0, f32::INFINITY) {
-            if !is_light.contains(&h.tri) {
-                let p = fipt_geom::hit_point(&geometry.mesh, &h);
-                sum += slf.lookup(p);
-            }
-        }
-    }
-    sum / GATHER as f32
+    (0..GATHER)
+        .map(|_| {
+            let (u1, u2) = (rng.next_f32(), rng.next_f32());
+            let r = u1.sqrt();
+            let phi = std::f32::consts::TAU * u2;
+            let d = t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt();
+            geometry
+                .bvh
+                .closest_hit(o, d, 0.0, f32::INFINITY)
+                .filter(|h| !is_light.contains(&h.tri))
+                .map(|h| fipt_geom::hit_point(&geometry.mesh, &h))
+        })
+        .collect()
 }
 
 /// D(x): the Lambertian shading (irradiance / π) a light of unit radiance gives at `o`, each
@@ -323,7 +376,7 @@ pub(crate) fn direct(
 }
 
 /// Pairs of samples one stride apart in a view (right and down) on the same patch.
-fn neighbours(samples: &[Sample]) -> Vec<(usize, usize)> {
+pub(crate) fn neighbours(samples: &[Sample]) -> Vec<(usize, usize)> {
     let index: HashMap<(usize, usize, usize), usize> =
         samples.iter().enumerate().map(|(k, s)| (s.at, k)).collect();
     let mut pairs = vec![];
@@ -342,7 +395,7 @@ fn neighbours(samples: &[Sample]) -> Vec<(usize, usize)> {
 
 /// Each channel on its own: coordinate descent over the lights, each light's radiance on a
 /// log grid, three rounds.
-fn search(samples: &[Sample], lights: &[Vec<u32>], level: f32) -> Vec<LightEstimate> {
+pub(crate) fn search(samples: &[Sample], lights: &[Vec<u32>], level: f32) -> Vec<LightEstimate> {
     let pairs = neighbours(samples);
     let grid: Vec<f32> = (0..STEPS)
         .map(|k| level * 10f32.powf(DECADES * k as f32 / (STEPS - 1) as f32))
@@ -403,7 +456,7 @@ fn search(samples: &[Sample], lights: &[Vec<u32>], level: f32) -> Vec<LightEstim
 /// The total variation of log kd in `channel` for radiances `l`: the mean |Δ log kd| between neighbouring
 /// samples on one patch. Reflectance is piecewise constant (a texture's edges cost the same
 /// at every guess); a wrong guess leaves the shading's gradients and shadow edges in kd.
-fn cost(samples: &[Sample], pairs: &[(usize, usize)], channel: usize, l: &[f32]) -> f64 {
+pub(crate) fn cost(samples: &[Sample], pairs: &[(usize, usize)], channel: usize, l: &[f32]) -> f64 {
     let kd: Vec<f64> = samples
         .iter()
         .map(|s| {

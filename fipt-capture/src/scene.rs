@@ -184,6 +184,9 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
             scores.join(", ")
         );
     }
+    if cfg.light_contrast && crate::contrast::asks_for_it(&ds, &capture) {
+        crate::contrast::fit_and_apply(&geometry, &split.views, &mut images, &mut capture);
+    }
     crate::capture::restore_clipped_lights(&geometry, &split.views, &mut images, &mut capture);
     crate::capture::leave_out_masked(&mut capture, &masks);
     for w in &capture.warnings {

@@ -30,6 +30,11 @@ pub struct CaptureConfig {
     /// than the method needs (`fipt run --downscale N`). 1 reads them as stored.
     #[serde(skip_serializing_if = "is_one")]
     pub downscale: usize,
+    /// Where 8-bit views carry no known exposures and no stated response, look for the tone
+    /// curve's contrast in the light transport and decode with it where it is clear
+    /// ([`crate::contrast`]); false leaves the views as the response fit decoded them.
+    #[serde(skip_serializing_if = "is_true")]
+    pub light_contrast: bool,
 }
 
 impl Default for CaptureConfig {
@@ -37,8 +42,13 @@ impl Default for CaptureConfig {
         CaptureConfig {
             align_views: AlignViews::default(),
             downscale: 1,
+            light_contrast: true,
         }
     }
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 fn is_one(n: &usize) -> bool {

@@ -123,7 +123,7 @@ pub fn restore_clipped_lights(
 /// triangles with [`CLIPPED_TRIANGLE_SHARE`] of their pixels clipped over all views, seen by
 /// [`MIN_LIGHT_PIXELS`] pixels or more.
 #[allow(clippy::type_complexity)]
-fn find_lights(
+pub(crate) fn find_lights(
     geometry: &Geometry,
     views: &[View],
     clipped: &[Vec<bool>],

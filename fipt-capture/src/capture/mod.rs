@@ -2,7 +2,7 @@
 //! each view's exposure relative to the others (fitted on the surfaces they share: the mesh
 //! gives exact correspondences), and the warnings a user must read. `report.json`'s `capture`.
 mod align;
-mod clipped;
+pub(crate) mod clipped;
 mod convention;
 mod edges;
 mod exif;
@@ -79,6 +79,10 @@ pub struct CaptureReport {
     /// gives none).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub response: Option<ResponseFit>,
+    /// The tone curve's contrast from the light transport ([`crate::contrast`]), where it was
+    /// looked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contrast: Option<crate::contrast::ContrastFit>,
 }
 
 impl CaptureReport {
