@@ -58,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .as_ref()
         .map_or(t.elapsed().as_secs_f32() - loaded, |f| f.seconds);
     println!(
-        "min gamma {g:.3}; var(1)/min-1 = {:.2} %; load {loaded:.1} s, curve {took:.1} s",
+        "min gamma {g:.3} ({g:?}); var(1)/min-1 = {:.2} % ({depth:?}); load {loaded:.1} s, curve {took:.1} s",
         100.0 * depth
     );
     Ok(())

@@ -44,19 +44,32 @@ pub fn curve(
     skip: &[Vec<bool>],
     level: f32,
 ) -> Option<Probe> {
+    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
+        .par_iter()
+        .map(|v| fipt_shading::records::hit_points(geometry, v))
+        .collect();
+    curve_at(geometry, views, images, &hits, lights, skip, level)
+}
+
+/// [`curve`] with what each view's pixels see (`hits`).
+fn curve_at(
+    geometry: &Geometry,
+    views: &[View],
+    images: &[Image],
+    hits: &light_scale::Hits,
+    lights: &[Vec<u32>],
+    skip: &[Vec<bool>],
+    level: f32,
+) -> Option<Probe> {
     let pixels: usize = images.iter().map(|i| i.data.len()).sum();
     let stride = ((pixels as f64 / SAMPLES as f64).sqrt().ceil() as usize).max(4);
     let (samples, model) =
-        light_scale::samples_and_model(geometry, views, images, lights, skip, stride)?;
+        light_scale::samples_and_model(geometry, views, images, hits, lights, skip, stride)?;
     // A sample the model gives no light at all (its gathered directions miss or meet lights
     // only, and no light reaches it) says nothing of the contrast.
     let samples: Vec<Sample> = samples
         .into_iter()
         .filter(|s| s.a.max_element() > 0.0 || s.d.iter().any(|&d| d > 0.0))
-        .collect();
-    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
-        .par_iter()
-        .map(|v| fipt_shading::records::hit_points(geometry, v))
         .collect();
     let gathered: Vec<Vec<Option<Vec3>>> = samples
         .par_iter()
@@ -68,7 +81,7 @@ pub fn curve(
         .collect();
     let groups = PatchIndex::of(&samples);
     let point = |g: f32| -> Option<ContrastPoint> {
-        let slf = light_scale::surface_light_field(&hits, images, &model.is_light, skip, |x| {
+        let slf = light_scale::surface_light_field(hits, images, &model.is_light, skip, |x| {
             x.max(Vec3::ZERO).powf(g)
         })?;
         let at: Vec<Sample> = samples
@@ -85,6 +98,9 @@ pub fn curve(
         let v: f64 = (0..3)
             .into_par_iter()
             .map(|c| best_variance(&at, &groups, lights.len(), c, level.powf(g)))
+            // Summed in order: the same bits at every run (the views are raised by the result).
+            .collect::<Vec<f64>>()
+            .into_iter()
             .sum::<f64>()
             / 3.0;
         Some(ContrastPoint {
@@ -280,15 +296,13 @@ pub fn probe(
     } else {
         crate::capture::clipped::find_lights(geometry, views, &report.clipped).1
     };
-    let lights = bright_sources(geometry, views, images, &skip, clipped);
-    curve(
-        geometry,
-        views,
-        images,
-        &lights,
-        &skip,
-        report.clip_level.unwrap_or(1.0),
-    )
+    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
+        .par_iter()
+        .map(|v| fipt_shading::records::hit_points(geometry, v))
+        .collect();
+    let lights = bright_sources(&geometry.mesh, &hits, images, &skip, clipped);
+    let level = report.clip_level.unwrap_or(1.0);
+    curve_at(geometry, views, images, &hits, &lights, &skip, level)
 }
 
 /// A surface whose median pixel is this many times the views' median is a source whose
@@ -303,8 +317,8 @@ const MAX_SOURCES: usize = 8;
 /// [`BRIGHT`] times the views' median or clipped (`skip`), seen by 16 pixels or more; the
 /// [`MAX_SOURCES`] that send the views the most light.
 fn bright_sources(
-    geometry: &Geometry,
-    views: &[View],
+    mesh: &fipt_geom::Mesh,
+    hits: &light_scale::Hits,
     images: &[Image],
     skip: &[Vec<bool>],
     clipped: Vec<Vec<u32>>,
@@ -314,9 +328,8 @@ fn bright_sources(
     // Per triangle its pixels' luminances, a clipped pixel as +∞.
     let mut seen: std::collections::HashMap<u32, Vec<f32>> = Default::default();
     let mut all = vec![];
-    for (v, view) in views.iter().enumerate() {
-        let hits = fipt_shading::records::hit_points(geometry, view);
-        for (i, h) in hits.iter().enumerate() {
+    for (v, hv) in hits.iter().enumerate() {
+        for (i, h) in hv.iter().enumerate() {
             let Some(h) = h else { continue };
             let y = if skip[v][i] {
                 f32::INFINITY
@@ -349,8 +362,7 @@ fn bright_sources(
         })
         .map(|(&t, _)| t)
         .collect();
-    let (piece, _) =
-        fipt_geom::patches::patches_among(&geometry.mesh, 180.0, |t| bright.contains(&t));
+    let (piece, _) = fipt_geom::patches::patches_among(mesh, 180.0, |t| bright.contains(&t));
     let mut groups: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
     for &t in &bright {
         groups.entry(piece[t as usize]).or_default().push(t);

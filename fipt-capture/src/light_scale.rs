@@ -90,30 +90,32 @@ pub fn estimate(
     level: f32,
     seen_clipped: &[f32],
 ) -> Option<(Vec<LightEstimate>, crate::light_ends::LightModel)> {
-    let (samples, model) = samples_and_model(geometry, views, images, lights, skip, STRIDE)?;
+    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
+        .par_iter()
+        .map(|v| fipt_shading::records::hit_points(geometry, v))
+        .collect();
+    let (samples, model) = samples_and_model(geometry, views, images, &hits, lights, skip, STRIDE)?;
     let mut out = search(&samples, lights, level);
     bound_and_choose(&samples, &mut out, seen_clipped, level);
     Some((out, model))
 }
 
 /// The model of the room's light (A from the views' surface light field, each light's D) and
-/// the samples measured against it, every `stride`-th pixel each way (none: None).
+/// the samples measured against it, every `stride`-th pixel each way (none: None); `hits`:
+/// what each view's pixels see.
 pub(crate) fn samples_and_model(
     geometry: &Geometry,
     views: &[View],
     images: &[Image],
+    hits: &Hits,
     lights: &[Vec<u32>],
     skip: &[Vec<bool>],
     stride: usize,
 ) -> Option<(Vec<Sample>, crate::light_ends::LightModel)> {
     let mesh = &geometry.mesh;
     let is_light: std::collections::HashSet<u32> = lights.iter().flatten().copied().collect();
-    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
-        .par_iter()
-        .map(|v| fipt_shading::records::hit_points(geometry, v))
-        .collect();
-    let slf = surface_light_field(&hits, images, &is_light, skip, |x| x)?;
-    let side = light_sides(geometry, views, &hits, &is_light);
+    let slf = surface_light_field(hits, images, &is_light, skip, |x| x)?;
+    let side = light_sides(geometry, views, hits, &is_light);
     let samplers: Vec<TriangleSampler> = lights
         .iter()
         .map(|t| TriangleSampler::uniform_area(mesh, t))
@@ -132,7 +134,7 @@ pub(crate) fn samples_and_model(
         near_light: &near_light,
         patch: &patch,
     };
-    let samples = at.samples(views, images, &hits, skip, stride);
+    let samples = at.samples(views, images, hits, skip, stride);
     (!samples.is_empty()).then_some((samples, model))
 }
 
