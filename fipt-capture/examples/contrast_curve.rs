@@ -31,6 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &s.geometry,
                 &s.ds.train().views,
                 &s.images,
+                &[],
                 &s.capture,
             )
             .ok_or("no sample")?;

@@ -61,6 +61,11 @@ fn curve_at(
     skip: &[Vec<bool>],
     level: f32,
 ) -> Option<Probe> {
+    // Without a source sampled on its area every light is read through the light field: the
+    // curve then measures that field's noise (section 6 of docs/phone-captures.md).
+    if lights.is_empty() {
+        return None;
+    }
     let pixels: usize = images.iter().map(|i| i.data.len()).sum();
     let stride = ((pixels as f64 / SAMPLES as f64).sqrt().ceil() as usize).max(4);
     let (samples, model) =
@@ -80,6 +85,9 @@ fn curve_at(
         })
         .collect();
     let groups = PatchIndex::of(&samples);
+    if groups.count == 0 {
+        return None;
+    }
     let point = |g: f32| -> Option<ContrastPoint> {
         let slf = light_scale::surface_light_field(hits, images, &model.is_light, skip, |x| {
             x.max(Vec3::ZERO).powf(g)
@@ -284,13 +292,27 @@ pub fn probe(
     geometry: &Geometry,
     views: &[View],
     images: &[Image],
+    masks: &[Option<Vec<bool>>],
     report: &crate::capture::CaptureReport,
 ) -> Option<Probe> {
-    let skip: Vec<Vec<bool>> = if report.clipped.is_empty() {
-        images.iter().map(|i| vec![false; i.data.len()]).collect()
-    } else {
-        report.clipped.clone()
-    };
+    let clipped_px: Vec<Vec<bool>> = (0..images.len())
+        .map(|k| match report.clipped.get(k) {
+            Some(c) if !c.is_empty() => c.clone(),
+            _ => vec![false; images[k].data.len()],
+        })
+        .collect();
+    // Clipped or masked (people, screens: `fit_gains` and the response leave them out too).
+    let skip: Vec<Vec<bool>> = clipped_px
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            let keep = masks.get(k).and_then(|m| m.as_ref());
+            c.iter()
+                .enumerate()
+                .map(|(i, &c)| c || keep.is_some_and(|m| !m[i]))
+                .collect()
+        })
+        .collect();
     let clipped = if report.clipped.is_empty() {
         vec![]
     } else {
@@ -300,7 +322,7 @@ pub fn probe(
         .par_iter()
         .map(|v| fipt_shading::records::hit_points(geometry, v))
         .collect();
-    let lights = bright_sources(&geometry.mesh, &hits, images, &skip, clipped);
+    let lights = bright_sources(&geometry.mesh, &hits, images, &clipped_px, &skip, clipped);
     let level = report.clip_level.unwrap_or(1.0);
     curve_at(geometry, views, images, &hits, &lights, &skip, level)
 }
@@ -314,12 +336,14 @@ const BRIGHT: f32 = 8.0;
 const MAX_SOURCES: usize = 8;
 
 /// The lights `clipped` and the connected pieces of triangles whose median pixel is
-/// [`BRIGHT`] times the views' median or clipped (`skip`), seen by 16 pixels or more; the
-/// [`MAX_SOURCES`] that send the views the most light.
+/// [`BRIGHT`] times the views' median or clipped (`clipped_px`), seen by 16 pixels or more
+/// (the pixels `skip` that are not clipped left out); the [`MAX_SOURCES`] that send the views
+/// the most light.
 fn bright_sources(
     mesh: &fipt_geom::Mesh,
     hits: &light_scale::Hits,
     images: &[Image],
+    clipped_px: &[Vec<bool>],
     skip: &[Vec<bool>],
     clipped: Vec<Vec<u32>>,
 ) -> Vec<Vec<u32>> {
@@ -330,8 +354,10 @@ fn bright_sources(
     let mut all = vec![];
     for (v, hv) in hits.iter().enumerate() {
         for (i, h) in hv.iter().enumerate() {
-            let Some(h) = h else { continue };
-            let y = if skip[v][i] {
+            let Some(h) = h.filter(|_| clipped_px[v][i] || !skip[v][i]) else {
+                continue;
+            };
+            let y = if clipped_px[v][i] {
                 f32::INFINITY
             } else {
                 let y = luminance(images[v].data[i]);
@@ -425,6 +451,7 @@ pub fn fit_and_apply(
     geometry: &Geometry,
     views: &[View],
     images: &mut [Image],
+    masks: &[Option<Vec<bool>>],
     r: &mut crate::capture::CaptureReport,
 ) {
     let t = std::time::Instant::now();
@@ -432,12 +459,13 @@ pub fn fit_and_apply(
         curve,
         sources,
         samples,
-    }) = probe(geometry, views, images, r)
+    }) = probe(geometry, views, images, masks, r)
     else {
         return;
     };
     let (gamma, depth) = minimum(&curve);
     let applied = gamma <= MAX_APPLIED && depth >= MIN_DEPTH;
+    let spread = r.exposure_fit.as_ref().map_or(1.0, |f| f.spread);
     if applied {
         raise(images, r, gamma);
     }
@@ -457,8 +485,8 @@ pub fn fit_and_apply(
     if applied {
         r.warnings.push(format!(
             "{said}: the camera's tone curve has more contrast than the response fitted from the views (without known exposures they cannot tell it from a wider spread of exposures); the views are decoded again at that power, which brings the gains' spread from ×{:.2} to ×{:.2}",
-            r.exposure_fit.as_ref().map_or(1.0, |f| f.spread.powf(1.0 / gamma)),
-            r.exposure_fit.as_ref().map_or(1.0, |f| f.spread),
+            spread,
+            spread.powf(gamma),
         ));
     } else {
         crate::note!(
@@ -514,8 +542,9 @@ fn raise(images: &mut [Image], r: &mut crate::capture::CaptureReport, g: f32) {
     r.clip_level = r.clip_level.map(|c| c.powf(g));
     r.clip_fraction = r.clip_fraction.powf(g);
     if let Some(resp) = &mut r.response {
-        let n = resp.linear.len().max(2);
         if !resp.applied {
+            // The views were decoded as sRGB (the unused fit's table is not kept).
+            let n = crate::capture::response::TABLE_VALUES;
             resp.linear = (0..n)
                 .map(|k| fipt_core::color::srgb_eotf(k as f32 / (n - 1) as f32))
                 .collect();
@@ -529,9 +558,11 @@ fn raise(images: &mut [Image], r: &mut crate::capture::CaptureReport, g: f32) {
             resp.outcome
         );
     }
-    if let Some(f) = r.exposure_fit.as_mut().filter(|_| r.exposures_applied) {
+    // The gains describe the views as decoded, whether or not they were divided by them.
+    if let Some(f) = r.exposure_fit.as_mut() {
         f.gains.iter_mut().for_each(|x| *x = x.powf(g));
         f.spread = f.spread.powf(g);
+        f.residual_log_rms *= g;
     }
 }
 
@@ -579,7 +610,8 @@ mod tests {
                 outcome: "srgb (assumed)".into(),
                 applied,
                 clip_linear: 0.9,
-                linear: vec![0.0, 0.2, 1.0],
+                // A run that kept sRGB reports no table; a fitted curve three values here.
+                linear: if applied { vec![0.0, 0.2, 1.0] } else { vec![] },
                 ..Default::default()
             }),
             ..Default::default()
@@ -610,16 +642,23 @@ mod tests {
                 && (r.view_clip[1] - 2f32.powf(g)).abs() < 1e-6
         );
         let resp = r.response.as_ref().unwrap();
-        // sRGB was kept: the curve raised is sRGB's (three stored values: 0, ½, 1), not the
-        // unused fit's.
+        // sRGB was kept: the curve raised is sRGB's, a full table (stored 0, 1/32, …, 1).
         assert!(resp.applied);
+        assert_eq!(resp.linear.len(), crate::capture::response::TABLE_VALUES);
         let half = fipt_core::color::srgb_eotf(0.5).powf(g);
-        assert!((resp.linear[1] - half).abs() < 1e-6, "{:?}", resp.linear);
+        assert!((resp.linear[16] - half).abs() < 1e-6, "{:?}", resp.linear);
+        assert!(resp.linear[0] == 0.0 && (resp.linear[32] - 1.0).abs() < 1e-6);
         let clip = fipt_core::color::srgb_eotf(250.0 / 255.0).powf(g);
         assert!((resp.clip_linear - clip).abs() < 1e-6);
         assert!(resp.outcome.contains("γ = 0.70"), "{}", resp.outcome);
         let f = r.exposure_fit.as_ref().unwrap();
         assert!((f.gains[0] - 2f32.powf(g)).abs() < 1e-6 && (f.spread - 4f32.powf(g)).abs() < 1e-6);
+        // Gains not divided out (a spread under the auto-exposure threshold) are raised too:
+        // they describe the views as decoded.
+        let mut r = ldr_report(false);
+        r.exposures_applied = false;
+        raise(&mut [], &mut r, g);
+        assert!((r.exposure_fit.unwrap().gains[1] - 0.5f32.powf(g)).abs() < 1e-6);
         // A fitted curve that was used is raised itself.
         let mut r = ldr_report(true);
         raise(&mut [], &mut r, g);

@@ -131,6 +131,11 @@ pub fn inspect(
     }
     let (capture, convention) = exposures(&ds, &mesh, policy, &mut warnings)?;
     warnings.extend(capture.response_warning());
+    if crate::contrast::asks_for_it(&ds, &capture) {
+        warnings.push(
+            "train: no exposure is known and no response stated, so the views fix the tone curve only up to a power: `fipt run` also looks for its contrast in the light transport (`[capture] light_contrast`, a few seconds), which `fipt info` does not; the run's report says what it found".into(),
+        );
+    }
     let (exposure_fit, edges, ldr) = (capture.exposure_fit, capture.edges, capture.check.ldr);
     let exif = crate::capture::ExifReport::of(&ds, exposure_fit.as_ref());
     warnings.extend(exif.warning.clone());

@@ -122,6 +122,9 @@ fn decoding_tag(c: &crate::capture::CaptureReport) -> String {
             fipt_core::fsutil::hash_bytes(format!("{:?}", r.linear).as_bytes())
         );
     }
+    if let Some(x) = c.contrast.as_ref().filter(|x| x.applied) {
+        tag += &format!("@contrast:{:e}", x.gamma);
+    }
     if let Some(l) = &c.clipped_lights {
         let radiances: Vec<[f32; 3]> = l.estimates.iter().map(|e| e.radiance).collect();
         tag += &format!(
@@ -185,7 +188,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
         );
     }
     if cfg.light_contrast && crate::contrast::asks_for_it(&ds, &capture) {
-        crate::contrast::fit_and_apply(&geometry, &split.views, &mut images, &mut capture);
+        crate::contrast::fit_and_apply(&geometry, &split.views, &mut images, &masks, &mut capture);
     }
     crate::capture::restore_clipped_lights(&geometry, &split.views, &mut images, &mut capture);
     crate::capture::leave_out_masked(&mut capture, &masks);

@@ -7,7 +7,7 @@ mod convention;
 mod edges;
 mod exif;
 mod gains;
-mod response;
+pub(crate) mod response;
 
 pub use align::{AlignViews, Alignment, CaptureConfig, MIN_SHIFT_PX};
 pub use clipped::{restore_clipped_lights, ClippedLights, CLIPPED_LIGHT_LEVELS};

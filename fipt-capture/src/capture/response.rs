@@ -51,6 +51,9 @@ const MIN_GAIN: f32 = 0.1;
 /// a curve from another.
 const MIN_SPREAD: f32 = 1.5;
 
+/// The values of a reported response table (linear values at stored 0, 1/32, …, 1).
+pub const TABLE_VALUES: usize = 33;
+
 /// `report.json`'s `capture.response`.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ResponseFit {
@@ -138,8 +141,8 @@ pub fn fit_response(
     }
     let (_, r1) = gains_for(&series, &curve, views.len(), known_log.as_deref());
     fit.residual_fitted = r1 as f32;
-    fit.linear = (0..=32)
-        .map(|k| curve.linear(k as f64 / 32.0) as f32)
+    fit.linear = (0..TABLE_VALUES)
+        .map(|k| curve.linear(k as f64 / (TABLE_VALUES - 1) as f64) as f32)
         .collect();
     fit.departure = curve.departure();
     let better = fit.residual_fitted < (1.0 - MIN_GAIN) * fit.residual_srgb;
