@@ -7,7 +7,7 @@
 //! radiance) is geometry and A (what the rest of the room gives) is read from the views. At the
 //! wrong power the albedo I^γ / (A_γ + Σ L_e D_e) keeps a share of the light's fall-off: it
 //! rises (γ too high) or falls (too low) where the surface is lit more. For each γ on a grid
-//! the lights are set to make kd flattest ([`crate::light_scale`]'s search), and the curve of
+//! the lights' radiances are searched to make kd flattest, and the curve of
 //! the remaining spread of log kd inside the mesh's smooth patches (in the units of γ = 1, so
 //! a texture's edges cost the same at every γ) says which power the light transport asks for.
 use crate::light_scale::{self, Sample};
@@ -34,25 +34,10 @@ const SAMPLES: usize = 60_000;
 /// Patches with fewer samples are left out.
 const MIN_PATCH: usize = 20;
 
-/// The curve over [`GAMMAS`] for the views `images` as decoded, with the lights `lights`
-/// (triangle groups, their radiance searched at each γ) and the pixels `skip` left out.
-pub fn curve(
-    geometry: &Geometry,
-    views: &[View],
-    images: &[Image],
-    lights: &[Vec<u32>],
-    skip: &[Vec<bool>],
-    level: f32,
-) -> Option<Probe> {
-    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
-        .par_iter()
-        .map(|v| fipt_shading::records::hit_points(geometry, v))
-        .collect();
-    curve_at(geometry, views, images, &hits, lights, skip, level)
-}
-
-/// [`curve`] with what each view's pixels see (`hits`).
-fn curve_at(
+/// The curve over [`GAMMAS`] for the views `images` as decoded (`hits`: what each pixel
+/// sees), with the sources `lights` (triangle groups, their radiance searched at each γ) and
+/// the pixels `skip` left out; `level` the clip level.
+fn curve(
     geometry: &Geometry,
     views: &[View],
     images: &[Image],
@@ -286,8 +271,9 @@ fn variance(samples: &[Sample], groups: &PatchIndex, c: usize, l: &[f32]) -> f64
     num / f64::max(den, 1.0)
 }
 
-/// [`curve`] for a loaded capture: its clipped lights and its brightest surfaces (see
-/// [`bright_sources`]) searched as lights, its clipped pixels left out.
+/// The contrast curve of a loaded capture: its clipped lights and its brightest surfaces (see
+/// [`bright_sources`]) searched as lights, its clipped pixels and those its `masks` leave out
+/// not used.
 pub fn probe(
     geometry: &Geometry,
     views: &[View],
@@ -324,7 +310,7 @@ pub fn probe(
         .collect();
     let lights = bright_sources(&geometry.mesh, &hits, images, &clipped_px, &skip, clipped);
     let level = report.clip_level.unwrap_or(1.0);
-    curve_at(geometry, views, images, &hits, &lights, &skip, level)
+    curve(geometry, views, images, &hits, &lights, &skip, level)
 }
 
 /// A surface whose median pixel is this many times the views' median is a source whose

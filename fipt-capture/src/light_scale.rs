@@ -27,8 +27,8 @@ const STRIDE: usize = 4;
 const GATHER: usize = 64;
 const LIGHT_POINTS: usize = 64;
 /// Guesses per light: a log grid from 1 to 10^DECADES clip levels.
-pub(crate) const STEPS: usize = 61;
-pub(crate) const DECADES: f32 = 3.0;
+const STEPS: usize = 61;
+const DECADES: f32 = 3.0;
 /// A curve whose cost at a tenth and at ten times the minimum rises by less than this share
 /// does not pin the radiance.
 const MIN_CONTRAST: f64 = 0.02;
@@ -378,7 +378,7 @@ pub(crate) fn direct(
 }
 
 /// Pairs of samples one stride apart in a view (right and down) on the same patch.
-pub(crate) fn neighbours(samples: &[Sample]) -> Vec<(usize, usize)> {
+fn neighbours(samples: &[Sample]) -> Vec<(usize, usize)> {
     let index: HashMap<(usize, usize, usize), usize> =
         samples.iter().enumerate().map(|(k, s)| (s.at, k)).collect();
     let mut pairs = vec![];
@@ -397,7 +397,7 @@ pub(crate) fn neighbours(samples: &[Sample]) -> Vec<(usize, usize)> {
 
 /// Each channel on its own: coordinate descent over the lights, each light's radiance on a
 /// log grid, three rounds.
-pub(crate) fn search(samples: &[Sample], lights: &[Vec<u32>], level: f32) -> Vec<LightEstimate> {
+fn search(samples: &[Sample], lights: &[Vec<u32>], level: f32) -> Vec<LightEstimate> {
     let pairs = neighbours(samples);
     let grid: Vec<f32> = (0..STEPS)
         .map(|k| level * 10f32.powf(DECADES * k as f32 / (STEPS - 1) as f32))
@@ -458,7 +458,7 @@ pub(crate) fn search(samples: &[Sample], lights: &[Vec<u32>], level: f32) -> Vec
 /// The total variation of log kd in `channel` for radiances `l`: the mean |Δ log kd| between neighbouring
 /// samples on one patch. Reflectance is piecewise constant (a texture's edges cost the same
 /// at every guess); a wrong guess leaves the shading's gradients and shadow edges in kd.
-pub(crate) fn cost(samples: &[Sample], pairs: &[(usize, usize)], channel: usize, l: &[f32]) -> f64 {
+fn cost(samples: &[Sample], pairs: &[(usize, usize)], channel: usize, l: &[f32]) -> f64 {
     let kd: Vec<f64> = samples
         .iter()
         .map(|s| {
