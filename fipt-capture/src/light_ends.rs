@@ -40,12 +40,7 @@ impl LightModel {
         eye: Vec3,
         hit: fipt_shading::records::HitPoint,
     ) -> (Vec3, Vec<f32>) {
-        let mut n = geometry.mesh.face_normal(hit.tri() as usize);
-        if n.dot(eye - hit.p) < 0.0 {
-            n = -n;
-        }
-        let mut rng = Pcg32::from_keys(&[0x11a7]);
-        let o = offset_ray_origin(hit.p, n);
+        let (o, n, mut rng) = Self::frame(geometry, eye, hit);
         let a = gather(geometry, &self.slf, &self.is_light, o, n, &mut rng);
         let d = self
             .samplers
@@ -63,13 +58,22 @@ impl LightModel {
         eye: Vec3,
         hit: fipt_shading::records::HitPoint,
     ) -> Vec<Option<Vec3>> {
+        let (o, n, mut rng) = Self::frame(geometry, eye, hit);
+        crate::light_scale::gather_points(geometry, &self.is_light, o, n, &mut rng)
+    }
+
+    /// The ray origin off the surface at `hit`, its normal facing `eye`, and the random
+    /// numbers every point starts from.
+    fn frame(
+        geometry: &Geometry,
+        eye: Vec3,
+        hit: fipt_shading::records::HitPoint,
+    ) -> (Vec3, Vec3, Pcg32) {
         let mut n = geometry.mesh.face_normal(hit.tri() as usize);
         if n.dot(eye - hit.p) < 0.0 {
             n = -n;
         }
-        let mut rng = Pcg32::from_keys(&[0x11a7]);
-        let o = offset_ray_origin(hit.p, n);
-        crate::light_scale::gather_points(geometry, &self.is_light, o, n, &mut rng)
+        (offset_ray_origin(hit.p, n), n, Pcg32::from_keys(&[0x11a7]))
     }
 }
 

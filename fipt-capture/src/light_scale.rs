@@ -288,7 +288,8 @@ fn light_sides(
         .collect()
 }
 
-/// A(x): the mean radiance the SLF gives over cosine-distributed directions (lights count 0).
+/// A(x): the mean radiance the SLF gives over cosine-distributed directions (lights and
+/// misses count 0).
 pub(crate) fn gather(
     geometry: &Geometry,
     slf: &fipt_bake::slf::SurfaceLightField,
@@ -297,29 +298,14 @@ pub(crate) fn gather(
     n: Vec3,
     rng: &mut Pcg32,
 ) -> Vec3 {
-    gather_each(geometry, slf, is_light, o, n, rng)
+    gather_points(geometry, is_light, o, n, rng)
         .into_iter()
+        .map(|p| p.map_or(Vec3::ZERO, |p| slf.lookup(p)))
         .sum::<Vec3>()
         / GATHER as f32
 }
 
-/// The radiance the SLF gives in each of [`GATHER`] cosine-distributed directions (lights and
-/// misses count 0).
-pub(crate) fn gather_each(
-    geometry: &Geometry,
-    slf: &fipt_bake::slf::SurfaceLightField,
-    is_light: &std::collections::HashSet<u32>,
-    o: Vec3,
-    n: Vec3,
-    rng: &mut Pcg32,
-) -> Vec<Vec3> {
-    gather_points(geometry, is_light, o, n, rng)
-        .into_iter()
-        .map(|p| p.map_or(Vec3::ZERO, |p| slf.lookup(p)))
-        .collect()
-}
-
-/// The surface points [`gather_each`] looks up (None: a miss or a light).
+/// The surface points [`gather`] looks up (None: a miss or a light).
 pub(crate) fn gather_points(
     geometry: &Geometry,
     is_light: &std::collections::HashSet<u32>,
