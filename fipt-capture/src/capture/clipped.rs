@@ -127,10 +127,7 @@ pub fn restore_clipped_lights(
     report.clipped_lights = Some(cl);
 }
 
-/// Per training view the triangle each pixel sees, and the clipped lights: connected pieces of
-/// triangles with [`JOINING_TRIANGLE_SHARE`] of their pixels clipped over all views, whose
-/// triangles with [`CLIPPED_TRIANGLE_SHARE`] of three pixels or more clipped are seen by
-/// [`MIN_LIGHT_PIXELS`] pixels or more.
+/// Per training view the triangle each pixel sees, and the clipped lights ([`lights_of`]).
 #[allow(clippy::type_complexity)]
 pub(crate) fn find_lights(
     geometry: &Geometry,
