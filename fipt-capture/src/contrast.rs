@@ -299,15 +299,19 @@ pub fn probe(
                 .collect()
         })
         .collect();
-    let clipped = if report.clipped.is_empty() {
-        vec![]
-    } else {
-        crate::capture::clipped::find_lights(geometry, views, &report.clipped).1
-    };
     let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
         .par_iter()
         .map(|v| fipt_shading::records::hit_points(geometry, v))
         .collect();
+    let clipped = if report.clipped.is_empty() {
+        vec![]
+    } else {
+        let triangles: Vec<Vec<Option<u32>>> = hits
+            .iter()
+            .map(|hv| hv.iter().map(|h| h.map(|h| h.tri())).collect())
+            .collect();
+        crate::capture::clipped::lights_seen(&geometry.mesh, &triangles, &report.clipped)
+    };
     let lights = bright_sources(&geometry.mesh, &hits, images, &clipped_px, &skip, clipped);
     let level = report.clip_level.unwrap_or(1.0);
     curve(geometry, views, images, &hits, &lights, &skip, level)

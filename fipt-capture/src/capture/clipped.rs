@@ -143,6 +143,16 @@ pub(crate) fn find_lights(
                 .collect()
         })
         .collect();
+    let lights = lights_seen(&geometry.mesh, &hits, clipped);
+    (hits, lights)
+}
+
+/// The clipped lights ([`lights_of`]) given the triangle each pixel of each view sees.
+pub(crate) fn lights_seen(
+    mesh: &fipt_geom::mesh::Mesh,
+    hits: &[Vec<Option<u32>>],
+    clipped: &[Vec<bool>],
+) -> Vec<Vec<u32>> {
     let mut count: HashMap<u32, (usize, usize)> = HashMap::new();
     for (v, hv) in hits.iter().enumerate() {
         for (i, t) in hv.iter().enumerate() {
@@ -153,8 +163,7 @@ pub(crate) fn find_lights(
             }
         }
     }
-    let lights = lights_of(&geometry.mesh, &count);
-    (hits, lights)
+    lights_of(mesh, &count)
 }
 
 /// The clipped lights among `mesh`'s triangles, given each one's (clipped, seen) pixels over
