@@ -19,6 +19,7 @@ use fipt_search::{
 use fipt_shading::records::{HitPoint, PrimaryHit};
 use serde::Serialize;
 
+mod clipped;
 mod diffuse;
 mod outline;
 mod profile;
@@ -255,14 +256,21 @@ fn compact_inputs(
         (Some(a), Some(b)) => a.point().distance(b.point()) <= limit,
         _ => false,
     };
-    let (mut keyed, mut shadings, mut images) = (vec![], vec![], vec![]);
+    let (mut keyed, mut shadings, mut images, mut clipped) = (vec![], vec![], vec![], vec![]);
     // One buffer for every view's file, and only the kept pixels decoded (a whole view
     // decoded is 181 bytes a pixel, 55 MB at 640 × 480, read and freed for every view).
     let mut buf = vec![];
     for (v, recs) in records.iter().enumerate() {
         let file = stored.read_view(v, &mut buf)?;
         let valid = file.valid();
-        let mine = view_pixels(v, recs, &valid, &keep);
+        // Clipped pixels off the lights (an LDR view's highlights): lower bounds, and those
+        // beside a light left out.
+        let marks = (scene.left_out.get(v))
+            .filter(|o| cfg.clipped_as_bounds && !o.is_empty())
+            .map(|o| clipped::marks(o, &scene.images[v]));
+        let beside = |i: usize| marks.as_ref().is_some_and(|m| m.beside_light[i]);
+        let keep_v = |v: usize, i: usize, h: &HitPoint| keep(v, i, h).filter(|_| !beside(i));
+        let mine = view_pixels(v, recs, &valid, &keep_v);
         let idx: Vec<u32> = mine.iter().map(|k| k.1).collect();
         let mut rows = file.select(&idx);
         let nb = diffuse::Neighbours {
@@ -282,6 +290,7 @@ fn compact_inputs(
             height: 1,
             data,
         });
+        clipped.extend((idx.iter()).map(|&i| marks.as_ref().is_some_and(|m| m.bound[i as usize])));
         let at = mine.into_iter().enumerate();
         keyed.extend(at.map(|(j, (v, _, r, p))| (v, j as u32, r, p)));
     }
@@ -291,7 +300,10 @@ fn compact_inputs(
             keyed.len()
         );
     }
-    let (pixels, voxels) = with_cells_keyed(&keyed, cfg.cell_footprints * footprint);
+    let (mut pixels, voxels) = with_cells_keyed(&keyed, cfg.cell_footprints * footprint);
+    for (p, c) in pixels.iter_mut().zip(clipped) {
+        p.clipped = c;
+    }
     Ok(Compact {
         pixels,
         grid: sigma_candidates(shadings.first(), cfg),

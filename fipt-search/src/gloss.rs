@@ -65,9 +65,7 @@ fn cell_curves(
                 return None;
             }
             let observed: Vec<Observed> = (mine.iter())
-                .map(|&j| {
-                    Observed::of(images[pixels[j].view as usize].data[pixels[j].pixel as usize])
-                })
+                .map(|&j| Observed::of_pixel(&pixels[j], images))
                 .collect();
             let mut terms: Vec<(Vec3, Vec3)> = Vec::with_capacity(mine.len());
             let curve = grid.iter().map(|&sigma| {
@@ -478,6 +476,7 @@ mod tests {
                     pixel: i as u32,
                     region: 0,
                     cell: cell as u32,
+                    clipped: false,
                 });
             }
             shadings.push(sh);

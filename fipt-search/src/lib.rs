@@ -36,6 +36,10 @@ pub struct SearchPixel {
     pub region: u32,
     /// Surface cell (dense, unique across regions).
     pub cell: u32,
+    /// The pixel clipped (an LDR view's highlight): its value is a lower bound on the
+    /// radiance, so it takes no part in the base colour's fit and costs only where a
+    /// candidate predicts less.
+    pub clipped: bool,
 }
 
 /// The base colour at each candidate: fitted per surface cell, or given per pixel (the
@@ -264,6 +268,7 @@ pub fn with_cells_keyed(keyed: &[KeyedPixel], cell: f32) -> (Vec<SearchPixel>, V
             pixel,
             region,
             cell,
+            clipped: false,
         })
         .collect();
     (pixels, voxels)
@@ -397,11 +402,18 @@ pub(crate) struct AlbedoFit {
 }
 
 impl AlbedoFit {
-    /// Adds pixel `i` of a view (its shadings and image) at (σ, m).
+    /// Adds search pixel `p` (of `shadings` and `images`) at (σ, m).
     #[inline]
-    pub(crate) fn add(&mut self, sh: &ViewShadings, img: &Image, i: usize, sigma: f32, m: f32) {
-        let (b, c) = linear_terms(sh, i, sigma, m);
-        self.add_terms(&Observed::of(img.data[i]), b, c);
+    pub(crate) fn add(
+        &mut self,
+        shadings: &[ViewShadings],
+        images: &[Image],
+        p: &SearchPixel,
+        sigma: f32,
+        m: f32,
+    ) {
+        let (b, c) = linear_terms(&shadings[p.view as usize], p.pixel as usize, sigma, m);
+        self.add_terms(&Observed::of_pixel(p, images), b, c);
     }
 
     /// Adds a pixel whose linear terms at the candidate are `(b, c)`.
@@ -430,6 +442,8 @@ pub(crate) struct Observed {
     g: Rgb,
     enc: Rgb,
     w: Rgb,
+    /// A clipped pixel: a lower bound (its weight in the fit is 0).
+    lower: bool,
 }
 
 impl Observed {
@@ -437,22 +451,48 @@ impl Observed {
     pub(crate) fn of(g: Rgb) -> Self {
         let w = Vec3::new(oetf_grad(g.x), oetf_grad(g.y), oetf_grad(g.z));
         let enc = Vec3::new(srgb_oetf(g.x), srgb_oetf(g.y), srgb_oetf(g.z));
-        Observed { g, enc, w: w * w }
+        Observed {
+            g,
+            enc,
+            w: w * w,
+            lower: false,
+        }
+    }
+
+    /// Search pixel `p` of `images`.
+    #[inline]
+    pub(crate) fn of_pixel(p: &SearchPixel, images: &[Image]) -> Self {
+        let o = Observed::of(images[p.view as usize].data[p.pixel as usize]);
+        if p.clipped {
+            Observed {
+                w: Vec3::ZERO,
+                lower: true,
+                ..o
+            }
+        } else {
+            o
+        }
     }
 
     /// The pixels `at` of `pixels`, in that order.
     pub(crate) fn of_pixels(at: &[usize], pixels: &[SearchPixel], images: &[Image]) -> Vec<Self> {
         (at.par_iter())
-            .map(|&j| Observed::of(images[pixels[j].view as usize].data[pixels[j].pixel as usize]))
+            .map(|&j| Observed::of_pixel(&pixels[j], images))
             .collect()
     }
 
-    /// The squared sRGB error of `pred` against the pixel's value, summed over the channels.
+    /// The squared sRGB error of `pred` against the pixel's value, summed over the channels;
+    /// for a clipped pixel only where `pred` lies below it.
     #[inline]
     pub(crate) fn sq_err(&self, pred: Rgb) -> f64 {
+        let lower = self.lower;
         let e = |p: f32, enc: f32| {
             let d = srgb_oetf(p) - enc;
-            (d * d) as f64
+            if lower && d > 0.0 {
+                0.0
+            } else {
+                (d * d) as f64
+            }
         };
         e(pred.x, self.enc.x) + e(pred.y, self.enc.y) + e(pred.z, self.enc.z)
     }

@@ -153,8 +153,7 @@ fn cell_colours(
         let e = &mut acc[p.cell as usize];
         e.0 = p.region;
         e.1 += 1;
-        let (v, i) = (p.view as usize, p.pixel as usize);
-        e.2.add(&shadings[v], &images[v], i, 1.0, 0.0);
+        e.2.add(shadings, images, p, 1.0, 0.0);
     }
     acc.into_iter()
         .map(|(r, n, fit)| {

@@ -59,6 +59,7 @@ pub(crate) fn rendered(
                 pixel: i as u32,
                 region: 0,
                 cell,
+                clipped: false,
             });
         }
         shadings.push(sh);
@@ -376,6 +377,20 @@ fn settings_out_of_range_are_refused_with_their_key() {
     );
     refused(
         SearchConfig {
+            split_halves_above: 1.5,
+            ..d()
+        },
+        "split_halves_above",
+    );
+    refused(
+        SearchConfig {
+            deep_median_gain: -0.1,
+            ..d()
+        },
+        "deep_median_gain",
+    );
+    refused(
+        SearchConfig {
             interior_tolerance: 2.0,
             ..d()
         },
@@ -557,7 +572,8 @@ fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_
         choose(&wall, &lifted(), false, Some([&wall, &near])).roughness,
         Some(0.5)
     );
-    // One half at σ = 1 (those views caught no highlight): still the minimum.
+    // One half at σ = 1 (those views caught no highlight): still the minimum, which lies
+    // below `split_halves_above`.
     let rough_half = curve(vec![1.0; 5], vec![0.2, 0.15, 0.12, 0.11, 0.10]);
     assert_eq!(
         choose(&wall, &cfg, false, Some([&rough_half, &wall])).roughness,
@@ -600,6 +616,125 @@ fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_
         ..wall.clone()
     };
     assert_eq!(choose(&small, &cfg, false, None).roughness, None);
+}
+
+#[test]
+fn a_rough_minimum_that_one_half_of_the_views_misses_takes_the_midpoint() {
+    let cfg = SearchConfig::default();
+    // A ceiling's minimum at σ 0.75, 0.5 % below σ = 1; one half of the views finds it,
+    // the other finds σ = 1 (the halves 0.25 apart, more than the band).
+    let ceiling = curve(vec![1.0; 5], vec![0.2, 0.15, 0.102, 0.1000, 0.1005]);
+    let rough_half = curve(vec![1.0; 5], vec![0.2, 0.15, 0.12, 0.11, 0.10]);
+    let c = choose(&ceiling, &cfg, false, Some([&ceiling, &rough_half]));
+    assert_eq!(c.halves_sigma, Some([0.75, 1.0]));
+    assert_eq!(c.roughness, Some(0.875));
+    assert_eq!(c.metallic, Some(0.0));
+    // Halves that agree, or none: the minimum.
+    for halves in [Some([&ceiling, &ceiling]), None] {
+        assert_eq!(choose(&ceiling, &cfg, false, halves).roughness, Some(0.75));
+    }
+    // Off: the minimum.
+    let off = SearchConfig {
+        split_halves_above: 0.0,
+        ..SearchConfig::default()
+    };
+    assert_eq!(
+        choose(&ceiling, &off, false, Some([&ceiling, &rough_half])).roughness,
+        Some(0.75)
+    );
+    // At or above the threshold only: with it at 0.8 the minimum stays.
+    let high = SearchConfig {
+        split_halves_above: 0.8,
+        ..SearchConfig::default()
+    };
+    assert_eq!(
+        choose(&ceiling, &high, false, Some([&ceiling, &rough_half])).roughness,
+        Some(0.75)
+    );
+}
+
+#[test]
+fn a_deep_minimum_the_halves_dispute_takes_the_median_of_the_three() {
+    let cfg = SearchConfig::default();
+    // A glossy box: its minimum at 0.25, σ = 1 60 % above it; one half agrees, the other
+    // puts its minimum at the mirror end (more than the band glossier).
+    let boxed = RegionProfile {
+        pixels: 5000,
+        ..curve(vec![1.0; 5], vec![0.2, 0.1, 0.12, 0.14, 0.16])
+    };
+    let mirror_half = curve(vec![1.0; 5], vec![0.09, 0.1, 0.12, 0.14, 0.16]);
+    let c = choose(&boxed, &cfg, false, Some([&boxed, &mirror_half]));
+    assert_eq!(c.halves_sigma, Some([0.25, 0.02]));
+    assert_eq!((c.roughness, c.metallic), (Some(0.25), Some(0.0)));
+    // Without the rule the lifted rules lift it (here to the roughest σ within 25 %).
+    let off = SearchConfig {
+        deep_median_gain: 0.0,
+        ..SearchConfig::default()
+    };
+    assert_eq!(
+        choose(&boxed, &off, false, Some([&boxed, &mirror_half])).roughness,
+        Some(0.5)
+    );
+    // A small region (under 2,000 pixels): its halves are too noisy; the lifted rules.
+    let small = RegionProfile {
+        pixels: 1999,
+        ..boxed.clone()
+    };
+    assert_eq!(
+        choose(&small, &cfg, false, Some([&small, &mirror_half])).roughness,
+        Some(0.5)
+    );
+    // Both halves rougher by more than the band: the median is the nearer of them.
+    let half = |k: usize| {
+        let mut row = vec![0.2, 0.15, 0.14, 0.13, 0.16];
+        row[k] = 0.1;
+        curve(vec![1.0; 5], row)
+    };
+    let (h2, h3) = (half(2), half(3));
+    assert_eq!(
+        choose(&boxed, &cfg, false, Some([&h3, &h2])).roughness,
+        Some(0.5)
+    );
+    // A shallow curve (σ = 1 under 5 % above its minimum) keeps the lifted rules.
+    let faint = RegionProfile {
+        pixels: 5000,
+        ..curve(vec![1.0; 5], vec![0.2, 0.1, 0.101, 0.102, 0.103])
+    };
+    assert_eq!(
+        choose(&faint, &cfg, false, Some([&faint, &mirror_half])).roughness,
+        choose(&faint, &off, false, Some([&faint, &mirror_half])).roughness
+    );
+}
+
+#[test]
+fn a_clipped_pixel_is_a_lower_bound_and_left_out_of_the_fit() {
+    let clip = Vec3::splat(1.0);
+    let img = Image {
+        width: 1,
+        height: 1,
+        data: vec![clip],
+    };
+    let p = SearchPixel {
+        view: 0,
+        pixel: 0,
+        region: 0,
+        cell: 0,
+        clipped: true,
+    };
+    let o = Observed::of_pixel(&p, std::slice::from_ref(&img));
+    // Above the clip level: no cost; below: the squared sRGB error, as unclipped.
+    assert_eq!(o.sq_err(Vec3::splat(5.0)), 0.0);
+    let below = Vec3::new(0.25, 2.0, 1.0);
+    let exact = Observed::of(clip);
+    let d = fipt_core::color::srgb_oetf(0.25) - fipt_core::color::srgb_oetf(1.0);
+    assert!((o.sq_err(below) - (d * d) as f64).abs() < 1e-9);
+    assert!(exact.sq_err(below) > o.sq_err(below));
+    // The base colour's fit does not see it.
+    let mut fit = crate::AlbedoFit::default();
+    fit.add_terms(&o, Vec3::ONE, Vec3::ZERO);
+    assert_eq!(fit.albedo(), Vec3::ZERO);
+    fit.add_terms(&Observed::of(Vec3::splat(0.5)), Vec3::ONE, Vec3::ZERO);
+    assert!((fit.albedo() - Vec3::splat(0.5)).abs().max_element() < 1e-6);
 }
 
 #[test]
