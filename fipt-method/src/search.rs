@@ -268,7 +268,8 @@ fn compact_inputs(
         let marks = (scene.left_out.get(v))
             .filter(|o| cfg.clipped_as_bounds && !o.is_empty())
             .map(|o| clipped::marks(o, &scene.images[v]));
-        let beside = |i: usize| marks.as_ref().is_some_and(|m| m.beside_light[i]);
+        let beside =
+            |i: usize| (marks.as_ref()).is_some_and(|m| m.beside_light.get(i) == Some(&true));
         let keep_v = |v: usize, i: usize, h: &HitPoint| keep(v, i, h).filter(|_| !beside(i));
         let mine = view_pixels(v, recs, &valid, &keep_v);
         let idx: Vec<u32> = mine.iter().map(|k| k.1).collect();
@@ -290,7 +291,9 @@ fn compact_inputs(
             height: 1,
             data,
         });
-        clipped.extend((idx.iter()).map(|&i| marks.as_ref().is_some_and(|m| m.bound[i as usize])));
+        let bound =
+            |i: u32| (marks.as_ref()).is_some_and(|m| m.bound.get(i as usize) == Some(&true));
+        clipped.extend(idx.iter().map(|&i| bound(i)));
         let at = mine.into_iter().enumerate();
         keyed.extend(at.map(|(j, (v, _, r, p))| (v, j as u32, r, p)));
     }

@@ -100,7 +100,8 @@ fn agrees(halves: [&RegionProfile; 2], mi: usize, cfg: &SearchConfig) -> bool {
 /// neither lies more than `band` glossier. A glossier half is the pull that noise in the
 /// shadings puts on a faint curve, reproduced by one set of views and not the other; a rougher
 /// half is a set of views that caught no highlight of the surface, which says nothing against
-/// the other's for a glossy minimum (a rough one is hedged: [`split_rough`]); two rougher halves leave the whole's minimum reproduced by neither.
+/// the other's for a glossy minimum (a rough one is hedged: [`split_rough`]); two rougher
+/// halves leave the whole's minimum reproduced by neither.
 /// `bedroom`'s painted wall (σ 0.45): whole 0.48, halves 0.48 and 1.0 (borne out); the CLI
 /// test's walls (0.9): wholes 0.52–0.66, a half at 0.14–0.46 (not); `atelier`'s capture copy's
 /// back wall (0.9): whole 0.78, halves 1.0 and 0.96 (not).
@@ -117,6 +118,41 @@ fn split_rough([a, b]: [f32; 2], sigma: f32, cfg: &SearchConfig) -> bool {
     cfg.split_halves_above > 0.0
         && sigma >= cfg.split_halves_above - 1e-6
         && (a - b).abs() > cfg.held_out_band + 1e-6
+}
+
+/// The `dielectric_rule = "minimum"` answer for a dielectric whose minimum is candidate `b`
+/// (σ = 1 `gain` above it; `halves_sigma`: the halves' own minima, when `profiled`): the
+/// minimum where the halves bear it out (hedged by [`split_rough`]), the median of the three
+/// on a deep curve of a large region (`deep_median_gain`, at least `interior_sigma`); None
+/// where the lifted rules decide.
+fn minimum_rule(
+    p: &RegionProfile,
+    b: usize,
+    gain: f64,
+    profiled: bool,
+    halves_sigma: Option<[f32; 2]>,
+    cfg: &SearchConfig,
+) -> Option<f32> {
+    let m = p.sigma[b];
+    if cfg.dielectric_rule != DielectricRule::Minimum || m < cfg.interior_sigma {
+        return None;
+    }
+    match halves_sigma {
+        _ if !profiled => Some(m),
+        Some(h) if halves_agree(h, m, cfg.held_out_band) => Some(if split_rough(h, m, cfg) {
+            0.5 * (m + h[0].max(h[1]))
+        } else {
+            m
+        }),
+        Some([h0, h1])
+            if cfg.deep_median_gain > 0.0
+                && gain >= cfg.deep_median_gain as f64
+                && p.pixels >= MEDIAN_MIN_PIXELS =>
+        {
+            Some(m.max(h0.min(h1)).min(h0.max(h1)).max(cfg.interior_sigma))
+        }
+        _ => None,
+    }
 }
 
 /// The σ of a half's minimum at metallic candidate `mi`.
@@ -174,7 +210,8 @@ fn metallic_candidate(
 /// rules above would lift it to (the midpoint of it and the rougher half's where it lies at
 /// or above `split_halves_above` and the halves lie more than the band apart); otherwise the
 /// rules above decide (noise, not the views, placed its minimum), except on a deep curve
-/// (`deep_median_gain`), which takes the median of its minimum and the halves'.
+/// (`deep_median_gain`) of a region of 2,000 pixels or more, which takes the median of its
+/// minimum and the halves' (no lower than `interior_sigma`).
 ///
 /// `was_metal`: the previous search (on earlier shadings) called this region metal; it stays
 /// metal unless the dielectric answer beats it by `metal_margin` (hysteresis: the margin is
@@ -247,36 +284,12 @@ pub fn choose(
     if interior && (!cfg.held_out || halves.is_some_and(|h| holds_out(h, mi, cfg))) {
         si = interior_si();
     }
-    if !metal
-        && cfg.dielectric_rule == DielectricRule::Minimum
-        && p.sigma[b] >= cfg.interior_sigma
-        && (halves.is_none()
-            || fallback
-                .halves_sigma
-                .is_some_and(|h| halves_agree(h, p.sigma[b], cfg.held_out_band)))
+    if let Some(sigma) = (!metal)
+        .then(|| minimum_rule(p, b, gain, halves.is_some(), fallback.halves_sigma, cfg))
+        .flatten()
     {
-        let m = p.sigma[b];
-        let sigma = match fallback.halves_sigma {
-            Some(h) if split_rough(h, m, cfg) => 0.5 * (m + h[0].max(h[1])),
-            _ => m,
-        };
         return RegionChoice {
             roughness: Some(sigma),
-            metallic: Some(p.metallic[mi]),
-            ..fallback
-        };
-    }
-    if let Some([h0, h1]) = fallback.halves_sigma.filter(|_| {
-        !metal
-            && cfg.dielectric_rule == DielectricRule::Minimum
-            && p.sigma[b] >= cfg.interior_sigma
-            && cfg.deep_median_gain > 0.0
-            && gain >= cfg.deep_median_gain as f64
-            && p.pixels >= MEDIAN_MIN_PIXELS
-    }) {
-        let m = p.sigma[b];
-        return RegionChoice {
-            roughness: Some(m.max(h0.min(h1)).min(h0.max(h1))),
             metallic: Some(p.metallic[mi]),
             ..fallback
         };

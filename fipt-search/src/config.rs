@@ -158,8 +158,9 @@ pub struct SearchConfig {
     #[serde(default = "default_true")]
     pub hedge_disputed: bool,
     /// Under `dielectric_rule = "minimum"`, a dielectric whose minimum lies at or above this
-    /// σ and whose halves of the views put their own minima more than `held_out_band` apart
-    /// takes the midpoint of its minimum and the rougher half's, not the minimum. Pose error,
+    /// σ and whose halves of the views bear it out but put their own minima more than
+    /// `held_out_band` apart takes the midpoint of its minimum and the rougher half's, not the
+    /// minimum, however deep its curve. Pose error,
     /// pixel noise and a tone curve's error pull a rough surface's faint curve glossy in one
     /// half of the views and not the other: ceilings of σ 1 read 0.70–0.84 with halves at
     /// 1.0 in capture-like copies of `studio-mitsuba` and `room`, and `atelier`'s plaster
@@ -169,10 +170,12 @@ pub struct SearchConfig {
     #[serde(default = "default_split_halves_above")]
     pub split_halves_above: f32,
     /// Under `dielectric_rule = "minimum"`, a dielectric whose curve is deep (σ = 1 at least
-    /// this fraction above its minimum) but whose halves do not bear its minimum out takes
-    /// the median of its minimum and the halves' own, not the lifted rules' answer. Those
+    /// this fraction above its minimum, which lies at or above `interior_sigma`) but whose
+    /// halves do not bear its minimum out takes the median of its minimum and the halves' own
+    /// (no lower than `interior_sigma`), not the lifted rules' answer, in a region of 2,000
+    /// search pixels or more (after `max_pixels`; smaller ones' halves are too noisy). Those
     /// rules undo the glossy pull of noise on faint curves; on a deep one they lift a glossy
-    /// object towards rough: `room`'s glossy box (σ 0.15) in capture-like copies, minimum
+    /// object towards rough: `room`'s glossy box (σ 0.15, 0.2 in the val clamp) in capture-like copies, minimum
     /// 0.34 with halves at 0.34 and 0.10, read 0.54–0.58. Depth is evidence that the surface
     /// is glossy; the halves' disagreement says where between their readings, and the
     /// median is the reading two of the three share or lie either side of. 0: off.
@@ -184,10 +187,11 @@ pub struct SearchConfig {
     /// clipped pixels are left out. Off, they count as exact values, which a clipped
     /// highlight is not: a rougher lobe's lower peak fits the clip level best. On five
     /// capture-like copies it read `studio-mitsuba`'s metal sphere (σ 0.25) at 0.25–0.27
-    /// where it reads 0.36–0.46, its mirror metal, and `room`'s glossy box (0.2) at 0.20
-    /// where it reads 0.35; but val σ moved by −1.3 to +0.6 dB and novel views by −2.6 to
-    /// +0.1 (`docs/phone-captures.md`, section 8). Left out of the serialised settings when
-    /// off, so that searches kept by earlier runs are reused.
+    /// where it reads 0.34–0.46, its mirror metal, and `room`'s glossy box (σ 0.15, 0.2 in
+    /// the val clamp) at 0.20 where it reads 0.35; but val σ moved by −1.3 to +0.6 dB and
+    /// novel views by −2.6 to +0.1 (`docs/phone-captures.md`, section 8). `fipt profile`
+    /// does not apply it (its pixels count as exact there). Left out of the serialised
+    /// settings when off, so that it changes no search key.
     #[serde(default, skip_serializing_if = "is_false")]
     pub clipped_as_bounds: bool,
     /// At most this many pixels take part (a uniform random share of them beyond it, the

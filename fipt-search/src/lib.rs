@@ -441,9 +441,9 @@ impl AlbedoFit {
 pub(crate) struct Observed {
     g: Rgb,
     enc: Rgb,
+    /// The weight in the base-colour fit: 0 for a clipped pixel (a lower bound), above 0
+    /// for every other.
     w: Rgb,
-    /// A clipped pixel: a lower bound (its weight in the fit is 0).
-    lower: bool,
 }
 
 impl Observed {
@@ -451,12 +451,7 @@ impl Observed {
     pub(crate) fn of(g: Rgb) -> Self {
         let w = Vec3::new(oetf_grad(g.x), oetf_grad(g.y), oetf_grad(g.z));
         let enc = Vec3::new(srgb_oetf(g.x), srgb_oetf(g.y), srgb_oetf(g.z));
-        Observed {
-            g,
-            enc,
-            w: w * w,
-            lower: false,
-        }
+        Observed { g, enc, w: w * w }
     }
 
     /// Search pixel `p` of `images`.
@@ -464,11 +459,7 @@ impl Observed {
     pub(crate) fn of_pixel(p: &SearchPixel, images: &[Image]) -> Self {
         let o = Observed::of(images[p.view as usize].data[p.pixel as usize]);
         if p.clipped {
-            Observed {
-                w: Vec3::ZERO,
-                lower: true,
-                ..o
-            }
+            Observed { w: Vec3::ZERO, ..o }
         } else {
             o
         }
@@ -485,7 +476,7 @@ impl Observed {
     /// for a clipped pixel only where `pred` lies below it.
     #[inline]
     pub(crate) fn sq_err(&self, pred: Rgb) -> f64 {
-        let lower = self.lower;
+        let lower = self.w == Vec3::ZERO;
         let e = |p: f32, enc: f32| {
             let d = srgb_oetf(p) - enc;
             if lower && d > 0.0 {

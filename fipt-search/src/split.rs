@@ -152,7 +152,8 @@ fn cell_colours(
     for p in pixels {
         let e = &mut acc[p.cell as usize];
         e.0 = p.region;
-        e.1 += 1;
+        // A clipped pixel (a lower bound) says nothing of the cell's colour.
+        e.1 += u32::from(!p.clipped);
         e.2.add(shadings, images, p, 1.0, 0.0);
     }
     acc.into_iter()

@@ -695,6 +695,11 @@ fn a_deep_minimum_the_halves_dispute_takes_the_median_of_the_three() {
         choose(&boxed, &cfg, false, Some([&h3, &h2])).roughness,
         Some(0.5)
     );
+    // Both halves at the mirror end: the median is no glossier than `interior_sigma`.
+    assert_eq!(
+        choose(&boxed, &cfg, false, Some([&mirror_half, &mirror_half])).roughness,
+        Some(cfg.interior_sigma)
+    );
     // A shallow curve (σ = 1 under 5 % above its minimum) keeps the lifted rules.
     let faint = RegionProfile {
         pixels: 5000,

@@ -1,6 +1,5 @@
 //! An LDR view's clipped pixels in the search (`[search] clipped_as_bounds`): lower bounds
 //! on the radiance, except beside a clipped light, where they are left out.
-use fipt_core::color::luminance;
 use fipt_core::image::Image;
 
 /// A clipped pixel within this many rows and columns of a light's clipped pixel is left out:
@@ -10,8 +9,9 @@ use fipt_core::image::Image;
 /// ceiling (σ 1) read 0.84 where it read 0.92 with the rim's pixels counted as exact.
 pub(super) const BESIDE_LIGHT: usize = 2;
 
-/// One view's clipped pixels off the lights, from its `left_out` mask (clipped pixels the
-/// material loss leaves out, which are not a light's) and its image.
+/// One view's clipped pixels off the lights, from its `left_out` mask (the clipped pixels the
+/// material loss leaves out, which are not a light's, and the pixels the view's mask leaves
+/// out, which the search drops before these marks are read) and its image.
 pub(super) struct ClipMarks {
     /// Left out of the search: beside a light's clipped pixel.
     pub(super) beside_light: Vec<bool>,
@@ -19,18 +19,19 @@ pub(super) struct ClipMarks {
     pub(super) bound: Vec<bool>,
 }
 
-/// The marks of one view: a pixel of `left_out` is beside a light where a pixel within
-/// [`BESIDE_LIGHT`] that `left_out` does not hold (a light's, or an unclipped one) is at least
-/// as bright: only a light's clipped pixels are.
+/// The marks of one view (one per pixel of `image`): a pixel of `left_out` is beside a light
+/// where a pixel within [`BESIDE_LIGHT`] that `left_out` does not hold (a light's, or an
+/// unclipped one) has a brightest channel at least as bright as its own: a pixel clips where
+/// its brightest channel does, so only a light's clipped pixels have one.
 pub(super) fn marks(left_out: &[bool], image: &Image) -> ClipMarks {
     let (w, h) = (image.width, image.height);
     let n = left_out.len().min(w * h);
-    let mut beside_light = vec![false; n];
-    let mut bound = vec![false; n];
+    let mut beside_light = vec![false; w * h];
+    let mut bound = vec![false; w * h];
     let r = BESIDE_LIGHT as isize;
     for i in (0..n).filter(|&i| left_out[i]) {
         let (x, y) = ((i % w) as isize, (i / w) as isize);
-        let y0 = luminance(image.data[i]);
+        let y0 = image.data[i].max_element();
         let beside = (-r..=r).any(|dy| {
             (-r..=r).any(|dx| {
                 let (u, v) = (x + dx, y + dy);
@@ -38,7 +39,7 @@ pub(super) fn marks(left_out: &[bool], image: &Image) -> ClipMarks {
                     return false;
                 }
                 let j = v as usize * w + u as usize;
-                j < n && !left_out[j] && luminance(image.data[j]) >= y0
+                j < n && !left_out[j] && image.data[j].max_element() >= y0
             })
         });
         beside_light[i] = beside;
