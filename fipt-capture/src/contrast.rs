@@ -17,9 +17,22 @@ use fipt_geom::Geometry;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// The powers tried first, relative to the views as decoded; the curve is then refined at
-/// half steps either side of its lowest point.
-pub const GAMMAS: [f32; 11] = [0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5];
+/// The powers the curve is measured at, relative to the views as decoded: 0.5 … 1.5 in steps
+/// of 0.05 (1.0 exactly among them).
+pub const GAMMAS: [f32; 21] = {
+    let mut g = [0f32; 21];
+    let mut k = 0;
+    while k < 21 {
+        g[k] = (10 + k) as f32 / 20.0;
+        k += 1;
+    }
+    g
+};
+
+/// Cosine directions per sample for A. Each sample's directions are the same ones (A's error
+/// is then smooth along a surface, like light), and with 64 of them that error pulled the
+/// estimate 0.1–0.2 above the truth on most copies (section 6 of docs/phone-captures.md).
+const GATHER: usize = 512;
 
 /// One point of the curve: the power and the pixel-weighted variance of log kd inside the
 /// mesh's smooth patches with the lights at their best, in the units of γ = 1.
@@ -61,30 +74,46 @@ fn curve(
         .into_iter()
         .filter(|s| s.a.max_element() > 0.0 || s.d.iter().any(|&d| d > 0.0))
         .collect();
-    let gathered: Vec<Vec<Option<Vec3>>> = samples
+    // The surface light field of the views raised to each power, and each sample's A at
+    // each: the directions traced once, every field read at each point they meet.
+    let fields: Vec<fipt_bake::slf::SurfaceLightField> = GAMMAS
+        .par_iter()
+        .map(|&g| {
+            light_scale::surface_light_field(hits, images, &model.is_light, skip, |x| {
+                x.max(Vec3::ZERO).powf(g)
+            })
+        })
+        .collect::<Option<_>>()?;
+    let ambient: Vec<[Vec3; GAMMAS.len()]> = samples
         .par_iter()
         .map(|s| {
             let (v, x, y) = s.at;
             let hit = hits[v][y * views[v].camera.width + x].expect("a sample sees a surface");
-            model.gathered(geometry, views[v].camera.origin, hit)
+            let points = model.gathered(geometry, views[v].camera.origin, hit, GATHER);
+            let mut a = [Vec3::ZERO; GAMMAS.len()];
+            for p in points.iter().flatten() {
+                for (a, f) in a.iter_mut().zip(&fields) {
+                    *a += f.lookup(*p);
+                }
+            }
+            a.map(|a| a / points.len().max(1) as f32)
         })
         .collect();
+    drop(fields);
     let groups = PatchIndex::of(&samples);
     if groups.count == 0 {
         return None;
     }
-    let point = |g: f32| -> Option<ContrastPoint> {
-        let slf = light_scale::surface_light_field(hits, images, &model.is_light, skip, |x| {
-            x.max(Vec3::ZERO).powf(g)
-        })?;
+    let point = |k: usize| -> ContrastPoint {
+        let g = GAMMAS[k];
         let at: Vec<Sample> = samples
             .par_iter()
-            .zip(&gathered)
+            .zip(&ambient)
             .map(|(s, a)| Sample {
                 at: s.at,
                 patch: s.patch,
                 i: s.i.powf(g),
-                a: a.iter().flatten().map(|&p| slf.lookup(p)).sum::<Vec3>() / a.len().max(1) as f32,
+                a: a[k],
                 d: s.d.clone(),
             })
             .collect();
@@ -96,21 +125,13 @@ fn curve(
             .into_iter()
             .sum::<f64>()
             / 3.0;
-        Some(ContrastPoint {
+        ContrastPoint {
             gamma: g,
             variance: v / (g as f64 * g as f64),
-        })
-    };
-    let mut curve: Vec<ContrastPoint> = GAMMAS.iter().map(|&g| point(g)).collect::<Option<_>>()?;
-    let k = lowest(&curve);
-    for g in [curve[k].gamma - 0.05, curve[k].gamma + 0.05] {
-        if (GAMMAS[0]..=GAMMAS[GAMMAS.len() - 1]).contains(&g) {
-            curve.push(point(g)?);
         }
-    }
-    curve.sort_by(|a, b| a.gamma.total_cmp(&b.gamma));
+    };
     Some(Probe {
-        curve,
+        curve: (0..GAMMAS.len()).map(point).collect(),
         sources: lights.len(),
         samples: samples.len(),
     })
@@ -572,7 +593,7 @@ mod tests {
 
     #[test]
     fn the_minimum_of_a_parabola_is_found_between_unequal_steps() {
-        // Refined points at half steps either side of the grid's lowest: 0.75, 0.8, 0.85.
+        // Steps that differ either side of the lowest point tried (0.75).
         let g = [0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9, 1.0, 1.1];
         let c = curve_of(|x| 0.1 + 2.0 * (x - 0.77).powi(2), &g);
         let (gamma, depth) = minimum(&c);
@@ -583,6 +604,14 @@ mod tests {
         // At the grid's end the end itself.
         let c = curve_of(|x| x, &g);
         assert_eq!(minimum(&c).0, 0.5);
+    }
+
+    #[test]
+    fn the_grid_runs_from_half_to_one_and_a_half_in_twentieths_through_one_exactly() {
+        assert_eq!((GAMMAS[0], GAMMAS[20]), (0.5, 1.5));
+        assert!(GAMMAS.windows(2).all(|w| ((w[1] - w[0]) - 0.05).abs() < 1e-6));
+        // `minimum` reads the depth at γ = 1 by equality.
+        assert_eq!(GAMMAS.iter().filter(|&&g| g == 1.0).count(), 1);
     }
 
     fn ldr_report(applied: bool) -> crate::capture::CaptureReport {

@@ -50,16 +50,17 @@ impl LightModel {
         (a, d)
     }
 
-    /// The surface points [`Self::parts`] reads A from at the same point (None: a miss or a
-    /// light).
+    /// The surface points `count` cosine directions from `hit` meet (None: a miss or a
+    /// light); [`Self::parts`] reads A from the first 64 of them.
     pub(crate) fn gathered(
         &self,
         geometry: &Geometry,
         eye: Vec3,
         hit: fipt_shading::records::HitPoint,
+        count: usize,
     ) -> Vec<Option<Vec3>> {
         let (o, n, mut rng) = Self::frame(geometry, eye, hit);
-        crate::light_scale::gather_points(geometry, &self.is_light, o, n, &mut rng)
+        crate::light_scale::gather_points(geometry, &self.is_light, o, n, count, &mut rng)
     }
 
     /// The ray origin off the surface at `hit`, its normal facing `eye`, and the random

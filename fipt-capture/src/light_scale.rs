@@ -298,23 +298,25 @@ pub(crate) fn gather(
     n: Vec3,
     rng: &mut Pcg32,
 ) -> Vec3 {
-    gather_points(geometry, is_light, o, n, rng)
+    gather_points(geometry, is_light, o, n, GATHER, rng)
         .into_iter()
         .map(|p| p.map_or(Vec3::ZERO, |p| slf.lookup(p)))
         .sum::<Vec3>()
         / GATHER as f32
 }
 
-/// The surface points [`gather`] looks up (None: a miss or a light).
+/// The surface points `count` cosine directions from `o` meet (None: a miss or a light);
+/// [`gather`] looks up [`GATHER`] of them.
 pub(crate) fn gather_points(
     geometry: &Geometry,
     is_light: &std::collections::HashSet<u32>,
     o: Vec3,
     n: Vec3,
+    count: usize,
     rng: &mut Pcg32,
 ) -> Vec<Option<Vec3>> {
     let (t, b) = n.any_orthonormal_pair();
-    (0..GATHER)
+    (0..count)
         .map(|_| {
             let (u1, u2) = (rng.next_f32(), rng.next_f32());
             let r = u1.sqrt();

@@ -53,9 +53,10 @@ fn a_phone_s_curve_is_found_in_the_light_and_srgb_is_left_alone() {
     let dir = temp_dir("tone-contrast");
     let s = contrast_of(&root, &dir.join("scurve"), "scurve:1.5");
     // The true power is about 0.69 (the gains fitted under sRGB spread ×1.46 too far in
-    // log); the estimate runs high (docs/phone-captures.md, section 6).
-    assert!(s.applied && (0.6..0.9).contains(&s.gamma), "{s:?}");
+    // log); 0.69 estimated (docs/phone-captures.md, section 9).
+    assert!(s.applied && (0.6..0.8).contains(&s.gamma), "{s:?}");
+    // The true power is 1.02; 1.05 estimated.
     let srgb = contrast_of(&root, &dir.join("srgb"), "srgb");
-    assert!(!srgb.applied && srgb.gamma > 1.0, "{srgb:?}");
+    assert!(!srgb.applied && (0.9..1.15).contains(&srgb.gamma), "{srgb:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
