@@ -609,7 +609,9 @@ mod tests {
     #[test]
     fn the_grid_runs_from_half_to_one_and_a_half_in_twentieths_through_one_exactly() {
         assert_eq!((GAMMAS[0], GAMMAS[20]), (0.5, 1.5));
-        assert!(GAMMAS.windows(2).all(|w| ((w[1] - w[0]) - 0.05).abs() < 1e-6));
+        assert!(GAMMAS
+            .windows(2)
+            .all(|w| ((w[1] - w[0]) - 0.05).abs() < 1e-6));
         // `minimum` reads the depth at γ = 1 by equality.
         assert_eq!(GAMMAS.iter().filter(|&&g| g == 1.0).count(), 1);
     }

@@ -57,6 +57,9 @@ fn a_phone_s_curve_is_found_in_the_light_and_srgb_is_left_alone() {
     assert!(s.applied && (0.6..0.8).contains(&s.gamma), "{s:?}");
     // The true power is 1.02; 1.05 estimated.
     let srgb = contrast_of(&root, &dir.join("srgb"), "srgb");
-    assert!(!srgb.applied && (0.9..1.15).contains(&srgb.gamma), "{srgb:?}");
+    assert!(
+        !srgb.applied && (0.9..1.15).contains(&srgb.gamma),
+        "{srgb:?}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
