@@ -430,6 +430,14 @@ pub const MAX_APPLIED: f32 = 0.9;
 /// …and the spread at γ = 1 exceeds the minimum's by this share or more.
 pub const MIN_DEPTH: f64 = 0.003;
 
+/// Whether a curve whose minimum is `gamma`, `depth` deep, is applied: only on the side below
+/// 1 (a curve flatter than the decoding's is not corrected: an sRGB copy metered on the lights
+/// read 1.35, 2.3 % deep; docs/phone-captures.md, section 9). A minimum at the grid's end is
+/// none: the curve runs off the grid where the model misses part of the light.
+pub fn applies(gamma: f32, depth: f64) -> bool {
+    gamma > GAMMAS[0] && gamma <= MAX_APPLIED && depth >= MIN_DEPTH
+}
+
 /// What the light transport said of the views' contrast (`report.json` `capture.contrast`).
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ContrastFit {
@@ -456,7 +464,7 @@ pub fn asks_for_it(ds: &fipt_core::dataset::Dataset, r: &crate::capture::Capture
 }
 
 /// Fits the contrast ([`probe`]) and, where the curve asks for more contrast than the views
-/// were decoded with ([`MAX_APPLIED`], [`MIN_DEPTH`]), raises the views, their clip levels,
+/// were decoded with ([`applies`]), raises the views, their clip levels,
 /// the response the report shows and the fitted gains to that power; says what it found.
 pub fn fit_and_apply(
     geometry: &Geometry,
@@ -475,7 +483,7 @@ pub fn fit_and_apply(
         return;
     };
     let (gamma, depth) = minimum(&curve);
-    let applied = gamma <= MAX_APPLIED && depth >= MIN_DEPTH;
+    let applied = applies(gamma, depth);
     let spread = r.exposure_fit.as_ref().map_or(1.0, |f| f.spread);
     if applied {
         raise(images, r, gamma);
@@ -501,7 +509,8 @@ pub fn fit_and_apply(
         ));
     } else {
         crate::note!(
-            "{said}: left as decoded (applied at γ ≤ {MAX_APPLIED} with {:.1} % or more)",
+            "{said}: left as decoded (applied at {} < γ ≤ {MAX_APPLIED} with {:.1} % or more)",
+            GAMMAS[0],
             100.0 * MIN_DEPTH
         );
     }
@@ -614,6 +623,16 @@ mod tests {
             .all(|w| ((w[1] - w[0]) - 0.05).abs() < 1e-6));
         // `minimum` reads the depth at γ = 1 by equality.
         assert_eq!(GAMMAS.iter().filter(|&&g| g == 1.0).count(), 1);
+    }
+
+    #[test]
+    fn a_curve_is_applied_below_0_9_when_deep_enough_and_not_at_the_grid_end() {
+        assert!(applies(0.9, 0.003) && applies(0.55, 0.01));
+        assert!(!applies(0.9, 0.0029) && !applies(0.95, 0.05));
+        // The side above 1 is left alone however deep (an sRGB copy metered on the lights
+        // read 1.35, 2.3 % deep), and the grid's end is no minimum.
+        assert!(!applies(1.35, 0.023) && !applies(1.45, 0.05));
+        assert!(!applies(0.5, 0.2));
     }
 
     fn ldr_report(applied: bool) -> crate::capture::CaptureReport {
