@@ -8,6 +8,7 @@ tuned on (`docs/loft-mitsuba.md`).
     python3 scripts/mitsuba_loft.py --layout gallery --out gallery --spp 512
     python3 scripts/mitsuba_loft.py --layout bedroom --out bedroom --spp 512
     python3 scripts/mitsuba_loft.py --layout atelier --out atelier --spp 256
+    python3 scripts/mitsuba_loft.py --layout kitchen --out kitchen --spp 256
 
 `loft`: a glossy textured floor, one one-sided ceiling panel, a copper cylinder (metal,
 σ 0.25), a rough aluminium box (metal, σ 0.45), a glossy red sphere (dielectric, σ 0.15), a
@@ -269,6 +270,53 @@ def atelier_objects(lo, hi):
     ]
 
 
+def lift(tris, dy):
+    """The triangles moved up by `dy`."""
+    return [tuple(np.asarray(p, float) + [0.0, dy, 0.0] for p in t) for t in tris]
+
+
+def kitchen_objects(lo, hi):
+    """A sixth layout, held out from every setting (rendered after the presets of 2026-12-06):
+    a tiled floor whose roughness changes in its own tiles (σ 0.2 / 0.5) over a two-tone tile
+    checker, a dark matte wall (σ 0.9), a glossy splashback wall (σ 0.3), a satin wall (σ 0.6),
+    a glossy white counter (σ 0.15), a brushed-steel fridge (metal σ 0.35), a rough gold sphere
+    (metal σ 0.5), a dark green glossy vase (σ 0.1), a rough terracotta pot (σ 1), a dark fabric
+    ottoman (σ 0.9), a wooden table (σ 0.45), a window and a pendant that emits from all faces."""
+    c = lambda x, y, z: np.array([x, y, z], float)
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    floor, ceiling, wall_xm, wall_xp, wall_zm, wall_zp = shell(lo, hi)
+    zp = z0 + 0.01
+    window = quad(c(-1.2, 1.0, zp), c(0.4, 1.0, zp), c(0.4, 2.0, zp), c(-1.2, 2.0, zp))
+    tiles = {"type": "checker", "color0": [0.80, 0.78, 0.74], "color1": [0.60, 0.58, 0.56],
+             "uv_scale": [6.0, 4.0]}
+    finish = {"type": "checker", "color0": 0.2, "color1": 0.5, "uv_scale": [2.0, 1.5]}
+    vase = outward(lift(cylinder(-2.25, -0.9, 0.08, 0.35, n=48), 0.9), c(-2.25, 1.07, -0.9))
+    return [
+        ("floor", floor, dict(base_color=tiles, roughness=finish, metallic=0.0)),
+        ("ceiling", ceiling, dict(base_color=[0.92, 0.92, 0.90], roughness=0.95, metallic=0.0)),
+        ("wall_dark_x-", wall_xm, dict(base_color=[0.18, 0.18, 0.20], roughness=0.9, metallic=0.0)),
+        ("wall_splash_x+", wall_xp, dict(base_color=[0.70, 0.80, 0.85], roughness=0.3, metallic=0.0)),
+        ("wall_back_z-", wall_zm, dict(base_color=[0.85, 0.70, 0.50], roughness=1.0, metallic=0.0)),
+        ("wall_front_z+", wall_zp, dict(base_color=[0.55, 0.60, 0.70], roughness=0.6, metallic=0.0)),
+        ("window", window, dict(radiance=[8.0, 8.5, 9.5])),
+        ("pendant", box(c(0.0, 1.9, 0.45), c(0.3, 2.1, 0.75)), dict(radiance=[12.0, 10.0, 7.0])),
+        ("counter", box(c(-2.55, 0.0, -1.5), c(-1.95, 0.9, 0.5)),
+         dict(base_color=[0.85, 0.85, 0.83], roughness=0.15, metallic=0.0)),
+        ("fridge", box(c(1.7, 0.0, -1.95), c(2.5, 1.9, -1.3)),
+         dict(base_color=[0.62, 0.62, 0.63], roughness=0.35, metallic=1.0)),
+        ("table", box(c(-0.5, 0.0, 0.2), c(0.7, 0.75, 1.0)),
+         dict(base_color=[0.45, 0.30, 0.18], roughness=0.45, metallic=0.0)),
+        ("gold_sphere", sphere([0.2, 0.93, 0.6], 0.18),
+         dict(base_color=[1.0, 0.78, 0.34], roughness=0.5, metallic=1.0)),
+        ("green_vase", vase, dict(base_color=[0.05, 0.15, 0.08], roughness=0.1, metallic=0.0)),
+        ("terracotta_pot", outward(cylinder(1.8, 1.3, 0.25, 0.5), c(1.8, 0.25, 1.3)),
+         dict(base_color=[0.65, 0.35, 0.22], roughness=1.0, metallic=0.0)),
+        ("ottoman", box(c(-1.6, 0.0, 1.0), c(-1.0, 0.42, 1.6)),
+         dict(base_color=[0.12, 0.10, 0.10], roughness=0.9, metallic=0.0)),
+    ]
+
+
 # Each layout: room bounds, its objects (floor, ceiling and four walls first), the relighting
 # sphere light (centre, radius, radiance; at least 1.3 m from every val camera).
 LAYOUTS = {
@@ -280,6 +328,8 @@ LAYOUTS = {
                     relight=([1.0, 2.1, 0.9], 0.15, [70.0, 66.0, 58.0]), camera=(256, 192, 60.0)),
     "atelier": dict(lo=[-2.7, 0.0, -2.2], hi=[2.7, 2.8, 2.2], objects=atelier_objects,
                     relight=([-0.5, 2.2, 0.2], 0.15, [70.0, 66.0, 58.0])),
+    "kitchen": dict(lo=[-2.6, 0.0, -2.0], hi=[2.6, 2.7, 2.0], objects=kitchen_objects,
+                    relight=([-0.8, 2.2, -0.5], 0.15, [70.0, 66.0, 58.0])),
 }
 
 
