@@ -226,11 +226,19 @@ pub fn run(
         emitters_stage(&host, p.extractor, field, emitters, shadings_for, &stages)?;
     let warnings = crate::outputs::run_warnings(scene, &emitters);
     let observed = observed_cells(&host);
+    let seen = crate::seen::SeenField::new(
+        field,
+        &scene.geometry.mesh,
+        &host.hits().0,
+        observed.clone(),
+    )?;
+    seen.note();
     let mut mark = |stage: &'static str, t: Instant| stages.mark(stage, t);
     let recovered = crate::outputs::Recovered {
-        field,
+        field: &seen,
         emitters: &emitters,
-        id,
+        // The fill is part of what the re-renders are a function of.
+        id: id.map(|i| format!("{i}|{}", crate::seen::VERSION)),
     };
     write_views(scene, cfg, &a.out, recovered, Some(&observed), &mut mark)?;
     let metrics = evaluate_if_gt(scene, &a.out, components.evaluator(), &mut mark)?;

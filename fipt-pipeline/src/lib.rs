@@ -24,6 +24,7 @@ pub mod fit;
 pub mod light_ends;
 pub mod maps;
 pub mod memory;
+pub mod seen;
 pub mod segments;
 pub mod trained;
 pub use fipt_run::names;

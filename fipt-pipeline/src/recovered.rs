@@ -240,9 +240,10 @@ pub fn export_run(
     let st = crate::observe::Stage::start("load");
     let run = RunOutput::open(&a.run, a.scene.as_deref())?;
     let (ds, geometry) = run.open_scene()?;
-    let field = run.field(components)?;
+    let trained = run.field(components)?;
+    let field = crate::seen::SeenField::of_views(trained.as_ref(), &geometry, &ds.train().views)?;
     let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
-    let surfaces = surfaces(&geometry, &views, field.as_ref(), &run.emitters, run.model)?;
+    let surfaces = surfaces(&geometry, &views, &field, &run.emitters, run.model)?;
     st.done();
     let opts = fipt_export::ExportOptions {
         texel_size: a.texel.unwrap_or(surfaces.cell()),

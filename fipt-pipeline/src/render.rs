@@ -185,16 +185,16 @@ pub fn render_unchecked(
     let st = Stage::start("load");
     let run = RunOutput::open(&a.source, a.scene.as_deref())?;
     let (ds, geometry) = run.open_scene()?;
-    let field = run.field(components)?;
+    let trained = run.field(components)?;
+    let field = crate::seen::SeenField::of_views(trained.as_ref(), &geometry, &ds.train().views)?;
     let cams = read_cameras(&a.cameras, size.or(Some((ds.width, ds.height))))?;
     let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
     let model = a.brdf.unwrap_or(run.model);
-    let surfaces =
-        crate::recovered::surfaces(&geometry, &views, field.as_ref(), &run.emitters, model)?;
+    let surfaces = crate::recovered::surfaces(&geometry, &views, &field, &run.emitters, model)?;
     let groups: Vec<Vec<u32>> = run.emitters.iter().map(|e| e.triangles.clone()).collect();
     st.done();
     let summary = render_all(a, &geometry.mesh, &surfaces, &groups, &cams, Layout::Flat)?;
-    exact_maps(a, &run, field.as_ref(), &geometry, &cams)?;
+    exact_maps(a, &run, &field, &geometry, &cams)?;
     Ok(summary)
 }
 

@@ -180,6 +180,7 @@ pub fn cell_ids_keyed(points: &[(Vec3, u32)], cell: f32) -> (Vec<u32>, Vec<[i32;
 
 /// How many training pixels fall in each surface cell: where the views observed a surface
 /// (`{k:03}_observed.exr`), so users know where to trust the maps.
+#[derive(Clone)]
 pub struct CellCounts {
     inv: f32,
     counts: HashMap<[i32; 3], u32>,
@@ -199,6 +200,11 @@ impl CellCounts {
     /// Training pixels in the cell of `p` (0: never observed).
     pub fn count(&self, p: Vec3) -> u32 {
         self.counts.get(&cell_of(p, self.inv)).copied().unwrap_or(0)
+    }
+
+    /// The cell of `p`.
+    pub fn cell(&self, p: Vec3) -> [i32; 3] {
+        cell_of(p, self.inv)
     }
 }
 

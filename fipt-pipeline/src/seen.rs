@@ -1,0 +1,346 @@
+//! Materials where the training views did not look.
+//!
+//! A field fitted to the training views is only pinned on the surfaces those views saw; on the
+//! rest (the side of a table no view faced, the strip of ceiling above a window) a hash-grid
+//! field returns whatever its coarse levels and hash collisions give, and the maps and the
+//! re-render showed it: `kitchen`'s ceiling above its window read σ 0.5 for a true 0.95, the
+//! table's unseen side kd and σ of no surface in the room. [`SeenField`] wraps the run's field:
+//! at a point whose surface cell the training views saw fewer than [`SEEN_COUNT`] times, the
+//! material is blended towards its triangle's material as seen (the mean of the field over
+//! the triangle's well-seen cells), and a triangle with no such cell takes the mean of its
+//! neighbours' (sharing a vertex, spread outwards from the seen triangles). A well-seen cell
+//! keeps the field exactly. The maps, the re-render, `fipt render` and `fipt export` all read
+//! the field through it.
+use crate::error::{Context, Result};
+use fipt_core::field::{Material, MaterialField};
+use fipt_geom::nearest::TriangleLocator;
+use fipt_geom::Mesh;
+use fipt_search::CellCounts;
+use fipt_shading::records::HitPoint;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::collections::{HashMap, VecDeque};
+
+/// Training pixels in a surface cell ([`crate::fit::OBSERVED_CELL_FOOTPRINTS`] footprints
+/// wide) at which the field is taken as it is; fewer blend towards the triangle's seen
+/// material in proportion (none: the seen material alone). The `observed` maps and `fipt
+/// eval`'s observed pixels use the same count.
+pub const SEEN_COUNT: u32 = 8;
+
+/// Changes when what [`SeenField`] does changes (re-renders made before are made again).
+pub const VERSION: &str = "seen-1";
+
+/// The run's field with unseen surfaces filled from the seen ones (see the module).
+pub struct SeenField<'a> {
+    inner: &'a dyn MaterialField,
+    counts: CellCounts,
+    locator: TriangleLocator,
+    /// Each triangle's seen material (None: no seen triangle reaches it).
+    per_triangle: Vec<Option<Material>>,
+    /// Triangles with seen cells, and those filled from neighbours.
+    pub seen_triangles: usize,
+    pub filled_triangles: usize,
+}
+
+/// A running mean of materials.
+#[derive(Clone, Copy, Default)]
+struct MeanMaterial {
+    albedo: Vec3,
+    roughness: f64,
+    metallic: f64,
+    weight: f64,
+}
+
+impl MeanMaterial {
+    fn add(&mut self, m: &Material, w: f64) {
+        self.albedo += m.albedo * w as f32;
+        self.roughness += m.roughness as f64 * w;
+        self.metallic += m.metallic as f64 * w;
+        self.weight += w;
+    }
+    fn mean(&self) -> Option<Material> {
+        (self.weight > 0.0).then(|| Material {
+            albedo: self.albedo / self.weight as f32,
+            roughness: (self.roughness / self.weight) as f32,
+            metallic: (self.metallic / self.weight) as f32,
+        })
+    }
+}
+
+impl<'a> SeenField<'a> {
+    /// `inner` filled where `hits` (the training views' primary hits) are fewer than
+    /// [`SEEN_COUNT`] in a cell of `counts`.
+    pub fn new(
+        inner: &'a dyn MaterialField,
+        mesh: &Mesh,
+        hits: &[Vec<Option<HitPoint>>],
+        counts: CellCounts,
+    ) -> Result<Self> {
+        // One point per (cell, triangle) of the well-seen cells, weighted by the cell's count.
+        // Views in parallel, each deduplicated, then merged in view order.
+        let per_view: Vec<HashMap<([i32; 3], u32), (Vec3, u32)>> = hits
+            .par_iter()
+            .map(|view| {
+                let mut first = HashMap::new();
+                for h in view.iter().flatten() {
+                    let n = counts.count(h.p);
+                    if n >= SEEN_COUNT {
+                        first.entry((counts.cell(h.p), h.tri())).or_insert((h.p, n));
+                    }
+                }
+                first
+            })
+            .collect();
+        let mut first: HashMap<([i32; 3], u32), (Vec3, u32)> = HashMap::new();
+        for view in per_view {
+            for (k, v) in view {
+                first.entry(k).or_insert(v);
+            }
+        }
+        let mut points: Vec<(Vec3, u32, u32)> = first
+            .into_iter()
+            .map(|((_, t), (p, n))| (p, t, n))
+            .collect();
+        // Deterministic order (the map's is not): by triangle, then position.
+        points.sort_unstable_by(|a, b| {
+            (a.1, a.0.x, a.0.y, a.0.z)
+                .partial_cmp(&(b.1, b.0.x, b.0.y, b.0.z))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let at: Vec<Vec3> = points.iter().map(|q| q.0).collect();
+        let mats = inner
+            .materials(&at)
+            .context("querying the field on the seen surfaces")?;
+        let mut sums = vec![MeanMaterial::default(); mesh.triangles.len()];
+        for (q, m) in points.iter().zip(&mats) {
+            if let Some(s) = sums.get_mut(q.1 as usize) {
+                s.add(m, q.2 as f64);
+            }
+        }
+        let mut per_triangle: Vec<Option<Material>> = sums.iter().map(|s| s.mean()).collect();
+        let seen_triangles = per_triangle.iter().filter(|m| m.is_some()).count();
+        let filled_triangles = spread(mesh, &mut per_triangle);
+        Ok(SeenField {
+            inner,
+            counts,
+            locator: TriangleLocator::new(mesh),
+            per_triangle,
+            seen_triangles,
+            filled_triangles,
+        })
+    }
+
+    /// [`SeenField::new`] over the training `views` of `geometry` (traced here), with the
+    /// `observed` maps' cells: what `fipt render` and `fipt export` read a run's field through.
+    pub fn of_views(
+        inner: &'a dyn MaterialField,
+        geometry: &fipt_geom::Geometry,
+        views: &[fipt_core::dataset::View],
+    ) -> Result<Self> {
+        let (hits, footprint) = fipt_shading::records::hit_points_and_footprint(geometry, views);
+        let cell = crate::fit::OBSERVED_CELL_FOOTPRINTS * footprint.unwrap_or(0.01);
+        let counts = CellCounts::new(hits.iter().flatten().flatten().map(|h| h.p), cell);
+        Self::new(inner, &geometry.mesh, &hits, counts)
+    }
+
+    /// Says what was filled.
+    pub fn note(&self) {
+        crate::note!(
+            "unseen surfaces: materials blended towards their triangle's as seen where the training views saw a cell fewer than {SEEN_COUNT} times ({} triangles seen, {} filled from their neighbours)",
+            self.seen_triangles,
+            self.filled_triangles
+        );
+    }
+
+    /// The share of `points` the field is taken at as it is (their cells well seen).
+    pub fn seen_share(&self, points: &[Vec3]) -> f64 {
+        let n = points
+            .iter()
+            .filter(|&&p| self.counts.count(p) >= SEEN_COUNT)
+            .count();
+        n as f64 / points.len().max(1) as f64
+    }
+}
+
+/// Fills the triangles without a material from their neighbours (sharing a vertex),
+/// breadth-first from the triangles that have one; returns how many were filled.
+fn spread(mesh: &Mesh, value: &mut [Option<Material>]) -> usize {
+    let neighbours = mesh.vertex_neighbours();
+    let mut queue: VecDeque<u32> = (0..value.len() as u32)
+        .filter(|&t| value[t as usize].is_some())
+        .collect();
+    let mut filled = 0;
+    while let Some(t) = queue.pop_front() {
+        for &n in &neighbours[t as usize] {
+            if value[n as usize].is_some() {
+                continue;
+            }
+            let mut m = MeanMaterial::default();
+            for &k in &neighbours[n as usize] {
+                if let Some(v) = &value[k as usize] {
+                    m.add(v, 1.0);
+                }
+            }
+            value[n as usize] = m.mean();
+            filled += 1;
+            queue.push_back(n);
+        }
+    }
+    filled
+}
+
+/// `a` moved towards `b` by `t` ∈ [0, 1].
+fn blend(a: &Material, b: &Material, t: f32) -> Material {
+    Material {
+        albedo: a.albedo + (b.albedo - a.albedo) * t,
+        roughness: a.roughness + (b.roughness - a.roughness) * t,
+        metallic: a.metallic + (b.metallic - a.metallic) * t,
+    }
+}
+
+impl MaterialField for SeenField<'_> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+
+    fn materials(&self, points: &[Vec3]) -> fipt_core::Result<Vec<Material>> {
+        let mut mats = self.inner.materials(points)?;
+        for (p, m) in points.iter().zip(mats.iter_mut()) {
+            let n = self.counts.count(*p);
+            if n >= SEEN_COUNT {
+                continue;
+            }
+            let seen = (self.locator.nearest(*p))
+                .and_then(|t| self.per_triangle.get(t as usize).copied().flatten());
+            if let Some(s) = seen {
+                *m = blend(m, &s, 1.0 - n as f32 / SEEN_COUNT as f32);
+            }
+        }
+        Ok(mats)
+    }
+
+    fn emission_mask(&self, points: &[Vec3]) -> fipt_core::Result<Vec<f32>> {
+        self.inner.emission_mask(points)
+    }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        self.inner.as_any()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// σ = the point's x, albedo 0.5, no metal.
+    struct Ramp;
+    impl MaterialField for Ramp {
+        fn name(&self) -> &str {
+            "ramp"
+        }
+        fn materials(&self, points: &[Vec3]) -> fipt_core::Result<Vec<Material>> {
+            Ok(points
+                .iter()
+                .map(|p| Material {
+                    albedo: Vec3::splat(0.5),
+                    roughness: p.x.clamp(0.02, 1.0),
+                    metallic: 0.0,
+                })
+                .collect())
+        }
+        fn emission_mask(&self, points: &[Vec3]) -> fipt_core::Result<Vec<f32>> {
+            Ok(vec![0.0; points.len()])
+        }
+    }
+
+    /// Two unit squares side by side in z = 0 (x ∈ [0, 1] and [1, 2], sharing an edge) and a
+    /// third apart (x ∈ [5, 6]); 2 triangles each.
+    fn mesh() -> Mesh {
+        let mut positions = vec![];
+        let mut triangles = vec![];
+        for x0 in [0.0f32, 1.0, 5.0] {
+            let b = positions.len() as u32;
+            positions.extend([
+                Vec3::new(x0, 0.0, 0.0),
+                Vec3::new(x0 + 1.0, 0.0, 0.0),
+                Vec3::new(x0 + 1.0, 1.0, 0.0),
+                Vec3::new(x0, 1.0, 0.0),
+            ]);
+            triangles.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
+        }
+        Mesh::from_triangles(positions, None, triangles)
+    }
+
+    /// Hits on the first square only: a 20 × 20 grid, each point seen `k` times.
+    fn hits(k: usize) -> Vec<Vec<Option<HitPoint>>> {
+        let mut v = vec![];
+        for i in 0..20 {
+            for j in 0..20 {
+                let p = Vec3::new((i as f32 + 0.5) / 20.0, (j as f32 + 0.5) / 20.0, 0.0);
+                let tri = if p.y <= p.x { 0 } else { 1 };
+                for _ in 0..k {
+                    v.push(Some(HitPoint::new(p, tri)));
+                }
+            }
+        }
+        vec![v]
+    }
+
+    #[test]
+    fn seen_cells_keep_the_field_and_unseen_ones_take_the_seen_mean() {
+        let m = mesh();
+        let h = hits(8);
+        let counts = CellCounts::new(h.iter().flatten().flatten().map(|r| r.p), 0.1);
+        let f = SeenField::new(&Ramp, &m, &h, counts).unwrap();
+        assert_eq!(f.seen_triangles, 2);
+        // The second square shares vertices with the first: filled; the third does not.
+        assert_eq!(f.filled_triangles, 2);
+        let pts = [
+            Vec3::new(0.33, 0.2, 0.0),
+            Vec3::new(1.5, 0.5, 0.0),
+            Vec3::new(5.5, 0.5, 0.0),
+        ];
+        let got = f.materials(&pts).unwrap();
+        // Seen: exactly the field.
+        assert_eq!(got[0].roughness, 0.33);
+        // Unseen beside the seen square: within its triangles' means (σ 1/3 and 2/3), not the
+        // field's 1.
+        assert!(
+            (0.3..0.7).contains(&got[1].roughness),
+            "{}",
+            got[1].roughness
+        );
+        // Unreachable: the field.
+        assert_eq!(got[2].roughness, 1.0);
+        assert!((f.seen_share(&pts) - 1.0 / 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_thinly_seen_cell_blends_in_proportion() {
+        let m = mesh();
+        let h = hits(2);
+        let counts = CellCounts::new(h.iter().flatten().flatten().map(|r| r.p), 0.1);
+        // Every cell of 0.1 holds 4 points × 2 = 8: seen; none thinly seen. Cells of 0.05
+        // hold 2: nothing seen, so nothing to fill from: the field everywhere.
+        let f = SeenField::new(&Ramp, &m, &h, counts).unwrap();
+        assert_eq!(f.seen_triangles, 2);
+        let thin = CellCounts::new(h.iter().flatten().flatten().map(|r| r.p), 0.05);
+        let g = SeenField::new(&Ramp, &m, &h, thin).unwrap();
+        assert_eq!((g.seen_triangles, g.filled_triangles), (0, 0));
+        let p = [Vec3::new(0.8, 0.1, 0.0)];
+        assert_eq!(g.materials(&p).unwrap()[0].roughness, 0.8);
+        // Half the count: half-way from the field (0.8) to the seen mean (~0.5).
+        let a = Material {
+            albedo: Vec3::ZERO,
+            roughness: 0.8,
+            metallic: 0.0,
+        };
+        let b = Material {
+            roughness: 0.5,
+            metallic: 1.0,
+            ..a
+        };
+        let c = blend(&a, &b, 0.5);
+        assert!((c.roughness - 0.65).abs() < 1e-6 && (c.metallic - 0.5).abs() < 1e-6);
+    }
+}
