@@ -53,6 +53,37 @@ impl Mesh {
         self.neighbours_from_groups(at.values())
     }
 
+    /// Fills the triangles whose `value` is None from their neighbours (sharing a vertex),
+    /// breadth-first from those that have one: each takes `mean` of its neighbours' values
+    /// when it is reached. Triangles no valued one connects to stay None. Returns how many
+    /// were filled.
+    pub fn spread_to_neighbours<T: Clone>(
+        &self,
+        value: &mut [Option<T>],
+        mean: impl Fn(&[&T]) -> Option<T>,
+    ) -> usize {
+        let neighbours = self.vertex_neighbours();
+        let mut queue: std::collections::VecDeque<u32> = (0..value.len() as u32)
+            .filter(|&t| value[t as usize].is_some())
+            .collect();
+        let mut filled = 0;
+        while let Some(t) = queue.pop_front() {
+            for &n in &neighbours[t as usize] {
+                if value[n as usize].is_some() {
+                    continue;
+                }
+                let near: Vec<&T> = (neighbours[n as usize].iter())
+                    .filter_map(|&k| value[k as usize].as_ref())
+                    .collect();
+                let m = mean(&near);
+                value[n as usize] = m;
+                filled += 1;
+                queue.push_back(n);
+            }
+        }
+        filled
+    }
+
     /// Each triangle's neighbours: the others of every group it is in, sorted, once each.
     fn neighbours_from_groups<'a>(
         &self,

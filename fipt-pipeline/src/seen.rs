@@ -19,7 +19,7 @@ use fipt_search::CellCounts;
 use fipt_shading::records::HitPoint;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::collections::{HashMap, VecDeque};
+use std::collections::HashMap;
 
 /// Training pixels in a surface cell ([`crate::fit::OBSERVED_CELL_FOOTPRINTS`] footprints
 /// wide) at which the field is taken as it is; fewer blend towards the triangle's seen
@@ -162,31 +162,16 @@ impl<'a> SeenField<'a> {
     }
 }
 
-/// Fills the triangles without a material from their neighbours (sharing a vertex),
-/// breadth-first from the triangles that have one; returns how many were filled.
+/// Fills the triangles without a material from their neighbours' (sharing a vertex);
+/// returns how many were filled.
 fn spread(mesh: &Mesh, value: &mut [Option<Material>]) -> usize {
-    let neighbours = mesh.vertex_neighbours();
-    let mut queue: VecDeque<u32> = (0..value.len() as u32)
-        .filter(|&t| value[t as usize].is_some())
-        .collect();
-    let mut filled = 0;
-    while let Some(t) = queue.pop_front() {
-        for &n in &neighbours[t as usize] {
-            if value[n as usize].is_some() {
-                continue;
-            }
-            let mut m = MeanMaterial::default();
-            for &k in &neighbours[n as usize] {
-                if let Some(v) = &value[k as usize] {
-                    m.add(v, 1.0);
-                }
-            }
-            value[n as usize] = m.mean();
-            filled += 1;
-            queue.push_back(n);
+    mesh.spread_to_neighbours(value, |near| {
+        let mut m = MeanMaterial::default();
+        for v in near {
+            m.add(v, 1.0);
         }
-    }
-    filled
+        m.mean()
+    })
 }
 
 /// `a` moved towards `b` by `t` ∈ [0, 1].

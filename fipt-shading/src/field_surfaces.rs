@@ -21,7 +21,6 @@ use fipt_core::parted::PartedMap;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::Mesh;
 use glam::Vec3;
-use std::collections::VecDeque;
 
 /// No triangle: a point whose triangle is unknown (it still gets a voxel).
 pub const NO_TRIANGLE: u32 = u32::MAX;
@@ -98,25 +97,13 @@ fn triangle_fallbacks(
         return centroid_value();
     };
     let mut value: Vec<Option<SurfacePoint>> = observed.iter().map(|m| m.mean()).collect();
-    let neighbours = mesh.vertex_neighbours();
-    let mut queue: VecDeque<u32> = (0..value.len() as u32)
-        .filter(|&t| value[t as usize].is_some())
-        .collect();
-    while let Some(t) = queue.pop_front() {
-        for &n in &neighbours[t as usize] {
-            if value[n as usize].is_some() {
-                continue;
-            }
-            let mut m = MeanSurface::default();
-            for &k in &neighbours[n as usize] {
-                if let Some(sp) = &value[k as usize] {
-                    m.add(sp, 1.0);
-                }
-            }
-            value[n as usize] = m.mean();
-            queue.push_back(n);
+    mesh.spread_to_neighbours(&mut value, |near| {
+        let mut m = MeanSurface::default();
+        for sp in near {
+            m.add(sp, 1.0);
         }
-    }
+        m.mean()
+    });
     Ok(value.into_iter().map(|v| v.unwrap_or(global)).collect())
 }
 
