@@ -8,7 +8,8 @@
 //! at a point whose surface cell no training pixel saw, the material is its triangle's as seen
 //! (the mean of the field over the triangle's cells seen at least [`SEEN_COUNT`] times,
 //! weighted by their counts), in each of albedo, σ and metallic whose spread over those cells
-//! is within [`UNIFORM_SPREAD`] (a textured triangle keeps the field's albedo). A triangle
+//! is within [`UNIFORM_SPREAD`] (a textured triangle keeps the field's albedo; σ and metallic
+//! are always filled). A triangle
 //! with no such cell takes the mean of its neighbours' (sharing a vertex, spread outwards
 //! from the seen triangles); one that no seen triangle reaches keeps the field, as does every
 //! cell a training pixel saw. The maps, the re-render, `fipt render`, `fipt eval
@@ -34,7 +35,7 @@ pub const SEEN_COUNT: u32 = 8;
 pub const FILL_BELOW: u32 = 1;
 
 /// Changes when what [`SeenField`] does changes (re-renders made before are made again).
-pub const VERSION: &str = "seen-2";
+pub const VERSION: &str = "seen-3";
 
 /// The run's field with unseen surfaces filled from the seen ones (see the module).
 pub struct SeenField<'a> {
@@ -48,12 +49,17 @@ pub struct SeenField<'a> {
     pub filled_triangles: usize,
 }
 
-/// A spread (standard deviation, in the material's own units: albedo, σ, metallic) over a
-/// triangle's well-seen cells up to which its mean stands for the unseen rest; above it (a
-/// texture: `studio-mitsuba`'s checker floor, 0.72 / 0.20) the field is kept for that
-/// component: a mean colour is wrong on every tile, and there it cost the floor 1.4 dB of kd
-/// against the field's own extrapolation.
-pub const UNIFORM_SPREAD: f32 = 0.05;
+/// The spread (standard deviation, in the component's own units) of albedo, σ and metallic
+/// over a triangle's well-seen cells up to which their mean stands for the unseen rest; above
+/// it the field is kept for that component. Albedo: 0.15, so that a texture keeps the field
+/// (`studio-mitsuba`'s checker floor, 0.72 / 0.20, spreads 0.25: a mean colour is wrong on
+/// every tile, and there it cost the floor 1.4 dB of kd against the field's extrapolation),
+/// while a surface the field reads unevenly is filled (`kitchen`'s ceiling, `bedroom`'s plank
+/// floor: 0.05 refused both, and their kd by 8.5 and 3.8 dB). σ and metallic: no limit
+/// (`bedroom`'s floor σ 18.6 → 20.8 dB with none, unchanged with 0.05); the field's σ where no
+/// view looked was no better than the seen mean on any room measured
+/// (`docs/unseen-surfaces.md`).
+pub const UNIFORM_SPREAD: [f32; 3] = [0.15, f32::INFINITY, f32::INFINITY];
 
 /// A triangle's material as seen, and for albedo, σ and metallic whether it is uniform
 /// enough ([`UNIFORM_SPREAD`]) to fill with.
@@ -108,7 +114,7 @@ impl MeanMaterial {
             var(self.roughness),
             var(self.metallic),
         ];
-        let mut uniform = spread.map(|s| s <= UNIFORM_SPREAD);
+        let mut uniform = [0, 1, 2].map(|i| spread[i] <= UNIFORM_SPREAD[i]);
         for (u, n) in uniform.iter_mut().zip(self.not_uniform) {
             *u &= !n;
         }
@@ -198,7 +204,7 @@ impl<'a> SeenField<'a> {
     /// Says what was filled.
     pub fn note(&self) {
         crate::note!(
-            "unseen surfaces: where no training pixel saw a cell, its triangle's material as seen, in the components uniform over the triangle ({} triangles seen, {} filled from their neighbours)",
+            "unseen surfaces: where no training pixel saw a cell, its triangle's material as seen (its albedo only where the triangle reads uniform; {} triangles seen, {} filled from their neighbours)",
             self.seen_triangles,
             self.filled_triangles
         );
@@ -386,5 +392,30 @@ mod tests {
         let c = blend(&a, &b, 0.5);
         assert_eq!(c.albedo, Vec3::ZERO);
         assert!((c.roughness - 0.65).abs() < 1e-6 && (c.metallic - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn only_a_texture_keeps_the_field_albedo_and_sigma_is_always_filled() {
+        let seen_of = |albedos: [f32; 2], sigmas: [f32; 2]| {
+            let mut m = MeanMaterial::default();
+            for (a, r) in albedos.into_iter().zip(sigmas) {
+                let mat = Material {
+                    albedo: Vec3::splat(a),
+                    roughness: r,
+                    metallic: 0.0,
+                };
+                m.add(&mat, 1.0);
+            }
+            m.seen().unwrap()
+        };
+        // Read unevenly (spread 0.1): filled. A checker of 0.72 / 0.20 (spread 0.26): kept.
+        assert_eq!(seen_of([0.4, 0.6], [0.3, 0.3]).uniform, [true; 3]);
+        assert_eq!(
+            seen_of([0.2, 0.72], [0.3, 0.3]).uniform,
+            [false, true, true]
+        );
+        // Two finishes (0.2 / 0.6): σ filled with their mean all the same.
+        let s = seen_of([0.5, 0.5], [0.2, 0.6]);
+        assert!(s.uniform[1] && (s.material.roughness - 0.4).abs() < 1e-6);
     }
 }
