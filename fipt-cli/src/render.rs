@@ -31,7 +31,7 @@ pub struct Args {
     size: Option<Vec<usize>>,
     #[arg(long, default_value_t = 64)]
     spp: u32,
-    #[arg(long, default_value_t = 7)]
+    #[arg(long, default_value_t = fipt_pipeline::run_config::DEFAULT_MAX_BOUNCES)]
     max_bounces: u32,
     #[arg(long, default_value_t = 0)]
     seed: u64,

@@ -195,7 +195,7 @@ pub fn evaluate_ceiling(
             out: rendered.clone(),
             size: Some((ds.width, ds.height)),
             spp: a.spp,
-            max_bounces: 5,
+            max_bounces: fipt_pipeline::run_config::DEFAULT_MAX_BOUNCES,
             seed: a.seed,
             views: None,
             brdf: Some(ReflectanceModel::Principled),

@@ -11,6 +11,7 @@ use crate::render::{render_unchecked, RenderRequest};
 use fipt_core::color::luminance;
 use fipt_core::dataset::{Dataset, GtKind, Split};
 use fipt_core::image::{BadPixelPolicy, Image};
+use fipt_pipeline::run_config::DEFAULT_MAX_BOUNCES;
 use std::path::{Path, PathBuf};
 
 /// Whether to fit the global scales before scoring.
@@ -52,6 +53,12 @@ pub fn evaluate_at(a: &EvalAtRequest, components: &crate::Components) -> Result<
     // Writes into the run folder: under its lock, as `fipt run` does.
     let _lock = fipt_core::lock::OutputLock::acquire(&a.out, "fipt eval --cameras-from")?;
     crate::render::check_spp(a.spp)?;
+    let report: serde_json::Value =
+        fipt_core::fsutil::read_json(&a.out.join("report.json")).unwrap_or_default();
+    // The paths the run's own re-render traced (the ground truth's are as long).
+    let max_bounces = report["settings"]["render"]["max_bounces"]
+        .as_u64()
+        .map_or(DEFAULT_MAX_BOUNCES, |b| b.min(64) as u32);
     render_unchecked(
         &RenderRequest {
             source: a.out.clone(),
@@ -61,7 +68,7 @@ pub fn evaluate_at(a: &EvalAtRequest, components: &crate::Components) -> Result<
             out: views_dir.clone(),
             size: Some((ds.width, ds.height)),
             spp: a.spp,
-            max_bounces: 5,
+            max_bounces,
             seed: a.seed,
             views: None,
             brdf: None,
@@ -73,8 +80,6 @@ pub fn evaluate_at(a: &EvalAtRequest, components: &crate::Components) -> Result<
         },
         components,
     )?;
-    let report: serde_json::Value =
-        fipt_core::fsutil::read_json(&a.out.join("report.json")).unwrap_or_default();
     let ldr = report["capture"]["ldr"].as_bool().unwrap_or(false);
     let fit = match a.fit {
         FitScales::Auto => ldr,
