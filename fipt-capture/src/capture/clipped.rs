@@ -185,13 +185,70 @@ fn lights_of(mesh: &fipt_geom::mesh::Mesh, count: &HashMap<u32, (usize, usize)>)
     }
     // A light is seen clipped by a few pixels at least, on triangles that clip nearly
     // always: fewer are a highlight's (left out).
-    groups
+    let lights: Vec<Vec<u32>> = groups
         .into_values()
         .filter(|g| {
             let core_pixels = g.iter().filter(|&&t| core(t)).map(|t| count[t].1);
             core_pixels.sum::<usize>() >= MIN_LIGHT_PIXELS
         })
-        .collect()
+        .collect();
+    with_unseen_faces(mesh, |t| count.contains_key(&t), lights)
+}
+
+/// Each light with the faces of it no view saw: a connected piece of triangles that no pixel
+/// centre hits joins the light it touches when every triangle it touches is that light's or
+/// unseen too (the top of a pendant box that lights the ceiling above it, the crown of a bulb
+/// between pixel centres); a piece that touches a seen surface or another light continues a
+/// wall or a fixture, and stays out. Without the box's top, `kitchen`'s pendant lit its
+/// ceiling through its sides alone and the albedo bound set it 2.9× too bright against the
+/// window.
+fn with_unseen_faces(
+    mesh: &fipt_geom::mesh::Mesh,
+    seen: impl Fn(u32) -> bool,
+    lights: Vec<Vec<u32>>,
+) -> Vec<Vec<u32>> {
+    if lights.is_empty() {
+        return lights;
+    }
+    let near = mesh.edge_neighbours();
+    let mut owner: HashMap<u32, usize> = HashMap::new();
+    for (e, l) in lights.iter().enumerate() {
+        owner.extend(l.iter().map(|&t| (t, e)));
+    }
+    let mut visited = std::collections::HashSet::new();
+    let mut out = lights.clone();
+    for (e, light) in lights.iter().enumerate() {
+        for &t in light {
+            for &start in &near[t as usize] {
+                if seen(start) || owner.contains_key(&start) || !visited.insert(start) {
+                    continue;
+                }
+                let (mut piece, mut todo, mut closed) = (vec![start], vec![start], true);
+                while let Some(x) = todo.pop() {
+                    for &y in &near[x as usize] {
+                        match owner.get(&y) {
+                            Some(&o) if o == e => continue,
+                            Some(_) => closed = false,
+                            None if seen(y) => closed = false,
+                            None => {
+                                if visited.insert(y) {
+                                    piece.push(y);
+                                    todo.push(y);
+                                }
+                            }
+                        }
+                    }
+                }
+                if closed {
+                    out[e].extend(piece);
+                }
+            }
+        }
+    }
+    for l in &mut out {
+        l.sort_unstable();
+    }
+    out
 }
 
 /// Per light, the highest clip level (in the stages' units) of the views that see it clipped
@@ -291,5 +348,27 @@ mod tests {
         more.insert(10, (8, 8));
         let lights = lights_of(&strip(11), &more);
         assert_eq!(lights, vec![vec![0, 1, 2, 3, 4], vec![9, 10]]);
+    }
+
+    /// Triangles no pixel saw join the light they touch when nothing seen lies beyond them
+    /// (a pendant's top face); where they lead on to a seen surface (a wall continuing past
+    /// a window) they stay out.
+    #[test]
+    fn a_lights_unseen_faces_join_it_unless_they_lead_to_a_seen_surface() {
+        let clipped = |ts: &[u32]| -> HashMap<u32, (usize, usize)> {
+            ts.iter().map(|&t| (t, (10, 10))).collect()
+        };
+        // Triangles 2 and 3 unseen, the strip's end: they join.
+        assert_eq!(
+            lights_of(&strip(4), &clipped(&[0, 1])),
+            vec![vec![0, 1, 2, 3]]
+        );
+        // Triangle 3 seen and not clipped: 2 leads to it and stays out.
+        let mut count = clipped(&[0, 1]);
+        count.insert(3, (0, 10));
+        assert_eq!(lights_of(&strip(4), &count), vec![vec![0, 1]]);
+        // Between two lights: neither takes it.
+        let two = clipped(&[0, 1, 3, 4]);
+        assert_eq!(lights_of(&strip(5), &two), vec![vec![0, 1], vec![3, 4]]);
     }
 }
