@@ -55,7 +55,7 @@ pub struct SeenField<'a> {
 /// (`studio-mitsuba`'s checker floor, 0.72 / 0.20, spreads 0.25: a mean colour is wrong on
 /// every tile, and there it cost the floor 1.4 dB of kd against the field's extrapolation),
 /// while a surface the field reads unevenly is filled (`kitchen`'s ceiling, `bedroom`'s plank
-/// floor: 0.05 refused both, and their kd by 8.5 and 3.8 dB). σ and metallic: no limit
+/// floor: 0.05 refused both, 8.5 and 3.8 dB of their kd). σ and metallic: no limit
 /// (`bedroom`'s floor σ 18.6 → 20.8 dB with none, unchanged with 0.05); the field's σ where no
 /// view looked was no better than the seen mean on any room measured
 /// (`docs/unseen-surfaces.md`).

@@ -198,10 +198,11 @@ fn lights_of(mesh: &fipt_geom::mesh::Mesh, count: &HashMap<u32, (usize, usize)>)
 /// Each light with the faces of it no view saw: a connected piece of triangles that no pixel
 /// centre hits joins the light it touches when every triangle it touches is that light's or
 /// unseen too (the top of a pendant box that lights the ceiling above it, the crown of a bulb
-/// between pixel centres); a piece that touches a seen surface or another light continues a
-/// wall or a fixture, and stays out. Without the box's top, `kitchen`'s pendant lit its
-/// ceiling through its sides alone and the albedo bound set it 2.9× too bright against the
-/// window.
+/// between pixel centres), and its area is at most the light's own; a piece that touches a
+/// seen surface or another light continues a wall or a fixture, and a larger one (the outside
+/// of a scanned wall behind a window) is no face of a lamp: they stay out. Without the box's
+/// top, `kitchen`'s pendant lit its ceiling through its sides alone and the albedo bound set it
+/// 2.9× too bright against the window.
 fn with_unseen_faces(
     mesh: &fipt_geom::mesh::Mesh,
     seen: impl Fn(u32) -> bool,
@@ -218,6 +219,8 @@ fn with_unseen_faces(
     let mut visited = std::collections::HashSet::new();
     let mut out = lights.clone();
     for (e, light) in lights.iter().enumerate() {
+        let area = |ts: &[u32]| ts.iter().map(|&t| mesh.area(t as usize)).sum::<f32>();
+        let own = area(light);
         for &t in light {
             for &start in &near[t as usize] {
                 if seen(start) || owner.contains_key(&start) || !visited.insert(start) {
@@ -239,7 +242,7 @@ fn with_unseen_faces(
                         }
                     }
                 }
-                if closed {
+                if closed && area(&piece) <= own {
                     out[e].extend(piece);
                 }
             }
@@ -370,5 +373,7 @@ mod tests {
         // Between two lights: neither takes it.
         let two = clipped(&[0, 1, 3, 4]);
         assert_eq!(lights_of(&strip(5), &two), vec![vec![0, 1], vec![3, 4]]);
+        // Three unseen triangles beside a light of two: larger than the light, they stay out.
+        assert_eq!(lights_of(&strip(5), &clipped(&[0, 1])), vec![vec![0, 1]]);
     }
 }
