@@ -225,12 +225,11 @@ pub fn run(
     let (emitters, user_emitters) =
         emitters_stage(&host, p.extractor, field, emitters, shadings_for, &stages)?;
     let warnings = crate::outputs::run_warnings(scene, &emitters);
-    let observed = observed_cells(&host);
     let seen = crate::seen::SeenField::new(
         field,
         &scene.geometry.mesh,
         &host.hits().0,
-        observed.clone(),
+        observed_cells(&host),
     )?;
     seen.note();
     let mut mark = |stage: &'static str, t: Instant| stages.mark(stage, t);
@@ -240,7 +239,14 @@ pub fn run(
         // The fill is part of what the re-renders are a function of.
         id: id.map(|i| format!("{i}|{}", crate::seen::VERSION)),
     };
-    write_views(scene, cfg, &a.out, recovered, Some(&observed), &mut mark)?;
+    write_views(
+        scene,
+        cfg,
+        &a.out,
+        recovered,
+        Some(seen.counts()),
+        &mut mark,
+    )?;
     let metrics = evaluate_if_gt(scene, &a.out, components.evaluator(), &mut mark)?;
     let stages = stages.take();
     let settings = checked.report(cfg, components, used);

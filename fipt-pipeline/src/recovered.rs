@@ -10,6 +10,7 @@ use fipt_core::fsutil::read_json;
 use fipt_core::reflectance::ReflectanceModel;
 use fipt_geom::{Geometry, Mesh};
 use fipt_shading::field_surfaces::FieldSurfaces;
+use fipt_shading::records::HitPoint;
 use std::path::{Path, PathBuf};
 
 /// At most this many extra points spread over the mesh to cache the field where no view
@@ -39,16 +40,94 @@ pub fn surfaces(
         fipt_shading::records::footprint_samples(v, &records, &mut foot);
         pts.extend(records.iter().flatten().map(|r| (r.hit.p, r.hit.tri)));
     }
+    cached(geometry, field, emitters, model, &pts, foot)
+}
+
+/// The field cached on the voxels of `pts` (and the rest of the mesh), the cell from the
+/// median of the footprint samples `foot`.
+fn cached(
+    geometry: &Geometry,
+    field: &dyn MaterialField,
+    emitters: &[Emitter],
+    model: ReflectanceModel,
+    pts: &[(glam::Vec3, u32)],
+    foot: Vec<f32>,
+) -> Result<FieldSurfaces> {
     let footprint = fipt_shading::records::median(foot);
     Ok(FieldSurfaces::build_covering(
         field,
         &geometry.mesh,
         emitters,
-        &pts,
+        pts,
         cache_cell(footprint),
         MAX_FILL_POINTS,
     )?
     .with_model(model))
+}
+
+/// Every view of a scene traced once for both readers of a recovered scene in `fipt render`
+/// and `fipt export`: [`crate::seen::SeenField`] over the training views and the surfaces'
+/// cache over all of them (each traced them on its own before: the training views twice).
+pub struct TracedViews {
+    /// Per view (the training split's first), each pixel's primary hit.
+    hits: Vec<Vec<Option<HitPoint>>>,
+    train: usize,
+    /// Footprints of every training pixel (the `observed` maps' cell) and of a sample of every
+    /// view's (the cache's cell), as [`crate::seen::SeenField::with_footprint`] and [`surfaces`]
+    /// take them.
+    train_foot: Vec<f32>,
+    cache_foot: Vec<f32>,
+}
+
+impl TracedViews {
+    /// Traces every split of `ds`, the training split first.
+    pub fn trace(geometry: &Geometry, ds: &Dataset) -> Self {
+        use fipt_shading::records::{
+            footprint_samples, points_of, primary_records, push_footprints,
+        };
+        let train = ds.train().views.len();
+        let mut t = TracedViews {
+            hits: vec![],
+            train,
+            train_foot: vec![],
+            cache_foot: vec![],
+        };
+        let views = ds.splits.iter().flat_map(|s| s.views.iter());
+        for (k, v) in views.enumerate() {
+            let records = primary_records(geometry, v);
+            footprint_samples(v, &records, &mut t.cache_foot);
+            if k < train {
+                push_footprints(v, &records, &mut t.train_foot);
+            }
+            t.hits.push(points_of(&records));
+        }
+        t
+    }
+
+    /// `inner` filled where no training pixel saw a surface (see [`crate::seen`]).
+    pub fn seen<'a>(
+        &self,
+        inner: &'a dyn MaterialField,
+        mesh: &Mesh,
+    ) -> Result<crate::seen::SeenField<'a>> {
+        let footprint = fipt_shading::records::median(self.train_foot.clone());
+        crate::seen::SeenField::with_footprint(inner, mesh, &self.hits[..self.train], footprint)
+    }
+
+    /// The surfaces of the recovered scene ([`surfaces`] of every view), the hits dropped.
+    pub fn into_surfaces(
+        self,
+        geometry: &Geometry,
+        field: &dyn MaterialField,
+        emitters: &[Emitter],
+        model: ReflectanceModel,
+    ) -> Result<FieldSurfaces> {
+        let mut pts = vec![];
+        for view in self.hits {
+            pts.extend(view.into_iter().flatten().map(|h| (h.p, h.tri())));
+        }
+        cached(geometry, field, emitters, model, &pts, self.cache_foot)
+    }
 }
 
 /// A finished `fipt run` output folder.
@@ -241,9 +320,9 @@ pub fn export_run(
     let run = RunOutput::open(&a.run, a.scene.as_deref())?;
     let (ds, geometry) = run.open_scene()?;
     let trained = run.field(components)?;
-    let field = crate::seen::SeenField::of_views(trained.as_ref(), &geometry, &ds.train().views)?;
-    let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
-    let surfaces = surfaces(&geometry, &views, &field, &run.emitters, run.model)?;
+    let traced = TracedViews::trace(&geometry, &ds);
+    let field = traced.seen(trained.as_ref(), &geometry.mesh)?;
+    let surfaces = traced.into_surfaces(&geometry, &field, &run.emitters, run.model)?;
     st.done();
     let opts = fipt_export::ExportOptions {
         texel_size: a.texel.unwrap_or(surfaces.cell()),

@@ -186,11 +186,11 @@ pub fn render_unchecked(
     let run = RunOutput::open(&a.source, a.scene.as_deref())?;
     let (ds, geometry) = run.open_scene()?;
     let trained = run.field(components)?;
-    let field = crate::seen::SeenField::of_views(trained.as_ref(), &geometry, &ds.train().views)?;
+    let traced = crate::recovered::TracedViews::trace(&geometry, &ds);
+    let field = traced.seen(trained.as_ref(), &geometry.mesh)?;
     let cams = read_cameras(&a.cameras, size.or(Some((ds.width, ds.height))))?;
-    let views: Vec<_> = ds.splits.iter().flat_map(|s| s.views.clone()).collect();
     let model = a.brdf.unwrap_or(run.model);
-    let surfaces = crate::recovered::surfaces(&geometry, &views, &field, &run.emitters, model)?;
+    let surfaces = traced.into_surfaces(&geometry, &field, &run.emitters, model)?;
     let groups: Vec<Vec<u32>> = run.emitters.iter().map(|e| e.triangles.clone()).collect();
     st.done();
     let summary = render_all(a, &geometry.mesh, &surfaces, &groups, &cams, Layout::Flat)?;

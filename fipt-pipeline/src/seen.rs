@@ -188,17 +188,18 @@ impl<'a> SeenField<'a> {
         })
     }
 
-    /// [`SeenField::new`] over the training `views` of `geometry` (traced here), with the
-    /// `observed` maps' cells: what `fipt render` and `fipt export` read a run's field through.
-    pub fn of_views(
+    /// [`SeenField::new`] over the training views' `hits` with the `observed` maps' cells
+    /// (their median pixel `footprint`): what `fipt render` and `fipt export` read a run's
+    /// field through ([`crate::recovered::TracedViews::seen`]).
+    pub fn with_footprint(
         inner: &'a dyn MaterialField,
-        geometry: &fipt_geom::Geometry,
-        views: &[fipt_core::dataset::View],
+        mesh: &Mesh,
+        hits: &[Vec<Option<HitPoint>>],
+        footprint: Option<f32>,
     ) -> Result<Self> {
-        let (hits, footprint) = fipt_shading::records::hit_points_and_footprint(geometry, views);
         let cell = crate::fit::OBSERVED_CELL_FOOTPRINTS * footprint.unwrap_or(0.01);
         let counts = CellCounts::new(hits.iter().flatten().flatten().map(|h| h.p), cell);
-        Self::new(inner, &geometry.mesh, &hits, counts)
+        Self::new(inner, mesh, hits, counts)
     }
 
     /// Says what was filled.
@@ -208,6 +209,11 @@ impl<'a> SeenField<'a> {
             self.seen_triangles,
             self.filled_triangles
         );
+    }
+
+    /// Training pixels per surface cell, as the fill read them (the `observed` maps' counts).
+    pub fn counts(&self) -> &CellCounts {
+        &self.counts
     }
 
     /// The share of `points` the field is taken at as it is (their cells well seen).
