@@ -7,16 +7,21 @@
 //! its neighbours in the same region (a cube of `2·gloss_radius + 1` cells) summed with its own.
 //! The cells' preferred σ are cut in two (the weighted 1-D 2-means, exact), each side's pooled
 //! curve gives its σ, and the cells are reassigned to the side whose σ their neighbourhood
-//! prefers until nothing moves; the edge between them is then drawn by each cell's adjacent
-//! cells alone. A region divides when the two sides' σ lie `sigma_gap` apart and
-//! the same cut made on each half of the views alone (even, odd) puts at least
-//! `gloss_agreement` of the cells both halves saw on the same side: a cut made by noise is
-//! not reproducible (about half the cells agree), a change of finish is; and when each side's
-//! pooled curve costs `gloss_depth` more at the other side's σ than at its own: light the
-//! shadings get wrong near a lamp also makes a reproducible cut, but a shallow one
-//! (`studio-mitsuba`'s right wall, σ 0.9: 1.2 %). The sides then go through the same guard
-//! as a colour split ([`crate::split::sides_differ`]). A region the colour divided takes the
-//! gloss cut when that is the deeper division (a wood checker over tiles of two finishes).
+//! prefers until nothing moves. The cells are then labelled again at the least energy
+//! ([`crate::mincut`]): each pays its own curve at its side's σ, and each pair of adjacent
+//! cells on two sides pays `gloss_smoothness` times the median of the cells' preferences, so a
+//! cell whose own evidence is weak (no view saw a highlight on it) follows its neighbours and
+//! the edge between finishes is short; the sides' σ are taken again until neither moves.
+//!
+//! A region divides when the two sides' σ lie `sigma_gap` apart, the same cut made on each
+//! half of the views alone (even, odd) puts at least `gloss_agreement` of the cells both
+//! halves saw on the same side (a cut made by noise: about half), and each side's pooled curve
+//! costs `gloss_depth` more at the other side's σ than at its own: light the shadings get
+//! wrong near a lamp also makes a reproducible cut, but a shallow one. The sides then go
+//! through the same guard as a colour split ([`crate::split::sides_differ`]). A region the
+//! colour divided keeps that division when it is `gloss_depth` deep itself (finishes that
+//! follow the colour), and otherwise takes the gloss cut when that is the deeper division (a
+//! wood checker over tiles of two finishes).
 use super::{argmin, excess, AlbedoFit, Observed, SearchPixel};
 use crate::split::{ColourSplit, SplitConfig};
 use fipt_core::image::Image;
@@ -171,7 +176,7 @@ fn threshold(values: &mut [(usize, f64)]) -> Option<usize> {
 }
 
 /// The cut of a region's cells from one set of curves (see the module).
-fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>]) -> Option<Cut> {
+fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>], smoothness: f32) -> Option<Cut> {
     let smoothed = smooth(cells, curves, &cells.neighbours);
     let own = |k: usize| curves[cells.ids[k]].as_ref();
     // Each cell's preferred σ (None without a curve of its own).
@@ -211,20 +216,76 @@ fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>]) -> Option<Cut> {
             break;
         }
     }
-    // The depth of the cut as the neighbourhoods drew it (drawn finer, a few cells that
-    // prefer the other side by chance would deepen it), then the edge drawn finer: each cell
-    // by its adjacent cells alone.
+    // The neighbourhoods found the two finishes; the cells are then labelled by their own
+    // curves with a price on the outline (a minimum cut), and each side's σ taken again from
+    // its pooled curve, until neither moves.
+    for _ in 0..8 {
+        let labelled = outlined(cells, curves, sigma, smoothness);
+        let next = [0, 1].map(|k| {
+            pooled(cells, curves, &labelled, k)
+                .as_deref()
+                .and_then(argmin)
+        });
+        let [Some(a), Some(b)] = next else {
+            return None;
+        };
+        if a >= b {
+            return None;
+        }
+        let stable = labelled == side && [a, b] == sigma;
+        (side, sigma) = (labelled, [a, b]);
+        if stable {
+            break;
+        }
+    }
     let depth = depth(cells, curves, &side)?;
-    let fine = smooth(cells, curves, &cells.adjacent);
-    let [a, b] = sigma;
-    side = (0..side.len())
-        .map(|k| {
-            own(k)?;
-            let s = fine[k].as_ref()?;
-            Some(u8::from(s[b] < s[a]))
-        })
-        .collect();
     Some(Cut { side, sigma, depth })
+}
+
+/// Each cell's side at the two σ (indices) by a minimum cut: a cell pays its own curve at its
+/// side's σ, and each pair of adjacent cells on different sides pays `smoothness` times the
+/// median of the cells' preferences (|curve at one σ − at the other|), so that a cell whose
+/// own evidence is weak follows its neighbours and the edge between finishes is short.
+fn outlined(
+    cells: &RegionCells,
+    curves: &[Option<Vec<f32>>],
+    [a, b]: [usize; 2],
+    smoothness: f32,
+) -> Vec<Option<u8>> {
+    let own = |k: usize| curves[cells.ids[k]].as_ref();
+    let nodes: Vec<usize> = (0..cells.ids.len()).filter(|&k| own(k).is_some()).collect();
+    let mut node = vec![usize::MAX; cells.ids.len()];
+    for (i, &k) in nodes.iter().enumerate() {
+        node[k] = i;
+    }
+    let cost: Vec<[f64; 2]> = (nodes.iter())
+        .map(|&k| own(k).map_or([0.0; 2], |c| [c[a] as f64, c[b] as f64]))
+        .collect();
+    let mut preference: Vec<f64> = cost.iter().map(|c| (c[0] - c[1]).abs()).collect();
+    let weight = smoothness as f64 * median(&mut preference);
+    let mut edges = vec![];
+    for (i, &k) in nodes.iter().enumerate() {
+        for &n in &cells.adjacent[k] {
+            if node[n] != usize::MAX && node[n] > i {
+                edges.push((i, node[n], weight));
+            }
+        }
+    }
+    let labels = crate::mincut::two_labels(&cost, &edges);
+    let mut side = vec![None; cells.ids.len()];
+    for (&k, &l) in nodes.iter().zip(&labels) {
+        side[k] = Some(u8::from(l));
+    }
+    side
+}
+
+/// The median of `values` (reordered; 0 when empty).
+fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mid = values.len() / 2;
+    *values.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 /// The sum of the curves of `cells` (indices into the region's cells); None without one.
@@ -370,12 +431,13 @@ pub fn gloss_split(
             continue;
         };
         let (mut cut, all) = found;
-        // A colour division stands unless the gloss cut is the deeper one.
+        // A colour division stands when it is deep itself (two finishes that follow the
+        // colour), and otherwise unless the gloss cut is the deeper one.
         let by_colour = out.sub[r].map(|_| {
             let side: Vec<Option<u8>> = cells.ids.iter().map(|&c| Some(out.side[c])).collect();
             depth(&cells, &sets[0], &side).unwrap_or(0.0)
         });
-        cut.divided &= by_colour.is_none_or(|d| all.depth > d);
+        cut.divided &= by_colour.is_none_or(|d| d < cfg.gloss_depth as f64 && all.depth > d);
         cut.region = r as u32;
         if cut.divided {
             for (k, &c) in cells.ids.iter().enumerate() {
@@ -401,8 +463,9 @@ fn measure(
     min_pixels: usize,
     cfg: &SplitConfig,
 ) -> Option<(GlossCut, Cut)> {
-    let all = cut(cells, &sets[0])?;
-    let agree = match [cut(cells, &sets[1]), cut(cells, &sets[2])] {
+    let smooth = cfg.gloss_smoothness;
+    let all = cut(cells, &sets[0], smooth)?;
+    let agree = match [cut(cells, &sets[1], smooth), cut(cells, &sets[2], smooth)] {
         [Some(a), Some(b)] => agreement(cells, &a, &b),
         _ => 0.0,
     };
@@ -513,6 +576,39 @@ mod tests {
             let (split, cuts) = run(&|_| sigma, 0.05);
             assert_eq!(split.sub, vec![None], "σ {sigma}: {cuts:?}");
         }
+    }
+
+    #[test]
+    fn cells_whose_own_evidence_is_noisy_follow_their_neighbours_to_the_edge() {
+        let edge = 10;
+        let (px, vox, sh, img) = plane(&|x| if x < edge { 0.25 } else { 0.65 }, 0.4, 5);
+        let grid: Vec<f32> = crate::sigma_grid(DEFAULT_LEVELS[0], 1.0, 50);
+        let mut by_cell: Vec<Vec<usize>> = vec![vec![]; vox.len()];
+        for (j, p) in px.iter().enumerate() {
+            by_cell[p.cell as usize].push(j);
+        }
+        let wanted = vec![true; vox.len()];
+        let curves = cell_curves(&by_cell, &wanted, &px, &sh, &img, &grid, Views::All);
+        let cells = RegionCells::new((0..vox.len()).collect(), &vox, &by_cell, 3);
+        let right = |c: &Cut| {
+            let ok = (0..vox.len())
+                .filter(|&k| c.side[k] == Some(u8::from(vox[k][0] >= edge)))
+                .count();
+            ok as f64 / vox.len() as f64
+        };
+        let own = cut(&cells, &curves, 0.0).expect("a cut by the cells' own curves");
+        let outlined = cut(&cells, &curves, 0.5).expect("a cut with a price on the edge");
+        assert!(
+            right(&own) < 0.95,
+            "the test's noise leaves own curves right: {}",
+            right(&own)
+        );
+        assert!(
+            right(&outlined) >= 0.97,
+            "{} (own curves {})",
+            right(&outlined),
+            right(&own)
+        );
     }
 
     #[test]

@@ -635,6 +635,7 @@ pub use one_colour::{one_cell_per_region, with_one_colour};
 
 pub mod divided;
 pub mod gloss;
+mod mincut;
 pub mod split;
 
 #[cfg(test)]

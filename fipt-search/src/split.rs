@@ -42,15 +42,22 @@ pub struct SplitConfig {
     /// many cells of it (a cube of edge `2·r + 1`).
     pub gloss_radius: u32,
     /// Least share of the cells seen in both halves of the views (even, odd) that the cuts
-    /// made on each half alone put on the same side: a floor of two finishes 77 %, cuts made
-    /// by noise 60–65 % (`docs/roughness-rooms.md`).
+    /// made on each half alone put on the same side. Cuts made by noise agree on about half;
+    /// with the edge drawn by a minimum cut, floors of two finishes agree on 60–64 % (`kitchen`,
+    /// `bedroom`, 83 % `atelier`) and shading error's cuts on up to 88 %, so the depth decides
+    /// (`docs/roughness-rooms.md`, *Finishes outlined by a minimum cut*).
     pub gloss_agreement: f32,
-    /// Least relative excess of each side's pooled cost curve at the other side's σ: a floor
-    /// of σ 0.3 / 0.65 tiles 96 %, every other cut on five Mitsuba rooms (sides of 15 % or
-    /// more) at most 14 %, most under 8 %: shading error makes reproducible but shallow cuts.
+    /// Least relative excess of each side's pooled cost curve at the other side's σ: floors of
+    /// two finishes 26–149 %, every other cut on six Mitsuba rooms and four copies (sides of
+    /// 15 % or more) at most 17 %: shading error makes reproducible but shallow cuts. A colour
+    /// division this deep stands against a gloss cut.
     /// Colour sides keep their own decisions only with it too, measured on their profiles
     /// ([`sides_differ`]).
     pub gloss_depth: f32,
+    /// The price of the edge between two finishes in the gloss split: each pair of adjacent
+    /// cells on different sides costs this many times the median of the region's cells'
+    /// preference for one side ([`crate::gloss`]); 0 labels every cell by its own curve.
+    pub gloss_smoothness: f32,
 }
 
 impl Default for SplitConfig {
@@ -62,8 +69,9 @@ impl Default for SplitConfig {
             sigma_gap: 0.1,
             by_gloss: true,
             gloss_radius: 3,
-            gloss_agreement: 0.7,
+            gloss_agreement: 0.55,
             gloss_depth: 0.25,
+            gloss_smoothness: 0.5,
         }
     }
 }
@@ -90,6 +98,9 @@ impl SplitConfig {
         }
         if !(self.gloss_depth >= 0.0 && self.gloss_depth <= 10.0) {
             return bad("gloss_depth", self.gloss_depth, "[0, 10]");
+        }
+        if !(self.gloss_smoothness >= 0.0 && self.gloss_smoothness <= 100.0) {
+            return bad("gloss_smoothness", self.gloss_smoothness, "[0, 100]");
         }
         Ok(())
     }
