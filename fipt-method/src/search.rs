@@ -149,9 +149,9 @@ fn divide(
         &cfg.split,
     );
     // A cut the two halves of the views do not reproduce (about half the cells agree) is
-    // noise: only the others are printed.
+    // noise: only the others, and every cut that divides, are printed.
     const PRINTED_AGREEMENT: f64 = 0.6;
-    for c in cuts.iter().filter(|c| c.agreement >= PRINTED_AGREEMENT) {
+    for c in (cuts.iter()).filter(|c| c.divided || c.agreement >= PRINTED_AGREEMENT) {
         crate::note!(
             "search: region {} cut by gloss at σ {:.2} / {:.2} ({:.0} % rougher side, halves agree on {:.0} %, depth {:.1} %): {}",
             regions.labels[c.region as usize],
