@@ -232,7 +232,8 @@ fn cut(cells: &RegionCells, curves: &[Option<Vec<f32>>], smoothness: f32) -> Opt
         if a >= b {
             return None;
         }
-        let stable = labelled == side && [a, b] == sigma;
+        // The labels follow from σ alone: an unchanged σ would label the cells the same.
+        let stable = [a, b] == sigma;
         (side, sigma) = (labelled, [a, b]);
         if stable {
             break;
@@ -252,15 +253,16 @@ fn outlined(
     [a, b]: [usize; 2],
     smoothness: f32,
 ) -> Vec<Option<u8>> {
-    let own = |k: usize| curves[cells.ids[k]].as_ref();
-    let nodes: Vec<usize> = (0..cells.ids.len()).filter(|&k| own(k).is_some()).collect();
+    let (nodes, cost): (Vec<usize>, Vec<[f64; 2]>) = (0..cells.ids.len())
+        .filter_map(|k| {
+            let c = curves[cells.ids[k]].as_ref()?;
+            Some((k, [c[a] as f64, c[b] as f64]))
+        })
+        .unzip();
     let mut node = vec![usize::MAX; cells.ids.len()];
     for (i, &k) in nodes.iter().enumerate() {
         node[k] = i;
     }
-    let cost: Vec<[f64; 2]> = (nodes.iter())
-        .map(|&k| own(k).map_or([0.0; 2], |c| [c[a] as f64, c[b] as f64]))
-        .collect();
     let mut preference: Vec<f64> = cost.iter().map(|c| (c[0] - c[1]).abs()).collect();
     let weight = smoothness as f64 * median(&mut preference);
     let mut edges = vec![];

@@ -79,7 +79,6 @@ pub fn hit_points(geometry: &dyn RayQuery, view: &View) -> Vec<Option<HitPoint>>
 }
 
 /// The hit points of one view's primary `records`, in an allocation of their own size.
-/// Each record's [`HitPoint`].
 pub fn points_of(records: &[Option<PixelRecord>]) -> Vec<Option<HitPoint>> {
     let mut hits = Vec::with_capacity(records.len());
     hits.extend(
