@@ -13,7 +13,7 @@ const CELLS: f32 = 256.0;
 /// A view needs this many surface cells shared with other views for its gain to be fitted.
 pub const MIN_SHARED_CELLS: usize = 20;
 /// Views whose fitted exposures spread wider than this ratio disagree (the fit's own error on
-/// views of one exposure: ×1.07 on `studio-mitsuba`, its glossy and metal surfaces); LDR views
+/// views of one exposure: ×1.06 on `studio-mitsuba`, its glossy and metal surfaces); LDR views
 /// are divided by their gains only then.
 pub const GAIN_SPREAD_WARN: f32 = 1.15;
 /// The same for HDR views, which are never divided by their gains: a scene's view-dependent
@@ -59,12 +59,16 @@ pub fn fit_gains(
     clip_level: Option<f32>,
 ) -> Option<GainFit> {
     let cells = shared_cells(geometry, views, images, clipped, clip_level);
-    if cells.is_empty() {
+    let all: Vec<&Vec<(usize, f64)>> = cells.values().collect();
+    fit_readings(&all, views.len())
+}
+
+/// [`fit_gains`] on the readings of the shared cells: per cell, (view, log luminance).
+fn fit_readings(all: &[&Vec<(usize, f64)>], nv: usize) -> Option<GainFit> {
+    if all.is_empty() {
         return None;
     }
-    let all: Vec<&Vec<(usize, f64)>> = cells.values().collect();
-    let nv = views.len();
-    let (g, radiance) = alternate(&all, nv, None);
+    let (g, radiance) = alternate(all, nv, None);
     // Leave out the cells the views disagree on most (highlights that move with the view, edges
     // a pose error shifts): above twice the median residual, then fit again.
     let rms: Vec<f64> = all
@@ -90,6 +94,9 @@ pub fn fit_gains(
         .filter(|(_, r)| **r <= cut)
         .map(|(o, _)| *o)
         .collect();
+    let (g, _) = alternate(&obs, nv, Some(g));
+    let (kept, g) = trimmed(&obs, nv, g);
+    let obs: Vec<&Vec<(usize, f64)>> = kept.iter().collect();
     let (g, radiance) = alternate(&obs, nv, Some(g));
     // Views that share too few cells with the others keep gain 1 and are named.
     let mut shared = vec![0usize; nv];
@@ -131,6 +138,46 @@ pub fn fit_gains(
         pairs,
         residual_log_rms: (sq / pairs.max(1) as f64).sqrt() as f32,
     })
+}
+
+/// Single readings (one view's of one cell) further from the fit than this many robust
+/// standard deviations are left out: a highlight, a reflection or a misregistered edge in one
+/// view moves that view's readings of a few cells, which the per-cell cut above keeps where the
+/// cell's other readings agree. On six auto-exposed copies of four rooms (`docs/phone-captures.md`,
+/// *Exposures fitted without the odd reading*), the gains' log error against the true exposures
+/// fell from 0.0158 RMS to 0.0117 with 2 and three rounds (3: 0.0130; one round: 0.0127).
+const TRIM: f64 = 2.0;
+/// Rounds of leaving out and fitting again.
+const TRIM_ROUNDS: usize = 3;
+/// A normal distribution's standard deviation over its median absolute deviation.
+const ROBUST_SD: f64 = 1.4826;
+
+/// The cells' readings without those more than [`TRIM`] robust standard deviations from the
+/// fit (cells left with fewer than two dropped), [`TRIM_ROUNDS`] times, each round from the
+/// gains the last one fitted; and those gains.
+fn trimmed(
+    obs: &[&Vec<(usize, f64)>],
+    nv: usize,
+    mut g: Vec<f64>,
+) -> (Vec<Vec<(usize, f64)>>, Vec<f64>) {
+    let mut kept: Vec<Vec<(usize, f64)>> = obs.iter().map(|o| o.to_vec()).collect();
+    for _ in 0..TRIM_ROUNDS {
+        let radiance: Vec<f64> = (obs.iter())
+            .map(|o| o.iter().map(|(v, y)| y - g[*v]).sum::<f64>() / o.len() as f64)
+            .collect();
+        let off = |c: usize, &(v, y): &(usize, f64)| (y - radiance[c] - g[v]).abs();
+        let mut abs: Vec<f64> = (obs.iter().enumerate())
+            .flat_map(|(c, o)| o.iter().map(move |r| off(c, r)))
+            .collect();
+        let m = abs.len() / 2;
+        let limit = TRIM * ROBUST_SD * abs.select_nth_unstable_by(m, f64::total_cmp).1.max(1e-6);
+        kept = (obs.iter().enumerate())
+            .map(|(c, o)| o.iter().filter(|r| off(c, r) <= limit).copied().collect())
+            .filter(|o: &Vec<(usize, f64)>| o.len() >= 2)
+            .collect();
+        g = alternate(&kept.iter().collect::<Vec<_>>(), nv, Some(g)).0;
+    }
+    (kept, g)
 }
 
 /// A surface cell: its integer coordinates on the grid [`cell_size`] gives.
@@ -285,4 +332,53 @@ pub(super) fn alternate(
         }
     }
     (g, radiance)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Readings of `cells` cells by every one of 8 views: log gain + log radiance + noise, and
+    /// in view 0 a broad highlight that lifts a third of the cells by `lift`. Returns the
+    /// fitted log gains less the true ones (mean removed).
+    fn fitted_error(lift: f64, cells: usize) -> Vec<f64> {
+        let nv = 8;
+        let truth: Vec<f64> = (0..nv).map(|v| 0.3 * (v as f64 - 3.5)).collect();
+        let mut state = 7u64;
+        let mut noise = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) as f64 / (1u64 << 31) as f64 - 0.5) * 0.04
+        };
+        let readings: Vec<Vec<(usize, f64)>> = (0..cells)
+            .map(|c| {
+                let r = (c as f64 * 0.37).sin();
+                (0..nv)
+                    .map(|v| {
+                        let glint = if v == 0 && c % 3 == 0 { lift } else { 0.0 };
+                        (v, truth[v] + r + glint + noise())
+                    })
+                    .collect()
+            })
+            .collect();
+        let refs: Vec<&Vec<(usize, f64)>> = readings.iter().collect();
+        let f = fit_readings(&refs, nv).unwrap();
+        let e: Vec<f64> = (f.gains.iter().zip(&truth))
+            .map(|(g, t)| (*g as f64).ln() - t)
+            .collect();
+        let mean = e.iter().sum::<f64>() / nv as f64;
+        e.iter().map(|x| x - mean).collect()
+    }
+
+    #[test]
+    fn a_highlight_over_a_third_of_one_views_cells_does_not_move_its_gain() {
+        // Without the highlight the fit is exact to the noise's share.
+        let clean = fitted_error(0.0, 600);
+        assert!(clean.iter().all(|e| e.abs() < 0.003), "{clean:?}");
+        // A 6 % lift of a third of view 0's readings: the per-view median alone (no rounds of
+        // leaving out) puts its gain 0.71 % high; with them, 0.14 %.
+        let lifted = fitted_error(0.06, 600);
+        assert!(lifted.iter().all(|e| e.abs() < 0.0025), "{lifted:?}");
+    }
 }
