@@ -82,12 +82,7 @@ fn fit_readings(all: &[&Vec<(usize, f64)>], nv: usize) -> Option<GainFit> {
                 .sqrt()
         })
         .collect();
-    let mut sorted = rms.clone();
-    let cut = 2.0
-        * sorted
-            .select_nth_unstable_by(rms.len() / 2, f64::total_cmp)
-            .1
-            .max(1e-3);
+    let cut = 2.0 * median(&mut rms.clone()).max(1e-3);
     let obs: Vec<&Vec<(usize, f64)>> = all
         .iter()
         .zip(&rms)
@@ -182,8 +177,7 @@ fn trimmed(
         let mut abs: Vec<f64> = (obs.iter().enumerate())
             .flat_map(|(c, o)| o.iter().map(move |r| off(c, r)))
             .collect();
-        let m = abs.len() / 2;
-        let limit = TRIM * ROBUST_SD * abs.select_nth_unstable_by(m, f64::total_cmp).1.max(1e-6);
+        let limit = TRIM * ROBUST_SD * median(&mut abs).max(1e-6);
         let next: Vec<Vec<(usize, f64)>> = (obs.iter().enumerate())
             .map(|(c, o)| o.iter().filter(|r| off(c, r) <= limit).copied().collect())
             .filter(|o: &Vec<(usize, f64)>| o.len() >= 2)
@@ -226,6 +220,13 @@ fn linked<'a>(cells: impl Iterator<Item = &'a [(usize, f64)]>, nv: usize) -> (us
         .filter(|&v| readings[v] > 0 && root(&mut parent, v) == v)
         .count();
     (groups, readings)
+}
+
+/// The value at the middle of `values` once sorted (the upper one of an even count; reordered;
+/// not empty).
+fn median(values: &mut [f64]) -> f64 {
+    let m = values.len() / 2;
+    *values.select_nth_unstable_by(m, f64::total_cmp).1
 }
 
 /// A surface cell: its integer coordinates on the grid [`cell_size`] gives.
@@ -367,8 +368,7 @@ pub(super) fn alternate(
                     return old;
                 }
                 let mut res: Vec<f64> = seen.iter().map(|&(c, y)| y - radiance[c]).collect();
-                let m = res.len() / 2;
-                *res.select_nth_unstable_by(m, f64::total_cmp).1
+                median(&mut res)
             })
             .collect();
         let mean = next.iter().sum::<f64>() / nv as f64;
