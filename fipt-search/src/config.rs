@@ -178,7 +178,11 @@ pub struct SearchConfig {
     /// object towards rough: `room`'s glossy box (σ 0.15, 0.2 in the val clamp) in capture-like copies, minimum
     /// 0.34 with halves at 0.34 and 0.10, read 0.54–0.58. Depth is evidence that the surface
     /// is glossy; the halves' disagreement says where between their readings, and the
-    /// median is the reading two of the three share or lie either side of. 0: off.
+    /// median is the reading two of the three share or lie either side of. The same median
+    /// (held at `interior_sigma`) is the target of a dielectric the other rules leave without
+    /// one whose deep minimum lies at the mirror end, under `interior_sigma`, where a half of
+    /// the views finds a lobe (`bedroom`'s lamp pole, σ 0.4, read 0.95 without a target;
+    /// `docs/phone-captures.md` section 12). 0: off.
     #[serde(default = "default_deep_median_gain")]
     pub deep_median_gain: f32,
     /// An ablation, off: an LDR view's clipped pixels off the lights take part in the search

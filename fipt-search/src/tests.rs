@@ -712,6 +712,50 @@ fn a_deep_minimum_the_halves_dispute_takes_the_median_of_the_three() {
 }
 
 #[test]
+fn a_deep_mirror_end_minimum_that_a_half_finds_a_lobe_for_takes_the_median_not_none() {
+    let cfg = SearchConfig::default();
+    // A lamp pole: the minimum at the mirror end, σ = 1 10 % above it (within the 25 %
+    // tolerance, so the lifted rules give no target and the training reads it rough).
+    let pole = RegionProfile {
+        pixels: 5000,
+        ..curve(vec![1.0; 5], vec![0.100, 0.110, 0.112, 0.111, 0.110])
+    };
+    let at = |k: usize| {
+        let mut row = vec![0.2, 0.15, 0.14, 0.13, 0.16];
+        row[k] = 0.1;
+        curve(vec![1.0; 5], row)
+    };
+    let (mirror, lobe, rough_lobe) = (at(0), at(1), at(2));
+    let choose_with = |p: &RegionProfile, h: [&RegionProfile; 2], cfg: &SearchConfig| {
+        choose(p, cfg, false, Some(h)).roughness
+    };
+    // One half finds a lobe at 0.25, the other the mirror end: the median is the mirror
+    // end, held at `interior_sigma`.
+    assert_eq!(choose_with(&pole, [&lobe, &mirror], &cfg), Some(cfg.interior_sigma));
+    // Both halves find one (0.25, 0.5): the median is the glossier half.
+    assert_eq!(choose_with(&pole, [&rough_lobe, &lobe], &cfg), Some(0.25));
+    // Both halves at the mirror end, no halves, a small region, a shallow curve, the rule
+    // off: no target, as before.
+    assert_eq!(choose_with(&pole, [&mirror, &mirror], &cfg), None);
+    assert_eq!(choose(&pole, &cfg, false, None).roughness, None);
+    let small = RegionProfile {
+        pixels: 1999,
+        ..pole.clone()
+    };
+    assert_eq!(choose_with(&small, [&lobe, &mirror], &cfg), None);
+    let shallow = RegionProfile {
+        pixels: 5000,
+        ..curve(vec![1.0; 5], vec![0.100, 0.102, 0.103, 0.103, 0.104])
+    };
+    assert_eq!(choose_with(&shallow, [&lobe, &mirror], &cfg), None);
+    let off = SearchConfig {
+        deep_median_gain: 0.0,
+        ..SearchConfig::default()
+    };
+    assert_eq!(choose_with(&pole, [&lobe, &mirror], &off), None);
+}
+
+#[test]
 fn a_clipped_pixel_is_a_lower_bound_and_left_out_of_the_fit() {
     let clip = Vec3::splat(1.0);
     let img = Image {
