@@ -731,7 +731,10 @@ fn a_deep_mirror_end_minimum_that_a_half_finds_a_lobe_for_takes_the_median_not_n
     };
     // One half finds a lobe at 0.25, the other the mirror end: the median is the mirror
     // end, held at `interior_sigma`.
-    assert_eq!(choose_with(&pole, [&lobe, &mirror], &cfg), Some(cfg.interior_sigma));
+    assert_eq!(
+        choose_with(&pole, [&lobe, &mirror], &cfg),
+        Some(cfg.interior_sigma)
+    );
     // Both halves find one (0.25, 0.5): the median is the glossier half.
     assert_eq!(choose_with(&pole, [&rough_lobe, &lobe], &cfg), Some(0.25));
     // Both halves at the mirror end, no halves, a small region, a shallow curve, the rule
