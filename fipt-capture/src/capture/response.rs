@@ -30,7 +30,7 @@ const KNOTS: usize = 24;
 /// extrapolation from further down is off: `docs/phone-captures.md` section 12).
 const LOW: f64 = 16.0 / 255.0;
 const HIGH: f64 = 249.0 / 255.0;
-/// The last knot the data reach (at 249.2 / 255).
+/// The knot at the top of the data (249.2 / 255).
 const TOP_KNOT: usize = KNOTS - 1;
 /// A view sees a cell flat when its pixels' stored values there spread by at most this (std;
 /// 2.5 8-bit steps).
