@@ -639,4 +639,6 @@ mod mincut;
 pub mod split;
 
 #[cfg(test)]
+mod minimum_rule_tests;
+#[cfg(test)]
 mod tests;
