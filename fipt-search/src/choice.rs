@@ -149,7 +149,7 @@ fn minimum_rule(
                 && gain >= cfg.deep_median_gain as f64
                 && p.pixels >= MEDIAN_MIN_PIXELS =>
         {
-            Some(m.max(h0.min(h1)).min(h0.max(h1)).max(cfg.interior_sigma))
+            Some(median_of_three(m, [h0, h1]).max(cfg.interior_sigma))
         }
         _ => None,
     }
@@ -177,7 +177,12 @@ fn mirror_end_median(
         && cfg.deep_median_gain > 0.0
         && gain >= cfg.deep_median_gain as f64
         && p.pixels >= MEDIAN_MIN_PIXELS)
-        .then(|| m.max(h0.min(h1)).min(h0.max(h1)).max(cfg.interior_sigma))
+        .then(|| median_of_three(m, [h0, h1]).max(cfg.interior_sigma))
+}
+
+/// The median of a minimum and its halves' minima.
+fn median_of_three(m: f32, [h0, h1]: [f32; 2]) -> f32 {
+    m.max(h0.min(h1)).min(h0.max(h1))
 }
 
 /// The σ of a half's minimum at metallic candidate `mi`.
