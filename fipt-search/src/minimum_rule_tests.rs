@@ -3,6 +3,13 @@
 use super::*;
 use crate::tests::{curve, lifted};
 
+/// A half's profile whose dielectric minimum lies at candidate `k` of `curve`'s σ grid.
+fn minimum_at(k: usize) -> RegionProfile {
+    let mut row = vec![0.2, 0.15, 0.14, 0.13, 0.16];
+    row[k] = 0.1;
+    curve(vec![1.0; 5], row)
+}
+
 #[test]
 fn the_minimum_rule_takes_a_dielectric_minimum_however_shallow_where_the_halves_agree() {
     let cfg = SearchConfig::default();
@@ -136,12 +143,7 @@ fn a_deep_minimum_the_halves_dispute_takes_the_median_of_the_three() {
         Some(0.5)
     );
     // Both halves rougher by more than the band: the median is the nearer of them.
-    let half = |k: usize| {
-        let mut row = vec![0.2, 0.15, 0.14, 0.13, 0.16];
-        row[k] = 0.1;
-        curve(vec![1.0; 5], row)
-    };
-    let (h2, h3) = (half(2), half(3));
+    let (h2, h3) = (minimum_at(2), minimum_at(3));
     assert_eq!(
         choose(&boxed, &cfg, false, Some([&h3, &h2])).roughness,
         Some(0.5)
@@ -171,12 +173,7 @@ fn a_deep_mirror_end_minimum_that_a_half_finds_a_lobe_for_takes_the_median_not_n
         pixels: 5000,
         ..curve(vec![1.0; 5], vec![0.100, 0.110, 0.112, 0.111, 0.110])
     };
-    let at = |k: usize| {
-        let mut row = vec![0.2, 0.15, 0.14, 0.13, 0.16];
-        row[k] = 0.1;
-        curve(vec![1.0; 5], row)
-    };
-    let (mirror, lobe, rough_lobe) = (at(0), at(1), at(2));
+    let (mirror, lobe, rough_lobe) = (minimum_at(0), minimum_at(1), minimum_at(2));
     let choose_with = |p: &RegionProfile, h: [&RegionProfile; 2], cfg: &SearchConfig| {
         choose(p, cfg, false, Some(h)).roughness
     };
