@@ -22,8 +22,8 @@
 //! * [`fit::MaterialFitter`]: a method that fits a field to the views (FIPT's rounds are one, registered as `fipt`);
 //! * [`shading`]: the factorised shading model, [`shading::RayQuery`] and the
 //!   [`shading::ShadingBaker`] and [`shading::ShadingRefiner`] contracts;
-//! * [`rng::Pcg32`], [`metrics`], atomic file writing in [`fsutil`], the output folder's lock
-//!   in [`lock`].
+//! * [`rng::Pcg32`], [`disjoint::DisjointSets`], [`metrics`], atomic file writing in
+//!   [`fsutil`], the output folder's lock in [`lock`].
 //!
 //! ```
 //! use fipt_core::camera::Camera;
@@ -42,6 +42,7 @@ pub use fipt_dataset::camera_files;
 pub use fipt_dataset::capture_layout;
 pub use fipt_dataset::colmap;
 pub mod cube;
+pub mod disjoint;
 pub use fipt_dataset::dataset;
 pub use fipt_dataset::distortion;
 pub mod emitter;

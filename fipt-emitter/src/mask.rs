@@ -1,5 +1,6 @@
 //! Emitters from the emission mask and the observed radiance.
 use fipt_core::color::luminance;
+use fipt_core::disjoint::DisjointSets;
 use fipt_core::emitter::{EmitSide, Emitter, EmitterExtractor, EmitterInputs, PixelHit};
 use fipt_core::rng::Pcg32;
 use fipt_core::Result;
@@ -187,14 +188,6 @@ fn observed_sides(
         .collect()
 }
 
-fn find(parent: &mut [usize], mut i: usize) -> usize {
-    while parent[i] != i {
-        parent[i] = parent[parent[i]];
-        i = parent[i];
-    }
-    i
-}
-
 impl EmitterExtractor for MaskExtractor {
     fn name(&self) -> &str {
         "emission-mask"
@@ -327,14 +320,13 @@ fn connected_groups(inp: &EmitterInputs, is_emitter: &[bool]) -> Vec<Vec<usize>>
         (q(p.x), q(p.y), q(p.z))
     };
     let ids: Vec<usize> = (0..is_emitter.len()).filter(|&t| is_emitter[t]).collect();
-    let mut parent: Vec<usize> = (0..ids.len()).collect();
+    let mut sets = DisjointSets::new(ids.len());
     let mut first: HashMap<(i64, i64, i64), usize> = HashMap::new();
     for (k, &t) in ids.iter().enumerate() {
         for p in tri_pts(inp, t) {
             match first.get(&key(p)) {
                 Some(&j) => {
-                    let (a, b) = (find(&mut parent, k), find(&mut parent, j));
-                    parent[a.max(b)] = a.min(b);
+                    sets.union(k, j);
                 }
                 None => {
                     first.insert(key(p), k);
@@ -345,7 +337,7 @@ fn connected_groups(inp: &EmitterInputs, is_emitter: &[bool]) -> Vec<Vec<usize>>
     let mut groups: Vec<Vec<usize>> = Vec::new();
     let mut slot: HashMap<usize, usize> = HashMap::new();
     for k in 0..ids.len() {
-        let r = find(&mut parent, k);
+        let r = sets.find(k);
         let g = *slot.entry(r).or_insert_with(|| {
             groups.push(vec![]);
             groups.len() - 1

@@ -2,6 +2,7 @@
 //! a given angle. A box falls into its six faces, a tessellated sphere stays one patch, a room's
 //! walls separate at their corners. Used as material regions when a scene has no segmentation.
 use crate::mesh::{face_normal, Mesh};
+use fipt_core::disjoint::DisjointSets;
 use glam::Vec3;
 use std::collections::HashMap;
 
@@ -56,22 +57,12 @@ pub fn patches_of(
         .map(|t| face_normal(t.map(|v| positions[v as usize])))
         .collect();
     let cos_max = max_angle_deg.to_radians().cos();
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            parent[x as usize] = parent[parent[x as usize] as usize];
-            x = parent[x as usize];
-        }
-        x
-    }
+    let mut sets = DisjointSets::new(n);
     for tris in edges.values() {
         for (i, &a) in tris.iter().enumerate() {
             for &b in &tris[i + 1..] {
                 if joins(a) && joins(b) && normals[a as usize].dot(normals[b as usize]) >= cos_max {
-                    let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-                    if ra != rb {
-                        parent[ra.max(rb) as usize] = ra.min(rb);
-                    }
+                    sets.union(a as usize, b as usize);
                 }
             }
         }
@@ -79,7 +70,7 @@ pub fn patches_of(
     let mut dense: HashMap<u32, u32> = HashMap::new();
     let ids = (0..n as u32)
         .map(|t| {
-            let r = find(&mut parent, t);
+            let r = sets.find(t as usize) as u32;
             let next = dense.len() as u32;
             *dense.entry(r).or_insert(next)
         })

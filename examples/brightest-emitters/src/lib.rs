@@ -16,6 +16,7 @@
 //!
 //! Nothing in the fipt crates was edited to add it.
 use fipt_core::color::luminance;
+use fipt_core::disjoint::DisjointSets;
 use fipt_core::emitter::{Emitter, EmitterExtractor, EmitterInputs};
 use fipt_pipeline::Components;
 use glam::Vec3;
@@ -73,20 +74,12 @@ impl EmitterExtractor for BrightestExtractor {
             .collect();
         lit.sort_by_key(|e| e.0);
         // Lights: triangles sharing a vertex index, grouped by a union-find over the lit ones.
-        let mut parent: Vec<usize> = (0..lit.len()).collect();
-        fn find(p: &mut [usize], mut i: usize) -> usize {
-            while p[i] != i {
-                p[i] = p[p[i]];
-                i = p[i];
-            }
-            i
-        }
+        let mut sets = DisjointSets::new(lit.len());
         let mut owner: HashMap<u32, usize> = HashMap::new();
         for (k, (t, _, _)) in lit.iter().enumerate() {
             for v in inp.triangles[*t as usize] {
                 if let Some(&j) = owner.get(&v) {
-                    let (a, b) = (find(&mut parent, k), find(&mut parent, j));
-                    parent[a.max(b)] = a.min(b);
+                    sets.union(k, j);
                 } else {
                     owner.insert(v, k);
                 }
@@ -94,7 +87,7 @@ impl EmitterExtractor for BrightestExtractor {
         }
         let mut groups: HashMap<usize, Vec<usize>> = HashMap::new();
         for k in 0..lit.len() {
-            groups.entry(find(&mut parent, k)).or_default().push(k);
+            groups.entry(sets.find(k)).or_default().push(k);
         }
         let mut roots: Vec<_> = groups.into_iter().collect();
         roots.sort_by_key(|g| g.0);

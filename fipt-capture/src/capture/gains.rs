@@ -1,6 +1,7 @@
 //! Each view's exposure relative to the others, fitted on the surfaces they share.
 use fipt_core::color::luminance;
 use fipt_core::dataset::View;
+use fipt_core::disjoint::DisjointSets;
 use fipt_core::image::Image;
 use fipt_core::shading::RayQuery;
 use fipt_geom::Geometry;
@@ -200,24 +201,16 @@ fn trimmed(
 /// The number of groups of views linked by shared cells (views without a reading left out),
 /// and each view's readings.
 fn linked<'a>(cells: impl Iterator<Item = &'a [(usize, f64)]>, nv: usize) -> (usize, Vec<usize>) {
-    fn root(parent: &mut [usize], mut v: usize) -> usize {
-        while parent[v] != v {
-            parent[v] = parent[parent[v]];
-            v = parent[v];
-        }
-        v
-    }
-    let mut parent: Vec<usize> = (0..nv).collect();
+    let mut sets = DisjointSets::new(nv);
     let mut readings = vec![0usize; nv];
     for o in cells {
         for &(v, _) in o {
             readings[v] += 1;
-            let (a, b) = (root(&mut parent, o[0].0), root(&mut parent, v));
-            parent[a] = b;
+            sets.union(o[0].0, v);
         }
     }
     let groups = (0..nv)
-        .filter(|&v| readings[v] > 0 && root(&mut parent, v) == v)
+        .filter(|&v| readings[v] > 0 && sets.find(v) == v)
         .count();
     (groups, readings)
 }
