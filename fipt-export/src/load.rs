@@ -152,6 +152,24 @@ pub fn load_glb(path: &Path) -> Result<(Mesh, GlbSurfaces)> {
     let (doc, buffers, images) =
         fipt_geom::glb::guarded(path, || gltf::import(path).map_err(|e| e.to_string()))
             .map_err(|e| ExportError::Invalid(e.to_string()))?;
+    for mesh in doc.meshes() {
+        for prim in mesh.primitives() {
+            check_primitive(&prim, &buffers, mesh.index()).map_err(bad)?;
+        }
+    }
+    // The readers index the buffers unchecked in places: a panic left over is an error too.
+    fipt_geom::glb::guarded(path, || Ok(read_glb(path, &doc, &buffers, &images)))
+        .map_err(|e| ExportError::Invalid(e.to_string()))?
+}
+
+/// The triangles and surfaces of every mesh of a checked glTF ([`check_primitive`]).
+fn read_glb(
+    path: &Path,
+    doc: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+    images: &[gltf::image::Data],
+) -> Result<(Mesh, GlbSurfaces)> {
+    let bad = |m: String| ExportError::Invalid(format!("{}: {m}", path.display()));
     let (mut positions, mut normals, mut tris) = (Vec::new(), Vec::new(), Vec::new());
     let mut source = Vec::new();
     let (mut base_color, mut metallic_roughness) = (None, None);
@@ -177,8 +195,24 @@ pub fn load_glb(path: &Path) -> Result<(Mesh, GlbSurfaces)> {
             let col: Option<Vec<Rgb>> = r
                 .read_colors(0)
                 .map(|c| c.into_rgb_f32().map(Vec3::from).collect());
-            let extra = |name: &str| extra_attribute(&prim, &buffers, name);
+            let extra = |name: &str| extra_attribute(&prim, buffers, name);
             let (rough, metal) = (extra("ROUGHNESS"), extra("METALLIC"));
+            let lens = [
+                ("TEXCOORD_0", uv.as_ref().map(Vec::len)),
+                ("COLOR_0", col.as_ref().map(Vec::len)),
+                ("NORMAL", Some(nrm.len())),
+                ("_ROUGHNESS", rough.as_ref().map(Vec::len)),
+                ("_METALLIC", metal.as_ref().map(Vec::len)),
+            ];
+            if let Some((name, Some(n))) =
+                lens.iter().find(|(_, n)| n.is_some_and(|n| n != pos.len()))
+            {
+                return Err(bad(format!(
+                    "mesh {}: {name} has {n} values for {} positions",
+                    mesh.index(),
+                    pos.len()
+                )));
+            }
             let mat = prim.material();
             let strength = mat.emissive_strength().unwrap_or(1.0);
             let le = Vec3::from(mat.emissive_factor()) * strength;
@@ -255,12 +289,49 @@ fn extra_attribute(
         .attributes()
         .find(|(s, _)| matches!(s, gltf::Semantic::Extras(n) if n == name))?;
     let view = acc.1.view()?;
-    let buf = &buffers[view.buffer().index()];
+    let buf = buffers.get(view.buffer().index())?;
     let start = view.offset() + acc.1.offset();
     Some(
-        buf[start..start + 4 * acc.1.count()]
+        buf.get(start..start + 4 * acc.1.count())?
             .chunks(4)
             .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
             .collect(),
     )
+}
+
+/// The accessors [`load_glb`] reads, checked against their buffers before the `gltf` readers
+/// touch them (they assume the types, the strides and the lengths, and panic otherwise).
+fn check_primitive(
+    prim: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    mesh: usize,
+) -> std::result::Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    use gltf::Semantic;
+    let (f32_, norm) = (
+        [DataType::F32],
+        [DataType::F32, DataType::U8, DataType::U16],
+    );
+    for (sem, acc) in prim.attributes() {
+        let what = format!("mesh {mesh} {sem:?}");
+        let (types, dims): (&[DataType], Dimensions) = match &sem {
+            Semantic::Positions | Semantic::Normals => (&f32_, Dimensions::Vec3),
+            Semantic::TexCoords(0) => (&norm, Dimensions::Vec2),
+            Semantic::Colors(0) if acc.dimensions() == Dimensions::Vec4 => {
+                (&norm, Dimensions::Vec4)
+            }
+            Semantic::Colors(0) => (&norm, Dimensions::Vec3),
+            Semantic::Extras(n) if n == "ROUGHNESS" || n == "METALLIC" => {
+                (&f32_, Dimensions::Scalar)
+            }
+            _ => continue,
+        };
+        fipt_geom::glb::check_accessor(&acc, buffers, &what, types, dims)?;
+    }
+    if let Some(acc) = prim.indices() {
+        let types = [DataType::U8, DataType::U16, DataType::U32];
+        let what = format!("mesh {mesh} indices");
+        fipt_geom::glb::check_accessor(&acc, buffers, &what, &types, Dimensions::Scalar)?;
+    }
+    Ok(())
 }

@@ -51,6 +51,51 @@ pub fn check_glb(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Checks that an accessor's elements lie inside its buffer view and buffer, with a stride
+/// no shorter than one element, and that its component type is one of `types` (and its
+/// dimensions `dims`): the `gltf` readers assume all of it and panic otherwise. `what` names
+/// it in the message ("mesh 0 POSITION").
+pub fn check_accessor(
+    acc: &gltf::Accessor,
+    buffers: &[gltf::buffer::Data],
+    what: &str,
+    types: &[gltf::accessor::DataType],
+    dims: gltf::accessor::Dimensions,
+) -> std::result::Result<(), String> {
+    if !types.contains(&acc.data_type()) || acc.dimensions() != dims {
+        return Err(format!(
+            "{what}: accessor {} holds {:?} {:?}, expected {dims:?} of {types:?}",
+            acc.index(),
+            acc.dimensions(),
+            acc.data_type()
+        ));
+    }
+    let Some(view) = acc.view() else {
+        return Ok(()); // all zeros (or sparse): nothing is read from a buffer
+    };
+    let size = acc.size();
+    let stride = view.stride().unwrap_or(size);
+    let buffer = view.buffer().index();
+    let len = buffers.get(buffer).map_or(0, |b| b.len());
+    let last = match acc.count() {
+        0 => 0,
+        n => acc.offset() + (n - 1) * stride + size,
+    };
+    if stride < size || last > view.length() || view.offset() + view.length() > len {
+        return Err(format!(
+            "{what}: accessor {} ({} elements of {size} bytes, stride {stride}, offset {}) \
+             does not fit its buffer view {} ({} bytes at {} of buffer {buffer}, {len} bytes)",
+            acc.index(),
+            acc.count(),
+            acc.offset(),
+            view.index(),
+            view.length(),
+            view.offset()
+        ));
+    }
+    Ok(())
+}
+
 /// Runs a `gltf` crate reader, turning its panics on malformed files (it indexes and unwraps
 /// unchecked in places) into an error naming the file.
 pub fn guarded<T>(path: &Path, read: impl FnOnce() -> std::result::Result<T, String>) -> Result<T> {

@@ -91,6 +91,20 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
             gltf::import_buffers(&g.document, base, g.blob.clone()).map_err(|e| e.to_string())?;
         Ok((g.document, buffers))
     })?;
+    // The readers index the buffers unchecked in places: a malformed accessor is an error
+    // naming the file, not a panic.
+    let (positions, normals, tris) = crate::glb::guarded(path, || gltf_triangles(&doc, &buffers))?;
+    Ok(Mesh::from_triangles(positions, normals, tris))
+}
+
+/// The triangles of the default scene (or the first), in world space: positions, normals
+/// (when every primitive has them) and vertex indices.
+type GltfTriangles = (Vec<Vec3>, Option<Vec<Vec3>>, Vec<[u32; 3]>);
+
+fn gltf_triangles(
+    doc: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+) -> std::result::Result<GltfTriangles, String> {
     let mut positions = Vec::new();
     let mut normals = Vec::new();
     let mut all_normals = true;
@@ -100,7 +114,15 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
         Some(s) => s.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
         None => Vec::new(),
     };
+    let mut seen = vec![false; doc.nodes().len()];
     while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut seen[node.index()], true) {
+            return Err(format!(
+                "node {} is reached twice (a node that is its own ancestor, or the child of two \
+                 nodes): glTF nodes form trees",
+                node.index()
+            ));
+        }
         let m = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let nm = Mat3::from_mat4(m).inverse().transpose();
         if let Some(mesh) = node.mesh() {
@@ -108,6 +130,7 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
                 if prim.mode() != gltf::mesh::Mode::Triangles {
                     continue;
                 }
+                check_primitive(&prim, buffers, mesh.index())?;
                 let reader = prim.reader(|b| Some(&buffers[b.index()]));
                 let Some(pos) = reader.read_positions() else {
                     continue;
@@ -122,10 +145,24 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
                     }
                     None => all_normals = false,
                 }
-                let idx: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None => (0..count as u32).collect(),
+                let idx: Vec<u32> = match (reader.read_indices(), prim.indices()) {
+                    (Some(i), _) => i.into_u32().collect(),
+                    (None, Some(a)) => {
+                        return Err(format!(
+                            "mesh {}: its index accessor {} cannot be read (no buffer view, or \
+                             past its buffer)",
+                            mesh.index(),
+                            a.index()
+                        ))
+                    }
+                    (None, None) => (0..count as u32).collect(),
                 };
+                if let Some(&i) = idx.iter().find(|&&i| i as usize >= count) {
+                    return Err(format!(
+                        "mesh {}: index {i} beyond its {count} vertices",
+                        mesh.index()
+                    ));
+                }
                 let flip = m.determinant() < 0.0;
                 for t in idx.chunks_exact(3) {
                     let t = [t[0] + off, t[1] + off, t[2] + off];
@@ -138,5 +175,27 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
         }
     }
     let normals = (all_normals && normals.len() == positions.len()).then_some(normals);
-    Ok(Mesh::from_triangles(positions, normals, tris))
+    Ok((positions, normals, tris))
+}
+
+/// The accessors a primitive's geometry is read from (positions, normals, indices) checked
+/// against their buffers before the `gltf` readers touch them.
+fn check_primitive(
+    prim: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    mesh: usize,
+) -> std::result::Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    for (sem, acc) in prim.attributes() {
+        if matches!(sem, gltf::Semantic::Positions | gltf::Semantic::Normals) {
+            let what = format!("mesh {mesh} {sem:?}");
+            crate::glb::check_accessor(&acc, buffers, &what, &[DataType::F32], Dimensions::Vec3)?;
+        }
+    }
+    if let Some(acc) = prim.indices() {
+        let types = [DataType::U8, DataType::U16, DataType::U32];
+        let what = format!("mesh {mesh} indices");
+        crate::glb::check_accessor(&acc, buffers, &what, &types, Dimensions::Scalar)?;
+    }
+    Ok(())
 }

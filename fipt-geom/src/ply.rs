@@ -169,18 +169,55 @@ impl<'a, R: Read> Values<'a, R> {
     }
 }
 
+/// Refuses a header whose elements cannot fit in the file (`len` bytes): each entry takes at
+/// least its scalars' and list counts' bytes (binary) or a character a value (ASCII), so a
+/// count of 10¹¹ is an error before anything is allocated. A `vertex` element needs x, y, z.
+fn check_counts(path: &Path, fmt: Format, elements: &[Element], len: u64) -> Result<()> {
+    let mut need = 0u128;
+    for e in elements {
+        if e.name == "vertex" && e.count > 0 {
+            let has = |n: &str| (e.props.iter()).any(|p| matches!(p, Prop::Scalar(_, m) if m == n));
+            if !(has("x") && has("y") && has("z")) {
+                return Err(parse_err(
+                    path,
+                    "the vertex element has no x, y, z properties",
+                ));
+            }
+        }
+        let entry: usize = (e.props.iter())
+            .map(|p| match (fmt, p) {
+                (Format::Ascii, _) => 1,
+                (_, Prop::Scalar(t, _)) | (_, Prop::List(t, _, _)) => size_of(t).unwrap_or(1),
+            })
+            .sum();
+        need += e.count as u128 * entry as u128;
+    }
+    if need > len as u128 {
+        return Err(parse_err(
+            path,
+            format!(
+                "the header declares elements of at least {need} bytes, more than the file's \
+                 {len}: a truncated file or a wrong element count"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Loads a PLY file (see the module docs).
 pub(crate) fn load(path: &Path) -> Result<Mesh> {
     let file = std::fs::File::open(path).map_err(io_err(path))?;
     let mut r = BufReader::new(file);
     let (fmt, elements) = read_header(&mut r, path)?;
+    let len = std::fs::metadata(path).map_err(io_err(path))?.len();
+    check_counts(path, fmt, &elements, len)?;
     let mut values = Values::new(path, fmt, r)?;
     let mut positions = Vec::new();
     let mut normals = Vec::new();
     let mut tris = Vec::new();
     let mut has_normals = false;
     let mut poly = Vec::new();
-    for e in &elements {
+    for e in elements.iter().filter(|e| !e.props.is_empty()) {
         let is_vertex = e.name == "vertex";
         for _ in 0..e.count {
             let mut v = [0.0f64; 6];
