@@ -15,7 +15,7 @@
 //! a wall darker on its far side. Differences between neighbouring samples (4 pixels apart),
 //! the measure before 2026-12-07, see only the step of that gradient between two samples,
 //! which the pixels' noise and a JPEG's blocks swamp: a light 10× off raised that cost by
-//! 0.1–1 % on the phone copies, and every clipped light fell to the prior.
+//! 0.05–1.1 % on the phone copies, and nearly every clipped light fell to the prior.
 use fipt_bake::slf::SlfBuilder;
 use fipt_core::color::luminance;
 use fipt_core::cube::Cube;
@@ -729,7 +729,7 @@ mod tests {
         }
     }
 
-    /// Two lights of radiance 10 and 3 over three patches: a wall each light lights from one
+    /// Two lights of radiance 10 and 3 over two patches: a wall each light lights from one
     /// end (their shares cross along it), a floor under the first with a two-tone texture,
     /// and the room's light A everywhere; 3 % pixel noise. The flatness finds both radiances
     /// within a step of its grid (×1.12) and says they are pinned.
