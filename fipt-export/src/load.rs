@@ -300,7 +300,8 @@ fn extra_attribute(
 }
 
 /// The accessors [`load_glb`] reads, checked against their buffers before the `gltf` readers
-/// touch them (they assume the types, the strides and the lengths, and panic otherwise).
+/// touch them (they assume the types, the strides and the lengths, and panic otherwise): the
+/// geometry's as the mesh loader checks them, then the material attributes.
 fn check_primitive(
     prim: &gltf::Primitive,
     buffers: &[gltf::buffer::Data],
@@ -308,6 +309,7 @@ fn check_primitive(
 ) -> std::result::Result<(), String> {
     use gltf::accessor::{DataType, Dimensions};
     use gltf::Semantic;
+    fipt_geom::glb::check_primitive_geometry(prim, buffers, mesh)?;
     let (f32_, norm) = (
         [DataType::F32],
         [DataType::F32, DataType::U8, DataType::U16],
@@ -315,7 +317,6 @@ fn check_primitive(
     for (sem, acc) in prim.attributes() {
         let what = format!("mesh {mesh} {sem:?}");
         let (types, dims): (&[DataType], Dimensions) = match &sem {
-            Semantic::Positions | Semantic::Normals => (&f32_, Dimensions::Vec3),
             Semantic::TexCoords(0) => (&norm, Dimensions::Vec2),
             Semantic::Colors(0) if acc.dimensions() == Dimensions::Vec4 => {
                 (&norm, Dimensions::Vec4)
@@ -327,11 +328,6 @@ fn check_primitive(
             _ => continue,
         };
         fipt_geom::glb::check_accessor(&acc, buffers, &what, types, dims)?;
-    }
-    if let Some(acc) = prim.indices() {
-        let types = [DataType::U8, DataType::U16, DataType::U32];
-        let what = format!("mesh {mesh} indices");
-        fipt_geom::glb::check_accessor(&acc, buffers, &what, &types, Dimensions::Scalar)?;
     }
     Ok(())
 }

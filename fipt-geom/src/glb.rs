@@ -96,6 +96,29 @@ pub fn check_accessor(
     Ok(())
 }
 
+/// The accessors a primitive's geometry is read from (positions, normals, indices) checked
+/// against their buffers before the `gltf` readers touch them (the mesh loader and
+/// `fipt-export`'s .glb loader both read these).
+pub fn check_primitive_geometry(
+    prim: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    mesh: usize,
+) -> std::result::Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    for (sem, acc) in prim.attributes() {
+        if matches!(sem, gltf::Semantic::Positions | gltf::Semantic::Normals) {
+            let what = format!("mesh {mesh} {sem:?}");
+            check_accessor(&acc, buffers, &what, &[DataType::F32], Dimensions::Vec3)?;
+        }
+    }
+    if let Some(acc) = prim.indices() {
+        let types = [DataType::U8, DataType::U16, DataType::U32];
+        let what = format!("mesh {mesh} indices");
+        check_accessor(&acc, buffers, &what, &types, Dimensions::Scalar)?;
+    }
+    Ok(())
+}
+
 /// Runs a `gltf` crate reader, turning its panics on malformed files (it indexes and unwraps
 /// unchecked in places) into an error naming the file.
 pub fn guarded<T>(path: &Path, read: impl FnOnce() -> std::result::Result<T, String>) -> Result<T> {

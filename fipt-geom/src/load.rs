@@ -130,7 +130,7 @@ fn gltf_triangles(
                 if prim.mode() != gltf::mesh::Mode::Triangles {
                     continue;
                 }
-                check_primitive(&prim, buffers, mesh.index())?;
+                crate::glb::check_primitive_geometry(&prim, buffers, mesh.index())?;
                 let reader = prim.reader(|b| Some(&buffers[b.index()]));
                 let Some(pos) = reader.read_positions() else {
                     continue;
@@ -176,26 +176,4 @@ fn gltf_triangles(
     }
     let normals = (all_normals && normals.len() == positions.len()).then_some(normals);
     Ok((positions, normals, tris))
-}
-
-/// The accessors a primitive's geometry is read from (positions, normals, indices) checked
-/// against their buffers before the `gltf` readers touch them.
-fn check_primitive(
-    prim: &gltf::Primitive,
-    buffers: &[gltf::buffer::Data],
-    mesh: usize,
-) -> std::result::Result<(), String> {
-    use gltf::accessor::{DataType, Dimensions};
-    for (sem, acc) in prim.attributes() {
-        if matches!(sem, gltf::Semantic::Positions | gltf::Semantic::Normals) {
-            let what = format!("mesh {mesh} {sem:?}");
-            crate::glb::check_accessor(&acc, buffers, &what, &[DataType::F32], Dimensions::Vec3)?;
-        }
-    }
-    if let Some(acc) = prim.indices() {
-        let types = [DataType::U8, DataType::U16, DataType::U32];
-        let what = format!("mesh {mesh} indices");
-        crate::glb::check_accessor(&acc, buffers, &what, &types, Dimensions::Scalar)?;
-    }
-    Ok(())
 }
