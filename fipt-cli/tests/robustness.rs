@@ -218,7 +218,27 @@ fn readers_refuse_mismatched_and_truncated_inputs_without_a_panic() {
         .write_exr(&kd, fipt_core::image::ExrPrecision::F32)
         .unwrap();
     refused(&["eval", &s, r], &["000_kd.exr", "4×4"]);
+    // A map of NaN: refused with the count, not scored (it scored 20.8 dB before).
     std::fs::write(&kd, &original).unwrap();
+    let mut nan = fipt_core::image::Image::read_exr(&kd).unwrap();
+    let n = nan.data.len();
+    nan.data.iter_mut().for_each(|p| *p = glam::Vec3::NAN);
+    nan.write_exr(&kd, fipt_core::image::ExrPrecision::F32)
+        .unwrap();
+    refused(&["eval", &s, r], &["000_kd.exr", &format!("{} NaN", 3 * n)]);
+    std::fs::write(&kd, &original).unwrap();
+    // A ground-truth map that cannot be read: named, not a view silently left unscored.
+    let gt = f.scene.join("val/DiffCol");
+    let gt0 = std::fs::read_dir(&gt)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .min()
+        .unwrap();
+    let whole = std::fs::read(&gt0).unwrap();
+    std::fs::write(&gt0, &whole[..whole.len() / 2]).unwrap();
+    refused(&["eval", &s, r], &["ground truth", "DiffCol"]);
+    std::fs::write(&gt0, &whole).unwrap();
     let (ok, _, err) = fipt(&["eval", &s, r]);
     assert!(ok, "{err}");
     // Truncated files, one at a time: each consumer refuses cleanly.

@@ -124,6 +124,21 @@ fn render_score(
     Ok(fipt_core::metrics::srgb_psnr(&r.data, &img.data, None))
 }
 
+/// `img` (a run's map read from `path`) when every value is finite; otherwise an error with the counts: a score of such a map would be a number about nothing
+/// (an all-NaN kd map scored 20.8 dB before this check).
+fn finite_map(img: Image, path: &Path) -> Result<Image> {
+    let bad = img.count_bad();
+    if bad.nan + bad.inf > 0 {
+        crate::bail!(
+            "{}: {} NaN and {} infinite values in a map the run wrote: the run went wrong; run `fipt run` again into a new folder, and report it if it repeats",
+            path.display(),
+            bad.nan,
+            bad.inf
+        );
+    }
+    Ok(img)
+}
+
 /// `img` (read from `path`) when it has the scene's view size; otherwise an error naming both
 /// sizes (a map of another scene's run, or one replaced by hand).
 fn same_size(img: Image, ds: &Dataset, path: &Path) -> Result<Image> {
@@ -343,10 +358,21 @@ fn score_view(at: &SplitAt, v: &fipt_core::dataset::View) -> Result<Option<ViewS
         let p = dir.join(format!("{k:03}_{name}.exr"));
         let img = Image::read_exr(&p)
             .with_context(|| format!("reading {} (run `fipt run` first)", p.display()))?;
-        same_size(img, ds, &p)
+        finite_map(same_size(img, ds, &p)?, &p)
     };
+    // A ground-truth folder with files missing was left out when the scene was opened (with
+    // a warning); a file present but unreadable, of another size or with NaN is an error here,
+    // not a view silently left unscored.
     let gt = |kind: GtKind| -> Result<Option<Image>> {
-        let Some(img) = ds.load_gt(s, kind, k).ok().flatten() else {
+        let path = s.gt_path(kind, k);
+        let read = ds.load_gt(s, kind, k).with_context(|| {
+            format!(
+                "reading the ground truth {} (fix the file, or remove its folder {} to score without it)",
+                path.display(),
+                kind.folder()
+            )
+        })?;
+        let Some(img) = read else {
             return Ok(None);
         };
         same_size(img, ds, &s.gt_path(kind, k)).map(Some)
