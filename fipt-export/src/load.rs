@@ -149,6 +149,14 @@ impl SurfaceModel for GlbSurfaces {
 pub fn load_glb(path: &Path) -> Result<(Mesh, GlbSurfaces)> {
     let bad = |m: String| ExportError::Invalid(format!("{}: {m}", path.display()));
     fipt_geom::glb::check_glb(path).map_err(|e| ExportError::Invalid(e.to_string()))?;
+    let doc = fipt_geom::glb::guarded(path, || {
+        gltf::Gltf::open(path)
+            .map(|g| g.document)
+            .map_err(|e| e.to_string())
+    })
+    .map_err(|e| ExportError::Invalid(e.to_string()))?;
+    fipt_geom::glb::check_external_files(&doc, path, true)
+        .map_err(|e| ExportError::Invalid(e.to_string()))?;
     let (doc, buffers, images) =
         fipt_geom::glb::guarded(path, || gltf::import(path).map_err(|e| e.to_string()))
             .map_err(|e| ExportError::Invalid(e.to_string()))?;

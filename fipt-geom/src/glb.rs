@@ -119,6 +119,64 @@ pub fn check_primitive_geometry(
     Ok(())
 }
 
+/// Checks that every external file a glTF's buffers (and, with `images`, its images) name
+/// lies beside it: the `gltf` crate reports a missing one as a bare "No such file or
+/// directory", naming neither the file nor what refers to it. Embedded data (`data:` URIs,
+/// a .glb's own chunk) is not checked here.
+pub fn check_external_files(doc: &gltf::Document, gltf_path: &Path, images: bool) -> Result<()> {
+    let base = gltf_path.parent().unwrap_or(Path::new("."));
+    let missing = |what: String, uri: &str| -> Result<()> {
+        if uri.starts_with("data:") {
+            return Ok(());
+        }
+        let file = base.join(percent_decoded(uri));
+        if file.is_file() {
+            return Ok(());
+        }
+        Err(bad(
+            gltf_path,
+            format!(
+                "{what} refers to `{uri}`, which is not at {}: copy it beside the .gltf file, or save the scene as a .glb, which holds its data",
+                file.display()
+            ),
+        ))
+    };
+    for b in doc.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source() {
+            missing(format!("buffer {}", b.index()), uri)?;
+        }
+    }
+    if images {
+        for i in doc.images() {
+            if let gltf::image::Source::Uri { uri, .. } = i.source() {
+                missing(format!("image {}", i.index()), uri)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A relative URI's path with its %XX escapes decoded (glTF URIs escape spaces and the
+/// like); an escape that is not two hex digits is kept as written.
+fn percent_decoded(uri: &str) -> String {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        if b[i] == b'%' && i + 2 < b.len() {
+            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
 /// Runs a `gltf` crate reader, turning its panics on malformed files (it indexes and unwraps
 /// unchecked in places) into an error naming the file.
 pub fn guarded<T>(path: &Path, read: impl FnOnce() -> std::result::Result<T, String>) -> Result<T> {

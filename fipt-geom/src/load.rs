@@ -84,13 +84,12 @@ fn load_obj(path: &Path) -> Result<Mesh> {
 fn load_gltf(path: &Path) -> Result<Mesh> {
     crate::glb::check_glb(path)?;
     // Geometry only: the images are not decoded.
-    let (doc, buffers) = crate::glb::guarded(path, || {
-        let g = gltf::Gltf::open(path).map_err(|e| e.to_string())?;
-        let base = path.parent();
-        let buffers =
-            gltf::import_buffers(&g.document, base, g.blob.clone()).map_err(|e| e.to_string())?;
-        Ok((g.document, buffers))
+    let g = crate::glb::guarded(path, || gltf::Gltf::open(path).map_err(|e| e.to_string()))?;
+    crate::glb::check_external_files(&g.document, path, false)?;
+    let buffers = crate::glb::guarded(path, || {
+        gltf::import_buffers(&g.document, path.parent(), g.blob.clone()).map_err(|e| e.to_string())
     })?;
+    let doc = g.document;
     // The readers index the buffers unchecked in places: a malformed accessor is an error
     // naming the file, not a panic.
     let (positions, normals, tris) = crate::glb::guarded(path, || gltf_triangles(&doc, &buffers))?;

@@ -90,6 +90,21 @@ fn gltf_accessors_that_do_not_fit_are_errors_naming_the_file() {
 }
 
 #[test]
+fn a_gltf_whose_buffer_file_is_missing_names_that_file() {
+    let e = error_of(&gltf("nobin", |j| {
+        j["buffers"][0]["uri"] = "gone.bin".into()
+    }));
+    assert!(
+        e.contains("t.gltf") && e.contains("buffer 0") && e.contains("gone.bin"),
+        "{e}"
+    );
+    // An escaped name is looked up decoded.
+    let p = gltf("escaped", |j| j["buffers"][0]["uri"] = "t%20b.bin".into());
+    std::fs::rename(p.with_file_name("t.bin"), p.with_file_name("t b.bin")).unwrap();
+    assert_eq!(Mesh::load(&p).unwrap().triangles.len(), 1);
+}
+
+#[test]
 fn a_gltf_node_that_is_its_own_child_is_an_error_not_an_endless_walk() {
     let p = gltf("cycle", |j| {
         j["nodes"][0]["children"] = serde_json::json!([0])
