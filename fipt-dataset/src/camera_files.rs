@@ -51,6 +51,12 @@ pub fn read_cam_list(cam_path: &Path, k_path: &Path, w: usize, h: usize) -> Resu
                 format!("camera {i}: look-at point equals the origin"),
             ));
         }
+        if up.length() < 1e-9 || (t - o).normalize().cross(up.normalize()).length() < 1e-3 {
+            return Err(CoreError::invalid(
+                cam_path,
+                format!("camera {i}: the up vector {up} is zero or along the view direction (look-at − origin = {}), so the image's orientation is undefined: give a direction across the view (the world's up for a level camera)", t - o),
+            ));
+        }
         let km = &k[1 + 9 * i..1 + 9 * (i + 1)];
         let kk = [
             [km[0], km[1], km[2]],

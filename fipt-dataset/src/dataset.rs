@@ -506,10 +506,11 @@ fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
         return Err(CoreError::invalid(
             &missing[0],
             format!(
-                "{} input image(s) missing: {}{}",
+                "{} input image(s) missing: {}{} (in the reference layouts `Image/NNN_0001` may be any of {}; put the photographs in place, or remove their views from the cameras file)",
                 missing.len(),
                 list.join(", "),
-                if missing.len() > 5 { ", …" } else { "" }
+                if missing.len() > 5 { ", …" } else { "" },
+                IMAGE_EXTENSIONS.map(|e| format!(".{e}")).join(", ")
             ),
         ));
     }

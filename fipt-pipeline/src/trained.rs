@@ -69,8 +69,17 @@ fn field_files() -> Vec<String> {
 pub fn field_changed(dir: &Path) -> Option<String> {
     let m = read_json::<TrainManifest>(&dir.join("manifest.json")).ok()?;
     let files: Vec<PathBuf> = m.field_files.iter().map(|f| dir.join(f)).collect();
+    if m.field_hash.is_empty() {
+        return None;
+    }
+    if let Some(gone) = files.iter().find(|f| !f.is_file()) {
+        return Some(format!(
+            "{} is missing (its training wrote it)",
+            gone.display()
+        ));
+    }
     let now = fipt_core::fsutil::hash_files(&files).unwrap_or_else(|e| e.to_string());
-    (!m.field_hash.is_empty() && now != m.field_hash).then(|| {
+    (now != m.field_hash).then(|| {
         format!(
             "{} was changed after its training wrote it (content hash {now}, recorded {})",
             files.first().map_or(dir, |f| f.as_path()).display(),

@@ -243,7 +243,7 @@ fn real_layout_matches_synthetic_layout() {
         )
         .unwrap();
     }
-    std::fs::write(real.join("cam.txt"), cam_txt).unwrap();
+    std::fs::write(real.join("cam.txt"), &cam_txt).unwrap();
     std::fs::write(real.join("K_list.txt"), &k_txt).unwrap();
     let rd = Dataset::open(&real).unwrap();
     assert_eq!(rd.layout, Layout::Real);
@@ -254,6 +254,30 @@ fn real_layout_matches_synthetic_layout() {
             assert!((da - db).length() < 1e-4, "{da} vs {db}");
         }
     }
+    // An up vector along the view direction is named, not a camera of NaN.
+    let mut lines: Vec<String> = std::fs::read_to_string(real.join("cam.txt"))
+        .unwrap()
+        .lines()
+        .map(String::from)
+        .collect();
+    let c = &views[0].camera;
+    let f = c.forward() * 2.0;
+    lines[3] = format!("{} {} {}", f.x, f.y, f.z);
+    std::fs::write(real.join("cam.txt"), lines.join("\n")).unwrap();
+    let err = Dataset::open(&real).unwrap_err().to_string();
+    assert!(
+        err.contains("cam.txt") && err.contains("camera 0: the up vector"),
+        "{err}"
+    );
+    // A missing image is named with the extensions looked for.
+    std::fs::write(real.join("cam.txt"), cam_txt).unwrap();
+    let img1 = rd.train().views[1].image.clone();
+    std::fs::remove_file(&img1).unwrap();
+    let err = Dataset::open(&real).unwrap_err().to_string();
+    assert!(
+        err.contains("001_0001") && err.contains(".exr, .png, .jpg, .jpeg"),
+        "{err}"
+    );
     // A K_list with the wrong count is named.
     std::fs::write(real.join("K_list.txt"), "1\n1 0 0 0 1 0 0 0 1\n").unwrap();
     let err = Dataset::open(&real).unwrap_err().to_string();
