@@ -254,7 +254,7 @@ fn real_layout_matches_synthetic_layout() {
             assert!((da - db).length() < 1e-4, "{da} vs {db}");
         }
     }
-    // An up vector along the view direction is named, not a camera of NaN.
+    // An up vector along the view direction is named, not given an arbitrary roll.
     let mut lines: Vec<String> = std::fs::read_to_string(real.join("cam.txt"))
         .unwrap()
         .lines()
