@@ -297,14 +297,15 @@ fn validate(a: &DegradeRequest) -> Result<()> {
         .source
         .canonicalize()
         .with_context(|| format!("{}: no such folder", a.source.display()))?;
-    if let Ok(out) = a.out.canonicalize() {
-        if out.starts_with(&src) || src.starts_with(&out) {
-            bail!(
-                "{}: the copy must go to a folder outside the source {} (and not hold it)",
-                a.out.display(),
-                a.source.display()
-            );
-        }
+    // Resolved whether or not it exists yet: a copy made inside its source would be a
+    // folder of the source scene.
+    let out = fipt_core::lock::resolved(&a.out)?;
+    if out.starts_with(&src) || src.starts_with(&out) {
+        bail!(
+            "{}: the copy must go to a folder outside the source {} (and not hold it)",
+            a.out.display(),
+            a.source.display()
+        );
     }
     if a.out.is_dir()
         && !a.out.join(RECORD_FILE).is_file()

@@ -114,6 +114,21 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
             &["folder of its own"],
         );
     }
+    // A copy never goes inside its source, whether or not the folder exists yet.
+    let s = f.scene.to_str().unwrap();
+    let nested = f.scene.join("new/copy");
+    refused(
+        &[
+            "degrade",
+            s,
+            "--out",
+            nested.to_str().unwrap(),
+            "--ldr",
+            "fixed",
+        ],
+        &["outside the source"],
+    );
+    assert!(!f.scene.join("new").exists());
     // A run's output never nests in another run's folder or in a scene's.
     let (ok, _, err) = f.fipt_run(&f.run.join("again"), &[]);
     assert!(!ok && err.contains("folder of its own"), "{err}");

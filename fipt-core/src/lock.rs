@@ -219,7 +219,9 @@ pub fn refuse_nested_run(out: &Path) -> Result<()> {
     })
 }
 
-fn refuse_where(out: &Path, what: &str, refused: impl Fn(Owner, bool) -> bool) -> Result<()> {
+/// `out` made absolute: `..` taken lexically, the part that exists resolved (symlinks), the
+/// rest kept as given (a folder about to be made can be compared with one that exists).
+pub fn resolved(out: &Path) -> Result<std::path::PathBuf> {
     let abs = std::path::absolute(out).map_err(|e| CoreError::io(out, e))?;
     // `..` taken lexically first (`nx/../R` is R even where `nx` does not exist).
     let mut lexical = std::path::PathBuf::new();
@@ -249,6 +251,11 @@ fn refuse_where(out: &Path, what: &str, refused: impl Fn(Owner, bool) -> bool) -
     for name in rest.iter().rev() {
         resolved.push(name);
     }
+    Ok(resolved)
+}
+
+fn refuse_where(out: &Path, what: &str, refused: impl Fn(Owner, bool) -> bool) -> Result<()> {
+    let resolved = resolved(out)?;
     for dir in resolved.ancestors() {
         let is_self = dir == resolved;
         let Some(owner) = Owner::of(dir).filter(|o| refused(*o, is_self)) else {
