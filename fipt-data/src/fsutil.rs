@@ -83,13 +83,27 @@ pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<
     write_bytes_atomic(path, text.as_bytes())
 }
 
-/// Reads and parses a JSON file, naming the file in every error.
+/// Reads and parses a JSON file, naming the file in every error, and the field where a
+/// value has the wrong type (`exposures[2]: invalid type: string "fast", expected f32 …`).
 pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     let text = std::fs::read_to_string(path).map_err(|e| CoreError::io(path, e))?;
-    serde_json::from_str(&text).map_err(|e| CoreError::Json {
+    let mut de = serde_json::Deserializer::from_str(&text);
+    let value: T = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let at = e.path().to_string();
+        CoreError::Json {
+            path: path.to_path_buf(),
+            message: if at == "." {
+                e.inner().to_string()
+            } else {
+                format!("`{at}`: {}", e.inner())
+            },
+        }
+    })?;
+    de.end().map_err(|e| CoreError::Json {
         path: path.to_path_buf(),
         message: e.to_string(),
-    })
+    })?;
+    Ok(value)
 }
 
 /// FNV-1a 64, the fingerprint hash of stage inputs.
@@ -192,6 +206,28 @@ pub fn hash_json(v: &serde_json::Value) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_json_error_names_the_file_and_the_field() {
+        #[derive(serde::Deserialize, Debug)]
+        struct Capture {
+            exposures: Vec<f32>,
+        }
+        let p = std::env::temp_dir().join(format!("fipt-read-json-{}.json", std::process::id()));
+        let err = |text: &str| {
+            std::fs::write(&p, text).unwrap();
+            read_json::<Capture>(&p).unwrap_err().to_string()
+        };
+        let e = err(r#"{"exposures": [1, "x"]}"#);
+        assert!(
+            e.contains("fipt-read-json") && e.contains("`exposures[1]`: invalid type"),
+            "{e}"
+        );
+        assert!(err(r#"{"exposures": [1]} x"#).contains("trailing characters"));
+        std::fs::write(&p, r#"{"exposures": [1, 2]}"#).unwrap();
+        assert_eq!(read_json::<Capture>(&p).unwrap().exposures, [1.0, 2.0]);
+        let _ = std::fs::remove_file(&p);
+    }
 
     #[test]
     fn json_hash_survives_a_text_round_trip_of_f32_settings() {
