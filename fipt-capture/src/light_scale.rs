@@ -104,9 +104,8 @@ pub fn estimate(
         .map(|v| fipt_shading::records::hit_points(geometry, v))
         .collect();
     let (samples, model) = samples_and_model(geometry, views, images, &hits, lights, skip, STRIDE)?;
-    let mut out = search(&samples, lights, level, seen_clipped, &[]);
+    let mut out = search(&samples, lights, level, seen_clipped);
     bound_and_choose(&samples, &mut out, seen_clipped, level);
-    research_beside_the_unpinned(&samples, lights, level, seen_clipped, &mut out);
     Some((out, model))
 }
 
@@ -395,16 +394,12 @@ fn patch_groups(samples: &[Sample]) -> Vec<Vec<usize>> {
 /// than `seen_clipped` (the clip level of the views that see it clipped) takes its best
 /// value at or above that while the others are searched: a light the flatness would set
 /// under its clip level would pull the lights it shares surfaces with off theirs.
-///
-/// A light with a radiance in `held` (per light; shorter: none) keeps it and is not searched.
 fn search(
     samples: &[Sample],
     lights: &[Vec<u32>],
     level: f32,
     seen_clipped: &[f32],
-    held: &[Option<Vec3>],
 ) -> Vec<LightEstimate> {
-    let held_at = |e: usize| held.get(e).copied().flatten();
     let groups = patch_groups(samples);
     let grid: Vec<f32> = (0..STEPS)
         .map(|k| level * 10f32.powf(DECADES * k as f32 / (STEPS - 1) as f32))
@@ -423,13 +418,11 @@ fn search(
         })
         .collect();
     for c in 0..3 {
-        let mut l: Vec<f32> = (0..lights.len())
-            .map(|e| held_at(e).map_or(grid[STEPS / 2], |h| h[c]))
-            .collect();
+        let mut l = vec![grid[STEPS / 2]; lights.len()];
         let mut curves = vec![vec![]; lights.len()];
         for _ in 0..MAX_ROUNDS {
             let before = l.clone();
-            for e in (0..lights.len()).filter(|&e| held_at(e).is_none()) {
+            for e in 0..lights.len() {
                 let curve: Vec<f64> = grid
                     .par_iter()
                     .map(|&g| {
@@ -451,11 +444,6 @@ fn search(
             }
         }
         for (e, est) in out.iter_mut().enumerate() {
-            if held_at(e).is_some() {
-                est.radiance[c] = l[e];
-                est.pinned = false;
-                continue;
-            }
             let cv = &curves[e];
             let best = (0..STEPS)
                 .min_by(|&a, &b| cv[a].total_cmp(&cv[b]))
@@ -473,34 +461,6 @@ fn search(
         est.levels = luminance(Vec3::from_array(est.radiance)) / level;
     }
     out
-}
-
-/// The lights the flatness pins searched again with the ones it does not pin at their chosen
-/// radiances (the albedo prior or the clip bound), then bounded again. The first search moved
-/// every light together, an unpinned one to wherever its flat curve happened to bottom out,
-/// and the pinned ones' minima lie where they balance that value, not the one the run keeps:
-/// on `st-png-auto` the panel settled at 8.0 clip levels beside a bulb the run then set to the
-/// prior (docs/clipped-lights.md).
-fn research_beside_the_unpinned(
-    samples: &[Sample],
-    lights: &[Vec<u32>],
-    level: f32,
-    seen_clipped: &[f32],
-    out: &mut [LightEstimate],
-) {
-    if out.iter().all(|x| x.pinned) || !out.iter().any(|x| x.pinned) {
-        return;
-    }
-    let held: Vec<Option<Vec3>> = out
-        .iter()
-        .map(|x| (!x.pinned).then(|| Vec3::from_array(x.radiance)))
-        .collect();
-    let again = search(samples, lights, level, seen_clipped, &held);
-    for (x, a) in out.iter_mut().zip(again).filter(|(x, _)| x.pinned) {
-        *x = a;
-    }
-    // The unpinned keep their radiance unless the pinned ones' move changes their bounds.
-    bound_and_choose(samples, out, seen_clipped, level);
 }
 
 /// The spread of log kd in `channel` for radiances `l`: the variance of log kd about each
@@ -799,7 +759,7 @@ mod tests {
                 });
             }
         }
-        let out = search(&samples, &[vec![0], vec![1]], 1.0, &[], &[]);
+        let out = search(&samples, &[vec![0], vec![1]], 1.0, &[]);
         for (e, truth) in l.iter().enumerate() {
             let got = out[e].radiance[1];
             assert!(
