@@ -17,6 +17,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("no clipped light ({:.1} s)", t.elapsed().as_secs_f32());
         return Ok(());
     };
+    println!(
+        "{} patches ({} samples) left out as not one colour",
+        cl.not_one_colour[0], cl.not_one_colour[1]
+    );
     for e in &cl.estimates {
         println!(
             "{:4} triangles  {:8.2} levels  range {:.1} … {:.1}  contrast {:+.4}  {}",

@@ -23,7 +23,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map_err(|e| format!("{}: {e} (a scene with ground truth)", parts_path.display()))?,
     )?;
     let (mut lights, mut truth) = (vec![], vec![]);
-    for o in parts["objects"].as_array().ok_or("scene_parts.json: no objects")? {
+    for o in parts["objects"]
+        .as_array()
+        .ok_or("scene_parts.json: no objects")?
+    {
         if o["type"] == "emitter" {
             let face = |k: &str| o[k].as_u64().map(|x| x as u32).ok_or("no face range");
             lights.push((face("face_start")?..face("face_end")?).collect::<Vec<u32>>());
@@ -45,9 +48,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .collect()
         })
         .collect();
-    let (est, _) =
+    let (est, _, mixed) =
         fipt_capture::light_scale::estimate(&g, &views, &images, &lights, &skip, 1.0, &[])
             .ok_or("no sample off the lights")?;
+    println!(
+        "{} patches ({} samples) left out as not one colour",
+        mixed[0], mixed[1]
+    );
     for (e, t) in est.iter().zip(&truth) {
         let r = e.radiance;
         println!(

@@ -20,6 +20,8 @@ pub struct ClippedLights {
     pub convention: String,
     /// Per connected light, its estimated radiance ([`crate::light_scale`]).
     pub estimates: Vec<crate::light_scale::LightEstimate>,
+    /// Surface patches (and their samples) the estimate left out as not one diffuse colour.
+    pub not_one_colour: [usize; 2],
     /// The room's light the estimates were measured against (draws the maps at the ends of
     /// an unpinned light's range); not written.
     #[serde(skip)]
@@ -81,7 +83,10 @@ pub fn restore_clipped_lights(
         level,
         &seen_clipped,
     );
-    let (estimates, model) = estimates.map_or((None, None), |(e, m)| (Some(e), Some(m)));
+    let (estimates, model) = estimates.map_or((None, None), |(e, m, mixed)| {
+        cl.not_one_colour = mixed;
+        (Some(e), Some(m))
+    });
     // Kept only where a light's range is left open (its end maps need it).
     let open = estimates
         .as_ref()
@@ -306,7 +311,10 @@ fn describe(cl: &ClippedLights, lights: usize) -> String {
         lights,
         if said.is_empty() { format!("no estimate (no sample): set by convention to {CLIPPED_LIGHT_LEVELS} clip levels") } else { said.join("; ") },
         cl.left_out_pixels
-    )
+    ) + &match cl.not_one_colour {
+        [0, _] => String::new(),
+        [p, n] => format!(". {p} surface patch(es) ({n} samples) whose kd spreads over ×{} between its quartiles at every radiance tried (mirrors, metals, highlights) did not bound or pin the lights", crate::light_scale::MAX_QUARTILE_RATIO),
+    }
 }
 
 #[cfg(test)]
