@@ -25,6 +25,8 @@ use std::collections::{HashMap, HashSet};
 #[derive(Clone, Debug)]
 pub struct LightModel {
     pub(crate) slf: SurfaceLightField,
+    /// Per triangle, what [`gather`] reads where the light field holds nothing.
+    pub(crate) fill: Vec<Vec3>,
     pub(crate) is_light: HashSet<u32>,
     pub(crate) side: HashMap<u32, f32>,
     pub(crate) samplers: Vec<TriangleSampler>,
@@ -41,7 +43,15 @@ impl LightModel {
         hit: fipt_shading::records::HitPoint,
     ) -> (Vec3, Vec<f32>) {
         let (o, n, mut rng) = Self::frame(geometry, eye, hit);
-        let a = gather(geometry, &self.slf, &self.is_light, o, n, &mut rng);
+        let a = gather(
+            geometry,
+            &self.slf,
+            &self.fill,
+            &self.is_light,
+            o,
+            n,
+            &mut rng,
+        );
         let d = self
             .samplers
             .iter()
@@ -61,6 +71,9 @@ impl LightModel {
     ) -> Vec<Option<Vec3>> {
         let (o, n, mut rng) = Self::frame(geometry, eye, hit);
         crate::light_scale::gather_points(geometry, &self.is_light, o, n, count, &mut rng)
+            .into_iter()
+            .map(|p| p.map(|(p, _)| p))
+            .collect()
     }
 
     /// The ray origin off the surface at `hit`, its normal facing `eye`, and the random
@@ -271,6 +284,7 @@ mod tests {
         let cube = fipt_core::cube::Cube::around([Vec3::ZERO, Vec3::ONE], 1.1).unwrap();
         let model = LightModel {
             slf: fipt_bake::slf::SlfBuilder::with_fallback(cube, 8, 1).finish(),
+            fill: vec![],
             is_light: lights.into_iter().collect(),
             side: HashMap::new(),
             samplers: vec![TriangleSampler::uniform_area(&geometry.mesh, &lights).unwrap()],

@@ -122,6 +122,48 @@ pub fn estimate(
     Some((out, model, [mixed, before - samples.len()]))
 }
 
+/// What the model says at one sample ([`shading_at_radiances`]).
+pub struct SampleShading {
+    /// The pixel: index into the views, x, y.
+    pub at: (usize, usize, usize),
+    /// The pixel's radiance, the light from the rest of the room A, and the lights' direct
+    /// shading Σ L_e D_e at the radiances asked.
+    pub seen: Vec3,
+    pub room: Vec3,
+    pub direct: Vec3,
+}
+
+/// The model of the room's light at each sample with the lights at `radiance` (one RGB per
+/// light): kd = seen / (room + direct). Against a scene's true kd (and a render of its direct
+/// light alone) this measures the model itself (the example `lights_against_truth`).
+pub fn shading_at_radiances(
+    geometry: &Geometry,
+    views: &[View],
+    images: &[Image],
+    lights: &[Vec<u32>],
+    skip: &[Vec<bool>],
+    radiance: &[Vec3],
+) -> Vec<SampleShading> {
+    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
+        .par_iter()
+        .map(|v| fipt_shading::records::hit_points(geometry, v))
+        .collect();
+    let Some((samples, _)) =
+        samples_and_model(geometry, views, images, &hits, lights, skip, STRIDE)
+    else {
+        return vec![];
+    };
+    samples
+        .iter()
+        .map(|s| SampleShading {
+            at: s.at,
+            seen: s.i,
+            room: s.a,
+            direct: s.d.iter().zip(radiance).map(|(d, l)| *l * *d).sum(),
+        })
+        .collect()
+}
+
 /// The model of the room's light (A from the views' surface light field, each light's D) and
 /// the samples measured against it, every `stride`-th pixel each way (none: None); `hits`:
 /// what each view's pixels see.
@@ -142,13 +184,15 @@ pub(crate) fn samples_and_model(
         .iter()
         .map(|t| TriangleSampler::uniform_area(mesh, t))
         .collect::<Option<_>>()?;
+    let (patch, _) = fipt_geom::patches::smooth_patches(mesh, 30.0);
+    let fill = patch_means(hits, images, &is_light, skip, &patch);
     let model = crate::light_ends::LightModel {
         slf,
+        fill,
         is_light,
         side,
         samplers,
     };
-    let (patch, _) = fipt_geom::patches::smooth_patches(mesh, 30.0);
     let near_light = touching(mesh, &model.is_light);
     let at = Surfaces {
         geometry,
@@ -158,6 +202,34 @@ pub(crate) fn samples_and_model(
     };
     let samples = at.samples(views, images, hits, skip, stride);
     (!samples.is_empty()).then_some((samples, model))
+}
+
+/// Per triangle, the mean radiance the views see on its smooth patch (`patch`: each
+/// triangle's), lights and the pixels `skip` left out; zero where no view sees the patch.
+/// [`gather`] reads it where the surface light field holds nothing near a point: most of a
+/// ceiling no camera looks at is still the ceiling, where zero made the room's light on the
+/// kitchen's walls 0.59–0.82 of the truth's (docs/clipped-lights.md).
+fn patch_means(
+    hits: &Hits,
+    images: &[Image],
+    is_light: &std::collections::HashSet<u32>,
+    skip: &[Vec<bool>],
+    patch: &[u32],
+) -> Vec<Vec3> {
+    let mut sums: HashMap<u32, (Vec3, u64)> = HashMap::new();
+    for (v, hv) in hits.iter().enumerate() {
+        for (i, h) in hv.iter().enumerate() {
+            if let Some(h) = h.filter(|h| !is_light.contains(&h.tri()) && !skip[v][i]) {
+                let e = sums.entry(patch[h.tri() as usize]).or_default();
+                e.0 += images[v].data[i];
+                e.1 += 1;
+            }
+        }
+    }
+    patch
+        .iter()
+        .map(|p| sums.get(p).map_or(Vec3::ZERO, |(s, n)| *s / *n as f32))
+        .collect()
 }
 
 /// The surface light field of everything but the lights and the pixels `skip`, each pixel's
@@ -311,10 +383,12 @@ fn light_sides(
 }
 
 /// A(x): the mean radiance the SLF gives over cosine-distributed directions (lights and
-/// misses count 0).
+/// misses count 0); where the SLF holds nothing near a point (no view saw it, nor its
+/// neighbourhood), the mean the views see on its smooth patch (`fill`, per triangle).
 pub(crate) fn gather(
     geometry: &Geometry,
     slf: &fipt_bake::slf::SurfaceLightField,
+    fill: &[Vec3],
     is_light: &std::collections::HashSet<u32>,
     o: Vec3,
     n: Vec3,
@@ -322,13 +396,22 @@ pub(crate) fn gather(
 ) -> Vec3 {
     gather_points(geometry, is_light, o, n, GATHER, rng)
         .into_iter()
-        .map(|p| p.map_or(Vec3::ZERO, |p| slf.lookup(p)))
+        .map(|p| {
+            p.map_or(Vec3::ZERO, |(p, tri)| {
+                let v = slf.lookup(p);
+                if v == Vec3::ZERO {
+                    fill.get(tri as usize).copied().unwrap_or(Vec3::ZERO)
+                } else {
+                    v
+                }
+            })
+        })
         .sum::<Vec3>()
         / GATHER as f32
 }
 
-/// The surface points `count` cosine directions from `o` meet (None: a miss or a light);
-/// [`gather`] looks up [`GATHER`] of them.
+/// The surface points `count` cosine directions from `o` meet, with their triangles (None: a
+/// miss or a light); [`gather`] looks up [`GATHER`] of them.
 pub(crate) fn gather_points(
     geometry: &Geometry,
     is_light: &std::collections::HashSet<u32>,
@@ -336,7 +419,7 @@ pub(crate) fn gather_points(
     n: Vec3,
     count: usize,
     rng: &mut Pcg32,
-) -> Vec<Option<Vec3>> {
+) -> Vec<Option<(Vec3, u32)>> {
     let (t, b) = n.any_orthonormal_pair();
     (0..count)
         .map(|_| {
@@ -348,7 +431,7 @@ pub(crate) fn gather_points(
                 .bvh
                 .closest_hit(o, d, 0.0, f32::INFINITY)
                 .filter(|h| !is_light.contains(&h.tri))
-                .map(|h| fipt_geom::hit_point(&geometry.mesh, &h))
+                .map(|h| (fipt_geom::hit_point(&geometry.mesh, &h), h.tri))
         })
         .collect()
 }

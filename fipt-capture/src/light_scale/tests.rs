@@ -148,3 +148,44 @@ fn the_clip_level_bounds_from_below() {
     bound_and_choose(&room(10.0, 0.02, 1.0), &mut out, &[40.0], 1.0);
     assert!(out[0].levels >= 40.0 - 1e-3 && out[0].range[0] >= 40.0 - 1e-3);
 }
+
+/// A floor under a wide ceiling no view saw: with the light field empty, the room's light A
+/// at the floor reads the ceiling patch's mean (the fill); without a fill it read nothing (the
+/// bias that left A at 0.59–0.82 of the truth on the kitchen's walls). Where the light field
+/// holds radiance, it is read instead.
+#[test]
+fn the_room_light_reads_the_patch_mean_where_the_light_field_is_empty() {
+    let p = Vec3::new;
+    let positions = vec![
+        p(-1.0, 0.0, -1.0),
+        p(1.0, 0.0, -1.0),
+        p(1.0, 0.0, 1.0),
+        p(-1.0, 0.0, 1.0),
+        p(-50.0, 1.0, -50.0),
+        p(50.0, 1.0, -50.0),
+        p(50.0, 1.0, 50.0),
+        p(-50.0, 1.0, 50.0),
+    ];
+    let cube = Cube::around(positions.iter().copied(), 1.1).unwrap();
+    let tris = vec![[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7]];
+    let geometry = Geometry::new(fipt_geom::Mesh::from_triangles(positions, None, tris));
+    let no_lights = std::collections::HashSet::new();
+    let (o, n) = (p(0.0, 1e-3, 0.0), Vec3::Y);
+    let a = |slf: &fipt_bake::slf::SurfaceLightField, fill: &[Vec3]| {
+        gather(&geometry, slf, fill, &no_lights, o, n, &mut Pcg32::new(1, 2))
+    };
+    let empty = SlfBuilder::with_fallback(cube, 8, 1).finish();
+    let fill = [Vec3::ZERO, Vec3::ZERO, Vec3::splat(0.3), Vec3::splat(0.3)];
+    // Nearly every cosine direction meets the ceiling (it spans ±50 at height 1).
+    let filled = a(&empty, &fill);
+    assert!((filled - Vec3::splat(0.3)).abs().max_element() < 0.01, "{filled}");
+    assert_eq!(a(&empty, &[]), Vec3::ZERO);
+    let mut seen = SlfBuilder::with_fallback(cube, 8, 1);
+    for i in -10..=10 {
+        for k in -10..=10 {
+            seen.add(p(5.0 * i as f32, 1.0, 5.0 * k as f32), Vec3::splat(0.7));
+        }
+    }
+    let read = a(&seen.finish(), &fill);
+    assert!((read - Vec3::splat(0.7)).abs().max_element() < 0.02, "{read}");
+}
