@@ -9,6 +9,7 @@ tuned on (`docs/loft-mitsuba.md`).
     python3 scripts/mitsuba_loft.py --layout bedroom --out bedroom --spp 512
     python3 scripts/mitsuba_loft.py --layout atelier --out atelier --spp 256
     python3 scripts/mitsuba_loft.py --layout kitchen --out kitchen --spp 256
+    python3 scripts/mitsuba_loft.py --layout kitchen --out kitchen-direct --spp 64 --max-depth 2
 
 `loft`: a glossy textured floor, one one-sided ceiling panel, a copper cylinder (metal,
 σ 0.25), a rough aluminium box (metal, σ 0.45), a glossy red sphere (dielectric, σ 0.15), a
@@ -412,8 +413,11 @@ def write_meshes(objs, tmp):
     return paths
 
 
+MAX_DEPTH = 8
+
+
 def scene_dict(objs, paths, lights_on=True, extra=None):
-    d = {"type": "scene", "integrator": {"type": "path", "max_depth": 8}}
+    d = {"type": "scene", "integrator": {"type": "path", "max_depth": MAX_DEPTH}}
     for i, ((name, tris, m), path) in enumerate(zip(objs, paths)):
         shape = {"type": "obj", "filename": path, "face_normals": True, "flip_tex_coords": False}
         if "radiance" in m:
@@ -568,7 +572,11 @@ def main():
     ap.add_argument("--train", type=int, default=40)
     ap.add_argument("--val", type=int, default=8)
     ap.add_argument("--relight-only", action="store_true", help="render only relight/ (same cameras)")
+    ap.add_argument("--max-depth", type=int, default=8,
+                    help="path length; 2 renders the lights' direct light alone (same cameras for the same --seed, --train, --val)")
     a = ap.parse_args()
+    global MAX_DEPTH
+    MAX_DEPTH = a.max_depth
     rng = np.random.default_rng(a.seed)
     lay = LAYOUTS[a.layout]
     global W, H, FOV
