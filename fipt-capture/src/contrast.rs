@@ -68,12 +68,6 @@ fn curve(
     let stride = ((pixels as f64 / SAMPLES as f64).sqrt().ceil() as usize).max(4);
     let (samples, model) =
         light_scale::samples_and_model(geometry, views, images, hits, lights, skip, stride)?;
-    // A sample the model gives no light at all (its gathered directions miss or meet lights
-    // only, and no light reaches it) says nothing of the contrast.
-    let samples: Vec<Sample> = samples
-        .into_iter()
-        .filter(|s| s.a.max_element() > 0.0 || s.d.iter().any(|&d| d > 0.0))
-        .collect();
     // The surface light field of the views raised to each power, and each sample's A at
     // each: the directions traced once, every field read at each point they meet.
     let fields: Vec<fipt_bake::slf::SurfaceLightField> = GAMMAS
@@ -84,22 +78,38 @@ fn curve(
             })
         })
         .collect::<Option<_>>()?;
-    let ambient: Vec<[Vec3; GAMMAS.len()]> = samples
+    // Each sample's A at each power, and whether the light field gives it any light along
+    // the directions the clipped-light estimate reads (the first [`light_scale::GATHER`]).
+    let ambient: Vec<([Vec3; GAMMAS.len()], bool)> = samples
         .par_iter()
         .map(|s| {
             let (v, x, y) = s.at;
             let hit = hits[v][y * views[v].camera.width + x].expect("a sample sees a surface");
             let points = model.gathered(geometry, views[v].camera.origin, hit, GATHER);
             let mut a = [Vec3::ZERO; GAMMAS.len()];
-            for p in points.iter().flatten() {
+            let mut lit = false;
+            for (k, p) in points.iter().enumerate() {
+                let Some(p) = p else { continue };
                 for (a, f) in a.iter_mut().zip(&fields) {
-                    *a += f.lookup(*p);
+                    let r = f.lookup(*p);
+                    lit |= k < light_scale::GATHER && r.max_element() > 0.0;
+                    *a += r;
                 }
             }
-            a.map(|a| a / points.len().max(1) as f32)
+            (a.map(|a| a / points.len().max(1) as f32), lit)
         })
         .collect();
     drop(fields);
+    // A sample the model gives no light at all (its gathered directions miss, meet lights or
+    // meet what no view saw, and no light reaches it) says nothing of the contrast. Read from
+    // the light field alone, not the patch means the clipped-light estimate falls back on:
+    // the contrast is measured as before.
+    let (samples, ambient): (Vec<Sample>, Vec<[Vec3; GAMMAS.len()]>) = samples
+        .into_iter()
+        .zip(ambient)
+        .filter(|(s, (_, lit))| *lit || s.d.iter().any(|&d| d > 0.0))
+        .map(|(s, (a, _))| (s, a))
+        .unzip();
     let groups = PatchIndex::of(&samples);
     if groups.count == 0 {
         return None;

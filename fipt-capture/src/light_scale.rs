@@ -31,7 +31,7 @@ use std::collections::HashMap;
 /// Every STRIDE-th pixel in each direction is a sample.
 const STRIDE: usize = 4;
 /// Cosine directions per sample for A, points per light for D.
-const GATHER: usize = 64;
+pub(crate) const GATHER: usize = 64;
 const LIGHT_POINTS: usize = 64;
 /// Guesses per light: a log grid from 1 to 10^DECADES clip levels.
 const STEPS: usize = 61;

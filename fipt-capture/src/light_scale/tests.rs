@@ -172,13 +172,24 @@ fn the_room_light_reads_the_patch_mean_where_the_light_field_is_empty() {
     let no_lights = std::collections::HashSet::new();
     let (o, n) = (p(0.0, 1e-3, 0.0), Vec3::Y);
     let a = |slf: &fipt_bake::slf::SurfaceLightField, fill: &[Vec3]| {
-        gather(&geometry, slf, fill, &no_lights, o, n, &mut Pcg32::new(1, 2))
+        gather(
+            &geometry,
+            slf,
+            fill,
+            &no_lights,
+            o,
+            n,
+            &mut Pcg32::new(1, 2),
+        )
     };
     let empty = SlfBuilder::with_fallback(cube, 8, 1).finish();
     let fill = [Vec3::ZERO, Vec3::ZERO, Vec3::splat(0.3), Vec3::splat(0.3)];
     // Nearly every cosine direction meets the ceiling (it spans ±50 at height 1).
     let filled = a(&empty, &fill);
-    assert!((filled - Vec3::splat(0.3)).abs().max_element() < 0.01, "{filled}");
+    assert!(
+        (filled - Vec3::splat(0.3)).abs().max_element() < 0.01,
+        "{filled}"
+    );
     assert_eq!(a(&empty, &[]), Vec3::ZERO);
     let mut seen = SlfBuilder::with_fallback(cube, 8, 1);
     for i in -10..=10 {
@@ -187,5 +198,8 @@ fn the_room_light_reads_the_patch_mean_where_the_light_field_is_empty() {
         }
     }
     let read = a(&seen.finish(), &fill);
-    assert!((read - Vec3::splat(0.7)).abs().max_element() < 0.02, "{read}");
+    assert!(
+        (read - Vec3::splat(0.7)).abs().max_element() < 0.02,
+        "{read}"
+    );
 }
