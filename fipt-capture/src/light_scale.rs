@@ -110,10 +110,7 @@ pub fn estimate(
     crate::light_ends::LightModel,
     [usize; 2],
 )> {
-    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
-        .par_iter()
-        .map(|v| fipt_shading::records::hit_points(geometry, v))
-        .collect();
+    let hits = view_hits(geometry, views);
     let (samples, model) = samples_and_model(geometry, views, images, &hits, lights, skip, STRIDE)?;
     let before = samples.len();
     let (samples, mixed) = one_colour(samples, level);
@@ -122,45 +119,14 @@ pub fn estimate(
     Some((out, model, [mixed, before - samples.len()]))
 }
 
-/// What the model says at one sample ([`shading_at_radiances`]).
-pub struct SampleShading {
-    /// The pixel: index into the views, x, y.
-    pub at: (usize, usize, usize),
-    /// The pixel's radiance, the light from the rest of the room A, and the lights' direct
-    /// shading Σ L_e D_e at the radiances asked.
-    pub seen: Vec3,
-    pub room: Vec3,
-    pub direct: Vec3,
-}
-
-/// The model of the room's light at each sample with the lights at `radiance` (one RGB per
-/// light): kd = seen / (room + direct). Against a scene's true kd (and a render of its direct
-/// light alone) this measures the model itself (the example `lights_against_truth`).
-pub fn shading_at_radiances(
+/// What each view's pixels see.
+pub(crate) fn view_hits(
     geometry: &Geometry,
     views: &[View],
-    images: &[Image],
-    lights: &[Vec<u32>],
-    skip: &[Vec<bool>],
-    radiance: &[Vec3],
-) -> Vec<SampleShading> {
-    let hits: Vec<Vec<Option<fipt_shading::records::HitPoint>>> = views
+) -> Vec<Vec<Option<fipt_shading::records::HitPoint>>> {
+    views
         .par_iter()
         .map(|v| fipt_shading::records::hit_points(geometry, v))
-        .collect();
-    let Some((samples, _)) =
-        samples_and_model(geometry, views, images, &hits, lights, skip, STRIDE)
-    else {
-        return vec![];
-    };
-    samples
-        .iter()
-        .map(|s| SampleShading {
-            at: s.at,
-            seen: s.i,
-            room: s.a,
-            direct: s.d.iter().zip(radiance).map(|(d, l)| *l * *d).sum(),
-        })
         .collect()
 }
 
@@ -804,6 +770,9 @@ fn bright_prior(albedo_lo: Vec3, range: [Vec3; 2]) -> Vec3 {
     let x = (albedo_lo * (KD_MAX / KD_BRIGHT)).clamp(range[0], range[1]);
     x.max(Vec3::splat(x.max_element() / MAX_TINT)).min(range[1])
 }
+
+mod truth;
+pub use truth::{shading_at_radiances, SampleShading};
 
 #[cfg(test)]
 mod tests;
