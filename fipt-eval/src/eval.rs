@@ -124,8 +124,9 @@ fn render_score(
     Ok(fipt_core::metrics::srgb_psnr(&r.data, &img.data, None))
 }
 
-/// `img` (a run's map read from `path`) when every value is finite; otherwise an error with the counts: a score of such a map would be a number about nothing
-/// (an all-NaN kd map scored 20.8 dB before this check).
+/// `img` (a run's map read from `path`) when every value is finite; otherwise an error with
+/// the counts: a score of such a map would be a number about nothing (an all-NaN kd map
+/// scored 20.8 dB before this check).
 fn finite_map(img: Image, path: &Path) -> Result<Image> {
     let bad = img.count_bad();
     if bad.nan + bad.inf > 0 {
@@ -375,7 +376,7 @@ fn score_view(at: &SplitAt, v: &fipt_core::dataset::View) -> Result<Option<ViewS
         let Some(img) = read else {
             return Ok(None);
         };
-        same_size(img, ds, &s.gt_path(kind, k)).map(Some)
+        same_size(img, ds, &path).map(Some)
     };
     let (Some(kd_gt), Some(r_gt)) = (gt(GtKind::DiffCol)?, gt(GtKind::Roughness)?) else {
         return Ok(None);
