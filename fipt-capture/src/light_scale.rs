@@ -436,6 +436,15 @@ pub(crate) fn direct(
     sum / (LIGHT_POINTS as f32 * std::f32::consts::PI)
 }
 
+/// The indices of the samples on each patch.
+fn by_patch(samples: &[Sample]) -> HashMap<u32, Vec<usize>> {
+    let mut by: HashMap<u32, Vec<usize>> = HashMap::new();
+    for (k, s) in samples.iter().enumerate() {
+        by.entry(s.patch).or_default().push(k);
+    }
+    by
+}
+
 /// The radiances the search tries: a log grid from `level` to 10^DECADES × `level`.
 fn grid(level: f32) -> Vec<f32> {
     (0..STEPS)
@@ -451,10 +460,7 @@ fn grid(level: f32) -> Vec<f32> {
 /// kd follows what it reflects at every guess.
 /// Also returns how many patches it left out.
 fn one_colour(samples: Vec<Sample>, level: f32) -> (Vec<Sample>, usize) {
-    let mut by_patch: HashMap<u32, Vec<usize>> = HashMap::new();
-    for (k, s) in samples.iter().enumerate() {
-        by_patch.entry(s.patch).or_default().push(k);
-    }
+    let by_patch = by_patch(&samples);
     let grid = grid(level);
     let mixed: std::collections::HashSet<u32> = by_patch
         .par_iter()
@@ -486,11 +492,7 @@ fn one_colour(samples: Vec<Sample>, level: f32) -> (Vec<Sample>, usize) {
 
 /// The samples of each patch that holds at least [`MIN_PATCH_SAMPLES`] of them, in patch order.
 fn patch_groups(samples: &[Sample]) -> Vec<Vec<usize>> {
-    let mut by_patch: HashMap<u32, Vec<usize>> = HashMap::new();
-    for (k, s) in samples.iter().enumerate() {
-        by_patch.entry(s.patch).or_default().push(k);
-    }
-    let mut groups: Vec<(u32, Vec<usize>)> = (by_patch.into_iter())
+    let mut groups: Vec<(u32, Vec<usize>)> = (by_patch(samples).into_iter())
         .filter(|(_, g)| g.len() >= MIN_PATCH_SAMPLES)
         .collect();
     groups.sort_unstable_by_key(|g| g.0);
