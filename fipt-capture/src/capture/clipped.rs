@@ -298,7 +298,7 @@ fn describe(cl: &ClippedLights, lights: usize) -> String {
             );
             match e.chosen_by.as_str() {
                 "flatness" | "flatness, clamped to the range" => format!("{} triangles: {:.1} clip levels, RGB {:.2?}, pinned by the surfaces it lights (the curve rises {:.0} % at 10× off; {range})", e.triangles, e.levels, e.radiance, 100.0 * e.contrast),
-                "albedo" => format!("{} triangles: NOT PINNED by the shading it casts (the curve rises {:.1} % at 10× off); {range}; set to {:.1} clip levels, RGB {:.2?}, where the brightest surface it lights strongly reads albedo {} (the least wrong over rooms whose brightest lit surface is 0.65 … 0.95)", e.triangles, 100.0 * e.contrast, e.levels, e.radiance, crate::light_scale::KD_BRIGHT),
+                "albedo" => format!("{} triangles: NOT PINNED by the shading it casts (the curve rises {:.1} % at 10× off); {range}; set to {:.1} clip levels, RGB {:.2?}: {:.2}× the least radiance that keeps every surface it lights strongly at albedo {} or less, or the range's lower end if that is higher (a prior, not a measurement; how far off it can be: docs/clipped-lights.md)", e.triangles, 100.0 * e.contrast, e.levels, e.radiance, crate::light_scale::KD_MAX / crate::light_scale::KD_BRIGHT, crate::light_scale::KD_MAX),
                 _ => format!("{} triangles: NOT PINNED and lighting too few unclipped surfaces to bound it; set to its lower bound, {:.1} clip levels ({range})", e.triangles, e.levels),
             }
         })
