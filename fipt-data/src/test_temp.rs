@@ -4,6 +4,12 @@ use std::path::PathBuf;
 /// A temporary folder (unique per process, call and time), removed when dropped.
 pub struct Temp(pub PathBuf);
 
+impl Default for Temp {
+    fn default() -> Temp {
+        Temp::new()
+    }
+}
+
 impl Temp {
     pub fn new() -> Temp {
         static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);

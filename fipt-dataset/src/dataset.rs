@@ -236,7 +236,7 @@ impl Dataset {
             let n = splits[0].views.len();
             if e.len() != n {
                 return Err(CoreError::invalid(
-                    &root.join(crate::capture::CAPTURE_FILE),
+                    root.join(crate::capture::CAPTURE_FILE),
                     format!(
                         "{} exposures for {n} training views: give one per view",
                         e.len()
@@ -551,6 +551,8 @@ fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
     Ok((w, h))
 }
 
+// `!(x < bound)` is meant: it is true for NaN, which must fail the check too.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub(crate) fn check_pose(path: &Path, frame: usize, cam: &Camera) -> Result<()> {
     let (err, det) = cam.rotation_error();
     if !cam.origin.is_finite() || !(err < 1e-3) || !(det > 0.0) {

@@ -203,6 +203,8 @@ impl Distortion {
 
     /// Checks the coefficients (finite; the model invertible over the normalised radius
     /// `max_r` the image reaches): None when fine, else why not.
+    // `!(err < bound)` is meant: it is true for NaN, which must fail the check too.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn check(&self, max_r: f32) -> Option<String> {
         let coeffs: Vec<f32> = match *self {
             Distortion::None => return None,

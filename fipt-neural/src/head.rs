@@ -63,6 +63,7 @@ fn sigma_logit(h3: f32, gain: f32) -> (f32, f32) {
 
 /// The material columns of one row: `out[0..5]` from `h[0..5]`; `w`: the row's leak.
 #[inline]
+#[allow(clippy::eq_op)] // `l - l` is meant: the graph's leak term, NaN where l is not finite
 fn material_row(h: &[f32], gain: f32, w: Option<f32>, out: &mut [f32]) {
     for c in [0, 1, 2, 4] {
         out[c] = sigmoid(h[c]);
