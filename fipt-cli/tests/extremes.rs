@@ -60,6 +60,22 @@ fn image_scale_does_not_change_the_answer() {
         let r = json(&out.join("report.json"));
         let lights = e.as_array().unwrap().len();
         let le = e[0]["mean_radiance"][0].as_f64().unwrap() / k as f64;
+        // emitters.obj states each light's radiance at the same scale as emitters.json.
+        let obj = std::fs::read_to_string(out.join("emitters.obj")).unwrap();
+        let said: Vec<f64> = obj
+            .lines()
+            .find_map(|l| l.strip_prefix("# mean radiance "))
+            .expect("emitters.obj states the radiance")
+            .trim_matches(['[', ']'])
+            .split(',')
+            .map(|x| x.trim().parse().unwrap())
+            .collect();
+        let json_le: Vec<f64> = (0..3)
+            .map(|c| e[0]["mean_radiance"][c].as_f64().unwrap())
+            .collect();
+        for (o, j) in said.iter().zip(&json_le) {
+            assert!((o / j - 1.0).abs() < 1e-4, "×{k}: emitters.obj {said:?} vs .json {json_le:?}");
+        }
         let kd = m["train"]["mean"]["kd_psnr"].as_f64().unwrap();
         let render = m["val"]["mean"]["render_psnr"].as_f64().unwrap();
         eprintln!(

@@ -386,7 +386,7 @@ fn write_emitters(
     let st = crate::observe::Stage::start("emitters");
     let user: Vec<Emitter> = emitters.iter().map(|e| e.scaled(scene.exposure)).collect();
     write_json_atomic(&a.out.join("emitters.json"), &user)?;
-    write_emitters_obj(&a.out.join("emitters.obj"), &scene.geometry.mesh, emitters)?;
+    write_emitters_obj(&a.out.join("emitters.obj"), &scene.geometry.mesh, &user)?;
     st.done();
     for (i, e) in user.iter().enumerate() {
         crate::note!(
