@@ -322,6 +322,7 @@ fn validate(a: &DegradeRequest) -> Result<()> {
 /// Makes the copy; returns its record (also written to `DST/degrade.json`).
 pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
     validate(a)?;
+    fipt_core::lock::output_folder(&a.out)?;
     let ds = Dataset::open(&a.source)
         .with_context(|| format!("opening scene {}", a.source.display()))?;
     // The mesh first: a refused ripple leaves an earlier copy where it was.
@@ -330,7 +331,7 @@ pub fn degrade(a: &DegradeRequest) -> Result<DegradeRecord> {
         std::fs::remove_dir_all(&a.out)
             .with_context(|| format!("replacing {}", a.out.display()))?;
     }
-    std::fs::create_dir_all(&a.out)?;
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let (triangles, face_starts) = crate::degrade_mesh::write_mesh(a, &ds, mesh)?;
     let splits: Vec<&Split> = if a.layout.captures_only() {
         vec![ds.train()]

@@ -17,8 +17,10 @@ pub struct Args {
     /// Validation views (default: 4 for cornell, 8 for room).
     #[arg(long)]
     val_views: Option<usize>,
+    /// Image width in pixels (default: 64 for cornell, 240 for room).
     #[arg(long)]
     width: Option<usize>,
+    /// Image height in pixels (default: 48 for cornell, 160 for room).
     #[arg(long)]
     height: Option<usize>,
     /// Samples per pixel of the input images (default: 64 for cornell, 128 for room).
@@ -52,6 +54,7 @@ pub fn run(a: Args) -> Result<()> {
             SCENES.join(", ")
         );
     }
+    fipt_core::lock::output_folder(&a.out)?;
     if a.out.exists()
         && !a.force
         && std::fs::read_dir(&a.out)

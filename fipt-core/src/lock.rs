@@ -70,6 +70,7 @@ impl OutputLock {
 
     /// The same with the lock file `name` in `dir`, alone.
     pub fn acquire_named(dir: &Path, name: &str, what: &str) -> Result<OutputLock> {
+        output_folder(dir)?;
         std::fs::create_dir_all(dir).map_err(|e| CoreError::io(dir, e))?;
         let path = dir.join(name);
         let me = format!("pid {}\nhost {}\n{what}\n", std::process::id(), host_name());
@@ -211,6 +212,31 @@ pub fn refuse_owned_output(out: &Path, what: &str, refused: &[Owner]) -> Result<
     refuse_where(out, what, |owner, _| refused.contains(&owner))
 }
 
+/// Refuses an output folder `out` that is a file, or lies under one (`afile/sub`): the error
+/// names the file and says what to give instead, where creating the folder would end in the
+/// system's "File exists" or "Not a directory".
+pub fn output_folder(out: &Path) -> Result<()> {
+    for dir in out.ancestors().filter(|d| !d.as_os_str().is_empty()) {
+        if dir.is_dir() {
+            return Ok(());
+        }
+        if dir.exists() {
+            let place = if dir == out {
+                String::new()
+            } else {
+                format!(" (the output folder {} would lie under it)", out.display())
+            };
+            return Err(CoreError::invalid(
+                dir,
+                format!(
+                    "is a file, not a folder{place}: give as the output a folder that does not exist yet (it is created) or an existing folder"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The rule for a run's own output folder: it may be a run folder (resumed) but not lie inside
 /// another, nor be or lie inside a scene folder.
 pub fn refuse_nested_run(out: &Path) -> Result<()> {
@@ -255,6 +281,7 @@ pub fn resolved(out: &Path) -> Result<std::path::PathBuf> {
 }
 
 fn refuse_where(out: &Path, what: &str, refused: impl Fn(Owner, bool) -> bool) -> Result<()> {
+    output_folder(out)?;
     let resolved = resolved(out)?;
     for dir in resolved.ancestors() {
         let is_self = dir == resolved;
@@ -380,6 +407,16 @@ mod tests {
         refuse_owned_output(&scene.join("val"), "render", &[Owner::Run]).unwrap();
         // A run resumes in its own folder, never inside another's or a scene's.
         refuse_nested_run(&run).unwrap();
+        // A file where the folder should be, or above it: named, never "File exists".
+        let file = d.join("afile");
+        std::fs::write(&file, "x").unwrap();
+        for out in [file.clone(), file.join("sub")] {
+            let err = refuse_owned_output(&out, "render", &both).unwrap_err().to_string();
+            assert!(err.contains("afile") && err.contains("is a file, not a folder"), "{err}");
+            let err = OutputLock::acquire(&out, "run").unwrap_err().to_string();
+            assert!(err.contains("is a file, not a folder"), "{err}");
+        }
+        output_folder(&d.join("new/deeper")).unwrap();
         assert!(refuse_nested_run(&run.join("sub")).is_err());
         assert!(refuse_nested_run(&scene.join("out")).is_err());
         assert!(refuse_nested_run(&scene).is_err());

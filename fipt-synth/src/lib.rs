@@ -507,6 +507,7 @@ pub fn write_dataset(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<SynthSummary> {
     let t0 = std::time::Instant::now();
+    fipt_core::lock::output_folder(out)?;
     std::fs::create_dir_all(out).map_err(|e| fipt_core::CoreError::io(out, e))?;
     scene.mesh.write_obj(
         &out.join("scene.obj"),
