@@ -18,6 +18,15 @@ pub struct Args {
 }
 
 pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
+    // Before minutes of rendering: a mistyped preset is refused at once.
+    let Some(preset) = fipt_pipeline::run::RunConfig::preset(&a.preset) else {
+        anyhow::bail!(
+            "unknown preset `{}` (use one of {})",
+            a.preset,
+            fipt_pipeline::run::PRESETS
+        );
+    };
+    fipt_core::lock::output_folder(&a.dir)?;
     let scene = a.dir.join("room");
     if !scene.join("val").join("transforms.json").is_file() {
         eprintln!(
@@ -29,9 +38,7 @@ pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
         // FIPT's): fitting one model to views of another biases kd and σ by itself
         // (docs/kd-bias.md).
         let mut opts = SynthOptions::defaults("room");
-        if let Some(cfg) = fipt_pipeline::run::RunConfig::preset(&a.preset) {
-            opts.model = cfg.model.brdf;
-        }
+        opts.model = preset.model.brdf;
         write_dataset(build("room")?, &scene, &opts, &|d, t| {
             pb.set_length(t as u64);
             pb.set_position(d as u64);

@@ -35,7 +35,7 @@ pub struct Args {
     max_bounces: u32,
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Render only these view indices (default: all).
+    /// Render only these view indices, comma-separated: `--views 0,3,5` (default: all).
     #[arg(long, value_delimiter = ',')]
     views: Option<Vec<usize>>,
     /// The reflectance model (default: the run's; `fipt` for --materials).

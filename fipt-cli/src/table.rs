@@ -13,6 +13,19 @@ pub struct Args {
     split: String,
 }
 
+/// The run's time: every stage's computed time (a resumed run's reused stages count what they
+/// took when computed), and how many stages this invocation reused.
+fn wall(report: &serde_json::Value) -> String {
+    let s = report["seconds_computed_total"]
+        .as_f64()
+        .or(report["seconds_total"].as_f64())
+        .unwrap_or(f64::NAN);
+    match report["stages_reused"].as_u64() {
+        Some(n) if n > 0 => format!("{:.1} min ({n} stages reused)", s / 60.0),
+        _ => format!("{:.1} min", s / 60.0),
+    }
+}
+
 fn read(p: &std::path::Path) -> Result<serde_json::Value> {
     let text = std::fs::read_to_string(p)
         .with_context(|| format!("reading {} (run `fipt run` to the end first)", p.display()))?;
@@ -38,11 +51,11 @@ pub fn run(a: Args) -> Result<()> {
                 .map_or(s.to_string(), |n| n.to_string_lossy().into_owned())
         });
         println!(
-            "| {} | {} | {} | {:.1} min | {} | {} | {} ({}) | {} | {} | {} / {} ({}) |",
+            "| {} | {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} / {} ({}) |",
             out.display(),
             scene,
             report["preset"].as_str().unwrap_or("?"),
-            report["seconds_total"].as_f64().unwrap_or(f64::NAN) / 60.0,
+            wall(&report),
             pair("kd_psnr"),
             pair("roughness_psnr"),
             f(&m["metallic"]["metal_recall"], 2),

@@ -183,6 +183,9 @@ impl Dataset {
 
     /// Opens a scene folder of any layout with `opts` (a downscale).
     pub fn open_with(root: &Path, opts: crate::capture_layout::OpenOptions) -> Result<Dataset> {
+        if !root.exists() {
+            return Err(CoreError::invalid(root, "no such folder: check the path (a scene folder holds scene.obj and train/transforms.json, cam.txt + K_list.txt, a COLMAP model in sparse/0/, or a nerfstudio transforms.json)"));
+        }
         if !root.is_dir() {
             return Err(CoreError::invalid(root, "not a folder (expected a scene folder with scene.obj and train/transforms.json, cam.txt + K_list.txt, a COLMAP model in sparse/0/, or a nerfstudio transforms.json)"));
         }

@@ -283,7 +283,13 @@ pub fn sweep(a: &SweepRequest, components: &crate::Components) -> Result<SweepSu
                     crate::config::load_text(base, &overrides_toml(overrides), &origin, None)
                 })
                 .and_then(|cfg| crate::run::check(&cfg, preset, components).map(|_| ()));
-        cfg.with_context(|| format!("grid point {name} (preset {preset})"))?;
+        cfg.with_context(|| {
+            let from = a
+                .grid
+                .as_ref()
+                .map_or(String::new(), |g| format!(" of {}", g.display()));
+            format!("grid point {name}{from} (preset {preset})")
+        })?;
     }
     // Its own lock file: the points' runs below take theirs in their folders.
     let _lock =

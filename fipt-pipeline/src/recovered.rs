@@ -144,6 +144,13 @@ pub struct RunOutput {
 pub use fipt_capture::scene::{open_options_of, run_open_options};
 
 fn not_a_run(dir: &Path, why: &str) -> crate::error::RunError {
+    if fipt_core::lock::Owner::of(dir) == Some(fipt_core::lock::Owner::Scene) {
+        return crate::err!(
+            "{}: a scene folder, not the output folder of a `fipt run`: give the folder a run wrote (`fipt run {} --out RUN`, then RUN)",
+            dir.display(),
+            dir.display()
+        );
+    }
     crate::err!(
         "{}: not a finished `fipt run` output folder ({why}); run `fipt run <scene> --out {}` first",
         dir.display(),

@@ -8,6 +8,7 @@ use crate::error::Result;
 pub use crate::outputs::{RunOutcome, RunSummary};
 pub use crate::request::{lock, RunRequest};
 pub use crate::run_config::{ModelConfig, PipelineConfig, ReRenderConfig, RunConfig};
+pub use fipt_run::config::PRESETS;
 
 /// `fipt run`: the configured method's stages, each reused when done, into `a.out`.
 pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome> {

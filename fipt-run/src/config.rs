@@ -124,7 +124,7 @@ pub fn load_text<T: Serialize + DeserializeOwned>(
     serde_path_to_error::deserialize(base).map_err(|e| {
         let key = e.path().to_string();
         crate::err!(
-            "{}: {}{} (keys are listed in the README)",
+            "{}: {}{} (every key is listed in docs/settings.md)",
             path.display(),
             if key == "." {
                 String::new()
