@@ -129,6 +129,24 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
         &["outside the source"],
     );
     assert!(!f.scene.join("new").exists());
+    // A file where an output folder should be, or above it: named with the fix, at once.
+    let afile = tmp("rb-folders-afile");
+    std::fs::write(&afile, "x").unwrap();
+    let under = afile.join("sub");
+    for o in [afile.to_str().unwrap(), under.to_str().unwrap()] {
+        let words = &["rb-folders-afile", "is a file, not a folder"][..];
+        refused(&["render", r, "--cameras", &cams, "--out", o, "--spp", "2"], words);
+        refused(&["export", r, "--format", "obj", "--out", o], words);
+        refused(&["degrade", s, "--out", o, "--ldr", "fixed"], words);
+        refused(&["run", s, "--out", o], words);
+        refused(&["synth", "cornell", "--out", o, "--force"], words);
+        refused(&["demo", "--dir", o], words);
+    }
+    let _ = std::fs::remove_file(&afile);
+    // A mistyped preset is refused before the demo renders its scene.
+    let demo = tmp("rb-folders-demo");
+    refused(&["demo", "--preset", "fsat", "--dir", demo.to_str().unwrap()], &["unknown preset `fsat`"]);
+    assert!(!demo.exists(), "the demo wrote before refusing its preset");
     // A run's output never nests in another run's folder or in a scene's.
     let (ok, _, err) = f.fipt_run(&f.run.join("again"), &[]);
     assert!(!ok && err.contains("folder of its own"), "{err}");
@@ -397,7 +415,7 @@ fn a_sweep_checks_its_whole_grid_before_the_first_point() {
     let g = grid.to_str().unwrap();
     refused(
         &["sweep", s, "--out", out.to_str().unwrap(), "--grid", g],
-        &["stepz", "grid point"],
+        &["stepz", "grid point", "grid.toml"],
     );
     assert!(t0.elapsed().as_secs_f64() < 20.0, "a point ran first");
     let ran = std::fs::read_dir(&out)
