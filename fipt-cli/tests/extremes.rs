@@ -74,7 +74,10 @@ fn image_scale_does_not_change_the_answer() {
             .map(|c| e[0]["mean_radiance"][c].as_f64().unwrap())
             .collect();
         for (o, j) in said.iter().zip(&json_le) {
-            assert!((o / j - 1.0).abs() < 1e-4, "×{k}: emitters.obj {said:?} vs .json {json_le:?}");
+            assert!(
+                (o / j - 1.0).abs() < 1e-4,
+                "×{k}: emitters.obj {said:?} vs .json {json_le:?}"
+            );
         }
         let kd = m["train"]["mean"]["kd_psnr"].as_f64().unwrap();
         let render = m["val"]["mean"]["render_psnr"].as_f64().unwrap();

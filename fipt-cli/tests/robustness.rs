@@ -135,7 +135,10 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
     let under = afile.join("sub");
     for o in [afile.to_str().unwrap(), under.to_str().unwrap()] {
         let words = &["rb-folders-afile", "is a file, not a folder"][..];
-        refused(&["render", r, "--cameras", &cams, "--out", o, "--spp", "2"], words);
+        refused(
+            &["render", r, "--cameras", &cams, "--out", o, "--spp", "2"],
+            words,
+        );
         refused(&["export", r, "--format", "obj", "--out", o], words);
         refused(&["degrade", s, "--out", o, "--ldr", "fixed"], words);
         refused(&["run", s, "--out", o], words);
@@ -145,7 +148,10 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
     let _ = std::fs::remove_file(&afile);
     // A mistyped preset is refused before the demo renders its scene.
     let demo = tmp("rb-folders-demo");
-    refused(&["demo", "--preset", "fsat", "--dir", demo.to_str().unwrap()], &["unknown preset `fsat`"]);
+    refused(
+        &["demo", "--preset", "fsat", "--dir", demo.to_str().unwrap()],
+        &["unknown preset `fsat`"],
+    );
     assert!(!demo.exists(), "the demo wrote before refusing its preset");
     // A run's output never nests in another run's folder or in a scene's.
     let (ok, _, err) = f.fipt_run(&f.run.join("again"), &[]);

@@ -411,8 +411,13 @@ mod tests {
         let file = d.join("afile");
         std::fs::write(&file, "x").unwrap();
         for out in [file.clone(), file.join("sub")] {
-            let err = refuse_owned_output(&out, "render", &both).unwrap_err().to_string();
-            assert!(err.contains("afile") && err.contains("is a file, not a folder"), "{err}");
+            let err = refuse_owned_output(&out, "render", &both)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                err.contains("afile") && err.contains("is a file, not a folder"),
+                "{err}"
+            );
             let err = OutputLock::acquire(&out, "run").unwrap_err().to_string();
             assert!(err.contains("is a file, not a folder"), "{err}");
         }
