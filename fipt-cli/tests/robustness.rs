@@ -153,6 +153,21 @@ fn no_command_writes_into_a_run_or_scene_folder_and_options_have_ranges() {
         &["unknown preset `fsat`"],
     );
     assert!(!demo.exists(), "the demo wrote before refusing its preset");
+    // A mistyped scene path leaves no run folder behind.
+    let nowhere = tmp("rb-folders-nowhere");
+    refused(
+        &[
+            "run",
+            nowhere.join("scene").to_str().unwrap(),
+            "--out",
+            demo.to_str().unwrap(),
+        ],
+        &["no such folder"],
+    );
+    assert!(
+        !demo.exists(),
+        "a run of a missing scene made its output folder"
+    );
     // A run's output never nests in another run's folder or in a scene's.
     let (ok, _, err) = f.fipt_run(&f.run.join("again"), &[]);
     assert!(!ok && err.contains("folder of its own"), "{err}");

@@ -38,6 +38,14 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
         (components.trainer(&cfg.pipeline.trainer, v))
             .map_err(|e| fipt_core::CoreError::Component(Box::new(e)))
     };
+    // A mistyped scene path leaves no output folder behind.
+    if !a.scene.exists() {
+        return Err(fipt_core::CoreError::invalid(
+            &a.scene,
+            "no such folder: check the scene path",
+        )
+        .into());
+    }
     fipt_core::lock::refuse_nested_run(&a.out)?;
     // One run per output folder at a time (one per shard for shard runs).
     let _lock = lock(&a.out, a.sharding().shard, "fipt run")?;
