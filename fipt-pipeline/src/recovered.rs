@@ -146,7 +146,7 @@ pub use fipt_capture::scene::{open_options_of, run_open_options};
 fn not_a_run(dir: &Path, why: &str) -> crate::error::RunError {
     if fipt_core::lock::Owner::of(dir) == Some(fipt_core::lock::Owner::Scene) {
         return crate::err!(
-            "{}: a scene folder, not the output folder of a `fipt run`: give the folder a run wrote (`fipt run {} --out RUN`, then RUN)",
+            "{}: a scene folder, not a finished `fipt run` output folder: give the folder a run wrote (`fipt run {} --out RUN`, then RUN)",
             dir.display(),
             dir.display()
         );
