@@ -72,9 +72,10 @@ pub const KD_MIN: f32 = 0.02;
 /// the radiance at which the surface bounding it would read this albedo if the light were all
 /// it received (a room's brightest lit surface, a wall, a ceiling, white furniture, lies
 /// between 0.65 and 0.95, and 0.8 is within ×1.2 of either end). Solving that surface for this
-/// albedo with the room's light included came within 20 % of two unpinned lights on clean
-/// HDR rooms, but put the studio's bulb ×2.4–3.1 high on its six LDR copies and gave clipped
-/// highlights taken for lights 100–300 clip levels (docs/clipped-lights.md).
+/// albedo with the room's light included brought two unpinned lights on clean HDR rooms within
+/// 10 % (the studio's bulb) and 26 % (the atelier's lamp, blue) of the truth, but put the
+/// studio's bulb ×2.4–3.1 high on its six LDR copies and gave clipped highlights taken for
+/// lights 2–294 clip levels (docs/clipped-lights.md).
 pub const KD_BRIGHT: f32 = 0.8;
 /// The most one channel of an unpinned light may exceed another.
 const MAX_TINT: f32 = 4.0;
