@@ -16,6 +16,7 @@
 //! the measure before 2026-12-07, see only the step of that gradient between two samples,
 //! which the pixels' noise and a JPEG's blocks swamp: a light 10× off raised that cost by
 //! 0.05–1.1 % on the phone copies, and nearly every clipped light fell to the prior.
+use crate::capture::flagged;
 use fipt_bake::slf::SlfBuilder;
 use fipt_core::color::luminance;
 use fipt_core::cube::Cube;
@@ -190,7 +191,7 @@ fn patch_means(
     let mut sums: HashMap<u32, (Vec3, u64)> = HashMap::new();
     for (v, hv) in hits.iter().enumerate() {
         for (i, h) in hv.iter().enumerate() {
-            if let Some(h) = h.filter(|h| !is_light.contains(&h.tri()) && !skip[v][i]) {
+            if let Some(h) = h.filter(|h| !is_light.contains(&h.tri()) && !flagged(skip, v, i)) {
                 let e = sums.entry(patch[h.tri() as usize]).or_default();
                 e.0 += images[v].data[i];
                 e.1 += 1;
@@ -216,7 +217,7 @@ pub(crate) fn surface_light_field(
     let mut slf = SlfBuilder::with_fallback(cube, 128, 3);
     for (v, hv) in hits.iter().enumerate() {
         for (i, h) in hv.iter().enumerate() {
-            if let Some(h) = h.filter(|h| !is_light.contains(&h.tri()) && !skip[v][i]) {
+            if let Some(h) = h.filter(|h| !is_light.contains(&h.tri()) && !flagged(skip, v, i)) {
                 slf.add(h.p, f(images[v].data[i]));
             }
         }
@@ -256,7 +257,7 @@ impl Surfaces<'_> {
                     for x in (stride / 2..w).step_by(stride) {
                         let i = y * w + x;
                         let Some(hit) = hits[v][i].filter(|h| {
-                            !skip[v][i]
+                            !flagged(skip, v, i)
                                 && !self.model.is_light.contains(&h.tri())
                                 && !self.near_light.contains(&h.tri())
                         }) else {

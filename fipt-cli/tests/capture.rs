@@ -157,6 +157,22 @@ fn auto_exposed_views_get_their_gains_back() {
             100.0 * err
         );
     }
+    // A mask on one view only (a person in one photo): its top rows are left out of the
+    // gains, the response and the lights' estimate, and the views without one keep all their
+    // pixels (this panicked on 8-bit views until 2026-12-07).
+    std::fs::create_dir_all(copy.join("Mask")).unwrap();
+    let mask = image::GrayImage::from_fn(64, 48, |_, y| image::Luma([if y < 8 { 0 } else { 255 }]));
+    mask.save(copy.join("Mask/000_0001.png")).unwrap();
+    let (ok, info, err) = fipt(&["info", copy.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    assert!(info.contains("1 training views have a mask"), "{info}");
+    let cfg = dir.join("run.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let out = dir.join("out");
+    run(&copy, &out, &cfg);
+    let report = json(&out.join("report.json"));
+    assert_eq!(report["status"], "complete", "{}", report["status"]);
+    assert_eq!(report["capture"]["masked_pixels"], 64 * 8);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

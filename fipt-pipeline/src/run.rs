@@ -59,23 +59,28 @@ pub fn run(a: &RunRequest, components: &crate::Components) -> Result<RunOutcome>
     };
     status("running", None)?;
     let method = &cfg.pipeline.method;
-    let res = components
-        .fitter(method, &checked.method_settings, &a.preset)
-        .and_then(|fitter| {
-            let parts = crate::fit::Parts {
-                fitter: fitter.as_ref(),
-                parts: fipt_core::fit::FitParts {
-                    baker: baker.as_ref(),
-                    bake_settings,
-                    refiner: refiner.as_ref(),
-                    refine_settings,
-                    extractor: extractor.as_ref(),
-                    trainer: &make_trainer,
-                    train_settings,
-                },
-            };
-            crate::fit::run(a, &cfg, components, parts, &checked)
-        });
+    // A panic (a bug) marks the folder failed as an error does, instead of leaving it
+    // "running".
+    let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        components
+            .fitter(method, &checked.method_settings, &a.preset)
+            .and_then(|fitter| {
+                let parts = crate::fit::Parts {
+                    fitter: fitter.as_ref(),
+                    parts: fipt_core::fit::FitParts {
+                        baker: baker.as_ref(),
+                        bake_settings,
+                        refiner: refiner.as_ref(),
+                        refine_settings,
+                        extractor: extractor.as_ref(),
+                        trainer: &make_trainer,
+                        train_settings,
+                    },
+                };
+                crate::fit::run(a, &cfg, components, parts, &checked)
+            })
+    }))
+    .unwrap_or_else(|p| Err(crate::RunError::from_panic(p)));
     match res {
         Err(e) if e.is_stopped() => {
             status("stopped", Some(e.to_string()))?;

@@ -37,6 +37,10 @@ pub enum RunError {
     /// A registered component's own error.
     #[error(transparent)]
     Component(Box<dyn std::error::Error + Send + Sync>),
+    /// A bug: code of the run panicked. The run's folder is marked failed with this message,
+    /// and what earlier stages stored is kept.
+    #[error("internal error (a bug in fipt; please report it with the command and `fipt info` of the scene): {0}")]
+    Internal(String),
     /// What the run was doing when `source` happened.
     #[error("{context}")]
     Context {
@@ -58,6 +62,14 @@ impl RunError {
     /// A registered component's own error (a plug-in crate's error type).
     pub fn component(e: impl std::error::Error + Send + Sync + 'static) -> Self {
         RunError::Component(Box::new(e))
+    }
+
+    /// The error of a caught panic's payload (its message where it is a string).
+    pub fn from_panic(payload: Box<dyn std::any::Any + Send>) -> Self {
+        let message = (payload.downcast_ref::<&str>().map(|s| s.to_string()))
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic without a message".into());
+        RunError::Internal(message)
     }
 
     /// Whether this is (or wraps) a shard's [`RunError::Stopped`].

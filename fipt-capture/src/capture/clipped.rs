@@ -69,7 +69,14 @@ pub fn restore_clipped_lights(
         assumed: CLIPPED_LIGHT_LEVELS,
         ..Default::default()
     };
-    let skip: Vec<Vec<bool>> = report.clipped.clone();
+    // Clipped or masked (a person, a screen): neither tells the lights' radiance.
+    let skip: Vec<Vec<bool>> = (report.clipped.iter().enumerate())
+        .map(|(v, c)| {
+            (c.iter().enumerate())
+                .map(|(i, &c)| c || super::flagged(&report.masked, v, i))
+                .collect()
+        })
+        .collect();
     let seen_clipped: Vec<f32> = clip_bounds(&hits, &lights, &report.clipped, &report.view_clip)
         .into_iter()
         .map(|b| b * report.clip_fraction)

@@ -310,7 +310,7 @@ pub(super) fn cell_sums<const N: usize>(
             let mut m: HashMap<Cell, ([f64; N], u32)> = HashMap::new();
             for (i, h) in hits.iter().enumerate() {
                 let Some(h) = h else { continue };
-                if skip.get(v).is_some_and(|c| c[i]) {
+                if super::flagged(skip, v, i) {
                     continue;
                 }
                 let Some(x) = value(v, img.data[i]) else {

@@ -66,7 +66,8 @@ pub struct CaptureReport {
     /// `mask_path`).
     #[serde(skip_serializing_if = "is_zero")]
     pub masked_pixels: usize,
-    /// Per training view, the pixels its mask leaves out (empty: no masks).
+    /// Per training view, the pixels its mask leaves out (empty: no view has a mask; one
+    /// view's list empty: that view has none). Read it with [`flagged`].
     #[serde(skip)]
     pub masked: Vec<Vec<bool>>,
     /// What the camera files are and the convention they state (as `fipt info` says).
@@ -100,6 +101,18 @@ fn is_zero(n: &usize) -> bool {
     *n == 0
 }
 
+/// Whether pixel `i` of view `v` is flagged in per-view pixel flags such as
+/// [`CaptureReport::masked`] or `clipped`, where a view with no flags holds an empty list
+/// (a mask on some views only) and a view past the list's end has none.
+#[inline]
+pub fn flagged(flags: &[Vec<bool>], v: usize, i: usize) -> bool {
+    flags
+        .get(v)
+        .and_then(|f| f.get(i))
+        .copied()
+        .unwrap_or(false)
+}
+
 /// Leaves the pixels the views' masks drop out of the material loss and the search (with
 /// the clipped ones), and counts them.
 pub fn leave_out_masked(r: &mut CaptureReport, masks: &[Option<Vec<bool>>]) {
@@ -121,13 +134,6 @@ pub fn leave_out_masked(r: &mut CaptureReport, masks: &[Option<Vec<bool>>]) {
             }
         }
     }
-    r.masked = masks
-        .iter()
-        .map(|m| {
-            m.as_ref()
-                .map_or(vec![], |k| k.iter().map(|k| !k).collect())
-        })
-        .collect();
     let per_view = masks.iter().flatten().map(Vec::len).next().unwrap_or(0);
     if r.masked_pixels > 0 {
         r.warnings.push(format!(
@@ -160,6 +166,7 @@ pub fn examine(
     let check = ldr_check(&per_view, files_ldr);
     let mut r = CaptureReport {
         warnings: ldr_warnings("train", &check),
+        masked: masked_pixels(masks),
         ..Default::default()
     };
     r.response = response;
@@ -187,7 +194,7 @@ pub fn examine(
                 let n = images[k].data.len();
                 (0..n)
                     .map(|i| {
-                        r.clipped.get(k).is_some_and(|c| c[i])
+                        flagged(&r.clipped, k, i)
                             || masks.get(k).and_then(|m| m.as_ref()).is_some_and(|m| !m[i])
                     })
                     .collect()
