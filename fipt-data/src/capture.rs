@@ -148,10 +148,24 @@ pub fn is_ldr_file(path: &Path) -> bool {
 
 /// Reads an 8/16-bit PNG or a JPEG and maps its values through `response` to linear ones.
 pub fn read_ldr(path: &Path, response: &Response) -> Result<Image> {
-    let img = image::open(path).map_err(|e| CoreError::ImageRead {
+    let bad = |message: String| CoreError::ImageRead {
         path: path.to_path_buf(),
-        message: format!("{e} (a truncated or damaged file? views may be EXR, PNG or JPEG)"),
-    })?;
+        message,
+    };
+    let bytes = std::fs::read(path).map_err(|e| bad(e.to_string()))?;
+    // The JPEG decoder fills what a cut-off file lacks with grey and reports no error.
+    if jpeg_is_cut_off(&bytes) {
+        return Err(bad("the JPEG ends inside its image data (no end-of-image marker after its last scan): a truncated copy. Copy the photo again, or leave the view out of the camera file".into()));
+    }
+    let img = image::ImageReader::new(std::io::Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|e| bad(e.to_string()))?
+        .decode()
+        .map_err(|e| {
+            bad(format!(
+                "{e} (a truncated or damaged file? views may be EXR, PNG or JPEG)"
+            ))
+        })?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     // A table of the linear value of every stored level: one curve evaluation per level.
     let to_image = |levels: usize, values: &mut dyn Iterator<Item = usize>| -> Image {
@@ -182,6 +196,19 @@ pub fn read_ldr(path: &Path, response: &Response) -> Result<Image> {
         let px = img.to_rgb8();
         to_image(256, &mut px.into_raw().into_iter().map(usize::from))
     })
+}
+
+/// Whether `bytes`, a JPEG file, stop before its image data ends: no end-of-image marker
+/// (FF D9) after the last start-of-scan (FF DA). Inside a scan's coded data FF is always
+/// followed by 00 or a restart marker, so neither pair occurs there by chance. A file with
+/// no scan was cut off within its headers. Not a JPEG (no FF D8 at the start): false.
+pub fn jpeg_is_cut_off(bytes: &[u8]) -> bool {
+    if !bytes.starts_with(&[0xFF, 0xD8]) {
+        return false;
+    }
+    let at = |marker: u8| bytes.windows(2).rposition(|w| w == [0xFF, marker]);
+    // No scan at all: cut off within its headers.
+    at(0xDA).is_none_or(|scan| at(0xD9).is_none_or(|end| end < scan))
 }
 
 /// Size of a PNG or JPEG from its header.
@@ -384,6 +411,45 @@ pub fn clipped_mask_at(img: &Image, at: f32) -> Vec<bool> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A photo cut off anywhere inside its image data is refused with the file and the fix;
+    /// the whole file, or one with bytes after its end (a phone's trailer), reads.
+    #[test]
+    fn a_cut_off_jpeg_is_refused_and_a_whole_one_reads() {
+        let tmp = crate::test_temp::Temp::new();
+        let img = image::RgbImage::from_fn(48, 32, |x, y| {
+            image::Rgb([(x * 5) as u8, (y * 7) as u8, 90])
+        });
+        let mut whole = Vec::new();
+        image::DynamicImage::ImageRgb8(img)
+            .write_to(
+                &mut std::io::Cursor::new(&mut whole),
+                image::ImageFormat::Jpeg,
+            )
+            .unwrap();
+        let p = tmp.0.join("view.jpg");
+        let mut trailer = whole.clone();
+        trailer.extend_from_slice(b"phone trailer");
+        for ok in [&whole, &trailer] {
+            assert!(!jpeg_is_cut_off(ok));
+            std::fs::write(&p, ok).unwrap();
+            let read = read_ldr(&p, &Response::Srgb).unwrap();
+            assert_eq!((read.width, read.height), (48, 32));
+        }
+        for keep in [whole.len() / 2, whole.len() - 2, whole.len() - 1] {
+            let cut = &whole[..keep];
+            assert!(jpeg_is_cut_off(cut), "cut at {keep} of {}", whole.len());
+            std::fs::write(&p, cut).unwrap();
+            let e = read_ldr(&p, &Response::Srgb).unwrap_err().to_string();
+            assert!(
+                e.contains("view.jpg")
+                    && e.contains("truncated")
+                    && e.contains("Copy the photo again"),
+                "{e}"
+            );
+        }
+        assert!(!jpeg_is_cut_off(b"\x89PNG not a jpeg"));
+    }
 
     #[test]
     fn responses_round_trip() {
