@@ -518,10 +518,14 @@ fn pinning(
     let d = cfg.metallic.iter().position(|&m| m == 0.0);
     let entry = |name: String, c: &RegionChoice| {
         let best = d.and_then(|d| c.best_cost.get(d).copied());
-        let depth = best.map_or(f64::NAN, |b| 100.0 * (c.default_cost / b - 1.0));
+        let depth = best.map(|b| 100.0 * (c.default_cost / b - 1.0));
+        let depth = match depth.filter(|d| d.is_finite()) {
+            Some(d) => format!("{d:.1} %"),
+            None => "no pixel profiled".into(),
+        };
         let sigma = c.roughness.map_or("–".to_string(), |s| format!("{s:.2}"));
         let metal = if c.metallic > Some(0.5) { " metal" } else { "" };
-        format!("{name} {sigma}{metal} ({depth:.1} %)")
+        format!("{name} {sigma}{metal} ({depth})")
     };
     let mut parts = vec![];
     for (label, c) in labels.iter().zip(choices) {

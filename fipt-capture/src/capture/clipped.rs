@@ -294,6 +294,13 @@ fn clip_bounds(
 
 /// What `report.json` and the log say of the clipped lights.
 fn describe(cl: &ClippedLights, lights: usize) -> String {
+    if lights == 0 {
+        return format!(
+            "no light is seen clipped (no triangle clips in {:.0} % of its pixels): the {} clipped pixels (highlights, bright surfaces) are left out of the material loss",
+            100.0 * CLIPPED_TRIANGLE_SHARE,
+            cl.left_out_pixels
+        );
+    }
     let said: Vec<String> = cl
         .estimates
         .iter()
