@@ -8,7 +8,7 @@ use crate::error::{Context, Result};
 use fipt_core::dataset::{Dataset, Layout};
 use fipt_core::image::BadPixelPolicy;
 use fipt_core::view_stats::{hdr_stats, HdrStats};
-use fipt_geom::{view_coverage, BuildQuality, Bvh, Mesh};
+use fipt_geom::{BuildQuality, Bvh, Mesh};
 use glam::Vec3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -94,22 +94,17 @@ pub fn inspect(
     for s in &ds.splits {
         let hdr =
             hdr_stats(&ds, s, policy).with_context(|| format!("reading the {} images", s.name))?;
-        let cover: Vec<f32> = s
-            .views
-            .iter()
-            .map(|v| view_coverage(&bvh, &v.camera, 4))
-            .collect();
+        let placed = crate::placement::placement(
+            &bvh,
+            (mesh.bounds().max - mesh.bounds().min).length(),
+            &s.views,
+        );
+        let cover = &placed.coverage;
         let (coverage_min, coverage_min_view) = cover.iter().enumerate().fold(
             (1.0f32, 0usize),
             |acc, (k, &c)| if c < acc.0 { (c, k) } else { acc },
         );
-        for (k, &c) in cover.iter().enumerate() {
-            if c == 0.0 {
-                warnings.push(format!("{} view {k}: no pixel-centre ray hits the mesh (wrong pose convention, or a camera outside the scene?)", s.name));
-            } else if c < 0.5 {
-                warnings.push(format!("{} view {k}: only {:.0} % of pixel-centre rays hit the mesh (open scene? rays that escape see no light)", s.name, 100.0 * c));
-            }
-        }
+        warnings.extend(crate::placement::warnings(&s.name, &placed));
         warnings.extend(image_warnings(&s.name, &hdr));
         splits.push(SplitSummary {
             name: s.name.clone(),
@@ -238,12 +233,7 @@ fn image_warnings(split: &str, stats: &HdrStats) -> Vec<String> {
             stats.bad, stats.bad_views
         ));
     }
-    if !stats.black_views.is_empty() {
-        w.push(format!(
-            "{split}: black views {:?} (every pixel 0): they constrain nothing but emitters' absence",
-            stats.black_views
-        ));
-    }
+    w.extend(black_views_warning(split, &stats.black_views));
     w.extend(ldr_warnings(split, &stats.ldr));
     if !stats.saturated_views.is_empty() {
         w.push(format!(
@@ -252,4 +242,11 @@ fn image_warnings(split: &str, stats: &HdrStats) -> Vec<String> {
         ));
     }
     w
+}
+
+/// The warning on a split's views whose every pixel is 0 (none when there are none).
+pub fn black_views_warning(split: &str, black: &[usize]) -> Option<String> {
+    (!black.is_empty()).then(|| {
+        format!("{split}: black views {black:?} (every pixel 0): they constrain nothing but emitters' absence (a lens cap, or an exposure far too short?)")
+    })
 }

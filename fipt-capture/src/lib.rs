@@ -19,6 +19,7 @@ mod degrade_mesh;
 pub mod inspect;
 pub mod light_ends;
 pub mod light_scale;
+pub mod placement;
 pub mod scene;
 
 use fipt_run::{bail, err, error, note, observe};

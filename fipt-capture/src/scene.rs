@@ -167,6 +167,17 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
     let convention = crate::capture::check_convention(&geometry, &ds, &images)?;
     let masks = load_masks(&ds)?;
     let mut capture = crate::capture::examine(&geometry, &ds, &mut images, cfg.align_views, &masks);
+    // What `fipt info` says of the layout, the cameras' placement and black views, said here too.
+    let mut first = ds.warnings.clone();
+    let b = geometry.mesh.bounds();
+    let placed = crate::placement::placement(&geometry.bvh, (b.max - b.min).length(), &split.views);
+    first.extend(crate::placement::warnings("train", &placed));
+    let black: Vec<usize> = (images.iter().enumerate())
+        .filter(|(_, img)| img.data.iter().all(|p| *p == Vec3::ZERO))
+        .map(|(k, _)| k)
+        .collect();
+    first.extend(crate::inspect::black_views_warning("train", &black));
+    capture.warnings.splice(0..0, first);
     capture.exposures_known = ds.known_exposures().is_some();
     capture.exif = crate::capture::ExifReport::of(&ds, capture.exposure_fit.as_ref());
     capture.warnings.extend(capture.exif.warning.clone());

@@ -352,3 +352,51 @@ fn the_ceiling_of_a_scan_is_exact_on_the_same_surface_and_lower_on_a_warped_one(
     ]);
     assert!(!ok, "a scene folder is not written into: {err}");
 }
+
+/// A mesh in millimetres with poses in metres, and a black photo: `fipt info` names both, and
+/// `fipt run` says the same in its report (it said neither before 2026-12-07).
+#[test]
+fn a_mesh_in_other_units_and_a_black_view_are_named_by_info_and_run() {
+    let dir = tmp("units");
+    let src = dir.join("scene");
+    synth("cornell", src.to_str().unwrap(), [6, 1, 32, 24, 4], &[]);
+    let copy = dir.join("mm");
+    degrade(&src, &copy, &["--layout", "real"]);
+    let obj = copy.join("scene.obj");
+    let scaled: Vec<String> = std::fs::read_to_string(&obj)
+        .unwrap()
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(xyz) => {
+                let v: Vec<f64> = xyz.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                format!("v {} {} {}", v[0] * 1000.0, v[1] * 1000.0, v[2] * 1000.0)
+            }
+            None => l.to_string(),
+        })
+        .collect();
+    std::fs::write(&obj, scaled.join("\n")).unwrap();
+    let black = copy.join("Image/001_0001.exr");
+    let size = fipt_core::image::Image::read_exr(&black).unwrap();
+    fipt_core::image::Image::new(size.width, size.height)
+        .write_exr(&black, fipt_core::image::ExrPrecision::F16)
+        .unwrap();
+    let (ok, info, err) = fipt(&["info", copy.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let units = "poses and mesh in different units";
+    assert!(
+        info.contains(units) && info.contains("black views [1]"),
+        "{info}"
+    );
+    let (ok, info, _) = fipt(&["info", src.to_str().unwrap()]);
+    assert!(ok && !info.contains(units), "{info}");
+    let cfg = dir.join("run.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let out = dir.join("out");
+    run(&copy, &out, &cfg);
+    let warnings = json(&out.join("report.json"))["warnings"].to_string();
+    assert!(
+        warnings.contains(units) && warnings.contains("black views [1]"),
+        "{warnings}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
