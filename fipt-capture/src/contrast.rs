@@ -517,6 +517,8 @@ pub fn fit_and_apply(
             spread,
             spread.powf(gamma),
         ));
+    } else if let Some(w) = off_the_grid(&fit.curve, depth) {
+        r.warnings.push(w);
     } else {
         crate::note!(
             "{said}: left as decoded (applied at {} < γ ≤ {MAX_APPLIED} with {:.1} % or more)",
@@ -525,6 +527,22 @@ pub fn fit_and_apply(
         );
     }
     r.contrast = Some(fit);
+}
+
+/// The warning for a curve whose lowest point is an end of the grid, `depth` ([`minimum`])
+/// at least [`MIN_DEPTH`]: the light transport asks for a power beyond the grid, so the
+/// views' tone curve and exposures are not identified and nothing is corrected.
+pub fn off_the_grid(curve: &[ContrastPoint], depth: f64) -> Option<String> {
+    let k = lowest(curve);
+    let end = (k == 0 || k + 1 == curve.len()) && curve.len() > 1;
+    (end && depth >= MIN_DEPTH).then(|| {
+        let (side, g) = if k == 0 { ("less", "≤") } else { ("more", "≥") };
+        format!(
+            "train: the camera's tone curve is NOT IDENTIFIED: the light transport asks for {side} contrast than the grid reaches (γ {g} {:.2} of the views' decoding, still falling at its end; {:.1} % more spread at γ = 1), so the views' response or their exposures are far from what was fitted, and kd and the lights may be off by a power (the gains' spread too). Give the exposures (EXIF, or capture.json `exposures`) or the camera's response (capture.json `response`)",
+            curve[k].gamma,
+            100.0 * depth
+        )
+    })
 }
 
 /// The curve's lowest point refined by a parabola through it and its neighbours, and the
@@ -643,6 +661,38 @@ mod tests {
         // read 1.35, 2.3 % deep), and the grid's end is no minimum.
         assert!(!applies(1.35, 0.023) && !applies(1.45, 0.05));
         assert!(!applies(0.5, 0.2));
+    }
+
+    /// A curve still falling at either end of the grid is named, deep enough; one with its
+    /// lowest point inside, or too shallow, is not.
+    #[test]
+    fn a_curve_off_the_grid_is_named() {
+        let curve = |f: &dyn Fn(f32) -> f64| -> Vec<ContrastPoint> {
+            GAMMAS
+                .iter()
+                .map(|&gamma| ContrastPoint {
+                    gamma,
+                    variance: f(gamma),
+                })
+                .collect()
+        };
+        for (c, says) in [
+            (curve(&|g| 0.03 - 0.002 * g as f64), Some("more contrast")),
+            (curve(&|g| 0.03 + 0.002 * g as f64), Some("less contrast")),
+            (curve(&|g| 0.03 + ((g - 1.2) as f64).powi(2)), None),
+            (curve(&|g| 0.03 - 0.00001 * g as f64), None),
+        ] {
+            let (_, depth) = minimum(&c);
+            let w = off_the_grid(&c, depth);
+            match says {
+                Some(s) => assert!(
+                    w.as_ref()
+                        .is_some_and(|w| w.contains(s) && w.contains("NOT IDENTIFIED")),
+                    "{w:?}"
+                ),
+                None => assert!(w.is_none(), "{w:?}"),
+            }
+        }
     }
 
     fn ldr_report(applied: bool) -> crate::capture::CaptureReport {

@@ -61,5 +61,9 @@ fn a_phone_s_curve_is_found_in_the_light_and_srgb_is_left_alone() {
         !srgb.applied && (0.9..1.15).contains(&srgb.gamma),
         "{srgb:?}"
     );
+    // Neither is called unidentified.
+    for c in [&s, &srgb] {
+        assert!(fipt_capture::contrast::off_the_grid(&c.curve, c.depth).is_none());
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
