@@ -102,8 +102,9 @@ pub fn run(a: Args, components: &fipt_pipeline::Components) -> Result<()> {
             }
         }
         println!(
-            "wrote {}",
-            render_dir(&a.out).join("metrics.json").display()
+            "wrote {} (`fipt report {}` shows these scores in report.html)",
+            render_dir(&a.out).join("metrics.json").display(),
+            a.out.display()
         );
         return Ok(());
     }

@@ -64,6 +64,15 @@ fn colmap_and_nerfstudio_copies_run_as_the_real_layouts_copy() {
         scored_at_the_source(&src, &out_real),
         scored_at_the_source(&src, &out_ns),
     );
+    // The report shows the scores against the source (a copy has no truth of its own).
+    let (ok, _, err) = fipt(&["report", out_real.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let html = std::fs::read_to_string(out_real.join("report.html")).unwrap();
+    assert!(
+        html.contains("Scored against another scene's ground truth")
+            && !html.contains("No ground truth"),
+        "{html}"
+    );
     for key in ["kd_psnr", "render_psnr"] {
         let (a, b) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
         // The lens copy is resampled from the source's views (a bilinear blur at 48×36), and

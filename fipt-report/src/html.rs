@@ -110,12 +110,50 @@ fn warnings(h: &mut String, report: &Value, views: &[ViewPictures]) {
     h.push_str("</ul></div>\n");
 }
 
-fn metrics_table(h: &mut String, metrics: &Value) {
+/// The scores of `metrics.json` (the scene's own ground truth), and those of
+/// `eval/cameras-from/metrics.json` (`fipt eval SRC OUT --cameras-from SRC`: a copy's run
+/// scored against its source's truth), whichever the run has.
+fn metrics_tables(h: &mut String, metrics: &Value, cameras_from: &Value) {
+    if metrics.is_object() {
+        metrics_table(h, metrics, "Metrics");
+    }
+    if cameras_from.is_object() {
+        h.push_str("<h2>Scored against another scene's ground truth</h2>\n");
+        for (name, m) in cameras_from.as_object().into_iter().flatten() {
+            let c = &m["cameras_from"];
+            let scales = if c["scales_fitted"].as_bool() == Some(true) {
+                format!(
+                    "; after one fitted kd scale (×{}) and one radiance scale (×{}): {}",
+                    num(&c["scales"]["kd"], 3),
+                    num(&c["scales"]["radiance"], 3),
+                    esc(c["why"].as_str().unwrap_or(""))
+                )
+            } else {
+                String::new()
+            };
+            let _ = writeln!(
+                h,
+                "<p><code>fipt eval --cameras-from</code>: the recovered scene rendered at the {} cameras of <code>{}</code> and scored against its truth{scales}.</p>",
+                esc(name),
+                esc(c["truth"].as_str().unwrap_or("?"))
+            );
+        }
+        metrics_table(h, cameras_from, "");
+    }
+    if !metrics.is_object() && !cameras_from.is_object() {
+        h.push_str("<p>No ground truth: no metrics (for a copy of a scene that has one, <code>fipt eval SRC OUT --cameras-from SRC</code> scores it, and <code>fipt report OUT</code> then shows the scores here).</p>\n");
+    }
+}
+
+/// The table of `metrics`' split means under the heading `title` (none: empty).
+fn metrics_table(h: &mut String, metrics: &Value, title: &str) {
     let Some(splits) = metrics.as_object() else {
-        h.push_str("<p>No ground truth: no metrics.</p>\n");
         return;
     };
-    h.push_str("<h2>Metrics</h2>\n<table><tr><th>split</th><th>kd dB</th><th>σ dB</th><th>emission IoU</th><th>re-render dB</th></tr>\n");
+    if !title.is_empty() {
+        let _ = writeln!(h, "<h2>{}</h2>", esc(title));
+    }
+    h.push_str("<table><tr><th>split</th><th>kd dB</th><th>σ dB</th><th>emission IoU</th><th>re-render dB</th></tr>\n");
     for (name, m) in splits {
         let m = &m["mean"];
         let _ = writeln!(
@@ -302,6 +340,7 @@ pub fn write_html(
 ) -> Result<PathBuf> {
     let report = read(&run.join("report.json"));
     let metrics = read(&run.join("metrics.json"));
+    let cameras_from = read(&run.join("eval/cameras-from/metrics.json"));
     let mut h = String::new();
     let _ = write!(
         h,
@@ -309,7 +348,7 @@ pub fn write_html(
     );
     header(&mut h, &report);
     warnings(&mut h, &report, views);
-    metrics_table(&mut h, &metrics);
+    metrics_tables(&mut h, &metrics, &cameras_from);
     h.push_str("<h2>Views</h2>\n<p>Drag a slider to compare the re-render with the input; the error map shows |Δ| of the displayed values ×4 (black → red → yellow → white).</p>\n");
     if report["capture"]["ldr"].as_bool() == Some(true) {
         h.push_str("<p>The views are LDR photos: each re-render is shown as the camera would have taken it, at the view's exposure (the gain the run divided a training view by, where it did; else the best single gain), through the camera's response and clipped at its clip level. Blue in the error map: pixels the photo clips, not scored.</p>\n");
