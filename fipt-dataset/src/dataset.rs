@@ -194,9 +194,28 @@ impl Dataset {
             .map(|n| root.join(n))
             .find(|p| p.is_file())
             .ok_or_else(|| {
+                let others: Vec<String> = std::fs::read_dir(root)
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|e| e.ok()?.file_name().into_string().ok())
+                    .filter(|n| {
+                        let n = n.to_lowercase();
+                        [".obj", ".ply", ".glb", ".gltf"]
+                            .iter()
+                            .any(|e| n.ends_with(e))
+                    })
+                    .collect();
+                let hint = if others.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; found {}: rename the scene's mesh (or link it) to one of those names",
+                        others.join(", ")
+                    )
+                };
                 CoreError::invalid(
                     root,
-                    format!("no mesh found: expected one of {MESH_NAMES:?}"),
+                    format!("no mesh found: expected one of {MESH_NAMES:?}{hint}"),
                 )
             })?;
         let mut warnings = Vec::new();
@@ -230,7 +249,8 @@ impl Dataset {
                  a COLMAP model (sparse/0/cameras.bin or .txt with images/) or a nerfstudio / instant-ngp transforms.json",
             ));
         };
-        let (width, height) = check_image_sizes(&splits)?;
+        let (width, height) =
+            check_image_sizes(&splits, matches!(layout, Layout::Synthetic | Layout::Real))?;
         let stored_size = (width, height);
         let (splits, width, height) =
             crate::capture_layout::downscaled(splits, width, height, opts.downscale, root)?;
@@ -491,7 +511,22 @@ pub fn exr_size(path: &Path) -> Result<(usize, usize)> {
     Ok((h.layer_size.width(), h.layer_size.height()))
 }
 
-fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
+/// A file beside `path` whose name differs from its name in letter case only.
+fn same_name_but_case(path: &Path) -> Option<PathBuf> {
+    let name = path.file_name()?.to_str()?.to_lowercase();
+    std::fs::read_dir(path.parent()?)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.to_lowercase() == name)
+        })
+}
+
+/// The views' common size; an error naming the missing images (and how each kind of layout
+/// names them, `reference`: FIPT's two), or two views of different sizes.
+fn check_image_sizes(splits: &[Split], reference: bool) -> Result<(usize, usize)> {
     let mut missing = Vec::new();
     for s in splits {
         for v in &s.views {
@@ -506,14 +541,24 @@ fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
             .take(5)
             .map(|p| p.display().to_string())
             .collect();
+        let how = match same_name_but_case(&missing[0]) {
+            Some(f) => format!(
+                "{} is there: file names are case-sensitive, so rename the photos or the names in the camera file",
+                f.display()
+            ),
+            None if reference => format!(
+                "in FIPT's layouts `Image/NNN_0001` may be any of {}; put the photographs in place, or remove their views from the cameras file",
+                IMAGE_EXTENSIONS.map(|e| format!(".{e}")).join(", ")
+            ),
+            None => "the camera file names them; put the photographs in place, or remove their views from the camera file".into(),
+        };
         return Err(CoreError::invalid(
             &missing[0],
             format!(
-                "{} input image(s) missing: {}{} (in the reference layouts `Image/NNN_0001` may be any of {}; put the photographs in place, or remove their views from the cameras file)",
+                "{} input image(s) missing: {}{} ({how})",
                 missing.len(),
                 list.join(", "),
                 if missing.len() > 5 { ", …" } else { "" },
-                IMAGE_EXTENSIONS.map(|e| format!(".{e}")).join(", ")
             ),
         ));
     }
@@ -534,8 +579,13 @@ fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
                     expected_w: w,
                     expected_h: h,
                     hint: format!(
-                        "{} is {w}x{h}; all views must have one size",
-                        first.display()
+                        "{} is {w}x{h}{}; all views must have one size: resize this photo to {w}x{h}, or leave its view out of the camera file",
+                        first.display(),
+                        if (v.camera.width, v.camera.height) == (w, h) {
+                            ", as the camera model declares for this view".to_string()
+                        } else {
+                            String::new()
+                        }
                     ),
                 });
             }
@@ -546,7 +596,10 @@ fn check_image_sizes(splits: &[Split]) -> Result<(usize, usize)> {
                     got_h: vh,
                     expected_w: v.camera.width,
                     expected_h: v.camera.height,
-                    hint: format!("the size declared in {}", s.cameras_file.display()),
+                    hint: format!(
+                        "the size declared in {}: export the camera model for the photos as they are",
+                        s.cameras_file.display()
+                    ),
                 });
             }
         }

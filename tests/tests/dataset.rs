@@ -115,12 +115,23 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
     let d = fresh("missing");
     std::fs::remove_file(d.join("train/Image/002_0001.exr")).unwrap();
     expect_err(&d, &["002_0001.exr", "missing"]);
+    // The same file with its name in other letter case: named as such.
+    let d = fresh("case");
+    std::fs::rename(
+        d.join("train/Image/002_0001.exr"),
+        d.join("train/Image/002_0001.EXR"),
+    )
+    .unwrap();
+    expect_err(
+        &d,
+        &["002_0001.exr", "002_0001.EXR is there", "case-sensitive"],
+    );
     // Size mismatch between views.
     let d = fresh("size");
     Image::new(8, 8)
         .write_exr(&d.join("train/Image/001_0001.exr"), ExrPrecision::F32)
         .unwrap();
-    expect_err(&d, &["001_0001.exr", "8x8", "16x12"]);
+    expect_err(&d, &["001_0001.exr", "8x8", "16x12", "resize this photo"]);
     // NaN / Inf / negative pixels: rejected by default, clamped on request.
     let d = fresh("nan");
     let p = d.join("train/Image/000_0001.exr");
@@ -152,6 +163,9 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
     let d = fresh("nomesh");
     std::fs::remove_file(d.join("scene.obj")).unwrap();
     expect_err(&d, &["no mesh found", "scene.obj"]);
+    // A mesh under another name is named.
+    std::fs::write(d.join("room.OBJ"), "v 0 0 0\n").unwrap();
+    expect_err(&d, &["no mesh found", "found room.OBJ", "rename"]);
     // Unknown keys in the material table.
     let d = fresh("keys");
     let p = d.join("scene_gt.json");
@@ -182,7 +196,7 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
         ds.warnings
     );
     for name in [
-        "missing", "size", "nan", "shear", "flip", "nomesh", "keys", "extra",
+        "missing", "case", "size", "nan", "shear", "flip", "nomesh", "keys", "extra",
     ] {
         std::fs::remove_dir_all(base.with_file_name(format!(
             "{}-{name}",
