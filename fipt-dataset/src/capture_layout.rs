@@ -70,7 +70,16 @@ pub fn read_capture_layout(root: &Path) -> Result<Option<(Layout, CaptureCameras
                 ),
             ));
         }
-        return Ok(Some((Layout::Nerfstudio, crate::nerfstudio::read(&tf)?)));
+        let mut cams = crate::nerfstudio::read(&tf)?;
+        // `ns-process-data` leaves the COLMAP model it solved beside its transforms.json.
+        if let Some(model) = crate::colmap::find_model(root) {
+            cams.notes.push(format!(
+                "{} and a COLMAP model ({}) are both here: the cameras are read from transforms.json; move it away to read the COLMAP model",
+                tf.display(),
+                model.display()
+            ));
+        }
+        return Ok(Some((Layout::Nerfstudio, cams)));
     }
     if let Some(model) = crate::colmap::find_model(root) {
         return Ok(Some((
