@@ -248,6 +248,33 @@ pub fn convention_unstated(description: Option<&str>) -> bool {
 
 /// The splits as a run sees them after a downscale by `factor`: cameras shrunk, the size
 /// divided (an error when a view would be under 4 pixels on a side).
+/// Views smaller than this many pixels after `--downscale` are named: few pixels a surface.
+pub const SMALL_VIEW_PIXELS: usize = 128 * 96;
+
+/// What a user should know of views read at 1/`factor` of their `stored` size, `read` (their
+/// size after it): the rows and columns a factor that does not divide the size leaves out, and
+/// views so small that surfaces get few pixels.
+pub fn downscale_notes(stored: (usize, usize), read: (usize, usize), factor: usize) -> Vec<String> {
+    let mut notes = vec![];
+    if factor <= 1 {
+        return notes;
+    }
+    let (cut_w, cut_h) = (stored.0 % factor, stored.1 % factor);
+    if cut_w > 0 || cut_h > 0 {
+        notes.push(format!(
+            "--downscale {factor}: the {}x{} photos are not a multiple of {factor}: their last {cut_w} column(s) and {cut_h} row(s) are left out (the views are read at {}x{})",
+            stored.0, stored.1, read.0, read.1
+        ));
+    }
+    if read.0 * read.1 < SMALL_VIEW_PIXELS {
+        notes.push(format!(
+            "--downscale {factor} leaves views of {}x{} pixels: few pixels a surface for its material, and a small light may vanish; a smaller factor keeps more",
+            read.0, read.1
+        ));
+    }
+    notes
+}
+
 pub fn downscaled(
     splits: Vec<Split>,
     width: usize,
@@ -275,4 +302,23 @@ pub fn downscaled(
         })
         .collect();
     Ok((splits, w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_downscale_names_what_it_cuts_and_views_left_small() {
+        assert!(downscale_notes((640, 480), (640, 480), 1).is_empty());
+        assert!(downscale_notes((4032, 3024), (504, 378), 8).is_empty());
+        let n = downscale_notes((160, 120), (22, 17), 7);
+        assert_eq!(n.len(), 2, "{n:?}");
+        assert!(
+            n[0].contains("last 6 column(s) and 1 row(s)") && n[1].contains("22x17"),
+            "{n:?}"
+        );
+        let n = downscale_notes((160, 120), (20, 15), 8);
+        assert!(n.len() == 1 && n[0].contains("20x15"), "{n:?}");
+    }
 }

@@ -254,6 +254,11 @@ impl Dataset {
         let stored_size = (width, height);
         let (splits, width, height) =
             crate::capture_layout::downscaled(splits, width, height, opts.downscale, root)?;
+        warnings.extend(crate::capture_layout::downscale_notes(
+            stored_size,
+            (width, height),
+            opts.downscale,
+        ));
         let capture = crate::capture::CaptureInfo::read(root)?;
         if let Some(e) = &capture.exposures {
             let n = splits[0].views.len();
