@@ -177,6 +177,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
         .map(|(k, _)| k)
         .collect();
     first.extend(crate::inspect::black_views_warning("train", &black));
+    first.extend(convention.as_ref().and_then(|c| c.unclear()));
     capture.warnings.splice(0..0, first);
     capture.exposures_known = ds.known_exposures().is_some();
     capture.exif = crate::capture::ExifReport::of(&ds, capture.exposure_fit.as_ref());

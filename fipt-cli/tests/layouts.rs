@@ -319,3 +319,34 @@ fn a_phone_tone_curve_is_fitted_and_an_srgb_camera_stays_srgb() {
         "RMS {rms} (sRGB's {srgb}): {s}"
     );
 }
+
+/// A mesh turned 30° out of the poses' frame (a scan not aligned to the structure-from-motion
+/// model; a box turned 90° would fit again): no reading of the poses fits its edges, and `fipt info` says so; the aligned copy
+/// is not called unclear.
+#[test]
+fn a_mesh_in_another_frame_than_the_poses_is_named() {
+    let dir = tmp("layouts-frame");
+    let src = dir.join("scene");
+    synth("cornell", src.to_str().unwrap(), [8, 1, 64, 48, 16], &[]);
+    let ns = dir.join("ns");
+    degrade(&src, &ns, &["--layout", "nerfstudio"]);
+    let unclear = "no reading of the poses lines the views' edges up";
+    let (ok, info, err) = fipt(&["info", ns.to_str().unwrap()]);
+    assert!(ok && !info.contains(unclear), "{info}{err}");
+    let obj = ns.join("scene.obj");
+    let turned: Vec<String> = std::fs::read_to_string(&obj)
+        .unwrap()
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(xyz) => {
+                let v: Vec<f64> = xyz.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+                format!("v {} {} {}", c * v[0] - s * v[2], v[1], s * v[0] + c * v[2])
+            }
+            None => l.to_string(),
+        })
+        .collect();
+    std::fs::write(&obj, turned.join("\n")).unwrap();
+    let (ok, info, err) = fipt(&["info", ns.to_str().unwrap()]);
+    assert!(ok && info.contains(unclear), "{info}{err}");
+}
