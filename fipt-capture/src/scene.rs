@@ -204,6 +204,17 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
     }
     crate::capture::restore_clipped_lights(&geometry, &split.views, &mut images, &mut capture);
     crate::capture::leave_out_masked(&mut capture, &masks);
+    // A black view (a lens cap, an exposure far too short) would pull every surface it sees
+    // towards black: it is left out of the materials' fit.
+    if !black.is_empty() {
+        capture.left_out.resize(images.len(), vec![]);
+        for &k in &black {
+            capture.left_out[k] = vec![true; images[k].data.len()];
+        }
+        capture.warnings.push(format!(
+            "train: black views {black:?} are left out of the materials' fit"
+        ));
+    }
     for w in &capture.warnings {
         crate::note!("warning: {w}");
     }

@@ -354,7 +354,8 @@ fn the_ceiling_of_a_scan_is_exact_on_the_same_surface_and_lower_on_a_warped_one(
 }
 
 /// A mesh in millimetres with poses in metres, and a black photo: `fipt info` names both, and
-/// `fipt run` says the same in its report (it said neither before 2026-12-07).
+/// `fipt run` says the same in its report (it said neither before 2026-12-07) and leaves the
+/// black view out of the materials' fit.
 #[test]
 fn a_mesh_in_other_units_and_a_black_view_are_named_by_info_and_run() {
     let dir = tmp("units");
@@ -395,7 +396,9 @@ fn a_mesh_in_other_units_and_a_black_view_are_named_by_info_and_run() {
     run(&copy, &out, &cfg);
     let warnings = json(&out.join("report.json"))["warnings"].to_string();
     assert!(
-        warnings.contains(units) && warnings.contains("black views [1]"),
+        warnings.contains(units)
+            && warnings.contains("black views [1]")
+            && warnings.contains("black views [1] are left out of the materials' fit"),
         "{warnings}"
     );
     let _ = std::fs::remove_dir_all(&dir);
