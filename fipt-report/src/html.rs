@@ -376,7 +376,13 @@ pub fn write_html(
     for split in ["train", "val"] {
         let s = format!("report/sheet_{split}.png");
         if run.join(&s).is_file() {
-            let _ = writeln!(h, "<h2>Contact sheet ({split})</h2>\n<p>Per view: input | re-render | error | kd | roughness σ | metallic | emission; the row under it: the truth of the maps. Fitted to the window: <a href=\"{s}\">full size</a>.</p><a href=\"{s}\"><img class=\"sheet\" src=\"{s}\" alt=\"contact sheet {split}\"></a>");
+            // The sheet has a truth row where the scene has ground truth (as metrics.json).
+            let truth = if metrics.is_object() {
+                "; the row under it: the truth of the maps"
+            } else {
+                ""
+            };
+            let _ = writeln!(h, "<h2>Contact sheet ({split})</h2>\n<p>Per view: input | re-render | error | kd | roughness σ | metallic | emission{truth}. Fitted to the window: <a href=\"{s}\">full size</a>.</p><a href=\"{s}\"><img class=\"sheet\" src=\"{s}\" alt=\"contact sheet {split}\"></a>");
         }
     }
     h.push_str("</body></html>\n");
