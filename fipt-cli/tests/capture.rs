@@ -1,7 +1,7 @@
 //! Captures, not renders: `fipt degrade` copies of generated scenes, and what `fipt info` and
 //! `fipt run` make of them (LDR evidence, exposures, clipped lights, the no-light warning).
 mod common;
-use common::{degrade, fipt, json, run, synth, tmp, TINY};
+use common::{degrade, fipt, json, move_obj_vertices, run, synth, tmp, TINY};
 use serde_json::Value;
 use std::path::Path;
 
@@ -363,19 +363,7 @@ fn a_mesh_in_other_units_and_a_black_view_are_named_by_info_and_run() {
     synth("cornell", src.to_str().unwrap(), [6, 1, 32, 24, 4], &[]);
     let copy = dir.join("mm");
     degrade(&src, &copy, &["--layout", "real"]);
-    let obj = copy.join("scene.obj");
-    let scaled: Vec<String> = std::fs::read_to_string(&obj)
-        .unwrap()
-        .lines()
-        .map(|l| match l.strip_prefix("v ") {
-            Some(xyz) => {
-                let v: Vec<f64> = xyz.split_whitespace().map(|x| x.parse().unwrap()).collect();
-                format!("v {} {} {}", v[0] * 1000.0, v[1] * 1000.0, v[2] * 1000.0)
-            }
-            None => l.to_string(),
-        })
-        .collect();
-    std::fs::write(&obj, scaled.join("\n")).unwrap();
+    move_obj_vertices(&copy.join("scene.obj"), |v| v.map(|x| 1000.0 * x));
     let black = copy.join("Image/001_0001.exr");
     let size = fipt_core::image::Image::read_exr(&black).unwrap();
     fipt_core::image::Image::new(size.width, size.height)

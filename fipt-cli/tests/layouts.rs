@@ -3,7 +3,7 @@
 //! NeRF-convention `transforms.json` fed as FIPT's is named by `fipt info` and refused by
 //! `fipt run`.
 mod common;
-use common::{degrade, fipt, json, run, synth, tmp, TINY};
+use common::{degrade, fipt, json, move_obj_vertices, run, synth, tmp, TINY};
 use serde_json::Value;
 use std::path::Path;
 
@@ -321,8 +321,8 @@ fn a_phone_tone_curve_is_fitted_and_an_srgb_camera_stays_srgb() {
 }
 
 /// A mesh turned 30° out of the poses' frame (a scan not aligned to the structure-from-motion
-/// model; a box turned 90° would fit again): no reading of the poses fits its edges, and `fipt info` says so; the aligned copy
-/// is not called unclear.
+/// model; a box turned 90° would fit again): no reading of the poses fits its edges, and
+/// `fipt info` says so; the aligned copy is not called unclear.
 #[test]
 fn a_mesh_in_another_frame_than_the_poses_is_named() {
     let dir = tmp("layouts-frame");
@@ -333,20 +333,10 @@ fn a_mesh_in_another_frame_than_the_poses_is_named() {
     let unclear = "no reading of the poses lines the views' edges up";
     let (ok, info, err) = fipt(&["info", ns.to_str().unwrap()]);
     assert!(ok && !info.contains(unclear), "{info}{err}");
-    let obj = ns.join("scene.obj");
-    let turned: Vec<String> = std::fs::read_to_string(&obj)
-        .unwrap()
-        .lines()
-        .map(|l| match l.strip_prefix("v ") {
-            Some(xyz) => {
-                let v: Vec<f64> = xyz.split_whitespace().map(|x| x.parse().unwrap()).collect();
-                let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
-                format!("v {} {} {}", c * v[0] - s * v[2], v[1], s * v[0] + c * v[2])
-            }
-            None => l.to_string(),
-        })
-        .collect();
-    std::fs::write(&obj, turned.join("\n")).unwrap();
+    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+    move_obj_vertices(&ns.join("scene.obj"), |[x, y, z]| {
+        [c * x - s * z, y, s * x + c * z]
+    });
     let (ok, info, err) = fipt(&["info", ns.to_str().unwrap()]);
     assert!(ok && info.contains(unclear), "{info}{err}");
 }

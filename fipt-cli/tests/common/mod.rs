@@ -184,3 +184,22 @@ pub fn degrade(src: &Path, out: &Path, extra: &[&str]) -> Value {
     assert!(ok, "{err}");
     json(&out.join("degrade.json"))
 }
+
+/// Rewrites every vertex (`v x y z`) of the OBJ at `path` through `f`: a mesh in other units,
+/// or in another frame than the poses.
+#[allow(dead_code)]
+pub fn move_obj_vertices(path: &Path, f: impl Fn([f64; 3]) -> [f64; 3]) {
+    let lines: Vec<String> = std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(xyz) => {
+                let v: Vec<f64> = xyz.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                let [x, y, z] = f([v[0], v[1], v[2]]);
+                format!("v {x} {y} {z}")
+            }
+            None => l.to_string(),
+        })
+        .collect();
+    std::fs::write(path, lines.join("\n")).unwrap();
+}
