@@ -167,18 +167,8 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
     let convention = crate::capture::check_convention(&geometry, &ds, &images)?;
     let masks = load_masks(&ds)?;
     let mut capture = crate::capture::examine(&geometry, &ds, &mut images, cfg.align_views, &masks);
-    // What `fipt info` says of the layout, the cameras' placement and black views, said here too.
-    let mut first = ds.warnings.clone();
-    let b = geometry.mesh.bounds();
-    let placed = crate::placement::placement(&geometry.bvh, (b.max - b.min).length(), &split.views);
-    first.extend(crate::placement::warnings("train", &placed));
-    let black: Vec<usize> = (images.iter().enumerate())
-        .filter(|(_, img)| img.data.iter().all(|p| *p == Vec3::ZERO))
-        .map(|(k, _)| k)
-        .collect();
-    first.extend(crate::inspect::black_views_warning("train", &black));
-    first.extend(convention.as_ref().and_then(|c| c.unclear()));
-    capture.warnings.splice(0..0, first);
+    let (said, black) = as_info_says(&ds, &geometry, &images, convention.as_ref());
+    capture.warnings.splice(0..0, said);
     capture.exposures_known = ds.known_exposures().is_some();
     capture.exif = crate::capture::ExifReport::of(&ds, capture.exposure_fit.as_ref());
     capture.warnings.extend(capture.exif.warning.clone());
@@ -204,17 +194,7 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
     }
     crate::capture::restore_clipped_lights(&geometry, &split.views, &mut images, &mut capture);
     crate::capture::leave_out_masked(&mut capture, &masks);
-    // A black view (a lens cap, an exposure far too short) would pull every surface it sees
-    // towards black: it is left out of the materials' fit.
-    if !black.is_empty() {
-        capture.left_out.resize(images.len(), vec![]);
-        for &k in &black {
-            capture.left_out[k] = vec![true; images[k].data.len()];
-        }
-        capture.warnings.push(format!(
-            "train: black views {black:?} are left out of the materials' fit"
-        ));
-    }
+    leave_out_black(&mut capture, &images, &black);
     for w in &capture.warnings {
         crate::note!("warning: {w}");
     }
@@ -252,6 +232,43 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
         cache_key,
         capture,
     })
+}
+
+/// What `fipt info` says of the layout (its notes), the cameras' placement against the mesh,
+/// black views and an unclear pose convention, said by the run too; and the black views.
+fn as_info_says(
+    ds: &Dataset,
+    geometry: &Geometry,
+    images: &[Image],
+    convention: Option<&crate::capture::ConventionCheck>,
+) -> (Vec<String>, Vec<usize>) {
+    let mut said = ds.warnings.clone();
+    let b = geometry.mesh.bounds();
+    let placed =
+        crate::placement::placement(&geometry.bvh, (b.max - b.min).length(), &ds.train().views);
+    said.extend(crate::placement::warnings("train", &placed));
+    let black: Vec<usize> = (images.iter().enumerate())
+        .filter(|(_, img)| img.data.iter().all(|p| *p == Vec3::ZERO))
+        .map(|(k, _)| k)
+        .collect();
+    said.extend(crate::inspect::black_views_warning("train", &black));
+    said.extend(convention.and_then(|c| c.unclear()));
+    (said, black)
+}
+
+/// Leaves the `black` views out of the materials' fit: a lens cap, or an exposure far too
+/// short, would pull every surface they see towards black.
+fn leave_out_black(capture: &mut crate::capture::CaptureReport, images: &[Image], black: &[usize]) {
+    if black.is_empty() {
+        return;
+    }
+    capture.left_out.resize(images.len(), vec![]);
+    for &k in black {
+        capture.left_out[k] = vec![true; images[k].data.len()];
+    }
+    capture.warnings.push(format!(
+        "train: black views {black:?} are left out of the materials' fit"
+    ));
 }
 
 /// The training views' masks (pixels to keep), None for a view without one; empty when no

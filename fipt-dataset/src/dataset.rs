@@ -189,35 +189,7 @@ impl Dataset {
         if !root.is_dir() {
             return Err(CoreError::invalid(root, "not a folder (expected a scene folder with scene.obj and train/transforms.json, cam.txt + K_list.txt, a COLMAP model in sparse/0/, or a nerfstudio transforms.json)"));
         }
-        let mesh = MESH_NAMES
-            .iter()
-            .map(|n| root.join(n))
-            .find(|p| p.is_file())
-            .ok_or_else(|| {
-                let others: Vec<String> = std::fs::read_dir(root)
-                    .into_iter()
-                    .flatten()
-                    .filter_map(|e| e.ok()?.file_name().into_string().ok())
-                    .filter(|n| {
-                        let n = n.to_lowercase();
-                        [".obj", ".ply", ".glb", ".gltf"]
-                            .iter()
-                            .any(|e| n.ends_with(e))
-                    })
-                    .collect();
-                let hint = if others.is_empty() {
-                    String::new()
-                } else {
-                    format!(
-                        "; found {}: rename the scene's mesh (or link it) to one of those names",
-                        others.join(", ")
-                    )
-                };
-                CoreError::invalid(
-                    root,
-                    format!("no mesh found: expected one of {MESH_NAMES:?}{hint}"),
-                )
-            })?;
+        let mesh = find_mesh(root)?;
         let mut warnings = Vec::new();
         let mut description = None;
         let mut camera_files = Vec::new();
@@ -514,6 +486,40 @@ pub fn exr_size(path: &Path) -> Result<(usize, usize)> {
         message: "no layer".into(),
     })?;
     Ok((h.layer_size.width(), h.layer_size.height()))
+}
+
+/// The scene's mesh at `root` ([`MESH_NAMES`]); the error names the meshes the folder holds
+/// under other names.
+fn find_mesh(root: &Path) -> Result<PathBuf> {
+    MESH_NAMES
+        .iter()
+        .map(|n| root.join(n))
+        .find(|p| p.is_file())
+        .ok_or_else(|| {
+            let others: Vec<String> = std::fs::read_dir(root)
+                .into_iter()
+                .flatten()
+                .filter_map(|e| e.ok()?.file_name().into_string().ok())
+                .filter(|n| {
+                    let n = n.to_lowercase();
+                    [".obj", ".ply", ".glb", ".gltf"]
+                        .iter()
+                        .any(|e| n.ends_with(e))
+                })
+                .collect();
+            let hint = if others.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; found {}: rename the scene's mesh (or link it) to one of those names",
+                    others.join(", ")
+                )
+            };
+            CoreError::invalid(
+                root,
+                format!("no mesh found: expected one of {MESH_NAMES:?}{hint}"),
+            )
+        })
 }
 
 /// A file beside `path` whose name differs from its name in letter case only.
