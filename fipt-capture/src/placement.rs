@@ -29,18 +29,7 @@ pub struct Placement {
 pub fn placement(bvh: &Bvh, extent: f32, views: &[View]) -> Placement {
     let coverage: Vec<f32> = views
         .par_iter()
-        .map(|v| {
-            let c = &v.camera;
-            let (mut n, mut hits) = (0usize, 0usize);
-            for j in (0..c.height).step_by(STRIDE) {
-                for i in (0..c.width).step_by(STRIDE) {
-                    let (o, d) = c.pixel_center_ray(i, j);
-                    n += 1;
-                    hits += bvh.closest_hit(o, d, 0.0, f32::INFINITY).is_some() as usize;
-                }
-            }
-            hits as f32 / n.max(1) as f32
-        })
+        .map(|v| fipt_geom::view_coverage(bvh, &v.camera, STRIDE))
         .collect();
     let (lo, hi) = views.iter().fold(
         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
@@ -70,11 +59,15 @@ pub fn warnings(split: &str, p: &Placement) -> Vec<String> {
     }
     if p.coverage.len() >= 4 && p.extent > MESH_OVER_SPREAD * p.spread {
         w.push(format!(
-            "{split}: the {} cameras stand within {:.3} units of each other in a mesh {:.3} units across (×{:.0}): poses and mesh in different units (a mesh in millimetres with poses in metres: scale the mesh by 0.001)? If the cameras did stand in one spot, the views see each surface from one side only and pin little of its gloss",
+            "{split}: the {} cameras stand within {:.3} units of each other in a mesh {:.3} units across ({}): poses and mesh in different units (a mesh in millimetres with poses in metres: scale the mesh by 0.001)? If the cameras did stand in one spot, the views see each surface from one side only and pin little of its gloss",
             p.coverage.len(),
             p.spread,
             p.extent,
-            p.extent / p.spread.max(f32::MIN_POSITIVE)
+            if p.spread > 0.0 {
+                format!("×{:.0}", p.extent / p.spread)
+            } else {
+                "all at one point".into()
+            }
         ));
     }
     w

@@ -167,8 +167,9 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
     let convention = crate::capture::check_convention(&geometry, &ds, &images)?;
     let masks = load_masks(&ds)?;
     let mut capture = crate::capture::examine(&geometry, &ds, &mut images, cfg.align_views, &masks);
-    let (said, black) = as_info_says(&ds, &geometry, &images, convention.as_ref());
+    let (said, black, coverage) = as_info_says(&ds, &geometry, &images, convention.as_ref());
     capture.warnings.splice(0..0, said);
+    capture.coverage = coverage;
     capture.exposures_known = ds.known_exposures().is_some();
     capture.exif = crate::capture::ExifReport::of(&ds, capture.exposure_fit.as_ref());
     capture.warnings.extend(capture.exif.warning.clone());
@@ -234,14 +235,16 @@ pub fn load(root: &Path, policy: BadPixelPolicy, cfg: &CaptureConfig) -> Result<
     })
 }
 
-/// What `fipt info` says of the layout (its notes), the cameras' placement against the mesh,
-/// black views and an unclear pose convention, said by the run too; and the black views.
+/// What `fipt info` says of the layout (its notes), the cameras' placement against the mesh
+/// and an unclear pose convention, said by the run too; the black views, and each view's
+/// coverage.
+#[allow(clippy::type_complexity)]
 fn as_info_says(
     ds: &Dataset,
     geometry: &Geometry,
     images: &[Image],
     convention: Option<&crate::capture::ConventionCheck>,
-) -> (Vec<String>, Vec<usize>) {
+) -> (Vec<String>, Vec<usize>, Vec<f32>) {
     let mut said = ds.warnings.clone();
     let b = geometry.mesh.bounds();
     let placed =
@@ -251,23 +254,24 @@ fn as_info_says(
         .filter(|(_, img)| img.data.iter().all(|p| *p == Vec3::ZERO))
         .map(|(k, _)| k)
         .collect();
-    said.extend(crate::inspect::black_views_warning("train", &black));
     said.extend(convention.and_then(|c| c.unclear()));
-    (said, black)
+    (said, black, placed.coverage)
 }
 
-/// Leaves the `black` views out of the materials' fit: a lens cap, or an exposure far too
-/// short, would pull every surface they see towards black.
+/// Leaves the `black` views out of the materials' fit and the search (as masked): a lens cap,
+/// or an exposure far too short, would pull every surface they see towards black.
 fn leave_out_black(capture: &mut crate::capture::CaptureReport, images: &[Image], black: &[usize]) {
     if black.is_empty() {
         return;
     }
     capture.left_out.resize(images.len(), vec![]);
+    capture.masked.resize(images.len(), vec![]);
     for &k in black {
         capture.left_out[k] = vec![true; images[k].data.len()];
+        capture.masked[k] = vec![true; images[k].data.len()];
     }
     capture.warnings.push(format!(
-        "train: black views {black:?} are left out of the materials' fit"
+        "train: black views {black:?} (every pixel 0: a lens cap, or an exposure far too short?) are left out of the materials' fit and the search"
     ));
 }
 
@@ -289,10 +293,14 @@ fn load_masks(ds: &Dataset) -> Result<Vec<Option<Vec<bool>>>> {
 /// convention, or another scene's mesh), and warns of single views that see nothing.
 pub fn check_coverage(scene: &LoadedScene) -> Result<()> {
     let views = &scene.ds.train().views;
-    let cover: Vec<f32> = views
-        .par_iter()
-        .map(|v| fipt_geom::view_coverage(&scene.geometry.bvh, &v.camera, 8))
-        .collect();
+    // Measured by the load (`placement`) where it ran.
+    let cover: Vec<f32> = if scene.capture.coverage.len() == views.len() {
+        scene.capture.coverage.clone()
+    } else {
+        (views.par_iter())
+            .map(|v| fipt_geom::view_coverage(&scene.geometry.bvh, &v.camera, 8))
+            .collect()
+    };
     if cover.iter().all(|&c| c == 0.0) {
         crate::bail!(
             "no camera ray of any training view hits the mesh {}: the poses are probably in another convention \

@@ -198,17 +198,60 @@ pub fn read_ldr(path: &Path, response: &Response) -> Result<Image> {
     })
 }
 
-/// Whether `bytes`, a JPEG file, stop before its image data ends: no end-of-image marker
-/// (FF D9) after the last start-of-scan (FF DA). Inside a scan's coded data FF is always
-/// followed by 00 or a restart marker, so neither pair occurs there by chance. A file with
-/// no scan was cut off within its headers. Not a JPEG (no FF D8 at the start): false.
+/// Whether `bytes`, a JPEG file, stop before its first image ends. The markers are walked
+/// from the start: segments are skipped by their lengths (an EXIF thumbnail inside one is
+/// never looked at), each scan's coded data up to the next marker (inside it FF is always
+/// followed by 00 or a restart marker), until the end-of-image marker (FF D9); what follows
+/// it (a phone's motion-photo video, a gain map) is not read. Not a JPEG (no FF D8 at the
+/// start): false.
 pub fn jpeg_is_cut_off(bytes: &[u8]) -> bool {
     if !bytes.starts_with(&[0xFF, 0xD8]) {
         return false;
     }
-    let at = |marker: u8| bytes.windows(2).rposition(|w| w == [0xFF, marker]);
-    // No scan at all: cut off within its headers.
-    at(0xDA).is_none_or(|scan| at(0xD9).is_none_or(|end| end < scan))
+    let mut at = 2;
+    loop {
+        // A marker: FF (fill bytes allowed), then its code.
+        if bytes.get(at) != Some(&0xFF) {
+            return true;
+        }
+        while bytes.get(at) == Some(&0xFF) {
+            at += 1;
+        }
+        let Some(&code) = bytes.get(at) else {
+            return true;
+        };
+        at += 1;
+        match code {
+            0xD9 => return false,
+            0x01 | 0xD0..=0xD7 => continue,
+            _ => {}
+        }
+        let Some(len) = bytes
+            .get(at..at + 2)
+            .map(|b| u16::from_be_bytes([b[0], b[1]]) as usize)
+        else {
+            return true;
+        };
+        at += len;
+        if code == 0xDA {
+            // The scan's coded data, up to the next marker that is not a restart.
+            loop {
+                let Some(&b) = bytes.get(at) else {
+                    return true;
+                };
+                if b == 0xFF {
+                    match bytes.get(at + 1) {
+                        None => return true,
+                        Some(0x00 | 0xD0..=0xD7) => at += 2,
+                        Some(0xFF) => at += 1,
+                        Some(_) => break,
+                    }
+                } else {
+                    at += 1;
+                }
+            }
+        }
+    }
 }
 
 /// Size of a PNG or JPEG from its header.
@@ -428,9 +471,16 @@ mod tests {
             )
             .unwrap();
         let p = tmp.0.join("view.jpg");
+        // What a phone appends after the image (a motion photo's video): bytes that hold
+        // both markers.
         let mut trailer = whole.clone();
-        trailer.extend_from_slice(b"phone trailer");
-        for ok in [&whole, &trailer] {
+        trailer.extend_from_slice(b"ftypmp4 \xFF\xDA\x00\x08 data \xFF\xD8\xFF\xDA");
+        // An APP1 segment (where EXIF keeps its thumbnail) holding an end marker and a scan
+        // marker of its own.
+        let mut thumb = whole[..2].to_vec();
+        thumb.extend_from_slice(&[0xFF, 0xE1, 0x00, 0x08, 0xFF, 0xD9, 0xFF, 0xDA, 0x00, 0x00]);
+        thumb.extend_from_slice(&whole[2..]);
+        for ok in [&whole, &trailer, &thumb] {
             assert!(!jpeg_is_cut_off(ok));
             std::fs::write(&p, ok).unwrap();
             let read = read_ldr(&p, &Response::Srgb).unwrap();

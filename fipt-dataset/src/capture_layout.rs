@@ -71,13 +71,13 @@ pub fn read_capture_layout(root: &Path) -> Result<Option<(Layout, CaptureCameras
             ));
         }
         let mut cams = crate::nerfstudio::read(&tf)?;
-        // `ns-process-data` leaves the COLMAP model it solved beside its transforms.json.
+        // `ns-process-data` leaves the COLMAP model it solved beside its transforms.json: said
+        // where the cameras are described (`fipt info`, the run's log), not as a warning.
         if let Some(model) = crate::colmap::find_model(root) {
-            cams.notes.push(format!(
-                "{} and a COLMAP model ({}) are both here: the cameras are read from transforms.json; move it away to read the COLMAP model",
-                tf.display(),
+            cams.description += &format!(
+                "; the COLMAP model beside it ({}) is not read: the mesh must be in transforms.json's frame (after its applied_transform, if any)",
                 model.display()
-            ));
+            );
         }
         return Ok(Some((Layout::Nerfstudio, cams)));
     }
@@ -246,8 +246,6 @@ pub fn convention_unstated(description: Option<&str>) -> bool {
     description.is_some_and(|d| d.contains("states no convention"))
 }
 
-/// The splits as a run sees them after a downscale by `factor`: cameras shrunk, the size
-/// divided (an error when a view would be under 4 pixels on a side).
 /// Views smaller than this many pixels after `--downscale` are named: few pixels a surface.
 pub const SMALL_VIEW_PIXELS: usize = 128 * 96;
 
@@ -275,6 +273,8 @@ pub fn downscale_notes(stored: (usize, usize), read: (usize, usize), factor: usi
     notes
 }
 
+/// The splits as a run sees them after a downscale by `factor`: cameras shrunk, the size
+/// divided (an error when a view would be under 4 pixels on a side).
 pub fn downscaled(
     splits: Vec<Split>,
     width: usize,

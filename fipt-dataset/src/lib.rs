@@ -13,6 +13,7 @@ pub mod capture_layout;
 pub mod colmap;
 pub mod dataset;
 pub mod distortion;
+mod inputs;
 pub mod nerfstudio;
 
 #[cfg(test)]

@@ -110,6 +110,16 @@ fn warnings(h: &mut String, report: &Value, views: &[ViewPictures]) {
     h.push_str("</ul></div>\n");
 }
 
+/// The JSON at `path` when it was written after the run's `report.json` (`Null` otherwise: the
+/// scores of an earlier run of the folder, which `fipt run` does not remove).
+fn scores_of_this_run(run: &Path, path: &Path) -> Value {
+    let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+    match (modified(path), modified(&run.join("report.json"))) {
+        (Some(scores), Some(report)) if scores < report => Value::Null,
+        _ => read(path),
+    }
+}
+
 /// The scores of `metrics.json` (the scene's own ground truth), and those of
 /// `eval/cameras-from/metrics.json` (`fipt eval SRC OUT --cameras-from SRC`: a copy's run
 /// scored against its source's truth), whichever the run has.
@@ -340,7 +350,7 @@ pub fn write_html(
 ) -> Result<PathBuf> {
     let report = read(&run.join("report.json"));
     let metrics = read(&run.join("metrics.json"));
-    let cameras_from = read(&run.join("eval/cameras-from/metrics.json"));
+    let cameras_from = scores_of_this_run(run, &run.join("eval/cameras-from/metrics.json"));
     let mut h = String::new();
     let _ = write!(
         h,

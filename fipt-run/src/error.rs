@@ -146,6 +146,28 @@ pub fn describe(e: &(dyn std::error::Error + 'static)) -> String {
 mod tests {
     use super::*;
 
+    /// A caught panic becomes an internal error that keeps its message, whether the payload
+    /// is a literal or a formatted string.
+    #[test]
+    fn a_panic_is_an_internal_error_with_its_message() {
+        let quiet = std::panic::take_hook();
+        std::panic::set_hook(Box::new(|_| {}));
+        let literal = std::panic::catch_unwind(|| panic!("index out of bounds")).unwrap_err();
+        let formatted =
+            std::panic::catch_unwind(|| panic!("the len is {} but the index is 0", 0)).unwrap_err();
+        std::panic::set_hook(quiet);
+        for (payload, says) in [
+            (literal, "index out of bounds"),
+            (formatted, "the len is 0 but the index is 0"),
+        ] {
+            let e = RunError::from_panic(payload).to_string();
+            assert!(
+                e.starts_with("internal error (a bug in fipt") && e.ends_with(says),
+                "{e}"
+            );
+        }
+    }
+
     #[test]
     fn an_error_chain_says_each_cause_once() {
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file or directory");

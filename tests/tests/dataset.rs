@@ -115,17 +115,19 @@ fn bad_inputs_are_named_with_their_file_and_fix() {
     let d = fresh("missing");
     std::fs::remove_file(d.join("train/Image/002_0001.exr")).unwrap();
     expect_err(&d, &["002_0001.exr", "missing"]);
-    // The same file with its name in other letter case: named as such.
+    // An upper-case extension is read; a name in other letter case otherwise is named.
     let d = fresh("case");
-    std::fs::rename(
-        d.join("train/Image/002_0001.exr"),
-        d.join("train/Image/002_0001.EXR"),
-    )
-    .unwrap();
-    expect_err(
-        &d,
-        &["002_0001.exr", "002_0001.EXR is there", "case-sensitive"],
-    );
+    let image = |e: &str| d.join(format!("train/Image/002_0001.{e}"));
+    std::fs::rename(image("exr"), image("EXR")).unwrap();
+    assert!(Dataset::open(&d).is_ok());
+    std::fs::rename(image("EXR"), image("Exr")).unwrap();
+    // (On a file system that ignores case the view is simply found.)
+    if !image("exr").is_file() {
+        expect_err(
+            &d,
+            &["002_0001.exr", "002_0001.Exr is there", "case-sensitive"],
+        );
+    }
     // Size mismatch between views.
     let d = fresh("size");
     Image::new(8, 8)

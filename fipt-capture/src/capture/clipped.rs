@@ -336,6 +336,22 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
+    /// With no light seen clipped the report says so, and not that a light was set by
+    /// convention.
+    #[test]
+    fn no_clipped_light_is_said_as_such() {
+        let cl = ClippedLights {
+            left_out_pixels: 37,
+            ..Default::default()
+        };
+        let said = describe(&cl, 0);
+        assert!(
+            said.starts_with("no light is seen clipped") && said.contains("the 37 clipped pixels"),
+            "{said}"
+        );
+        assert!(!said.contains("convention"), "{said}");
+    }
+
     /// A strip of `n` triangles, each sharing an edge with the next.
     fn strip(n: u32) -> fipt_geom::mesh::Mesh {
         let positions = (0..n + 2)

@@ -74,7 +74,8 @@ impl ConventionCheck {
         let (other, c) = (self.contrast.iter())
             .filter(|c| c.0 != self.read_as)
             .max_by(|a, b| a.1.total_cmp(&b.1))?;
-        (own < CLEAR_RATIO * c).then(|| {
+        // Another reading far better is the refusal's case, not this one.
+        (own < CLEAR_RATIO * c && *c <= REFUSE_RATIO * own).then(|| {
             format!(
                 "train: no reading of the poses lines the views' edges up with the mesh's: edge contrast {own:.2} as {}, the layout's, against {c:.2} as {other} (median of {} views; poses and mesh that agree score about 1.25–1.6 times the next reading): the mesh is probably in another frame than the poses (a scan not aligned to the structure-from-motion model, an applied_transform, another scale), or the poses are far off",
                 self.read_as, self.views_tested

@@ -66,6 +66,10 @@ pub struct CaptureReport {
     /// `mask_path`).
     #[serde(skip_serializing_if = "is_zero")]
     pub masked_pixels: usize,
+    /// Per training view, the share of its traced pixel-centre rays that hit the mesh
+    /// (`placement`; empty until the scene's load measures it).
+    #[serde(skip)]
+    pub coverage: Vec<f32>,
     /// Per training view, the pixels its mask leaves out (empty: no view has a mask; one
     /// view's list empty: that view has none). Read it with [`flagged`].
     #[serde(skip)]
