@@ -125,7 +125,7 @@ pub fn inspect(
         );
     }
     let (capture, convention) = exposures(&ds, &mesh, policy, &mut warnings)?;
-    warnings.extend(convention.as_ref().and_then(|c| c.unclear()));
+    warnings.extend(convention.as_ref().and_then(|c| c.unclear(ds.layout)));
     warnings.extend(capture.response_warning());
     if crate::contrast::asks_for_it(&ds, &capture) {
         warnings.push(

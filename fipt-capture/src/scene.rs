@@ -254,7 +254,7 @@ fn as_info_says(
         .filter(|(_, img)| img.data.iter().all(|p| *p == Vec3::ZERO))
         .map(|(k, _)| k)
         .collect();
-    said.extend(convention.and_then(|c| c.unclear()));
+    said.extend(convention.and_then(|c| c.unclear(ds.layout)));
     (said, black, placed.coverage)
 }
 
