@@ -155,7 +155,7 @@ pub fn read_ldr(path: &Path, response: &Response) -> Result<Image> {
     let bytes = std::fs::read(path).map_err(|e| bad(e.to_string()))?;
     // The JPEG decoder fills what a cut-off file lacks with grey and reports no error.
     if jpeg_is_cut_off(&bytes) {
-        return Err(bad("the JPEG ends inside its image data (no end-of-image marker after its last scan): a truncated copy. Copy the photo again, or leave the view out of the camera file".into()));
+        return Err(bad("the JPEG ends inside its image data (its markers run out before the end-of-image marker): a truncated copy. Copy the photo again, or leave the view out of the camera file".into()));
     }
     let img = image::ImageReader::new(std::io::Cursor::new(&bytes))
         .with_guessed_format()
