@@ -294,9 +294,10 @@ fn render_all<S: SurfaceModel>(
         scenes.push(build_scene(a, mesh.clone(), surfaces, emitters, cams, *l)?);
     }
     let mut summary = RenderSummary::default();
-    for (l, scene) in sets.iter().zip(&scenes) {
+    let names = set_folders(&sets);
+    for ((l, scene), name) in sets.iter().zip(&scenes).zip(&names) {
         let out = match l {
-            Some(p) if sets.len() > 1 => a.out.join(p.file_stem().unwrap_or_default()),
+            Some(_) if sets.len() > 1 => a.out.join(name),
             _ => a.out.clone(),
         };
         let psnr = render_views(a, scene, cams, &views, &out, layout)?;
@@ -318,6 +319,26 @@ fn render_all<S: SurfaceModel>(
         }
     }
     Ok(summary)
+}
+
+/// The folder of each lights file of a relighting: its file name without the extension,
+/// with `-2`, `-3`, … after a name an earlier file took (`a/light.json` and `b/light.json`
+/// wrote into one folder, the second over the first).
+fn set_folders(sets: &[Option<&Path>]) -> Vec<String> {
+    let mut taken: Vec<String> = vec![];
+    for l in sets {
+        let stem = l
+            .and_then(|p| p.file_stem())
+            .map_or("lights".into(), |s| s.to_string_lossy().to_string());
+        let mut name = stem.clone();
+        let mut n = 1;
+        while taken.contains(&name) {
+            n += 1;
+            name = format!("{stem}-{n}");
+        }
+        taken.push(name);
+    }
+    taken
 }
 
 /// The scene of one lights set: edits and inserted objects first, then the lights.
@@ -530,4 +551,22 @@ fn write_flat(
         m.write_png(&dir.join("preview").join(format!("{k:03}_{name}.png")), 1.0)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Lights files of one name (`a/light.json`, `b/light.json`, the same file twice) each
+    /// get a folder of their own.
+    #[test]
+    fn lights_files_of_one_name_get_folders_of_their_own() {
+        let (a, b, c) = (
+            Path::new("a/light.json"),
+            Path::new("b/light.json"),
+            Path::new("c/dusk.json"),
+        );
+        let names = set_folders(&[Some(a), Some(b), Some(c), Some(a)]);
+        assert_eq!(names, ["light", "light-2", "dusk", "light-3"]);
+    }
 }

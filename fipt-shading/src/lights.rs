@@ -232,7 +232,7 @@ fn parse_light(path: &Path, k: usize, mut v: serde_json::Value) -> Result<LightS
     let spec: LightSpec = serde_json::from_value(v).map_err(|e| {
         invalid(
             path,
-            format!("light {k}: {e} (types: sphere, quad, mesh, point, spot; see the README's lights.json)"),
+            format!("light {k}: {e} (types: sphere, quad, mesh, point, spot; see docs/relighting-and-export.md, section lights.json)"),
         )
     })?;
     spec.check()

@@ -113,7 +113,7 @@ impl EditsFile {
         let text = std::fs::read_to_string(path)
             .map_err(|e| invalid(path, format!("cannot read the edits file: {e}")))?;
         let f: EditsFile = serde_json::from_str(&text).map_err(|e| {
-            invalid(path, format!("{e} (expected {{\"materials\": [...], \"objects\": [...]}}; see the README's edits.json)"))
+            invalid(path, format!("{e} (expected {{\"materials\": [...], \"objects\": [...]}}; see docs/relighting-and-export.md, section edits.json)"))
         })?;
         for (k, m) in f.materials.iter().enumerate() {
             if m.edit.is_empty() {
