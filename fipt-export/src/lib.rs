@@ -304,6 +304,11 @@ pub fn export<S: SurfaceModel>(
     dir: &Path,
     opts: &ExportOptions,
 ) -> Result<ExportSummary> {
+    if format != Format::Glb && opts.per_vertex {
+        return Err(ExportError::Invalid(
+            "--per-vertex is for glb only (OBJ and Mitsuba scenes take textured materials): export glb, or leave --per-vertex out".into(),
+        ));
+    }
     let prepared = prepare(mesh, surfaces, emitters, opts)?;
     if format != Format::Glb && prepared.textures.is_none() {
         return Err(ExportError::Invalid(format!(

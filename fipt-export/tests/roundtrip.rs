@@ -166,9 +166,14 @@ fn per_vertex_fallback_loads_with_vertex_colours() {
     for (p, c) in pos.iter().zip(&col) {
         assert!((Vec3::from(*c) - albedo(*p).clamp(Vec3::ZERO, Vec3::ONE)).length() < 1e-5);
     }
-    // Mitsuba and OBJ need the atlas: a clear error.
-    let err = export(&mesh, &Waves, &emitters, Format::Mitsuba, &dir, &opts).unwrap_err();
-    assert!(err.to_string().contains("glb only"), "{err}");
+    // Mitsuba and OBJ need the atlas: a clear error that names the flag, not the atlas.
+    for format in [Format::Mitsuba, Format::Obj] {
+        let err = export(&mesh, &Waves, &emitters, format, &dir, &opts).unwrap_err();
+        assert!(
+            err.to_string().starts_with("--per-vertex is for glb only"),
+            "{err}"
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
