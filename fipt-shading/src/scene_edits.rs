@@ -288,8 +288,8 @@ pub fn apply_edits<S: SurfaceModel>(
                 return Err(invalid(
                     path,
                     format!(
-                        "material edit {k}: the selection {:?} holds no triangle",
-                        m.select
+                        "material edit {k}: the selection {} holds no triangle (a box or point outside the mesh, or a tolerance too small?)",
+                        serde_json::to_string(&m.select).unwrap_or_else(|_| format!("{:?}", m.select))
                     ),
                 ));
             }
@@ -421,7 +421,7 @@ mod tests {
         for (text, want) in [
             (
                 r#"{"materials": [{"select": {"box": {"min": [5, 5, 5], "max": [6, 6, 6]}}, "edit": {"metallic": {"set": 1}}}]}"#,
-                "holds no triangle",
+                r#"the selection {"box":{"min":[5.0,5.0,5.0],"max":[6.0,6.0,6.0]}} holds no triangle"#,
             ),
             (
                 r#"{"materials": [{"select": {"faces": [99999]}, "edit": {"metallic": {"set": 1}}}]}"#,
