@@ -212,6 +212,19 @@ pub fn refuse_owned_output(out: &Path, what: &str, refused: &[Owner]) -> Result<
     refuse_where(out, what, |owner, _| refused.contains(&owner))
 }
 
+/// What an output folder `out` already holds, before a command that does not own it (a render,
+/// an export) writes into it: the warning to give, or None when it is new or empty. Files of
+/// the same names are replaced; the others stay beside the new ones.
+pub fn already_holds(out: &Path, what: &str) -> Option<String> {
+    let n = std::fs::read_dir(out).ok()?.filter_map(|e| e.ok()).count();
+    (n > 0).then(|| {
+        format!(
+            "{} already holds {n} entries: the {what}'s files replace those of the same names and the others stay beside them (give a new folder to keep outputs apart)",
+            out.display()
+        )
+    })
+}
+
 /// Refuses an output folder `out` that is a file, or lies under one (`afile/sub`): the error
 /// names the file and says what to give instead, where creating the folder would end in the
 /// system's "File exists" or "Not a directory".
@@ -319,6 +332,23 @@ impl Drop for OutputLock {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A new or empty output folder says nothing; one holding files says how many and that
+    /// the others stay.
+    #[test]
+    fn an_output_folder_that_already_holds_files_is_named() {
+        let d = dir("holds");
+        assert_eq!(already_holds(&d, "render"), None);
+        std::fs::create_dir_all(&d).unwrap();
+        assert_eq!(already_holds(&d, "render"), None);
+        std::fs::write(d.join("000_render.exr"), b"old").unwrap();
+        let w = already_holds(&d, "render").unwrap();
+        assert!(
+            w.contains("already holds 1 entries") && w.contains("others stay"),
+            "{w}"
+        );
+        let _ = std::fs::remove_dir_all(&d);
+    }
 
     fn dir(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("fipt-lock-{}-{name}", std::process::id()));

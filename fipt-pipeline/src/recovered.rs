@@ -311,6 +311,9 @@ pub fn export_run(
 ) -> Result<fipt_export::ExportSummary> {
     use fipt_core::lock::{refuse_owned_output, Owner};
     refuse_owned_output(&a.out, "export", &[Owner::Run, Owner::Scene])?;
+    if let Some(w) = fipt_core::lock::already_holds(&a.out, "export") {
+        crate::note!("warning: {w}");
+    }
     let checked = fipt_export::ExportOptions {
         texel_size: a.texel.unwrap_or(0.01),
         max_atlas: a.max_atlas,

@@ -112,6 +112,9 @@ pub fn render_request(a: &RenderRequest, components: &crate::Components) -> Resu
     };
     refuse_owned_output(&a.out, "render", refused)?;
     check_sizes(a)?;
+    if let Some(w) = fipt_core::lock::already_holds(&a.out, "render") {
+        crate::note!("warning: {w}");
+    }
     render_unchecked(a, components)
 }
 
