@@ -35,9 +35,11 @@ pub struct SurfaceEdit {
 }
 
 impl SurfaceEdit {
-    /// Whether the edit changes nothing.
+    /// Whether the edit changes nothing: no field given, or each given one scaled by 1.
     pub fn is_empty(&self) -> bool {
-        *self == SurfaceEdit::default()
+        let one3 = |o: &Option<Op<[f32; 3]>>| matches!(o, None | Some(Op::Scale(1.0)));
+        let one1 = |o: &Option<Op<f32>>| matches!(o, None | Some(Op::Scale(1.0)));
+        one3(&self.albedo) && one3(&self.emission) && one1(&self.roughness) && one1(&self.metallic)
     }
 
     /// Range checks: set values finite and non-negative, roughness and metallic in [0, 1].
@@ -58,6 +60,9 @@ impl SurfaceEdit {
             return Err(format!(
                 "albedo: set values and scales must be in [0, {most:e}]"
             ));
+        }
+        if matches!(self.albedo, Some(Op::Set(v)) if v.iter().any(|x| *x > 1.0)) {
+            return Err("albedo: set values in [0, 1] (a base colour above 1 reflects more light than it receives; a scale's result is capped at 1)".into());
         }
         if !ok_op3(&self.emission) {
             return Err(format!("emission: set values and scales must be in [0, {most:e}] (a larger value overflows the tracer's f32)"));

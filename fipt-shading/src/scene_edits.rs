@@ -115,6 +115,12 @@ impl EditsFile {
         let f: EditsFile = serde_json::from_str(&text).map_err(|e| {
             invalid(path, format!("{e} (expected {{\"materials\": [...], \"objects\": [...]}}; see docs/relighting-and-export.md, section edits.json)"))
         })?;
+        if f.materials.is_empty() && f.objects.is_empty() {
+            return Err(invalid(
+                path,
+                "the edits file holds no edit: give \"materials\" or \"objects\" (see docs/relighting-and-export.md, section edits.json)".into(),
+            ));
+        }
         for (k, m) in f.materials.iter().enumerate() {
             if m.edit.is_empty() {
                 return Err(invalid(
@@ -128,18 +134,16 @@ impl EditsFile {
         }
         for (k, o) in f.objects.iter().enumerate() {
             let m = &o.material;
-            let ok = m
-                .albedo
-                .iter()
-                .chain(&m.emission)
-                .all(|v| (0.0..=fipt_core::range::MAX_RADIANCE).contains(v))
+            let ok = m.albedo.iter().all(|v| (0.0..=1.0).contains(v))
+                && (m.emission.iter()).all(|v| (0.0..=fipt_core::range::MAX_RADIANCE).contains(v))
                 && (0.0..=1.0).contains(&m.roughness)
                 && (0.0..=1.0).contains(&m.metallic);
             if !ok {
                 return Err(invalid(
                     path,
                     format!(
-                        "object {k}: material values must be ≥ 0, roughness and metallic in [0, 1]"
+                        "object {k}: albedo {:?}, roughness {} and metallic {} must lie in [0, 1], emission {:?} in [0, {:e}]",
+                        m.albedo, m.roughness, m.metallic, m.emission, fipt_core::range::MAX_RADIANCE
                     ),
                 ));
             }
@@ -440,15 +444,31 @@ mod tests {
                 .to_string();
             assert!(err.contains(want), "{text}: {err}");
         }
-        std::fs::write(
-            &path,
-            r#"{"materials": [{"select": {"faces": [0]}, "edit": {}}]}"#,
-        )
-        .unwrap();
-        assert!(EditsFile::read(&path)
-            .unwrap_err()
-            .to_string()
-            .contains("changes nothing"));
+        // Refused as read: an edit that changes nothing (none given, or a scale of 1), an
+        // albedo above 1, a file with no edit.
+        for (text, want) in [
+            (
+                r#"{"materials": [{"select": {"faces": [0]}, "edit": {}}]}"#,
+                "changes nothing",
+            ),
+            (
+                r#"{"materials": [{"select": {"faces": [0]}, "edit": {"roughness": {"scale": 1}}}]}"#,
+                "changes nothing",
+            ),
+            (
+                r#"{"materials": [{"select": {"faces": [0]}, "edit": {"albedo": {"set": [1.5, 0.5, 0.5]}}}]}"#,
+                "albedo: set values in [0, 1]",
+            ),
+            (
+                r#"{"objects": [{"file": "x.obj", "material": {"albedo": [3, 3, 3]}}]}"#,
+                "object 0: albedo [3.0, 3.0, 3.0]",
+            ),
+            ("{}", "holds no edit"),
+        ] {
+            std::fs::write(&path, text).unwrap();
+            let err = EditsFile::read(&path).unwrap_err().to_string();
+            assert!(err.contains(want), "{text}: {err}");
+        }
         std::fs::write(
             &path,
             r#"{"materials": [{"select": {"sphere": 1}, "edit": {}}]}"#,
