@@ -64,6 +64,44 @@ fn colmap_and_nerfstudio_copies_run_as_the_real_layouts_copy() {
         scored_at_the_source(&src, &out_real),
         scored_at_the_source(&src, &out_ns),
     );
+    // The runs render from their own capture's camera files: nerfstudio's transforms.json,
+    // and a COLMAP copy's folder; a cam.txt that is not there is named.
+    for (run_dir, cams) in [
+        (&out_ns, ns.join("transforms.json")),
+        (&out_real, colmap.clone()),
+    ] {
+        let r = dir.join(format!(
+            "render-{}",
+            run_dir.file_name().unwrap().to_string_lossy()
+        ));
+        let (ok, _, err) = fipt(&[
+            "render",
+            run_dir.to_str().unwrap(),
+            "--cameras",
+            cams.to_str().unwrap(),
+            "--views",
+            "0",
+            "--spp",
+            "1",
+            "--out",
+            r.to_str().unwrap(),
+        ]);
+        assert!(
+            ok && r.join("000_render.exr").is_file(),
+            "{}: {err}",
+            cams.display()
+        );
+    }
+    let nowhere = dir.join("nowhere/cam.txt");
+    let (ok, _, err) = fipt(&[
+        "render",
+        out_real.to_str().unwrap(),
+        "--cameras",
+        nowhere.to_str().unwrap(),
+        "--out",
+        dir.join("render-x").to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("no such cameras file"), "{err}");
     // The report shows the scores against the source (a copy has no truth of its own).
     let (ok, _, err) = fipt(&["report", out_real.to_str().unwrap()]);
     assert!(ok, "{err}");

@@ -66,11 +66,61 @@ pub struct RenderSummary {
     pub strips: Vec<PathBuf>,
 }
 
-/// Reads cameras from transforms.json or cam.txt + K_list.txt.
+/// Reads cameras from FIPT's transforms.json (Mitsuba convention) or cam.txt + K_list.txt, or
+/// from a capture's: a nerfstudio transforms.json, a COLMAP model folder (or a scene folder
+/// holding one, or a nerfstudio file). Cameras that carry their size keep it (`--size` is
+/// then not used, and a warning says so).
 pub fn read_cameras(path: &Path, size: Option<(usize, usize)>) -> Result<Vec<Camera>> {
-    if path.extension().is_some_and(|e| e == "json") {
-        return Ok(read_transforms(path, size)?);
+    let capture = |c: fipt_core::capture_layout::CaptureCameras| -> Vec<Camera> {
+        c.views.into_iter().map(|v| v.camera).collect()
+    };
+    let cams = if path.is_dir() {
+        let here = ["cameras", "images"].iter().all(|s| {
+            ["bin", "txt"]
+                .iter()
+                .any(|e| path.join(format!("{s}.{e}")).is_file())
+        });
+        let model = if here {
+            Some(path.to_path_buf())
+        } else {
+            fipt_core::colmap::find_model(path)
+        };
+        match model {
+            Some(m) => capture(fipt_core::colmap::read_model(path, &m)?),
+            None if path.join("transforms.json").is_file() => {
+                return read_cameras(&path.join("transforms.json"), size)
+            }
+            None => bail!(
+                "{}: a folder without cameras: give a transforms.json, a cam.txt (with K_list.txt beside it), or a COLMAP model folder",
+                path.display()
+            ),
+        }
+    } else if !path.is_file() {
+        bail!("{}: no such cameras file", path.display());
+    } else if path.extension().is_some_and(|e| e == "json") {
+        if fipt_core::nerfstudio::looks_like_nerfstudio(path)?.is_some() {
+            capture(fipt_core::nerfstudio::read(path)?)
+        } else {
+            read_transforms(path, size)?
+        }
+    } else {
+        return read_cam_txt(path, size);
+    };
+    if let (Some((w, h)), Some(c)) = (size, cams.first()) {
+        if (c.width, c.height) != (w, h) {
+            crate::note!(
+                "warning: --size {w} {h} is not used: {} gives the cameras' size, {}x{}",
+                path.display(),
+                c.width,
+                c.height
+            );
+        }
     }
+    Ok(cams)
+}
+
+/// cam.txt + K_list.txt beside it, at `size`.
+fn read_cam_txt(path: &Path, size: Option<(usize, usize)>) -> Result<Vec<Camera>> {
     let k = path.with_file_name("K_list.txt");
     let Some((w, h)) = size else {
         bail!(
