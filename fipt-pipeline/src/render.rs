@@ -422,6 +422,16 @@ fn build_scene<'s, S: SurfaceModel>(
     };
     let origins: Vec<glam::Vec3> = cams.iter().map(|c| c.origin).collect();
     file.check_cameras(lights.unwrap_or(Path::new("lights")), &origins)?;
+    let b = mesh.bounds();
+    let away = file.outside(b.min, b.max);
+    if !away.is_empty() {
+        crate::note!(
+            "warning: {}: lights {away:?} lie outside the scene's mesh (bounds {:.2?} – {:.2?}): in a closed room they light nothing the cameras see",
+            lights.unwrap_or(Path::new("lights")).display(),
+            b.min.to_array(),
+            b.max.to_array()
+        );
+    }
     if a.emitters.is_some() {
         file.emitters = a.emitters;
     }

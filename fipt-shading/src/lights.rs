@@ -241,6 +241,37 @@ fn parse_light(path: &Path, k: usize, mut v: serde_json::Value) -> Result<LightS
 }
 
 impl LightsFile {
+    /// The lights whose place (a sphere's centre, a quad's corners, a point or spot light's
+    /// position; not a mesh light, whose file is read later) lies outside the box `lo`–`hi`
+    /// widened by a tenth of its size: in a closed room they light nothing the cameras see.
+    pub fn outside(&self, lo: Vec3, hi: Vec3) -> Vec<usize> {
+        let m = 0.1 * (hi - lo);
+        let inside = |p: Vec3| p.cmpge(lo - m).all() && p.cmple(hi + m).all();
+        (self.lights.iter().enumerate())
+            .filter(|(_, l)| {
+                let places: Vec<Vec3> = match l {
+                    LightSpec::Sphere { center, .. } => vec![Vec3::from(*center)],
+                    LightSpec::Quad {
+                        corner,
+                        edge1,
+                        edge2,
+                        ..
+                    } => {
+                        let (c, a, b) =
+                            (Vec3::from(*corner), Vec3::from(*edge1), Vec3::from(*edge2));
+                        vec![c, c + a, c + b, c + a + b]
+                    }
+                    LightSpec::Point { position, .. } | LightSpec::Spot { position, .. } => {
+                        vec![Vec3::from(*position)]
+                    }
+                    LightSpec::Mesh { .. } => vec![],
+                };
+                !places.is_empty() && !places.into_iter().any(inside)
+            })
+            .map(|(k, _)| k)
+            .collect()
+    }
+
     /// Refuses a sphere light that encloses a camera of `origins` (index `k` named): its
     /// outside faces away from the camera, which would see nothing at all.
     pub fn check_cameras(&self, path: &Path, origins: &[Vec3]) -> Result<()> {
@@ -584,6 +615,24 @@ pub fn icosphere(center: Vec3, radius: f32, subdivisions: u32) -> Mesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A sphere or point light outside the room's box (widened by a tenth) is named; one in
+    /// it, or a quad reaching into it, is not.
+    #[test]
+    fn lights_outside_the_scene_are_named() {
+        let f = LightsFile::parse(
+            r#"{"lights": [
+                {"type": "sphere", "center": [9, 9, 9], "radius": 0.1, "radiance": [1, 1, 1]},
+                {"type": "sphere", "center": [0, 1, 0], "radius": 0.1, "radiance": [1, 1, 1]},
+                {"type": "point", "position": [0, -5, 0], "intensity": [1, 1, 1]},
+                {"type": "quad", "corner": [3, 1, 0], "edge1": [-2.5, 0, 0], "edge2": [0, 0, 0.5], "radiance": [1, 1, 1]}
+            ]}"#,
+            Path::new("lights.json"),
+        )
+        .unwrap();
+        let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0));
+        assert_eq!(f.outside(lo, hi), [0, 2]);
+    }
 
     #[test]
     fn studio_light_file_reads_as_one_sphere_with_notes_ignored() {
