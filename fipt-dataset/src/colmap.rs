@@ -61,15 +61,19 @@ struct ModelImage {
 /// Where a scene folder keeps its COLMAP model, if it has one: `sparse/0/`, `sparse/`, or
 /// `colmap/sparse/0/` (the first holding cameras.{bin,txt} and images.{bin,txt}).
 pub fn find_model(root: &Path) -> Option<PathBuf> {
-    let has = |d: &Path, stem: &str| {
-        ["bin", "txt"]
-            .iter()
-            .any(|e| d.join(format!("{stem}.{e}")).is_file())
-    };
     MODEL_DIRS
         .iter()
         .map(|d| root.join(d))
-        .find(|d| has(d, "cameras") && has(d, "images"))
+        .find(|d| is_model(d))
+}
+
+/// Whether `dir` itself holds a COLMAP model: cameras.{bin,txt} and images.{bin,txt}.
+pub fn is_model(dir: &Path) -> bool {
+    ["cameras", "images"].iter().all(|stem| {
+        ["bin", "txt"]
+            .iter()
+            .any(|e| dir.join(format!("{stem}.{e}")).is_file())
+    })
 }
 
 /// Reads the model in `model_dir` (the binary files preferred when both `.bin` and `.txt`

@@ -75,12 +75,7 @@ pub fn read_cameras(path: &Path, size: Option<(usize, usize)>) -> Result<Vec<Cam
         c.views.into_iter().map(|v| v.camera).collect()
     };
     let cams = if path.is_dir() {
-        let here = ["cameras", "images"].iter().all(|s| {
-            ["bin", "txt"]
-                .iter()
-                .any(|e| path.join(format!("{s}.{e}")).is_file())
-        });
-        let model = if here {
+        let model = if fipt_core::colmap::is_model(path) {
             Some(path.to_path_buf())
         } else {
             fipt_core::colmap::find_model(path)

@@ -70,13 +70,8 @@ pub fn restore_clipped_lights(
         ..Default::default()
     };
     // Clipped or masked (a person, a screen): neither tells the lights' radiance.
-    let skip: Vec<Vec<bool>> = (report.clipped.iter().enumerate())
-        .map(|(v, c)| {
-            (c.iter().enumerate())
-                .map(|(i, &c)| c || super::flagged(&report.masked, v, i))
-                .collect()
-        })
-        .collect();
+    let sizes: Vec<usize> = images.iter().map(|i| i.data.len()).collect();
+    let skip = super::clipped_or_masked(report, &sizes);
     let seen_clipped: Vec<f32> = clip_bounds(&hits, &lights, &report.clipped, &report.view_clip)
         .into_iter()
         .map(|b| b * report.clip_fraction)

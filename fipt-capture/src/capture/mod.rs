@@ -117,6 +117,21 @@ pub fn flagged(flags: &[Vec<bool>], v: usize, i: usize) -> bool {
         .unwrap_or(false)
 }
 
+/// Per training view (of `sizes` pixels), the pixels that are clipped or masked: neither tells
+/// an exposure nor a light's radiance. `r.clipped` itself where no view has a mask.
+pub(crate) fn clipped_or_masked(r: &CaptureReport, sizes: &[usize]) -> Vec<Vec<bool>> {
+    if r.masked.is_empty() {
+        return r.clipped.clone();
+    }
+    (sizes.iter().enumerate())
+        .map(|(k, &n)| {
+            (0..n)
+                .map(|i| flagged(&r.clipped, k, i) || flagged(&r.masked, k, i))
+                .collect()
+        })
+        .collect()
+}
+
 /// Leaves the pixels the views' masks drop out of the material loss and the search (with
 /// the clipped ones), and counts them.
 pub fn leave_out_masked(r: &mut CaptureReport, masks: &[Option<Vec<bool>>]) {
@@ -192,21 +207,8 @@ pub fn examine(
         clip_masks(&mut r, ds, images, level);
     }
     // Masked pixels (people, screens) say nothing of the views' exposures either.
-    let unused = if masks.iter().any(Option::is_some) {
-        (0..images.len())
-            .map(|k| {
-                let n = images[k].data.len();
-                (0..n)
-                    .map(|i| {
-                        flagged(&r.clipped, k, i)
-                            || masks.get(k).and_then(|m| m.as_ref()).is_some_and(|m| !m[i])
-                    })
-                    .collect()
-            })
-            .collect()
-    } else {
-        r.clipped.clone()
-    };
+    let sizes: Vec<usize> = images.iter().map(|i| i.data.len()).collect();
+    let unused = clipped_or_masked(&r, &sizes);
     let fit = fit_gains(geometry, views, images, &unused, r.clip_level);
     if let Some(f) = &fit {
         if !f.unfitted.is_empty() {
