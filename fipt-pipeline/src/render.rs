@@ -265,7 +265,7 @@ fn exact_maps(
         return Ok(());
     }
     let st = Stage::start("maps");
-    let ks: Vec<usize> = a.views.clone().unwrap_or_else(|| (0..cams.len()).collect());
+    let ks = requested_views(a, cams.len())?;
     let views: Vec<fipt_core::dataset::View> = ks
         .iter()
         .map(|&k| fipt_core::dataset::View {
@@ -303,6 +303,25 @@ enum Layout {
     Flat,
 }
 
+/// The views `a` asks for (all of the `n` cameras without `views`): each in range, none twice
+/// (a view listed twice would be traced twice into one file).
+fn requested_views(a: &RenderRequest, n: usize) -> Result<Vec<usize>> {
+    let Some(views) = a.views.clone() else {
+        return Ok((0..n).collect());
+    };
+    if let Some(&bad) = views.iter().find(|&&k| k >= n) {
+        bail!(
+            "view {bad} requested but {} has {n} cameras (views are numbered from 0)",
+            a.cameras.display()
+        );
+    }
+    let mut seen = std::collections::BTreeSet::new();
+    if let Some(&twice) = views.iter().find(|&&k| !seen.insert(k)) {
+        bail!("view {twice} is listed twice in the requested views: list each view once");
+    }
+    Ok(views)
+}
+
 /// Every lights set of `a` (none: the scene as it is), checked before anything renders.
 fn render_all<S: SurfaceModel>(
     a: &RenderRequest,
@@ -312,14 +331,7 @@ fn render_all<S: SurfaceModel>(
     cams: &[Camera],
     layout: Layout,
 ) -> Result<RenderSummary> {
-    let views: Vec<usize> = a.views.clone().unwrap_or_else(|| (0..cams.len()).collect());
-    if let Some(&bad) = views.iter().find(|&&k| k >= cams.len()) {
-        bail!(
-            "view {bad} requested but {} has {} cameras",
-            a.cameras.display(),
-            cams.len()
-        );
-    }
+    let views = requested_views(a, cams.len())?;
     let sets: Vec<Option<&Path>> = if a.lights.is_empty() {
         vec![None]
     } else {
@@ -626,5 +638,41 @@ mod tests {
         );
         let names = set_folders(&[Some(a), Some(b), Some(c), Some(a)]);
         assert_eq!(names, ["light", "light-2", "dusk", "light-3"]);
+    }
+
+    /// `--views`: all cameras without it; a view out of range or listed twice is refused,
+    /// naming it.
+    #[test]
+    fn requested_views_are_in_range_and_listed_once() {
+        let ask = |views: Option<Vec<usize>>| RenderRequest {
+            source: PathBuf::from("run"),
+            materials: None,
+            scene: None,
+            cameras: PathBuf::from("cams/transforms.json"),
+            out: PathBuf::from("out"),
+            size: None,
+            spp: 1,
+            max_bounces: 1,
+            seed: 0,
+            views,
+            brdf: None,
+            lights: vec![],
+            emitters: None,
+            edits: None,
+            reference: None,
+            denoise: None,
+        };
+        assert_eq!(requested_views(&ask(None), 3).unwrap(), [0, 1, 2]);
+        assert_eq!(requested_views(&ask(Some(vec![2, 0])), 3).unwrap(), [2, 0]);
+        let twice = requested_views(&ask(Some(vec![0, 1, 0])), 3).unwrap_err();
+        assert!(
+            twice.to_string().contains("view 0 is listed twice"),
+            "{twice}"
+        );
+        let far = requested_views(&ask(Some(vec![3])), 3).unwrap_err();
+        assert!(
+            far.to_string().contains("view 3 requested") && far.to_string().contains("3 cameras"),
+            "{far}"
+        );
     }
 }
