@@ -178,11 +178,19 @@ impl<'de> Deserialize<'de> for EmitterPolicy {
             Word(String),
             Scale { scale: f32 },
         }
+        // A file's forms are "keep", "off" and {"scale": K}; the command line's `scale=K` is
+        // accepted too, but the message names the file's.
+        let file_form = |shown: String| {
+            serde::de::Error::custom(format!(
+                "{shown}: expected \"keep\", \"off\" or {{\"scale\": K}} with K in [0, {:e}]",
+                fipt_core::range::MAX_RADIANCE
+            ))
+        };
         match Raw::deserialize(d)? {
-            Raw::Word(s) => s.parse().map_err(serde::de::Error::custom),
+            Raw::Word(s) => s.parse().map_err(|_| file_form(format!("\"{s}\""))),
             Raw::Scale { scale } => format!("scale={scale}")
                 .parse()
-                .map_err(serde::de::Error::custom),
+                .map_err(|_| file_form(format!("{{\"scale\": {scale}}}"))),
         }
     }
 }
@@ -672,7 +680,17 @@ mod tests {
         );
         assert!(err(r#"{"lights": [], "emitter": "off"}"#).contains("unknown key `emitter`"));
         assert!(err(r#"{"lights": [], "emiters": 3}"#).contains("emiters"));
-        assert!(err(r#"{"lights": [], "emitters": "dim"}"#).contains("dim"));
+        let dim = err(r#"{"lights": [], "emitters": "dim"}"#);
+        assert!(
+            dim.contains("\"dim\"") && dim.contains("{\"scale\": K}"),
+            "{dim}"
+        );
+        assert!(
+            !dim.contains("scale=K"),
+            "a file's message names the file's form: {dim}"
+        );
+        let negative = err(r#"{"lights": [], "emitters": {"scale": -2}}"#);
+        assert!(negative.contains("{\"scale\": -2}"), "{negative}");
         assert!(err(r#"{"lights": [], "emitter_overrides": {"a": "off"}}"#).contains("`a`"));
         assert!(err("[1]").contains("JSON object"));
     }
