@@ -561,7 +561,35 @@ fn reference_dir(p: &Path) -> Result<PathBuf> {
             p.display()
         );
     }
+    let (exr, photos) = count_images(&dir);
+    if exr == 0 && photos > 0 {
+        bail!(
+            "{}: --reference compares linear HDR images ({{k:03}}_0001.exr, or another render's {{k:03}}_render.exr), and this folder holds {photos} 8-bit photo(s) and no EXR. A photo's exposure and tone curve are unknown here: score a run of photos with `fipt eval SRC RUN --cameras-from SRC --fit-scales on` against a scene with HDR ground truth",
+            dir.display()
+        );
+    }
     Ok(dir)
+}
+
+/// The EXR files and the 8-bit photos (JPEG, PNG) directly in `dir`.
+fn count_images(dir: &Path) -> (usize, usize) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return (0, 0);
+    };
+    let ext = |e: &std::fs::DirEntry| {
+        let p = e.path();
+        p.extension()
+            .and_then(|x| x.to_str())
+            .map(str::to_ascii_lowercase)
+            .unwrap_or_default()
+    };
+    entries
+        .flatten()
+        .fold((0, 0), |(exr, photos), e| match ext(&e).as_str() {
+            "exr" => (exr + 1, photos),
+            "jpg" | "jpeg" | "png" => (exr, photos + 1),
+            _ => (exr, photos),
+        })
 }
 
 /// sRGB PSNR of a rendered view against the reference image of the same index.
@@ -674,5 +702,21 @@ mod tests {
             far.to_string().contains("view 3 requested") && far.to_string().contains("3 cameras"),
             "{far}"
         );
+    }
+
+    /// `--reference` on a folder of JPEGs says why it cannot compare, and what to run instead.
+    #[test]
+    fn a_reference_folder_of_photos_is_refused_with_the_way_to_score_them() {
+        let dir = std::env::temp_dir().join(format!("fipt-ref-photos-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("Image")).unwrap();
+        std::fs::write(dir.join("Image/000_0001.jpg"), b"jpeg").unwrap();
+        let e = reference_dir(&dir).unwrap_err().to_string();
+        assert!(
+            e.contains("1 8-bit photo") && e.contains("--cameras-from"),
+            "{e}"
+        );
+        std::fs::write(dir.join("Image/000_0001.exr"), b"exr").unwrap();
+        assert_eq!(reference_dir(&dir).unwrap(), dir.join("Image"));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
