@@ -251,7 +251,7 @@ fn as_info_says(
         crate::placement::placement(&geometry.bvh, (b.max - b.min).length(), &ds.train().views);
     said.extend(crate::placement::warnings("train", &placed));
     let black: Vec<usize> = (images.iter().enumerate())
-        .filter(|(_, img)| img.data.iter().all(|p| *p == Vec3::ZERO))
+        .filter(|(_, img)| img.is_black())
         .map(|(k, _)| k)
         .collect();
     said.extend(convention.and_then(|c| c.unclear(ds.layout)));

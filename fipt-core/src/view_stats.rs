@@ -76,6 +76,7 @@ pub fn hdr_stats(ds: &Dataset, split: &Split, policy: BadPixelPolicy) -> Result<
         let (k, lo, hi, lum, bad, l, saturated, view_ldr) = r?;
         ldr.push((k, view_ldr));
         samples.extend(l);
+        // `hi` is the view's range's top: `Image::is_black`, the run's test, without a second pass.
         if hi <= 0.0 {
             s.black_views.push(k);
         } else if saturated {

@@ -99,6 +99,11 @@ impl Image {
         (lo, hi)
     }
 
+    /// No finite channel value above 0 (a lens cap): `fipt info`'s and `fipt run`'s black view.
+    pub fn is_black(&self) -> bool {
+        self.range().1 <= 0.0
+    }
+
     /// Counts NaN, infinite and negative channel values.
     pub fn count_bad(&self) -> BadPixelCount {
         let mut c = BadPixelCount::default();
@@ -406,6 +411,18 @@ fn exr_size_checked(path: &Path) -> Result<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Zeros, negatives and NaN are black; one channel at 1e-6 is light.
+    #[test]
+    fn a_view_is_black_when_nothing_finite_is_above_zero() {
+        let mut img = Image::new(3, 2);
+        assert!(img.is_black());
+        img.data[1] = Vec3::new(-0.5, 0.0, -1.0);
+        img.data[2] = Vec3::splat(f32::NAN);
+        assert!(img.is_black());
+        img.data[4].y = 1e-6;
+        assert!(!img.is_black());
+    }
 
     /// One set pixel grows into the 3×3 square around it (cut at the border); radius 0 and an
     /// empty mask change nothing.
