@@ -5,16 +5,17 @@ Usage: python3 scripts/ld_truth.py SRC VIEW SHADINGS [SHADINGS ...] [--step 4] [
 
 SRC: a room made by scripts/mitsuba_loft.py (its scene_parts.json names the layout);
 SHADINGS: a folder of a run's `.fsh` files (RUN/bake/train, RUN/refine1/train); VIEW: a
-training view. At every --step-th pixel the true Ld0 (the `principled` diffuse's view-independent
-term (1 − F_o/2)·(1/π)∫ L (1 − F_i/2) cos θi dω, the quantity the .fsh files store as Ld) is
+training view. At every --step-th pixel the true Ld0 (the `principled` diffuse's σ-free term
+(1 − F_o/2)·(1/π)∫ L (1 − F_i/2) cos θi dω, the quantity the .fsh files store as Ld) is
 integrated by Mitsuba's `path` integrator over --dirs cosine directions, with paths of at most
 --depth segments from the surface point. The views of a room rendered with `max_depth` D hold,
 at a pixel's surface point, incident light of at most D − 1 segments: `--depth 7` for the rooms
-of mitsuba_loft.py's default (max_depth 8). --scale: the run's working scale (its log's "working
-at 1/S"; default: read from the shadings' manifest). Prints each folder's Σ Ld / Σ truth.
+of mitsuba_loft.py's default (max_depth 8). --scale: the run's working scale S (the views are
+divided by S; default: the `@exposure:S` tag of the shadings' manifest). Pixels whose stored Ld
+is 0 (the emitters') are left out. Prints each folder's Σ Ld / Σ truth.
 Needs `pip install mitsuba numpy`.
 """
-import argparse, json, math, os, struct, sys
+import argparse, json, math, os, re, struct, sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -98,8 +99,11 @@ def main():
         scale = a.scale
         if scale is None:
             key = json.load(open(os.path.join(os.path.dirname(folder.rstrip("/")), "manifest.json")))["inputs_hash"]
-            scale = float(key.split("exposure:")[1]) if "exposure:" in key else 1.0
+            tag = re.search(r"@exposure:([^@]+)", key)
+            scale = float(tag.group(1)) if tag else 1.0
         valid, ld = read_fsh(os.path.join(folder, f"{a.view:03d}.fsh"))
+        if valid.shape != (h, w):
+            sys.exit(f"{folder}: shadings of {valid.shape[1]}x{valid.shape[0]} for views of {w}x{h} (a downscaled run?)")
         ld = ld[ys, xs]
         ok = hit & valid[ys, xs] & (ld.mean(1) > 0)
         print(f"{folder}: {ok.sum()} pixels, Σ Ld / Σ Mitsuba's (paths ≤ {a.depth} segments) = "
