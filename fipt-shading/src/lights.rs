@@ -177,6 +177,7 @@ impl<'de> Deserialize<'de> for EmitterPolicy {
         enum Raw {
             Word(String),
             Scale { scale: f32 },
+            Other(serde_json::Value),
         }
         // A file's forms are "keep", "off" and {"scale": K}; the command line's `scale=K` is
         // accepted too, but the message names the file's.
@@ -191,6 +192,7 @@ impl<'de> Deserialize<'de> for EmitterPolicy {
             Raw::Scale { scale } => format!("scale={scale}")
                 .parse()
                 .map_err(|_| file_form(format!("{{\"scale\": {scale}}}"))),
+            Raw::Other(v) => Err(file_form(v.to_string())),
         }
     }
 }
@@ -691,6 +693,10 @@ mod tests {
         );
         let negative = err(r#"{"lights": [], "emitters": {"scale": -2}}"#);
         assert!(negative.contains("{\"scale\": -2}"), "{negative}");
+        for other in [r#"3"#, r#"{"scale": "x"}"#, r#"{"factor": 2}"#] {
+            let e = err(&format!(r#"{{"lights": [], "emitters": {other}}}"#));
+            assert!(e.contains("{\"scale\": K}"), "{other}: {e}");
+        }
         assert!(err(r#"{"lights": [], "emitter_overrides": {"a": "off"}}"#).contains("`a`"));
         assert!(err("[1]").contains("JSON object"));
     }
