@@ -248,6 +248,6 @@ fn image_warnings(split: &str, stats: &HdrStats) -> Vec<String> {
 /// The warning on a split's views whose every pixel is 0 (none when there are none).
 pub fn black_views_warning(split: &str, black: &[usize]) -> Option<String> {
     (!black.is_empty()).then(|| {
-        format!("{split}: black views {black:?} (every pixel 0): they constrain nothing but emitters' absence (a lens cap, or an exposure far too short?)")
+        format!("{split}: black views {black:?} (no pixel above 0): they constrain nothing but emitters' absence (a lens cap, or an exposure far too short?)")
     })
 }

@@ -271,7 +271,7 @@ fn leave_out_black(capture: &mut crate::capture::CaptureReport, images: &[Image]
         capture.masked[k] = vec![true; images[k].data.len()];
     }
     capture.warnings.push(format!(
-        "train: black views {black:?} (every pixel 0: a lens cap, or an exposure far too short?) are left out of the materials' fit and the search"
+        "train: black views {black:?} (no pixel above 0: a lens cap, or an exposure far too short?) are left out of the materials' fit and the search"
     ));
 }
 

@@ -385,7 +385,7 @@ fn a_mesh_in_other_units_and_a_black_view_are_named_by_info_and_run() {
     let warnings = json(&out.join("report.json"))["warnings"].to_string();
     assert!(
         warnings.contains(units)
-            && warnings.contains("black views [1] (every pixel 0")
+            && warnings.contains("black views [1] (no pixel above 0")
             && warnings.contains("are left out of the materials' fit and the search"),
         "{warnings}"
     );
