@@ -90,11 +90,12 @@ pub struct ModelConfig {
 }
 
 /// Bounces of every preset's re-render, of `fipt render` and of the renders `fipt eval` scores
-/// (a run's own setting where it has one): the Mitsuba rooms' ground truth is traced with
-/// `max_depth` 8, the same paths. At 5, `fipt eval --cameras-from` rendered `kitchen`'s
-/// recovered scene 13 % too dark (the fitted radiance scale 1.135; novel view 24.3 dB against
-/// the run's own 28.3).
-pub const DEFAULT_MAX_BOUNCES: u32 = 7;
+/// (a run's own setting where it has one). Russian roulette ends most paths long before, so
+/// the cap costs little: a capture holds every bounce, and at 7 (the cut of the Mitsuba rooms'
+/// `max_depth` 8) `kitchen` rendered with every bounce re-rendered 1.4 dB lower
+/// (`docs/kd-bias.md`). At 5, `fipt eval --cameras-from` rendered `kitchen`'s recovered scene
+/// 13 % too dark.
+pub const DEFAULT_MAX_BOUNCES: u32 = 24;
 
 /// Path-traced re-renders of every view from the recovered scene (`_render.exr`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
