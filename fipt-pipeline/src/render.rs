@@ -571,25 +571,18 @@ fn reference_dir(p: &Path) -> Result<PathBuf> {
     Ok(dir)
 }
 
-/// The EXR files and the 8-bit photos (JPEG, PNG) directly in `dir`.
+/// The EXR files and the 8-bit photos (`capture::is_ldr_file`'s JPEG, PNG) directly in `dir`.
 fn count_images(dir: &Path) -> (usize, usize) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return (0, 0);
-    };
-    let ext = |e: &std::fs::DirEntry| {
-        let p = e.path();
-        p.extension()
-            .and_then(|x| x.to_str())
-            .map(str::to_ascii_lowercase)
-            .unwrap_or_default()
-    };
-    entries
-        .flatten()
-        .fold((0, 0), |(exr, photos), e| match ext(&e).as_str() {
-            "exr" => (exr + 1, photos),
-            "jpg" | "jpeg" | "png" => (exr, photos + 1),
-            _ => (exr, photos),
-        })
+    let paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    let exr = (paths.iter())
+        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")))
+        .count();
+    let photos = (paths.iter())
+        .filter(|p| fipt_core::capture::is_ldr_file(p))
+        .count();
+    (exr, photos)
 }
 
 /// sRGB PSNR of a rendered view against the reference image of the same index.
