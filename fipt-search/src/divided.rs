@@ -68,11 +68,13 @@ pub fn choose_regions(
             choose_one(&profiles[s], held(s), r),
         ];
         let side_halves = halves.map(|h| [[&h[0][r], &h[1][r]], [&h[0][s], &h[1][s]]]);
+        let measured = cfg.gloss_view_means && split.by_gloss.get(r) == Some(&true);
         if sides_differ(
             [&profiles[r], &profiles[s]],
             [&sides[0], &sides[1]],
             side_halves,
             cfg,
+            measured,
         ) {
             let [m0, m1] = sides.each_ref().map(|c| c.metallic.unwrap_or(0.0));
             let cross = (m0 == m1)
@@ -151,6 +153,7 @@ mod tests {
         let split = ColourSplit {
             sub: vec![None, Some(2)],
             side: vec![],
+            by_gloss: vec![],
         };
         let (whole, kept) = choose_regions(&profiles, None, &split, &cfg.split, &choose_one);
         assert_eq!(whole.len(), 2);
@@ -177,6 +180,21 @@ mod tests {
         assert_eq!(flat_sides, [Some(0.2), Some(0.8)]);
         let (_, kept_flat) = choose_regions(&flat, None, &split, &cfg.split, &choose_one);
         assert!(kept_flat.is_empty());
+        // A gloss cut passed its depth on each view's pixels together: the profiles' depth, made
+        // pixel by pixel and mostly of the views' noise, is not asked again; per pixel
+        // (`gloss_view_means` off) it is.
+        let gloss_cut = ColourSplit {
+            by_gloss: vec![false, true],
+            ..split.clone()
+        };
+        let (_, kept_gloss) = choose_regions(&flat, None, &gloss_cut, &cfg.split, &choose_one);
+        assert_eq!(kept_gloss.len(), 1);
+        let per_pixel = SplitConfig {
+            gloss_view_means: false,
+            ..cfg.split.clone()
+        };
+        let (_, kept_pixel) = choose_regions(&flat, None, &gloss_cut, &per_pixel, &choose_one);
+        assert!(kept_pixel.is_empty());
         let deep = [curve(0, 2), shallow(1, 0, 0.1), shallow(2, 3, 0.1)];
         let (_, kept_deep) = choose_regions(&deep, None, &split, &cfg.split, &choose_one);
         assert_eq!(kept_deep.len(), 1);

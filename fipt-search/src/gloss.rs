@@ -13,17 +13,25 @@
 //! cell whose own evidence is weak (no view saw a highlight on it) follows its neighbours and
 //! the edge between finishes is short; the sides' σ are taken again until neither moves.
 //!
+//! A cell's curve takes each view's pixels of it together (`gloss_view_means`): the squared
+//! difference of their mean and their mean prediction, times their count. Neighbouring pixels
+//! see nearly the same light, so what σ changes in them survives the mean while their own
+//! noise averages out; pixel by pixel, the noise made most of a floor's cost, and a cut's
+//! depth said as much about the views' noise as about the finishes.
+//!
 //! A region divides when the two sides' σ lie `sigma_gap` apart, the same cut made on each
 //! half of the views alone (even, odd) puts at least `gloss_agreement` of the cells both
 //! halves saw on the same side (a cut made by noise: about half), and each side's pooled curve
-//! costs `gloss_depth` more at the other side's σ than at its own: light the shadings get
+//! costs `gloss_cut_depth` more at the other side's σ than at its own: light the shadings get
 //! wrong near a lamp also makes a reproducible cut, but a shallow one. The sides then go
-//! through the same guard as a colour split ([`crate::split::sides_differ`]). A region the
-//! colour divided keeps that division when it is `gloss_depth` deep itself (finishes that
-//! follow the colour), and otherwise takes the gloss cut when that is the deeper division (a
-//! wood checker over tiles of two finishes).
+//! through the same guard as a colour split ([`crate::split::sides_differ`]), less the depth
+//! on their profiles, which are made pixel by pixel. A region the colour divided keeps that
+//! division when it is `gloss_cut_depth` deep itself on the same curves (finishes that follow
+//! the colour), and otherwise takes the gloss cut when that is the deeper division (a wood
+//! checker over tiles of two finishes).
 use super::{argmin, excess, AlbedoFit, Observed, SearchPixel};
 use crate::split::{ColourSplit, SplitConfig};
+use fipt_core::color::srgb_oetf;
 use fipt_core::image::Image;
 use fipt_core::shading::ViewShadings;
 use glam::Vec3;
@@ -57,6 +65,7 @@ fn cell_curves(
     images: &[Image],
     grid: &[f32],
     views: Views,
+    view_means: bool,
 ) -> Vec<Option<Vec<f32>>> {
     (by_cell.par_iter().zip(wanted))
         .map(|(members, &wanted)| {
@@ -84,6 +93,9 @@ fn cell_curves(
                     fit.add_terms(o, b, c);
                 }
                 let a = fit.albedo().clamp(Vec3::ZERO, Vec3::ONE);
+                if view_means {
+                    return view_means_cost(&mine, pixels, &observed, &terms, a) as f32;
+                }
                 let cost: f64 = (observed.iter().zip(&terms))
                     .map(|(o, &(b, c))| o.sq_err(a * b + c))
                     .sum();
@@ -92,6 +104,47 @@ fn cell_curves(
             Some(curve.collect())
         })
         .collect()
+}
+
+/// The cost of one cell's pixels with each view's unclipped pixels taken together: the
+/// squared difference of their mean sRGB value and their mean predicted one, times their
+/// count (clipped pixels alone, as lower bounds).
+fn view_means_cost(
+    mine: &[usize],
+    pixels: &[SearchPixel],
+    observed: &[Observed],
+    terms: &[(Vec3, Vec3)],
+    a: Vec3,
+) -> f64 {
+    let mut groups: Vec<(u32, f64, glam::DVec3, glam::DVec3)> = vec![];
+    let mut cost = 0.0;
+    for ((&j, o), &(b, c)) in mine.iter().zip(observed).zip(terms) {
+        let pred = a * b + c;
+        if pixels[j].clipped {
+            cost += o.sq_err(pred);
+            continue;
+        }
+        let (po, pp) = (o.encoded().as_dvec3(), encoded(pred).as_dvec3());
+        let view = pixels[j].view;
+        match groups.iter_mut().rev().find(|g| g.0 == view) {
+            Some(g) => {
+                g.1 += 1.0;
+                g.2 += po;
+                g.3 += pp;
+            }
+            None => groups.push((view, 1.0, po, pp)),
+        }
+    }
+    for (_, n, so, sp) in groups {
+        let d = (so - sp) / n;
+        cost += n * d.length_squared();
+    }
+    cost
+}
+
+/// A colour's sRGB encoding, per channel.
+fn encoded(v: Vec3) -> Vec3 {
+    Vec3::new(srgb_oetf(v.x), srgb_oetf(v.y), srgb_oetf(v.z))
 }
 
 /// One region's cells: their ids, voxels and pixel counts, and the neighbours of each (the
@@ -419,8 +472,10 @@ pub fn gloss_split(
     let wanted: Vec<bool> = (region_of.iter())
         .map(|&r| cuttable.get(r as usize) == Some(&true))
         .collect();
-    let sets = [Views::All, Views::Parity(0), Views::Parity(1)]
-        .map(|v| cell_curves(&by_cell, &wanted, pixels, shadings, images, grid, v));
+    let sets = [Views::All, Views::Parity(0), Views::Parity(1)].map(|v| {
+        let means = cfg.gloss_view_means;
+        cell_curves(&by_cell, &wanted, pixels, shadings, images, grid, v, means)
+    });
     let mut out = base;
     out.side.resize(voxels.len().max(out.side.len()), 0);
     let mut measured = vec![];
@@ -439,13 +494,15 @@ pub fn gloss_split(
             let side: Vec<Option<u8>> = cells.ids.iter().map(|&c| Some(out.side[c])).collect();
             depth(&cells, &sets[0], &side).unwrap_or(0.0)
         });
-        cut.divided &= by_colour.is_none_or(|d| d < cfg.gloss_depth as f64 && all.depth > d);
+        cut.divided &= by_colour.is_none_or(|d| d < cfg.gloss_cut_depth as f64 && all.depth > d);
         cut.region = r as u32;
         if cut.divided {
             for (k, &c) in cells.ids.iter().enumerate() {
                 out.side[c] = all.side[k].unwrap_or(0);
             }
             out.sub[r] = Some(u32::MAX);
+            out.by_gloss.resize(regions, false);
+            out.by_gloss[r] = true;
         }
         measured.push(cut);
     }
@@ -481,7 +538,7 @@ fn measure(
     let share = w1 / (w0 + w1).max(1e-12);
     let sigma = all.sigma.map(|k| grid[k]);
     let divided = agree >= cfg.gloss_agreement as f64
-        && all.depth >= cfg.gloss_depth as f64
+        && all.depth >= cfg.gloss_cut_depth as f64
         && share.min(1.0 - share) >= cfg.min_share as f64
         && w0.min(w1) >= min_pixels as f64
         && sigma[1] - sigma[0] >= cfg.sigma_gap - 1e-4;
@@ -505,18 +562,28 @@ mod tests {
     /// One region of 20 × 20 cells on a plane, one colour with a little variation, its σ
     /// `sigma(x)` by the cell's column; each cell seen by 12 views, 3 pixels each, of random
     /// shadings (the factorised model renders the views), with relative noise `noise`.
-    fn plane(
-        sigma: &dyn Fn(i32) -> f32,
-        noise: f32,
-        seed: u64,
-    ) -> (
+    fn plane(sigma: &dyn Fn(i32) -> f32, noise: f32, seed: u64) -> Plane {
+        plane_of(sigma, noise, seed, 3, false)
+    }
+
+    type Plane = (
         Vec<SearchPixel>,
         Vec<[i32; 3]>,
         Vec<ViewShadings>,
         Vec<Image>,
-    ) {
+    );
+
+    /// [`plane`] with `per` pixels of each cell in each view; with `same_light`, a cell's
+    /// pixels in one view have the same shadings (neighbouring pixels), and differ by noise.
+    fn plane_of(
+        sigma: &dyn Fn(i32) -> f32,
+        noise: f32,
+        seed: u64,
+        per: usize,
+        same_light: bool,
+    ) -> Plane {
         let mut rng = Pcg32::new(seed, 3);
-        let (side, views, per) = (20i32, 12u32, 3usize);
+        let (side, views) = (20i32, 12u32);
         let voxels: Vec<[i32; 3]> = (0..side * side).map(|c| [c % side, 0, c / side]).collect();
         let n = voxels.len() * per;
         let (mut pixels, mut shadings, mut images) = (vec![], vec![], vec![]);
@@ -526,11 +593,16 @@ mod tests {
             for i in 0..n {
                 let cell = i / per;
                 sh.valid[i] = true;
-                sh.ld[i] = Vec3::splat(0.5 + rng.next_f32());
-                for l in 0..NUM_LEVELS {
-                    let u = rng.next_f32();
-                    sh.ls0[i][l] = Vec3::splat(0.2 + 3.0 * u * (1.0 - l as f32 / 6.0));
-                    sh.ls1[i][l] = Vec3::splat(0.05 * rng.next_f32());
+                if same_light && i % per != 0 {
+                    let first = i - i % per;
+                    (sh.ld[i], sh.ls0[i], sh.ls1[i]) = (sh.ld[first], sh.ls0[first], sh.ls1[first]);
+                } else {
+                    sh.ld[i] = Vec3::splat(0.5 + rng.next_f32());
+                    for l in 0..NUM_LEVELS {
+                        let u = rng.next_f32();
+                        sh.ls0[i][l] = Vec3::splat(0.2 + 3.0 * u * (1.0 - l as f32 / 6.0));
+                        sh.ls1[i][l] = Vec3::splat(0.05 * rng.next_f32());
+                    }
                 }
                 let base = Vec3::new(0.5, 0.4, 0.3) * (1.0 + 0.05 * rng.next_f32());
                 let (b, c) = super::super::linear_terms(&sh, i, sigma(voxels[cell][0]), 0.0);
@@ -572,6 +644,43 @@ mod tests {
         }
     }
 
+    /// The gloss split of a plane whose cells show 16 pixels in each view, which see the same
+    /// light and differ by `noise` (σ by column), per pixel or per view.
+    fn split_at(sigma: &dyn Fn(i32) -> f32, noise: f32, view_means: bool) -> Vec<GlossCut> {
+        let (px, vox, sh, img) = plane_of(sigma, noise, 11, 16, true);
+        let grid: Vec<f32> = crate::sigma_grid(DEFAULT_LEVELS[0], 1.0, 50);
+        let cfg = SplitConfig {
+            gloss_view_means: view_means,
+            ..SplitConfig::default()
+        };
+        gloss_split(ColourSplit::none(1), &px, &vox, &sh, &img, &grid, 10, &cfg).1
+    }
+
+    #[test]
+    fn a_cuts_depth_per_view_is_not_drowned_by_the_pixels_noise() {
+        let two = |x: i32| if x < 10 { 0.25 } else { 0.65 };
+        // Per pixel, the noise makes most of each side's cost: the depth falls from several
+        // times the gate to under the old one (0.25).
+        let [quiet, noisy] = [0.05, 0.3].map(|n| split_at(&two, n, false)[0].clone());
+        assert!(
+            quiet.depth > 2.0 && noisy.depth < 0.25,
+            "{quiet:?} {noisy:?}"
+        );
+        // Per view, the same cut stays far above the gate and divides.
+        let per_view = split_at(&two, 0.3, true)[0].clone();
+        assert!(
+            per_view.depth > 3.0 * 0.6 && per_view.divided,
+            "{per_view:?}"
+        );
+        assert!((per_view.sigma[0] - 0.25).abs() <= 0.04, "{per_view:?}");
+        assert!((per_view.sigma[1] - 0.65).abs() <= 0.04, "{per_view:?}");
+        // One finish under the same noise stays whole.
+        for sigma in [0.3f32, 0.7] {
+            let cuts = split_at(&|_| sigma, 0.3, true);
+            assert!(cuts.iter().all(|c| !c.divided), "σ {sigma}: {cuts:?}");
+        }
+    }
+
     #[test]
     fn one_finish_with_noise_stays_whole() {
         for sigma in [0.3f32, 0.7, 1.0] {
@@ -590,7 +699,7 @@ mod tests {
             by_cell[p.cell as usize].push(j);
         }
         let wanted = vec![true; vox.len()];
-        let curves = cell_curves(&by_cell, &wanted, &px, &sh, &img, &grid, Views::All);
+        let curves = cell_curves(&by_cell, &wanted, &px, &sh, &img, &grid, Views::All, false);
         let cells = RegionCells::new((0..vox.len()).collect(), &vox, &by_cell, 3);
         let right = |c: &Cut| {
             let ok = (0..vox.len())

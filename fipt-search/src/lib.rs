@@ -481,6 +481,10 @@ impl Observed {
     /// The squared sRGB error of `pred` against the pixel's value, summed over the channels;
     /// for a clipped pixel only where `pred` lies below it.
     #[inline]
+    pub(crate) fn encoded(&self) -> Rgb {
+        self.enc
+    }
+
     pub(crate) fn sq_err(&self, pred: Rgb) -> f64 {
         let lower = self.w == Vec3::ZERO;
         let e = |p: f32, enc: f32| {

@@ -47,13 +47,26 @@ pub struct SplitConfig {
     /// `bedroom`, 83 % `atelier`) and shading error's cuts on up to 88 %, so the depth decides
     /// (`docs/roughness-rooms.md`, *Finishes outlined by a minimum cut*).
     pub gloss_agreement: f32,
-    /// Least relative excess of each side's pooled cost curve at the other side's σ: floors of
-    /// two finishes 26–149 %, every other cut on six Mitsuba rooms and four copies (sides of
-    /// 15 % or more) at most 17 %: shading error makes reproducible but shallow cuts. A colour
-    /// division this deep stands against a gloss cut.
-    /// Colour sides keep their own decisions only with it too, measured on their profiles
-    /// ([`sides_differ`]).
+    /// Colour sides keep their own decisions only when each side's profile costs this much
+    /// more at the other side's σ than at its own ([`sides_differ`]): `atelier`'s rug, one
+    /// finish in two colours, 1.4–1.9 %; floors of two finishes 41–161 %. With
+    /// `gloss_view_means` off, a gloss cut's sides are asked it too (the rule before
+    /// 2026-12-07 is `gloss_view_means = false`, `gloss_cut_depth = 0.25`: per pixel, floors
+    /// measured 17–149 % and every other cut at most 17 %).
     pub gloss_depth: f32,
+    /// The gloss split's cell curves take each view's pixels of a cell together (the squared
+    /// difference of their mean and their mean prediction, times their count) rather than
+    /// pixel by pixel: the pixels' own noise, which made most of a floor's cost, averages out,
+    /// so a cut's depth says how much the finishes differ, not how noisy the views are
+    /// (`kitchen`'s floor measured 25.1 % per pixel and 17.3 % in the same room rendered with
+    /// every bounce, whose views are noisier; per view, 257 % and 166 %).
+    pub gloss_view_means: bool,
+    /// Least relative excess of each side's pooled cell curve at the other side's σ for a
+    /// gloss cut to divide its region, and for a colour division to stand against it (on the
+    /// curves `gloss_view_means` says). Per view, floors of two finishes measured 143–406 %,
+    /// and every other cut of five Mitsuba rooms and a capture copy at most 32 %
+    /// (`docs/roughness-rooms.md`, *A cut's depth against the views' noise*).
+    pub gloss_cut_depth: f32,
     /// The price of the edge between two finishes in the gloss split: each pair of adjacent
     /// cells on different sides costs this many times the median of the region's cells'
     /// preference for one side ([`crate::gloss`]); 0 labels every cell by its own curve.
@@ -71,6 +84,8 @@ impl Default for SplitConfig {
             gloss_radius: 3,
             gloss_agreement: 0.55,
             gloss_depth: 0.25,
+            gloss_view_means: true,
+            gloss_cut_depth: 0.6,
             gloss_smoothness: 0.5,
         }
     }
@@ -99,6 +114,9 @@ impl SplitConfig {
         if !(self.gloss_depth >= 0.0 && self.gloss_depth <= 10.0) {
             return bad("gloss_depth", self.gloss_depth, "[0, 10]");
         }
+        if !(self.gloss_cut_depth >= 0.0 && self.gloss_cut_depth <= 10.0) {
+            return bad("gloss_cut_depth", self.gloss_cut_depth, "[0, 10]");
+        }
         if !(self.gloss_smoothness >= 0.0 && self.gloss_smoothness <= 100.0) {
             return bad("gloss_smoothness", self.gloss_smoothness, "[0, 100]");
         }
@@ -107,11 +125,13 @@ impl SplitConfig {
 }
 
 /// How regions divide: `side[cell]` is 0 or 1, and `sub[region]` the id of the region's second
-/// side (numbered after the regions), None for a region that stays whole.
+/// side (numbered after the regions), None for a region that stays whole; `by_gloss[region]`
+/// says that its division is a gloss cut ([`crate::gloss`]; missing: false).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ColourSplit {
     pub sub: Vec<Option<u32>>,
     pub side: Vec<u8>,
+    pub by_gloss: Vec<bool>,
 }
 
 impl ColourSplit {
@@ -120,6 +140,7 @@ impl ColourSplit {
         ColourSplit {
             sub: vec![None; regions],
             side: vec![],
+            by_gloss: vec![],
         }
     }
 
@@ -264,6 +285,7 @@ pub fn colour_split(
     let mut out = ColourSplit {
         sub: vec![None; regions],
         side: vec![0; cells.len()],
+        by_gloss: vec![],
     };
     let mut next = regions as u32;
     for (r, members) in by_region.iter().enumerate() {
@@ -356,8 +378,9 @@ fn nearest(grid: &[f32], s: f32) -> Option<usize> {
 /// Whether two sides keep their own decisions `[ca, cb]` (from profiles `[a, b]`): one is metal
 /// and the other is not, or their decisions differ and so do their curves' minima, by
 /// `sigma_gap`, each side's cost at the other's minimum lies `gloss_depth` above its own
-/// ([`crossed`]; gloss cuts, which passed that depth on their pooled per-cell curves, are
-/// checked again here on their sides' profiles), and with `halves` (each side profiled on each half of the views:
+/// ([`crossed`]; not asked of a gloss cut whose depth was measured on each view's pixels
+/// together, `depth_measured`: on the profiles, pixel by pixel, the views' noise decides it),
+/// and with `halves` (each side profiled on each half of the views:
 /// `halves[side][half]`) the minima differ the same way by half the gap on both halves.
 /// Comparing minima, not decisions, keeps a side of weak evidence (whose tolerance rule lands
 /// elsewhere) from dividing a region of one finish; the depth keeps a region of one finish and
@@ -369,6 +392,7 @@ pub fn sides_differ(
     choices: [&RegionChoice; 2],
     halves: Option<[[&RegionProfile; 2]; 2]>,
     cfg: &SplitConfig,
+    depth_measured: bool,
 ) -> bool {
     let metal = |c: &RegionChoice| c.metallic.is_some_and(|m| m > 0.5);
     if metal(choices[0]) != metal(choices[1]) {
@@ -385,7 +409,8 @@ pub fn sides_differ(
     if !(whole.abs() >= cfg.sigma_gap - slack) {
         return false;
     }
-    let firm = crossed(sides, m).is_some_and(|c| c.iter().all(|&c| c >= cfg.gloss_depth));
+    let firm = depth_measured
+        || crossed(sides, m).is_some_and(|c| c.iter().all(|&c| c >= cfg.gloss_depth));
     firm && halves.is_none_or(|h| {
         (0..2).all(|k| {
             let g = gap(h[0][k], h[1][k]);
@@ -458,7 +483,8 @@ mod tests {
                     [&sides[0], &sides[1]],
                     [&choices[0], &choices[1]],
                     None,
-                    &cfg
+                    &cfg,
+                    false
                 ),
                 differ,
                 "{truth:?}: {choices:?}"
@@ -499,29 +525,31 @@ mod tests {
         let cfg = SplitConfig::default();
         let (a, b) = (curve(1), curve(3));
         let (ca, cb) = (pick(0.4), pick(0.8));
-        assert!(sides_differ([&a, &b], [&ca, &cb], None, &cfg));
+        assert!(sides_differ([&a, &b], [&ca, &cb], None, &cfg, false));
         // The same on both halves: kept; reversed on one half: not.
         assert!(sides_differ(
             [&a, &b],
             [&ca, &cb],
             Some([[&a, &a], [&b, &b]]),
-            &cfg
+            &cfg,
+            false
         ));
         assert!(!sides_differ(
             [&a, &b],
             [&ca, &cb],
             Some([[&a, &b], [&b, &a]]),
-            &cfg
+            &cfg,
+            false
         ));
         // Minima together, or the same decision: one region.
-        assert!(!sides_differ([&a, &a], [&ca, &cb], None, &cfg));
-        assert!(!sides_differ([&a, &b], [&ca, &ca], None, &cfg));
+        assert!(!sides_differ([&a, &a], [&ca, &cb], None, &cfg, false));
+        assert!(!sides_differ([&a, &b], [&ca, &ca], None, &cfg, false));
         // A metal side and a dielectric side always keep their own.
         let metal = RegionChoice {
             metallic: Some(1.0),
             ..pick(0.4)
         };
-        assert!(sides_differ([&a, &a], [&ca, &metal], None, &cfg));
+        assert!(sides_differ([&a, &a], [&ca, &metal], None, &cfg, false));
     }
 
     fn cloud(centre: DVec3, spread: f64, n: usize, seed: u64) -> Vec<(DVec3, f64)> {
