@@ -478,13 +478,15 @@ impl Observed {
             .collect()
     }
 
-    /// The squared sRGB error of `pred` against the pixel's value, summed over the channels;
-    /// for a clipped pixel only where `pred` lies below it.
+    /// The pixel's value, sRGB-encoded.
     #[inline]
     pub(crate) fn encoded(&self) -> Rgb {
         self.enc
     }
 
+    /// The squared sRGB error of `pred` against the pixel's value, summed over the channels;
+    /// for a clipped pixel only where `pred` lies below it.
+    #[inline]
     pub(crate) fn sq_err(&self, pred: Rgb) -> f64 {
         let lower = self.w == Vec3::ZERO;
         let e = |p: f32, enc: f32| {

@@ -65,7 +65,7 @@ pub struct SplitConfig {
     /// gloss cut to divide its region, and for a colour division to stand against it (on the
     /// curves `gloss_view_means` says). Per view, floors of two finishes measured 143–406 %,
     /// and every other cut of five Mitsuba rooms and a capture copy at most 32 %
-    /// (`docs/roughness-rooms.md`, *A cut's depth against the views' noise*).
+    /// (`docs/gloss-cut-noise.md`).
     pub gloss_cut_depth: f32,
     /// The price of the edge between two finishes in the gloss split: each pair of adjacent
     /// cells on different sides costs this many times the median of the region's cells'
