@@ -25,13 +25,13 @@
 //! costs `gloss_cut_depth` more at the other side's σ than at its own: light the shadings get
 //! wrong near a lamp also makes a reproducible cut, but a shallow one. The sides then go
 //! through the same guard as a colour split ([`crate::split::sides_differ`]), less the depth
-//! on their profiles, which are made pixel by pixel. A region the colour divided keeps that
+//! on their profiles (made pixel by pixel) when the curves were taken per view and the sides
+//! are dielectric. A region the colour divided keeps that
 //! division when it is `gloss_cut_depth` deep itself on the same curves (finishes that follow
 //! the colour), and otherwise takes the gloss cut when that is the deeper division (a wood
 //! checker over tiles of two finishes).
-use super::{argmin, excess, AlbedoFit, Observed, SearchPixel};
+use super::{argmin, excess, srgb_encoded, AlbedoFit, Observed, SearchPixel};
 use crate::split::{ColourSplit, SplitConfig};
-use fipt_core::color::srgb_oetf;
 use fipt_core::image::Image;
 use fipt_core::shading::ViewShadings;
 use glam::Vec3;
@@ -54,9 +54,10 @@ impl Views {
     }
 }
 
-/// Per cell (dense id), its cost curve at m = 0 over `grid` (summed squared sRGB error of its
-/// pixels that `views` reads, its base colour fitted at each σ), None without such a pixel or
-/// where `wanted` says no.
+/// Per cell (dense id), its cost curve at m = 0 over `grid` (the squared sRGB error of its
+/// pixels that `views` reads, summed pixel by pixel or, with `view_means`, view by view as in
+/// [`view_means_cost`]; its base colour fitted at each σ), None without such a pixel or where
+/// `wanted` says no.
 fn cell_curves(
     by_cell: &[Vec<usize>],
     wanted: &[bool],
@@ -124,7 +125,7 @@ fn view_means_cost(
             cost += o.sq_err(pred);
             continue;
         }
-        let (po, pp) = (o.encoded().as_dvec3(), encoded(pred).as_dvec3());
+        let (po, pp) = (o.encoded().as_dvec3(), srgb_encoded(pred).as_dvec3());
         let view = pixels[j].view;
         match groups.iter_mut().rev().find(|g| g.0 == view) {
             Some(g) => {
@@ -140,11 +141,6 @@ fn view_means_cost(
         cost += n * d.length_squared();
     }
     cost
-}
-
-/// A colour's sRGB encoding, per channel.
-fn encoded(v: Vec3) -> Vec3 {
-    Vec3::new(srgb_oetf(v.x), srgb_oetf(v.y), srgb_oetf(v.z))
 }
 
 /// One region's cells: their ids, voxels and pixel counts, and the neighbours of each (the

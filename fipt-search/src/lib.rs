@@ -452,12 +452,21 @@ pub(crate) struct Observed {
     w: Rgb,
 }
 
+/// A colour's sRGB encoding, channel by channel.
+#[inline]
+pub(crate) fn srgb_encoded(c: Rgb) -> Rgb {
+    Vec3::new(srgb_oetf(c.x), srgb_oetf(c.y), srgb_oetf(c.z))
+}
+
 impl Observed {
     #[inline]
     pub(crate) fn of(g: Rgb) -> Self {
         let w = Vec3::new(oetf_grad(g.x), oetf_grad(g.y), oetf_grad(g.z));
-        let enc = Vec3::new(srgb_oetf(g.x), srgb_oetf(g.y), srgb_oetf(g.z));
-        Observed { g, enc, w: w * w }
+        Observed {
+            g,
+            enc: srgb_encoded(g),
+            w: w * w,
+        }
     }
 
     /// Search pixel `p` of `images`.

@@ -52,7 +52,7 @@ pub struct SplitConfig {
     /// finish in two colours, 1.4–1.9 %; floors of two finishes 41–161 %. With
     /// `gloss_view_means` off, a gloss cut's sides are asked it too (the rule before
     /// 2026-12-07 is `gloss_view_means = false`, `gloss_cut_depth = 0.25`: per pixel, floors
-    /// measured 17–149 % and every other cut at most 17 %).
+    /// measured 15.6–149 % and every other cut at most 17 %).
     pub gloss_depth: f32,
     /// The gloss split's cell curves take each view's pixels of a cell together (the squared
     /// difference of their mean and their mean prediction, times their count) rather than
@@ -378,8 +378,9 @@ fn nearest(grid: &[f32], s: f32) -> Option<usize> {
 /// Whether two sides keep their own decisions `[ca, cb]` (from profiles `[a, b]`): one is metal
 /// and the other is not, or their decisions differ and so do their curves' minima, by
 /// `sigma_gap`, each side's cost at the other's minimum lies `gloss_depth` above its own
-/// ([`crossed`]; not asked of a gloss cut whose depth was measured on each view's pixels
-/// together, `depth_measured`: on the profiles, pixel by pixel, the views' noise decides it),
+/// ([`crossed`]; not asked of dielectric sides of a gloss cut whose depth was measured on
+/// each view's pixels together, `depth_measured`: on the profiles, pixel by pixel, the views'
+/// noise decides it),
 /// and with `halves` (each side profiled on each half of the views:
 /// `halves[side][half]`) the minima differ the same way by half the gap on both halves.
 /// Comparing minima, not decisions, keeps a side of weak evidence (whose tolerance rule lands
@@ -409,7 +410,8 @@ pub fn sides_differ(
     if !(whole.abs() >= cfg.sigma_gap - slack) {
         return false;
     }
-    let firm = depth_measured
+    // A gloss cut's depth was measured at m = 0: metal sides are still asked it here.
+    let firm = (depth_measured && m == 0.0)
         || crossed(sides, m).is_some_and(|c| c.iter().all(|&c| c >= cfg.gloss_depth));
     firm && halves.is_none_or(|h| {
         (0..2).all(|k| {
@@ -526,6 +528,28 @@ mod tests {
         let (a, b) = (curve(1), curve(3));
         let (ca, cb) = (pick(0.4), pick(0.8));
         assert!(sides_differ([&a, &b], [&ca, &cb], None, &cfg, false));
+        // Sides that barely reject each other's σ: one decision, unless they are the
+        // dielectric sides of a gloss cut whose depth was measured per view; metal sides of
+        // one are still asked the depth (the cut measured it at m = 0 only).
+        let shallow = |min_at: usize| {
+            let row: Vec<f64> = (0..5)
+                .map(|i| 1.0 + 0.005 * (i as f64 - min_at as f64).abs())
+                .collect();
+            RegionProfile {
+                metallic: vec![0.0, 1.0],
+                cost: vec![row.clone(), row],
+                ..curve(min_at)
+            }
+        };
+        let (sa, sb) = (shallow(1), shallow(3));
+        assert!(!sides_differ([&sa, &sb], [&ca, &cb], None, &cfg, false));
+        assert!(sides_differ([&sa, &sb], [&ca, &cb], None, &cfg, true));
+        let metal = |s: f32| RegionChoice {
+            metallic: Some(1.0),
+            ..pick(s)
+        };
+        let (ma, mb) = (metal(0.4), metal(0.8));
+        assert!(!sides_differ([&sa, &sb], [&ma, &mb], None, &cfg, true));
         // The same on both halves: kept; reversed on one half: not.
         assert!(sides_differ(
             [&a, &b],
