@@ -26,10 +26,10 @@
 //! wrong near a lamp also makes a reproducible cut, but a shallow one. The sides then go
 //! through the same guard as a colour split ([`crate::split::sides_differ`]), less the depth
 //! on their profiles (made pixel by pixel) when the curves were taken per view and the sides
-//! are dielectric. A region the colour divided keeps that
-//! division when it is `gloss_cut_depth` deep itself on the same curves (finishes that follow
-//! the colour), and otherwise takes the gloss cut when that is the deeper division (a wood
-//! checker over tiles of two finishes).
+//! are dielectric. A region the colour divided keeps that division when it is
+//! `gloss_cut_depth` deep itself on the same curves (finishes that follow the colour), and
+//! otherwise takes the gloss cut when that is the deeper division (a wood checker over tiles
+//! of two finishes).
 use super::{argmin, excess, srgb_encoded, AlbedoFit, Observed, SearchPixel};
 use crate::split::{ColourSplit, SplitConfig};
 use fipt_core::image::Image;
@@ -56,7 +56,7 @@ impl Views {
 
 /// Per cell (dense id), its cost curve at m = 0 over `grid` (the squared sRGB error of its
 /// pixels that `views` reads, summed pixel by pixel or, with `view_means`, view by view as in
-/// [`view_means_cost`]; its base colour fitted at each σ), None without such a pixel or where
+/// [`ViewGroups::cost`]; its base colour fitted at each σ), None without such a pixel or where
 /// `wanted` says no.
 fn cell_curves(
     by_cell: &[Vec<usize>],
@@ -83,6 +83,8 @@ fn cell_curves(
                 .map(|&j| Observed::of_pixel(&pixels[j], images))
                 .collect();
             let mut terms: Vec<(Vec3, Vec3)> = Vec::with_capacity(mine.len());
+            // Which view's group each pixel joins does not depend on σ: found once a cell.
+            let mut groups = view_means.then(|| ViewGroups::of(&mine, pixels));
             let curve = grid.iter().map(|&sigma| {
                 terms.clear();
                 terms.extend(mine.iter().map(|&j| {
@@ -94,8 +96,8 @@ fn cell_curves(
                     fit.add_terms(o, b, c);
                 }
                 let a = fit.albedo().clamp(Vec3::ZERO, Vec3::ONE);
-                if view_means {
-                    return view_means_cost(&mine, pixels, &observed, &terms, a) as f32;
+                if let Some(g) = groups.as_mut() {
+                    return g.cost(&observed, &terms, a) as f32;
                 }
                 let cost: f64 = (observed.iter().zip(&terms))
                     .map(|(o, &(b, c))| o.sq_err(a * b + c))
@@ -107,40 +109,64 @@ fn cell_curves(
         .collect()
 }
 
-/// The cost of one cell's pixels with each view's unclipped pixels taken together: the
-/// squared difference of their mean sRGB value and their mean predicted one, times their
-/// count (clipped pixels alone, as lower bounds).
-fn view_means_cost(
-    mine: &[usize],
-    pixels: &[SearchPixel],
-    observed: &[Observed],
-    terms: &[(Vec3, Vec3)],
-    a: Vec3,
-) -> f64 {
-    let mut groups: Vec<(u32, f64, glam::DVec3, glam::DVec3)> = vec![];
-    let mut cost = 0.0;
-    for ((&j, o), &(b, c)) in mine.iter().zip(observed).zip(terms) {
-        let pred = a * b + c;
-        if pixels[j].clipped {
-            cost += o.sq_err(pred);
-            continue;
-        }
-        let (po, pp) = (o.encoded().as_dvec3(), srgb_encoded(pred).as_dvec3());
-        let view = pixels[j].view;
-        match groups.iter_mut().rev().find(|g| g.0 == view) {
-            Some(g) => {
-                g.1 += 1.0;
-                g.2 += po;
-                g.3 += pp;
+/// A cell's pixels grouped by view for [`ViewGroups::cost`]: each unclipped pixel's group
+/// (numbered in order of first appearance), None for a clipped one, and each group's count.
+struct ViewGroups {
+    of: Vec<Option<usize>>,
+    count: Vec<f64>,
+    /// Per group, the sums of the pixels' sRGB values and of their predictions (reused).
+    sums: Vec<(glam::DVec3, glam::DVec3)>,
+}
+
+impl ViewGroups {
+    fn of(mine: &[usize], pixels: &[SearchPixel]) -> Self {
+        let mut views: Vec<u32> = vec![];
+        let mut count: Vec<f64> = vec![];
+        let of = (mine.iter())
+            .map(|&j| {
+                let p = &pixels[j];
+                if p.clipped {
+                    return None;
+                }
+                let g = match views.iter().rposition(|&v| v == p.view) {
+                    Some(g) => g,
+                    None => {
+                        views.push(p.view);
+                        count.push(0.0);
+                        views.len() - 1
+                    }
+                };
+                count[g] += 1.0;
+                Some(g)
+            })
+            .collect();
+        let sums = vec![Default::default(); count.len()];
+        ViewGroups { of, count, sums }
+    }
+
+    /// The cost of the cell's pixels with each view's unclipped pixels taken together: the
+    /// squared difference of their mean sRGB value and their mean predicted one, times their
+    /// count (clipped pixels alone, as lower bounds); `a`: the base colour.
+    fn cost(&mut self, observed: &[Observed], terms: &[(Vec3, Vec3)], a: Vec3) -> f64 {
+        self.sums.fill(Default::default());
+        let mut cost = 0.0;
+        for ((g, o), &(b, c)) in self.of.iter().zip(observed).zip(terms) {
+            let pred = a * b + c;
+            match *g {
+                None => cost += o.sq_err(pred),
+                Some(g) => {
+                    let s = &mut self.sums[g];
+                    s.0 += o.encoded().as_dvec3();
+                    s.1 += srgb_encoded(pred).as_dvec3();
+                }
             }
-            None => groups.push((view, 1.0, po, pp)),
         }
+        for (&n, (so, sp)) in self.count.iter().zip(&self.sums) {
+            let d = (*so - *sp) / n;
+            cost += n * d.length_squared();
+        }
+        cost
     }
-    for (_, n, so, sp) in groups {
-        let d = (so - sp) / n;
-        cost += n * d.length_squared();
-    }
-    cost
 }
 
 /// One region's cells: their ids, voxels and pixel counts, and the neighbours of each (the
