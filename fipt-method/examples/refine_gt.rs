@@ -125,7 +125,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let loaded = fipt_capture::scene::load(&scene, BadPixelPolicy::Reject, &Default::default())?;
     let mesh = Mesh::load(&loaded.ds.mesh)?;
-    let gt = scene.join("scene_gt.json");
+    // fipt synth's scene_gt.json, else the Mitsuba rooms' scene_parts.json.
+    let gt = ["scene_gt.json", "scene_parts.json"]
+        .map(|f| scene.join(f))
+        .into_iter()
+        .find(|p| p.is_file())
+        .unwrap_or_else(|| scene.join("scene_gt.json"));
     let mats = SceneMaterials::read_any(&gt)?;
     let mut table = TableSurfaces::new(mats, &mesh, &gt)?;
     table.model = brdf;
