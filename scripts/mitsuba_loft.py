@@ -318,6 +318,46 @@ def kitchen_objects(lo, hi):
     ]
 
 
+def office_objects(lo, hi):
+    """A seventh layout, held out from every setting (rendered 2026-12-07, after the rules of
+    that day): a rough concrete floor (σ 0.75), a lacquered glossy wall (σ 0.25), a dark matte
+    wall (σ 0.95), a satin wall (σ 0.7), a desk whose top has two finishes that follow its two
+    colours (σ 0.25 / 0.7), a near-mirror chrome sphere (metal σ 0.08), a brushed aluminium
+    cylinder (metal σ 0.45), a leather chair (σ 0.55), a rough plaster column (σ 1), a piano-black
+    box (σ 0.05), a ceiling strip light and a floor lamp's shade."""
+    c = lambda x, y, z: np.array([x, y, z], float)
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    floor, ceiling, wall_xm, wall_xp, wall_zm, wall_zp = shell(lo, hi)
+    py = y1 - 0.01
+    strip = quad(c(-1.5, py, -0.3), c(0.5, py, -0.3), c(0.5, py, 0.0), c(-1.5, py, 0.0))
+    inlay = {"type": "checker", "color0": [0.62, 0.52, 0.40], "color1": [0.22, 0.30, 0.26],
+             "uv_scale": [2.0, 2.0]}
+    inlay_finish = {"type": "checker", "color0": 0.25, "color1": 0.7, "uv_scale": [2.0, 2.0]}
+    return [
+        ("floor", floor, dict(base_color=[0.48, 0.47, 0.45], roughness=0.75, metallic=0.0)),
+        ("ceiling", ceiling, dict(base_color=[0.90, 0.90, 0.90], roughness=1.0, metallic=0.0)),
+        ("wall_navy_x-", wall_xm, dict(base_color=[0.10, 0.13, 0.22], roughness=0.95, metallic=0.0)),
+        ("wall_lacquer_x+", wall_xp, dict(base_color=[0.80, 0.55, 0.35], roughness=0.25, metallic=0.0)),
+        ("wall_back_z-", wall_zm, dict(base_color=[0.82, 0.82, 0.78], roughness=0.85, metallic=0.0)),
+        ("wall_front_z+", wall_zp, dict(base_color=[0.50, 0.62, 0.55], roughness=0.7, metallic=0.0)),
+        ("strip_light", strip, dict(radiance=[13.0, 13.0, 12.0])),
+        ("lamp_shade", box(c(1.9, 1.35, 1.2), c(2.25, 1.6, 1.55)), dict(radiance=[14.0, 11.0, 7.0])),
+        ("desk", box(c(-0.9, 0.0, -1.6), c(0.7, 0.74, -0.8)),
+         dict(base_color=inlay, roughness=inlay_finish, metallic=0.0)),
+        ("chrome_sphere", sphere([0.3, 0.94, -1.2], 0.2),
+         dict(base_color=[0.95, 0.95, 0.96], roughness=0.08, metallic=1.0)),
+        ("alu_cylinder", outward(cylinder(2.0, -1.4, 0.22, 1.0), c(2.0, 0.5, -1.4)),
+         dict(base_color=[0.91, 0.92, 0.92], roughness=0.45, metallic=1.0)),
+        ("chair", box(c(-0.4, 0.0, 0.4), c(0.3, 0.5, 1.1)),
+         dict(base_color=[0.35, 0.20, 0.12], roughness=0.55, metallic=0.0)),
+        ("plaster_column", outward(cylinder(-1.9, 1.2, 0.3, 2.0), c(-1.9, 1.0, 1.2)),
+         dict(base_color=[0.86, 0.85, 0.82], roughness=1.0, metallic=0.0)),
+        ("piano_box", box(c(1.0, 0.0, 0.2), c(1.6, 0.6, 0.8)),
+         dict(base_color=[0.02, 0.02, 0.02], roughness=0.05, metallic=0.0)),
+    ]
+
+
 # Each layout: room bounds, its objects (floor, ceiling and four walls first), the relighting
 # sphere light (centre, radius, radiance; at least 1.3 m from every val camera).
 LAYOUTS = {
@@ -331,6 +371,8 @@ LAYOUTS = {
                     relight=([-0.5, 2.2, 0.2], 0.15, [70.0, 66.0, 58.0])),
     "kitchen": dict(lo=[-2.6, 0.0, -2.0], hi=[2.6, 2.7, 2.0], objects=kitchen_objects,
                     relight=([-0.8, 2.2, -0.5], 0.15, [70.0, 66.0, 58.0])),
+    "office": dict(lo=[-2.5, 0.0, -2.0], hi=[2.5, 2.7, 2.0], objects=office_objects,
+                   relight=([0.8, 2.2, 0.6], 0.15, [70.0, 66.0, 58.0])),
 }
 
 
