@@ -10,6 +10,7 @@ tuned on (`docs/loft-mitsuba.md`).
     python3 scripts/mitsuba_loft.py --layout atelier --out atelier --spp 256
     python3 scripts/mitsuba_loft.py --layout kitchen --out kitchen --spp 256
     python3 scripts/mitsuba_loft.py --layout kitchen --out kitchen-direct --spp 64 --max-depth 2
+    python3 scripts/mitsuba_loft.py --layout office --out office --spp 256
 
 `loft`: a glossy textured floor, one one-sided ceiling panel, a copper cylinder (metal,
 σ 0.25), a rough aluminium box (metal, σ 0.45), a glossy red sphere (dielectric, σ 0.15), a
