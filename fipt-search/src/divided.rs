@@ -68,7 +68,7 @@ pub fn choose_regions(
             choose_one(&profiles[s], held(s), r),
         ];
         let side_halves = halves.map(|h| [[&h[0][r], &h[1][r]], [&h[0][s], &h[1][s]]]);
-        let measured = cfg.gloss_view_means && split.by_gloss.get(r) == Some(&true);
+        let measured = cfg.gloss_view_means && split.deep_per_view.get(r) == Some(&true);
         if sides_differ(
             [&profiles[r], &profiles[s]],
             [&sides[0], &sides[1]],
@@ -153,7 +153,7 @@ mod tests {
         let split = ColourSplit {
             sub: vec![None, Some(2)],
             side: vec![],
-            by_gloss: vec![],
+            deep_per_view: vec![],
         };
         let (whole, kept) = choose_regions(&profiles, None, &split, &cfg.split, &choose_one);
         assert_eq!(whole.len(), 2);
@@ -180,11 +180,11 @@ mod tests {
         assert_eq!(flat_sides, [Some(0.2), Some(0.8)]);
         let (_, kept_flat) = choose_regions(&flat, None, &split, &cfg.split, &choose_one);
         assert!(kept_flat.is_empty());
-        // A gloss cut passed its depth on each view's pixels together: the profiles' depth, made
-        // pixel by pixel and mostly of the views' noise, is not asked again; per pixel
-        // (`gloss_view_means` off) it is.
+        // A division (a gloss cut, or a colour division as deep) passed its depth on each
+        // view's pixels together: the profiles' depth, made pixel by pixel and mostly of the
+        // views' noise, is not asked again; per pixel (`gloss_view_means` off) it is.
         let gloss_cut = ColourSplit {
-            by_gloss: vec![false, true],
+            deep_per_view: vec![false, true],
             ..split.clone()
         };
         let (_, kept_gloss) = choose_regions(&flat, None, &gloss_cut, &cfg.split, &choose_one);

@@ -29,7 +29,8 @@
 //! are dielectric. A region the colour divided keeps that division when it is
 //! `gloss_cut_depth` deep itself on the same curves (finishes that follow the colour), and
 //! otherwise takes the gloss cut when that is the deeper division (a wood checker over tiles
-//! of two finishes).
+//! of two finishes). A colour division that deep is as firm as a gloss cut: its dielectric
+//! sides are not asked the profiles' depth either (`ColourSplit::deep_per_view`).
 use super::{argmin, excess, srgb_encoded, AlbedoFit, Observed, SearchPixel};
 use crate::split::{ColourSplit, SplitConfig};
 use fipt_core::image::Image;
@@ -516,15 +517,20 @@ pub fn gloss_split(
             let side: Vec<Option<u8>> = cells.ids.iter().map(|&c| Some(out.side[c])).collect();
             depth(&cells, &sets[0], &side).unwrap_or(0.0)
         });
-        cut.divided &= by_colour.is_none_or(|d| d < cfg.gloss_cut_depth as f64 && all.depth > d);
+        let deep_colour = by_colour.is_some_and(|d| d >= cfg.gloss_cut_depth as f64);
+        cut.divided &= by_colour.is_none_or(|d| !deep_colour && all.depth > d);
         cut.region = r as u32;
         if cut.divided {
             for (k, &c) in cells.ids.iter().enumerate() {
                 out.side[c] = all.side[k].unwrap_or(0);
             }
             out.sub[r] = Some(u32::MAX);
-            out.by_gloss.resize(regions, false);
-            out.by_gloss[r] = true;
+        }
+        // A division as deep on the views as a gloss cut must be is as firm as one: its
+        // sides are not asked the profiles' depth again (`split::sides_differ`).
+        if cut.divided || deep_colour {
+            out.deep_per_view.resize(regions, false);
+            out.deep_per_view[r] = true;
         }
         measured.push(cut);
     }
@@ -701,6 +707,39 @@ mod tests {
             let cuts = split_at(&|_| sigma, 0.3, true);
             assert!(cuts.iter().all(|c| !c.divided), "σ {sigma}: {cuts:?}");
         }
+    }
+
+    #[test]
+    fn a_colour_division_as_deep_per_view_as_a_gloss_cut_is_as_firm() {
+        let two = |x: i32| if x < 10 { 0.25 } else { 0.65 };
+        let grid: Vec<f32> = crate::sigma_grid(DEFAULT_LEVELS[0], 1.0, 50);
+        let cfg = SplitConfig::default();
+        // The colour divides the plane where its finish changes (column 10), or by rows,
+        // which its finish does not follow.
+        let by = |side: &dyn Fn(i32, i32) -> bool, sigma: &dyn Fn(i32) -> f32| {
+            let (px, vox, sh, img) = plane_of(sigma, 0.3, 11, 16, true);
+            let base = ColourSplit {
+                sub: vec![Some(1)],
+                side: vox.iter().map(|v| u8::from(side(v[0], v[2]))).collect(),
+                deep_per_view: vec![],
+            };
+            gloss_split(base, &px, &vox, &sh, &img, &grid, 10, &cfg)
+        };
+        let (along, cuts) = by(&|x, _| x >= 10, &two);
+        assert_eq!(along.sub, vec![Some(1)], "{cuts:?}");
+        assert!(
+            cuts.iter().all(|c| !c.divided),
+            "the colour stands: {cuts:?}"
+        );
+        assert_eq!(along.deep_per_view, vec![true], "{cuts:?}");
+        // Colour sides across one finish measure nothing: not firm, still divided by colour
+        // (the profiles' depth decides them later).
+        let (across, cuts) = by(&|_, z| z >= 10, &|_| 0.5);
+        assert_eq!(across.sub, vec![Some(1)], "{cuts:?}");
+        assert!(
+            !across.deep_per_view.first().copied().unwrap_or(false),
+            "{cuts:?}"
+        );
     }
 
     #[test]

@@ -125,13 +125,16 @@ impl SplitConfig {
 }
 
 /// How regions divide: `side[cell]` is 0 or 1, and `sub[region]` the id of the region's second
-/// side (numbered after the regions), None for a region that stays whole; `by_gloss[region]`
-/// says that its division is a gloss cut ([`crate::gloss`]; missing: false).
+/// side (numbered after the regions), None for a region that stays whole;
+/// `deep_per_view[region]` says that its division measured at least
+/// [`SplitConfig::gloss_cut_depth`] on each view's pixels together ([`crate::gloss`]): a gloss
+/// cut that divided, or a colour division that stood against a gloss cut for being that deep
+/// (missing: false).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ColourSplit {
     pub sub: Vec<Option<u32>>,
     pub side: Vec<u8>,
-    pub by_gloss: Vec<bool>,
+    pub deep_per_view: Vec<bool>,
 }
 
 impl ColourSplit {
@@ -140,7 +143,7 @@ impl ColourSplit {
         ColourSplit {
             sub: vec![None; regions],
             side: vec![],
-            by_gloss: vec![],
+            deep_per_view: vec![],
         }
     }
 
@@ -285,7 +288,7 @@ pub fn colour_split(
     let mut out = ColourSplit {
         sub: vec![None; regions],
         side: vec![0; cells.len()],
-        by_gloss: vec![],
+        deep_per_view: vec![],
     };
     let mut next = regions as u32;
     for (r, members) in by_region.iter().enumerate() {
@@ -378,9 +381,9 @@ fn nearest(grid: &[f32], s: f32) -> Option<usize> {
 /// Whether two sides keep their own decisions `[ca, cb]` (from profiles `[a, b]`): one is metal
 /// and the other is not, or their decisions differ and so do their curves' minima, by
 /// `sigma_gap`, each side's cost at the other's minimum lies `gloss_depth` above its own
-/// ([`crossed`]; not asked of dielectric sides of a gloss cut whose depth was measured on
-/// each view's pixels together, `depth_measured`: on the profiles, pixel by pixel, the views'
-/// noise decides it),
+/// ([`crossed`]; not asked of dielectric sides of a division whose depth was measured on
+/// each view's pixels together, `depth_measured`: a gloss cut, or a colour division as deep;
+/// on the profiles, pixel by pixel, the views' noise decides it),
 /// and with `halves` (each side profiled on each half of the views:
 /// `halves[side][half]`) the minima differ the same way by half the gap on both halves.
 /// Comparing minima, not decisions, keeps a side of weak evidence (whose tolerance rule lands
