@@ -1,6 +1,6 @@
 //! Diagnostic for the material search: the path-grown refinement run with the ground truth's
-//! materials and emitters (a scene of `fipt synth` or `scripts/mitsuba_loft.py`, which write
-//! `scene_gt.json`), written beside a finished run's shadings as `OUT/NAME`, so that
+//! materials and emitters (a scene of `fipt synth`, which writes `scene_gt.json`, or of
+//! `scripts/mitsuba_loft.py`, which writes `scene_parts.json`), written beside a finished run's shadings as `OUT/NAME`, so that
 //! `fipt profile SCENE OUT --shadings NAME` shows where σ's minima lie when the shadings owe
 //! nothing to the recovered materials (`docs/roughness-rooms.md`, *Where rough walls' glossy
 //! minima come from*).

@@ -160,7 +160,13 @@ fn divide(
             100.0 * c.share,
             100.0 * c.agreement,
             100.0 * c.depth,
-            if c.divided { "divided" } else { "kept whole" }
+            if c.divided {
+                "divided"
+            } else if c.colour_stands {
+                "the colour division stands"
+            } else {
+                "kept whole"
+            }
         );
     }
     split

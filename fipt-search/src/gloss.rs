@@ -452,6 +452,10 @@ pub struct GlossCut {
     pub depth: f64,
     /// Whether the region divided.
     pub divided: bool,
+    /// Whether the region's colour division stood against the cut (`gloss_cut_depth` deep
+    /// itself, or deeper than the cut): the region stays divided by colour.
+    #[serde(default)]
+    pub colour_stands: bool,
 }
 
 /// `base` (the colour split) with regions divided by gloss where the views say their finish
@@ -517,8 +521,10 @@ pub fn gloss_split(
             let side: Vec<Option<u8>> = cells.ids.iter().map(|&c| Some(out.side[c])).collect();
             depth(&cells, &sets[0], &side).unwrap_or(0.0)
         });
-        let deep_colour = by_colour.is_some_and(|d| d >= cfg.gloss_cut_depth as f64);
-        cut.divided &= by_colour.is_none_or(|d| !deep_colour && all.depth > d);
+        let gate = cfg.gloss_cut_depth as f64;
+        let deep_colour = by_colour.is_some_and(|d| d >= gate);
+        cut.colour_stands = by_colour.is_some_and(|d| !(d < gate && all.depth > d));
+        cut.divided &= !cut.colour_stands;
         cut.region = r as u32;
         if cut.divided {
             for (k, &c) in cells.ids.iter().enumerate() {
@@ -526,8 +532,9 @@ pub fn gloss_split(
             }
             out.sub[r] = Some(u32::MAX);
         }
-        // A division as deep on the views as a gloss cut must be is as firm as one: its
-        // sides are not asked the profiles' depth again (`split::sides_differ`).
+        // A division as deep on the curves as a gloss cut must be is as firm as one: its
+        // dielectric sides are not asked the profiles' depth again (`split::sides_differ`,
+        // with `gloss_view_means`: otherwise these curves are per pixel too).
         if cut.divided || deep_colour {
             out.deep_per_view.resize(regions, false);
             out.deep_per_view[r] = true;
@@ -577,6 +584,7 @@ fn measure(
         agreement: agree,
         depth: all.depth,
         divided,
+        colour_stands: false,
     };
     Some((found, all))
 }
@@ -727,18 +735,20 @@ mod tests {
         };
         let (along, cuts) = by(&|x, _| x >= 10, &two);
         assert_eq!(along.sub, vec![Some(1)], "{cuts:?}");
-        assert!(
-            cuts.iter().all(|c| !c.divided),
-            "the colour stands: {cuts:?}"
-        );
+        assert_eq!(cuts.len(), 1, "{cuts:?}");
+        assert!(cuts[0].colour_stands && !cuts[0].divided, "{cuts:?}");
         assert_eq!(along.deep_per_view, vec![true], "{cuts:?}");
-        // Colour sides across one finish measure nothing: not firm, still divided by colour
-        // (the profiles' depth decides them later).
-        let (across, cuts) = by(&|_, z| z >= 10, &|_| 0.5);
-        assert_eq!(across.sub, vec![Some(1)], "{cuts:?}");
-        assert!(
-            !across.deep_per_view.first().copied().unwrap_or(false),
-            "{cuts:?}"
+        // Colour sides across the finishes (by rows) each hold both: a shallow division, which
+        // the gloss cut replaces; it is firm as the gloss cut, not as the colour.
+        let (across, cuts) = by(&|_, z| z >= 10, &two);
+        assert_eq!(cuts.len(), 1, "{cuts:?}");
+        assert!(cuts[0].divided && !cuts[0].colour_stands, "{cuts:?}");
+        assert_eq!(across.deep_per_view, vec![true], "{cuts:?}");
+        let side = |cell: usize| across.side[cell];
+        assert_ne!(
+            side(7 * 20 + 2),
+            side(7 * 20 + 17),
+            "sides by column, not by row"
         );
     }
 

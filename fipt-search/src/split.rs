@@ -127,9 +127,10 @@ impl SplitConfig {
 /// How regions divide: `side[cell]` is 0 or 1, and `sub[region]` the id of the region's second
 /// side (numbered after the regions), None for a region that stays whole;
 /// `deep_per_view[region]` says that its division measured at least
-/// [`SplitConfig::gloss_cut_depth`] on each view's pixels together ([`crate::gloss`]): a gloss
-/// cut that divided, or a colour division that stood against a gloss cut for being that deep
-/// (missing: false).
+/// [`SplitConfig::gloss_cut_depth`] on the gloss split's cell curves ([`crate::gloss`]; each
+/// view's pixels together with `gloss_view_means`, and only then read): a gloss cut that
+/// divided, or a colour division that stood against a gloss cut for being that deep (missing:
+/// false).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ColourSplit {
     pub sub: Vec<Option<u32>>,
@@ -413,7 +414,7 @@ pub fn sides_differ(
     if !(whole.abs() >= cfg.sigma_gap - slack) {
         return false;
     }
-    // A gloss cut's depth was measured at m = 0: metal sides are still asked it here.
+    // A division's depth per view was measured at m = 0: metal sides are still asked it here.
     let firm = (depth_measured && m == 0.0)
         || crossed(sides, m).is_some_and(|c| c.iter().all(|&c| c >= cfg.gloss_depth));
     firm && halves.is_none_or(|h| {
