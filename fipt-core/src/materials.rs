@@ -262,6 +262,15 @@ impl SceneMaterials {
         Ok(s)
     }
 
+    /// The material table of scene folder `scene`: `fipt synth`'s `scene_gt.json`, else the
+    /// Mitsuba rooms' `scene_parts.json` (a scene holds one of them); None without either.
+    pub fn file_in(scene: &Path) -> Option<std::path::PathBuf> {
+        ["scene_gt.json", "scene_parts.json"]
+            .map(|f| scene.join(f))
+            .into_iter()
+            .find(|p| p.is_file())
+    }
+
     /// Reads either fipt's `scene_gt.json` or a Mitsuba-style `scene_parts.json` (detected by
     /// its `objects` key).
     pub fn read_any(path: &Path) -> Result<Self> {

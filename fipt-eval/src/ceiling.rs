@@ -150,11 +150,7 @@ pub fn evaluate_ceiling(
     let ds =
         Dataset::open(&a.truth).with_context(|| format!("opening scene {}", a.truth.display()))?;
     let split = crate::eval_at::pick_split(&ds, a.split.as_deref())?.clone();
-    let Some(parts) = ["scene_parts.json", "scene_gt.json"]
-        .iter()
-        .map(|n| a.truth.join(n))
-        .find(|p| p.is_file())
-    else {
+    let Some(parts) = SceneMaterials::file_in(&a.truth) else {
         crate::bail!(
             "{}: no scene_parts.json or scene_gt.json; the ceiling lays the scene's true materials on the copy's mesh",
             a.truth.display()

@@ -117,10 +117,7 @@ impl PartScores {
 /// The part names of the scene's material table, by part id; empty when it has none (or it
 /// does not parse: names are a convenience, the scores stand without them).
 pub fn part_names(scene: &Path) -> Vec<String> {
-    ["scene_gt.json", "scene_parts.json"]
-        .iter()
-        .map(|f| scene.join(f))
-        .find(|p| p.is_file())
+    SceneMaterials::file_in(scene)
         .and_then(|p| SceneMaterials::read_any(&p).ok())
         .map(|t| t.materials.iter().map(|m| m.name().to_string()).collect())
         .unwrap_or_default()

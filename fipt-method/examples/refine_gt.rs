@@ -1,6 +1,7 @@
 //! Diagnostic for the material search: the path-grown refinement run with the ground truth's
 //! materials and emitters (a scene of `fipt synth`, which writes `scene_gt.json`, or of
-//! `scripts/mitsuba_loft.py`, which writes `scene_parts.json`), written beside a finished run's shadings as `OUT/NAME`, so that
+//! `scripts/mitsuba_loft.py`, which writes `scene_parts.json`), written beside a finished
+//! run's shadings as `OUT/NAME`, so that
 //! `fipt profile SCENE OUT --shadings NAME` shows where σ's minima lie when the shadings owe
 //! nothing to the recovered materials (`docs/roughness-rooms.md`, *Where rough walls' glossy
 //! minima come from*).
@@ -125,12 +126,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let loaded = fipt_capture::scene::load(&scene, BadPixelPolicy::Reject, &Default::default())?;
     let mesh = Mesh::load(&loaded.ds.mesh)?;
-    // fipt synth's scene_gt.json, else the Mitsuba rooms' scene_parts.json.
-    let gt = ["scene_gt.json", "scene_parts.json"]
-        .map(|f| scene.join(f))
-        .into_iter()
-        .find(|p| p.is_file())
-        .unwrap_or_else(|| scene.join("scene_gt.json"));
+    let gt = SceneMaterials::file_in(&scene).unwrap_or_else(|| scene.join("scene_gt.json"));
     let mats = SceneMaterials::read_any(&gt)?;
     let mut table = TableSurfaces::new(mats, &mesh, &gt)?;
     table.model = brdf;
