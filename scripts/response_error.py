@@ -3,7 +3,7 @@
 Usage: python3 scripts/response_error.py FIPT COPY [COPY ...]
 
 FIPT: the `fipt` binary; COPY: a folder `fipt degrade` wrote (its degrade.json holds the tone
-curve as a table, or "srgb"). Runs `FIPT info COPY --json` (the response fit of `fipt run`'s
+curve as a table, a gamma, or "srgb"). Runs `FIPT info COPY --json` (the response fit of `fipt run`'s
 load stage, without the light transport's contrast) and prints, per copy, the RMS of the
 reported table (linear values at stored 0, 8, ..., 255) against the true curve after one
 least-squares scale (a response is known only up to one):
@@ -40,7 +40,9 @@ for c in copies:
     outcome = 'fitted' if len(fit) else 'srgb'
     if not len(fit):
         fit = srgb(stored)
-    if isinstance(tone, dict):
+    if isinstance(tone, dict) and 'gamma' in tone:
+        true = stored ** tone['gamma']
+    elif isinstance(tone, dict):
         table = np.array(tone['table'])
         true = np.interp(stored, np.linspace(0.0, 1.0, len(table)), table)
     else:

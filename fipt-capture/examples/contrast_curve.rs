@@ -62,5 +62,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "min gamma {g:.3} ({g:?}); var(1)/min-1 = {:.2} % ({depth:?}); load {loaded:.1} s, curve {took:.1} s",
         100.0 * depth
     );
+    // What the load decoded with (after raising, where it raised the views), for scripts
+    // that score the estimate against a copy's true exposures or curve.
+    if let Some(f) = &s.capture.exposure_fit {
+        println!("gains {:?}", f.gains);
+    }
+    if let Some(r) = &s.capture.response {
+        let fitted = if r.applied { "fitted" } else { "srgb" };
+        println!("response {fitted} {:?}", r.linear);
+    }
+    if let Some(f) = &s.capture.contrast {
+        println!("applied {} gamma {}", f.applied, f.gamma);
+    }
     Ok(())
 }

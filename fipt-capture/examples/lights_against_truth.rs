@@ -6,7 +6,10 @@
 //! the true radiances to the true kd (`DiffCol`) at the estimate's samples: above 1, the model
 //! gives that part less light than it receives. DIRECT, the same scene rendered with the
 //! lights' direct light alone (`max_depth` 2), splits that into the room's light and the
-//! lights'. Every second training view is used.
+//! lights'. Beside each median, the slope of that ratio's log on the log of the model's
+//! shading (A + Σ L·D) over the part: where it is β, the model keeps a share of the light's
+//! fall-off in kd, and the views' contrast estimate (`fipt_capture::contrast`) on that part
+//! alone reads about 1 − β. Every second training view is used.
 //! ```sh
 //! cargo run --release -p fipt-capture --example lights_against_truth -- SCENE [DIRECT]
 //! ```
@@ -114,7 +117,8 @@ fn shading_by_part(
     let split = ds.train();
     type Truth = (Image, Vec<i64>, Option<Image>);
     let mut gt: BTreeMap<usize, Truth> = BTreeMap::new();
-    let mut by_part: BTreeMap<i64, [Vec<f32>; 3]> = BTreeMap::new();
+    // Per part, per ratio: (ln of the model's shading, ln of the ratio).
+    let mut by_part: BTreeMap<i64, [Vec<(f32, f32)>; 3]> = BTreeMap::new();
     for s in shading {
         let (v, x, y) = s.at;
         if !gt.contains_key(&v) {
@@ -139,11 +143,12 @@ fn shading_by_part(
             continue;
         }
         let r = by_part.entry(ids[j]).or_default();
-        r[0].push(s.seen.y / (s.room.y + s.direct.y) / kd);
+        let shade = (s.room.y + s.direct.y).ln();
+        r[0].push((shade, s.seen.y / (s.room.y + s.direct.y) / kd));
         if let Some(dir) = dir {
             let i_dir = dir.data[j].y;
-            r[1].push(s.room.y / ((s.seen.y - i_dir) / kd));
-            r[2].push(s.direct.y / (i_dir / kd));
+            r[1].push((shade, s.room.y / ((s.seen.y - i_dir) / kd)));
+            r[2].push((shade, s.direct.y / (i_dir / kd)));
         }
     }
     let name = |id: i64| {
@@ -154,13 +159,22 @@ fn shading_by_part(
             .unwrap_or("?")
             .to_string()
     };
-    println!("per part, medians: model kd / true kd; with a direct render, model A / true A and model Σ L·D / true");
+    println!("per part, medians (and slopes on ln shading): model kd / true kd; with a direct render, model A / true A and model Σ L·D / true");
     for (id, mut r) in by_part {
-        let med = |v: &mut Vec<f32>| {
-            v.retain(|x| x.is_finite());
-            v.sort_by(f32::total_cmp);
-            v.get(v.len() / 2)
-                .map_or("-".to_string(), |m| format!("{m:.3}"))
+        let med = |v: &mut Vec<(f32, f32)>| {
+            v.retain(|(x, r)| x.is_finite() && r.is_finite() && *r > 0.0);
+            let n = v.len() as f64;
+            let (mx, my) = v.iter().fold((0.0, 0.0), |(a, b), (x, r)| {
+                (a + *x as f64 / n, b + (*r as f64).ln() / n)
+            });
+            let (sxy, sxx) = v.iter().fold((0.0, 0.0), |(a, b), (x, r)| {
+                let dx = *x as f64 - mx;
+                (a + dx * ((*r as f64).ln() - my), b + dx * dx)
+            });
+            v.sort_by(|a, b| a.1.total_cmp(&b.1));
+            v.get(v.len() / 2).map_or("-".to_string(), |m| {
+                format!("{:.3} ({:+.3})", m.1, sxy / sxx.max(1e-12))
+            })
         };
         let n = r[0].len();
         let (a, b, c) = (med(&mut r[0]), med(&mut r[1]), med(&mut r[2]));
