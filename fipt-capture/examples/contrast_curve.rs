@@ -68,7 +68,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("gains {:?}", f.gains);
     }
     if let Some(r) = &s.capture.response {
-        let fitted = if r.applied { "fitted" } else { "srgb" };
+        // The fit's own word ("fitted", "srgb (kept): …"): `applied` is also set where the
+        // contrast raised an sRGB decoding.
+        let fitted = if r.outcome.starts_with("fitted") {
+            "fitted"
+        } else {
+            "srgb"
+        };
         println!("response {fitted} {:?}", r.linear);
     }
     if let Some(f) = &s.capture.contrast {

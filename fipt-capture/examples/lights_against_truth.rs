@@ -161,7 +161,7 @@ fn shading_by_part(
     };
     println!("per part, medians (and slopes on ln shading): model kd / true kd; with a direct render, model A / true A and model Σ L·D / true");
     for (id, mut r) in by_part {
-        let med = |v: &mut Vec<(f32, f32)>| {
+        let median_and_slope = |v: &mut Vec<(f32, f32)>| {
             v.retain(|(x, r)| x.is_finite() && r.is_finite() && *r > 0.0);
             let n = v.len() as f64;
             let (mx, my) = v.iter().fold((0.0, 0.0), |(a, b), (x, r)| {
@@ -177,7 +177,11 @@ fn shading_by_part(
             })
         };
         let n = r[0].len();
-        let (a, b, c) = (med(&mut r[0]), med(&mut r[1]), med(&mut r[2]));
+        let (a, b, c) = (
+            median_and_slope(&mut r[0]),
+            median_and_slope(&mut r[1]),
+            median_and_slope(&mut r[2]),
+        );
         println!(
             "part {id:3} {:20} {n:6} samples  kd {a}  A {b}  direct {c}",
             name(id)
